@@ -1,0 +1,85 @@
+/* ntscontact: base definitions shared by every layer.
+ * Error codes (one X-macro table gives the enum, the stable name used in JSON
+ * and the human message, as libuv's UV_ERRNO_MAP does), the allocator hook and
+ * the error record that names the body, loop and node at fault. */
+#ifndef NTSCONTACT_BASE_H
+#define NTSCONTACT_BASE_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define NTS_VERSION_MAJOR 0
+#define NTS_VERSION_MINOR 1
+#define NTS_VERSION_PATCH 0
+#define NTS_VERSION_STRING "0.1.0"
+
+/* XX(enum suffix, value, stable name, message). Values are negative as in libuv;
+ * 0 is success. The names are part of the public JSON contract: never renumber
+ * or rename, only append. */
+#define NTS_ERRNO_MAP(XX)                                                                   \
+    XX(NOMEM, -1, "out_of_memory", "out of memory")                                        \
+    XX(INVALID_ARGUMENT, -2, "invalid_argument", "invalid argument")                       \
+    XX(INVALID_OPTION, -3, "invalid_option", "option out of range")                        \
+    XX(EMPTY_SCENE, -4, "empty_scene", "scene has no bodies")                              \
+    XX(NO_NODES, -5, "no_nodes", "body has no nodes")                                      \
+    XX(LOOP_TOO_SHORT, -6, "loop_too_short", "loop has fewer than 3 nodes")                \
+    XX(INDEX_RANGE, -7, "index_out_of_range", "node index out of range")                   \
+    XX(NODE_REUSED, -8, "node_in_two_loops", "node appears in more than one loop place")   \
+    XX(NONFINITE, -9, "non_finite", "coordinate is not a finite number")                   \
+    XX(DEGENERATE_SEGMENT, -10, "degenerate_segment", "zero-length segment")               \
+    XX(ZERO_AREA, -11, "zero_area_loop", "loop encloses zero area")                        \
+    XX(SPIKE, -12, "zero_angle_spike", "zero-angle spike at node")                         \
+    XX(NONMANIFOLD, -13, "non_manifold_mesh", "edge shared by more than two triangles")    \
+    XX(DEGENERATE_TRIANGLE, -14, "degenerate_triangle", "zero-area triangle")              \
+    XX(BOX_TOO_SMALL, -15, "box_too_small", "periodic box smaller than twice the search reach") \
+    XX(LIMIT, -16, "limit_exceeded", "a configured limit was exceeded")                    \
+    XX(NO_BOUNDARY, -17, "no_boundary", "triangle mesh has no boundary")                   \
+    XX(INTERNAL, -18, "internal_error", "internal error")
+
+typedef enum nts_status {
+    NTS_OK = 0,
+#define NTS_XX_(e, v, name, msg) NTS_E##e = (v),
+    NTS_ERRNO_MAP(NTS_XX_)
+#undef NTS_XX_
+    NTS_E_COUNT_ = 19
+} nts_status;
+
+/* Stable snake_case name of a status ("ok", "degenerate_segment", ...). */
+const char* nts_status_name(int status);
+/* Short human message of a status. */
+const char* nts_strerror(int status);
+
+/* Where an error is. Every index is -1 when it does not apply. `loop_pos` is the
+ * position inside the loop's index list, `node` the body's node index,
+ * `triangle` the triangle index of a body given by a mesh. `option` names the
+ * option at fault ("alpha", "penalty", ...), or is empty. */
+typedef struct nts_error {
+    int code;
+    int body;
+    int loop;
+    int loop_pos;
+    int node;
+    int triangle;
+    char option[32];
+    char message[192];
+} nts_error;
+
+/* An error record with no fault (code 0, every index -1). */
+nts_error nts_error_none(void);
+
+/* Allocator hook (all library allocations go through it; NULL restores malloc).
+ * `realloc_fn` may be NULL, then the library uses alloc + copy + free.
+ * Not thread-safe to change while evaluations run. */
+typedef void* nts_alloc_fn(size_t size, void* user);
+typedef void nts_free_fn(void* ptr, void* user);
+void nts_set_allocator(nts_alloc_fn* alloc_fn, nts_free_fn* free_fn, void* user);
+void* nts_alloc(size_t size);
+void nts_free(void* ptr);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,55 @@
+/* ntscontact: inline 2D vector math (small structs by value, as Box2D's
+ * math_functions.h). Nothing here divides by a length that can be zero without
+ * saying so in the name. */
+#ifndef NTSCONTACT_MATH_H
+#define NTSCONTACT_MATH_H
+
+#include <math.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct nts_vec2 {
+    double x, y;
+} nts_vec2;
+
+/* A symmetric 2x2 tensor: the virial (Kirkwood) terms xx, yy, xy. */
+typedef struct nts_virial {
+    double xx, yy, xy;
+} nts_virial;
+
+static inline nts_vec2 nts_v2(double x, double y) { nts_vec2 v = {x, y}; return v; }
+static inline nts_vec2 nts_add(nts_vec2 a, nts_vec2 b) { return nts_v2(a.x + b.x, a.y + b.y); }
+static inline nts_vec2 nts_sub(nts_vec2 a, nts_vec2 b) { return nts_v2(a.x - b.x, a.y - b.y); }
+static inline nts_vec2 nts_neg(nts_vec2 a) { return nts_v2(-a.x, -a.y); }
+static inline nts_vec2 nts_scale(double s, nts_vec2 a) { return nts_v2(s * a.x, s * a.y); }
+/* a + s b */
+static inline nts_vec2 nts_mul_add(nts_vec2 a, double s, nts_vec2 b) { return nts_v2(a.x + s * b.x, a.y + s * b.y); }
+static inline double nts_dot(nts_vec2 a, nts_vec2 b) { return a.x * b.x + a.y * b.y; }
+static inline double nts_cross(nts_vec2 a, nts_vec2 b) { return a.x * b.y - a.y * b.x; }
+static inline double nts_length_sq(nts_vec2 a) { return a.x * a.x + a.y * a.y; }
+static inline double nts_length(nts_vec2 a) { return sqrt(a.x * a.x + a.y * a.y); }
+/* Outward normal direction of a tangent for a counter-clockwise loop: (t_y, -t_x). */
+static inline nts_vec2 nts_right_perp(nts_vec2 t) { return nts_v2(t.y, -t.x); }
+/* Unit vector, or the zero vector when the length is zero or not finite. */
+static inline nts_vec2 nts_normalize_or_zero(nts_vec2 a) {
+    double l = nts_length(a);
+    if (!(l > 0.0) || !isfinite(l)) return nts_v2(0.0, 0.0);
+    return nts_v2(a.x / l, a.y / l);
+}
+static inline int nts_is_valid_double(double a) { return isfinite(a) != 0; }
+static inline int nts_is_valid_vec2(nts_vec2 a) { return isfinite(a.x) && isfinite(a.y); }
+
+/* Minimum-image difference in a periodic box of sides lx, ly (0 means not periodic
+ * along that axis). Used for every difference vector in a periodic scene. */
+static inline nts_vec2 nts_min_image(nts_vec2 d, double lx, double ly) {
+    if (lx > 0.0) d.x -= lx * nearbyint(d.x / lx);
+    if (ly > 0.0) d.y -= ly * nearbyint(d.y / ly);
+    return d;
+}
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,159 @@
+/* ntscontact: node-to-segment contact between deformable 2D bodies with
+ * Hermite-smoothed corners. The public API: scenes (topology + positions),
+ * options, a reusable evaluation context and its result.
+ *
+ * Ownership: a scene owns copies of everything given to it. A context owns the
+ * memory its result points into; the result stays valid until the next
+ * evaluation with that context or its destruction. */
+#ifndef NTSCONTACT_H
+#define NTSCONTACT_H
+
+#include "base.h"
+#include "geometry.h"
+#include "math.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---------------------------------------------------------------- scene */
+
+/* One body as the caller has it. Give either loops or triangles:
+ * - loops: `loop_count` loops, loop l is loop_nodes[loop_start[l] .. loop_start[l+1]),
+ *   `loop_start` has loop_count + 1 entries;
+ * - triangles: `triangle_count` triples of node indices (a linear triangle mesh);
+ *   the boundary is extracted (directed edges whose reverse is absent, chained
+ *   into loops);
+ * - neither: one loop through all nodes in order. */
+typedef struct nts_body_def {
+    const nts_vec2* nodes;
+    int node_count;
+    const int* loop_nodes;
+    const int* loop_start;
+    int loop_count;
+    const int* triangles;
+    int triangle_count;
+} nts_body_def;
+
+typedef struct nts_limits {
+    int max_bodies;          /* default 1,000,000 */
+    int max_nodes_per_body;  /* default 10,000,000 */
+    long long max_nodes;     /* all nodes of a scene; default 50,000,000 */
+} nts_limits;
+nts_limits nts_default_limits(void);
+
+typedef struct nts_scene_def {
+    const nts_body_def* bodies;
+    int body_count;
+    double lx, ly;     /* periodic box [0,lx) x [0,ly); both 0 for an open scene */
+    nts_limits limits;
+} nts_scene_def;
+nts_scene_def nts_default_scene_def(void);
+
+typedef struct nts_scene nts_scene;
+
+/* Copy, validate and normalise (outer loop counter-clockwise, holes clockwise).
+ * Returns NULL and fills *err (when not NULL) on failure. */
+nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err);
+void nts_scene_destroy(nts_scene* scene);
+
+/* New positions for body `body` (node_count entries, same order as created).
+ * Checks finiteness; allocates nothing. */
+int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
+
+int nts_scene_body_count(const nts_scene* scene);
+int nts_scene_node_count(const nts_scene* scene);          /* all nodes of all bodies */
+int nts_scene_surface_node_count(const nts_scene* scene);  /* nodes on loops */
+int nts_scene_body_node_offset(const nts_scene* scene, int body); /* first global node of a body */
+int nts_scene_body_node_count(const nts_scene* scene, int body);
+int nts_scene_body_loop_count(const nts_scene* scene, int body);
+/* The normalised loop (node indices of the body), its length returned; `out` may be NULL. */
+int nts_scene_body_loop(const nts_scene* scene, int body, int loop, const int** out);
+int nts_scene_loops_reversed(const nts_scene* scene);
+const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all nodes, global order */
+
+/* -------------------------------------------------------------- options */
+
+enum nts_output_flags {
+    NTS_OUT_FORCES = 1u << 0,
+    NTS_OUT_ENERGY = 1u << 1,
+    NTS_OUT_VIRIAL = 1u << 2,
+    NTS_OUT_CONTACTS = 1u << 3,
+    NTS_OUT_GAPS = 1u << 4,
+    NTS_OUT_ALL = 0x1fu
+};
+
+typedef enum nts_search {
+    NTS_SEARCH_CELLS = 0,      /* cell list (Verlet buckets), O(N) */
+    NTS_SEARCH_BRUTE_FORCE = 1 /* every surface node against every other body: for tests */
+} nts_search;
+
+typedef struct nts_options {
+    double alpha;          /* smoothing fraction in [0, 0.5]; default 0.2 */
+    double penalty;        /* epsilon > 0; default 1 */
+    double search_radius;  /* r >= 0; a negative value means "the longest segment" (default) */
+    nts_solver solver;     /* default NTS_SOLVER_CLOSED_FORM */
+    unsigned outputs;      /* NTS_OUT_* flags; default forces | energy | virial */
+    nts_search search;     /* default NTS_SEARCH_CELLS */
+    int threads;           /* 0 = serial; results are bitwise identical for any value */
+} nts_options;
+nts_options nts_default_options(void);
+/* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
+int nts_options_validate(const nts_options* opt, nts_error* err);
+
+/* --------------------------------------------------------------- result */
+
+/* One closest point of a slave node on one other body. */
+typedef struct nts_contact {
+    int slave_body, slave_node;   /* body index, node index inside the body */
+    int master_body;
+    nts_kind kind;
+    int master_count;             /* 2 (segment), 3 (corner) or 1 (vertex) */
+    int master_nodes[3];          /* node indices inside the master body */
+    double weights[3];            /* shape function values, summing to one */
+    double param;                 /* s (segment, vertex) or xi (corner) */
+    double gap;                   /* signed; < 0 when penetrating */
+    nts_vec2 normal;              /* outward unit normal of the master at the PCA */
+    nts_vec2 point;               /* the PCA (in the master node's image) */
+    nts_vec2 force;               /* force on the slave: -eps g n (zero when g >= 0) */
+    nts_virial virial;            /* -sum f_i (X_i - Xs), = eps g^2 n n */
+} nts_contact;
+
+typedef struct nts_summary {
+    int bodies;
+    int surface_nodes;
+    int contacts;          /* active contacts (g < 0) */
+    int gaps;              /* closest points within the search radius */
+    double energy;         /* 1/2 eps sum g^2 */
+    nts_virial virial;
+    double max_penetration;/* max(-g) over active contacts, 0 if none */
+    int loops_reversed;
+    double search_radius;  /* the radius used */
+    double cell_size;      /* the bucket side used (0 for brute force) */
+} nts_summary;
+
+typedef struct nts_result {
+    nts_summary summary;
+    const nts_vec2* forces;     /* global node order (see nts_scene_body_node_offset), or NULL if not asked */
+    const nts_contact* contacts;/* active contacts, slave order; NULL unless NTS_OUT_CONTACTS */
+    int contact_count;
+    const nts_contact* gaps;    /* all closest points within r; NULL unless NTS_OUT_GAPS */
+    int gap_count;
+} nts_result;
+
+/* ------------------------------------------------------------- context */
+
+typedef struct nts_context nts_context;
+nts_context* nts_context_create(void);
+void nts_context_destroy(nts_context* ctx);
+
+/* Evaluate contact. Returns 0 or a negative status (with *err filled when not
+ * NULL); on success fills *out. Reusing a context on the same scene allocates
+ * nothing once its buffers have grown to the scene's needs. */
+int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
+                 nts_result* out, nts_error* err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

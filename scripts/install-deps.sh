@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Install what ntscontact needs on Debian 12: the C toolchain and libraries from
+# Debian's packages (through sudo when not root), and a Python virtual
+# environment in .venv for the tests and the client. Idempotent and quiet when
+# everything is already there.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+pkgs=(build-essential cmake pkg-config libgsl-dev libcjson-dev libmicrohttpd-dev libcunit1-dev
+      curl python3 python3-venv)
+[ -n "${NTS_EXTRA_PKGS:-}" ] && read -r -a extra <<<"$NTS_EXTRA_PKGS" && pkgs+=("${extra[@]}")
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  echo "install-deps: apt-get install ${missing[*]}" >&2
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  python3 -m venv .venv
+fi
+req=requirements-dev.txt
+stamp=.venv/.req-stamp
+if [ ! -f "$stamp" ] || ! cmp -s "$req" "$stamp"; then
+  .venv/bin/pip install -q --disable-pip-version-check -r "$req"
+  cp "$req" "$stamp"
+fi
