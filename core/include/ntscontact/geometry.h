@@ -5,7 +5,7 @@
 #ifndef NTSCONTACT_GEOMETRY_H
 #define NTSCONTACT_GEOMETRY_H
 
-#include "math.h"
+#include "math_functions.h"
 
 #ifdef __cplusplus
 extern "C" {

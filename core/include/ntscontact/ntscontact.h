@@ -10,7 +10,7 @@
 
 #include "base.h"
 #include "geometry.h"
-#include "math.h"
+#include "math_functions.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -1,8 +1,8 @@
 /* ntscontact: inline 2D vector math (small structs by value, as Box2D's
  * math_functions.h). Nothing here divides by a length that can be zero without
  * saying so in the name. */
-#ifndef NTSCONTACT_MATH_H
-#define NTSCONTACT_MATH_H
+#ifndef NTSCONTACT_MATH_FUNCTIONS_H
+#define NTSCONTACT_MATH_FUNCTIONS_H
 
 #include <math.h>
 

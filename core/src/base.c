@@ -1,0 +1,67 @@
+/* Status names, messages and the allocator hook (base.h). */
+#include <ntscontact/base.h>
+
+#include <stdlib.h>
+#include <string.h>
+
+const char* nts_status_name(int status) {
+    switch (status) {
+    case NTS_OK: return "ok";
+#define NTS_XX_(e, v, name, msg) case NTS_E##e: return name;
+        NTS_ERRNO_MAP(NTS_XX_)
+#undef NTS_XX_
+    default: return "unknown_error";
+    }
+}
+
+const char* nts_strerror(int status) {
+    switch (status) {
+    case NTS_OK: return "success";
+#define NTS_XX_(e, v, name, msg) case NTS_E##e: return msg;
+        NTS_ERRNO_MAP(NTS_XX_)
+#undef NTS_XX_
+    default: return "unknown error";
+    }
+}
+
+nts_error nts_error_none(void) {
+    nts_error e;
+    memset(&e, 0, sizeof e);
+    e.body = e.loop = e.loop_pos = e.node = e.triangle = -1;
+    return e;
+}
+
+static void* default_alloc(size_t size, void* user) {
+    (void)user;
+    return malloc(size);
+}
+static void default_free(void* ptr, void* user) {
+    (void)user;
+    free(ptr);
+}
+
+static nts_alloc_fn* g_alloc = default_alloc;
+static nts_free_fn* g_free = default_free;
+static void* g_user = NULL;
+
+void nts_set_allocator(nts_alloc_fn* alloc_fn, nts_free_fn* free_fn, void* user) {
+    if (alloc_fn == NULL || free_fn == NULL) {
+        g_alloc = default_alloc;
+        g_free = default_free;
+        g_user = NULL;
+        return;
+    }
+    g_alloc = alloc_fn;
+    g_free = free_fn;
+    g_user = user;
+}
+
+void* nts_alloc(size_t size) {
+    /* Zero-size requests still return a distinct pointer, so callers can tell
+     * failure (NULL) from an empty array. */
+    return g_alloc(size == 0 ? 1 : size, g_user);
+}
+
+void nts_free(void* ptr) {
+    if (ptr != NULL) g_free(ptr, g_user);
+}

@@ -1,0 +1,220 @@
+/* Corner polynomial and closest-point solvers (contact-model.md, "Geometry" and
+ * "Corner candidate"). Everything is in coordinates relative to the corner node
+ * X3 and, inside the solvers, scaled by the corner's size, so tolerances are
+ * relative to the geometry and the same code works at 1e-9 and 1e9 scale. */
+#include <ntscontact/geometry.h>
+
+#include <float.h>
+#include <gsl/gsl_poly.h>
+
+#include "internal.h"
+
+/* Eq. (1) corrected (erratum 1): N3 = 1 - alpha (1 + xi^2)/2, so sum N = 1. */
+nts_shape3 nts_corner_shape(double alpha, double xi) {
+    nts_shape3 s;
+    double m = 1.0 - xi, p = 1.0 + xi;
+    s.n2 = 0.25 * alpha * m * m;
+    s.n3 = 1.0 - 0.5 * alpha * (1.0 + xi * xi);
+    s.n4 = 0.25 * alpha * p * p;
+    return s;
+}
+
+/* X(xi) - X3 = A xi^2 + B xi + C with A = C = alpha (a + c)/4, B = alpha (c - a)/2. */
+nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha) {
+    nts_corner k;
+    k.A = nts_scale(0.25 * alpha, nts_add(a, c));
+    k.B = nts_scale(0.5 * alpha, nts_sub(c, a));
+    k.C = k.A;
+    return k;
+}
+
+nts_vec2 nts_corner_point(nts_corner k, double xi) {
+    /* C + xi (B + A xi): Horner form. */
+    return nts_mul_add(k.C, xi, nts_mul_add(k.B, xi, k.A));
+}
+
+nts_vec2 nts_corner_tangent(nts_corner k, double xi) { return nts_mul_add(k.B, 2.0 * xi, k.A); }
+
+nts_cubic nts_corner_cubic(nts_corner k, nts_vec2 d) {
+    /* F(xi) = -2(A.A) xi^3 - 3(A.B) xi^2 + (2 e.A - B.B) xi + e.B, e = d - C. */
+    nts_cubic f;
+    nts_vec2 e = nts_sub(d, k.C);
+    f.c3 = -2.0 * nts_dot(k.A, k.A);
+    f.c2 = -3.0 * nts_dot(k.A, k.B);
+    f.c1 = 2.0 * nts_dot(e, k.A) - nts_dot(k.B, k.B);
+    f.c0 = nts_dot(e, k.B);
+    return f;
+}
+
+/* The scaled problem: A, B, e divided by the corner size L, so F is O(1). */
+typedef struct corner_problem {
+    nts_vec2 A, B, e;
+} corner_problem;
+
+/* F and F' in product form: r = e - xi (B + A xi) is Xs - X(xi), tau = B + 2 A xi;
+ * F = r.tau, F' = 2 r.A - tau.tau. The product form has no cancellation in
+ * forming coefficients, so residuals near a root are accurate. */
+static inline double problem_f(const corner_problem* p, double xi, double* df) {
+    nts_vec2 r = nts_sub(p->e, nts_scale(xi, nts_mul_add(p->B, xi, p->A)));
+    nts_vec2 tau = nts_mul_add(p->B, 2.0 * xi, p->A);
+    if (df != NULL) *df = 2.0 * nts_dot(r, p->A) - nts_dot(tau, tau);
+    return nts_dot(r, tau);
+}
+
+static inline double problem_dist_sq(const corner_problem* p, double xi) {
+    return nts_length_sq(nts_sub(p->e, nts_scale(xi, nts_mul_add(p->B, xi, p->A))));
+}
+
+static inline double clamp_unit(double x) { return x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x); }
+
+enum { NTS_ROOT_MAX_ITER = 100, NTS_POLISH_MAX_ITER = 8 };
+
+/* Newton safeguarded by bisection (Numerical Recipes' rtsafe) on [lo, hi] with a
+ * sign change of F. The bracket shrinks every step, so it ends within
+ * NTS_ROOT_MAX_ITER steps even when Newton misbehaves. */
+static double bracketed_root(const corner_problem* p, double lo, double hi, double flo, int* iters) {
+    const double tol = 2.0 * DBL_EPSILON;
+    double x = 0.5 * (lo + hi);
+    int it;
+    for (it = 0; it < NTS_ROOT_MAX_ITER; ++it) {
+        double df, f = problem_f(p, x, &df), xn;
+        if (f == 0.0) break;
+        if ((f > 0.0) == (flo > 0.0)) lo = x; else hi = x;
+        xn = (df != 0.0) ? x - f / df : 0.5 * (lo + hi);
+        if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi); /* Newton left the bracket: bisect */
+        if (fabs(xn - x) <= tol || hi - lo <= tol) { x = xn; ++it; break; }
+        x = xn;
+    }
+    *iters += it;
+    return x;
+}
+
+/* Up to 3 roots of F in [-1, 1]: split [-1, 1] at the critical points of F (roots
+ * of F', a quadratic) into monotone pieces and bracket every sign change. */
+static int roots_newton(const corner_problem* p, double* roots, int* iters) {
+    double cuts[4];
+    int ncut = 0, n = 0, i;
+    /* F' = 3 c3 xi^2 + 2 c2 xi + c1 with c3 = -2 A.A, c2 = -3 A.B, c1 = 2 e.A - B.B. */
+    double qa = -6.0 * nts_dot(p->A, p->A), qb = -6.0 * nts_dot(p->A, p->B);
+    double qc = 2.0 * nts_dot(p->e, p->A) - nts_dot(p->B, p->B);
+    double r0 = 0.0, r1 = 0.0;
+    int nr = gsl_poly_solve_quadratic(qa, qb, qc, &r0, &r1);
+    cuts[ncut++] = -1.0;
+    if (nr >= 1 && r0 > -1.0 && r0 < 1.0) cuts[ncut++] = r0;
+    if (nr >= 2 && r1 > -1.0 && r1 < 1.0 && r1 != r0) cuts[ncut++] = r1;
+    cuts[ncut++] = 1.0;
+    if (ncut == 4 && cuts[1] > cuts[2]) { double t = cuts[1]; cuts[1] = cuts[2]; cuts[2] = t; }
+    for (i = 0; i + 1 < ncut; ++i) {
+        double u = cuts[i], v = cuts[i + 1];
+        double fu = problem_f(p, u, NULL), fv = problem_f(p, v, NULL);
+        if (fu == 0.0) {
+            if (n == 0 || roots[n - 1] != u) roots[n++] = u;
+        } else if (fv == 0.0) {
+            roots[n++] = v;
+        } else if ((fu > 0.0) != (fv > 0.0)) {
+            roots[n++] = bracketed_root(p, u, v, fu, iters);
+        }
+        if (n >= 3) break;
+    }
+    return n;
+}
+
+/* Newton polish of an approximate root, kept inside [-1, 1]. */
+static double polish(const corner_problem* p, double x, int* iters) {
+    int it;
+    x = clamp_unit(x);
+    for (it = 0; it < NTS_POLISH_MAX_ITER; ++it) {
+        double df, f = problem_f(p, x, &df), xn;
+        if (f == 0.0 || df == 0.0) break;
+        xn = clamp_unit(x - f / df);
+        ++*iters;
+        if (fabs(xn - x) <= 2.0 * DBL_EPSILON) { x = xn; break; }
+        x = xn;
+    }
+    return x;
+}
+
+/* Below this ratio A.A / B.B the cubic term is dropped for the first guess: the
+ * corner is nearly straight (A = 0 exactly when the neighbours are collinear) and
+ * the monic cubic's huge coefficients would cost accuracy (contact-model.md,
+ * "the cubic degenerates toward the linear equation"). The neglected term is at
+ * most 2 A.A <= 2e-6 B.B inside [-1, 1]; Newton polishing removes it. */
+#define NTS_DEGENERATE_RATIO 1e-6
+
+static int roots_closed_form(const corner_problem* p, double* roots, int* iters) {
+    double x[3];
+    int nx, i, n = 0;
+    double aa = nts_dot(p->A, p->A), bb = nts_dot(p->B, p->B);
+    double c3 = -2.0 * aa, c2 = -3.0 * nts_dot(p->A, p->B);
+    double c1 = 2.0 * nts_dot(p->e, p->A) - bb, c0 = nts_dot(p->e, p->B);
+    if (aa > NTS_DEGENERATE_RATIO * bb) {
+        nx = gsl_poly_solve_cubic(c2 / c3, c1 / c3, c0 / c3, &x[0], &x[1], &x[2]);
+    } else {
+        nx = gsl_poly_solve_quadratic(c2, c1, c0, &x[0], &x[1]);
+    }
+    for (i = 0; i < nx; ++i) {
+        /* A root just outside [-1, 1] by round-off is the endpoint root. */
+        const double slack = 1e-6;
+        double r;
+        int j, dup = 0;
+        if (!(x[i] >= -1.0 - slack && x[i] <= 1.0 + slack)) continue;
+        r = polish(p, x[i], iters);
+        for (j = 0; j < n; ++j) dup |= (roots[j] == r);
+        if (!dup) roots[n++] = r;
+    }
+    return n;
+}
+
+nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver) {
+    nts_corner_solution s;
+    corner_problem p;
+    double roots[3], best_d2 = 0.0;
+    int n, i, best = -1;
+    /* Corner size: |A| + |B| is zero only if a = c = 0 (impossible after
+     * validation); never divide by it unless it is positive. */
+    double L = nts_length(k.A) + nts_length(k.B), inv;
+    s.xi = 0.0;
+    s.point = s.normal = nts_v2(0.0, 0.0);
+    s.gap = 0.0;
+    s.roots = 0;
+    s.iterations = 0;
+    s.ok = 0;
+    if (!(L > 0.0) || !isfinite(L)) return s;
+    inv = 1.0 / L;
+    p.A = nts_scale(inv, k.A);
+    p.B = nts_scale(inv, k.B);
+    p.e = nts_scale(inv, nts_sub(d, k.C));
+
+    n = (solver == NTS_SOLVER_NEWTON) ? roots_newton(&p, roots, &s.iterations)
+                                      : roots_closed_form(&p, roots, &s.iterations);
+    if (n == 0) {
+        /* Rounding can hide a root the bracket guarantees (F(-1) >= 0 >= F(1)):
+         * fall back to the bracketed solver, then to the better endpoint. */
+        n = roots_newton(&p, roots, &s.iterations);
+        if (n == 0) {
+            double fl = fabs(problem_f(&p, -1.0, NULL)), fr = fabs(problem_f(&p, 1.0, NULL));
+            roots[0] = (fl <= fr) ? -1.0 : 1.0;
+            n = 1;
+        }
+    }
+    /* The root nearest to the slave; ties go to the smaller xi (determinism). */
+    for (i = 0; i < n; ++i) {
+        double d2 = problem_dist_sq(&p, roots[i]);
+        if (best < 0 || d2 < best_d2 || (d2 == best_d2 && roots[i] < roots[best])) {
+            best = i;
+            best_d2 = d2;
+        }
+    }
+    s.roots = n;
+    s.xi = roots[best];
+    {
+        nts_vec2 tau = nts_corner_tangent(k, s.xi);
+        double tl = nts_length(tau);
+        if (!(tl > 0.0) || !isfinite(tl)) return s; /* tangent vanished: zero-angle spike */
+        s.point = nts_corner_point(k, s.xi);
+        s.normal = nts_v2(tau.y / tl, -tau.x / tl);
+        s.gap = nts_dot(nts_sub(d, s.point), s.normal);
+        s.ok = 1;
+    }
+    return s;
+}

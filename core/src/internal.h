@@ -1,0 +1,66 @@
+/* ntscontact internals shared by the core's .c files (not installed). */
+#ifndef NTSCONTACT_INTERNAL_H
+#define NTSCONTACT_INTERNAL_H
+
+#include <assert.h>
+
+#include <ntscontact/ntscontact.h>
+
+/* The scene: topology (normalised loops) and positions, flat arrays in global
+ * node order. A "surface entry" is one place of one loop; its prev/next are the
+ * neighbouring entries of the same loop (cyclic), in the normalised orientation
+ * (interior on the left). */
+struct nts_scene {
+    int body_count;
+    int node_count;
+    int surface_count;
+    int loop_total;
+    int loops_reversed;
+    double lx, ly;
+    nts_vec2* pos;        /* node_count */
+    int* body_node_start; /* body_count + 1 */
+    int* body_loop_start; /* body_count + 1, into loop_start */
+    int* loop_start;      /* loop_total + 1, into the surface arrays */
+    int* surf_node;       /* surface entry -> global node */
+    int* surf_local;      /* surface entry -> node index inside its body */
+    int* surf_prev;       /* surface entry -> previous entry of its loop */
+    int* surf_next;       /* surface entry -> next entry of its loop */
+    int* surf_body;       /* surface entry -> body */
+};
+
+/* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping
+ * the contents. Returns 0 or NTS_ENOMEM (the old block stays valid). */
+int nts_grow(void** ptr, int* cap, int need, size_t size);
+
+/* Boundary of a triangle mesh (triangles.c): loops as CSR arrays allocated with
+ * nts_alloc. */
+typedef struct nts_boundary {
+    int* loop_nodes;
+    int* loop_start;
+    int loop_count;
+} nts_boundary;
+int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int* tri, int tri_count,
+                                double lx, double ly, nts_boundary* out, nts_error* err);
+void nts_boundary_free(nts_boundary* b);
+
+/* Cell list (cell_list.c): square-ish buckets of side >= h over the surface nodes,
+ * built with a counting sort. Buffers grow only. */
+typedef struct nts_cells {
+    double x0, y0, hx, hy;
+    int nx, ny;
+    int periodic;
+    int* cell_start; /* nx*ny + 1 */
+    int* items;      /* surface entries sorted by cell */
+    int* entry_cell; /* surface entry -> cell */
+    int cap_cells, cap_items;
+} nts_cells;
+int nts_cells_build(nts_cells* c, const nts_scene* s, double h);
+void nts_cells_free(nts_cells* c);
+/* The distinct cells of the 3x3 stencil around cell `cell` (at most 9). */
+int nts_cells_stencil(const nts_cells* c, int cell, int out[9]);
+
+static inline nts_vec2 nts_scene_diff(const nts_scene* s, nts_vec2 p, nts_vec2 q) {
+    return nts_min_image(nts_sub(p, q), s->lx, s->ly);
+}
+
+#endif

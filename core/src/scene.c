@@ -1,0 +1,386 @@
+/* Scenes: copy, validate and normalise the caller's bodies (contact-model.md,
+ * "Geometry"). Every error names the body, loop and node at fault. */
+#include <float.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "internal.h"
+
+nts_limits nts_default_limits(void) {
+    nts_limits l;
+    l.max_bodies = 1000000;
+    l.max_nodes_per_body = 10000000;
+    l.max_nodes = 50000000;
+    return l;
+}
+
+nts_scene_def nts_default_scene_def(void) {
+    nts_scene_def d;
+    memset(&d, 0, sizeof d);
+    d.limits = nts_default_limits();
+    return d;
+}
+
+int nts_grow(void** ptr, int* cap, int need, size_t size) {
+    void* p;
+    int ncap;
+    if (need <= *cap) return NTS_OK;
+    ncap = *cap > 0 ? *cap : 16;
+    while (ncap < need) ncap = (ncap > (1 << 29)) ? need : 2 * ncap;
+    p = nts_alloc((size_t)ncap * size);
+    if (p == NULL) return NTS_ENOMEM;
+    if (*ptr != NULL && *cap > 0) memcpy(p, *ptr, (size_t)(*cap) * size);
+    nts_free(*ptr);
+    *ptr = p;
+    *cap = ncap;
+    return NTS_OK;
+}
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 7, 8)))
+#endif
+static int fail(nts_error* err, int code, int body, int loop, int pos, int node, const char* fmt, ...) {
+    if (err != NULL) {
+        va_list ap;
+        *err = nts_error_none();
+        err->code = code;
+        err->body = body;
+        err->loop = loop;
+        err->loop_pos = pos;
+        err->node = node;
+        va_start(ap, fmt);
+        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        va_end(ap);
+    }
+    return code;
+}
+
+void nts_scene_destroy(nts_scene* s) {
+    if (s == NULL) return;
+    nts_free(s->pos);
+    nts_free(s->body_node_start);
+    nts_free(s->body_loop_start);
+    nts_free(s->loop_start);
+    nts_free(s->surf_node);
+    nts_free(s->surf_local);
+    nts_free(s->surf_prev);
+    nts_free(s->surf_next);
+    nts_free(s->surf_body);
+    nts_free(s);
+}
+
+/* Geometry checks of one normalised loop: degenerate segments (relative to the
+ * scene's extent), zero-angle spikes, zero area. */
+static int check_loop(const nts_scene* s, int body, int loop, const int* nodes, int n, int node0,
+                      double len_tol, double* area2_out, nts_error* err) {
+    double perim = 0.0, a2;
+    int k;
+    for (k = 0; k < n; ++k) {
+        nts_vec2 p = s->pos[node0 + nodes[k]];
+        nts_vec2 t = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], p);
+        double len = nts_length(t);
+        if (!(len > len_tol))
+            return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, nodes[k],
+                        "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g)",
+                        body, loop, nodes[k], nodes[(k + 1) % n], len, len_tol);
+        perim += len;
+    }
+    for (k = 0; k < n; ++k) {
+        /* Zero-angle spike: both neighbours leave node k in the same direction,
+         * so the corner tangent vanishes (contact-model.md, corner polynomial). */
+        nts_vec2 p = s->pos[node0 + nodes[k]];
+        nts_vec2 a = nts_scene_diff(s, s->pos[node0 + nodes[(k + n - 1) % n]], p);
+        nts_vec2 c = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], p);
+        double cr = nts_cross(a, c), la = nts_length(a), lc = nts_length(c);
+        if (nts_dot(a, c) > 0.0 && fabs(cr) <= 64.0 * DBL_EPSILON * la * lc)
+            return fail(err, NTS_ESPIKE, body, loop, k, nodes[k],
+                        "body %d loop %d: zero-angle spike at node %d", body, loop, nodes[k]);
+    }
+    /* Twice the signed area (shoelace) from consecutive minimum-image steps taken
+     * relative to the loop's first node: subtracting first keeps precision when
+     * coordinates are large, and works across a periodic boundary. */
+    a2 = 0.0;
+    {
+        nts_vec2 cur = nts_v2(0.0, 0.0);
+        for (k = 0; k < n; ++k) {
+            nts_vec2 step = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], s->pos[node0 + nodes[k]]);
+            nts_vec2 next = nts_add(cur, step);
+            a2 += nts_cross(cur, next);
+            cur = next;
+        }
+    }
+    if (!(fabs(a2) > 64.0 * DBL_EPSILON * perim * perim))
+        return fail(err, NTS_EZERO_AREA, body, loop, -1, -1, "body %d loop %d encloses zero area", body, loop);
+    *area2_out = a2;
+    return NTS_OK;
+}
+
+nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
+    nts_scene* s = NULL;
+    nts_boundary* bnd = NULL; /* per body, when given by triangles */
+    int* mark = NULL;         /* per node of the body being checked: loop place + 1 */
+    int* loop_tmp = NULL;
+    double* area2 = NULL;
+    long long total_nodes = 0, total_surf = 0, total_loops = 0;
+    int b, max_body_nodes = 0, rc = NTS_OK;
+    double xmin = 0, xmax = 0, ymin = 0, ymax = 0, len_tol;
+
+    if (err != NULL) *err = nts_error_none();
+    if (def == NULL || def->bodies == NULL || def->body_count <= 0) {
+        fail(err, NTS_EEMPTY_SCENE, -1, -1, -1, -1, "scene has no bodies");
+        return NULL;
+    }
+    if (!(def->lx >= 0.0 && def->ly >= 0.0) || !nts_is_valid_double(def->lx) || !nts_is_valid_double(def->ly) ||
+        ((def->lx > 0.0) != (def->ly > 0.0))) {
+        fail(err, NTS_EINVALID_OPTION, -1, -1, -1, -1, "periodic box needs lx > 0 and ly > 0, finite");
+        if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
+        return NULL;
+    }
+    if (def->limits.max_bodies > 0 && def->body_count > def->limits.max_bodies) {
+        fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has %d bodies, more than the limit of %d bodies",
+             def->body_count, def->limits.max_bodies);
+        if (err != NULL) snprintf(err->option, sizeof err->option, "max_bodies");
+        return NULL;
+    }
+
+    /* Pass 1: counts, limits, finiteness, boundary extraction. */
+    bnd = (nts_boundary*)nts_alloc(sizeof(nts_boundary) * (size_t)def->body_count);
+    if (bnd == NULL) { fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory"); return NULL; }
+    memset(bnd, 0, sizeof(nts_boundary) * (size_t)def->body_count);
+    for (b = 0; b < def->body_count; ++b) {
+        const nts_body_def* bd = &def->bodies[b];
+        int i;
+        if (bd->node_count <= 0 || bd->nodes == NULL) {
+            rc = fail(err, NTS_ENO_NODES, b, -1, -1, -1, "body %d has no nodes", b);
+            goto fail;
+        }
+        if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body) {
+            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "body %d has %d nodes, more than the limit of %d nodes per body",
+                      b, bd->node_count, def->limits.max_nodes_per_body);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "max_nodes_per_body");
+            goto fail;
+        }
+        total_nodes += bd->node_count;
+        if (def->limits.max_nodes > 0 && total_nodes > def->limits.max_nodes) {
+            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than the limit of %lld nodes",
+                      def->limits.max_nodes);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "max_nodes");
+            goto fail;
+        }
+        if (total_nodes > 0x3fffffff) {
+            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than 2^30 nodes");
+            goto fail;
+        }
+        for (i = 0; i < bd->node_count; ++i) {
+            nts_vec2 p = bd->nodes[i];
+            if (!nts_is_valid_vec2(p)) {
+                rc = fail(err, NTS_ENONFINITE, b, -1, -1, i, "body %d node %d has a non-finite coordinate", b, i);
+                goto fail;
+            }
+            if (b == 0 && i == 0) { xmin = xmax = p.x; ymin = ymax = p.y; }
+            if (p.x < xmin) xmin = p.x;
+            if (p.x > xmax) xmax = p.x;
+            if (p.y < ymin) ymin = p.y;
+            if (p.y > ymax) ymax = p.y;
+        }
+        if (bd->node_count > max_body_nodes) max_body_nodes = bd->node_count;
+        if (bd->triangles != NULL && bd->triangle_count > 0) {
+            rc = nts_boundary_from_triangles(bd->nodes, bd->node_count, bd->triangles, bd->triangle_count,
+                                             def->lx, def->ly, &bnd[b], err);
+            if (rc != NTS_OK) {
+                if (err != NULL) err->body = b;
+                goto fail;
+            }
+            total_loops += bnd[b].loop_count;
+            total_surf += bnd[b].loop_start[bnd[b].loop_count];
+        } else if (bd->loop_count > 0) {
+            if (bd->loop_nodes == NULL || bd->loop_start == NULL) {
+                rc = fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
+                goto fail;
+            }
+            total_loops += bd->loop_count;
+            total_surf += bd->loop_start[bd->loop_count] - bd->loop_start[0];
+        } else {
+            total_loops += 1;
+            total_surf += bd->node_count;
+        }
+    }
+    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff) {
+        rc = fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has more than 2^30 loop places");
+        goto fail;
+    }
+
+    s = (nts_scene*)nts_alloc(sizeof *s);
+    if (s == NULL) { rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory"); goto fail; }
+    memset(s, 0, sizeof *s);
+    s->body_count = def->body_count;
+    s->node_count = (int)total_nodes;
+    s->surface_count = (int)total_surf;
+    s->loop_total = (int)total_loops;
+    s->lx = def->lx;
+    s->ly = def->ly;
+    s->pos = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)total_nodes);
+    s->body_node_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
+    s->body_loop_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
+    s->loop_start = (int*)nts_alloc(sizeof(int) * (size_t)(total_loops + 1));
+    s->surf_node = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    s->surf_local = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    s->surf_prev = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    s->surf_next = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    s->surf_body = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    mark = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
+    area2 = (double*)nts_alloc(sizeof(double) * (size_t)(total_loops + 1));
+    loop_tmp = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
+    if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
+        !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !mark || !area2 || !loop_tmp) {
+        rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+        goto fail;
+    }
+
+    /* Degenerate segments are judged against the scene's extent (the bounding
+     * box diagonal), so the rule is the same at every scale. */
+    {
+        double ex = xmax - xmin, ey = ymax - ymin;
+        if (s->lx > 0.0) { if (ex > s->lx) ex = s->lx; if (ey > s->ly) ey = s->ly; }
+        len_tol = 1e-12 * sqrt(ex * ex + ey * ey);
+    }
+
+    /* Pass 2: copy, check topology and geometry, normalise orientation. */
+    {
+        int node_off = 0, loop_i = 0, surf = 0;
+        for (b = 0; b < def->body_count; ++b) {
+            const nts_body_def* bd = &def->bodies[b];
+            const int* ln;
+            const int* ls;
+            int nl, l, i, implicit = 0, outer = -1;
+            double outer_abs = -1.0;
+            int body_loop0 = loop_i;
+            s->body_node_start[b] = node_off;
+            s->body_loop_start[b] = loop_i;
+            memcpy(s->pos + node_off, bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
+            if (bnd[b].loop_nodes != NULL) {
+                ln = bnd[b].loop_nodes; ls = bnd[b].loop_start; nl = bnd[b].loop_count;
+            } else if (bd->loop_count > 0) {
+                ln = bd->loop_nodes; ls = bd->loop_start; nl = bd->loop_count;
+            } else {
+                ln = NULL; ls = NULL; nl = 1; implicit = 1;
+            }
+            for (i = 0; i < bd->node_count; ++i) mark[i] = 0;
+            for (l = 0; l < nl; ++l) {
+                int n = implicit ? bd->node_count : ls[l + 1] - ls[l];
+                int k;
+                if (n < 3) {
+                    rc = fail(err, NTS_ELOOP_TOO_SHORT, b, implicit ? -1 : l, -1, -1,
+                              "body %d loop %d has %d nodes (at least 3 needed)", b, l, n);
+                    goto fail;
+                }
+                for (k = 0; k < n; ++k) {
+                    int v = implicit ? k : ln[ls[l] + k];
+                    if (v < 0 || v >= bd->node_count) {
+                        rc = fail(err, NTS_EINDEX_RANGE, b, l, k, -1,
+                                  "body %d loop %d place %d: node index %d out of range [0, %d)", b, l, k, v,
+                                  bd->node_count);
+                        goto fail;
+                    }
+                    if (mark[v] != 0) {
+                        rc = fail(err, NTS_ENODE_REUSED, b, l, k, v,
+                                  "body %d loop %d place %d: node %d is already on a loop", b, l, k, v);
+                        goto fail;
+                    }
+                    mark[v] = 1;
+                    loop_tmp[k] = v;
+                }
+                rc = check_loop(s, b, l, loop_tmp, n, node_off, len_tol, &area2[loop_i], err);
+                if (rc != NTS_OK) {
+                    if (implicit && err != NULL) err->loop = err->loop_pos = -1;
+                    goto fail;
+                }
+                if (fabs(area2[loop_i]) > outer_abs) { outer_abs = fabs(area2[loop_i]); outer = loop_i; }
+                s->loop_start[loop_i] = surf;
+                for (k = 0; k < n; ++k) {
+                    s->surf_local[surf + k] = loop_tmp[k];
+                    s->surf_body[surf + k] = b;
+                }
+                surf += n;
+                ++loop_i;
+            }
+            /* Orientation: the loop with the largest |area| is the outer one and
+             * runs counter-clockwise; holes run clockwise. A loop the wrong way is
+             * reversed keeping its first node. */
+            for (l = body_loop0; l < loop_i; ++l) {
+                int want_ccw = (l == outer);
+                int first = s->loop_start[l], n = surf - first, k;
+                if (l + 1 < loop_i) n = s->loop_start[l + 1] - first;
+                if ((area2[l] > 0.0) != want_ccw) {
+                    for (k = 1; k < n - k; ++k) {
+                        int t = s->surf_local[first + k];
+                        s->surf_local[first + k] = s->surf_local[first + n - k];
+                        s->surf_local[first + n - k] = t;
+                    }
+                    ++s->loops_reversed;
+                }
+                for (k = 0; k < n; ++k) {
+                    s->surf_node[first + k] = node_off + s->surf_local[first + k];
+                    s->surf_prev[first + k] = first + (k + n - 1) % n;
+                    s->surf_next[first + k] = first + (k + 1) % n;
+                }
+            }
+            node_off += bd->node_count;
+        }
+        s->body_node_start[def->body_count] = node_off;
+        s->body_loop_start[def->body_count] = loop_i;
+        s->loop_start[loop_i] = surf;
+        assert(surf == s->surface_count && loop_i == s->loop_total);
+    }
+    nts_free(mark);
+    nts_free(area2);
+    nts_free(loop_tmp);
+    for (b = 0; b < def->body_count; ++b) nts_boundary_free(&bnd[b]);
+    nts_free(bnd);
+    return s;
+
+fail:
+    (void)rc;
+    nts_free(mark);
+    nts_free(area2);
+    nts_free(loop_tmp);
+    if (bnd != NULL) {
+        for (b = 0; b < def->body_count; ++b) nts_boundary_free(&bnd[b]);
+        nts_free(bnd);
+    }
+    nts_scene_destroy(s);
+    return NULL;
+}
+
+int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_error* err) {
+    int i, n, off;
+    if (err != NULL) *err = nts_error_none();
+    if (s == NULL || nodes == NULL || body < 0 || body >= s->body_count)
+        return fail(err, NTS_EINVALID_ARGUMENT, body, -1, -1, -1, "no such body %d", body);
+    off = s->body_node_start[body];
+    n = s->body_node_start[body + 1] - off;
+    for (i = 0; i < n; ++i)
+        if (!nts_is_valid_vec2(nodes[i]))
+            return fail(err, NTS_ENONFINITE, body, -1, -1, i, "body %d node %d has a non-finite coordinate", body, i);
+    memcpy(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n);
+    return NTS_OK;
+}
+
+int nts_scene_body_count(const nts_scene* s) { return s->body_count; }
+int nts_scene_node_count(const nts_scene* s) { return s->node_count; }
+int nts_scene_surface_node_count(const nts_scene* s) { return s->surface_count; }
+int nts_scene_body_node_offset(const nts_scene* s, int body) { return s->body_node_start[body]; }
+int nts_scene_body_node_count(const nts_scene* s, int body) {
+    return s->body_node_start[body + 1] - s->body_node_start[body];
+}
+int nts_scene_body_loop_count(const nts_scene* s, int body) {
+    return s->body_loop_start[body + 1] - s->body_loop_start[body];
+}
+int nts_scene_body_loop(const nts_scene* s, int body, int loop, const int** out) {
+    int l = s->body_loop_start[body] + loop;
+    if (out != NULL) *out = s->surf_local + s->loop_start[l];
+    return s->loop_start[l + 1] - s->loop_start[l];
+}
+int nts_scene_loops_reversed(const nts_scene* s) { return s->loops_reversed; }
+const nts_vec2* nts_scene_positions(const nts_scene* s) { return s->pos; }
