@@ -1,0 +1,109 @@
+"""Command line: ``python -m ntscontact convert mesh.msh -o scene.json`` and friends.
+
+Exit codes follow the C CLI: 0 done, 2 usage, 3 invalid input, 1 other failure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import List, Optional
+
+from . import __version__
+from .errors import InvalidScene, NtsError
+
+
+def _convert(args: argparse.Namespace) -> int:
+    from .mesh import scene_from_mesh
+
+    periodic = tuple(args.periodic) if args.periodic else None
+    tag = False if args.no_tags else args.tag
+    scene = scene_from_mesh(args.mesh, penalty=args.penalty, alpha=args.alpha, search_radius=args.search_radius,
+                            periodic=periodic, solver=args.solver, outputs=args.outputs, tag=tag,
+                            boundary="loops" if args.loops else "triangles")
+    text = scene.to_json(indent=2 if args.pretty else None) + "\n"
+    if args.output in (None, "-"):
+        sys.stdout.write(text)
+    else:
+        with open(args.output, "w", encoding="utf-8") as fh:
+            fh.write(text)
+    nodes = sum(b.node_count for b in scene)
+    print(f"convert: {len(scene)} bodies, {nodes} nodes from {args.mesh}", file=sys.stderr)
+    return 0
+
+
+def _contact(args: argparse.Namespace) -> int:
+    from .client import Client
+    from .scene import Scene
+
+    with open(args.scene, "rb") if args.scene != "-" else sys.stdin.buffer as fh:
+        scene = Scene.from_json(fh.read())
+    with Client(args.url, timeout=args.timeout) as client:
+        result = client.contact(scene, outputs=args.outputs)
+    json.dump(result.raw, sys.stdout, indent=2 if args.pretty else None)
+    sys.stdout.write("\n")
+    return 0
+
+
+def _health(args: argparse.Namespace) -> int:
+    from .client import Client
+
+    with Client(args.url, timeout=args.timeout) as client:
+        json.dump(client.health(), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m ntscontact", description="ntscontact Python tools")
+    p.add_argument("--version", action="version", version=f"ntscontact-python {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    c = sub.add_parser("convert", help="mesh file (any format meshio reads) to a scene JSON")
+    c.add_argument("mesh", help="mesh file: .msh, .vtk, .vtu, .xdmf, .med, ...")
+    c.add_argument("-o", "--output", help="scene JSON file (default: standard output)")
+    c.add_argument("--penalty", type=float, default=1.0, help="options.penalty (default 1.0)")
+    c.add_argument("--alpha", type=float, help="options.alpha")
+    c.add_argument("--search-radius", type=float, help="options.search_radius")
+    c.add_argument("--periodic", type=float, nargs=2, metavar=("LX", "LY"), help="periodic box")
+    c.add_argument("--solver", choices=("closed_form", "newton"))
+    c.add_argument("--outputs", help="comma-separated: forces,energy,virial,contacts,gaps")
+    c.add_argument("--tag", help="cell_data field naming the body of each cell (default: gmsh:physical if present)")
+    c.add_argument("--no-tags", action="store_true", help="ignore tags: bodies are connected components")
+    c.add_argument("--loops", action="store_true", help="write boundary loops instead of triangles")
+    c.add_argument("--pretty", action="store_true")
+    c.set_defaults(func=_convert)
+
+    q = sub.add_parser("contact", help="evaluate a scene JSON on a running ntscontactd")
+    q.add_argument("scene", help="scene JSON file, or - for standard input")
+    q.add_argument("--url", default="http://127.0.0.1:8080")
+    q.add_argument("--timeout", type=float, default=30.0)
+    q.add_argument("--outputs", help="comma-separated outputs")
+    q.add_argument("--pretty", action="store_true")
+    q.set_defaults(func=_contact)
+
+    h = sub.add_parser("health", help="GET /v1/health of a running ntscontactd")
+    h.add_argument("--url", default="http://127.0.0.1:8080")
+    h.add_argument("--timeout", type=float, default=5.0)
+    h.set_defaults(func=_health)
+    return p
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except InvalidScene as exc:
+        print(f"ntscontact: {exc}", file=sys.stderr)
+        return 3
+    except (NtsError, OSError, KeyError) as exc:
+        print(f"ntscontact: {exc}", file=sys.stderr)
+        return 1
+    except ImportError as exc:
+        print(f"ntscontact: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

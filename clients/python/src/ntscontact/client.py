@@ -1,0 +1,169 @@
+"""HTTP client of ``ntscontactd`` on one :class:`requests.Session`."""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import requests
+from requests.adapters import HTTPAdapter
+from urllib3.util.retry import Retry
+
+from . import __version__
+from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
+from .result import Result
+from .scene import Scene, normalize_outputs
+
+__all__ = ["Client", "USER_AGENT", "DEFAULT_URL"]
+
+USER_AGENT = f"ntscontact-python/{__version__}"
+DEFAULT_URL = "http://127.0.0.1:8080"
+
+SceneLike = Union[Scene, Mapping[str, Any], str, bytes]
+TimeoutLike = Union[float, Tuple[float, float]]
+
+
+class Client:
+    """A client of the contact service.
+
+    ``timeout`` (seconds, or ``(connect, read)``) applies to every call unless a
+    call gives its own. ``retries`` is the number of retries of a *connection*
+    failure (refused, reset before the request was sent, DNS): the request
+    never reached the service, so even a POST is safe to repeat. Nothing else is
+    retried: not read timeouts, not 5xx, not 503.
+
+    Use as a context manager, or call :meth:`close`.
+    """
+
+    def __init__(
+        self,
+        base_url: str = DEFAULT_URL,
+        timeout: TimeoutLike = 30.0,
+        *,
+        retries: int = 3,
+        backoff: float = 0.1,
+        session: Optional[requests.Session] = None,
+    ) -> None:
+        self.base_url = base_url.rstrip("/")
+        self.timeout = timeout
+        self.session = session if session is not None else requests.Session()
+        retry = Retry(
+            total=None,
+            connect=retries,
+            read=0,
+            status=0,
+            redirect=0,
+            other=0,
+            backoff_factor=backoff,
+            allowed_methods=None,  # POST too: only connect failures are retried
+            raise_on_status=False,
+            respect_retry_after_header=False,
+        )
+        adapter = HTTPAdapter(max_retries=retry)
+        self.session.mount("http://", adapter)
+        self.session.mount("https://", adapter)
+        self.session.headers.update({"User-Agent": USER_AGENT, "Accept": "application/json"})
+
+    # ------------------------------------------------------------ lifecycle
+
+    def close(self) -> None:
+        self.session.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Client({self.base_url!r}, timeout={self.timeout!r})"
+
+    # ------------------------------------------------------------ endpoints
+
+    def contact(
+        self,
+        scene: SceneLike,
+        outputs: Optional[Union[str, Sequence[str]]] = None,
+        *,
+        timeout: Optional[TimeoutLike] = None,
+    ) -> Result:
+        """``POST /v1/contact``. ``scene`` is a :class:`Scene` (checked before it is
+        sent), a dict, or JSON text sent as it is. ``outputs`` (e.g.
+        ``["forces", "contacts"]``) overrides the scene's ``options.outputs``."""
+        body, ids = self._encode(scene, normalize_outputs(outputs))
+        doc = self._request("POST", "/v1/contact", body=body, timeout=timeout, body_ids=ids)
+        return Result.from_dict(doc)
+
+    def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
+        """``POST /v1/validate``: the service's check of a scene without evaluating it.
+        Returns the service's report; an invalid scene raises :class:`InvalidScene`."""
+        body, ids = self._encode(scene, None)
+        return self._request("POST", "/v1/validate", body=body, timeout=timeout, body_ids=ids)
+
+    def health(self, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
+        """``GET /v1/health``: status, version, build options, uptime, requests served."""
+        return self._request("GET", "/v1/health", timeout=timeout)
+
+    def schema(self, name: str, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
+        """``GET /v1/schemas/{name}`` for ``name`` in scene, result, error."""
+        return self._request("GET", f"/v1/schemas/{name}", timeout=timeout)
+
+    def openapi(self, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
+        """``GET /v1/openapi.json``."""
+        return self._request("GET", "/v1/openapi.json", timeout=timeout)
+
+    # ------------------------------------------------------------ internals
+
+    @staticmethod
+    def _encode(scene: SceneLike, outputs: Optional[Sequence[str]]) -> Tuple[bytes, Optional[list]]:
+        if isinstance(scene, Scene):
+            scene.check()
+            doc: Any = scene.to_dict()
+            ids: Optional[list] = scene.body_ids
+        elif isinstance(scene, Mapping):
+            doc = dict(scene)
+            ids = [b.get("id") for b in doc.get("bodies", []) if isinstance(b, Mapping)] \
+                if isinstance(doc.get("bodies"), list) else None
+        elif isinstance(scene, (str, bytes, bytearray)):
+            raw = scene.encode("utf-8") if isinstance(scene, str) else bytes(scene)
+            if outputs is None:
+                return raw, None
+            doc = json.loads(raw)
+            ids = None
+        else:
+            raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")
+        if outputs is not None:
+            doc = dict(doc)
+            doc["options"] = dict(doc.get("options") or {}, outputs=list(outputs))
+        return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8"), ids
+
+    def _request(
+        self,
+        method: str,
+        path: str,
+        *,
+        body: Optional[bytes] = None,
+        timeout: Optional[TimeoutLike] = None,
+        body_ids: Optional[list] = None,
+    ) -> Dict[str, Any]:
+        url = self.base_url + path
+        headers = {"Content-Type": "application/json"} if body is not None else None
+        try:
+            resp = self.session.request(method, url, data=body, headers=headers,
+                                        timeout=self.timeout if timeout is None else timeout)
+        except requests.Timeout as exc:
+            raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
+        except requests.ConnectionError as exc:
+            raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
+        except requests.RequestException as exc:
+            raise NtsError(f"{method} {url}: {exc}", code="request_failed") from exc
+        try:
+            doc = resp.json()
+        except ValueError:
+            doc = None
+        if resp.status_code >= 400:
+            raise error_from_response(resp.status_code, doc, resp.text, body_ids)
+        if not isinstance(doc, dict):
+            raise ServerError(f"{method} {url}: the answer is not a JSON object: {resp.text[:200]!r}",
+                              code="bad_response", status=resp.status_code)
+        return doc

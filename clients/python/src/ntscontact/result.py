@@ -1,0 +1,204 @@
+"""Results as numpy arrays and small dataclasses (``result.schema.json``)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from .scene import BodyId
+
+__all__ = ["Result", "Summary", "Contact", "Gap", "virial_matrix"]
+
+FloatArray = npt.NDArray[np.float64]
+Vec2 = Tuple[float, float]
+
+
+def virial_matrix(v: Optional[Mapping[str, Any]]) -> FloatArray:
+    """``{"xx", "yy", "xy"}`` to a symmetric 2x2 float64 array (zeros when absent)."""
+    v = v or {}
+    xx, yy, xy = (float(v.get(k, 0.0)) for k in ("xx", "yy", "xy"))
+    return np.array([[xx, xy], [xy, yy]], dtype=np.float64)
+
+
+def _vec(v: Any) -> Vec2:
+    if v is None:
+        return (0.0, 0.0)
+    return (float(v[0]), float(v[1]))
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One active contact: slave node ``slave_node`` of ``slave_body`` against the
+    master body's feature ``kind`` ("segment", "corner" or "vertex") with nodes
+    ``master_nodes`` and shape-function ``weights``; ``xi`` is the segment parameter
+    s or the corner parameter. ``force`` acts on the slave; ``virial`` is
+    ``(xx, yy, xy)`` (see :attr:`virial_tensor`)."""
+
+    slave_body: BodyId
+    slave_node: int
+    master_body: BodyId
+    kind: str
+    master_nodes: Tuple[int, ...]
+    weights: Tuple[float, ...]
+    xi: float
+    gap: float
+    normal: Vec2
+    point: Vec2
+    force: Vec2
+    virial: Tuple[float, float, float]
+
+    @property
+    def virial_tensor(self) -> FloatArray:
+        xx, yy, xy = self.virial
+        return np.array([[xx, xy], [xy, yy]], dtype=np.float64)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Contact":
+        s, m = d["slave"], d["master"]
+        v = d.get("virial") or {}
+        return cls(
+            slave_body=s["body"],
+            slave_node=int(s["node"]),
+            master_body=m["body"],
+            kind=str(m.get("kind", "")),
+            master_nodes=tuple(int(i) for i in m.get("nodes", ())),
+            weights=tuple(float(w) for w in m.get("weights", ())),
+            xi=float(m.get("xi", 0.0)),
+            gap=float(d["gap"]),
+            normal=_vec(d.get("normal")),
+            point=_vec(d.get("point")),
+            force=_vec(d.get("force")),
+            virial=(float(v.get("xx", 0.0)), float(v.get("yy", 0.0)), float(v.get("xy", 0.0))),
+        )
+
+
+@dataclass(frozen=True)
+class Gap:
+    """The closest point of a slave node on another body within the search radius,
+    active (``gap < 0``) or not. Fields the service adds beyond ``gap`` (kind,
+    nodes, normal, ...) are kept in ``extra``."""
+
+    slave_body: BodyId
+    slave_node: int
+    master_body: BodyId
+    gap: float
+    extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def active(self) -> bool:
+        return self.gap < 0.0
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Gap":
+        s, m = d["slave"], d["master"]
+        extra = {k: v for k, v in d.items() if k not in ("slave", "gap")}
+        extra.update({k: v for k, v in m.items() if k != "body"})
+        extra.pop("master", None)
+        return cls(slave_body=s["body"], slave_node=int(s["node"]), master_body=m["body"], gap=float(d["gap"]),
+                   extra=extra)
+
+
+@dataclass(frozen=True)
+class Summary:
+    """``summary`` of a result (always complete). ``virial`` is a 2x2 array."""
+
+    bodies: int
+    surface_nodes: int
+    contacts: int
+    energy: float
+    virial: FloatArray = field(compare=False)
+    max_penetration: float
+    loops_reversed: int
+    elapsed_ms: float = field(compare=False)
+    extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
+        known = ("bodies", "surface_nodes", "contacts", "energy", "virial", "max_penetration", "loops_reversed",
+                 "elapsed_ms")
+        return cls(
+            bodies=int(d.get("bodies", 0)),
+            surface_nodes=int(d.get("surface_nodes", 0)),
+            contacts=int(d.get("contacts", 0)),
+            energy=float(d.get("energy", 0.0)),
+            virial=virial_matrix(d.get("virial")),
+            max_penetration=float(d.get("max_penetration", 0.0)),
+            loops_reversed=int(d.get("loops_reversed", 0)),
+            elapsed_ms=float(d.get("elapsed_ms", 0.0)),
+            extra={k: v for k, v in d.items() if k not in known},
+        )
+
+
+@dataclass
+class Result:
+    """The answer of ``POST /v1/contact``.
+
+    ``forces`` maps each body id to an ``(n, 2)`` float64 array aligned with the
+    nodes that were sent (empty when ``forces`` was not asked for); ``energy`` and
+    ``virial`` (2x2) come from the summary; ``contacts`` and ``gaps`` are lists,
+    empty unless asked for in ``outputs``; ``raw`` is the parsed JSON.
+    """
+
+    summary: Summary
+    forces: Dict[BodyId, FloatArray]
+    contacts: List[Contact]
+    gaps: List[Gap]
+    raw: Dict[str, Any] = field(repr=False)
+
+    @property
+    def energy(self) -> float:
+        return self.summary.energy
+
+    @property
+    def virial(self) -> FloatArray:
+        return self.summary.virial
+
+    @property
+    def body_ids(self) -> List[BodyId]:
+        return list(self.forces)
+
+    def force_array(self, order: Optional[Sequence[BodyId]] = None) -> FloatArray:
+        """All forces stacked into one ``(N, 2)`` array, bodies in ``order`` (default:
+        the order of the answer, which is the order of the scene)."""
+        ids = list(self.forces) if order is None else list(order)
+        if not ids:
+            return np.zeros((0, 2), dtype=np.float64)
+        return np.concatenate([self.forces[i] for i in ids], axis=0)
+
+    def contact_arrays(self) -> Dict[str, npt.NDArray[Any]]:
+        """Contacts as columns: ``slave_node``, ``gap`` (m,), ``normal``, ``point``,
+        ``force`` (m, 2), ``virial`` (m, 3) as (xx, yy, xy)."""
+        m = len(self.contacts)
+        return {
+            "slave_node": np.array([c.slave_node for c in self.contacts], dtype=np.int64),
+            "gap": np.array([c.gap for c in self.contacts], dtype=np.float64),
+            "normal": np.array([c.normal for c in self.contacts], dtype=np.float64).reshape(m, 2),
+            "point": np.array([c.point for c in self.contacts], dtype=np.float64).reshape(m, 2),
+            "force": np.array([c.force for c in self.contacts], dtype=np.float64).reshape(m, 2),
+            "virial": np.array([c.virial for c in self.contacts], dtype=np.float64).reshape(m, 3),
+        }
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> "Result":
+        forces: Dict[BodyId, FloatArray] = {}
+        for b in doc.get("bodies") or []:
+            f = b.get("forces")
+            if f is None:
+                continue
+            arr = np.array(f, dtype=np.float64)
+            forces[b["id"]] = arr.reshape(-1, 2) if arr.size else np.zeros((0, 2), dtype=np.float64)
+        return cls(
+            summary=Summary.from_dict(doc.get("summary") or {}),
+            forces=forces,
+            contacts=[Contact.from_dict(c) for c in doc.get("contacts") or []],
+            gaps=[Gap.from_dict(g) for g in doc.get("gaps") or []],
+            raw=dict(doc),
+        )
+
+    @classmethod
+    def from_json(cls, text: Union[str, bytes]) -> "Result":
+        return cls.from_dict(json.loads(text))

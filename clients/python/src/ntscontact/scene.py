@@ -1,0 +1,381 @@
+"""Scenes built from numpy arrays, checked before they are sent.
+
+A :class:`Scene` is the request of ``scene.schema.json``: options and bodies. A body
+has nodes (an ``(n, 2)`` array) and either ``loops`` (lists of node indices,
+counter-clockwise outer loops) or ``triangles`` (an ``(m, 3)`` linear triangle
+mesh whose boundary the service extracts), or neither (one loop through all
+nodes in order).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from .errors import InvalidScene
+
+__all__ = ["Body", "BodyId", "Scene", "OUTPUTS", "SOLVERS"]
+
+BodyId = Union[str, int]
+ArrayLike = npt.ArrayLike
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: The outputs a scene may ask for (``options.outputs``).
+OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps")
+#: The corner solvers of the service (``options.solver``).
+SOLVERS: Tuple[str, ...] = ("closed_form", "newton")
+
+_KNOWN_OPTIONS = ("alpha", "penalty", "search_radius", "periodic", "solver", "outputs")
+
+
+def _where(index: int, body_id: Any) -> str:
+    return f"body {body_id!r} (index {index})"
+
+
+def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: str) -> IntArray:
+    """Integer array from ints (or integral floats); anything else is an InvalidScene."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise InvalidScene(f"{what} is not a rectangular array of integers ({exc})",
+                           code="invalid_type", pointer=pointer, where=_where(index, body_id)) from None
+    if arr.size == 0:
+        return arr.astype(np.int64).reshape(arr.shape)
+    if arr.dtype.kind in "iu":
+        return arr.astype(np.int64)
+    if arr.dtype.kind == "f" and np.all(np.isfinite(arr)) and np.all(arr == np.round(arr)):
+        return arr.astype(np.int64)
+    raise InvalidScene(f"{what} must hold integer node indices", code="invalid_type",
+                       pointer=pointer, where=_where(index, body_id))
+
+
+def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None) -> FloatArray:
+    """An ``(n, 2)`` C-contiguous float64 copy of ``nodes``, checked for shape and
+    finiteness; the error names the body and the first bad node."""
+    where = _where(index, body_id)
+    pointer = f"/bodies/{index}/nodes"
+    try:
+        arr = np.array(nodes, dtype=np.float64, order="C", copy=True)
+    except (TypeError, ValueError) as exc:
+        raise InvalidScene(f"nodes are not an (n, 2) array of numbers ({exc})", code="invalid_type",
+                           pointer=pointer, where=where) from None
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise InvalidScene(f"nodes must have shape (n, 2), got {arr.shape}", code="invalid_type",
+                           pointer=pointer, where=where)
+    if arr.shape[0] == 0:
+        raise InvalidScene("body has no nodes", code="no_nodes", pointer=pointer, where=where)
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise InvalidScene(f"coordinate is not a finite number: node {j} = {arr[j].tolist()}",
+                           code="non_finite", pointer=f"{pointer}/{j}", where=f"{where}, node {j}")
+    return arr
+
+
+@dataclass
+class Body:
+    """One body: ``nodes`` ``(n, 2)`` float64, and ``loops`` or ``triangles`` (or neither)."""
+
+    id: BodyId
+    nodes: FloatArray
+    loops: Optional[List[IntArray]] = None
+    triangles: Optional[IntArray] = None
+
+    @property
+    def node_count(self) -> int:
+        return int(self.nodes.shape[0])
+
+    def to_dict(self) -> Dict[str, Any]:
+        out: Dict[str, Any] = {"id": self.id, "nodes": self.nodes.tolist()}
+        if self.loops is not None:
+            out["loops"] = [loop.tolist() for loop in self.loops]
+        if self.triangles is not None:
+            out["triangles"] = self.triangles.tolist()
+        return out
+
+
+class Scene:
+    """A contact scene: options and bodies.
+
+    >>> s = Scene(penalty=100.0, alpha=0.2, search_radius=0.1)
+    >>> s.add_body(np.array([[0, 0], [1, 0], [1, 1], [0, 1]]), id="a")
+    'a'
+
+    ``None`` for an option means "the service's default" and leaves it out of the
+    JSON. ``periodic`` is ``(lx, ly)``. Options the client does not know are kept in
+    ``extra_options`` and sent as they are.
+    """
+
+    def __init__(
+        self,
+        penalty: Optional[float] = None,
+        *,
+        alpha: Optional[float] = None,
+        search_radius: Optional[float] = None,
+        periodic: Optional[Tuple[float, float]] = None,
+        solver: Optional[str] = None,
+        outputs: Optional[Sequence[str]] = None,
+        extra_options: Optional[Mapping[str, Any]] = None,
+    ) -> None:
+        self.penalty = penalty
+        self.alpha = alpha
+        self.search_radius = search_radius
+        self.periodic = periodic
+        self.solver = solver
+        self.outputs = outputs
+        self.extra_options: Dict[str, Any] = dict(extra_options or {})
+        self._bodies: List[Body] = []
+        self._index: Dict[Tuple[type, BodyId], int] = {}
+
+    # ------------------------------------------------------------ options
+
+    @property
+    def periodic(self) -> Optional[Tuple[float, float]]:
+        return self._periodic
+
+    @periodic.setter
+    def periodic(self, value: Optional[Sequence[float]]) -> None:
+        if value is None:
+            self._periodic: Optional[Tuple[float, float]] = None
+            return
+        lx, ly = (float(v) for v in value)
+        self._periodic = (lx, ly)
+
+    @property
+    def outputs(self) -> Optional[List[str]]:
+        return self._outputs
+
+    @outputs.setter
+    def outputs(self, value: Optional[Union[str, Sequence[str]]]) -> None:
+        self._outputs = normalize_outputs(value)
+
+    def options_dict(self) -> Dict[str, Any]:
+        """``options`` as sent: only the options that are set."""
+        opts: Dict[str, Any] = {}
+        if self.alpha is not None:
+            opts["alpha"] = float(self.alpha)
+        if self.penalty is not None:
+            opts["penalty"] = float(self.penalty)
+        if self.search_radius is not None:
+            opts["search_radius"] = float(self.search_radius)
+        if self.periodic is not None:
+            opts["periodic"] = {"lx": self.periodic[0], "ly": self.periodic[1]}
+        if self.solver is not None:
+            opts["solver"] = self.solver
+        if self.outputs is not None:
+            opts["outputs"] = list(self.outputs)
+        opts.update(self.extra_options)
+        return opts
+
+    # ------------------------------------------------------------- bodies
+
+    def add_body(
+        self,
+        nodes: ArrayLike,
+        loops: Optional[Sequence[Sequence[int]]] = None,
+        triangles: Optional[ArrayLike] = None,
+        id: Optional[BodyId] = None,  # noqa: A002 - the JSON field's name
+    ) -> BodyId:
+        """Add a body and return its id (the next free integer when ``id`` is None).
+
+        Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
+        naming the body and the node at fault.
+        """
+        index = len(self._bodies)
+        if id is None:
+            id = index
+            while (int, id) in self._index:
+                id += 1
+        if isinstance(id, bool) or not isinstance(id, (str, int)):
+            raise InvalidScene(f"body id must be a string or an integer, got {type(id).__name__}",
+                               code="invalid_type", pointer=f"/bodies/{index}/id", where=f"body index {index}")
+        key = (type(id), id)
+        if key in self._index:
+            raise InvalidScene(f"duplicate body id {id!r} (also body index {self._index[key]})",
+                               code="duplicate_id", pointer=f"/bodies/{index}/id", where=_where(index, id))
+        arr = as_nodes(nodes, index, id)
+        n = arr.shape[0]
+        where = _where(index, id)
+        if loops is not None and triangles is not None:
+            raise InvalidScene("give loops or triangles, not both", code="invalid_argument",
+                               pointer=f"/bodies/{index}", where=where)
+        loop_list: Optional[List[IntArray]] = None
+        if loops is not None:
+            raw = list(loops) if not isinstance(loops, np.ndarray) else [loops] if loops.ndim == 1 else list(loops)
+            if raw and np.ndim(raw[0]) == 0:  # a single flat loop
+                raw = [raw]
+            if not raw:
+                raise InvalidScene("loops is empty", code="invalid_argument", pointer=f"/bodies/{index}/loops",
+                                   where=where)
+            loop_list = []
+            for li, loop in enumerate(raw):
+                ptr = f"/bodies/{index}/loops/{li}"
+                arr_l = _as_index_array(loop, f"loop {li}", index, id, ptr)
+                if arr_l.ndim != 1:
+                    raise InvalidScene(f"loop {li} must be a flat list of node indices", code="invalid_type",
+                                       pointer=ptr, where=where)
+                if arr_l.shape[0] < 3:
+                    raise InvalidScene(f"loop {li} has {arr_l.shape[0]} nodes, fewer than 3", code="loop_too_short",
+                                       pointer=ptr, where=f"{where}, loop {li}")
+                bad = (arr_l < 0) | (arr_l >= n)
+                if bad.any():
+                    p = int(np.flatnonzero(bad)[0])
+                    raise InvalidScene(f"node index {int(arr_l[p])} out of range [0, {n})", code="index_out_of_range",
+                                       pointer=f"{ptr}/{p}", where=f"{where}, loop {li}, position {p}")
+                loop_list.append(arr_l)
+        tri: Optional[IntArray] = None
+        if triangles is not None:
+            ptr = f"/bodies/{index}/triangles"
+            tri = _as_index_array(triangles, "triangles", index, id, ptr)
+            if tri.size == 0:
+                tri = tri.reshape(0, 3)
+            if tri.ndim != 2 or tri.shape[1] != 3:
+                raise InvalidScene(f"triangles must have shape (m, 3), got {tri.shape}", code="invalid_type",
+                                   pointer=ptr, where=where)
+            if tri.shape[0] == 0:
+                raise InvalidScene("triangles is empty", code="invalid_argument", pointer=ptr, where=where)
+            bad = ((tri < 0) | (tri >= n)).any(axis=1)
+            if bad.any():
+                t = int(np.flatnonzero(bad)[0])
+                raise InvalidScene(f"triangle {t} = {tri[t].tolist()} has a node index out of range [0, {n})",
+                                   code="index_out_of_range", pointer=f"{ptr}/{t}", where=f"{where}, triangle {t}")
+        elif loops is None and n < 3:
+            raise InvalidScene(f"a body without loops or triangles needs 3 nodes or more, got {n}",
+                               code="loop_too_short", pointer=f"/bodies/{index}/nodes", where=where)
+        self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri))
+        self._index[key] = index
+        return id
+
+    def set_nodes(self, id: BodyId, nodes: ArrayLike) -> None:  # noqa: A002
+        """Move a body: new positions with the same shape (as in a solver's time step)."""
+        index = self.index_of(id)
+        arr = as_nodes(nodes, index, id)
+        old = self._bodies[index].nodes
+        if arr.shape != old.shape:
+            raise InvalidScene(f"new nodes have shape {arr.shape}, the body has {old.shape}", code="invalid_type",
+                               pointer=f"/bodies/{index}/nodes", where=_where(index, id))
+        self._bodies[index].nodes = arr
+
+    def index_of(self, id: BodyId) -> int:  # noqa: A002
+        try:
+            return self._index[(type(id), id)]
+        except KeyError:
+            raise KeyError(f"no body with id {id!r}") from None
+
+    def body(self, id: BodyId) -> Body:  # noqa: A002
+        return self._bodies[self.index_of(id)]
+
+    @property
+    def bodies(self) -> List[Body]:
+        return list(self._bodies)
+
+    @property
+    def body_ids(self) -> List[BodyId]:
+        return [b.id for b in self._bodies]
+
+    def __len__(self) -> int:
+        return len(self._bodies)
+
+    def __iter__(self) -> Iterator[Body]:
+        return iter(self._bodies)
+
+    def __repr__(self) -> str:
+        nodes = sum(b.node_count for b in self._bodies)
+        return f"Scene(bodies={len(self._bodies)}, nodes={nodes}, options={self.options_dict()!r})"
+
+    # ---------------------------------------------------------- checking
+
+    def check(self) -> None:
+        """What the client checks before sending (beyond ``add_body``'s checks)."""
+        if not self._bodies:
+            raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
+        if self.penalty is None:
+            raise InvalidScene("options.penalty is required", code="missing_field", pointer="/options/penalty")
+        for name in ("alpha", "penalty", "search_radius"):
+            v = getattr(self, name)
+            if v is not None and not math.isfinite(float(v)):
+                raise InvalidScene(f"option {name} is not finite", code="non_finite", pointer=f"/options/{name}")
+        if self.periodic is not None:
+            for k, v in zip(("lx", "ly"), self.periodic):
+                if not math.isfinite(v):
+                    raise InvalidScene(f"periodic.{k} is not finite", code="non_finite",
+                                       pointer=f"/options/periodic/{k}")
+
+    # ------------------------------------------------------------ (de)serialising
+
+    def to_dict(self) -> Dict[str, Any]:
+        return {"version": 1, "options": self.options_dict(), "bodies": [b.to_dict() for b in self._bodies]}
+
+    def to_json(self, indent: Optional[int] = None) -> str:
+        """JSON text; every double is written so that it reads back bitwise equal."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False, separators=None if indent else (",", ":"))
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> "Scene":
+        if not isinstance(doc, Mapping):
+            raise InvalidScene("a scene is a JSON object", code="invalid_type", pointer="")
+        version = doc.get("version", 1)
+        if version != 1:
+            raise InvalidScene(f"unsupported scene version {version!r}", code="unsupported_version",
+                               pointer="/version")
+        opts = dict(doc.get("options") or {})
+        periodic = opts.pop("periodic", None)
+        scene = cls(
+            penalty=opts.pop("penalty", None),
+            alpha=opts.pop("alpha", None),
+            search_radius=opts.pop("search_radius", None),
+            periodic=(periodic["lx"], periodic["ly"]) if isinstance(periodic, Mapping) else periodic,
+            solver=opts.pop("solver", None),
+            outputs=opts.pop("outputs", None),
+            extra_options=opts,
+        )
+        bodies = doc.get("bodies")
+        if not isinstance(bodies, list):
+            raise InvalidScene("bodies must be a list", code="invalid_type", pointer="/bodies")
+        for i, b in enumerate(bodies):
+            if not isinstance(b, Mapping) or "nodes" not in b:
+                raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
+            scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i))
+        return scene
+
+    @classmethod
+    def from_json(cls, text: Union[str, bytes]) -> "Scene":
+        def reject(name: str) -> float:
+            raise InvalidScene(f"{name} is not a JSON number", code="non_finite", pointer="")
+
+        try:
+            doc = json.loads(text, parse_constant=reject)
+        except json.JSONDecodeError as exc:
+            raise InvalidScene(str(exc), code="invalid_json", pointer="") from None
+        return cls.from_dict(doc)
+
+    @classmethod
+    def load(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":
+        with open(path, "rb") as fh:
+            return cls.from_json(fh.read())
+
+    def save(self, path: Union[str, "os.PathLike[str]"], indent: Optional[int] = None) -> None:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(self.to_json(indent=indent))
+            fh.write("\n")
+
+
+def normalize_outputs(value: Optional[Union[str, Sequence[str]]]) -> Optional[List[str]]:
+    """``"forces,energy"`` or ``["forces", "energy"]`` to a checked list (None stays None)."""
+    if value is None:
+        return None
+    items = [v.strip() for v in value.split(",")] if isinstance(value, str) else [str(v) for v in value]
+    items = [v for v in items if v]
+    unknown = [v for v in items if v not in OUTPUTS]
+    if unknown:
+        raise InvalidScene(f"unknown output {unknown[0]!r} (known: {', '.join(OUTPUTS)})", code="invalid_option",
+                           pointer="/options/outputs")
+    return items
+
