@@ -1,0 +1,140 @@
+/* ntscontactd command line. */
+#include <errno.h>
+#include <limits.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ntscontact.h"
+#include "server.h"
+
+static const char usage[] =
+    "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
+    "                   [--timeout S] [--max-connections N]\n"
+    "                   [--threading per-connection|pool] [--quiet]\n"
+    "\n"
+    "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
+    "GET /v1/health, GET /v1/schemas/{scene,result,error}, GET /v1/openapi.json).\n"
+    "\n"
+    "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
+    "  --port N             TCP port, 0 for any free one (default 8080); the bound\n"
+    "                       address is printed on stdout: 'ntscontactd listening on HOST:PORT'\n"
+    "  --threads N          evaluations running at once, and polling threads of the\n"
+    "                       pool model (default: online cores)\n"
+    "  --max-body BYTES     largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
+    "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
+    "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
+    "  --threading MODEL    per-connection (default) or pool (see docs/benchmarks.md)\n"
+    "  --quiet              no per-request log lines on stderr\n"
+    "  --help, --version\n";
+
+ntsd_config ntsd_default_config(void) {
+    ntsd_config c;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    memset(&c, 0, sizeof c);
+    strcpy(c.host, "127.0.0.1");
+    c.port = 8080;
+    c.threads = cores > 0 ? (cores > 256 ? 256 : (int)cores) : 1;
+    c.max_body = (size_t)64 << 20;
+    c.timeout_s = 30;
+    c.max_connections = 256;
+    c.threading = NTSD_THREAD_PER_CONNECTION;
+    c.quiet = 0;
+    return c;
+}
+
+const char* ntsd_threading_name(ntsd_threading t) {
+    return t == NTSD_THREAD_POOL ? "pool" : "per-connection";
+}
+
+/* An unsigned integer in [lo, hi]; `suffixes` allows k/M/G (binary). */
+static int parse_unsigned(const char* flag, const char* text, unsigned long long lo,
+                          unsigned long long hi, int suffixes, unsigned long long* out) {
+    char* end = NULL;
+    unsigned long long v, mul = 1;
+    if (text == NULL || *text == '\0' || *text == '-' || *text == '+') goto fail;
+    errno = 0;
+    v = strtoull(text, &end, 10);
+    if (errno != 0 || end == text) goto fail;
+    if (suffixes && *end != '\0' && end[1] == '\0') {
+        switch (*end) {
+        case 'k': case 'K': mul = 1ull << 10; end++; break;
+        case 'm': case 'M': mul = 1ull << 20; end++; break;
+        case 'g': case 'G': mul = 1ull << 30; end++; break;
+        default: break;
+        }
+    }
+    if (*end != '\0') goto fail;
+    if (v > ULLONG_MAX / mul) goto fail;
+    v *= mul;
+    if (v < lo || v > hi) goto fail;
+    *out = v;
+    return 0;
+fail:
+    fprintf(stderr, "ntscontactd: %s: expected an integer in [%llu, %llu], got '%s'\n", flag, lo, hi,
+            text ? text : "");
+    return -1;
+}
+
+int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
+    int i;
+    for (i = 1; i < argc; i++) {
+        const char* a = argv[i];
+        const char* v = i + 1 < argc ? argv[i + 1] : NULL;
+        unsigned long long n = 0;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            fputs(usage, stdout);
+            return 1;
+        }
+        if (strcmp(a, "--version") == 0) {
+            printf("ntscontactd %s (libmicrohttpd %s)\n", NTS_VERSION_STRING, MHD_get_version());
+            return 1;
+        }
+        if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
+            cfg->quiet = 1;
+            continue;
+        }
+        if (v == NULL) {
+            fprintf(stderr, "ntscontactd: unknown option or missing value: %s\n%s", a, usage);
+            return -1;
+        }
+        if (strcmp(a, "--host") == 0) {
+            if (strlen(v) >= sizeof cfg->host) {
+                fprintf(stderr, "ntscontactd: --host: address too long\n");
+                return -1;
+            }
+            strcpy(cfg->host, v);
+        } else if (strcmp(a, "--port") == 0) {
+            if (parse_unsigned(a, v, 0, 65535, 0, &n)) return -1;
+            cfg->port = (unsigned)n;
+        } else if (strcmp(a, "--threads") == 0) {
+            if (parse_unsigned(a, v, 1, 1024, 0, &n)) return -1;
+            cfg->threads = (int)n;
+        } else if (strcmp(a, "--max-body") == 0) {
+            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+            cfg->max_body = (size_t)n;
+        } else if (strcmp(a, "--timeout") == 0) {
+            if (parse_unsigned(a, v, 1, 86400, 0, &n)) return -1;
+            cfg->timeout_s = (unsigned)n;
+        } else if (strcmp(a, "--max-connections") == 0) {
+            if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
+            cfg->max_connections = (unsigned)n;
+        } else if (strcmp(a, "--threading") == 0) {
+            if (strcmp(v, "pool") == 0) {
+                cfg->threading = NTSD_THREAD_POOL;
+            } else if (strcmp(v, "per-connection") == 0) {
+                cfg->threading = NTSD_THREAD_PER_CONNECTION;
+            } else {
+                fprintf(stderr, "ntscontactd: --threading: expected per-connection or pool, got '%s'\n", v);
+                return -1;
+            }
+        } else {
+            fprintf(stderr, "ntscontactd: unknown option: %s\n%s", a, usage);
+            return -1;
+        }
+        i++;
+    }
+    return 0;
+}

@@ -1,0 +1,102 @@
+/* The URL space of ntscontactd: which path answers which methods, and the
+ * documents the server writes itself (health). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "assets.h"
+#include "ntscontact.h"
+#include "server.h"
+
+#define ALLOW_POST "POST"
+#define ALLOW_GET "GET, HEAD"
+
+static int method_in(const char* method, const char* allow) {
+    if (strcmp(allow, ALLOW_POST) == 0) return strcmp(method, "POST") == 0;
+    return strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
+}
+
+static int find_asset(const char* name) {
+    int i;
+    for (i = 0; i < ntsd_asset_count; i++)
+        if (strcmp(ntsd_assets[i].name, name) == 0) return i;
+    return -1;
+}
+
+ntsd_route ntsd_route_find(const char* path, const char* method) {
+    static const char schemas[] = "/v1/schemas/";
+    ntsd_route r;
+    r.kind = NTSD_ROUTE_NONE;
+    r.allow = "";
+    r.method_ok = 0;
+    r.asset = -1;
+    if (strcmp(path, "/v1/contact") == 0) {
+        r.kind = NTSD_ROUTE_CONTACT;
+        r.allow = ALLOW_POST;
+    } else if (strcmp(path, "/v1/validate") == 0) {
+        r.kind = NTSD_ROUTE_VALIDATE;
+        r.allow = ALLOW_POST;
+    } else if (strcmp(path, "/v1/health") == 0) {
+        r.kind = NTSD_ROUTE_HEALTH;
+        r.allow = ALLOW_GET;
+    } else if (strcmp(path, "/v1/openapi.json") == 0) {
+        r.kind = NTSD_ROUTE_ASSET;
+        r.allow = ALLOW_GET;
+        r.asset = find_asset("openapi");
+    } else if (strncmp(path, schemas, sizeof schemas - 1) == 0) {
+        const char* name = path + sizeof schemas - 1;
+        if (strcmp(name, "openapi") != 0 && (r.asset = find_asset(name)) >= 0) {
+            r.kind = NTSD_ROUTE_ASSET;
+            r.allow = ALLOW_GET;
+        }
+    }
+    if (r.kind != NTSD_ROUTE_NONE) r.method_ok = method_in(method, r.allow);
+    return r;
+}
+
+int ntsd_is_json_media_type(const char* ct) {
+    size_t n;
+    if (ct == NULL) return 1; /* no Content-Type: take the body as JSON */
+    while (*ct == ' ' || *ct == '\t') ct++;
+    n = strcspn(ct, "; \t");
+    if (n == 16 && strncasecmp(ct, "application/json", 16) == 0) return 1;
+    /* Structured syntax suffix (RFC 6839): application/vnd.x+json */
+    if (n > 17 && strncasecmp(ct, "application/", 12) == 0 && strncasecmp(ct + n - 5, "+json", 5) == 0)
+        return 1;
+    return 0;
+}
+
+char* ntsd_health_document(ntsd_server* s, size_t* length) {
+    const ntsd_config* c = &s->config;
+    char* doc = malloc(2048);
+    int shutting, in_flight, evaluating, n;
+    unsigned connections;
+    unsigned long long served;
+    if (doc == NULL) return NULL;
+    pthread_mutex_lock(&s->lock);
+    shutting = s->shutting_down;
+    in_flight = s->in_flight;
+    evaluating = s->evaluating;
+    connections = s->connections;
+    served = s->served;
+    pthread_mutex_unlock(&s->lock);
+    n = snprintf(doc, 2048,
+                 "{\"status\":\"%s\",\"version\":\"%s\","
+                 "\"build\":{\"type\":\"%s\",\"openmp\":%s,\"sanitize\":%s,\"libmicrohttpd\":\"%s\"},"
+                 "\"server\":{\"threading\":\"%s\",\"threads\":%d,\"max_body\":%zu,\"timeout_s\":%u,"
+                 "\"max_connections\":%u},"
+                 "\"uptime_s\":%.3f,\"requests_served\":%llu,\"requests_in_flight\":%d,"
+                 "\"evaluations_running\":%d,\"connections_open\":%u}\n",
+                 shutting ? "shutting_down" : "ok", NTS_VERSION_STRING, NTSD_BUILD_TYPE,
+                 NTSD_OPENMP ? "true" : "false", NTSD_SANITIZE ? "true" : "false", MHD_get_version(),
+                 ntsd_threading_name(c->threading), c->threads, c->max_body, c->timeout_s,
+                 c->max_connections, ntsd_now() - s->started, served, in_flight, evaluating,
+                 connections);
+    if (n < 0 || n >= 2048) {
+        free(doc);
+        return NULL;
+    }
+    *length = (size_t)n;
+    return doc;
+}

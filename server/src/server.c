@@ -1,0 +1,406 @@
+/* ntscontactd on libmicrohttpd: the access handler (one request's life), the
+ * completion and connection callbacks, and the counters behind /v1/health.
+ *
+ * A request's life (doc/examples/largepost.c):
+ *   1st call    headers only: allocate the state, route, answer at once what
+ *               needs no body (GET, 404, 405, 415, 413 from Content-Length, 503);
+ *   next calls  body pieces, appended to a capped buffer;
+ *   last call   upload_data_size == 0: evaluate through the codec, answer;
+ *   completed   log the line, free the state. */
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "assets.h"
+#include "ntscontact/codec.h"
+#include "server.h"
+
+typedef struct ntsd_request {
+    ntsd_server* server;
+    ntsd_route route;
+    double t0, deadline;       /* monotonic seconds: first callback, end of the upload budget */
+    ntsd_body body;
+    size_t received;           /* body bytes received, kept or not */
+    int queued;                /* a response is queued */
+    int too_large;             /* the body went beyond --max-body: answer 413 */
+    int status;                /* of the queued response */
+    size_t bytes_out;
+    char code[48];             /* error code of the response, or why the request ended */
+    char method[16];
+    char path[256];
+    char peer[64];
+} ntsd_request;
+
+double ntsd_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void copy_str(char* dst, size_t cap, const char* src) {
+    size_t n = src ? strlen(src) : 0;
+    if (n >= cap) n = cap - 1;
+    if (n) memcpy(dst, src, n);
+    dst[n] = '\0';
+}
+
+static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
+    const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    copy_str(out, cap, "-");
+    if (ci == NULL || ci->client_addr == NULL) return;
+    if (ci->client_addr->sa_family == AF_INET) {
+        const struct sockaddr_in* a = (const struct sockaddr_in*)(const void*)ci->client_addr;
+        inet_ntop(AF_INET, &a->sin_addr, out, (socklen_t)cap);
+    } else if (ci->client_addr->sa_family == AF_INET6) {
+        const struct sockaddr_in6* a = (const struct sockaddr_in6*)(const void*)ci->client_addr;
+        inet_ntop(AF_INET6, &a->sin6_addr, out, (socklen_t)cap);
+    }
+}
+
+/* ------------------------------------------------------------- answers */
+
+/* Queue a response. `body` is freed with `free_fn` once sent (NULL: static
+ * storage). `close`: ask the client to close (the body may be left unread). */
+static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
+                             char* body, size_t length, void (*free_fn)(void*), const char* content_type,
+                             const char* allow, int close) {
+    struct MHD_Response* resp;
+    enum MHD_Result ok;
+    if (free_fn != NULL) {
+        resp = MHD_create_response_from_buffer_with_free_callback(length, body, free_fn);
+        if (resp == NULL) free_fn(body);
+    } else {
+        resp = MHD_create_response_from_buffer(length, body, MHD_RESPMEM_PERSISTENT);
+    }
+    if (resp == NULL) return MHD_NO;
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, content_type);
+    if (allow != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
+    if (status == MHD_HTTP_SERVICE_UNAVAILABLE) MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    if (close) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
+    ok = MHD_queue_response(c, status, resp);
+    MHD_destroy_response(resp);
+    if (ok == MHD_YES) {
+        r->queued = 1;
+        r->status = (int)status;
+        r->bytes_out = length;
+        copy_str(r->code, sizeof r->code, code);
+    }
+    return ok;
+}
+
+static const char fallback_error[] =
+    "{\"error\":{\"code\":\"out_of_memory\",\"message\":\"out of memory\",\"pointer\":\"\"}}\n";
+
+/* An error document per error.schema.json, built by the codec. */
+static enum MHD_Result reply_error(struct MHD_Connection* c, ntsd_request* r, unsigned status,
+                                   const char* code, const char* message, const char* allow, int close) {
+    char* doc = ntsj_error_document(code, message, "");
+    if (doc == NULL)
+        return reply(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", (char*)fallback_error,
+                     sizeof fallback_error - 1, NULL, "application/json", NULL, 1);
+    return reply(c, r, status, code, doc, strlen(doc), nts_free, "application/json", allow, close);
+}
+
+static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
+    if (r->route.kind == NTSD_ROUTE_HEALTH) {
+        size_t n = 0;
+        char* doc = ntsd_health_document(r->server, &n);
+        if (doc == NULL) return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 0);
+        return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
+    } else {
+        const ntsd_asset* a = &ntsd_assets[r->route.asset];
+        return reply(c, r, MHD_HTTP_OK, "ok", (char*)a->data, a->size, NULL, a->content_type, NULL, 0);
+    }
+}
+
+/* At most config.threads evaluations at once (per-connection threads would
+ * otherwise oversubscribe the cores); waiting here holds no lock. */
+static void gate_enter(ntsd_server* s) {
+    pthread_mutex_lock(&s->lock);
+    while (s->evaluating >= s->config.threads) pthread_cond_wait(&s->changed, &s->lock);
+    s->evaluating++;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void gate_leave(ntsd_server* s) {
+    pthread_mutex_lock(&s->lock);
+    s->evaluating--;
+    pthread_cond_broadcast(&s->changed);
+    pthread_mutex_unlock(&s->lock);
+}
+
+static int query_flag(struct MHD_Connection* c, const char* name) {
+    const char* v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
+    if (v == NULL) return 0;
+    return *v == '\0' || strcmp(v, "1") == 0 || strcmp(v, "true") == 0;
+}
+
+/* POST /v1/contact and /v1/validate: the whole body is here. */
+static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
+    ntsd_server* s = r->server;
+    ntsj_config jc = ntsj_default_config();
+    ntsj_response resp;
+    int rc;
+    jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
+    jc.pretty = query_flag(c, "pretty");
+    jc.max_bytes = s->config.max_body;
+    jc.threads = 0; /* concurrency comes from requests, not from inside one */
+    memset(&resp, 0, sizeof resp);
+    gate_enter(s);
+    rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &resp);
+    gate_leave(s);
+    ntsd_body_free(&r->body);
+    if (rc != 0 || resp.body == NULL) {
+        ntsj_response_free(&resp);
+        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 1);
+    }
+    /* The codec's buffer goes to libmicrohttpd without a copy, freed by nts_free. */
+    return reply(c, r, (unsigned)resp.http_status, resp.code ? resp.code : "-", resp.body, resp.length,
+                 nts_free, "application/json", NULL, 0);
+}
+
+/* ------------------------------------------------------------- callbacks */
+
+static int is_post_route(const ntsd_request* r) {
+    return r->route.method_ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_VALIDATE);
+}
+
+/* The answers that need no body. Sent from the first call only when the request
+ * carries a body (libmicrohttpd then closes the connection rather than read
+ * it); otherwise from the last call, so the connection stays alive. */
+static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
+    if (r->route.kind == NTSD_ROUTE_NONE)
+        return reply_error(c, r, MHD_HTTP_NOT_FOUND, "not_found", "no such resource", NULL, 0);
+    if (!r->route.method_ok) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "method not allowed; allowed: %s", r->route.allow);
+        return reply_error(c, r, MHD_HTTP_METHOD_NOT_ALLOWED, "method_not_allowed", msg, r->route.allow, 0);
+    }
+    return answer_get(c, r);
+}
+
+static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd_request* r) {
+    const char* ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    const char* cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    const char* te = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_TRANSFER_ENCODING);
+    /* libmicrohttpd has checked the Content-Length syntax already. */
+    unsigned long long length = cl != NULL ? strtoull(cl, NULL, 10) : 0;
+    int has_body = length > 0 || te != NULL;
+    int shutting;
+    unsigned open_connections;
+
+    pthread_mutex_lock(&s->lock);
+    shutting = s->shutting_down;
+    open_connections = s->connections;
+    pthread_mutex_unlock(&s->lock);
+
+    if (shutting)
+        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "shutting_down", "the server is shutting down", NULL, 1);
+    if (open_connections > s->config.max_connections)
+        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "overloaded",
+                           "too many connections; retry later", NULL, 1);
+    if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
+
+    if (!ntsd_is_json_media_type(ct))
+        return reply_error(c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type",
+                           "the request body must be application/json", NULL, 1);
+    /* Answer before reading the body when its announced length is too large. */
+    if (length > (unsigned long long)s->config.max_body)
+        return reply_error(c, r, MHD_HTTP_CONTENT_TOO_LARGE, "body_too_large",
+                           "the request body is larger than --max-body", NULL, 1);
+    if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
+        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 1);
+    return MHD_YES;
+}
+
+static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const char* url, const char* method,
+                                  const char* version, const char* upload_data, size_t* upload_data_size,
+                                  void** con_cls) {
+    ntsd_server* s = cls;
+    ntsd_request* r = *con_cls;
+    (void)version;
+
+    if (r == NULL) {
+        r = calloc(1, sizeof *r);
+        if (r == NULL) return MHD_NO;
+        r->server = s;
+        r->t0 = ntsd_now();
+        r->deadline = r->t0 + (double)s->config.timeout_s;
+        ntsd_body_init(&r->body, s->config.max_body);
+        copy_str(r->method, sizeof r->method, method);
+        copy_str(r->path, sizeof r->path, url);
+        peer_name(c, r->peer, sizeof r->peer);
+        r->route = ntsd_route_find(url, method);
+        *con_cls = r;
+        pthread_mutex_lock(&s->lock);
+        s->in_flight++;
+        pthread_mutex_unlock(&s->lock);
+        return first_call(s, c, r);
+    }
+
+    if (*upload_data_size > 0) {
+        size_t n = *upload_data_size;
+        *upload_data_size = 0;
+        r->received += n;
+        if (r->queued) return MHD_YES; /* answered early: drop the rest */
+        if (ntsd_now() > r->deadline) {
+            /* A client trickling its body: cut it off (the idle timeout alone
+             * would let one byte every few seconds hold the connection). */
+            copy_str(r->code, sizeof r->code, "upload_timeout");
+            return MHD_NO;
+        }
+        if (r->too_large || !is_post_route(r)) return MHD_YES;
+        switch (ntsd_body_append(&r->body, upload_data, n)) {
+        case 0:
+            return MHD_YES;
+        case 1: /* chunked or unannounced: the cap is found while reading */
+            r->too_large = 1;
+            ntsd_body_free(&r->body);
+            return MHD_YES;
+        default:
+            ntsd_body_free(&r->body);
+            copy_str(r->code, sizeof r->code, "out_of_memory");
+            return MHD_NO;
+        }
+    }
+
+    if (r->queued) return MHD_YES;
+    if (!is_post_route(r)) return answer_bodiless(c, r);
+    if (r->too_large)
+        return reply_error(c, r, MHD_HTTP_CONTENT_TOO_LARGE, "body_too_large",
+                           "the request body is larger than --max-body", NULL, 1);
+    return answer_post(c, r);
+}
+
+static const char* termination_name(enum MHD_RequestTerminationCode toe) {
+    switch (toe) {
+    case MHD_REQUEST_TERMINATED_COMPLETED_OK: return "completed";
+    case MHD_REQUEST_TERMINATED_WITH_ERROR: return "error";
+    case MHD_REQUEST_TERMINATED_TIMEOUT_REACHED: return "timeout";
+    case MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN: return "daemon_shutdown";
+    case MHD_REQUEST_TERMINATED_READ_ERROR: return "read_error";
+    case MHD_REQUEST_TERMINATED_CLIENT_ABORT: return "client_abort";
+    default: return "aborted";
+    }
+}
+
+static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, enum MHD_RequestTerminationCode toe) {
+    ntsd_server* s = cls;
+    ntsd_request* r = *con_cls;
+    int ok = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK && r != NULL && r->queued;
+    (void)c;
+    if (r == NULL) return;
+    ntsd_log_request(r->peer, r->method, r->path, ok ? r->status : 0,
+                     ok || r->code[0] ? r->code : termination_name(toe), r->received,
+                     ok ? r->bytes_out : 0, 1e3 * (ntsd_now() - r->t0));
+    ntsd_body_free(&r->body);
+    free(r);
+    *con_cls = NULL;
+    pthread_mutex_lock(&s->lock);
+    s->in_flight--;
+    if (ok) s->served++;
+    pthread_cond_broadcast(&s->changed);
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void on_connection(void* cls, struct MHD_Connection* c, void** socket_context,
+                          enum MHD_ConnectionNotificationCode toe) {
+    ntsd_server* s = cls;
+    (void)c;
+    (void)socket_context;
+    pthread_mutex_lock(&s->lock);
+    if (toe == MHD_CONNECTION_NOTIFY_STARTED)
+        s->connections++;
+    else if (s->connections > 0)
+        s->connections--;
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* ------------------------------------------------------------ start/stop */
+
+int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
+    struct sockaddr_storage addr;
+    const union MHD_DaemonInfo* info;
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ITC | MHD_USE_ERROR_LOG;
+    unsigned hard_limit;
+    int pool = cfg->threading == NTSD_THREAD_POOL;
+
+    memset(s, 0, sizeof *s);
+    s->config = *cfg;
+    memset(&addr, 0, sizeof addr);
+    if (strchr(cfg->host, ':') != NULL) {
+        struct sockaddr_in6* a6 = (struct sockaddr_in6*)(void*)&addr;
+        a6->sin6_family = AF_INET6;
+        a6->sin6_port = htons((unsigned short)cfg->port);
+        if (inet_pton(AF_INET6, cfg->host, &a6->sin6_addr) != 1) goto bad_host;
+        flags |= MHD_USE_IPv6;
+    } else {
+        struct sockaddr_in* a4 = (struct sockaddr_in*)(void*)&addr;
+        a4->sin_family = AF_INET;
+        a4->sin_port = htons((unsigned short)cfg->port);
+        if (inet_pton(AF_INET, cfg->host, &a4->sin_addr) != 1) goto bad_host;
+    }
+    flags |= pool ? MHD_USE_EPOLL : (MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL);
+
+    /* Room above --max-connections so that the extra clients get a 503 instead
+     * of a closed socket. */
+    hard_limit = cfg->max_connections + 8 + cfg->max_connections / 16;
+
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->changed, NULL);
+    s->started = ntsd_now();
+    s->daemon = MHD_start_daemon(
+        flags, (uint16_t)cfg->port, NULL, NULL, on_request, s,
+        MHD_OPTION_EXTERNAL_LOGGER, ntsd_log_mhd, NULL,
+        MHD_OPTION_SOCK_ADDR, (struct sockaddr*)&addr,
+        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->timeout_s,
+        MHD_OPTION_CONNECTION_LIMIT, hard_limit,
+        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
+        MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
+        /* the pool size last: per-connection mode ends the list here */
+        pool && cfg->threads > 1 ? MHD_OPTION_THREAD_POOL_SIZE : MHD_OPTION_END, (unsigned int)cfg->threads,
+        MHD_OPTION_END);
+    if (s->daemon == NULL) {
+        ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);
+        pthread_cond_destroy(&s->changed);
+        pthread_mutex_destroy(&s->lock);
+        return -1;
+    }
+    info = MHD_get_daemon_info(s->daemon, MHD_DAEMON_INFO_BIND_PORT);
+    s->port = info != NULL ? info->port : cfg->port;
+    return 0;
+bad_host:
+    ntsd_log_message("--host: not a numeric IPv4 or IPv6 address: %s", cfg->host);
+    return -1;
+}
+
+void ntsd_server_quiesce(ntsd_server* s) {
+    MHD_socket fd;
+    pthread_mutex_lock(&s->lock);
+    s->shutting_down = 1;
+    pthread_mutex_unlock(&s->lock);
+    fd = MHD_quiesce_daemon(s->daemon);
+    if (fd != MHD_INVALID_SOCKET) close(fd);
+}
+
+int ntsd_server_in_flight(ntsd_server* s) {
+    int n;
+    pthread_mutex_lock(&s->lock);
+    n = s->in_flight;
+    pthread_mutex_unlock(&s->lock);
+    return n;
+}
+
+void ntsd_server_stop(ntsd_server* s) {
+    MHD_stop_daemon(s->daemon);
+    s->daemon = NULL;
+    pthread_cond_destroy(&s->changed);
+    pthread_mutex_destroy(&s->lock);
+}
