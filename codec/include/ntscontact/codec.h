@@ -1,4 +1,4 @@
-/* ntscontact codec: the JSON contract (schemas/*.schema.json) over the core.
+/* ntscontact codec: the JSON contract (schemas/{scene,result,error}.schema.json) over the core.
  * One call takes a request body and gives a response body, so the CLI and the
  * server answer alike, byte for byte (elapsed_ms aside).
  *
@@ -9,7 +9,7 @@
 
 #include <stddef.h>
 
-#include "ntscontact.h"
+#include <ntscontact/ntscontact.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -57,6 +57,25 @@ void ntsj_response_free(ntsj_response* response);
 /* An error document {"error": {"code", "message", "pointer"}} for front ends
  * (the server's 404/405/413/415/503). Returned buffer is freed with nts_free. */
 char* ntsj_error_document(const char* code, const char* message, const char* pointer);
+
+/* The HTTP status of a stable code (schemas/error.schema.json): 200 for "ok",
+ * 400 for input faults, 404/405/413/415/503 for the front ends' own codes, 500
+ * for internal ones and for a name it does not know. */
+int ntsj_code_http_status(const char* code);
+
+/* Read the pointer and message back from an error document (the body of a
+ * response with !ok), for one-line diagnostics. Copies NUL-terminated,
+ * truncated strings; returns 0, or -1 when `body` is not an error document. */
+int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
+                      size_t message_size);
+
+/* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
+ * "forces", "energy", "virial", "contacts", "gaps" (n bytes of name) to its
+ * NTS_OUT_* flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
+ * "newton", returning 0 or -1. */
+unsigned ntsj_output_flag(const char* name, size_t n);
+int ntsj_solver_from_name(const char* name, nts_solver* out);
+const char* ntsj_solver_name(nts_solver solver);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,248 @@
+/* ntscontact: evaluate one scene file (schemas/scene.schema.json) and print the
+ * result (schemas/result.schema.json). The JSON work is the codec's
+ * (ntsj_handle), so the CLI answers exactly as the server does.
+ *
+ * Exit status: 0 done, 2 usage (bad flags, unreadable files), 3 invalid input
+ * (one line on stderr: code, JSON pointer, message), 1 internal error. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ntscontact/codec.h>
+
+enum { EXIT_DONE = 0, EXIT_INTERNAL = 1, EXIT_USAGE = 2, EXIT_INVALID = 3 };
+
+static const char usage_text[] =
+    "usage: ntscontact [options] SCENE.json\n"
+    "       ntscontact [options] -            (read the scene from standard input)\n"
+    "\n"
+    "Evaluate node-to-segment contact for a scene (schemas/scene.schema.json) and\n"
+    "write the result (schemas/result.schema.json) as JSON.\n"
+    "\n"
+    "options (they override the scene's own \"options\"):\n"
+    "  --alpha A            smoothing fraction in [0, 0.5]\n"
+    "  --penalty EPS        penalty stiffness > 0\n"
+    "  --search-radius R    search radius >= 0\n"
+    "  --solver NAME        closed_form or newton\n"
+    "  --outputs LIST       comma-separated: forces,energy,virial,contacts,gaps\n"
+    "                       (empty: the summary only)\n"
+    "  --validate           check the scene only; print a validation summary\n"
+    "  --pretty             indent the output\n"
+    "  -o, --output FILE    write to FILE instead of standard output\n"
+    "  -h, --help           print this help and exit\n"
+    "  -V, --version        print the version and exit\n"
+    "\n"
+    "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
+    "error: code, JSON pointer, message), 1 internal error\n";
+
+static int usage_error(const char* fmt, const char* arg) {
+    fprintf(stderr, "ntscontact: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\nTry 'ntscontact --help' for more information.\n");
+    return EXIT_USAGE;
+}
+
+static int parse_double(const char* s, double* out) {
+    char* end;
+    double v;
+    if (!s || !*s) return -1;
+    errno = 0;
+    v = strtod(s, &end);
+    if (*end != '\0' || errno == ERANGE || !isfinite(v)) return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_outputs(const char* s, unsigned* out) {
+    unsigned flags = 0;
+    const char* p = s;
+    while (*p) {
+        const char* comma = strchr(p, ',');
+        size_t n = comma ? (size_t)(comma - p) : strlen(p);
+        unsigned f = ntsj_output_flag(p, n);
+        if (!f) return -1;
+        flags |= f;
+        p += n;
+        if (*p == ',') {
+            ++p;
+            if (!*p) return -1; /* trailing comma */
+        }
+    }
+    *out = flags;
+    return 0;
+}
+
+/* Read all of `f`, at most `limit` + 1 bytes (one more than allowed, so the
+ * codec sees the request is too large without us reading gigabytes). */
+static char* read_all(FILE* f, size_t limit, size_t* length) {
+    size_t cap = 1 << 16, len = 0;
+    char* buf = (char*)malloc(cap);
+    if (!buf) return NULL;
+    for (;;) {
+        size_t want, got;
+        if (len == cap) {
+            char* p;
+            if (cap > limit + 1) break;
+            cap *= 2;
+            p = (char*)realloc(buf, cap);
+            if (!p) {
+                free(buf);
+                return NULL;
+            }
+            buf = p;
+        }
+        want = cap - len;
+        if (len + want > limit + 1) want = limit + 1 - len;
+        if (want == 0) break;
+        got = fread(buf + len, 1, want, f);
+        len += got;
+        if (got < want) break;
+    }
+    if (ferror(f)) {
+        free(buf);
+        return NULL;
+    }
+    *length = len;
+    return buf;
+}
+
+int main(int argc, char** argv) {
+    ntsj_config cfg = ntsj_default_config();
+    ntsj_response resp;
+    const char* input = NULL;
+    const char* output = NULL;
+    FILE* in;
+    FILE* out;
+    char* data;
+    size_t length = 0;
+    int i, only_files = 0, status;
+
+    for (i = 1; i < argc; ++i) {
+        const char* a = argv[i];
+        const char* val = NULL;
+        const char* eq;
+        char name[32];
+        if (only_files || a[0] != '-' || strcmp(a, "-") == 0) {
+            if (input) return usage_error("more than one scene given ('%s')", a);
+            input = a;
+            continue;
+        }
+        if (strcmp(a, "--") == 0) {
+            only_files = 1;
+            continue;
+        }
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            fputs(usage_text, stdout);
+            return EXIT_DONE;
+        }
+        if (strcmp(a, "-V") == 0 || strcmp(a, "--version") == 0) {
+            printf("ntscontact %s\n", NTS_VERSION_STRING);
+            return EXIT_DONE;
+        }
+        if (strcmp(a, "--pretty") == 0) {
+            cfg.pretty = 1;
+            continue;
+        }
+        if (strcmp(a, "--validate") == 0) {
+            cfg.mode = NTSJ_VALIDATE;
+            continue;
+        }
+        /* Options with a value: "--name VALUE" or "--name=VALUE"; "-o FILE". */
+        eq = strchr(a, '=');
+        if (eq && a[1] == '-') {
+            size_t n = (size_t)(eq - a);
+            if (n >= sizeof name) return usage_error("unknown option '%s'", a);
+            memcpy(name, a, n);
+            name[n] = '\0';
+            val = eq + 1;
+        } else {
+            if (strlen(a) >= sizeof name) return usage_error("unknown option '%s'", a);
+            strcpy(name, a);
+        }
+        if (strcmp(name, "--alpha") != 0 && strcmp(name, "--penalty") != 0 && strcmp(name, "--search-radius") != 0 &&
+            strcmp(name, "--solver") != 0 && strcmp(name, "--outputs") != 0 && strcmp(name, "-o") != 0 &&
+            strcmp(name, "--output") != 0)
+            return usage_error("unknown option '%s'", a);
+        if (!val) {
+            if (i + 1 >= argc) return usage_error("option '%s' needs a value", name);
+            val = argv[++i];
+        }
+        if (strcmp(name, "--alpha") == 0) {
+            if (parse_double(val, &cfg.overrides.alpha) != 0) return usage_error("--alpha needs a number, not '%s'", val);
+            cfg.overrides.has_alpha = 1;
+        } else if (strcmp(name, "--penalty") == 0) {
+            if (parse_double(val, &cfg.overrides.penalty) != 0) return usage_error("--penalty needs a number, not '%s'", val);
+            cfg.overrides.has_penalty = 1;
+        } else if (strcmp(name, "--search-radius") == 0) {
+            if (parse_double(val, &cfg.overrides.search_radius) != 0)
+                return usage_error("--search-radius needs a number, not '%s'", val);
+            cfg.overrides.has_search_radius = 1;
+        } else if (strcmp(name, "--solver") == 0) {
+            if (ntsj_solver_from_name(val, &cfg.overrides.solver) != 0)
+                return usage_error("--solver must be closed_form or newton, not '%s'", val);
+            cfg.overrides.has_solver = 1;
+        } else if (strcmp(name, "--outputs") == 0) {
+            if (parse_outputs(val, &cfg.overrides.outputs) != 0)
+                return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps, not '%s'", val);
+            cfg.overrides.has_outputs = 1;
+        } else {
+            output = val;
+        }
+    }
+    if (!input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
+
+    if (strcmp(input, "-") == 0) {
+        in = stdin;
+    } else {
+        in = fopen(input, "rb");
+        if (!in) {
+            fprintf(stderr, "ntscontact: cannot open '%s': %s\n", input, strerror(errno));
+            return EXIT_USAGE;
+        }
+    }
+    data = read_all(in, cfg.max_bytes, &length);
+    if (in != stdin) fclose(in);
+    if (!data) {
+        fprintf(stderr, "ntscontact: cannot read '%s'\n", input);
+        return EXIT_INTERNAL;
+    }
+
+    status = ntsj_handle(data, length, &cfg, &resp);
+    free(data);
+    if (status != 0 || !resp.body) {
+        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
+        return EXIT_INTERNAL;
+    }
+    if (!resp.ok) {
+        /* One line: code, pointer, message (the error document, flattened). */
+        char pointer[256], message[512];
+        ntsj_error_fields(resp.body, resp.length, pointer, sizeof pointer, message, sizeof message);
+        fprintf(stderr, "ntscontact: %s at \"%s\": %s\n", resp.code, pointer, message);
+        status = resp.http_status >= 500 ? EXIT_INTERNAL : EXIT_INVALID;
+        ntsj_response_free(&resp);
+        return status;
+    }
+
+    if (output) {
+        out = fopen(output, "wb");
+        if (!out) {
+            fprintf(stderr, "ntscontact: cannot write '%s': %s\n", output, strerror(errno));
+            ntsj_response_free(&resp);
+            return EXIT_USAGE;
+        }
+    } else {
+        out = stdout;
+    }
+    status = EXIT_DONE;
+    if (fwrite(resp.body, 1, resp.length, out) != resp.length) status = EXIT_INTERNAL;
+    if (out != stdout) {
+        if (fclose(out) != 0) status = EXIT_INTERNAL;
+    } else if (fflush(out) != 0) {
+        status = EXIT_INTERNAL;
+    }
+    if (status != EXIT_DONE) fprintf(stderr, "ntscontact: error writing the result\n");
+    ntsj_response_free(&resp);
+    return status;
+}

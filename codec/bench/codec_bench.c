@@ -1,0 +1,153 @@
+/* Cost of the JSON layer against the core's evaluation, per node.
+ *
+ *   ntscontact_codec_bench [DISKS_PER_SIDE [NODES_PER_DISK [REPEATS]]]
+ *
+ * Builds a square packing of pressed polygonal disks as a JSON request, then
+ * times each stage of ntsj_handle separately: strict scan, cJSON parse, decode
+ * into nts_scene_def, nts_scene_create, nts_evaluate (forces + energy + virial),
+ * and encoding the result (forces only, and forces + contacts). Prints the best
+ * of REPEATS runs in ns per node. Figures go to docs/codec.md. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cjson/cJSON.h>
+
+#include "codec_internal.h"
+
+static double now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static void make_scene(ntsj_buf* b, int side, int m) {
+    const double pi = 3.14159265358979323846;
+    const double r = 1.0, pitch = 1.96; /* 2% overlap between neighbours */
+    int i, j, k, id = 0;
+    unsigned seed = 12345u;
+    ntsj_buf_puts(b, "{\"version\":1,\"options\":{\"alpha\":0.2,\"penalty\":100.0,\"search_radius\":0.1},\"bodies\":[");
+    for (i = 0; i < side; ++i) {
+        for (j = 0; j < side; ++j) {
+            double cx = pitch * j, cy = pitch * i;
+            if (id) ntsj_buf_putc(b, ',');
+            ntsj_buf_puts(b, "{\"id\":");
+            ntsj_buf_int(b, id++);
+            ntsj_buf_puts(b, ",\"nodes\":[");
+            for (k = 0; k < m; ++k) {
+                double a = 2.0 * pi * k / m, jit;
+                seed = seed * 1103515245u + 12345u;
+                jit = 1.0 + 0.002 * ((double)(seed >> 16 & 0x7fff) / 32767.0 - 0.5);
+                if (k) ntsj_buf_putc(b, ',');
+                ntsj_buf_putc(b, '[');
+                ntsj_buf_double(b, cx + r * jit * cos(a));
+                ntsj_buf_putc(b, ',');
+                ntsj_buf_double(b, cy + r * jit * sin(a));
+                ntsj_buf_putc(b, ']');
+            }
+            ntsj_buf_puts(b, "]}");
+        }
+    }
+    ntsj_buf_puts(b, "]}");
+}
+
+#define STAGES 7
+static const char* const stage_names[STAGES] = {"scan (strict RFC 8259)", "cJSON parse", "decode",
+                                                "nts_scene_create", "nts_evaluate", "encode forces",
+                                                "encode forces+contacts"};
+
+int main(int argc, char** argv) {
+    int side = argc > 1 ? atoi(argv[1]) : 32;
+    int m = argc > 2 ? atoi(argv[2]) : 64;
+    int repeats = argc > 3 ? atoi(argv[3]) : 5;
+    ntsj_config cfg = ntsj_default_config();
+    double best[STAGES];
+    ntsj_buf req;
+    long long nodes = (long long)side * side * m;
+    int rep, i, contacts = 0;
+    size_t out_bytes[2] = {0, 0};
+
+    if (side < 1 || m < 3 || repeats < 1) {
+        fprintf(stderr, "usage: %s [DISKS_PER_SIDE [NODES_PER_DISK [REPEATS]]]\n", argv[0]);
+        return 2;
+    }
+    cfg.max_bytes = (size_t)1 << 40;
+    for (i = 0; i < STAGES; ++i) best[i] = 1e300;
+    ntsj_buf_init(&req);
+    make_scene(&req, side, m);
+    if (req.oom) return 1;
+
+    for (rep = 0; rep < repeats; ++rep) {
+        ntsj_fault fault;
+        ntsj_scene s;
+        nts_scene_def def;
+        nts_scene* scene;
+        nts_context* ctx;
+        nts_result res;
+        nts_error err = nts_error_none();
+        ntsj_buf out;
+        cJSON* root;
+        double t[STAGES + 1];
+
+        t[0] = now_s();
+        if (ntsj_scan(req.data, req.len, cfg.max_depth, &fault) != 0) { fprintf(stderr, "scan: %s\n", fault.message); return 1; }
+        t[1] = now_s();
+        root = cJSON_ParseWithLengthOpts(req.data, req.len, NULL, 0);
+        if (!root) return 1;
+        t[2] = now_s();
+        if (ntsj_decode(root, &cfg, &s, &fault) != 0) { fprintf(stderr, "decode: %s\n", fault.message); return 1; }
+        t[3] = now_s();
+        cJSON_Delete(root);
+        t[3] += 0.0;
+        {
+            double t3b = now_s();
+            def = nts_default_scene_def();
+            def.bodies = s.defs;
+            def.body_count = s.body_count;
+            scene = nts_scene_create(&def, &err);
+            if (!scene) { fprintf(stderr, "scene: %s\n", err.message); return 1; }
+            t[4] = now_s() - (t3b - t[3]); /* do not count cJSON_Delete */
+        }
+        ctx = nts_context_create();
+        s.options.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_CONTACTS;
+        {
+            double te = now_s();
+            if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) { fprintf(stderr, "evaluate: %s\n", err.message); return 1; }
+            t[5] = t[4] + (now_s() - te);
+        }
+        contacts = res.contact_count;
+        {
+            double te = now_s();
+            ntsj_buf_init(&out);
+            s.options.outputs = NTS_OUT_FORCES;
+            ntsj_encode_result(&out, &s, scene, &res, 0.0, 0);
+            out_bytes[0] = out.len;
+            ntsj_buf_free(&out);
+            t[6] = t[5] + (now_s() - te);
+            te = now_s();
+            s.options.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+            ntsj_encode_result(&out, &s, scene, &res, 0.0, 0);
+            out_bytes[1] = out.len;
+            ntsj_buf_free(&out);
+            t[7] = t[6] + (now_s() - te);
+        }
+        for (i = 0; i < STAGES; ++i)
+            if (t[i + 1] - t[i] < best[i]) best[i] = t[i + 1] - t[i];
+        nts_context_destroy(ctx);
+        nts_scene_destroy(scene);
+        ntsj_scene_free(&s);
+    }
+    printf("scene: %d bodies x %d nodes = %lld nodes, request %.1f MB, %d active contacts\n", side * side, m, nodes,
+           (double)req.len / 1e6, contacts);
+    printf("response: %.1f MB (forces), %.1f MB (forces+contacts)\n", (double)out_bytes[0] / 1e6,
+           (double)out_bytes[1] / 1e6);
+    printf("%-26s %12s %12s %10s\n", "stage (best of runs)", "ms", "ns/node", "x evaluate");
+    for (i = 0; i < STAGES; ++i)
+        printf("%-26s %12.3f %12.1f %10.2f\n", stage_names[i], best[i] * 1e3, best[i] * 1e9 / (double)nodes,
+               best[i] / best[4]);
+    ntsj_buf_free(&req);
+    return 0;
+}

@@ -1,0 +1,109 @@
+/* ntscontact codec internals: the pieces ntsj_handle strings together, split so
+ * that the benchmark (codec/bench) can time each one on its own.
+ *
+ *   scan.c    strict RFC 8259 pre-scan: grammar, UTF-8, nesting depth, with the
+ *             JSON pointer of the first fault (cJSON itself is lenient)
+ *   decode.c  cJSON tree -> ntsj_scene (nts_scene_def + ids + options)
+ *   encode.c  nts_result -> JSON text with our own number printer
+ *   numfmt.c  the growable output buffer and shortest round-trip doubles
+ *   codes.c   the stable error codes and their HTTP status
+ *   handle.c  ntsj_handle: size check, scan, parse, decode, evaluate, encode */
+#ifndef NTSJ_CODEC_INTERNAL_H
+#define NTSJ_CODEC_INTERNAL_H
+
+#include <stddef.h>
+
+#include "codec.h"
+
+/* ------------------------------------------------------------ errors */
+
+/* A decode error: a stable code, a JSON pointer (RFC 6901) and a message. */
+typedef struct ntsj_fault {
+    const char* code; /* static string, NULL when there is no fault */
+    char pointer[256];
+    char message[256];
+} ntsj_fault;
+
+void ntsj_fault_set(ntsj_fault* f, const char* code, const char* pointer, const char* fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+
+/* ------------------------------------------------------------ buffer */
+
+/* A growable NUL-terminated byte buffer (through nts_alloc). After a failed
+ * allocation `oom` is set and further writes are ignored. */
+typedef struct ntsj_buf {
+    char* data;
+    size_t len, cap;
+    int oom;
+} ntsj_buf;
+
+void ntsj_buf_init(ntsj_buf* b);
+void ntsj_buf_free(ntsj_buf* b);
+int ntsj_buf_reserve(ntsj_buf* b, size_t extra);
+void ntsj_buf_put(ntsj_buf* b, const char* s, size_t n);
+void ntsj_buf_puts(ntsj_buf* b, const char* s);
+void ntsj_buf_putc(ntsj_buf* b, char c);
+void ntsj_buf_int(ntsj_buf* b, long long v);
+/* A JSON string literal with escapes (the input is valid UTF-8). */
+void ntsj_buf_string(ntsj_buf* b, const char* s);
+/* A double that reads back bitwise equal with strtod; NaN and infinities are
+ * written as null (the encoder never hands them over). Always has a '.' or an
+ * exponent, so readers that split integers from reals see a real. */
+void ntsj_buf_double(ntsj_buf* b, double v);
+/* Formats into out (>= 32 bytes), returns the length. */
+int ntsj_format_double(char* out, double v);
+
+/* ------------------------------------------------------------ scan */
+
+/* Check `json[0..length)` strictly against RFC 8259 (plus: no "\u0000" escape)
+ * and that nesting stays within max_depth. Returns 0 or fills *fault. */
+int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault);
+
+/* ------------------------------------------------------------ decode */
+
+typedef struct ntsj_id {
+    int is_int;
+    long long ival;
+    char* sval; /* owned, NUL-terminated, when !is_int */
+} ntsj_id;
+
+typedef struct ntsj_scene {
+    int body_count;
+    nts_body_def* defs; /* body_count; arrays owned below */
+    ntsj_id* ids;
+    int* has_loops;     /* 1 when the body came with explicit "loops" */
+    nts_vec2** nodes;   /* owned per body */
+    int** ints;         /* owned per body: loop_nodes + loop_start, or triangles */
+    nts_options options;
+    double lx, ly;
+    int has_periodic;
+} ntsj_scene;
+
+struct cJSON;
+/* Decode a parsed request. Returns 0, or -1 with *fault filled (the scene is
+ * then freed already), or NTS_ENOMEM. Applies config->overrides. */
+int ntsj_decode(const struct cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault);
+void ntsj_scene_free(ntsj_scene* s);
+/* The JSON pointer of a core error against the decoded request. */
+void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out, size_t size);
+
+/* ------------------------------------------------------------ encode */
+
+typedef struct ntsj_timing {
+    double elapsed_ms;
+} ntsj_timing;
+
+void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, const nts_result* r,
+                        double elapsed_ms, int pretty);
+void ntsj_encode_validation(ntsj_buf* b, const nts_scene* scene, double elapsed_ms, int pretty);
+void ntsj_encode_error(ntsj_buf* b, const char* code, const char* message, const char* pointer, int pretty);
+
+/* ------------------------------------------------------------ codes */
+
+/* 1 when `code` is one of the stable codes (error.schema.json). */
+int ntsj_code_known(const char* code);
+
+#endif

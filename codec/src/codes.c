@@ -1,0 +1,103 @@
+/* The stable error codes of the JSON contract (schemas/error.schema.json) and
+ * the HTTP status each maps to. The core's codes come from NTS_ERRNO_MAP
+ * (base.h); the codec and the front ends add theirs here. Never rename, only
+ * append (and add the name to the schema's enum: a test checks both lists). */
+#include <string.h>
+
+#include "codec_internal.h"
+
+/* XX(stable name, HTTP status) */
+#define NTSJ_CODE_MAP(XX)                  \
+    XX("invalid_json", 400)                \
+    XX("invalid_type", 400)                \
+    XX("missing_field", 400)               \
+    XX("unknown_field", 400)               \
+    XX("duplicate_key", 400)               \
+    XX("duplicate_id", 400)                \
+    XX("invalid_value", 400)               \
+    XX("too_deep", 400)                    \
+    XX("empty_body", 400)                  \
+    XX("payload_too_large", 413)           \
+    XX("not_found", 404)                   \
+    XX("method_not_allowed", 405)          \
+    XX("unsupported_media_type", 415)      \
+    XX("overloaded", 503)                  \
+    XX("timeout", 503)
+
+typedef struct code_entry {
+    const char* name;
+    int http_status;
+} code_entry;
+
+static const code_entry codec_codes[] = {
+#define NTSJ_XX_(name, status) {name, status},
+    NTSJ_CODE_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
+};
+
+/* The core's statuses: input faults are 400, the rest (out of memory, internal,
+ * a bad argument that only a codec bug can pass) are 500. */
+static int core_status_http(int status) {
+    switch (status) {
+    case NTS_ENOMEM:
+    case NTS_EINTERNAL:
+    case NTS_EINVALID_ARGUMENT: return 500;
+    default: return 400;
+    }
+}
+
+static const int core_codes[] = {
+#define NTSJ_XX_(e, v, name, msg) NTS_E##e,
+    NTS_ERRNO_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
+};
+
+int ntsj_code_http_status(const char* code) {
+    size_t i;
+    if (!code || strcmp(code, "ok") == 0) return 200;
+    for (i = 0; i < sizeof codec_codes / sizeof codec_codes[0]; ++i)
+        if (strcmp(code, codec_codes[i].name) == 0) return codec_codes[i].http_status;
+    for (i = 0; i < sizeof core_codes / sizeof core_codes[0]; ++i)
+        if (strcmp(code, nts_status_name(core_codes[i])) == 0) return core_status_http(core_codes[i]);
+    return 500;
+}
+
+int ntsj_code_known(const char* code) {
+    size_t i;
+    if (!code) return 0;
+    for (i = 0; i < sizeof codec_codes / sizeof codec_codes[0]; ++i)
+        if (strcmp(code, codec_codes[i].name) == 0) return 1;
+    for (i = 0; i < sizeof core_codes / sizeof core_codes[0]; ++i)
+        if (strcmp(code, nts_status_name(core_codes[i])) == 0) return 1;
+    return 0;
+}
+
+/* ------------------------------------------------------------ names */
+
+static const struct {
+    const char* name;
+    unsigned flag;
+} output_names[] = {
+    {"forces", NTS_OUT_FORCES}, {"energy", NTS_OUT_ENERGY}, {"virial", NTS_OUT_VIRIAL},
+    {"contacts", NTS_OUT_CONTACTS}, {"gaps", NTS_OUT_GAPS},
+};
+
+unsigned ntsj_output_flag(const char* name, size_t n) {
+    size_t i;
+    if (!name) return 0;
+    for (i = 0; i < sizeof output_names / sizeof output_names[0]; ++i)
+        if (strlen(output_names[i].name) == n && memcmp(name, output_names[i].name, n) == 0) return output_names[i].flag;
+    return 0;
+}
+
+int ntsj_solver_from_name(const char* name, nts_solver* out) {
+    if (!name) return -1;
+    if (strcmp(name, "closed_form") == 0) *out = NTS_SOLVER_CLOSED_FORM;
+    else if (strcmp(name, "newton") == 0) *out = NTS_SOLVER_NEWTON;
+    else return -1;
+    return 0;
+}
+
+const char* ntsj_solver_name(nts_solver solver) {
+    return solver == NTS_SOLVER_NEWTON ? "newton" : "closed_form";
+}

@@ -1,0 +1,611 @@
+/* Decode a request (schemas/scene.schema.json) from a cJSON tree into the
+ * core's nts_scene_def, checking everything the schema says and more: types,
+ * required and unknown fields, duplicate keys (cJSON keeps them all, so each
+ * object's children are walked once against its field table), finite numbers,
+ * integer indices in range, unique body ids. Every fault carries the JSON pointer
+ * of the value at fault. Geometry (short loops aside) is left to
+ * nts_scene_create, whose error record ntsj_pointer_of_error maps back.
+ *
+ * Arrays are walked with cJSON_ArrayForEach only: cJSON_GetArrayItem in a loop
+ * is quadratic. Lookups are by our own field tables, so case-sensitive. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+
+#include "codec_internal.h"
+
+#define NTSJ_MAX_ID_BYTES 256
+#define NTSJ_MAX_INDEX 2147483647.0
+
+typedef struct decoder {
+    const ntsj_config* cfg;
+    ntsj_fault* fault;
+    ntsj_scene* scene;
+    int oom;
+} decoder;
+
+/* ---------------------------------------------------------- pointers */
+
+/* Append "/<token>" with RFC 6901 escapes (~ -> ~0, / -> ~1), bounded. */
+static void pointer_append_key(char* ptr, size_t size, const char* key) {
+    size_t n = strlen(ptr), i;
+    if (n + 2 >= size) return;
+    ptr[n++] = '/';
+    for (i = 0; key[i] && n + 3 < size; ++i) {
+        if (key[i] == '~') { ptr[n++] = '~'; ptr[n++] = '0'; }
+        else if (key[i] == '/') { ptr[n++] = '~'; ptr[n++] = '1'; }
+        else ptr[n++] = key[i];
+    }
+    ptr[n] = '\0';
+}
+
+static int fail(decoder* d, const char* code, const char* ptr, const char* msg) {
+    ntsj_fault_set(d->fault, code, ptr, "%s", msg);
+    return -1;
+}
+
+static const char* type_name(const cJSON* v) {
+    if (cJSON_IsObject(v)) return "an object";
+    if (cJSON_IsArray(v)) return "an array";
+    if (cJSON_IsString(v)) return "a string";
+    if (cJSON_IsNumber(v)) return "a number";
+    if (cJSON_IsBool(v)) return "a boolean";
+    if (cJSON_IsNull(v)) return "null";
+    return "an invalid value";
+}
+
+static int fail_type(decoder* d, const char* ptr, const cJSON* v, const char* expected) {
+    ntsj_fault_set(d->fault, "invalid_type", ptr, "expected %s, got %s", expected, type_name(v));
+    return -1;
+}
+
+/* ------------------------------------------------------------ fields */
+
+/* Walk the members of `obj` once: each must be one of `names` (exact, case-
+ * sensitive) and appear once. found[i] gets the member named names[i] or NULL. */
+static int take_fields(decoder* d, const cJSON* obj, const char* ptr, const char* const* names, int count,
+                       const cJSON** found) {
+    const cJSON* m;
+    int i;
+    for (i = 0; i < count; ++i) found[i] = NULL;
+    cJSON_ArrayForEach(m, obj) {
+        const char* key = m->string ? m->string : "";
+        for (i = 0; i < count; ++i)
+            if (strcmp(key, names[i]) == 0) break;
+        if (i == count || found[i]) {
+            char p[256];
+            snprintf(p, sizeof p, "%s", ptr);
+            pointer_append_key(p, sizeof p, key);
+            ntsj_fault_set(d->fault, i == count ? "unknown_field" : "duplicate_key", p,
+                           i == count ? "unknown field \"%.64s\"" : "key \"%.64s\" appears more than once", key);
+            return -1;
+        }
+        found[i] = m;
+    }
+    return 0;
+}
+
+static int get_number(decoder* d, const cJSON* v, const char* ptr, double* out) {
+    if (!cJSON_IsNumber(v)) return fail_type(d, ptr, v, "a number");
+    if (!isfinite(v->valuedouble)) return fail(d, "non_finite", ptr, "number is not finite (out of the double range)");
+    *out = v->valuedouble;
+    return 0;
+}
+
+/* An integer index in [0, bound). The pointer is only formatted on a fault
+ * (printf-ing one per element would cost more than the rest of decoding). */
+static int get_index(decoder* d, const cJSON* v, int bound, int* out, const char* fmt, int a, int b, int c) {
+    double x;
+    const char* code;
+    char ptr[128], msg[96];
+    if (cJSON_IsNumber(v)) {
+        x = v->valuedouble;
+        if (x >= 0.0 && x < (double)bound && x == floor(x)) {
+            *out = (int)x;
+            return 0;
+        }
+        if (!isfinite(x) || x != floor(x)) {
+            code = "invalid_value";
+            snprintf(msg, sizeof msg, "a node index must be an integer");
+        } else {
+            code = "index_out_of_range";
+            snprintf(msg, sizeof msg, "node index %.17g is out of range [0, %d)", x, bound);
+        }
+    } else {
+        code = "invalid_type";
+        snprintf(msg, sizeof msg, "expected an integer node index, got %s", type_name(v));
+    }
+    snprintf(ptr, sizeof ptr, fmt, a, b, c);
+    ntsj_fault_set(d->fault, code, ptr, "%s", msg);
+    return -1;
+}
+
+static int array_size(const cJSON* a) {
+    const cJSON* e;
+    long n = 0;
+    cJSON_ArrayForEach(e, a) { if (n < 2147483647L) ++n; }
+    return (int)n;
+}
+
+/* ----------------------------------------------------------- options */
+
+static const char* const option_fields[] = {"alpha", "penalty", "search_radius", "periodic",
+                                            "solver", "outputs", "search"};
+enum { OPT_ALPHA, OPT_PENALTY, OPT_RADIUS, OPT_PERIODIC, OPT_SOLVER, OPT_OUTPUTS, OPT_SEARCH, OPT_COUNT };
+
+static int decode_periodic(decoder* d, const cJSON* v) {
+    static const char* const names[] = {"lx", "ly"};
+    const cJSON* f[2];
+    int i;
+    double side[2];
+    if (!cJSON_IsObject(v)) return fail_type(d, "/options/periodic", v, "an object {\"lx\", \"ly\"}");
+    if (take_fields(d, v, "/options/periodic", names, 2, f) != 0) return -1;
+    for (i = 0; i < 2; ++i) {
+        char p[64];
+        snprintf(p, sizeof p, "/options/periodic/%s", names[i]);
+        if (!f[i]) return fail(d, "missing_field", p, i ? "periodic box needs \"ly\"" : "periodic box needs \"lx\"");
+        if (get_number(d, f[i], p, &side[i]) != 0) return -1;
+        if (!(side[i] > 0.0)) return fail(d, "invalid_option", p, "periodic box side must be > 0");
+    }
+    d->scene->lx = side[0];
+    d->scene->ly = side[1];
+    d->scene->has_periodic = 1;
+    return 0;
+}
+
+static int decode_outputs(decoder* d, const cJSON* v, unsigned* out) {
+    const cJSON* e;
+    unsigned flags = 0;
+    int i = 0;
+    if (!cJSON_IsArray(v)) return fail_type(d, "/options/outputs", v, "an array of output names");
+    cJSON_ArrayForEach(e, v) {
+        char p[48];
+        unsigned f;
+        snprintf(p, sizeof p, "/options/outputs/%d", i++);
+        if (!cJSON_IsString(e)) return fail_type(d, p, e, "an output name (a string)");
+        f = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
+        if (!f) return fail(d, "invalid_value", p, "unknown output (expected forces, energy, virial, contacts or gaps)");
+        if (flags & f) return fail(d, "invalid_value", p, "output listed twice");
+        flags |= f;
+    }
+    *out = flags;
+    return 0;
+}
+
+static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
+    const cJSON* f[OPT_COUNT];
+    nts_options* o = &d->scene->options;
+    if (!cJSON_IsObject(v)) return fail_type(d, "/options", v, "an object");
+    if (take_fields(d, v, "/options", option_fields, OPT_COUNT, f) != 0) return -1;
+    if (f[OPT_ALPHA] && get_number(d, f[OPT_ALPHA], "/options/alpha", &o->alpha) != 0) return -1;
+    if (f[OPT_PENALTY]) {
+        if (get_number(d, f[OPT_PENALTY], "/options/penalty", &o->penalty) != 0) return -1;
+        *has_penalty = 1;
+    }
+    if (f[OPT_RADIUS]) {
+        if (get_number(d, f[OPT_RADIUS], "/options/search_radius", &o->search_radius) != 0) return -1;
+        /* The core reads a negative radius as "the longest segment"; JSON says so by omitting it. */
+        if (o->search_radius < 0.0) return fail(d, "invalid_option", "/options/search_radius", "search_radius must be >= 0");
+    }
+    if (f[OPT_PERIODIC] && decode_periodic(d, f[OPT_PERIODIC]) != 0) return -1;
+    if (f[OPT_SOLVER]) {
+        if (!cJSON_IsString(f[OPT_SOLVER])) return fail_type(d, "/options/solver", f[OPT_SOLVER], "a string");
+        if (ntsj_solver_from_name(f[OPT_SOLVER]->valuestring, &o->solver) != 0)
+            return fail(d, "invalid_value", "/options/solver", "unknown solver (expected closed_form or newton)");
+    }
+    if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], &o->outputs) != 0) return -1;
+    if (f[OPT_SEARCH]) {
+        const cJSON* s = f[OPT_SEARCH];
+        if (!cJSON_IsString(s)) return fail_type(d, "/options/search", s, "a string");
+        if (strcmp(s->valuestring, "cells") == 0) o->search = NTS_SEARCH_CELLS;
+        else if (strcmp(s->valuestring, "brute_force") == 0) o->search = NTS_SEARCH_BRUTE_FORCE;
+        else return fail(d, "invalid_value", "/options/search", "unknown search (expected cells or brute_force)");
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------ bodies */
+
+static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
+    if (cJSON_IsString(v)) {
+        size_t n = strlen(v->valuestring);
+        if (n == 0) return fail(d, "invalid_value", ptr, "a body id must not be empty");
+        if (n > NTSJ_MAX_ID_BYTES) return fail(d, "invalid_value", ptr, "a body id is at most 256 bytes");
+        id->sval = (char*)nts_alloc(n + 1);
+        if (!id->sval) {
+            d->oom = 1;
+            return -1;
+        }
+        memcpy(id->sval, v->valuestring, n + 1);
+        id->is_int = 0;
+        return 0;
+    }
+    if (cJSON_IsNumber(v)) {
+        double x = v->valuedouble;
+        /* Integers that a double holds exactly, so they echo back unchanged. */
+        if (!isfinite(x) || x != floor(x) || fabs(x) > 9007199254740992.0)
+            return fail(d, "invalid_value", ptr, "a numeric body id must be an integer with |id| <= 2^53");
+        id->is_int = 1;
+        id->ival = (long long)x;
+        return 0;
+    }
+    return fail_type(d, ptr, v, "a string or an integer");
+}
+
+static const char* const body_fields[] = {"id", "nodes", "loops", "triangles"};
+enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_COUNT };
+
+static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
+    char ptr[96];
+    const cJSON* e;
+    nts_vec2* nodes;
+    int n, i = 0;
+    snprintf(ptr, sizeof ptr, "/bodies/%d/nodes", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of [x, y] nodes");
+    n = array_size(v);
+    if (n == 0) return fail(d, "no_nodes", ptr, "body has no nodes");
+    if (n > d->cfg->limits.max_nodes_per_body) {
+        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "body has %d nodes, the limit is %d", n,
+                       d->cfg->limits.max_nodes_per_body);
+        return -1;
+    }
+    *total += n;
+    if (*total > d->cfg->limits.max_nodes) {
+        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "scene has more than %lld nodes", d->cfg->limits.max_nodes);
+        return -1;
+    }
+    nodes = (nts_vec2*)nts_alloc((size_t)n * sizeof *nodes);
+    if (!nodes) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->nodes[b] = nodes;
+    d->scene->defs[b].nodes = nodes;
+    d->scene->defs[b].node_count = n;
+    cJSON_ArrayForEach(e, v) {
+        char p[112], pc[128];
+        const cJSON* c;
+        double xy[2];
+        int k = 0;
+        if (!cJSON_IsArray(e)) {
+            snprintf(p, sizeof p, "/bodies/%d/nodes/%d", b, i);
+            return fail_type(d, p, e, "a node [x, y]");
+        }
+        cJSON_ArrayForEach(c, e) {
+            if (k < 2 && cJSON_IsNumber(c) && isfinite(c->valuedouble)) {
+                xy[k++] = c->valuedouble;
+                continue;
+            }
+            snprintf(pc, sizeof pc, "/bodies/%d/nodes/%d/%d", b, i, k);
+            if (k >= 2) return fail(d, "invalid_value", pc, "a node has exactly two coordinates [x, y]");
+            if (!cJSON_IsNumber(c)) return fail_type(d, pc, c, "a coordinate (a number)");
+            return fail(d, "non_finite", pc, "coordinate is not a finite number");
+        }
+        if (k != 2) {
+            snprintf(p, sizeof p, "/bodies/%d/nodes/%d", b, i);
+            return fail(d, "invalid_value", p, "a node has exactly two coordinates [x, y]");
+        }
+        nodes[i++] = nts_v2(xy[0], xy[1]);
+    }
+    return 0;
+}
+
+static int decode_loops(decoder* d, int b, const cJSON* v) {
+    char ptr[96];
+    const cJSON* loop;
+    int loops, total = 0, l = 0, pos = 0, *ints;
+    int node_count = d->scene->defs[b].node_count;
+    snprintf(ptr, sizeof ptr, "/bodies/%d/loops", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of loops");
+    loops = array_size(v);
+    if (loops == 0) return fail(d, "invalid_value", ptr, "loops must hold at least one loop (or be omitted)");
+    cJSON_ArrayForEach(loop, v) {
+        char p[112];
+        int n = cJSON_IsArray(loop) ? array_size(loop) : -1;
+        if (n < 3 || n > 2147483647 - 1 - loops - total) {
+            snprintf(p, sizeof p, "%s/%d", ptr, l);
+            if (n < 0) return fail_type(d, p, loop, "a loop (an array of node indices)");
+            if (n < 3) return fail(d, "loop_too_short", p, "loop has fewer than 3 nodes");
+            return fail(d, "limit_exceeded", p, "loops are too long");
+        }
+        total += n;
+        ++l;
+    }
+    ints = (int*)nts_alloc(((size_t)total + (size_t)loops + 1) * sizeof *ints);
+    if (!ints) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->ints[b] = ints;
+    d->scene->defs[b].loop_nodes = ints;
+    d->scene->defs[b].loop_start = ints + total;
+    d->scene->defs[b].loop_count = loops;
+    l = 0;
+    cJSON_ArrayForEach(loop, v) {
+        const cJSON* e;
+        int k = 0;
+        ints[total + l] = pos;
+        cJSON_ArrayForEach(e, loop) {
+            if (get_index(d, e, node_count, &ints[pos], "/bodies/%d/loops/%d/%d", b, l, k) != 0) return -1;
+            ++pos;
+            ++k;
+        }
+        ++l;
+    }
+    ints[total + loops] = pos;
+    return 0;
+}
+
+static int decode_triangles(decoder* d, int b, const cJSON* v) {
+    char ptr[96];
+    const cJSON* t;
+    int count, i = 0, *tri;
+    int node_count = d->scene->defs[b].node_count;
+    snprintf(ptr, sizeof ptr, "/bodies/%d/triangles", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of triangles [i, j, k]");
+    count = array_size(v);
+    if (count == 0) return fail(d, "invalid_value", ptr, "triangles must hold at least one triangle");
+    if (count > 2 * d->cfg->limits.max_nodes_per_body) return fail(d, "limit_exceeded", ptr, "too many triangles");
+    tri = (int*)nts_alloc((size_t)count * 3 * sizeof *tri);
+    if (!tri) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->ints[b] = tri;
+    d->scene->defs[b].triangles = tri;
+    d->scene->defs[b].triangle_count = count;
+    cJSON_ArrayForEach(t, v) {
+        char p[112];
+        const cJSON* e;
+        int k = 0;
+        if (!cJSON_IsArray(t)) {
+            snprintf(p, sizeof p, "%s/%d", ptr, i);
+            return fail_type(d, p, t, "a triangle [i, j, k]");
+        }
+        cJSON_ArrayForEach(e, t) {
+            if (k >= 3) {
+                snprintf(p, sizeof p, "%s/%d/%d", ptr, i, k);
+                return fail(d, "invalid_value", p, "a triangle has exactly three node indices");
+            }
+            if (get_index(d, e, node_count, &tri[3 * i + k], "/bodies/%d/triangles/%d/%d", b, i, k) != 0) return -1;
+            ++k;
+        }
+        if (k != 3) {
+            snprintf(p, sizeof p, "%s/%d", ptr, i);
+            return fail(d, "invalid_value", p, "a triangle has exactly three node indices");
+        }
+        ++i;
+    }
+    return 0;
+}
+
+static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
+    const cJSON* f[BODY_COUNT];
+    char ptr[64];
+    snprintf(ptr, sizeof ptr, "/bodies/%d", b);
+    if (!cJSON_IsObject(v)) return fail_type(d, ptr, v, "a body (an object)");
+    if (take_fields(d, v, ptr, body_fields, BODY_COUNT, f) != 0) return -1;
+    {
+        char p[80];
+        snprintf(p, sizeof p, "%s/id", ptr);
+        if (!f[BODY_ID]) return fail(d, "missing_field", p, "a body needs an \"id\" (a string or an integer)");
+        if (decode_id(d, f[BODY_ID], p, &d->scene->ids[b]) != 0) return -1;
+    }
+    if (!f[BODY_NODES]) {
+        char p[80];
+        snprintf(p, sizeof p, "%s/nodes", ptr);
+        return fail(d, "missing_field", p, "a body needs \"nodes\"");
+    }
+    if (decode_nodes(d, b, f[BODY_NODES], total) != 0) return -1;
+    if (f[BODY_LOOPS] && f[BODY_TRIANGLES]) {
+        char p[80];
+        snprintf(p, sizeof p, "%s/triangles", ptr);
+        return fail(d, "invalid_value", p, "give either \"loops\" or \"triangles\", not both");
+    }
+    if (f[BODY_LOOPS]) {
+        d->scene->has_loops[b] = 1;
+        return decode_loops(d, b, f[BODY_LOOPS]);
+    }
+    if (f[BODY_TRIANGLES]) return decode_triangles(d, b, f[BODY_TRIANGLES]);
+    return 0;
+}
+
+/* ---------------------------------------------------------- ids */
+
+static int compare_ids(const ntsj_id* a, const ntsj_id* b) {
+    if (a->is_int != b->is_int) return a->is_int ? -1 : 1;
+    if (a->is_int) return (a->ival > b->ival) - (a->ival < b->ival);
+    return strcmp(a->sval, b->sval);
+}
+
+/* Sort body indices by id (ties by index) with a merge sort: qsort has no user
+ * pointer in C99 and a global would not be thread-safe. O(n log n). */
+static void merge_sort(int* idx, int* tmp, int n, const ntsj_id* ids) {
+    int mid, i, j, k;
+    if (n < 2) return;
+    mid = n / 2;
+    merge_sort(idx, tmp, mid, ids);
+    merge_sort(idx + mid, tmp, n - mid, ids);
+    i = 0;
+    j = mid;
+    k = 0;
+    while (i < mid && j < n) {
+        int c = compare_ids(&ids[idx[i]], &ids[idx[j]]);
+        if (c < 0 || (c == 0 && idx[i] < idx[j])) tmp[k++] = idx[i++];
+        else tmp[k++] = idx[j++];
+    }
+    while (i < mid) tmp[k++] = idx[i++];
+    while (j < n) tmp[k++] = idx[j++];
+    memcpy(idx, tmp, (size_t)n * sizeof *idx);
+}
+
+static int check_unique_ids(decoder* d) {
+    int n = d->scene->body_count, i, worst = -1, first = -1;
+    int* idx = (int*)nts_alloc((size_t)(2 * n + 1) * sizeof *idx);
+    if (!idx) {
+        d->oom = 1;
+        return -1;
+    }
+    for (i = 0; i < n; ++i) idx[i] = i;
+    merge_sort(idx, idx + n, n, d->scene->ids);
+    /* Report the earliest body whose id was already used by an earlier body. */
+    for (i = 1; i < n; ++i) {
+        if (compare_ids(&d->scene->ids[idx[i - 1]], &d->scene->ids[idx[i]]) == 0) {
+            int later = idx[i] > idx[i - 1] ? idx[i] : idx[i - 1];
+            int earlier = idx[i] > idx[i - 1] ? idx[i - 1] : idx[i];
+            if (worst < 0 || later < worst) {
+                worst = later;
+                first = earlier;
+            }
+        }
+    }
+    nts_free(idx);
+    if (worst >= 0) {
+        char p[64];
+        snprintf(p, sizeof p, "/bodies/%d/id", worst);
+        ntsj_fault_set(d->fault, "duplicate_id", p, "body id already used by /bodies/%d", first);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---------------------------------------------------------- scene */
+
+void ntsj_scene_free(ntsj_scene* s) {
+    int b;
+    if (!s) return;
+    for (b = 0; b < s->body_count; ++b) {
+        if (s->ids) nts_free(s->ids[b].sval);
+        if (s->nodes) nts_free(s->nodes[b]);
+        if (s->ints) nts_free(s->ints[b]);
+    }
+    nts_free(s->defs);
+    nts_free(s->ids);
+    nts_free(s->has_loops);
+    nts_free(s->nodes);
+    nts_free(s->ints);
+    memset(s, 0, sizeof *s);
+}
+
+static void* alloc_zero(size_t count, size_t size) {
+    void* p = nts_alloc(count * size > 0 ? count * size : 1);
+    if (p) memset(p, 0, count * size);
+    return p;
+}
+
+static const char* const root_fields[] = {"version", "options", "bodies", "$schema"};
+enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_COUNT };
+
+static int decode_root(decoder* d, const cJSON* root) {
+    const cJSON* f[ROOT_COUNT];
+    const cJSON* body;
+    ntsj_scene* s = d->scene;
+    const ntsj_overrides* ov = &d->cfg->overrides;
+    int has_penalty = 0, n, b = 0;
+    long long total = 0;
+
+    if (!cJSON_IsObject(root)) return fail_type(d, "", root, "a scene (an object)");
+    if (take_fields(d, root, "", root_fields, ROOT_COUNT, f) != 0) return -1;
+    if (f[ROOT_VERSION]) {
+        if (!cJSON_IsNumber(f[ROOT_VERSION])) return fail_type(d, "/version", f[ROOT_VERSION], "the integer 1");
+        if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, "invalid_value", "/version", "unsupported version (this codec reads version 1)");
+    }
+    if (f[ROOT_SCHEMA] && !cJSON_IsString(f[ROOT_SCHEMA])) return fail_type(d, "/$schema", f[ROOT_SCHEMA], "a string");
+
+    s->options = nts_default_options();
+    if (f[ROOT_OPTIONS] && decode_options(d, f[ROOT_OPTIONS], &has_penalty) != 0) return -1;
+    if (ov->has_alpha) s->options.alpha = ov->alpha;
+    if (ov->has_penalty) s->options.penalty = ov->penalty;
+    if (ov->has_search_radius) s->options.search_radius = ov->search_radius;
+    if (ov->has_solver) s->options.solver = ov->solver;
+    if (ov->has_outputs) s->options.outputs = ov->outputs;
+    s->options.threads = d->cfg->threads;
+    if (!has_penalty && !ov->has_penalty)
+        return fail(d, "missing_field", f[ROOT_OPTIONS] ? "/options/penalty" : "/options",
+                    f[ROOT_OPTIONS] ? "options need \"penalty\" (the penalty stiffness)"
+                                    : "a scene needs \"options\" with at least \"penalty\"");
+    if (ov->has_search_radius && !(ov->search_radius >= 0.0))
+        return fail(d, "invalid_option", "/options/search_radius", "search_radius must be >= 0");
+
+    if (!f[ROOT_BODIES]) return fail(d, "missing_field", "/bodies", "a scene needs \"bodies\"");
+    if (!cJSON_IsArray(f[ROOT_BODIES])) return fail_type(d, "/bodies", f[ROOT_BODIES], "an array of bodies");
+    n = array_size(f[ROOT_BODIES]);
+    if (n == 0) return fail(d, "empty_scene", "/bodies", "scene has no bodies");
+    if (n > d->cfg->limits.max_bodies) {
+        ntsj_fault_set(d->fault, "limit_exceeded", "/bodies", "scene has %d bodies, the limit is %d", n,
+                       d->cfg->limits.max_bodies);
+        return -1;
+    }
+    s->defs = (nts_body_def*)alloc_zero((size_t)n, sizeof *s->defs);
+    s->ids = (ntsj_id*)alloc_zero((size_t)n, sizeof *s->ids);
+    s->has_loops = (int*)alloc_zero((size_t)n, sizeof *s->has_loops);
+    s->nodes = (nts_vec2**)alloc_zero((size_t)n, sizeof *s->nodes);
+    s->ints = (int**)alloc_zero((size_t)n, sizeof *s->ints);
+    if (!s->defs || !s->ids || !s->has_loops || !s->nodes || !s->ints) {
+        d->oom = 1;
+        return -1;
+    }
+    s->body_count = n;
+    cJSON_ArrayForEach(body, f[ROOT_BODIES]) {
+        if (decode_body(d, b, body, &total) != 0) return -1;
+        ++b;
+    }
+    return check_unique_ids(d);
+}
+
+int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault) {
+    decoder d;
+    memset(out, 0, sizeof *out);
+    d.cfg = config;
+    d.fault = fault;
+    d.scene = out;
+    d.oom = 0;
+    if (decode_root(&d, root) == 0) return 0;
+    ntsj_scene_free(out);
+    if (d.oom) {
+        ntsj_fault_set(fault, "out_of_memory", "", "out of memory while decoding the request");
+        return NTS_ENOMEM;
+    }
+    return -1;
+}
+
+/* ---------------------------------------------------------- core errors */
+
+void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out, size_t size) {
+    int n;
+    out[0] = '\0';
+    if (err->code == NTS_EBOX_TOO_SMALL) {
+        snprintf(out, size, "/options/periodic");
+        return;
+    }
+    if (err->option[0]) {
+        if (strcmp(err->option, "lx") == 0 || strcmp(err->option, "ly") == 0)
+            snprintf(out, size, "/options/periodic/%s", err->option);
+        else if (strcmp(err->option, "periodic") == 0 || strcmp(err->option, "box") == 0)
+            snprintf(out, size, "/options/periodic");
+        else {
+            snprintf(out, size, "/options");
+            pointer_append_key(out, size, err->option);
+        }
+        return;
+    }
+    if (err->body < 0 || !s || err->body >= s->body_count) {
+        if (err->code == NTS_EEMPTY_SCENE || err->code == NTS_ELIMIT) snprintf(out, size, "/bodies");
+        return;
+    }
+    n = snprintf(out, size, "/bodies/%d", err->body);
+    if (n < 0 || (size_t)n >= size) return;
+    if (err->triangle >= 0)
+        snprintf(out + n, size - (size_t)n, "/triangles/%d", err->triangle);
+    else if (s->has_loops[err->body] && err->loop >= 0 && err->loop_pos >= 0)
+        snprintf(out + n, size - (size_t)n, "/loops/%d/%d", err->loop, err->loop_pos);
+    else if (s->has_loops[err->body] && err->loop >= 0)
+        snprintf(out + n, size - (size_t)n, "/loops/%d", err->loop);
+    else if (err->node >= 0)
+        snprintf(out + n, size - (size_t)n, "/nodes/%d", err->node);
+    else if (err->code == NTS_ENO_NODES)
+        snprintf(out + n, size - (size_t)n, "/nodes");
+}

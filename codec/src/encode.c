@@ -1,0 +1,299 @@
+/* Encode results, validation reports and error documents
+ * (schemas/result.schema.json, schemas/error.schema.json) with our own printer:
+ * doubles through ntsj_buf_double (shortest round-trip, never NaN/Inf), only the
+ * arrays asked for in `outputs`, and an optional two-space indentation where
+ * arrays of numbers stay on one line. Nothing here allocates but the buffer. */
+#include <string.h>
+
+#include "codec_internal.h"
+
+/* A streaming JSON writer over ntsj_buf. */
+typedef struct writer {
+    ntsj_buf* b;
+    int pretty;
+    int depth;
+    int need_comma; /* a value was written at the current level */
+    int after_key;  /* the next value follows "key": */
+    int inline_at;  /* depth of the outermost one-line array, 0 when none */
+} writer;
+
+static void w_newline(writer* w) {
+    static const char spaces[] = "                                ";
+    int n = 2 * w->depth;
+    ntsj_buf_putc(w->b, '\n');
+    while (n > 0) {
+        int k = n < 32 ? n : 32;
+        ntsj_buf_put(w->b, spaces, (size_t)k);
+        n -= k;
+    }
+}
+
+static void w_pre(writer* w) {
+    if (w->after_key) {
+        w->after_key = 0;
+        return;
+    }
+    if (w->need_comma) ntsj_buf_putc(w->b, ',');
+    if (!w->pretty || w->depth == 0) return;
+    if (w->inline_at) {
+        if (w->need_comma) ntsj_buf_putc(w->b, ' ');
+    } else {
+        w_newline(w);
+    }
+}
+
+static void w_open(writer* w, char c, int one_line) {
+    w_pre(w);
+    ntsj_buf_putc(w->b, c);
+    ++w->depth;
+    w->need_comma = 0;
+    if (one_line && !w->inline_at) w->inline_at = w->depth;
+}
+
+static void w_close(writer* w, char c) {
+    int had = w->need_comma;
+    --w->depth;
+    if (w->pretty && had && !w->inline_at) w_newline(w);
+    if (w->inline_at == w->depth + 1) w->inline_at = 0;
+    ntsj_buf_putc(w->b, c);
+    w->need_comma = 1;
+}
+
+static void w_key(writer* w, const char* key) {
+    w_pre(w);
+    ntsj_buf_putc(w->b, '"');
+    ntsj_buf_puts(w->b, key); /* our keys need no escapes */
+    ntsj_buf_put(w->b, w->pretty ? "\": " : "\":", w->pretty ? 3 : 2);
+    w->after_key = 1;
+}
+
+static void w_double(writer* w, double v) {
+    w_pre(w);
+    ntsj_buf_double(w->b, v);
+    w->need_comma = 1;
+}
+
+static void w_int(writer* w, long long v) {
+    w_pre(w);
+    ntsj_buf_int(w->b, v);
+    w->need_comma = 1;
+}
+
+static void w_string(writer* w, const char* s) {
+    w_pre(w);
+    ntsj_buf_string(w->b, s);
+    w->need_comma = 1;
+}
+
+static void w_bool(writer* w, int v) {
+    w_pre(w);
+    ntsj_buf_puts(w->b, v ? "true" : "false");
+    w->need_comma = 1;
+}
+
+static void w_vec2(writer* w, nts_vec2 v) {
+    w_open(w, '[', 1);
+    w_double(w, v.x);
+    w_double(w, v.y);
+    w_close(w, ']');
+}
+
+static void w_virial(writer* w, nts_virial v) {
+    w_open(w, '{', 1);
+    w_key(w, "xx");
+    w_double(w, v.xx);
+    w_key(w, "yy");
+    w_double(w, v.yy);
+    w_key(w, "xy");
+    w_double(w, v.xy);
+    w_close(w, '}');
+}
+
+static void w_id(writer* w, const ntsj_id* id) {
+    if (id->is_int) w_int(w, id->ival);
+    else w_string(w, id->sval);
+}
+
+static void w_init(writer* w, ntsj_buf* b, int pretty) {
+    memset(w, 0, sizeof *w);
+    w->b = b;
+    w->pretty = pretty;
+}
+
+static void w_finish(writer* w) { ntsj_buf_putc(w->b, '\n'); }
+
+static const char* kind_name(nts_kind k) {
+    switch (k) {
+    case NTS_KIND_SEGMENT: return "segment";
+    case NTS_KIND_CORNER: return "corner";
+    default: return "vertex";
+    }
+}
+
+static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int full) {
+    int i;
+    w_open(w, '{', 0);
+    w_key(w, "slave");
+    w_open(w, '{', 1);
+    w_key(w, "body");
+    w_id(w, &s->ids[c->slave_body]);
+    w_key(w, "node");
+    w_int(w, c->slave_node);
+    w_close(w, '}');
+    w_key(w, "master");
+    w_open(w, '{', 1);
+    w_key(w, "body");
+    w_id(w, &s->ids[c->master_body]);
+    if (full) {
+        w_key(w, "kind");
+        w_string(w, kind_name(c->kind));
+        w_key(w, "nodes");
+        w_open(w, '[', 1);
+        for (i = 0; i < c->master_count && i < 3; ++i) w_int(w, c->master_nodes[i]);
+        w_close(w, ']');
+        w_key(w, "weights");
+        w_open(w, '[', 1);
+        for (i = 0; i < c->master_count && i < 3; ++i) w_double(w, c->weights[i]);
+        w_close(w, ']');
+        if (c->kind == NTS_KIND_CORNER) {
+            w_key(w, "xi");
+            w_double(w, c->param);
+        } else if (c->kind == NTS_KIND_SEGMENT) {
+            w_key(w, "s");
+            w_double(w, c->param);
+        }
+    }
+    w_close(w, '}');
+    w_key(w, "gap");
+    w_double(w, c->gap);
+    if (full) {
+        w_key(w, "normal");
+        w_vec2(w, c->normal);
+        w_key(w, "point");
+        w_vec2(w, c->point);
+        w_key(w, "force");
+        w_vec2(w, c->force);
+        w_key(w, "virial");
+        w_virial(w, c->virial);
+    }
+    w_close(w, '}');
+}
+
+void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, const nts_result* r,
+                        double elapsed_ms, int pretty) {
+    writer w;
+    const nts_summary* sm = &r->summary;
+    unsigned outputs = s->options.outputs;
+    int i, k;
+    w_init(&w, b, pretty);
+    /* Reserve roughly what the forces will take up front: fewer regrowths. */
+    if (outputs & NTS_OUT_FORCES) ntsj_buf_reserve(b, (size_t)nts_scene_node_count(scene) * 48u + 512u);
+    w_open(&w, '{', 0);
+    w_key(&w, "version");
+    w_int(&w, 1);
+    w_key(&w, "summary");
+    w_open(&w, '{', 0);
+    w_key(&w, "bodies");
+    w_int(&w, sm->bodies);
+    w_key(&w, "nodes");
+    w_int(&w, nts_scene_node_count(scene));
+    w_key(&w, "surface_nodes");
+    w_int(&w, sm->surface_nodes);
+    w_key(&w, "contacts");
+    w_int(&w, sm->contacts);
+    w_key(&w, "gaps");
+    w_int(&w, sm->gaps);
+    w_key(&w, "energy");
+    w_double(&w, sm->energy);
+    w_key(&w, "virial");
+    w_virial(&w, sm->virial);
+    w_key(&w, "max_penetration");
+    w_double(&w, sm->max_penetration);
+    w_key(&w, "loops_reversed");
+    w_int(&w, sm->loops_reversed);
+    w_key(&w, "search_radius");
+    w_double(&w, sm->search_radius);
+    w_key(&w, "cell_size");
+    w_double(&w, sm->cell_size);
+    w_key(&w, "elapsed_ms");
+    w_double(&w, elapsed_ms);
+    w_close(&w, '}');
+
+    if ((outputs & NTS_OUT_FORCES) && r->forces) {
+        w_key(&w, "bodies");
+        w_open(&w, '[', 0);
+        for (i = 0; i < s->body_count; ++i) {
+            int off = nts_scene_body_node_offset(scene, i);
+            int n = nts_scene_body_node_count(scene, i);
+            w_open(&w, '{', 0);
+            w_key(&w, "id");
+            w_id(&w, &s->ids[i]);
+            w_key(&w, "forces");
+            w_open(&w, '[', 0);
+            for (k = 0; k < n; ++k) w_vec2(&w, r->forces[off + k]);
+            w_close(&w, ']');
+            w_close(&w, '}');
+        }
+        w_close(&w, ']');
+    }
+    if ((outputs & NTS_OUT_CONTACTS) && r->contacts) {
+        w_key(&w, "contacts");
+        w_open(&w, '[', 0);
+        for (i = 0; i < r->contact_count; ++i) w_contact(&w, s, &r->contacts[i], 1);
+        w_close(&w, ']');
+    } else if (outputs & NTS_OUT_CONTACTS) {
+        w_key(&w, "contacts");
+        w_open(&w, '[', 0);
+        w_close(&w, ']');
+    }
+    if ((outputs & NTS_OUT_GAPS)) {
+        w_key(&w, "gaps");
+        w_open(&w, '[', 0);
+        for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0);
+        w_close(&w, ']');
+    }
+    w_close(&w, '}');
+    w_finish(&w);
+}
+
+void ntsj_encode_validation(ntsj_buf* b, const nts_scene* scene, double elapsed_ms, int pretty) {
+    writer w;
+    w_init(&w, b, pretty);
+    w_open(&w, '{', 0);
+    w_key(&w, "version");
+    w_int(&w, 1);
+    w_key(&w, "valid");
+    w_bool(&w, 1);
+    w_key(&w, "summary");
+    w_open(&w, '{', 0);
+    w_key(&w, "bodies");
+    w_int(&w, nts_scene_body_count(scene));
+    w_key(&w, "nodes");
+    w_int(&w, nts_scene_node_count(scene));
+    w_key(&w, "surface_nodes");
+    w_int(&w, nts_scene_surface_node_count(scene));
+    w_key(&w, "loops_reversed");
+    w_int(&w, nts_scene_loops_reversed(scene));
+    w_key(&w, "elapsed_ms");
+    w_double(&w, elapsed_ms);
+    w_close(&w, '}');
+    w_close(&w, '}');
+    w_finish(&w);
+}
+
+void ntsj_encode_error(ntsj_buf* b, const char* code, const char* message, const char* pointer, int pretty) {
+    writer w;
+    w_init(&w, b, pretty);
+    w_open(&w, '{', 0);
+    w_key(&w, "error");
+    w_open(&w, '{', 0);
+    w_key(&w, "code");
+    w_string(&w, code ? code : "internal_error");
+    w_key(&w, "message");
+    w_string(&w, message ? message : "");
+    w_key(&w, "pointer");
+    w_string(&w, pointer ? pointer : "");
+    w_close(&w, '}');
+    w_close(&w, '}');
+    w_finish(&w);
+}

@@ -1,0 +1,218 @@
+/* ntsj_handle: one request in, one response out.
+ *   size check -> strict scan (scan.c) -> cJSON parse -> decode (decode.c)
+ *   -> nts_scene_create -> nts_evaluate -> encode (encode.c)
+ * Every fault on the way becomes an error document with a stable code, the
+ * JSON pointer of the value at fault and the HTTP status of that code. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+#include <cjson/cJSON.h>
+
+#include "codec_internal.h"
+
+#define NTSJ_DEFAULT_MAX_BYTES ((size_t)64 << 20)
+#define NTSJ_DEFAULT_MAX_DEPTH 32
+
+ntsj_config ntsj_default_config(void) {
+    ntsj_config c;
+    memset(&c, 0, sizeof c);
+    c.mode = NTSJ_EVALUATE;
+    c.pretty = 0;
+    c.limits = nts_default_limits();
+    c.max_depth = NTSJ_DEFAULT_MAX_DEPTH;
+    c.max_bytes = NTSJ_DEFAULT_MAX_BYTES;
+    c.max_seconds = 0.0;
+    c.threads = 0;
+    return c;
+}
+
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+static int finish(ntsj_response* out, ntsj_buf* b, const char* code) {
+    if (b->oom || !b->data) {
+        ntsj_buf_free(b);
+        out->ok = 0;
+        out->http_status = 500;
+        out->code = "out_of_memory";
+        out->body = NULL;
+        out->length = 0;
+        return NTS_ENOMEM;
+    }
+    out->ok = strcmp(code, "ok") == 0;
+    out->http_status = ntsj_code_http_status(code);
+    out->code = code;
+    out->body = b->data;
+    out->length = b->len;
+    return 0;
+}
+
+static int respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer,
+                         int pretty) {
+    ntsj_buf b;
+    ntsj_buf_init(&b);
+    ntsj_encode_error(&b, code, message, pointer, pretty);
+    return finish(out, &b, code);
+}
+
+static int respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
+    return respond_error(out, f->code ? f->code : "internal_error", f->message, f->pointer, pretty);
+}
+
+static int respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty) {
+    char ptr[256];
+    int code = err->code ? err->code : status;
+    const char* name = nts_status_name(code);
+    if (!name || !ntsj_code_known(name)) name = "internal_error";
+    ntsj_pointer_of_error(s, err, ptr, sizeof ptr);
+    return respond_error(out, name, err->message[0] ? err->message : nts_strerror(code), ptr, pretty);
+}
+
+static int is_blank(const char* p, size_t n) {
+    size_t i;
+    for (i = 0; i < n; ++i)
+        if (p[i] != ' ' && p[i] != '\t' && p[i] != '\n' && p[i] != '\r') return 0;
+    return 1;
+}
+
+int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj_response* out) {
+    ntsj_config cfg = config ? *config : ntsj_default_config();
+    ntsj_fault fault;
+    ntsj_scene s;
+    nts_scene_def def;
+    nts_scene* scene = NULL;
+    nts_context* ctx = NULL;
+    nts_result result;
+    nts_error err = nts_error_none();
+    cJSON* root;
+    ntsj_buf b;
+    const char* parse_end = NULL;
+    double t0 = now_ms(), elapsed;
+    int rc, done = 0, pretty = cfg.pretty;
+
+    memset(out, 0, sizeof *out);
+    memset(&fault, 0, sizeof fault);
+    if (cfg.max_depth <= 0) cfg.max_depth = NTSJ_DEFAULT_MAX_DEPTH;
+    if (cfg.max_bytes == 0) cfg.max_bytes = NTSJ_DEFAULT_MAX_BYTES;
+
+    if (length > cfg.max_bytes) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "request is %lu bytes, the limit is %lu", (unsigned long)length,
+                 (unsigned long)cfg.max_bytes);
+        return respond_error(out, "payload_too_large", msg, "", pretty);
+    }
+    if (!json || is_blank(json, length)) return respond_error(out, "empty_body", "the request is empty", "", pretty);
+    if (ntsj_scan(json, length, cfg.max_depth, &fault) != 0) return respond_fault(out, &fault, pretty);
+
+    root = cJSON_ParseWithLengthOpts(json, length, &parse_end, 0);
+    if (!root) /* the scan accepted it, so this is cJSON running out of memory */
+        return respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
+    rc = ntsj_decode(root, &cfg, &s, &fault);
+    cJSON_Delete(root);
+    if (rc != 0) return respond_fault(out, &fault, pretty);
+
+    if (nts_options_validate(&s.options, &err) != 0) {
+        rc = respond_core(out, &s, &err, NTS_EINVALID_OPTION, pretty);
+        ntsj_scene_free(&s);
+        return rc;
+    }
+    def = nts_default_scene_def();
+    def.bodies = s.defs;
+    def.body_count = s.body_count;
+    def.lx = s.has_periodic ? s.lx : 0.0;
+    def.ly = s.has_periodic ? s.ly : 0.0;
+    def.limits = cfg.limits;
+    scene = nts_scene_create(&def, &err);
+    if (!scene) {
+        rc = respond_core(out, &s, &err, NTS_EINTERNAL, pretty);
+        ntsj_scene_free(&s);
+        return rc;
+    }
+
+    ntsj_buf_init(&b);
+    if (cfg.mode == NTSJ_VALIDATE) {
+        ntsj_encode_validation(&b, scene, now_ms() - t0, pretty);
+    } else {
+        nts_options opt = s.options;
+        /* The summary is always complete: energy and virial are always computed. */
+        opt.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+        ctx = nts_context_create();
+        if (!ctx) {
+            nts_scene_destroy(scene);
+            ntsj_scene_free(&s);
+            return respond_error(out, "out_of_memory", "out of memory", "", pretty);
+        }
+        rc = nts_evaluate(ctx, scene, &opt, &result, &err);
+        elapsed = now_ms() - t0;
+        if (rc == 0 && cfg.max_seconds > 0.0 && elapsed > cfg.max_seconds * 1e3) {
+            char msg[128];
+            snprintf(msg, sizeof msg, "evaluation took %.1f ms, the budget is %.1f ms", elapsed, cfg.max_seconds * 1e3);
+            rc = respond_error(out, "timeout", msg, "", pretty);
+            done = 1;
+        } else if (rc != 0) {
+            rc = respond_core(out, &s, &err, rc, pretty);
+            done = 1;
+        } else {
+            ntsj_encode_result(&b, &s, scene, &result, elapsed, pretty);
+        }
+        nts_context_destroy(ctx);
+        if (done) {
+            ntsj_buf_free(&b);
+            nts_scene_destroy(scene);
+            ntsj_scene_free(&s);
+            return rc;
+        }
+    }
+    nts_scene_destroy(scene);
+    ntsj_scene_free(&s);
+    return finish(out, &b, "ok");
+}
+
+void ntsj_response_free(ntsj_response* response) {
+    if (!response) return;
+    nts_free(response->body);
+    response->body = NULL;
+    response->length = 0;
+}
+
+char* ntsj_error_document(const char* code, const char* message, const char* pointer) {
+    ntsj_buf b;
+    ntsj_buf_init(&b);
+    ntsj_encode_error(&b, code, message, pointer, 0);
+    if (b.oom) {
+        ntsj_buf_free(&b);
+        return NULL;
+    }
+    return b.data;
+}
+
+static void copy_field(const cJSON* obj, const char* key, char* out, size_t size) {
+    const cJSON* v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (size == 0) return;
+    out[0] = '\0';
+    if (cJSON_IsString(v)) snprintf(out, size, "%s", v->valuestring);
+}
+
+int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
+                      size_t message_size) {
+    cJSON* root;
+    const cJSON* e;
+    if (pointer_size) pointer[0] = '\0';
+    if (message_size) message[0] = '\0';
+    if (!body) return -1;
+    root = cJSON_ParseWithLengthOpts(body, length, NULL, 0);
+    e = cJSON_GetObjectItemCaseSensitive(root, "error");
+    if (!cJSON_IsObject(e)) {
+        cJSON_Delete(root);
+        return -1;
+    }
+    copy_field(e, "pointer", pointer, pointer_size);
+    copy_field(e, "message", message, message_size);
+    cJSON_Delete(root);
+    return 0;
+}
