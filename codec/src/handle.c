@@ -4,6 +4,7 @@
  * Every fault on the way becomes an error document with a stable code, the
  * JSON pointer of the value at fault and the HTTP status of that code. */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -33,6 +34,9 @@ static double now_ms(void) {
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
+
+/* Elapsed wall time rounded to whole microseconds: the digits beyond are noise. */
+static double round_us(double ms) { return floor(ms * 1e3 + 0.5) / 1e3; }
 
 static int finish(ntsj_response* out, ntsj_buf* b, const char* code) {
     if (b->oom || !b->data) {
@@ -136,7 +140,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
 
     ntsj_buf_init(&b);
     if (cfg.mode == NTSJ_VALIDATE) {
-        ntsj_encode_validation(&b, scene, now_ms() - t0, pretty);
+        ntsj_encode_validation(&b, scene, round_us(now_ms() - t0), pretty);
     } else {
         nts_options opt = s.options;
         /* The summary is always complete: energy and virial are always computed. */
@@ -158,7 +162,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             rc = respond_core(out, &s, &err, rc, pretty);
             done = 1;
         } else {
-            ntsj_encode_result(&b, &s, scene, &result, elapsed, pretty);
+            ntsj_encode_result(&b, &s, scene, &result, round_us(elapsed), pretty);
         }
         nts_context_destroy(ctx);
         if (done) {
