@@ -1,0 +1,119 @@
+/* libFuzzer target (issue 7): decode + evaluate + encode of a scene through
+ * ntsj_handle, the one call the CLI and the server make. The input is the
+ * request body as it would arrive; each input runs twice, once as an
+ * evaluation with the default configuration and once as a validation with
+ * tight limits and pretty printing, so both modes and the limit paths are fuzzed.
+ *
+ * Beyond "no crash, no leak, no undefined behaviour" (the sanitizers) the
+ * target checks the response contract on every input and aborts on a breach:
+ *   - the body is NUL-terminated, `length` is its strlen, it ends with '\n';
+ *   - ok <=> http_status == 200 <=> code == "ok"; errors are 4xx (a 5xx other
+ *     than out_of_memory is a bug: the input was never the server's fault);
+ *   - the body parses as JSON and never holds NaN or Infinity; an error body
+ *     is {"error": {"code": <the same code>, ...}}.
+ * The same file links into the plain replay driver (replay_main.c), which
+ * replays the corpus under gcc's sanitizers inside the test suite. */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+
+#include <ntscontact/codec.h>
+
+int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
+
+#define CHECK(cond)                                                                          \
+    do {                                                                                     \
+        if (!(cond)) {                                                                       \
+            fprintf(stderr, "fuzz_handle: contract breached: %s (%s:%d)\n", #cond, __FILE__, \
+                    __LINE__);                                                               \
+            abort();                                                                         \
+        }                                                                                    \
+    } while (0)
+
+static void check_response(const ntsj_response* r, int rc) {
+    cJSON* doc;
+    const char* end = NULL;
+    CHECK(rc == 0);
+    CHECK(r->body != NULL);
+    CHECK(r->code != NULL);
+    CHECK(r->length == strlen(r->body));
+    CHECK(r->length > 0 && r->body[r->length - 1] == '\n');
+    CHECK(r->ok == (r->http_status == 200));
+    CHECK(r->ok == (strcmp(r->code, "ok") == 0));
+    CHECK(r->ok || (r->http_status >= 400 && r->http_status < 500) || strcmp(r->code, "out_of_memory") == 0);
+    doc = cJSON_ParseWithLengthOpts(r->body, r->length, &end, 0);
+    CHECK(doc != NULL);
+    if (!r->ok) {
+        const cJSON* e = cJSON_GetObjectItemCaseSensitive(doc, "error");
+        const cJSON* c = cJSON_GetObjectItemCaseSensitive(e, "code");
+        CHECK(cJSON_IsObject(e));
+        CHECK(cJSON_IsString(c) && strcmp(c->valuestring, r->code) == 0);
+        CHECK(cJSON_IsString(cJSON_GetObjectItemCaseSensitive(e, "message")));
+    } else {
+        CHECK(cJSON_IsObject(cJSON_GetObjectItemCaseSensitive(doc, "summary")) ||
+              cJSON_IsObject(doc)); /* validation reports have their own shape */
+    }
+    cJSON_Delete(doc);
+}
+
+/* Numbers in the body are never NaN or Infinity (cJSON would read "nan"
+ * neither, but a printer bug could write "-nan", "inf" or "1e+999"): outside
+ * strings every bare word is true, false or null, and every number is made of
+ * digits, sign, point and exponent and reads back finite. */
+static void check_no_nonfinite(const char* s, size_t n) {
+    size_t i = 0;
+    while (i < n) {
+        char c = s[i];
+        if (c == '"') {
+            for (++i; i < n && s[i] != '"'; ++i)
+                if (s[i] == '\\') ++i;
+            ++i;
+        } else if (c == '-' || (c >= '0' && c <= '9')) {
+            char num[64];
+            size_t j = i, k = 0;
+            while (j < n && strchr("0123456789+-.eE", s[j]) != NULL) ++j;
+            CHECK(j - i < sizeof num);
+            for (k = 0; k < j - i; ++k) num[k] = s[i + k];
+            num[k] = 0;
+            {
+                double v = strtod(num, NULL);
+                CHECK(v - v == 0.0); /* finite */
+            }
+            CHECK(j == n || strchr(" \t\r\n,]}", s[j]) != NULL);
+            i = j;
+        } else if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z')) {
+            CHECK(strncmp(s + i, "true", 4) == 0 || strncmp(s + i, "false", 5) == 0 ||
+                  strncmp(s + i, "null", 4) == 0);
+            while (i < n && ((s[i] >= 'a' && s[i] <= 'z') || (s[i] >= 'A' && s[i] <= 'Z'))) ++i;
+        } else {
+            ++i;
+        }
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    ntsj_config cfg = ntsj_default_config();
+    ntsj_response r;
+    int rc;
+
+    rc = ntsj_handle((const char*)data, size, &cfg, &r);
+    check_response(&r, rc);
+    check_no_nonfinite(r.body, r.length);
+    ntsj_response_free(&r);
+
+    cfg.mode = NTSJ_VALIDATE;
+    cfg.pretty = 1;
+    cfg.max_depth = 6;
+    cfg.max_bytes = 4096;
+    cfg.limits.max_bodies = 3;
+    cfg.limits.max_nodes_per_body = 64;
+    cfg.limits.max_nodes = 96;
+    rc = ntsj_handle((const char*)data, size, &cfg, &r);
+    check_response(&r, rc);
+    check_no_nonfinite(r.body, r.length);
+    ntsj_response_free(&r);
+    return 0;
+}
