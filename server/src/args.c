@@ -7,7 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "ntscontact.h"
+#include <ntscontact/ntscontact.h>
 #include "server.h"
 
 static const char usage[] =

@@ -6,7 +6,7 @@
 #include <strings.h>
 
 #include "assets.h"
-#include "ntscontact.h"
+#include <ntscontact/ntscontact.h>
 #include "server.h"
 
 #define ALLOW_POST "POST"

@@ -18,7 +18,7 @@
 #include <unistd.h>
 
 #include "assets.h"
-#include "ntscontact/codec.h"
+#include <ntscontact/codec.h>
 #include "server.h"
 
 typedef struct ntsd_request {
@@ -95,23 +95,27 @@ static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned
 }
 
 static const char fallback_error[] =
-    "{\"error\":{\"code\":\"out_of_memory\",\"message\":\"out of memory\",\"pointer\":\"\"}}\n";
+    "{\"error\":{\"code\":\"overloaded\",\"message\":\"out of memory\",\"pointer\":\"\"}}\n";
 
-/* An error document per error.schema.json, built by the codec. */
-static enum MHD_Result reply_error(struct MHD_Connection* c, ntsd_request* r, unsigned status,
-                                   const char* code, const char* message, const char* allow, int close) {
+/* An error document per error.schema.json, built by the codec; the HTTP status
+ * comes from the codec's table of codes (codec/src/codes.c), so a code always
+ * travels with the same status. Memory exhaustion is "overloaded" (503): the
+ * client may retry, nothing is wrong with its request. */
+static enum MHD_Result reply_error(struct MHD_Connection* c, ntsd_request* r, const char* code,
+                                   const char* message, const char* allow, int close) {
     char* doc = ntsj_error_document(code, message, "");
     if (doc == NULL)
-        return reply(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", (char*)fallback_error,
+        return reply(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "overloaded", (char*)fallback_error,
                      sizeof fallback_error - 1, NULL, "application/json", NULL, 1);
-    return reply(c, r, status, code, doc, strlen(doc), nts_free, "application/json", allow, close);
+    return reply(c, r, (unsigned)ntsj_code_http_status(code), code, doc, strlen(doc), nts_free,
+                 "application/json", allow, close);
 }
 
 static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_HEALTH) {
         size_t n = 0;
         char* doc = ntsd_health_document(r->server, &n);
-        if (doc == NULL) return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 0);
+        if (doc == NULL) return reply_error(c, r, "overloaded", "out of memory", NULL, 0);
         return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
     } else {
         const ntsd_asset* a = &ntsd_assets[r->route.asset];
@@ -158,7 +162,7 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_body_free(&r->body);
     if (rc != 0 || resp.body == NULL) {
         ntsj_response_free(&resp);
-        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 1);
+        return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
     }
     /* The codec's buffer goes to libmicrohttpd without a copy, freed by nts_free. */
     return reply(c, r, (unsigned)resp.http_status, resp.code ? resp.code : "-", resp.body, resp.length,
@@ -176,11 +180,11 @@ static int is_post_route(const ntsd_request* r) {
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_NONE)
-        return reply_error(c, r, MHD_HTTP_NOT_FOUND, "not_found", "no such resource", NULL, 0);
+        return reply_error(c, r, "not_found", "no such resource", NULL, 0);
     if (!r->route.method_ok) {
         char msg[96];
         snprintf(msg, sizeof msg, "method not allowed; allowed: %s", r->route.allow);
-        return reply_error(c, r, MHD_HTTP_METHOD_NOT_ALLOWED, "method_not_allowed", msg, r->route.allow, 0);
+        return reply_error(c, r, "method_not_allowed", msg, r->route.allow, 0);
     }
     return answer_get(c, r);
 }
@@ -201,21 +205,21 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     pthread_mutex_unlock(&s->lock);
 
     if (shutting)
-        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "shutting_down", "the server is shutting down", NULL, 1);
+        return reply_error(c, r, "overloaded", "the server is shutting down", NULL, 1);
     if (open_connections > s->config.max_connections)
-        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "overloaded",
+        return reply_error(c, r, "overloaded",
                            "too many connections; retry later", NULL, 1);
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
 
     if (!ntsd_is_json_media_type(ct))
-        return reply_error(c, r, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type",
+        return reply_error(c, r, "unsupported_media_type",
                            "the request body must be application/json", NULL, 1);
     /* Answer before reading the body when its announced length is too large. */
     if (length > (unsigned long long)s->config.max_body)
-        return reply_error(c, r, MHD_HTTP_CONTENT_TOO_LARGE, "body_too_large",
+        return reply_error(c, r, "payload_too_large",
                            "the request body is larger than --max-body", NULL, 1);
     if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
-        return reply_error(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "out_of_memory", "out of memory", NULL, 1);
+        return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
     return MHD_YES;
 }
 
@@ -273,7 +277,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     if (r->queued) return MHD_YES;
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
-        return reply_error(c, r, MHD_HTTP_CONTENT_TOO_LARGE, "body_too_large",
+        return reply_error(c, r, "payload_too_large",
                            "the request body is larger than --max-body", NULL, 1);
     return answer_post(c, r);
 }

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Bounded load test of ntscontactd on 127.0.0.1 (wrk, fixed duration per run).
+#
+#   bench/load/run.sh [--threading per-connection|pool] [--duration S] [--quick]
+#
+# Starts build/bin/ntscontactd (or $NTS_BUILD_DIR/bin) on a free port, then runs,
+# each for S seconds (default 10):
+#   health        GET /v1/health, 1 and 8 connections (HTTP alone)
+#   small         POST /v1/contact, 2 disks x 32 nodes, 1 and 8 connections
+#   large         POST /v1/contact, 30x30 disks x 64 nodes (57,600 nodes), 1 and 4 connections
+#   stall         GET /v1/health latency while 2 clients post the large scene
+# and prints one BENCH/STALL line per run. Needs wrk (Debian: apt-get install wrk).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+threading=per-connection
+duration=10
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --threading) threading=$2; shift 2 ;;
+    --duration) duration=$2; shift 2 ;;
+    --quick) duration=3; shift ;;
+    *) echo "usage: $0 [--threading per-connection|pool] [--duration S] [--quick]" >&2; exit 2 ;;
+  esac
+done
+build=${NTS_BUILD_DIR:-build}
+daemon="$build/bin/ntscontactd"
+command -v wrk >/dev/null || { echo "run.sh: wrk not found (apt-get install wrk)" >&2; exit 2; }
+[ -x "$daemon" ] || { echo "run.sh: $daemon not built" >&2; exit 2; }
+
+work=$(mktemp -d)
+pid=""
+cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; rm -rf "$work"; }
+trap cleanup EXIT
+
+python3 bench/load/make_scene.py --grid 2x1 --nodes 32 >"$work/small.json"
+python3 bench/load/make_scene.py --grid 30x30 --nodes 64 >"$work/large.json"
+
+"$daemon" --port 0 --quiet --threading "$threading" >"$work/out" 2>"$work/err" &
+pid=$!
+for _ in $(seq 50); do grep -q listening "$work/out" 2>/dev/null && break; sleep 0.1; done
+port=$(sed -n 's/.*:\([0-9]*\)$/\1/p' "$work/out")
+[ -n "$port" ] || { echo "run.sh: the daemon did not start" >&2; cat "$work/err" >&2; exit 1; }
+url="http://127.0.0.1:$port"
+echo "# ntscontactd --threading $threading on $url, $(nproc) cores, ${duration}s per run"
+echo "# small: $(wc -c <"$work/small.json") bytes, large: $(wc -c <"$work/large.json") bytes"
+
+run() { # name connections script path [scene]
+  local name=$1 c=$2 script=$3 path=$4 scene=${5:-}
+  local t=$(( c < 2 ? 1 : 2 ))
+  local line
+  line=$(timeout $((duration + 30)) wrk -t"$t" -c"$c" -d"${duration}s" --timeout 30s -s "bench/load/$script" \
+         "$url$path" ${scene:+-- "$scene"} | grep '^BENCH')
+  echo "$name c=$c ${line#BENCH }"
+}
+run health 1 get.lua /v1/health
+run health 8 get.lua /v1/health
+run small 1 post.lua /v1/contact "$work/small.json"
+run small 8 post.lua /v1/contact "$work/small.json"
+run large 1 post.lua /v1/contact "$work/large.json"
+run large 4 post.lua /v1/contact "$work/large.json"
+timeout $((duration + 60)) python3 bench/load/stall.py "$port" "$work/large.json" --busy 2 --seconds "$duration"
