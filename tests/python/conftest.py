@@ -30,3 +30,85 @@ def schemas(paths):
     """The JSON Schemas by short name: schemas["scene"], ["result"], ["error"]."""
     return {name: json.loads((paths.schemas / f"{name}.schema.json").read_text())
             for name in ("scene", "result", "error")}
+
+
+# ------------------------------------------------------------ ntscontactd
+# The daemon on a free port (--port 0: it prints "ntscontactd listening on
+# HOST:PORT" as its first line on stdout), stopped by its pid with SIGTERM.
+# Its stderr (one log line per request) goes to a file, never to a pipe nobody
+# reads.
+import selectors  # noqa: E402
+import signal  # noqa: E402
+import subprocess  # noqa: E402
+
+
+class Daemon:
+    """A running ntscontactd: .proc, .port, .base ("http://127.0.0.1:PORT"),
+    .log_path; url(path), log(), stop(sig) -> exit status."""
+
+    def __init__(self, proc, port, log_path):
+        self.proc, self.port, self.log_path = proc, port, log_path
+        self.base = f"http://127.0.0.1:{port}"
+
+    def url(self, path):
+        return self.base + path
+
+    def log(self):
+        return self.log_path.read_text(errors="replace")
+
+    def stop(self, sig=signal.SIGTERM, timeout=60):
+        if self.proc.poll() is None:
+            os.kill(self.proc.pid, sig)
+        try:
+            return self.proc.wait(timeout=timeout)
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+                self.proc.wait()
+            if self.proc.stdout:
+                self.proc.stdout.close()
+
+
+def start_daemon(binary, log_path, *args, timeout=20):
+    """Start `binary --port 0 ARGS`, wait for its address line, return a Daemon."""
+    if not pathlib.Path(binary).exists():
+        pytest.fail(f"{binary} is not built (NTS_BUILD_DIR={BUILD})")
+    log = open(log_path, "wb")
+    proc = subprocess.Popen([str(binary), "--port", "0", *map(str, args)],
+                            stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)
+    log.close()
+    sel = selectors.DefaultSelector()
+    sel.register(proc.stdout, selectors.EVENT_READ)
+    line = b""
+    if sel.select(timeout):
+        line = proc.stdout.readline()
+    sel.close()
+    text = line.decode(errors="replace").strip()
+    if not text.startswith("ntscontactd listening on "):
+        proc.kill()
+        proc.wait()
+        pytest.fail(f"ntscontactd did not start: {text!r}\n{pathlib.Path(log_path).read_text(errors='replace')}")
+    return Daemon(proc, int(text.rsplit(":", 1)[1]), pathlib.Path(log_path))
+
+
+@pytest.fixture(scope="module")
+def daemon(paths, tmp_path_factory):
+    """One ntscontactd for a test module (default flags, 127.0.0.1, free port)."""
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path_factory.mktemp("ntscontactd") / "daemon.log")
+    yield d
+    assert d.stop() == 0, d.log()[-2000:]
+
+
+@pytest.fixture
+def daemon_factory(paths, tmp_path):
+    """start(*flags) -> Daemon with its own flags; every one is stopped at teardown."""
+    started = []
+
+    def start(*flags):
+        d = start_daemon(paths.bin / "ntscontactd", tmp_path / f"daemon{len(started)}.log", *flags)
+        started.append(d)
+        return d
+
+    yield start
+    for d in started:
+        d.stop()
