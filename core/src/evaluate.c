@@ -11,6 +11,16 @@
 #if defined(NTS_HAVE_OPENMP)
 #include <omp.h>
 #endif
+#include <time.h>
+
+/* Wall clock for the phase timings (nts_context_phase_times). */
+static double wall_time(void) {
+#if defined(NTS_HAVE_OPENMP)
+    return omp_get_wtime();
+#else
+    return (double)clock() / (double)CLOCKS_PER_SEC;
+#endif
+}
 
 /* Per-surface-entry segment data, recomputed each evaluation from the positions:
  * the segment that starts at the entry. */
@@ -44,7 +54,14 @@ struct nts_context {
     int contacts_cap;
     nts_contact* gaps;
     int gaps_cap;
+    double phase[4]; /* seconds of the last evaluation: segments, cells, local search, scatter */
 };
+
+/* Phase timings of the last evaluation (internal.h; used by bench/). */
+void nts_context_phase_times(const nts_context* ctx, double out[4]) {
+    int i;
+    for (i = 0; i < 4; ++i) out[i] = ctx->phase[i];
+}
 
 nts_context* nts_context_create(void) {
     nts_context* ctx = (nts_context*)nts_alloc(sizeof *ctx);
@@ -337,6 +354,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     double lmax = 0.0, h;
     int i, rc, nthreads = 1;
     nts_summary* sum;
+    double t0 = wall_time(), t1;
 
     if (err != NULL) *err = nts_error_none();
     if (ctx == NULL || s == NULL || opt == NULL || out == NULL)
@@ -365,6 +383,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (sd->len > lmax) lmax = sd->len;
     }
 
+    t1 = wall_time();
+    ctx->phase[0] = t1 - t0;
+    t0 = t1;
     env.s = s;
     env.seg = ctx->seg;
     env.alpha = opt->alpha;
@@ -386,6 +407,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.cells = &ctx->cells;
     }
 
+    t1 = wall_time();
+    ctx->phase[1] = t1 - t0;
+    t0 = t1;
 #if defined(NTS_HAVE_OPENMP)
     if (opt->threads > 1) nthreads = opt->threads;
     if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
@@ -411,6 +435,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     for (i = 0; i < nthreads; ++i)
         if (ctx->workers[i].status != NTS_OK) return eval_fail(err, ctx->workers[i].status, -1, -1, "out of memory");
 
+    t1 = wall_time();
+    ctx->phase[2] = t1 - t0;
+    t0 = t1;
     /* Scatter in slave order (contact-model.md, "Forces, energy, virial"). */
     {
         const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
@@ -477,5 +504,6 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         out->gaps = want_gaps ? ctx->gaps : NULL;
         out->gap_count = want_gaps ? ngap : 0;
     }
+    ctx->phase[3] = wall_time() - t0;
     return NTS_OK;
 }

@@ -59,6 +59,10 @@ void nts_cells_free(nts_cells* c);
 /* The distinct cells of the 3x3 stencil around cell `cell` (at most 9). */
 int nts_cells_stencil(const nts_cells* c, int cell, int out[9]);
 
+/* Seconds spent by the last nts_evaluate on a context in each phase: segment
+ * data, cell list, local search, scatter (evaluate.c; read by bench/). */
+void nts_context_phase_times(const nts_context* ctx, double out[4]);
+
 static inline nts_vec2 nts_scene_diff(const nts_scene* s, nts_vec2 p, nts_vec2 q) {
     return nts_min_image(nts_sub(p, q), s->lx, s->ly);
 }

@@ -1,0 +1,119 @@
+/* Cell list (Verlet buckets) over the surface nodes (contact-model.md, "Global
+ * search"): cells of side >= h, built in O(N) with a counting sort; buffers grow
+ * only, so re-evaluating the same topology allocates nothing. */
+#include <string.h>
+
+#include "baseline.h"
+
+void nts_cells0_free(nts_cells0* c) {
+    nts_free(c->cell_start);
+    nts_free(c->items);
+    nts_free(c->entry_cell);
+    memset(c, 0, sizeof *c);
+}
+
+static inline int clamp_index(double v, int n) {
+    /* Compare in double before converting: (int) of a huge double is undefined. */
+    if (!(v >= 0.0)) return 0;
+    if (v >= (double)(n - 1)) return n - 1;
+    return (int)v;
+}
+
+int nts_cells0_build(nts_cells0* c, const nts_scene* s, double h) {
+    const int n = s->surface_count;
+    /* The grid never has more than about 4 cells per surface node, whatever the
+     * spread of the bodies: h only grows, which the search allows (h >= L_max + r). */
+    const double cap = 4.0 * (double)n + 16.0;
+    int i, ncell, rc;
+    assert(h > 0.0);
+    c->periodic = s->lx > 0.0;
+    if (c->periodic) {
+        double fx = floor(s->lx / h), fy = floor(s->ly / h);
+        int nx = fx < 1.0 ? 1 : (fx > cap ? (int)cap : (int)fx);
+        int ny = fy < 1.0 ? 1 : (fy > cap ? (int)cap : (int)fy);
+        int guard;
+        for (guard = 0; guard < 128 && (double)nx * (double)ny > cap; ++guard) {
+            if (nx >= ny) nx = (nx + 1) / 2; else ny = (ny + 1) / 2;
+        }
+        c->nx = nx;
+        c->ny = ny;
+        c->x0 = c->y0 = 0.0;
+        c->hx = s->lx / nx;
+        c->hy = s->ly / ny;
+    } else {
+        double xmin, xmax, ymin, ymax, wx, wy, hh = h;
+        nts_vec2 p = s->pos[s->surf_node[0]];
+        xmin = xmax = p.x;
+        ymin = ymax = p.y;
+        for (i = 1; i < n; ++i) {
+            p = s->pos[s->surf_node[i]];
+            if (p.x < xmin) xmin = p.x;
+            if (p.x > xmax) xmax = p.x;
+            if (p.y < ymin) ymin = p.y;
+            if (p.y > ymax) ymax = p.y;
+        }
+        wx = xmax - xmin;
+        wy = ymax - ymin;
+        if (hh < sqrt(wx * wy / cap)) hh = sqrt(wx * wy / cap);
+        if (hh < wx / cap) hh = wx / cap;
+        if (hh < wy / cap) hh = wy / cap;
+        c->nx = (int)floor(wx / hh) + 1;
+        c->ny = (int)floor(wy / hh) + 1;
+        c->x0 = xmin;
+        c->y0 = ymin;
+        c->hx = c->hy = hh;
+    }
+    ncell = c->nx * c->ny;
+    if ((rc = nts_grow((void**)&c->cell_start, &c->cap_cells, ncell + 1, sizeof(int))) != NTS_OK) return rc;
+    if (n > c->cap_items) {
+        int cap_items = c->cap_items;
+        if ((rc = nts_grow((void**)&c->items, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
+        cap_items = c->cap_items;
+        if ((rc = nts_grow((void**)&c->entry_cell, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
+        c->cap_items = cap_items;
+    }
+    memset(c->cell_start, 0, sizeof(int) * (size_t)(ncell + 1));
+    for (i = 0; i < n; ++i) {
+        nts_vec2 p = s->pos[s->surf_node[i]];
+        double x = p.x - c->x0, y = p.y - c->y0;
+        int cx, cy;
+        if (c->periodic) {
+            x -= s->lx * floor(x / s->lx);
+            y -= s->ly * floor(y / s->ly);
+        }
+        cx = clamp_index(x / c->hx, c->nx);
+        cy = clamp_index(y / c->hy, c->ny);
+        c->entry_cell[i] = cy * c->nx + cx;
+        ++c->cell_start[c->entry_cell[i] + 1];
+    }
+    /* Counting sort: prefix sums, then place entries in increasing order, so each
+     * cell lists its entries in ascending order (determinism). */
+    for (i = 0; i < ncell; ++i) c->cell_start[i + 1] += c->cell_start[i];
+    for (i = 0; i < n; ++i) c->items[c->cell_start[c->entry_cell[i]]++] = i;
+    for (i = ncell; i > 0; --i) c->cell_start[i] = c->cell_start[i - 1];
+    c->cell_start[0] = 0;
+    return NTS_OK;
+}
+
+int nts_cells0_stencil(const nts_cells0* c, int cell, int out[9]) {
+    int cx = cell % c->nx, cy = cell / c->nx;
+    int xs[3], ys[3], nxs = 0, nys = 0, d, i, j, n = 0;
+    for (d = -1; d <= 1; ++d) {
+        int x = cx + d, y = cy + d, k, dup;
+        if (c->periodic) {
+            x = ((x % c->nx) + c->nx) % c->nx;
+            y = ((y % c->ny) + c->ny) % c->ny;
+        }
+        if (x >= 0 && x < c->nx) {
+            for (dup = 0, k = 0; k < nxs; ++k) dup |= (xs[k] == x);
+            if (!dup) xs[nxs++] = x;
+        }
+        if (y >= 0 && y < c->ny) {
+            for (dup = 0, k = 0; k < nys; ++k) dup |= (ys[k] == y);
+            if (!dup) ys[nys++] = y;
+        }
+    }
+    for (j = 0; j < nys; ++j)
+        for (i = 0; i < nxs; ++i) out[n++] = ys[j] * c->nx + xs[i];
+    return n;
+}

@@ -1,0 +1,820 @@
+/* nts_bench: speed against error for the ntscontact core (issue 6).
+ *
+ *   nts_bench --out DIR [--quick] [--sections LIST] [--threads N]
+ *
+ * Sections (comma separated, default all): disks, packing, errors, smooth,
+ * scaling, threads, peer. Every section writes one CSV into DIR (the file name
+ * is prefixed with the variant, "after" for the current core and "before" for
+ * nts_bench_before, the first core's search). Times are medians of repeated
+ * evaluations on a warm context, in nanoseconds per surface node.
+ * bench/report.py runs both binaries and turns the CSVs into docs/benchmarks.md. */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+#include <ntscontact/ntscontact.h>
+
+#ifndef NTS_BENCH_VARIANT
+#define NTS_BENCH_VARIANT "after"
+#endif
+
+/* Internal hook of the core (core/src/internal.h): seconds per phase of the last
+ * evaluation: segment data, cell list, local search, scatter. */
+void nts_context_phase_times(const nts_context* ctx, double out[4]);
+
+static const double PI = 3.14159265358979323846;
+
+/* ------------------------------------------------------------ utilities */
+
+static double now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static uint64_t rng_state = 0x9E3779B97F4A7C15ull;
+static double urand(void) { /* splitmix64, uniform in [0, 1) */
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static int cmp_double(const void* a, const void* b) {
+    double x = *(const double*)a, y = *(const double*)b;
+    return (x > y) - (x < y);
+}
+static double median(double* v, int n) {
+    if (n <= 0) return 0.0;
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+static double vmax(const double* v, int n) {
+    double m = 0.0;
+    int i;
+    for (i = 0; i < n; ++i)
+        if (v[i] > m) m = v[i];
+    return m;
+}
+
+static void* xmalloc(size_t n) {
+    void* p = malloc(n == 0 ? 1 : n);
+    if (p == NULL) {
+        fprintf(stderr, "nts_bench: out of memory\n");
+        exit(2);
+    }
+    return p;
+}
+
+/* Allocator hook: counts live bytes, the peak and the number of allocations of
+ * the core (every core allocation goes through nts_set_allocator's hook). */
+typedef struct alloc_stats {
+    size_t live, peak;
+    long long count;
+} alloc_stats;
+static alloc_stats g_alloc;
+static void* count_alloc(size_t size, void* user) {
+    size_t* p = (size_t*)malloc(size + 16);
+    (void)user;
+    if (p == NULL) return NULL;
+    p[0] = size;
+    g_alloc.live += size;
+    if (g_alloc.live > g_alloc.peak) g_alloc.peak = g_alloc.live;
+    ++g_alloc.count;
+    return (char*)p + 16;
+}
+static void count_free(void* ptr, void* user) {
+    size_t* p = (size_t*)((char*)ptr - 16);
+    (void)user;
+    g_alloc.live -= p[0];
+    free(p);
+}
+
+static long maxrss_kb(void) {
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss;
+}
+
+/* --------------------------------------------------------------- scenes */
+
+/* Bodies as flat node arrays, one loop through all nodes (counter-clockwise). */
+typedef struct scene_buf {
+    int nb;
+    int* count;      /* nodes per body */
+    nts_vec2** nodes;
+    double *cx, *cy, *R; /* the circle each body approximates */
+    double lx, ly;
+    int total;
+} scene_buf;
+
+static void buf_init(scene_buf* b, int nb) {
+    b->nb = nb;
+    b->count = (int*)xmalloc(sizeof(int) * (size_t)nb);
+    b->nodes = (nts_vec2**)xmalloc(sizeof(nts_vec2*) * (size_t)nb);
+    b->cx = (double*)xmalloc(sizeof(double) * (size_t)nb);
+    b->cy = (double*)xmalloc(sizeof(double) * (size_t)nb);
+    b->R = (double*)xmalloc(sizeof(double) * (size_t)nb);
+    b->lx = b->ly = 0.0;
+    b->total = 0;
+}
+static void buf_free(scene_buf* b) {
+    int i;
+    for (i = 0; i < b->nb; ++i) free(b->nodes[i]);
+    free(b->count);
+    free(b->nodes);
+    free(b->cx);
+    free(b->cy);
+    free(b->R);
+}
+
+/* Scene (a): two disks of radius 1 pressed together by `overlap`, n nodes each;
+ * the second disk's nodes are offset by half a step (no node-on-node contact). */
+static void make_two_disks(scene_buf* b, int n, double overlap) {
+    int k, i;
+    buf_init(b, 2);
+    for (k = 0; k < 2; ++k) {
+        b->count[k] = n;
+        b->nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * (size_t)n);
+        b->cx[k] = k == 0 ? 0.0 : 2.0 - overlap;
+        b->cy[k] = 0.0;
+        b->R[k] = 1.0;
+        for (i = 0; i < n; ++i) {
+            double th = 2.0 * PI * i / n + (k == 0 ? 0.0 : PI / n);
+            b->nodes[k][i] = nts_v2(b->cx[k] + cos(th), b->cy[k] + sin(th));
+        }
+        b->total += n;
+    }
+}
+
+/* Scene (b): a jittered packing of deformable disks. Particles on a square
+ * lattice of spacing 2, centres jittered by +-0.05, radii 1.02 +- 0.03 (so
+ * neighbours overlap), 32..64 nodes each at jittered angles and radii (+-0.5%):
+ * the disks are slightly deformed polygons. Periodic: the box is the lattice. */
+static void make_packing(scene_buf* b, int particles, int periodic, uint64_t seed) {
+    int side = (int)ceil(sqrt((double)particles)), p, i;
+    rng_state = seed;
+    buf_init(b, particles);
+    if (periodic) {
+        b->lx = 2.0 * side;
+        b->ly = 2.0 * ((particles + side - 1) / side);
+    }
+    for (p = 0; p < particles; ++p) {
+        int m = 32 + (int)(urand() * 33.0);
+        double cx = 2.0 * (p % side) + 1.0 + 0.1 * (urand() - 0.5);
+        double cy = 2.0 * (p / side) + 1.0 + 0.1 * (urand() - 0.5);
+        double R = 1.02 + 0.06 * (urand() - 0.5), phase = 2.0 * PI * urand();
+        if (m > 64) m = 64;
+        b->count[p] = m;
+        b->nodes[p] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * (size_t)m);
+        b->cx[p] = cx;
+        b->cy[p] = cy;
+        b->R[p] = R;
+        for (i = 0; i < m; ++i) {
+            double th = phase + 2.0 * PI * (i + 0.3 * (urand() - 0.5)) / m;
+            double r = R * (1.0 + 0.01 * (urand() - 0.5));
+            b->nodes[p][i] = nts_v2(cx + r * cos(th), cy + r * sin(th));
+        }
+        b->total += m;
+    }
+}
+
+static nts_scene* scene_from(const scene_buf* b) {
+    nts_body_def* defs = (nts_body_def*)xmalloc(sizeof(nts_body_def) * (size_t)b->nb);
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    nts_scene* s;
+    int i;
+    memset(defs, 0, sizeof(nts_body_def) * (size_t)b->nb);
+    for (i = 0; i < b->nb; ++i) {
+        defs[i].nodes = b->nodes[i];
+        defs[i].node_count = b->count[i];
+    }
+    def.bodies = defs;
+    def.body_count = b->nb;
+    def.lx = b->lx;
+    def.ly = b->ly;
+    s = nts_scene_create(&def, &err);
+    free(defs);
+    if (s == NULL) {
+        fprintf(stderr, "nts_bench: scene: %s: %s\n", nts_status_name(err.code), err.message);
+        exit(2);
+    }
+    return s;
+}
+
+static void eval_or_die(nts_context* ctx, const nts_scene* s, const nts_options* o, nts_result* r) {
+    nts_error err;
+    if (nts_evaluate(ctx, s, o, r, &err) != NTS_OK) {
+        fprintf(stderr, "nts_bench: evaluate: %s: %s\n", nts_status_name(err.code), err.message);
+        exit(2);
+    }
+}
+
+/* ------------------------------------------------------------- timing */
+
+typedef struct timing {
+    double cells, search, eval; /* ns per surface node, medians */
+    double eval_min;
+    int reps, gaps, contacts;
+    long long allocs_after_warmup; /* core allocations during the timed evaluations */
+} timing;
+
+static int g_quick = 0;
+
+/* Median over repeated evaluations on a warm context. Repeats until `budget`
+ * seconds are used, at least 3 and at most 25 times. */
+static timing time_eval(const nts_scene* s, const nts_options* o, double budget) {
+    nts_context* ctx = nts_context_create();
+    nts_result r;
+    double tc[25], ts[25], te[25], start, ph[4];
+    long long a0;
+    int k, n = nts_scene_surface_node_count(s);
+    timing t;
+    memset(&t, 0, sizeof t);
+    eval_or_die(ctx, s, o, &r); /* warm-up: buffers grow once */
+    a0 = g_alloc.count;
+    start = now();
+    for (k = 0; k < 25; ++k) {
+        double t0 = now(), t1;
+        eval_or_die(ctx, s, o, &r);
+        t1 = now();
+        nts_context_phase_times(ctx, ph);
+        tc[k] = 1e9 * ph[1] / n;
+        ts[k] = 1e9 * ph[2] / n;
+        te[k] = 1e9 * (t1 - t0) / n;
+        if (k >= 2 && now() - start > budget) { ++k; break; }
+    }
+    t.reps = k;
+    t.allocs_after_warmup = g_alloc.count - a0;
+    t.gaps = r.summary.gaps;
+    t.contacts = r.summary.contacts;
+    t.cells = median(tc, k);
+    t.search = median(ts, k);
+    t.eval_min = te[0];
+    for (n = 1; n < k; ++n)
+        if (te[n] < t.eval_min) t.eval_min = te[n];
+    t.eval = median(te, k);
+    nts_context_destroy(ctx);
+    return t;
+}
+
+static const double ALPHAS[4] = {0.0, 0.1, 0.2, 0.5};
+static const char* SOLVER_NAMES[2] = {"closed_form", "newton"};
+static const char* KIND_NAMES[3] = {"segment", "corner", "vertex"};
+
+static FILE* open_csv(const char* dir, const char* name, const char* header) {
+    char path[1024];
+    FILE* f;
+    snprintf(path, sizeof path, "%s/%s_%s.csv", dir, NTS_BENCH_VARIANT, name);
+    f = fopen(path, "w");
+    if (f == NULL) {
+        fprintf(stderr, "nts_bench: cannot write %s\n", path);
+        exit(2);
+    }
+    fprintf(f, "%s\n", header);
+    return f;
+}
+
+#define TIMING_HEADER \
+    "variant,scene,periodic,particles,surface_nodes,solver,alpha,threads,reps,cells_ns,search_ns,eval_ns,eval_min_ns,gaps,contacts,allocs_per_eval"
+
+static void write_timing(FILE* f, const char* scene, int periodic, int particles, int nodes, int solver,
+                         double alpha, int threads, const timing* t) {
+    fprintf(f, "%s,%s,%d,%d,%d,%s,%.2f,%d,%d,%.3f,%.3f,%.3f,%.3f,%d,%d,%.3f\n", NTS_BENCH_VARIANT, scene, periodic,
+            particles, nodes, SOLVER_NAMES[solver], alpha, threads, t->reps, t->cells, t->search, t->eval,
+            t->eval_min, t->gaps, t->contacts, (double)t->allocs_after_warmup / t->reps);
+    fflush(f);
+}
+
+/* (a) two pressed disks, 16..4096 nodes per disk, every solver and alpha. */
+static void section_disks(const char* dir) {
+    static const int sizes[] = {16, 64, 256, 1024, 4096};
+    FILE* f = open_csv(dir, "disks", TIMING_HEADER);
+    int si, sv, a;
+    for (si = 0; si < 5; ++si) {
+        scene_buf b;
+        nts_scene* s;
+        make_two_disks(&b, sizes[si], 0.05);
+        s = scene_from(&b);
+        for (sv = 0; sv < 2; ++sv)
+            for (a = 0; a < 4; ++a) {
+                nts_options o = nts_default_options();
+                timing t;
+                o.alpha = ALPHAS[a];
+                o.solver = (nts_solver)sv;
+                t = time_eval(s, &o, g_quick ? 0.02 : 0.1);
+                write_timing(f, "disks", 0, 2, b.total, sv, o.alpha, 0, &t);
+            }
+        nts_scene_destroy(s);
+        buf_free(&b);
+    }
+    fclose(f);
+}
+
+/* (b) jittered packings, 100..100,000 particles, periodic and not. Every solver
+ * and alpha up to 10,000 particles; the largest size with the default options. */
+static void section_packing(const char* dir) {
+    static const int sizes[] = {100, 1000, 10000, 100000};
+    int nsizes = g_quick ? 2 : 4;
+    FILE* f = open_csv(dir, "packing", TIMING_HEADER);
+    int si, per, sv, a;
+    for (si = 0; si < nsizes; ++si)
+        for (per = 0; per < 2; ++per) {
+            scene_buf b;
+            nts_scene* s;
+            make_packing(&b, sizes[si], per, 1234u + (uint64_t)si);
+            s = scene_from(&b);
+            for (sv = 0; sv < 2; ++sv)
+                for (a = 0; a < 4; ++a) {
+                    nts_options o = nts_default_options();
+                    timing t;
+                    if (sizes[si] > 10000 && !(sv == 0 && a == 2)) continue;
+                    o.alpha = ALPHAS[a];
+                    o.solver = (nts_solver)sv;
+                    t = time_eval(s, &o, g_quick ? 0.02 : (sizes[si] > 10000 ? 1.0 : 0.25));
+                    write_timing(f, "packing", per, sizes[si], b.total, sv, o.alpha, 0, &t);
+                }
+            nts_scene_destroy(s);
+            buf_free(&b);
+        }
+    fclose(f);
+}
+
+/* ------------------------------------------------- long-double reference */
+
+typedef long double ld;
+typedef struct lvec {
+    ld x, y;
+} lvec;
+static lvec lv(ld x, ld y) { lvec v; v.x = x; v.y = y; return v; }
+static lvec lsub(lvec a, lvec b) { return lv(a.x - b.x, a.y - b.y); }
+static lvec ladd(lvec a, lvec b) { return lv(a.x + b.x, a.y + b.y); }
+static lvec lscale(ld s, lvec a) { return lv(s * a.x, s * a.y); }
+static ld ldot(lvec a, lvec b) { return a.x * b.x + a.y * b.y; }
+static lvec lpos(nts_vec2 p) { return lv((ld)p.x, (ld)p.y); }
+static lvec lmin_image(lvec d, double lx, double ly) {
+    if (lx > 0.0) d.x -= (ld)lx * nearbyintl(d.x / (ld)lx);
+    if (ly > 0.0) d.y -= (ld)ly * nearbyintl(d.y / (ld)ly);
+    return d;
+}
+
+/* The reference of one closest point: same feature, long double, roots of F
+ * bracketed on the monotone pieces of [-1, 1] and bisected to the last bit. */
+typedef struct ref_point {
+    ld param, gap;
+    lvec normal;
+} ref_point;
+
+static ld corner_F(lvec A, lvec B, lvec e, ld xi) {
+    lvec r = lsub(e, lscale(xi, ladd(B, lscale(xi, A))));
+    lvec tau = ladd(B, lscale(2 * xi, A));
+    return ldot(r, tau);
+}
+
+static double g_lx = 0.0, g_ly = 0.0; /* the periodic box of the scene under test */
+
+static ref_point reference(const nts_scene* s, const nts_contact* c, double alpha) {
+    const nts_vec2* pos = nts_scene_positions(s);
+    int mb = nts_scene_body_node_offset(s, c->master_body), sb = nts_scene_body_node_offset(s, c->slave_body);
+    lvec xs = lpos(pos[sb + c->slave_node]);
+    ref_point rp;
+    memset(&rp, 0, sizeof rp);
+    if (c->kind == NTS_KIND_SEGMENT) {
+        lvec x0 = lpos(pos[mb + c->master_nodes[0]]), x1 = lpos(pos[mb + c->master_nodes[1]]);
+        lvec t = lmin_image(lsub(x1, x0), g_lx, g_ly), d = lmin_image(lsub(xs, x0), g_lx, g_ly);
+        ld len = sqrtl(ldot(t, t));
+        rp.param = ldot(d, t) / ldot(t, t);
+        rp.normal = lv(t.y / len, -t.x / len);
+        rp.gap = ldot(d, rp.normal);
+    } else if (c->kind == NTS_KIND_VERTEX) {
+        lvec x3 = lpos(pos[mb + c->master_nodes[0]]), d = lmin_image(lsub(xs, x3), g_lx, g_ly);
+        ld dist = sqrtl(ldot(d, d)), sg = (c->gap < 0.0) ? -1 : 1;
+        rp.param = 0;
+        rp.gap = sg * dist;
+        rp.normal = dist > 0 ? lscale(sg / dist, d) : lv((ld)c->normal.x, (ld)c->normal.y);
+    } else {
+        lvec x2 = lpos(pos[mb + c->master_nodes[0]]), x3 = lpos(pos[mb + c->master_nodes[1]]);
+        lvec x4 = lpos(pos[mb + c->master_nodes[2]]);
+        lvec a = lmin_image(lsub(x2, x3), g_lx, g_ly), cc = lmin_image(lsub(x4, x3), g_lx, g_ly);
+        lvec d = lmin_image(lsub(xs, x3), g_lx, g_ly);
+        ld al = (ld)alpha;
+        lvec A = lscale(al / 4, ladd(a, cc)), B = lscale(al / 2, lsub(cc, a)), e = lsub(d, A);
+        ld cuts[4], roots[3], best = -1, bestd = 0;
+        int nc = 0, nr = 0, i;
+        /* F' = -6 A.A xi^2 - 6 A.B xi + 2 e.A - B.B */
+        ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
+        cuts[nc++] = -1;
+        if (qa != 0) {
+            ld disc = qb * qb - 4 * qa * qc;
+            if (disc > 0) {
+                ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
+                if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
+                if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
+                if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
+            }
+        }
+        cuts[nc++] = 1;
+        for (i = 0; i + 1 < nc; ++i) {
+            ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
+            int it;
+            if (flo == 0) { roots[nr++] = lo; continue; }
+            if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
+            if ((flo > 0) == (fhi > 0)) continue;
+            for (it = 0; it < 200; ++it) {
+                ld mid = 0.5L * (lo + hi), fm;
+                if (!(mid > lo && mid < hi)) break;
+                fm = corner_F(A, B, e, mid);
+                if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
+            }
+            roots[nr++] = 0.5L * (lo + hi);
+        }
+        if (nr == 0) { /* no sign change seen: the better endpoint */
+            roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
+        }
+        for (i = 0; i < nr; ++i) {
+            lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
+            ld d2 = ldot(r, r);
+            if (best < 0 || d2 < bestd) { best = i; bestd = d2; }
+        }
+        {
+            ld xi = roots[(int)best];
+            lvec tau = ladd(B, lscale(2 * xi, A)), pt = ladd(A, lscale(xi, ladd(B, lscale(xi, A))));
+            ld tl = sqrtl(ldot(tau, tau));
+            rp.param = xi;
+            rp.normal = lv(tau.y / tl, -tau.x / tl);
+            rp.gap = ldot(lsub(d, pt), rp.normal);
+        }
+    }
+    return rp;
+}
+
+/* Errors of every closest point (gaps output) of one evaluation against the
+ * long-double reference: param (xi or s), gap, force (penalty 1). */
+typedef struct err_stats {
+    double xi_max, xi_med, gap_max, gap_med, f_max, f_med;
+    int n, corners;
+} err_stats;
+
+static err_stats solver_errors(const nts_scene* s, const nts_result* r, double alpha, double eps) {
+    int n = r->gap_count, i, nc = 0;
+    double* ex = (double*)xmalloc(sizeof(double) * (size_t)(n + 1));
+    double* eg = (double*)xmalloc(sizeof(double) * (size_t)(n + 1));
+    double* ef = (double*)xmalloc(sizeof(double) * (size_t)(n + 1));
+    err_stats st;
+    for (i = 0; i < n; ++i) {
+        const nts_contact* c = &r->gaps[i];
+        ref_point rp = reference(s, c, alpha);
+        ld fx = 0, fy = 0;
+        double fxd = 0.0, fyd = 0.0;
+        if (rp.gap < 0) { fx = -(ld)eps * rp.gap * rp.normal.x; fy = -(ld)eps * rp.gap * rp.normal.y; }
+        if (c->gap < 0.0) { fxd = -eps * c->gap * c->normal.x; fyd = -eps * c->gap * c->normal.y; }
+        ex[i] = (double)fabsl((ld)c->param - rp.param);
+        eg[i] = (double)fabsl((ld)c->gap - rp.gap);
+        ef[i] = (double)sqrtl(((ld)fxd - fx) * ((ld)fxd - fx) + ((ld)fyd - fy) * ((ld)fyd - fy));
+        nc += c->kind == NTS_KIND_CORNER;
+    }
+    st.n = n;
+    st.corners = nc;
+    st.xi_max = vmax(ex, n);
+    st.gap_max = vmax(eg, n);
+    st.f_max = vmax(ef, n);
+    st.xi_med = median(ex, n);
+    st.gap_med = median(eg, n);
+    st.f_med = median(ef, n);
+    free(ex);
+    free(eg);
+    free(ef);
+    return st;
+}
+
+/* Solver error and discretisation error. Two disks at every resolution (the
+ * exact circles are known), and one packing. */
+static void section_errors(const char* dir) {
+    static const int sizes[] = {16, 32, 64, 128, 256, 1024, 4096};
+    FILE* f = open_csv(dir, "errors",
+                       "scene,surface_nodes,solver,alpha,records,corners,xi_max,xi_median,gap_max,gap_median,"
+                       "force_max,force_median");
+    FILE* g = open_csv(dir, "discretisation",
+                       "nodes_per_disk,solver,alpha,contacts,gap_err_max,gap_err_median,normal_err_max_rad,"
+                       "normal_err_median_rad");
+    int si, sv, a, i;
+    for (si = 0; si < 7; ++si) {
+        scene_buf b;
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        make_two_disks(&b, sizes[si], 0.05);
+        s = scene_from(&b);
+        for (sv = 0; sv < 2; ++sv)
+            for (a = 0; a < 4; ++a) {
+                nts_options o = nts_default_options();
+                nts_result r;
+                err_stats st;
+                double *ge, *ne;
+                int m = 0;
+                o.alpha = ALPHAS[a];
+                o.solver = (nts_solver)sv;
+                o.outputs = NTS_OUT_ALL;
+                eval_or_die(ctx, s, &o, &r);
+                st = solver_errors(s, &r, o.alpha, o.penalty);
+                fprintf(f, "disks,%d,%s,%.2f,%d,%d,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e\n", b.total, SOLVER_NAMES[sv],
+                        o.alpha, st.n, st.corners, st.xi_max, st.xi_med, st.gap_max, st.gap_med, st.f_max,
+                        st.f_med);
+                /* Discretisation: active contacts against the exact circles. */
+                ge = (double*)xmalloc(sizeof(double) * (size_t)(r.contact_count + 1));
+                ne = (double*)xmalloc(sizeof(double) * (size_t)(r.contact_count + 1));
+                for (i = 0; i < r.contact_count; ++i) {
+                    const nts_contact* c = &r.contacts[i];
+                    nts_vec2 xs = b.nodes[c->slave_body][c->slave_node];
+                    double dx = xs.x - b.cx[c->master_body], dy = xs.y - b.cy[c->master_body];
+                    double dist = sqrt(dx * dx + dy * dy), gex = dist - b.R[c->master_body];
+                    double cosang = (c->normal.x * dx + c->normal.y * dy) / dist;
+                    if (cosang > 1.0) cosang = 1.0;
+                    ge[m] = fabs(c->gap - gex);
+                    ne[m] = acos(cosang);
+                    ++m;
+                }
+                fprintf(g, "%d,%s,%.2f,%d,%.3e,%.3e,%.3e,%.3e\n", sizes[si], SOLVER_NAMES[sv], o.alpha, m,
+                        vmax(ge, m), median(ge, m), vmax(ne, m), median(ne, m));
+                free(ge);
+                free(ne);
+            }
+        nts_context_destroy(ctx);
+        nts_scene_destroy(s);
+        buf_free(&b);
+    }
+    {
+        scene_buf b;
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        make_packing(&b, g_quick ? 100 : 1000, 1, 99u);
+        s = scene_from(&b);
+        g_lx = b.lx;
+        g_ly = b.ly;
+        for (sv = 0; sv < 2; ++sv)
+            for (a = 0; a < 4; ++a) {
+                nts_options o = nts_default_options();
+                nts_result r;
+                err_stats st;
+                o.alpha = ALPHAS[a];
+                o.solver = (nts_solver)sv;
+                o.outputs = NTS_OUT_ALL;
+                eval_or_die(ctx, s, &o, &r);
+                st = solver_errors(s, &r, o.alpha, o.penalty);
+                fprintf(f, "packing,%d,%s,%.2f,%d,%d,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e\n", b.total, SOLVER_NAMES[sv],
+                        o.alpha, st.n, st.corners, st.xi_max, st.xi_med, st.gap_max, st.gap_med, st.f_max,
+                        st.f_med);
+            }
+        nts_context_destroy(ctx);
+        nts_scene_destroy(s);
+        buf_free(&b);
+        g_lx = g_ly = 0.0;
+    }
+    fclose(f);
+    fclose(g);
+}
+
+/* Smoothness: a slave node slides at constant depth inside a 16-gon of radius 1
+ * around the corner at angle 0; the direction of its contact force per step. */
+static void section_smooth(const char* dir) {
+    const int N = 16, steps = 400;
+    const double depth = 0.02, rho = cos(PI / N) - depth;
+    FILE* f = open_csv(dir, "smooth", "solver,alpha,step,theta,force_angle,gap,kind");
+    FILE* g = open_csv(dir, "smooth_summary", "solver,alpha,steps,max_step_change_rad,total_turn_rad");
+    nts_vec2 poly[16], tri[3];
+    nts_body_def defs[2];
+    nts_scene_def def = nts_default_scene_def();
+    nts_scene* s;
+    nts_context* ctx = nts_context_create();
+    nts_error err;
+    int i, a, sv, k;
+    for (i = 0; i < N; ++i) poly[i] = nts_v2(cos(2.0 * PI * i / N), sin(2.0 * PI * i / N));
+    memset(defs, 0, sizeof defs);
+    defs[0].nodes = poly;
+    defs[0].node_count = N;
+    defs[1].nodes = tri;
+    defs[1].node_count = 3;
+    def.bodies = defs;
+    def.body_count = 2;
+    for (sv = 0; sv < 2; ++sv)
+        for (a = 0; a < 4; ++a) {
+            double prev = 0.0, maxd = 0.0, first = 0.0, last = 0.0;
+            int have = 0;
+            for (k = 0; k <= steps; ++k) {
+                double th = -PI / N + 2.0 * PI / N * k / steps;
+                nts_vec2 p = nts_v2(rho * cos(th), rho * sin(th)), u = nts_v2(cos(th), sin(th));
+                nts_vec2 v = nts_v2(-sin(th), cos(th));
+                nts_options o = nts_default_options();
+                nts_result r;
+                int q;
+                /* A tiny triangle whose node 0 is the probe (counter-clockwise). */
+                tri[0] = p;
+                tri[1] = nts_v2(p.x - 1e-3 * u.x - 1e-3 * v.x, p.y - 1e-3 * u.y - 1e-3 * v.y);
+                tri[2] = nts_v2(p.x - 1e-3 * u.x + 1e-3 * v.x, p.y - 1e-3 * u.y + 1e-3 * v.y);
+                s = nts_scene_create(&def, &err);
+                if (s == NULL) { fprintf(stderr, "smooth: %s\n", err.message); exit(2); }
+                o.alpha = ALPHAS[a];
+                o.solver = (nts_solver)sv;
+                o.outputs = NTS_OUT_ALL;
+                o.search_radius = 0.5;
+                eval_or_die(ctx, s, &o, &r);
+                for (q = 0; q < r.contact_count; ++q) {
+                    const nts_contact* c = &r.contacts[q];
+                    if (c->slave_body == 1 && c->slave_node == 0 && c->master_body == 0) {
+                        double ang = atan2(c->force.y, c->force.x);
+                        fprintf(f, "%s,%.2f,%d,%.9f,%.12f,%.6e,%s\n", SOLVER_NAMES[sv], o.alpha, k, th, ang, c->gap,
+                                KIND_NAMES[c->kind]);
+                        if (have) {
+                            double dd = fabs(ang - prev);
+                            if (dd > PI) dd = 2.0 * PI - dd;
+                            if (dd > maxd) maxd = dd;
+                        } else {
+                            first = ang;
+                        }
+                        last = ang;
+                        prev = ang;
+                        have = 1;
+                    }
+                }
+                nts_scene_destroy(s);
+            }
+            fprintf(g, "%s,%.2f,%d,%.6e,%.6e\n", SOLVER_NAMES[sv], ALPHAS[a], steps, maxd, last - first);
+        }
+    nts_context_destroy(ctx);
+    fclose(f);
+    fclose(g);
+}
+
+/* Scaling: time and peak memory per node, 1e3..1e6 surface nodes (periodic
+ * packing, default options, serial). Peak memory counts the core's own
+ * allocations (scene + context) through the allocator hook. */
+static void section_scaling(const char* dir) {
+    static const int targets[] = {1000, 3000, 10000, 30000, 100000, 300000, 1000000};
+    int nt = g_quick ? 5 : 7, i;
+    FILE* f = open_csv(dir, "scaling", TIMING_HEADER ",peak_bytes,bytes_per_node,maxrss_kb");
+    for (i = 0; i < nt; ++i) {
+        scene_buf b;
+        nts_scene* s;
+        nts_options o = nts_default_options();
+        timing t;
+        size_t peak;
+        int particles = targets[i] / 48;
+        if (particles < 4) particles = 4;
+        make_packing(&b, particles, 1, 777u + (uint64_t)i);
+        g_alloc.peak = g_alloc.live;
+        s = scene_from(&b);
+        t = time_eval(s, &o, g_quick ? 0.05 : 0.5);
+        peak = g_alloc.peak;
+        write_timing(f, "packing", 1, particles, b.total, o.solver, o.alpha, 0, &t);
+        fseek(f, -1, SEEK_CUR);
+        fprintf(f, ",%zu,%.1f,%ld\n", peak, (double)peak / b.total, maxrss_kb());
+        fflush(f);
+        nts_scene_destroy(s);
+        buf_free(&b);
+    }
+    fclose(f);
+}
+
+/* Threads: bitwise identical results for 0..4 threads, and the speed-up. */
+static void section_threads(const char* dir, int max_threads) {
+    FILE* f = open_csv(dir, "threads", TIMING_HEADER ",speedup,bitwise_identical");
+    scene_buf b;
+    nts_scene* s;
+    nts_context* c0 = nts_context_create();
+    nts_context* c1 = nts_context_create();
+    nts_result r0, r1;
+    double base = 0.0;
+    int th, sv, a;
+    make_packing(&b, g_quick ? 1000 : 4000, 1, 4242u);
+    s = scene_from(&b);
+    for (sv = 0; sv < 2; ++sv)
+        for (a = 0; a < 4; ++a) {
+            nts_options o = nts_default_options();
+            if (!(a == 0 || a == 2) && sv == 1) continue;
+            o.alpha = ALPHAS[a];
+            o.solver = (nts_solver)sv;
+            o.outputs = NTS_OUT_ALL;
+            eval_or_die(c0, s, &o, &r0);
+            for (th = 1; th <= max_threads; ++th) {
+                timing t;
+                int same;
+                o.threads = th;
+                o.outputs = NTS_OUT_ALL;
+                eval_or_die(c1, s, &o, &r1);
+                same = r1.gap_count == r0.gap_count && r1.contact_count == r0.contact_count &&
+                       memcmp(r1.gaps, r0.gaps, sizeof(nts_contact) * (size_t)r0.gap_count) == 0 &&
+                       memcmp(r1.contacts, r0.contacts, sizeof(nts_contact) * (size_t)r0.contact_count) == 0 &&
+                       memcmp(r1.forces, r0.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0 &&
+                       memcmp(&r1.summary, &r0.summary, sizeof r0.summary) == 0;
+                o.outputs = nts_default_options().outputs;
+                t = time_eval(s, &o, g_quick ? 0.05 : 0.4);
+                if (th == 1) base = t.eval;
+                write_timing(f, "packing", 1, b.nb, b.total, sv, o.alpha, th, &t);
+                fseek(f, -1, SEEK_CUR);
+                fprintf(f, ",%.3f,%d\n", base / t.eval, same);
+                fflush(f);
+            }
+        }
+    nts_context_destroy(c0);
+    nts_context_destroy(c1);
+    nts_scene_destroy(s);
+    buf_free(&b);
+    fclose(f);
+}
+
+/* Peer input: a non-periodic packing with our alpha = 0 gaps and time, for
+ * bench/shapely_peer.py. */
+static void section_peer(const char* dir) {
+    static const int sizes[] = {100, 1000, 10000};
+    int ns = g_quick ? 2 : 3, si, i, k;
+    for (si = 0; si < ns; ++si) {
+        scene_buf b;
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        nts_options o = nts_default_options();
+        nts_result r;
+        timing t, tg;
+        char path[1024];
+        FILE* f;
+        make_packing(&b, sizes[si], 0, 555u + (uint64_t)si);
+        s = scene_from(&b);
+        o.alpha = 0.0;
+        o.outputs = NTS_OUT_GAPS;
+        tg = time_eval(s, &o, g_quick ? 0.05 : 0.3);
+        o.outputs = nts_default_options().outputs;
+        t = time_eval(s, &o, g_quick ? 0.05 : 0.3);
+        o.outputs = NTS_OUT_GAPS;
+        eval_or_die(ctx, s, &o, &r);
+        snprintf(path, sizeof path, "%s/peer_scene_%d.txt", dir, sizes[si]);
+        f = fopen(path, "w");
+        if (f == NULL) { fprintf(stderr, "cannot write %s\n", path); exit(2); }
+        /* header: bodies search_radius eval_ns_per_node(gaps output) eval_ns_per_node(default outputs) */
+        fprintf(f, "%d %.17g %.3f %.3f %d\n", b.nb, r.summary.search_radius, tg.eval, t.eval, b.total);
+        for (k = 0; k < b.nb; ++k) {
+            fprintf(f, "%d\n", b.count[k]);
+            for (i = 0; i < b.count[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);
+        }
+        fclose(f);
+        snprintf(path, sizeof path, "%s/peer_gaps_%d.csv", dir, sizes[si]);
+        f = fopen(path, "w");
+        if (f == NULL) { fprintf(stderr, "cannot write %s\n", path); exit(2); }
+        fprintf(f, "slave_body,slave_node,master_body,kind,gap\n");
+        for (i = 0; i < r.gap_count; ++i)
+            fprintf(f, "%d,%d,%d,%s,%.17g\n", r.gaps[i].slave_body, r.gaps[i].slave_node, r.gaps[i].master_body,
+                    KIND_NAMES[r.gaps[i].kind], r.gaps[i].gap);
+        fclose(f);
+        nts_context_destroy(ctx);
+        nts_scene_destroy(s);
+        buf_free(&b);
+    }
+}
+
+static int has_section(const char* list, const char* name) {
+    const char* p = list;
+    size_t n = strlen(name);
+    if (list == NULL) return 1;
+    while ((p = strstr(p, name)) != NULL) {
+        if ((p == list || p[-1] == ',') && (p[n] == '\0' || p[n] == ',')) return 1;
+        p += n;
+    }
+    return 0;
+}
+
+int main(int argc, char** argv) {
+    const char* dir = "bench/results";
+    const char* sections = NULL;
+    int i, max_threads = 4;
+    double t0 = now();
+    for (i = 1; i < argc; ++i) {
+        if (strcmp(argv[i], "--quick") == 0) g_quick = 1;
+        else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) dir = argv[++i];
+        else if (strcmp(argv[i], "--sections") == 0 && i + 1 < argc) sections = argv[++i];
+        else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc) max_threads = atoi(argv[++i]);
+        else {
+            fprintf(stderr, "usage: %s [--quick] [--out DIR] [--sections disks,packing,errors,smooth,scaling,threads,peer] [--threads N]\n", argv[0]);
+            return 2;
+        }
+    }
+    nts_set_allocator(count_alloc, count_free, NULL);
+#define RUN(name, call)                                                                  \
+    if (has_section(sections, name)) {                                                   \
+        double ts = now();                                                               \
+        call;                                                                            \
+        fprintf(stderr, "[%s] %s: %.1f s\n", NTS_BENCH_VARIANT, name, now() - ts);       \
+    }
+    RUN("disks", section_disks(dir));
+    RUN("packing", section_packing(dir));
+    RUN("errors", section_errors(dir));
+    RUN("smooth", section_smooth(dir));
+    RUN("scaling", section_scaling(dir));
+    RUN("threads", section_threads(dir, max_threads));
+    RUN("peer", section_peer(dir));
+#undef RUN
+    fprintf(stderr, "[%s] total %.1f s\n", NTS_BENCH_VARIANT, now() - t0);
+    return 0;
+}
