@@ -1,0 +1,13 @@
+/* Every CUnit suite of the core registers itself through one function here. */
+#ifndef NTS_TEST_SUITES_H
+#define NTS_TEST_SUITES_H
+void register_geometry_suite(void);
+void register_scene_suite(void);
+void register_contact_suite(void);
+void register_invariants_suite(void);
+void register_search_suite(void);
+void register_hard_cases_suite(void);
+/* Optional suites (files added by later work); weak so the runner links without them. */
+void register_alloc_suite(void) __attribute__((weak));
+void register_parallel_suite(void) __attribute__((weak));
+#endif

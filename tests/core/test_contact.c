@@ -1,0 +1,194 @@
+/* Contact suite: outputs on demand, determinism, allocation-free reuse,
+ * periodic wrap, forces aligned with the input nodes. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+static long g_allocs;
+static void* counting_alloc(size_t n, void* u) { (void)u; ++g_allocs; return malloc(n); }
+static void counting_free(void* p, void* u) { (void)u; free(p); }
+
+static nts_scene* two_disks(int n, double overlap) {
+    static test_body b[2];
+    make_polygon(&b[0], n, 1.0, nts_v2(0, 0), 0.0);
+    make_polygon(&b[1], n, 1.0, nts_v2(2.0 - overlap, 0.0), 3.14159265358979 / n);
+    return make_scene(b, 2, 0, 0);
+}
+
+static void test_outputs_only_when_asked(void) {
+    nts_scene* s = two_disks(32, 0.05);
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_context* ctx = nts_context_create();
+    nts_error err;
+    o.penalty = 100.0;
+    o.outputs = NTS_OUT_ENERGY;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT(r.forces == NULL);
+    CU_ASSERT(r.contacts == NULL && r.contact_count == 0);
+    CU_ASSERT(r.gaps == NULL && r.gap_count == 0);
+    CU_ASSERT(r.summary.contacts > 0);
+    CU_ASSERT(r.summary.energy > 0.0);
+    ASSERT_NEAR(r.summary.virial.xx, 0.0, 0.0); /* virial not asked: not computed */
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT(r.forces != NULL);
+    ASSERT_INT_EQ(r.contact_count, r.summary.contacts);
+    CU_ASSERT(r.gap_count >= r.contact_count);
+    CU_ASSERT(r.summary.virial.xx > 0.0);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+}
+
+static void test_bitwise_deterministic_and_allocation_free(void) {
+    test_packing p = make_packing(64, 32, 1.0, 1.95, 1, 7);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_options o = nts_default_options();
+    nts_result r1, r2;
+    nts_context* ctx = nts_context_create();
+    nts_context* ctx2 = nts_context_create();
+    nts_vec2* f1;
+    nts_contact* c1;
+    nts_error err;
+    int n, nc, b;
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_ALL;
+    o.penalty = 10.0;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r1, &err) == 0);
+    n = nts_scene_node_count(s);
+    nc = r1.contact_count;
+    CU_ASSERT(nc > 50);
+    f1 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    c1 = (nts_contact*)malloc(sizeof(nts_contact) * (size_t)nc);
+    memcpy(f1, r1.forces, sizeof(nts_vec2) * (size_t)n);
+    memcpy(c1, r1.contacts, sizeof(nts_contact) * (size_t)nc);
+    /* Same input, fresh context: bitwise the same. */
+    CU_ASSERT_FATAL(nts_evaluate(ctx2, s, &o, &r2, &err) == 0);
+    CU_ASSERT(memcmp(f1, r2.forces, sizeof(nts_vec2) * (size_t)n) == 0);
+    ASSERT_INT_EQ(r2.contact_count, nc);
+    CU_ASSERT(memcmp(c1, r2.contacts, sizeof(nts_contact) * (size_t)nc) == 0);
+    CU_ASSERT(memcmp(&r1.summary, &r2.summary, sizeof r1.summary) == 0);
+    /* New positions on the same topology (a small shift of every body), reused
+     * context: no allocation at all once the buffers have grown. */
+    for (b = 0; b < p.count; ++b) {
+        int k;
+        for (k = 0; k < p.bodies[b].node_count; ++k)
+            p.bodies[b].nodes[k] = nts_add(p.bodies[b].nodes[k], nts_v2(1e-4 * (b % 3), -1e-4 * (b % 2)));
+        CU_ASSERT(nts_scene_set_positions(s, b, p.bodies[b].nodes, &err) == 0);
+    }
+    nts_set_allocator(counting_alloc, counting_free, NULL);
+    g_allocs = 0;
+    CU_ASSERT(nts_evaluate(ctx, s, &o, &r1, &err) == 0);
+    CU_ASSERT(nts_evaluate(ctx, s, &o, &r1, &err) == 0);
+    nts_set_allocator(NULL, NULL, NULL);
+    if (g_allocs != 0) fprintf(stderr, "\n  %ld allocations on re-evaluation\n", g_allocs);
+    ASSERT_INT_EQ(g_allocs, 0);
+    free(f1);
+    free(c1);
+    nts_context_destroy(ctx);
+    nts_context_destroy(ctx2);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void test_periodic_contact_across_the_boundary(void) {
+    /* Two disks touching across x = 0 of a periodic box: the same contacts as the
+     * same disks placed side by side in the open, shifted. */
+    test_body b[2], c[2];
+    nts_scene *sp, *so;
+    nts_options o = nts_default_options();
+    nts_result rp, ro;
+    nts_context *cp, *co;
+    int i;
+    make_polygon(&b[0], 24, 1.0, nts_v2(0.95, 5.0), 0.0);
+    make_polygon(&b[1], 24, 1.0, nts_v2(9.05, 5.0), 0.1); /* wraps: centre at -0.95 */
+    make_polygon(&c[0], 24, 1.0, nts_v2(0.95, 5.0), 0.0);
+    make_polygon(&c[1], 24, 1.0, nts_v2(-0.95, 5.0), 0.1);
+    sp = make_scene(b, 2, 10.0, 10.0);
+    so = make_scene(c, 2, 0, 0);
+    CU_ASSERT_FATAL(sp != NULL && so != NULL);
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(eval_scene(sp, &o, &rp, &cp) == 0);
+    CU_ASSERT_FATAL(eval_scene(so, &o, &ro, &co) == 0);
+    CU_ASSERT(rp.contact_count > 0);
+    ASSERT_INT_EQ(rp.contact_count, ro.contact_count);
+    ASSERT_NEAR(rp.summary.energy, ro.summary.energy, 1e-12 * ro.summary.energy);
+    for (i = 0; i < nts_scene_node_count(so); ++i) {
+        ASSERT_NEAR(rp.forces[i].x, ro.forces[i].x, 1e-12);
+        ASSERT_NEAR(rp.forces[i].y, ro.forces[i].y, 1e-12);
+    }
+    ASSERT_NEAR(rp.summary.virial.xx, ro.summary.virial.xx, 1e-12);
+    nts_context_destroy(cp);
+    nts_context_destroy(co);
+    nts_scene_destroy(sp);
+    nts_scene_destroy(so);
+}
+
+static void test_box_too_small_is_an_error(void) {
+    test_body b[2];
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_context* ctx;
+    make_polygon(&b[0], 8, 1.0, nts_v2(1, 1), 0.0);
+    make_polygon(&b[1], 8, 1.0, nts_v2(2.5, 1), 0.0);
+    s = make_scene(b, 2, 3.0, 3.0);
+    CU_ASSERT_FATAL(s != NULL);
+    o.search_radius = 1.0;
+    CU_ASSERT(eval_scene(s, &o, &r, &ctx) == NTS_EBOX_TOO_SMALL);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+}
+
+static void test_interior_nodes_get_zero_force(void) {
+    /* A triangle-mesh body (square with a centre node) pressed by a disk: the
+     * interior node's force is exactly zero, forces align with the input nodes. */
+    nts_vec2 pts[5] = {{0, 0}, {2, 0}, {1, 1}, {2, 2}, {0, 2}};
+    int tri[12] = {0, 1, 2, 1, 3, 2, 3, 4, 2, 4, 0, 2};
+    test_body disk;
+    nts_body_def defs[2];
+    nts_scene_def def = nts_default_scene_def();
+    nts_options o = nts_default_options();
+    nts_error err;
+    nts_result r;
+    nts_context* ctx;
+    nts_scene* s;
+    double fx = 0, fy = 0;
+    int i;
+    make_polygon(&disk, 16, 0.5, nts_v2(1.0, 2.45), 0.05);
+    memset(defs, 0, sizeof defs);
+    defs[0].nodes = pts;
+    defs[0].node_count = 5;
+    defs[0].triangles = tri;
+    defs[0].triangle_count = 4;
+    defs[1].nodes = disk.nodes;
+    defs[1].node_count = disk.node_count;
+    def.bodies = defs;
+    def.body_count = 2;
+    s = nts_scene_create(&def, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    CU_ASSERT_FATAL(eval_scene(s, &o, &r, &ctx) == 0);
+    CU_ASSERT(r.summary.contacts > 0);
+    ASSERT_NEAR(r.forces[2].x, 0.0, 0.0);
+    ASSERT_NEAR(r.forces[2].y, 0.0, 0.0);
+    CU_ASSERT(r.forces[3].y < 0.0 || r.forces[4].y < 0.0); /* the top corners are pushed down */
+    for (i = 0; i < nts_scene_node_count(s); ++i) {
+        fx += r.forces[i].x;
+        fy += r.forces[i].y;
+    }
+    ASSERT_NEAR(fx, 0.0, 1e-14);
+    ASSERT_NEAR(fy, 0.0, 1e-14);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+}
+
+void register_contact_suite(void) {
+    CU_pSuite s = CU_add_suite("contact", NULL, NULL);
+    ADD_TEST(s, test_outputs_only_when_asked);
+    ADD_TEST(s, test_bitwise_deterministic_and_allocation_free);
+    ADD_TEST(s, test_periodic_contact_across_the_boundary);
+    ADD_TEST(s, test_box_too_small_is_an_error);
+    ADD_TEST(s, test_interior_nodes_get_zero_force);
+}

@@ -1,0 +1,271 @@
+/* Invariants on random packings: zero net force and torque, forces = -grad E by
+ * central differences, virial = -sum f (X - Xs) = eps g^2 n n; and metamorphic
+ * tests (translation, rotation, scaling, body permutation, loop start shift,
+ * clockwise input). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+typedef struct flat_result {
+    nts_vec2* f;
+    int n;
+    double energy;
+    nts_virial vir;
+    int contacts;
+} flat_result;
+
+static flat_result run(const test_body* bodies, int count, double lx, double ly, const nts_options* o) {
+    flat_result fr;
+    nts_scene* s = make_scene(bodies, count, lx, ly);
+    nts_result r;
+    nts_context* ctx = NULL;
+    memset(&fr, 0, sizeof fr);
+    CU_ASSERT_FATAL(s != NULL);
+    CU_ASSERT_FATAL(eval_scene(s, o, &r, &ctx) == 0);
+    fr.n = nts_scene_node_count(s);
+    fr.f = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)fr.n);
+    memcpy(fr.f, r.forces, sizeof(nts_vec2) * (size_t)fr.n);
+    fr.energy = r.summary.energy;
+    fr.vir = r.summary.virial;
+    fr.contacts = r.summary.contacts;
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    return fr;
+}
+
+static nts_options opts(double alpha, nts_solver solver) {
+    nts_options o = nts_default_options();
+    o.alpha = alpha;
+    o.solver = solver;
+    o.penalty = 50.0;
+    o.outputs = NTS_OUT_ALL;
+    return o;
+}
+
+static const double alphas[] = {0.0, 0.2, 0.5};
+
+static void test_net_force_and_torque_vanish(void) {
+    int ia, sv;
+    for (ia = 0; ia < 3; ++ia)
+        for (sv = 0; sv < 2; ++sv) {
+            test_packing p = make_packing(25, 40, 1.0, 1.93, 0, 11 + ia);
+            nts_options o = opts(alphas[ia], (nts_solver)sv);
+            flat_result fr = run(p.bodies, p.count, 0, 0, &o);
+            double fx = 0, fy = 0, tq = 0, fmax = 0;
+            int b, k, g = 0;
+            CU_ASSERT(fr.contacts > 20);
+            for (b = 0; b < p.count; ++b)
+                for (k = 0; k < p.bodies[b].node_count; ++k, ++g) {
+                    nts_vec2 x = p.bodies[b].nodes[k], f = fr.f[g];
+                    fx += f.x;
+                    fy += f.y;
+                    tq += nts_cross(nts_sub(x, nts_v2(5, 5)), f);
+                    if (nts_length(f) > fmax) fmax = nts_length(f);
+                }
+            ASSERT_NEAR(fx, 0.0, 1e-13 * fmax * fr.n);
+            ASSERT_NEAR(fy, 0.0, 1e-13 * fmax * fr.n);
+            ASSERT_NEAR(tq, 0.0, 1e-12 * fmax * fr.n);
+            free(fr.f);
+            free_packing(&p);
+        }
+}
+
+static void test_forces_are_minus_energy_gradient(void) {
+    int ia;
+    for (ia = 0; ia < 3; ++ia) {
+        test_packing p = make_packing(9, 32, 1.0, 1.93, 0, 21 + ia);
+        nts_options o = opts(alphas[ia], NTS_SOLVER_CLOSED_FORM);
+        flat_result fr = run(p.bodies, p.count, 0, 0, &o);
+        const double h = 1e-7;
+        int b, k, g = 0, checked = 0;
+        double worst = 0.0;
+        for (b = 0; b < p.count; ++b)
+            for (k = 0; k < p.bodies[b].node_count; ++k, ++g) {
+                int axis;
+                if (nts_length(fr.f[g]) == 0.0 && (g % 7) != 0) continue; /* all loaded nodes, some free ones */
+                for (axis = 0; axis < 2; ++axis) {
+                    double* c = axis == 0 ? &p.bodies[b].nodes[k].x : &p.bodies[b].nodes[k].y;
+                    double x0 = *c, ep, em, fd, an;
+                    nts_scene* s;
+                    *c = x0 + h;
+                    s = make_scene(p.bodies, p.count, 0, 0);
+                    ep = scene_energy(s, &o);
+                    nts_scene_destroy(s);
+                    *c = x0 - h;
+                    s = make_scene(p.bodies, p.count, 0, 0);
+                    em = scene_energy(s, &o);
+                    nts_scene_destroy(s);
+                    *c = x0;
+                    fd = -(ep - em) / (2 * h);
+                    an = axis == 0 ? fr.f[g].x : fr.f[g].y;
+                    if (fabs(fd - an) > worst) worst = fabs(fd - an);
+                    ASSERT_NEAR(an, fd, 1e-5 * (1.0 + fabs(an)));
+                    ++checked;
+                }
+            }
+        CU_ASSERT(checked > 20);
+        free(fr.f);
+        free_packing(&p);
+    }
+}
+
+static void test_virial_identities(void) {
+    int ia;
+    for (ia = 0; ia < 3; ++ia) {
+        test_packing p = make_packing(16, 36, 1.0, 1.93, 1, 31 + ia);
+        nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+        nts_options o = opts(alphas[ia], NTS_SOLVER_NEWTON);
+        nts_result r;
+        nts_context* ctx;
+        nts_virial sum = {0, 0, 0};
+        int i;
+        CU_ASSERT_FATAL(s != NULL);
+        CU_ASSERT_FATAL(eval_scene(s, &o, &r, &ctx) == 0);
+        CU_ASSERT(r.contact_count > 10);
+        for (i = 0; i < r.contact_count; ++i) {
+            const nts_contact* c = &r.contacts[i];
+            double e = o.penalty * c->gap * c->gap, scale = e + 1e-300;
+            /* -sum f (X - Xs) (computed by the core) = eps g^2 n n (contact-model.md). */
+            ASSERT_NEAR(c->virial.xx, e * c->normal.x * c->normal.x, 1e-9 * scale);
+            ASSERT_NEAR(c->virial.yy, e * c->normal.y * c->normal.y, 1e-9 * scale);
+            ASSERT_NEAR(c->virial.xy, e * c->normal.x * c->normal.y, 1e-9 * scale);
+            sum.xx += c->virial.xx;
+            sum.yy += c->virial.yy;
+            sum.xy += c->virial.xy;
+        }
+        ASSERT_NEAR(r.summary.virial.xx, sum.xx, 1e-12 * fabs(sum.xx));
+        ASSERT_NEAR(r.summary.virial.yy, sum.yy, 1e-12 * fabs(sum.yy));
+        ASSERT_NEAR(r.summary.virial.xy, sum.xy, 1e-12 * (fabs(sum.xx) + fabs(sum.yy)));
+        nts_context_destroy(ctx);
+        nts_scene_destroy(s);
+        free_packing(&p);
+    }
+}
+
+typedef nts_vec2 (*xform_fn)(nts_vec2 x, double a);
+static nts_vec2 translate(nts_vec2 x, double a) { return nts_add(x, nts_v2(a, -0.5 * a)); }
+static nts_vec2 rotate(nts_vec2 x, double a) {
+    return nts_v2(cos(a) * x.x - sin(a) * x.y, sin(a) * x.x + cos(a) * x.y);
+}
+static nts_vec2 scale(nts_vec2 x, double a) { return nts_scale(a, x); }
+
+static void transformed_forces_match(xform_fn fn, double a, int kind) {
+    int ia;
+    for (ia = 0; ia < 3; ++ia) {
+        test_packing p = make_packing(16, 32, 1.0, 1.93, 0, 41 + ia);
+        test_packing q = make_packing(16, 32, 1.0, 1.93, 0, 41 + ia);
+        nts_options o = opts(alphas[ia], NTS_SOLVER_CLOSED_FORM);
+        flat_result r0, r1;
+        int b, k, g;
+        double fmax = 0.0;
+        for (b = 0; b < q.count; ++b)
+            for (k = 0; k < q.bodies[b].node_count; ++k) q.bodies[b].nodes[k] = fn(q.bodies[b].nodes[k], a);
+        r0 = run(p.bodies, p.count, 0, 0, &o);
+        if (kind == 2) o.search_radius = -1.0; /* longest segment scales too */
+        r1 = run(q.bodies, q.count, 0, 0, &o);
+        ASSERT_INT_EQ(r1.contacts, r0.contacts);
+        for (g = 0; g < r0.n; ++g) if (nts_length(r0.f[g]) > fmax) fmax = nts_length(r0.f[g]);
+        for (g = 0; g < r0.n; ++g) {
+            nts_vec2 expect = r0.f[g];
+            if (kind == 1) expect = rotate(expect, a);
+            if (kind == 2) expect = nts_scale(a, expect); /* f = eps g n: g scales */
+            /* Translation by 1e6 loses the digits of the coordinates: 1e6 * eps
+             * relative to segment lengths ~0.2, so about 1e-9 of the force scale. */
+            ASSERT_NEAR(r1.f[g].x, expect.x, (kind == 0 ? 1e-7 : 1e-10) * fmax * (kind == 2 ? a : 1.0));
+            ASSERT_NEAR(r1.f[g].y, expect.y, (kind == 0 ? 1e-7 : 1e-10) * fmax * (kind == 2 ? a : 1.0));
+        }
+        if (kind == 2) ASSERT_NEAR(r1.energy, a * a * r0.energy, 1e-9 * a * a * r0.energy);
+        else ASSERT_NEAR(r1.energy, r0.energy, (kind == 0 ? 1e-6 : 1e-10) * r0.energy);
+        free(r0.f);
+        free(r1.f);
+        free_packing(&p);
+        free_packing(&q);
+    }
+}
+
+static void test_translation_invariance(void) {
+    transformed_forces_match(translate, 3.25, 0);
+    transformed_forces_match(translate, 1e6, 0);
+}
+static void test_rotation_covariance(void) { transformed_forces_match(rotate, 0.7, 1); }
+static void test_scaling(void) {
+    transformed_forces_match(scale, 3.0, 2);
+    transformed_forces_match(scale, 1e-3, 2);
+}
+
+static void test_permuting_bodies(void) {
+    test_packing p = make_packing(12, 32, 1.0, 1.93, 0, 51);
+    test_body* rev = (test_body*)malloc(sizeof(test_body) * (size_t)p.count);
+    nts_options o = opts(0.2, NTS_SOLVER_CLOSED_FORM);
+    flat_result r0, r1;
+    int b, k;
+    for (b = 0; b < p.count; ++b) rev[b] = p.bodies[p.count - 1 - b];
+    r0 = run(p.bodies, p.count, 0, 0, &o);
+    r1 = run(rev, p.count, 0, 0, &o);
+    ASSERT_INT_EQ(r1.contacts, r0.contacts);
+    ASSERT_NEAR(r1.energy, r0.energy, 1e-13 * r0.energy);
+    for (b = 0; b < p.count; ++b)
+        for (k = 0; k < 32; ++k) {
+            nts_vec2 f0 = r0.f[32 * b + k], f1 = r1.f[32 * (p.count - 1 - b) + k];
+            ASSERT_NEAR(f1.x, f0.x, 1e-12);
+            ASSERT_NEAR(f1.y, f0.y, 1e-12);
+        }
+    free(r0.f);
+    free(r1.f);
+    free(rev);
+    free_packing(&p);
+}
+
+static void test_loop_start_and_direction(void) {
+    /* The same loops given from another start node, and clockwise: identical
+     * forces (the features and their tie-break keys are the same). */
+    test_packing p = make_packing(9, 30, 1.0, 1.93, 0, 61);
+    test_packing q = make_packing(9, 30, 1.0, 1.93, 0, 61);
+    test_packing w = make_packing(9, 30, 1.0, 1.93, 0, 61);
+    nts_options o = opts(0.2, NTS_SOLVER_CLOSED_FORM);
+    flat_result r0, r1, r2;
+    int b, k;
+    for (b = 0; b < q.count; ++b) {
+        q.bodies[b].loop_count = 1;
+        q.bodies[b].loop_start[0] = 0;
+        q.bodies[b].loop_start[1] = 30;
+        w.bodies[b].loop_count = 1;
+        w.bodies[b].loop_start[0] = 0;
+        w.bodies[b].loop_start[1] = 30;
+        for (k = 0; k < 30; ++k) {
+            q.bodies[b].loop_nodes[k] = (k + 7 + b) % 30;   /* shifted start */
+            w.bodies[b].loop_nodes[k] = (30 - k + b) % 30;  /* clockwise */
+        }
+    }
+    r0 = run(p.bodies, p.count, 0, 0, &o);
+    r1 = run(q.bodies, q.count, 0, 0, &o);
+    r2 = run(w.bodies, w.count, 0, 0, &o);
+    ASSERT_INT_EQ(r1.contacts, r0.contacts);
+    ASSERT_INT_EQ(r2.contacts, r0.contacts);
+    for (k = 0; k < r0.n; ++k) {
+        ASSERT_NEAR(r1.f[k].x, r0.f[k].x, 1e-13);
+        ASSERT_NEAR(r1.f[k].y, r0.f[k].y, 1e-13);
+        ASSERT_NEAR(r2.f[k].x, r0.f[k].x, 1e-13);
+        ASSERT_NEAR(r2.f[k].y, r0.f[k].y, 1e-13);
+    }
+    free(r0.f);
+    free(r1.f);
+    free(r2.f);
+    free_packing(&p);
+    free_packing(&q);
+    free_packing(&w);
+}
+
+void register_invariants_suite(void) {
+    CU_pSuite s = CU_add_suite("invariants", NULL, NULL);
+    ADD_TEST(s, test_net_force_and_torque_vanish);
+    ADD_TEST(s, test_forces_are_minus_energy_gradient);
+    ADD_TEST(s, test_virial_identities);
+    ADD_TEST(s, test_translation_invariance);
+    ADD_TEST(s, test_rotation_covariance);
+    ADD_TEST(s, test_scaling);
+    ADD_TEST(s, test_permuting_bodies);
+    ADD_TEST(s, test_loop_start_and_direction);
+}
