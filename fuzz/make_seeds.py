@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-"""Write the hand-made seed scenes of the fuzzer (fuzz/seeds/), small on
+"""Write the seeds of the fuzzer. fuzz/seeds/: hand-made scenes, small on
 purpose (a few dozen nodes) so that libFuzzer mutates them quickly: every way
 a body can be given (implicit loop, explicit loops with a hole, triangle mesh),
 a clockwise body, a periodic box, both solvers, every output, string and
-integer ids. Re-run after changing the contract; the files are committed."""
+integer ids. fuzz/corpus/cat-*.json: every case of the CLI's malformed
+catalogue (tests/python/malformed/cases.json) given by its bytes (the
+generated ones, a huge file and deep nesting, are left to the fuzzer).
+Re-run after changing the contract or the catalogue; the files are committed."""
 import json
 import math
 import os
@@ -66,7 +69,30 @@ def seeds():
                       "bodies": [{"id": 0, "nodes": [[0, 0], [1, 0], [0, 1]]}]}
 
 
+def catalogue():
+    path = os.path.join(HERE, "..", "tests", "python", "malformed", "cases.json")
+    if not os.path.exists(path):
+        return
+    with open(path) as f:
+        cases = json.load(f)["cases"]
+    for case in cases:
+        if "text" in case:
+            data = case["text"].encode("utf-8")
+        elif "text_latin1" in case:
+            data = case["text_latin1"].encode("latin-1")
+        elif "scene" in case:
+            data = json.dumps(case["scene"], separators=(",", ":")).encode("utf-8")
+        else:
+            continue
+        yield case["name"], data
+
+
 def main():
+    corpus = os.path.join(HERE, "corpus")
+    os.makedirs(corpus, exist_ok=True)
+    for name, data in catalogue():
+        with open(os.path.join(corpus, "cat-%s.json" % name), "wb") as f:
+            f.write(data)
     out = os.path.join(HERE, "seeds")
     os.makedirs(out, exist_ok=True)
     for name, scene in seeds():
