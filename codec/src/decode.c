@@ -610,6 +610,9 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
         snprintf(out + n, size - (size_t)n, "/loops/%d", err->loop);
     else if (err->node >= 0)
         snprintf(out + n, size - (size_t)n, "/nodes/%d", err->node);
+    else if (!s->has_loops[err->body] && s->defs[err->body].triangle_count == 0 &&
+             (err->code == NTS_ELOOP_TOO_SHORT || err->code == NTS_EZERO_AREA))
+        snprintf(out + n, size - (size_t)n, "/nodes"); /* the implicit loop through all nodes */
     else if (err->code == NTS_ENO_NODES)
         snprintf(out + n, size - (size_t)n, "/nodes");
 }

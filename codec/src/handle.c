@@ -139,12 +139,13 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     }
 
     ntsj_buf_init(&b);
-    if (cfg.mode == NTSJ_VALIDATE) {
-        ntsj_encode_validation(&b, scene, round_us(now_ms() - t0), pretty);
-    } else {
+    {
         nts_options opt = s.options;
-        /* The summary is always complete: energy and virial are always computed. */
-        opt.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+        /* The summary is always complete: energy and virial are always computed.
+         * Validation evaluates too (with no arrays): faults that depend on the
+         * options and the whole scene (a periodic box too small for the search
+         * reach) only show there, and "valid" must mean "evaluates". */
+        opt.outputs = cfg.mode == NTSJ_VALIDATE ? 0u : (opt.outputs | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
         ctx = nts_context_create();
         if (!ctx) {
             nts_scene_destroy(scene);
@@ -161,6 +162,8 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         } else if (rc != 0) {
             rc = respond_core(out, &s, &err, rc, pretty);
             done = 1;
+        } else if (cfg.mode == NTSJ_VALIDATE) {
+            ntsj_encode_validation(&b, scene, round_us(elapsed), pretty);
         } else {
             ntsj_encode_result(&b, &s, scene, &result, round_us(elapsed), pretty);
         }

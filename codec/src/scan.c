@@ -241,6 +241,7 @@ static int scan_container(scanner* s) {
             ++l->index;
         } else {
             const char* k;
+            l->key = NULL; /* a fault before the next key points at the object */
             skip_ws(s);
             if (s->p >= s->end || *s->p != '"') return scan_fail(s, "invalid_json", "object key (a string) expected");
             k = s->p + 1;
