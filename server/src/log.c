@@ -25,14 +25,26 @@ static void write_line(char* line, int n, size_t cap) {
     }
 }
 
-void ntsd_log_message(const char* fmt, ...) {
+static void log_line(const char* fmt, va_list ap) {
     char line[1024];
     int n = snprintf(line, sizeof line, "ntscontactd: ");
+    n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+    write_line(line, n, sizeof line);
+}
+
+void ntsd_log_message(const char* fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
-    n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+    log_line(fmt, ap);
     va_end(ap);
-    write_line(line, n, sizeof line);
+}
+
+void ntsd_log_info(const char* fmt, ...) {
+    va_list ap;
+    if (log_quiet) return;
+    va_start(ap, fmt);
+    log_line(fmt, ap);
+    va_end(ap);
 }
 
 void ntsd_log_mhd(void* cls, const char* fmt, va_list ap) {

@@ -39,8 +39,7 @@ int main(int argc, char** argv) {
     else
         printf("ntscontactd listening on %s:%u\n", cfg.host, server.port);
     fflush(stdout);
-    if (!cfg.quiet)
-        ntsd_log_message("threading=%s threads=%d max-body=%zu timeout=%us max-connections=%u",
+    ntsd_log_info("threading=%s threads=%d max-body=%zu timeout=%us max-connections=%u",
                          ntsd_threading_name(cfg.threading), cfg.threads, cfg.max_body, cfg.timeout_s,
                          cfg.max_connections);
 
@@ -48,7 +47,7 @@ int main(int argc, char** argv) {
         rc = sigwait(&stop_signals, &sig);
     } while (rc != 0);
 
-    ntsd_log_message("%s: stopping, %d request(s) in flight", sig == SIGINT ? "SIGINT" : "SIGTERM",
+    ntsd_log_info("%s: stopping, %d request(s) in flight", sig == SIGINT ? "SIGINT" : "SIGTERM",
                      ntsd_server_in_flight(&server));
     ntsd_server_quiesce(&server);
     while (ntsd_server_in_flight(&server) > 0) {
@@ -59,6 +58,6 @@ int main(int argc, char** argv) {
         }
     }
     ntsd_server_stop(&server);
-    ntsd_log_message("stopped after %llu request(s)", server.served);
+    ntsd_log_info("stopped after %llu request(s)", server.served);
     return 0;
 }

@@ -55,12 +55,15 @@ void ntsd_body_free(ntsd_body* b);
 /* ------------------------------------------------------------------- log */
 
 void ntsd_log_set_quiet(int quiet);
-/* A free-form line "ntscontactd: ..." (always printed, even when quiet). */
-void ntsd_log_message(const char* fmt, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 1, 2)))
+#define NTSD_PRINTF_LIKE __attribute__((format(printf, 1, 2)))
+#else
+#define NTSD_PRINTF_LIKE
 #endif
-    ;
+/* A line "ntscontactd: ..." for a fault: printed even when quiet. */
+void ntsd_log_message(const char* fmt, ...) NTSD_PRINTF_LIKE;
+/* A line "ntscontactd: ..." about the daemon's life: silent when quiet. */
+void ntsd_log_info(const char* fmt, ...) NTSD_PRINTF_LIKE;
 /* One line per request: method, path, status, code, bytes in/out, milliseconds. */
 void ntsd_log_request(const char* peer, const char* method, const char* path, int status,
                       const char* code, size_t bytes_in, size_t bytes_out, double ms);

@@ -1,0 +1,672 @@
+"""ntscontactd over HTTP on 127.0.0.1: every endpoint, every body checked
+against the schemas, answers equal to the CLI's (elapsed_ms aside), the
+malformed catalogue, concurrency, slow and vanishing clients, overload and a
+graceful SIGTERM. The daemon comes from the `daemon` / `daemon_factory`
+fixtures (conftest.py); binaries from $NTS_BUILD_DIR/bin."""
+import http.client
+import json
+import math
+import re
+import signal
+import socket
+import subprocess
+import threading
+import time
+import urllib.parse
+
+import jsonschema
+import pytest
+import requests
+
+JSON = {"Content-Type": "application/json"}
+ELAPSED = re.compile(rb'"elapsed_ms":\s*[-+0-9.eE]+')
+EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
+
+
+# ------------------------------------------------------------------ helpers
+
+def strip_elapsed(body: bytes) -> bytes:
+    """The body with elapsed_ms blanked: the only field allowed to differ."""
+    return ELAPSED.sub(b'"elapsed_ms":0', body)
+
+
+def wait_until(predicate, seconds=20.0, step=0.05):
+    """Poll predicate() until true; bounded. Returns the last value."""
+    end = time.monotonic() + seconds
+    value = predicate()
+    while not value and time.monotonic() < end:
+        time.sleep(step)
+        value = predicate()
+    return value
+
+
+def recv_all(sock, limit=1 << 22):
+    """Read until the peer closes (or `limit` bytes). Connection resets count as close."""
+    out = b""
+    try:
+        while len(out) < limit:
+            chunk = sock.recv(65536)
+            if not chunk:
+                break
+            out += chunk
+    except (ConnectionResetError, BrokenPipeError):
+        pass
+    return out
+
+
+def raw_response(port, data, timeout=20):
+    """Send raw bytes, read until close, return (status, headers, body)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=timeout) as s:
+        s.sendall(data)
+        out = recv_all(s)
+    head, _, body = out.partition(b"\r\n\r\n")
+    lines = head.split(b"\r\n")
+    status = int(lines[0].split()[1]) if lines and lines[0].startswith(b"HTTP/1.") else 0
+    headers = {}
+    for line in lines[1:]:
+        k, _, v = line.partition(b":")
+        headers[k.strip().lower().decode()] = v.strip().decode()
+    return status, headers, body
+
+
+def disks_scene(nx, ny, nodes, pitch=1.95):
+    """Pressed disks on a grid: every neighbour pair overlaps."""
+    bodies = []
+    for j in range(ny):
+        for i in range(nx):
+            bodies.append({"id": f"d{i}_{j}", "nodes": [
+                [i * pitch + math.cos(2 * math.pi * k / nodes), j * pitch + math.sin(2 * math.pi * k / nodes)]
+                for k in range(nodes)]})
+    return {"version": 1, "options": {"alpha": 0.2, "penalty": 100.0}, "bodies": bodies}
+
+
+def case_bytes(case):
+    """The request bytes of a malformed-catalogue case."""
+    if "text" in case:
+        return case["text"].encode("utf-8")
+    if "text_latin1" in case:
+        return case["text_latin1"].encode("latin-1")
+    if "scene" in case:
+        return json.dumps(case["scene"]).encode()
+    kind = case["generate"]
+    if kind == "deep_nodes":
+        d = case["depth"]
+        return (b'{"version":1,"options":{"penalty":1},"bodies":[{"id":"a","nodes":'
+                + b"[" * d + b"0" + b"]" * d + b"}]}")
+    if kind == "deep_root_field":
+        d = case["depth"]
+        return b'{"x":' + b"[" * d + b"]" * d + b"}"
+    raise ValueError(kind)
+
+
+@pytest.fixture(scope="module")
+def validators(schemas, paths):
+    openapi = json.loads((paths.schemas / "openapi.json").read_text())
+    v = {name: jsonschema.Draft202012Validator(s) for name, s in schemas.items()}
+    v["health"] = jsonschema.Draft202012Validator(openapi["components"]["schemas"]["Health"])
+    return v
+
+
+def check_body(validators, r, kind):
+    """Parse a response body as JSON and validate it: kind result | error | health."""
+    assert r.headers["Content-Type"].startswith("application/json"), r.headers
+    doc = r.json()
+    validators[kind].validate(doc)
+    return doc
+
+
+def check_error(validators, r, status, code):
+    assert r.status_code == status, (r.status_code, r.text)
+    doc = check_body(validators, r, "error")
+    assert doc["error"]["code"] == code, doc
+    return doc
+
+
+@pytest.fixture(scope="module")
+def cli_answers(paths):
+    """The CLI's output for each bundled example: {(name, validate): bytes}."""
+    out = {}
+    for name in EXAMPLES:
+        f = paths.examples / f"{name}.json"
+        for validate in (False, True):
+            args = [str(paths.cli)] + (["--validate"] if validate else []) + [str(f)]
+            p = subprocess.run(args, capture_output=True, timeout=120)
+            assert p.returncode == 0, p.stderr
+            out[(name, validate)] = p.stdout
+    return out
+
+
+@pytest.fixture(scope="module")
+def example_bodies(paths):
+    return {name: (paths.examples / f"{name}.json").read_bytes() for name in EXAMPLES}
+
+
+@pytest.fixture(scope="module")
+def malformed(paths):
+    return json.loads((paths.repo / "tests/python/malformed/cases.json").read_text())["cases"]
+
+
+# ---------------------------------------------------------------- endpoints
+
+def test_health(daemon, validators, paths):
+    r = requests.get(daemon.url("/v1/health"), timeout=10)
+    assert r.status_code == 200
+    doc = check_body(validators, r, "health")
+    assert doc["status"] == "ok"
+    version = subprocess.run([str(paths.cli), "--version"], capture_output=True, text=True, timeout=30)
+    assert doc["version"] in version.stdout + version.stderr
+    assert doc["server"]["max_body"] == 64 << 20
+    served = doc["requests_served"]
+    r2 = requests.get(daemon.url("/v1/health"), timeout=10).json()
+    assert r2["requests_served"] >= served + 1
+    assert r2["uptime_s"] >= doc["uptime_s"]
+
+
+def test_head_has_headers_only(daemon):
+    r = requests.head(daemon.url("/v1/health"), timeout=10)
+    assert r.status_code == 200 and r.content == b""
+    assert r.headers["Content-Type"] == "application/json"
+
+
+@pytest.mark.parametrize("name", ["scene", "result", "error"])
+def test_schemas_are_the_files(daemon, paths, name):
+    r = requests.get(daemon.url(f"/v1/schemas/{name}"), timeout=10)
+    assert r.status_code == 200
+    assert r.headers["Content-Type"] == "application/schema+json"
+    assert r.content == (paths.schemas / f"{name}.schema.json").read_bytes()
+    jsonschema.Draft202012Validator.check_schema(r.json())
+
+
+def collect_refs(node, out):
+    if isinstance(node, dict):
+        for k, v in node.items():
+            if k == "$ref" and isinstance(v, str):
+                out.append(v)
+            else:
+                collect_refs(v, out)
+    elif isinstance(node, list):
+        for v in node:
+            collect_refs(v, out)
+    return out
+
+
+def resolve_pointer(doc, fragment):
+    for token in [t for t in fragment.lstrip("/").split("/") if t]:
+        doc = doc[token.replace("~1", "/").replace("~0", "~")]
+    return doc
+
+
+def test_openapi_document_references_resolve(daemon, paths):
+    url = daemon.url("/v1/openapi.json")
+    r = requests.get(url, timeout=10)
+    assert r.status_code == 200
+    doc = r.json()
+    assert doc["openapi"].startswith("3.1.")
+    assert set(doc["paths"]) == {"/v1/contact", "/v1/validate", "/v1/health", "/v1/schemas/{name}",
+                                 "/v1/openapi.json"}
+    assert set(doc["paths"]["/v1/contact"]) == {"post"}
+    refs = collect_refs(doc, [])
+    external = {ref for ref in refs if not ref.startswith("#")}
+    assert {ref.split("#")[0] for ref in external} == {"schemas/scene", "schemas/result", "schemas/error"}
+    for ref in refs:
+        target, _, fragment = ref.partition("#")
+        if target:
+            # Relative to the document's own URL, as a client resolves it.
+            rr = requests.get(urllib.parse.urljoin(url, target), timeout=10)
+            assert rr.status_code == 200, ref
+            name = target.rsplit("/", 1)[1]
+            assert rr.content == (paths.schemas / f"{name}.schema.json").read_bytes()
+            resolve_pointer(rr.json(), fragment)
+        else:
+            resolve_pointer(doc, fragment)
+    # The repository's copy refers to the files next to it.
+    text = (paths.schemas / "openapi.json").read_text()
+    for ref in collect_refs(json.loads(text), []):
+        target = ref.partition("#")[0]
+        if target:
+            assert (paths.schemas / target).is_file(), ref
+    assert json.loads(text)["paths"].keys() == doc["paths"].keys()
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_contact_equals_cli(daemon, validators, cli_answers, example_bodies, name):
+    r = requests.post(daemon.url("/v1/contact"), data=example_bodies[name], headers=JSON, timeout=60)
+    assert r.status_code == 200, r.text
+    doc = check_body(validators, r, "result")
+    assert "summary" in doc and "valid" not in doc
+    assert strip_elapsed(r.content) == strip_elapsed(cli_answers[(name, False)])
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_validate_equals_cli(daemon, validators, cli_answers, example_bodies, name):
+    r = requests.post(daemon.url("/v1/validate"), data=example_bodies[name], headers=JSON, timeout=60)
+    assert r.status_code == 200, r.text
+    doc = check_body(validators, r, "result")
+    assert doc["valid"] is True
+    assert strip_elapsed(r.content) == strip_elapsed(cli_answers[(name, True)])
+
+
+def test_pretty_equals_cli_pretty(daemon, paths, example_bodies):
+    f = paths.examples / "two_disks.json"
+    cli = subprocess.run([str(paths.cli), "--pretty", str(f)], capture_output=True, timeout=60)
+    assert cli.returncode == 0
+    r = requests.post(daemon.url("/v1/contact?pretty=1"), data=example_bodies["two_disks"], headers=JSON,
+                      timeout=60)
+    assert r.status_code == 200
+    assert b"\n  " in r.content
+    assert strip_elapsed(r.content) == strip_elapsed(cli.stdout)
+
+
+def test_keep_alive_serves_several_requests(daemon, example_bodies):
+    conn = http.client.HTTPConnection("127.0.0.1", daemon.port, timeout=30)
+    try:
+        for _ in range(3):
+            conn.request("POST", "/v1/contact", example_bodies["two_disks"], JSON)
+            r = conn.getresponse()
+            assert r.status == 200 and r.getheader("Connection") != "close"
+            r.read()
+            conn.request("GET", "/v1/health")
+            r = conn.getresponse()
+            assert r.status == 200
+            r.read()
+    finally:
+        conn.close()
+
+
+@pytest.mark.parametrize("path", ["/", "/v1", "/v1/contact/", "/v2/contact", "/v1/schemas/", "/v1/schemas/openapi",
+                                  "/v1/schemas/scene.schema.json", "/v1/healthz"])
+def test_not_found(daemon, validators, path):
+    check_error(validators, requests.get(daemon.url(path), timeout=10), 404, "not_found")
+
+
+@pytest.mark.parametrize("method,path,allow", [
+    ("GET", "/v1/contact", "POST"),
+    ("PUT", "/v1/contact", "POST"),
+    ("DELETE", "/v1/validate", "POST"),
+    ("POST", "/v1/health", "GET, HEAD"),
+    ("PUT", "/v1/schemas/scene", "GET, HEAD"),
+    ("POST", "/v1/openapi.json", "GET, HEAD"),
+])
+def test_method_not_allowed(daemon, validators, method, path, allow):
+    r = requests.request(method, daemon.url(path), timeout=10)
+    check_error(validators, r, 405, "method_not_allowed")
+    assert r.headers["Allow"] == allow
+
+
+def test_method_not_allowed_with_a_body(daemon, validators, example_bodies):
+    r = requests.put(daemon.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=10)
+    check_error(validators, r, 405, "method_not_allowed")
+    assert r.headers["Allow"] == "POST"
+
+
+@pytest.mark.parametrize("ctype", ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data",
+                                   "application/xml", "application/jsonx", "json"])
+def test_unsupported_media_type(daemon, validators, example_bodies, ctype):
+    r = requests.post(daemon.url("/v1/contact"), data=example_bodies["two_disks"],
+                      headers={"Content-Type": ctype}, timeout=10)
+    check_error(validators, r, 415, "unsupported_media_type")
+
+
+@pytest.mark.parametrize("ctype", ["application/json", "application/json; charset=utf-8", "Application/JSON",
+                                   "application/vnd.ntscontact.scene+json", None])
+def test_json_media_types_accepted(daemon, example_bodies, cli_answers, ctype):
+    headers = {"Content-Type": ctype} if ctype else {}
+    r = requests.post(daemon.url("/v1/contact"), data=example_bodies["two_disks"], headers=headers, timeout=30)
+    if ctype is None:
+        # requests sends no Content-Type for bytes: taken as JSON.
+        assert "Content-Type" not in r.request.headers
+    assert r.status_code == 200
+    assert strip_elapsed(r.content) == strip_elapsed(cli_answers[("two_disks", False)])
+
+
+# ------------------------------------------------------------------- limits
+
+def test_413_from_content_length_before_the_body(daemon_factory, validators):
+    d = daemon_factory("--max-body", "4096")
+    # Headers only: the answer must come without the body ever being sent.
+    with socket.create_connection(("127.0.0.1", d.port), timeout=20) as s:
+        s.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+                  b"Content-Length: 4097\r\n\r\n")
+        out = recv_all(s)
+    assert out.startswith(b"HTTP/1.1 413 "), out[:200]
+    body = json.loads(out.partition(b"\r\n\r\n")[2])
+    validators["error"].validate(body)
+    assert body["error"]["code"] == "payload_too_large"
+    # Exactly at the limit is fine: a valid scene padded with spaces.
+    scene = json.dumps(disks_scene(2, 1, 16)).encode()
+    body = scene + b" " * (4096 - len(scene))
+    assert len(body) == 4096
+    r = requests.post(d.url("/v1/contact"), data=body, headers=JSON, timeout=30)
+    assert r.status_code == 200, r.text
+    check_body(validators, r, "result")
+    r = requests.post(d.url("/v1/contact"), data=body + b" ", headers=JSON, timeout=30)
+    check_error(validators, r, 413, "payload_too_large")
+    assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+
+
+def test_413_for_a_chunked_body_found_while_reading(daemon_factory, validators):
+    d = daemon_factory("--max-body", "4096")
+
+    def chunks():
+        for _ in range(10):
+            yield b" " * 1000
+        yield b"{}"
+
+    r = requests.post(d.url("/v1/contact"), data=chunks(), headers=JSON, timeout=30)
+    assert r.request.headers.get("Transfer-Encoding") == "chunked"
+    check_error(validators, r, 413, "payload_too_large")
+    # A small chunked body is read whole.
+    scene = json.dumps(disks_scene(2, 1, 16)).encode()
+    r = requests.post(d.url("/v1/contact"), data=iter([scene[:100], scene[100:]]), headers=JSON, timeout=30)
+    assert r.status_code == 200, r.text
+    check_body(validators, r, "result")
+
+
+def test_huge_content_length_with_default_limit(daemon, validators):
+    status, headers, body = raw_response(
+        daemon.port, b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+        b"Content-Length: 67108865\r\n\r\n{")
+    assert status == 413
+    doc = json.loads(body)
+    validators["error"].validate(doc)
+    assert doc["error"]["code"] == "payload_too_large"
+
+
+# ------------------------------------------------------- malformed catalogue
+
+def test_malformed_catalogue_over_http(daemon, validators, malformed):
+    statuses = {}
+    for case in malformed:
+        if case.get("generate") == "huge":
+            # The server answers from Content-Length alone, before any byte of the body.
+            n = case["bytes"]
+            status, _, body = raw_response(
+                daemon.port, b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+                b"Content-Length: %d\r\n\r\n" % n)
+            doc = json.loads(body)
+        else:
+            r = requests.post(daemon.url("/v1/contact"), data=case_bytes(case), headers=JSON, timeout=60)
+            status, doc = r.status_code, r.json()
+            assert r.headers["Content-Type"] == "application/json"
+        validators["error"].validate(doc)
+        assert doc["error"]["code"] == case["code"], (case["name"], doc)
+        assert doc["error"]["pointer"] == case["pointer"], (case["name"], doc)
+        assert 400 <= status < 500, (case["name"], status)
+        statuses[case["name"]] = status
+    assert statuses["huge_file"] == 413
+    assert {s for n, s in statuses.items() if n != "huge_file"} == {400}
+    r = requests.get(daemon.url("/v1/health"), timeout=10)
+    assert r.status_code == 200 and r.json()["status"] == "ok"
+
+
+def test_malformed_catalogue_on_validate(daemon, validators, malformed):
+    for case in malformed:
+        if "generate" in case:
+            continue
+        r = requests.post(daemon.url("/v1/validate"), data=case_bytes(case), headers=JSON, timeout=60)
+        doc = check_error(validators, r, 400, case["code"])
+        assert doc["error"]["pointer"] == case["pointer"], case["name"]
+
+
+def test_garbage_requests_do_not_hurt(daemon_factory):
+    """Broken HTTP itself: libmicrohttpd answers (its own 4xx pages, before our
+    handler runs) or closes at the timeout at the latest; the daemon lives on."""
+    d = daemon_factory("--timeout", "2")
+    garbage = [
+        b"\x00\x01\x02\r\n\r\n",
+        b"GET\r\n\r\n",
+        b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Length: -5\r\n\r\n",
+        b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Length: 99999999999999999999999\r\n\r\n",
+        b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n",
+        b"GET /v1/health HTTP/1.1\r\nHost: t\r\n" + b"X-Long: " + b"a" * 300000 + b"\r\n\r\n",
+        b"GET /" + b"a" * 200000 + b" HTTP/1.1\r\nHost: t\r\n\r\n",
+    ]
+    for g in garbage:
+        status, _, _ = raw_response(d.port, g, timeout=30)
+        assert status == 0 or 400 <= status < 500, (g[:40], status)
+    assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+
+
+# --------------------------------------------------------------- concurrency
+
+def test_concurrency_8_threads_x_50_requests(daemon, validators, cli_answers, example_bodies, malformed):
+    """Mixed requests from 8 threads; each answer equal to the CLI's."""
+    bad = [c for c in malformed if "generate" not in c][:10]
+    plan = []
+    for i in range(50):
+        k = i % 10
+        if k < 4:
+            plan.append(("contact", EXAMPLES[k % len(EXAMPLES)]))
+        elif k < 6:
+            plan.append(("validate", EXAMPLES[(k + i) % len(EXAMPLES)]))
+        elif k < 8:
+            plan.append(("bad", bad[i % len(bad)]))
+        else:
+            plan.append(("health", None))
+    failures = []
+
+    def client(t):
+        session = requests.Session()
+        try:
+            for j, (kind, arg) in enumerate(plan[t:] + plan[:t]):  # each thread its own order
+                if kind in ("contact", "validate"):
+                    r = session.post(daemon.url(f"/v1/{kind}"), data=example_bodies[arg], headers=JSON, timeout=120)
+                    want = strip_elapsed(cli_answers[(arg, kind == "validate")])
+                    if r.status_code != 200 or strip_elapsed(r.content) != want:
+                        failures.append((t, j, kind, arg, r.status_code))
+                elif kind == "bad":
+                    r = session.post(daemon.url("/v1/contact"), data=case_bytes(arg), headers=JSON, timeout=60)
+                    doc = r.json()
+                    if r.status_code != 400 or doc["error"]["code"] != arg["code"] or \
+                            doc["error"]["pointer"] != arg["pointer"]:
+                        failures.append((t, j, kind, arg["name"], r.status_code))
+                else:
+                    r = session.get(daemon.url("/v1/health"), timeout=60)
+                    validators["health"].validate(r.json())
+                    if r.status_code != 200:
+                        failures.append((t, j, kind, None, r.status_code))
+        except Exception as e:  # noqa: BLE001 - reported below
+            failures.append((t, "exception", repr(e)))
+        finally:
+            session.close()
+
+    before = requests.get(daemon.url("/v1/health"), timeout=10).json()["requests_served"]
+    threads = [threading.Thread(target=client, args=(t,)) for t in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=600)
+    assert not any(t.is_alive() for t in threads)
+    assert failures == []
+    after = requests.get(daemon.url("/v1/health"), timeout=10).json()["requests_served"]
+    assert after - before >= 8 * 50
+
+
+# ------------------------------------------------------ slow and gone clients
+
+def test_slow_upload_is_cut_off_and_others_are_served(daemon_factory, cli_answers, example_bodies):
+    d = daemon_factory("--timeout", "2")
+    slow = socket.create_connection(("127.0.0.1", d.port), timeout=30)
+    slow.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+                 b"Content-Length: 1000\r\n\r\n")
+    result = {}
+
+    def trickle():
+        # One byte every 0.25 s: never idle for the 2 s timeout, yet 250 s for the whole body.
+        sent = 0
+        try:
+            for _ in range(1000):
+                slow.sendall(b" ")
+                sent += 1
+                time.sleep(0.25)
+        except OSError:
+            pass
+        result["sent"] = sent
+
+    t = threading.Thread(target=trickle)
+    t.start()
+    # Meanwhile other clients are answered in full.
+    for _ in range(10):
+        r = requests.post(d.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=30)
+        assert r.status_code == 200
+        assert strip_elapsed(r.content) == strip_elapsed(cli_answers[("two_disks", False)])
+    t.join(timeout=60)
+    assert not t.is_alive()
+    slow.close()
+    assert result["sent"] < 1000  # the server closed the connection long before the body was complete
+    assert "upload_timeout" in d.log()
+    assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+
+
+def test_idle_connection_is_closed_by_the_timeout(daemon_factory):
+    d = daemon_factory("--timeout", "1")
+    with socket.create_connection(("127.0.0.1", d.port), timeout=30) as s:
+        s.sendall(b"GET /v1/health HTTP/1.1\r\nHost: t\r\n")  # headers never finished
+        assert recv_all(s) == b""  # closed by the server, no answer
+    assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+
+
+def in_flight(d):
+    # The health request itself is in flight while it is answered.
+    return requests.get(d.url("/v1/health"), timeout=10).json()["requests_in_flight"] - 1
+
+
+def test_mid_upload_disconnect(daemon_factory, cli_answers, example_bodies):
+    d = daemon_factory()
+    body = example_bodies["jittered_packing"]
+    for i in range(20):
+        s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+        s.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
+                  b"Content-Length: %d\r\n\r\n" % len(body) + body[: len(body) // 2])
+        if i % 2:  # half of them reset the connection instead of closing it
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, b"\x01\x00\x00\x00\x00\x00\x00\x00")
+        s.close()
+    # Every abandoned request is completed (its state freed) and nothing hangs.
+    assert wait_until(lambda: in_flight(d) == 0)
+    r = requests.post(d.url("/v1/contact"), data=body, headers=JSON, timeout=60)
+    assert r.status_code == 200
+    assert strip_elapsed(r.content) == strip_elapsed(cli_answers[("jittered_packing", False)])
+    assert d.stop() == 0
+    log = d.log()
+    # One line each, without a status (never answered); a reset may also drop the
+    # request before its headers reach the handler: then there is no state at all.
+    assert 10 <= log.count("POST /v1/contact -") <= 20
+    assert log.count("POST /v1/contact 200") == 1
+
+
+def test_overload_answers_503(daemon_factory, validators):
+    d = daemon_factory("--max-connections", "2")
+    held = []
+    for _ in range(2):
+        c = http.client.HTTPConnection("127.0.0.1", d.port, timeout=10)
+        c.request("GET", "/v1/health")
+        r = c.getresponse()
+        assert r.status == 200
+        r.read()
+        held.append(c)  # kept alive: two connections open
+    r = requests.get(d.url("/v1/health"), timeout=10)
+    check_error(validators, r, 503, "overloaded")
+    assert r.headers["Retry-After"] == "1"
+    for c in held:
+        c.close()
+    assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=10).status_code == 200)
+
+
+# ------------------------------------------------------------------- signals
+
+def test_sigterm_finishes_requests_in_flight(daemon_factory, paths, tmp_path):
+    scene = json.dumps(disks_scene(20, 20, 64)).encode()
+    f = tmp_path / "scene.json"
+    f.write_bytes(scene)
+    cli = subprocess.run([str(paths.cli), str(f)], capture_output=True, timeout=300)
+    assert cli.returncode == 0
+    # One evaluation at a time: the others wait for it, in flight.
+    d = daemon_factory("--threads", "1")
+    results = [None] * 4
+
+    def post(i):
+        try:
+            r = requests.post(d.url("/v1/contact"), data=scene, headers=JSON, timeout=300)
+            results[i] = (r.status_code, r.content)
+        except requests.RequestException as e:
+            results[i] = (0, repr(e).encode())
+
+    threads = [threading.Thread(target=post, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    assert wait_until(lambda: in_flight(d) == 4)
+    assert d.stop(signal.SIGTERM) == 0
+    for t in threads:
+        t.join(timeout=300)
+    for status, body in results:
+        assert status == 200, body[:300]
+        assert strip_elapsed(body) == strip_elapsed(cli.stdout)
+    log = d.log()
+    assert "SIGTERM: stopping, 5 request(s) in flight" in log or "SIGTERM: stopping, 4 request(s) in flight" in log
+    assert log.count("POST /v1/contact 200") == 4
+    # Nothing listens any more.
+    with pytest.raises(OSError):
+        socket.create_connection(("127.0.0.1", d.port), timeout=5).close()
+
+
+def test_sigint_stops_with_status_0(daemon_factory):
+    d = daemon_factory()
+    assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+    assert d.stop(signal.SIGINT) == 0
+    assert "SIGINT: stopping" in d.log()
+
+
+# ------------------------------------------------------------ flags and log
+
+def test_one_log_line_per_request(daemon_factory, example_bodies):
+    d = daemon_factory()
+    requests.get(d.url("/v1/health"), timeout=10)
+    requests.post(d.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=30)
+    requests.get(d.url("/nowhere"), timeout=10)
+    assert d.stop() == 0
+    lines = [l for l in d.log().splitlines() if " /v1/" in l or " /nowhere" in l]
+    assert len(lines) == 3, lines
+    assert re.search(r" GET /v1/health 200 ok in=0 out=\d+ [0-9.]+ms$", lines[0]), lines[0]
+    assert re.search(r" POST /v1/contact 200 ok in=%d out=\d+ [0-9.]+ms$" % len(example_bodies["two_disks"]),
+                     lines[1]), lines[1]
+    assert re.search(r" GET /nowhere 404 not_found in=0 out=\d+ [0-9.]+ms$", lines[2]), lines[2]
+
+
+def test_quiet_logs_nothing(daemon_factory, example_bodies):
+    d = daemon_factory("--quiet")
+    for _ in range(3):
+        requests.post(d.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=30)
+    assert d.stop() == 0
+    assert d.log() == ""
+
+
+def test_flags_shown_by_health(daemon_factory):
+    d = daemon_factory("--threads", "3", "--max-body", "1M", "--timeout", "7", "--max-connections", "9",
+                       "--threading", "pool")
+    doc = requests.get(d.url("/v1/health"), timeout=10).json()
+    assert doc["server"] == {"threading": "pool", "threads": 3, "max_body": 1 << 20, "timeout_s": 7,
+                             "max_connections": 9}
+
+
+@pytest.mark.parametrize("args", [["--port", "70000"], ["--port", "-1"], ["--threads", "0"], ["--max-body", "12x"],
+                                  ["--timeout", "0"], ["--threading", "fibers"], ["--host", "localhost"],
+                                  ["--bogus"], ["--port"]])
+def test_bad_flags_exit_nonzero(paths, args):
+    p = subprocess.run([str(paths.bin / "ntscontactd"), *args], capture_output=True, text=True, timeout=30)
+    assert p.returncode in (1, 2), (args, p.returncode)
+    assert "ntscontactd:" in p.stderr
+    assert p.stdout == "" or "listening" not in p.stdout
+
+
+def test_help_and_version(paths):
+    p = subprocess.run([str(paths.bin / "ntscontactd"), "--help"], capture_output=True, text=True, timeout=30)
+    assert p.returncode == 0 and "--max-body" in p.stdout
+    p = subprocess.run([str(paths.bin / "ntscontactd"), "--version"], capture_output=True, text=True, timeout=30)
+    assert p.returncode == 0 and p.stdout.startswith("ntscontactd ")
+
+
+def test_port_in_use_fails_cleanly(daemon, paths):
+    p = subprocess.run([str(paths.bin / "ntscontactd"), "--port", str(daemon.port)], capture_output=True, text=True,
+                       timeout=30)
+    assert p.returncode == 1
+    assert "cannot listen" in p.stderr
