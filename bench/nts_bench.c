@@ -35,6 +35,13 @@ static double now(void) {
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+/* CPU time of the process (all threads): on a shared machine it excludes the
+ * time the benchmark waited for a core. */
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static uint64_t rng_state = 0x9E3779B97F4A7C15ull;
 static double urand(void) { /* splitmix64, uniform in [0, 1) */
@@ -221,6 +228,7 @@ static void eval_or_die(nts_context* ctx, const nts_scene* s, const nts_options*
 typedef struct timing {
     double cells, search, eval; /* ns per surface node, medians */
     double eval_min;
+    double eval_cpu; /* ns of CPU time per surface node, median */
     int reps, gaps, contacts;
     long long allocs_after_warmup; /* core allocations during the timed evaluations */
 } timing;
@@ -232,7 +240,7 @@ static int g_quick = 0;
 static timing time_eval(const nts_scene* s, const nts_options* o, double budget) {
     nts_context* ctx = nts_context_create();
     nts_result r;
-    double tc[25], ts[25], te[25], start, ph[4];
+    double tc[25], ts[25], te[25], tu[25], start, ph[4];
     long long a0;
     int k, n = nts_scene_surface_node_count(s);
     timing t;
@@ -241,9 +249,10 @@ static timing time_eval(const nts_scene* s, const nts_options* o, double budget)
     a0 = g_alloc.count;
     start = now();
     for (k = 0; k < 25; ++k) {
-        double t0 = now(), t1;
+        double u0 = cpu_now(), t0 = now(), t1;
         eval_or_die(ctx, s, o, &r);
         t1 = now();
+        tu[k] = 1e9 * (cpu_now() - u0) / n;
         nts_context_phase_times(ctx, ph);
         tc[k] = 1e9 * ph[1] / n;
         ts[k] = 1e9 * ph[2] / n;
@@ -260,6 +269,7 @@ static timing time_eval(const nts_scene* s, const nts_options* o, double budget)
     for (n = 1; n < k; ++n)
         if (te[n] < t.eval_min) t.eval_min = te[n];
     t.eval = median(te, k);
+    t.eval_cpu = median(tu, k);
     nts_context_destroy(ctx);
     return t;
 }
@@ -282,13 +292,13 @@ static FILE* open_csv(const char* dir, const char* name, const char* header) {
 }
 
 #define TIMING_HEADER \
-    "variant,scene,periodic,particles,surface_nodes,solver,alpha,threads,reps,cells_ns,search_ns,eval_ns,eval_min_ns,gaps,contacts,allocs_per_eval"
+    "variant,scene,periodic,particles,surface_nodes,solver,alpha,threads,reps,cells_ns,search_ns,eval_ns,eval_min_ns,eval_cpu_ns,gaps,contacts,allocs_per_eval"
 
 static void write_timing(FILE* f, const char* scene, int periodic, int particles, int nodes, int solver,
                          double alpha, int threads, const timing* t) {
-    fprintf(f, "%s,%s,%d,%d,%d,%s,%.2f,%d,%d,%.3f,%.3f,%.3f,%.3f,%d,%d,%.3f\n", NTS_BENCH_VARIANT, scene, periodic,
-            particles, nodes, SOLVER_NAMES[solver], alpha, threads, t->reps, t->cells, t->search, t->eval,
-            t->eval_min, t->gaps, t->contacts, (double)t->allocs_after_warmup / t->reps);
+    fprintf(f, "%s,%s,%d,%d,%d,%s,%.2f,%d,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%d,%d,%.3f\n", NTS_BENCH_VARIANT, scene,
+            periodic, particles, nodes, SOLVER_NAMES[solver], alpha, threads, t->reps, t->cells, t->search, t->eval,
+            t->eval_min, t->eval_cpu, t->gaps, t->contacts, (double)t->allocs_after_warmup / t->reps);
     fflush(f);
 }
 
@@ -774,6 +784,75 @@ static void section_peer(const char* dir) {
     }
 }
 
+/* Digest: an FNV-1a hash of every output byte (summary, forces, contacts, gaps)
+ * for a set of scenes, solvers, alphas, searches and thread counts. The "before"
+ * and "after" binaries must print the same digests: the faster core changes no
+ * bit of any result. */
+static uint64_t fnv(uint64_t h, const void* p, size_t n) {
+    const unsigned char* b = (const unsigned char*)p;
+    size_t i;
+    for (i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+static void section_digest(const char* dir) {
+    FILE* f = open_csv(dir, "digest", "scene,periodic,bodies,surface_nodes,solver,alpha,search,threads,gaps,digest");
+    int sc, sv, a, se, th;
+    for (sc = 0; sc < 7; ++sc) {
+        scene_buf b;
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        const char* name = sc < 3 ? "disks" : "packing";
+        int per = sc >= 5;
+        if (sc < 3) make_two_disks(&b, sc == 0 ? 16 : (sc == 1 ? 100 : 1000), 0.05 + 0.1 * sc);
+        else make_packing(&b, sc % 2 ? 30 : 200, per, 31u + (uint64_t)sc);
+        s = scene_from(&b);
+        for (sv = 0; sv < 2; ++sv)
+            for (a = 0; a < 4; ++a)
+                for (se = 0; se < 2; ++se)
+                    for (th = 0; th <= 3; ++th) {
+                        nts_options o = nts_default_options();
+                        nts_result r;
+                        uint64_t h = 1469598103934665603ull;
+                        if (se == 1 && (th > 0 || b.total > 3000)) continue;
+                        o.alpha = ALPHAS[a];
+                        o.solver = (nts_solver)sv;
+                        o.search = (nts_search)se;
+                        o.threads = th;
+                        o.outputs = NTS_OUT_ALL;
+                        eval_or_die(ctx, s, &o, &r);
+                        h = fnv(h, &r.summary, sizeof r.summary);
+                        h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
+                        h = fnv(h, r.contacts, sizeof(nts_contact) * (size_t)r.contact_count);
+                        h = fnv(h, r.gaps, sizeof(nts_contact) * (size_t)r.gap_count);
+                        fprintf(f, "%s,%d,%d,%d,%s,%.2f,%s,%d,%d,%016llx\n", name, per, b.nb, b.total,
+                                SOLVER_NAMES[sv], o.alpha, se ? "brute_force" : "cells", th, r.gap_count,
+                                (unsigned long long)h);
+                    }
+        nts_context_destroy(ctx);
+        nts_scene_destroy(s);
+        buf_free(&b);
+    }
+    fclose(f);
+}
+
+/* A fixed workload for profilers (callgrind, perf): 5 evaluations of a periodic
+ * packing of 2,000 particles with the default options. */
+static void section_profile(void) {
+    scene_buf b;
+    nts_scene* s;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    int k;
+    make_packing(&b, 2000, 1, 2024u);
+    s = scene_from(&b);
+    for (k = 0; k < 5; ++k) eval_or_die(ctx, s, &o, &r);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    buf_free(&b);
+}
+
 static int has_section(const char* list, const char* name) {
     const char* p = list;
     size_t n = strlen(name);
@@ -807,6 +886,8 @@ int main(int argc, char** argv) {
         call;                                                                            \
         fprintf(stderr, "[%s] %s: %.1f s\n", NTS_BENCH_VARIANT, name, now() - ts);       \
     }
+    if (sections != NULL && has_section(sections, "profile")) section_profile();
+    RUN("digest", section_digest(dir));
     RUN("disks", section_disks(dir));
     RUN("packing", section_packing(dir));
     RUN("errors", section_errors(dir));

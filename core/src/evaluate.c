@@ -31,11 +31,37 @@ typedef struct seg_data {
     double len;
 } seg_data;
 
+/* A master surface entry as the local search reads it, copied in cell order
+ * (nodes sorted by cell) so the 3x3 stencil walks contiguous memory: 64 bytes,
+ * one cache line. Everything else of the entry (its previous segment, its node
+ * indices) is read only for the few entries that pass the cheap rejects. */
+typedef struct master_hot {
+    nts_vec2 p;      /* X_j */
+    nts_vec2 t;      /* segment j: X_{j+1} - X_j (minimum image) */
+    nts_vec2 n;      /* its outward unit normal */
+    double inv_len2; /* 1/|t|^2 */
+    int body;
+    int entry;       /* surface entry j */
+} master_hot;
+
+/* The best candidate so far of one (slave, master body) pair. Only what the
+ * selection needs; the full nts_contact is made once, when the slave is done. */
+typedef struct candidate {
+    double gap;
+    double param;    /* s (segment), xi (corner), 0 (vertex) */
+    nts_vec2 normal;
+    nts_vec2 point;
+    int body;        /* master body */
+    int entry;       /* surface entry j of the feature's master node */
+    int key;         /* the master node index inside its body (tie-break) */
+    int kind;
+} candidate;
+
 /* One worker's scratch: the per-slave best candidate of each master body, and
  * the records (nts_contact) of the slaves it handled, in slave order. */
 typedef struct worker {
     int* slot;         /* body -> index into best, -1 if none (all -1 between slaves) */
-    nts_contact* best; /* candidates of the current slave */
+    candidate* best;   /* candidates of the current slave */
     int best_count, best_cap;
     nts_contact* recs;
     int rec_count, rec_cap;
@@ -46,6 +72,8 @@ struct nts_context {
     seg_data* seg;
     int seg_cap;
     nts_cells cells;
+    master_hot* hot;   /* masters in cell order (or entry order for brute force) */
+    int hot_cap;
     worker* workers;
     int worker_count, slot_cap;
     nts_vec2* forces;
@@ -86,6 +114,7 @@ void nts_context_destroy(nts_context* ctx) {
     if (ctx == NULL) return;
     nts_free(ctx->seg);
     nts_cells_free(&ctx->cells);
+    nts_free(ctx->hot);
     workers_free(ctx);
     nts_free(ctx->forces);
     nts_free(ctx->contacts);
@@ -121,114 +150,131 @@ static int workers_prepare(nts_context* ctx, int count, int body_count) {
 typedef struct search_env {
     const nts_scene* s;
     const seg_data* seg;
-    const nts_cells* cells; /* NULL: brute force */
+    const nts_cells* cells;  /* NULL: brute force */
+    const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
     double alpha, r, eps;
+    double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
+    double reach2;           /* (h (1 + 1e-9))^2: no feature of a master farther than h can count */
+    double cell_reach2;      /* the same for a whole cell, with a round-off allowance */
+    int cell_cull;           /* 1 when the stencil offsets are exact images (cull whole cells) */
     nts_solver solver;
     int want_virial;
 } search_env;
 
-/* The master node a feature belongs to: segment (j, j+1), corner or vertex at j. */
-static inline int feature_node(const nts_contact* c) {
-    return c->kind == NTS_KIND_CORNER ? c->master_nodes[1] : c->master_nodes[0];
+/* Xs - X exactly as nts_scene_diff computes it (contact-model.md, "Global
+ * search": the minimum image), without its division and library call in the
+ * common case: when |d.x| < lx/4 the image is 0 (nearbyint gives a signed zero,
+ * and d.x - lx * (+-0) is d.x + 0.0, which also turns -0 into +0 as it does), so
+ * only pairs across the box edge pay for the general formula. Bitwise equal. */
+static inline double min_image_1(double d, double l, double quarter) {
+    if (!(l > 0.0)) return d;
+    if (fabs(d) < quarter) return d + 0.0;
+    return d - l * nearbyint(d / l);
+}
+static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q) {
+    nts_vec2 d = nts_sub(p, q);
+    d.x = min_image_1(d.x, env->lx, env->qx);
+    d.y = min_image_1(d.y, env->ly, env->qy);
+    return d;
 }
 
 /* Tie-break (contact-model.md, "Selection"): smaller |g|, then the smaller master
  * node index, then segment before corner/vertex at the same node. */
-static inline int better(const nts_contact* c, const nts_contact* b) {
+static inline int better(const candidate* c, const candidate* b) {
     double gc = fabs(c->gap), gb = fabs(b->gap);
     if (gc != gb) return gc < gb;
-    if (feature_node(c) != feature_node(b)) return feature_node(c) < feature_node(b);
+    if (c->key != b->key) return c->key < b->key;
     return c->kind < b->kind;
 }
 
-static inline void offer(worker* w, const nts_contact* c) {
-    int k = w->slot[c->master_body];
+static inline void offer(worker* w, const candidate* c) {
+    int k = w->slot[c->body];
     if (k < 0) {
         if (w->best_count == w->best_cap &&
-            nts_grow((void**)&w->best, &w->best_cap, w->best_count + 1, sizeof(nts_contact)) != NTS_OK) {
+            nts_grow((void**)&w->best, &w->best_cap, w->best_count + 1, sizeof(candidate)) != NTS_OK) {
             w->status = NTS_ENOMEM;
             return;
         }
         k = w->best_count++;
-        w->slot[c->master_body] = k;
+        w->slot[c->body] = k;
         w->best[k] = *c;
     } else if (better(c, &w->best[k])) {
         w->best[k] = *c;
     }
 }
 
-/* Try the features that master surface entry j offers to slave entry i: the flat
- * part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0) at j. */
-static void try_master(const search_env* env, worker* w, int i, nts_vec2 xs, int j) {
-    const nts_scene* s = env->s;
-    const seg_data* sj = &env->seg[j];
-    const int jp = s->surf_prev[j], jn = s->surf_next[j];
-    const nts_vec2 pj = s->pos[s->surf_node[j]];
+/* Try the features that master m (surface entry j) offers to a slave at xs: the
+ * flat part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0)
+ * at j. The arithmetic of every accepted candidate is the first core's, operation
+ * for operation, so results are bitwise unchanged. */
+#if defined(__GNUC__)
+#define NTS_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define NTS_ALWAYS_INLINE
+#endif
+
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs,
+                                                const master_hot* m) {
     const double alpha = env->alpha, r = env->r;
-    nts_vec2 d = nts_scene_diff(s, xs, pj); /* Xs - X0 (or Xs - X3): subtract first */
-    double sj_param = nts_dot(d, sj->t) * sj->inv_len2; /* erratum 2 */
-    double lo = alpha, hi = 1.0 - alpha;
-    nts_contact c;
-    (void)i;
+    const nts_vec2 pj = m->p;
+    nts_vec2 d = search_diff(env, xs, pj); /* Xs - X0 (or Xs - X3): subtract first */
+    double d2 = d.x * d.x + d.y * d.y, sj_param;
+    candidate c;
+
+    /* Cheap reject: every feature of this master lies within h = L_max + r of X_j
+     * (segment: |d| <= |t| + |g|; corner: |d| <= r + alpha max(|a|, |c|); vertex:
+     * |d| = |g|), so a farther master offers nothing. */
+    if (!(d2 <= env->reach2)) return;
+    sj_param = nts_dot(d, m->t) * m->inv_len2; /* erratum 2 */
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
-    if (sj_param >= lo && sj_param <= hi) {
-        double g = nts_dot(d, sj->n);
+    if (sj_param >= alpha && sj_param <= 1.0 - alpha) {
+        double g = nts_dot(d, m->n);
         if (fabs(g) <= r) {
-            memset(&c, 0, sizeof c);
-            c.master_body = s->surf_body[j];
-            c.kind = NTS_KIND_SEGMENT;
-            c.master_count = 2;
-            c.master_nodes[0] = s->surf_local[j];
-            c.master_nodes[1] = s->surf_local[jn];
-            c.master_nodes[2] = -1;
-            c.weights[0] = 1.0 - sj_param;
-            c.weights[1] = sj_param;
-            c.param = sj_param;
             c.gap = g;
-            c.normal = sj->n;
-            c.point = nts_mul_add(pj, sj_param, sj->t);
+            c.param = sj_param;
+            c.normal = m->n;
+            c.point = nts_mul_add(pj, sj_param, m->t);
+            c.body = m->body;
+            c.entry = m->entry;
+            c.key = env->s->surf_local[m->entry];
+            c.kind = NTS_KIND_SEGMENT;
             offer(w, &c);
         }
     }
     if (sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
     {
+        const nts_scene* s = env->s;
+        const int j = m->entry, jp = s->surf_prev[j];
         const seg_data* sp = &env->seg[jp];
         nts_vec2 pp = s->pos[s->surf_node[jp]];
-        nts_vec2 dp = nts_scene_diff(s, xs, pp);
+        nts_vec2 dp = search_diff(env, xs, pp);
         double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
         if (alpha > 0.0) {
             /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (erratum 3). */
+            const seg_data* sj = &env->seg[j];
             nts_vec2 a, cc;
             double reach;
             nts_corner k;
             nts_corner_solution sol;
-            nts_shape3 N;
             if (sp_param < 1.0 - alpha) return;
             a = nts_neg(sp->t); /* X2 - X3 */
-            cc = sj->t;         /* X4 - X3 */
+            cc = m->t;          /* X4 - X3 */
             /* Cheap reject: the curve lies in the triangle Xa X3 Xb, within
              * alpha max(|a|, |c|) of X3, so |g| >= |d| - that reach. */
             reach = alpha * (sp->len > sj->len ? sp->len : sj->len);
-            if (nts_length(d) > (r + reach) * (1.0 + 1e-12)) return;
+            if (sqrt(d2) > (r + reach) * (1.0 + 1e-12)) return;
             k = nts_corner_make(a, cc, alpha);
             sol = nts_corner_solve(k, d, env->solver);
             if (!sol.ok || !(fabs(sol.gap) <= r)) return;
-            N = nts_corner_shape(alpha, sol.xi);
-            memset(&c, 0, sizeof c);
-            c.master_body = s->surf_body[j];
-            c.kind = NTS_KIND_CORNER;
-            c.master_count = 3;
-            c.master_nodes[0] = s->surf_local[jp];
-            c.master_nodes[1] = s->surf_local[j];
-            c.master_nodes[2] = s->surf_local[jn];
-            c.weights[0] = N.n2;
-            c.weights[1] = N.n3;
-            c.weights[2] = N.n4;
-            c.param = sol.xi;
             c.gap = sol.gap;
+            c.param = sol.xi;
             c.normal = sol.normal;
             c.point = nts_add(pj, sol.point);
+            c.body = m->body;
+            c.entry = j;
+            c.key = s->surf_local[j];
+            c.kind = NTS_KIND_CORNER;
             offer(w, &c);
         } else {
             /* Vertex candidate (alpha = 0): s_{j-1} >= 1 and s_j <= 0; the sign
@@ -236,18 +282,10 @@ static void try_master(const search_env* env, worker* w, int i, nts_vec2 xs, int
             double dist, side;
             nts_vec2 pseudo;
             if (sp_param < 1.0) return;
-            dist = nts_length(d);
+            dist = sqrt(d2);
             if (!(dist <= r)) return;
-            pseudo = nts_add(sp->n, sj->n);
+            pseudo = nts_add(sp->n, m->n);
             side = nts_dot(d, pseudo) >= 0.0 ? 1.0 : -1.0;
-            memset(&c, 0, sizeof c);
-            c.master_body = s->surf_body[j];
-            c.kind = NTS_KIND_VERTEX;
-            c.master_count = 1;
-            c.master_nodes[0] = s->surf_local[j];
-            c.master_nodes[1] = c.master_nodes[2] = -1;
-            c.weights[0] = 1.0;
-            c.param = 0.0;
             if (dist > 0.0) {
                 c.normal = nts_scale(side / dist, d);
                 c.gap = side * dist;
@@ -256,7 +294,12 @@ static void try_master(const search_env* env, worker* w, int i, nts_vec2 xs, int
                 c.normal = nts_normalize_or_zero(pseudo);
                 c.gap = 0.0;
             }
+            c.param = 0.0;
             c.point = pj;
+            c.body = m->body;
+            c.entry = j;
+            c.key = s->surf_local[j];
+            c.kind = NTS_KIND_VERTEX;
             offer(w, &c);
         }
     }
@@ -275,15 +318,47 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     }
     /* Insertion sort by master body (a handful of entries). */
     for (k = 1; k < w->best_count; ++k) {
-        nts_contact t = w->best[k];
+        candidate t = w->best[k];
         m = k - 1;
-        while (m >= 0 && w->best[m].master_body > t.master_body) { w->best[m + 1] = w->best[m]; --m; }
+        while (m >= 0 && w->best[m].body > t.body) { w->best[m + 1] = w->best[m]; --m; }
         w->best[m + 1] = t;
     }
     for (k = 0; k < w->best_count; ++k) {
-        nts_contact* c = &w->best[k];
-        w->slot[c->master_body] = -1;
+        const candidate* b = &w->best[k];
+        nts_contact* c;
+        const int j = b->entry;
+        w->slot[b->body] = -1;
         if (w->status != NTS_OK) continue;
+        c = &w->recs[w->rec_count++];
+        memset(c, 0, sizeof *c);
+        c->master_body = b->body;
+        c->kind = (nts_kind)b->kind;
+        if (b->kind == NTS_KIND_SEGMENT) {
+            c->master_count = 2;
+            c->master_nodes[0] = s->surf_local[j];
+            c->master_nodes[1] = s->surf_local[s->surf_next[j]];
+            c->master_nodes[2] = -1;
+            c->weights[0] = 1.0 - b->param;
+            c->weights[1] = b->param;
+        } else if (b->kind == NTS_KIND_CORNER) {
+            nts_shape3 N = nts_corner_shape(env->alpha, b->param);
+            c->master_count = 3;
+            c->master_nodes[0] = s->surf_local[s->surf_prev[j]];
+            c->master_nodes[1] = s->surf_local[j];
+            c->master_nodes[2] = s->surf_local[s->surf_next[j]];
+            c->weights[0] = N.n2;
+            c->weights[1] = N.n3;
+            c->weights[2] = N.n4;
+        } else {
+            c->master_count = 1;
+            c->master_nodes[0] = s->surf_local[j];
+            c->master_nodes[1] = c->master_nodes[2] = -1;
+            c->weights[0] = 1.0;
+        }
+        c->param = b->param;
+        c->gap = b->gap;
+        c->normal = b->normal;
+        c->point = b->point;
         c->slave_body = s->surf_body[i];
         c->slave_node = s->surf_local[i];
         if (c->gap < 0.0) {
@@ -308,33 +383,122 @@ static void flush_slave(const search_env* env, worker* w, int i) {
                 c->virial.xy = 0.5 * (wxy + wyx);
             }
         }
-        w->recs[w->rec_count++] = *c;
     }
     w->best_count = 0;
 }
 
+/* The cells of the 3x3 stencil around (cx, cy), each with its offset (ox, oy)
+ * in cells. In a periodic grid narrower than 3 cells the wrapped neighbours
+ * repeat: visit each once (nts_cells_stencil's rule). */
+typedef struct stencil {
+    int n;
+    int cell[9];
+    int ox[9], oy[9];
+} stencil;
+
+static void make_stencil(const nts_cells* c, int cell, stencil* st) {
+    int cx = cell % c->nx, cy = cell / c->nx, dx, dy;
+    st->n = 0;
+    for (dy = -1; dy <= 1; ++dy) {
+        int y = cy + dy, dup, k;
+        if (c->periodic) y = ((y % c->ny) + c->ny) % c->ny;
+        if (y < 0 || y >= c->ny) continue;
+        for (dup = 0, k = -1; k < dy; ++k) {
+            int yk = cy + k;
+            if (c->periodic) yk = ((yk % c->ny) + c->ny) % c->ny;
+            dup |= (yk == y);
+        }
+        if (dup) continue;
+        for (dx = -1; dx <= 1; ++dx) {
+            int x = cx + dx, dupx = 0, q;
+            if (c->periodic) x = ((x % c->nx) + c->nx) % c->nx;
+            if (x < 0 || x >= c->nx) continue;
+            for (q = -1; q < dx; ++q) {
+                int xq = cx + q;
+                if (c->periodic) xq = ((xq % c->nx) + c->nx) % c->nx;
+                dupx |= (xq == x);
+            }
+            if (dupx) continue;
+            st->cell[st->n] = y * c->nx + x;
+            st->ox[st->n] = dx;
+            st->oy[st->n] = dy;
+            ++st->n;
+        }
+    }
+}
+
+/* Distance from a point at (fx, fy) inside its own cell (coordinates from the
+ * cell's corner) to the neighbour cell at offset (ox, oy), squared. */
+static inline double cell_dist2(const nts_cells* c, double fx, double fy, int ox, int oy) {
+    double lo = ox * c->hx, hi = lo + c->hx, ex = 0.0, ey = 0.0;
+    if (fx < lo) ex = lo - fx; else if (fx > hi) ex = fx - hi;
+    lo = oy * c->hy;
+    hi = lo + c->hy;
+    if (fy < lo) ey = lo - fy; else if (fy > hi) ey = fy - hi;
+    return ex * ex + ey * ey;
+}
+
 static void search_range(const search_env* env, worker* w, int begin, int end) {
     const nts_scene* s = env->s;
+    const master_hot* hot = env->hot;
     int i;
-    for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = s->surf_body[i];
-        const nts_vec2 xs = s->pos[s->surf_node[i]];
-        if (env->cells != NULL) {
-            const nts_cells* cl = env->cells;
-            int st[9], ns = nts_cells_stencil(cl, cl->entry_cell[i], st), q;
-            for (q = 0; q < ns; ++q) {
-                int e, e0 = cl->cell_start[st[q]], e1 = cl->cell_start[st[q] + 1];
-                for (e = e0; e < e1; ++e) {
-                    int j = cl->items[e];
-                    if (s->surf_body[j] != bi) try_master(env, w, i, xs, j);
-                }
+    if (env->cells != NULL) {
+        const nts_cells* cl = env->cells;
+        stencil st;
+        int last_cell = -1;
+        st.n = 0;
+        for (i = begin; i < end && w->status == NTS_OK; ++i) {
+            const int bi = s->surf_body[i], cell = cl->entry_cell[i];
+            const nts_vec2 xs = s->pos[s->surf_node[i]];
+            double fx = 0.0, fy = 0.0;
+            int q;
+            if (cell != last_cell) {
+                make_stencil(cl, cell, &st);
+                last_cell = cell;
             }
-        } else {
+            if (env->cell_cull) {
+                /* The slave's place inside its cell, as nts_cells_build binned it. */
+                double x = xs.x - cl->x0, y = xs.y - cl->y0;
+                if (cl->periodic) {
+                    x -= s->lx * floor(x / s->lx);
+                    y -= s->ly * floor(y / s->ly);
+                }
+                fx = x - (cell % cl->nx) * cl->hx;
+                fy = y - (cell / cl->nx) * cl->hy;
+            }
+            for (q = 0; q < st.n; ++q) {
+                int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
+                /* Cell cull: a cell wholly farther than h holds no master that counts. */
+                if (env->cell_cull && cell_dist2(cl, fx, fy, st.ox[q], st.oy[q]) > env->cell_reach2) continue;
+                for (e = e0; e < e1; ++e)
+                    if (hot[e].body != bi) try_master(env, w, xs, &hot[e]);
+            }
+            flush_slave(env, w, i);
+        }
+    } else {
+        for (i = begin; i < end && w->status == NTS_OK; ++i) {
+            const int bi = s->surf_body[i];
+            const nts_vec2 xs = s->pos[s->surf_node[i]];
             int j;
             for (j = 0; j < s->surface_count; ++j)
-                if (s->surf_body[j] != bi) try_master(env, w, i, xs, j);
+                if (hot[j].body != bi) try_master(env, w, xs, &hot[j]);
+            flush_slave(env, w, i);
         }
-        flush_slave(env, w, i);
+    }
+}
+
+/* The masters' hot records in the order the search reads them. */
+static void fill_hot(nts_context* ctx, const nts_scene* s, const int* order) {
+    int e;
+    for (e = 0; e < s->surface_count; ++e) {
+        int j = order != NULL ? order[e] : e;
+        master_hot* m = &ctx->hot[e];
+        m->p = s->pos[s->surf_node[j]];
+        m->t = ctx->seg[j].t;
+        m->n = ctx->seg[j].n;
+        m->inv_len2 = ctx->seg[j].inv_len2;
+        m->body = s->surf_body[j];
+        m->entry = j;
     }
 }
 
@@ -401,10 +565,31 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
         return rc;
     }
+    env.lx = s->lx;
+    env.ly = s->ly;
+    env.qx = 0.25 * s->lx;
+    env.qy = 0.25 * s->ly;
+    env.reach2 = (h * (1.0 + 1e-9)) * (h * (1.0 + 1e-9));
+    env.cell_reach2 = 0.0;
+    env.cell_cull = 0;
     env.cells = NULL;
+    if ((rc = nts_grow((void**)&ctx->hot, &ctx->hot_cap, s->surface_count, sizeof(master_hot))) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    env.hot = ctx->hot;
     if (opt->search == NTS_SEARCH_CELLS) {
+        const nts_cells* cl = &ctx->cells;
+        double scale;
         if ((rc = nts_cells_build(&ctx->cells, s, h)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
-        env.cells = &ctx->cells;
+        env.cells = cl;
+        fill_hot(ctx, s, cl->items);
+        /* Whole-cell cull: exact when every stencil offset is a distinct image,
+         * with an allowance for the round-off of binning (relative to the size of
+         * the coordinates, not of the cells). */
+        env.cell_cull = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
+        scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
+        env.cell_reach2 = (h * (1.0 + 1e-9) + 1e-12 * scale) * (h * (1.0 + 1e-9) + 1e-12 * scale);
+    } else {
+        fill_hot(ctx, s, NULL);
     }
 
     t1 = wall_time();
