@@ -1,0 +1,185 @@
+/* Parallel suite (issue 6): the local search gives bitwise the same result for
+ * any number of threads; the cell-ordered search with its culls gives bitwise
+ * the result of brute force in the cases the culls must get right (periodic
+ * boxes with bodies across the edge, grids too narrow for the cull, far from
+ * the origin); a warm context allocates nothing, whatever the thread count. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+/* Every output of two results is bitwise the same. */
+static int same_result(const nts_scene* s, const nts_result* a, const nts_result* b) {
+    size_t nodes = (size_t)nts_scene_node_count(s);
+    if (memcmp(&a->summary, &b->summary, sizeof a->summary) != 0) return 0;
+    if (a->gap_count != b->gap_count || a->contact_count != b->contact_count) return 0;
+    if (memcmp(a->gaps, b->gaps, sizeof(nts_contact) * (size_t)a->gap_count) != 0) return 0;
+    if (memcmp(a->contacts, b->contacts, sizeof(nts_contact) * (size_t)a->contact_count) != 0) return 0;
+    return memcmp(a->forces, b->forces, sizeof(nts_vec2) * nodes) == 0;
+}
+
+static void check_threads(int periodic, double alpha, nts_solver solver) {
+    test_packing p = make_packing(64, 40, 1.0, 1.93, periodic, 500 + (unsigned)periodic);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r0, r1;
+    nts_error err;
+    int th;
+    CU_ASSERT_FATAL(s != NULL && c0 != NULL && c1 != NULL);
+    o.alpha = alpha;
+    o.solver = solver;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
+    CU_ASSERT(r0.contact_count > 50);
+    for (th = 1; th <= 7; ++th) {
+        int same;
+        o.threads = th;
+        CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+        same = same_result(s, &r0, &r1);
+        if (!same) fprintf(stderr, "\n  threads %d differ from serial (periodic %d alpha %g)\n", th, periodic, alpha);
+        CU_ASSERT(same);
+    }
+    nts_context_destroy(c0);
+    nts_context_destroy(c1);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void test_threads_bitwise_open(void) {
+    check_threads(0, 0.0, NTS_SOLVER_CLOSED_FORM);
+    check_threads(0, 0.2, NTS_SOLVER_CLOSED_FORM);
+    check_threads(0, 0.5, NTS_SOLVER_NEWTON);
+}
+
+static void test_threads_bitwise_periodic(void) {
+    check_threads(1, 0.0, NTS_SOLVER_NEWTON);
+    check_threads(1, 0.2, NTS_SOLVER_NEWTON);
+    check_threads(1, 0.1, NTS_SOLVER_CLOSED_FORM);
+}
+
+/* Cells (cell-ordered masters, whole-cell and reach culls, fast minimum image)
+ * against brute force, bitwise, on a packing moved by (dx, dy). */
+static void check_cells_vs_brute(int count, int periodic, double dx, double dy, double alpha, double radius) {
+    test_packing p = make_packing(count, 32, 1.0, 1.93, periodic, 900 + (unsigned)count);
+    nts_scene* s;
+    nts_context *cc = nts_context_create(), *cb = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result rc, rb;
+    nts_error err;
+    int b, i;
+    for (b = 0; b < p.count; ++b)
+        for (i = 0; i < p.bodies[b].node_count; ++i) {
+            p.bodies[b].nodes[i].x += dx;
+            p.bodies[b].nodes[i].y += dy;
+        }
+    s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    CU_ASSERT_FATAL(s != NULL);
+    o.alpha = alpha;
+    o.search_radius = radius;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(cc, s, &o, &rc, &err) == 0);
+    o.search = NTS_SEARCH_BRUTE_FORCE;
+    CU_ASSERT_FATAL(nts_evaluate(cb, s, &o, &rb, &err) == 0);
+    CU_ASSERT(rc.contact_count > 0);
+    rb.summary.cell_size = rc.summary.cell_size; /* the only field that differs by design */
+    if (!same_result(s, &rc, &rb))
+        fprintf(stderr, "\n  cells differ from brute force: %d bodies, periodic %d, shift (%g, %g)\n", count, periodic,
+                dx, dy);
+    CU_ASSERT(same_result(s, &rc, &rb));
+    nts_context_destroy(cc);
+    nts_context_destroy(cb);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void test_cells_equal_brute_force(void) {
+    /* Open scenes, near and far from the origin (the cull's round-off allowance). */
+    check_cells_vs_brute(49, 0, 0.0, 0.0, 0.2, -1.0);
+    check_cells_vs_brute(49, 0, 1e6, -3e5, 0.2, -1.0);
+    check_cells_vs_brute(49, 0, -7.25, 1e3, 0.0, -1.0);
+    /* Periodic: bodies across the box edge (shifted by half a lattice step), with
+     * coordinates outside the box (shifted by a box length and more). */
+    check_cells_vs_brute(49, 1, 0.97, 0.5, 0.2, -1.0);
+    check_cells_vs_brute(49, 1, -13.51, 27.0, 0.0, -1.0);
+    check_cells_vs_brute(64, 1, 1e4 + 0.3, -0.9, 0.5, -1.0);
+    /* Periodic grids too narrow for the whole-cell cull (fewer than 4 cells). */
+    check_cells_vs_brute(4, 1, 0.5, 0.5, 0.2, 0.9);
+    check_cells_vs_brute(9, 1, -0.5, 0.25, 0.1, 1.5);
+}
+
+/* Allocation counting through the allocator hook. */
+static long long g_allocs;
+static void* counting_alloc(size_t n, void* user) {
+    (void)user;
+    ++g_allocs;
+    return malloc(n);
+}
+static void counting_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
+static void test_warm_context_allocates_nothing(void) {
+    test_packing p = make_packing(36, 40, 1.0, 1.93, 1, 77);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context* c;
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    int k, th;
+    CU_ASSERT_FATAL(s != NULL);
+    nts_set_allocator(counting_alloc, counting_free, NULL);
+    c = nts_context_create();
+    CU_ASSERT_FATAL(c != NULL);
+    for (th = 0; th <= 2; th += 2) {
+        long long before;
+        o.threads = th;
+        o.outputs = NTS_OUT_ALL;
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0); /* warm-up: buffers grow */
+        before = g_allocs;
+        for (k = 0; k < 5; ++k) {
+            o.alpha = 0.1 * k;
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+        }
+        ASSERT_INT_EQ(g_allocs - before, 0);
+    }
+    nts_context_destroy(c);
+    nts_set_allocator(NULL, NULL, NULL);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+/* One context moved between thread counts gives the serial answer each time. */
+static void test_context_reuse_across_threads(void) {
+    test_packing p = make_packing(25, 48, 1.0, 1.93, 0, 4321);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context *c = nts_context_create(), *ref = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r, r0;
+    nts_error err;
+    static const int order[] = {3, 0, 2, 1, 4, 0};
+    int k;
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(ref, s, &o, &r0, &err) == 0);
+    for (k = 0; k < 6; ++k) {
+        o.threads = order[k];
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+        CU_ASSERT(same_result(s, &r0, &r));
+    }
+    nts_context_destroy(c);
+    nts_context_destroy(ref);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+void register_parallel_suite(void) {
+    CU_pSuite s = CU_add_suite("parallel", NULL, NULL);
+    ADD_TEST(s, test_threads_bitwise_open);
+    ADD_TEST(s, test_threads_bitwise_periodic);
+    ADD_TEST(s, test_cells_equal_brute_force);
+    ADD_TEST(s, test_warm_context_allocates_nothing);
+    ADD_TEST(s, test_context_reuse_across_threads);
+}
