@@ -31,6 +31,15 @@ static const char usage_text[] =
     "  --validate           check the scene only; print a validation summary\n"
     "  --pretty             indent the output\n"
     "  -o, --output FILE    write to FILE instead of standard output\n"
+    "\n"
+    "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
+    "too_deep, the message naming the limit; counts take k, M, G suffixes):\n"
+    "  --max-bytes N        largest request (default 64M)\n"
+    "  --max-depth N        JSON nesting depth (default 32)\n"
+    "  --max-bodies N       bodies in a scene (default 1000000)\n"
+    "  --max-nodes N        nodes in a scene, all bodies (default 50000000)\n"
+    "  --max-nodes-per-body N  nodes in one body (default 10000000)\n"
+    "  --max-seconds S      wall-clock budget of the request, 0 = none (default 0)\n"
     "  -h, --help           print this help and exit\n"
     "  -V, --version        print the version and exit\n"
     "\n"
@@ -52,6 +61,25 @@ static int parse_double(const char* s, double* out) {
     v = strtod(s, &end);
     if (*end != '\0' || errno == ERANGE || !isfinite(v)) return -1;
     *out = v;
+    return 0;
+}
+
+/* A count in [lo, hi], with an optional binary k/M/G suffix. */
+static int parse_count(const char* s, long long lo, long long hi, long long* out) {
+    char* end;
+    long long v, mul = 1;
+    if (!s || !*s || *s == '-' || *s == '+') return -1;
+    errno = 0;
+    v = strtoll(s, &end, 10);
+    if (errno == ERANGE || end == s) return -1;
+    if (*end && !end[1]) {
+        if (*end == 'k' || *end == 'K') mul = 1LL << 10;
+        else if (*end == 'm' || *end == 'M') mul = 1LL << 20;
+        else if (*end == 'g' || *end == 'G') mul = 1LL << 30;
+        if (mul > 1) ++end;
+    }
+    if (*end || v > hi / mul || v * mul < lo) return -1;
+    *out = v * mul;
     return 0;
 }
 
@@ -163,7 +191,7 @@ int main(int argc, char** argv) {
         }
         if (strcmp(name, "--alpha") != 0 && strcmp(name, "--penalty") != 0 && strcmp(name, "--search-radius") != 0 &&
             strcmp(name, "--solver") != 0 && strcmp(name, "--outputs") != 0 && strcmp(name, "-o") != 0 &&
-            strcmp(name, "--output") != 0)
+            strcmp(name, "--output") != 0 && strncmp(name, "--max-", 6) != 0)
             return usage_error("unknown option '%s'", a);
         if (!val) {
             if (i + 1 >= argc) return usage_error("option '%s' needs a value", name);
@@ -187,6 +215,32 @@ int main(int argc, char** argv) {
             if (parse_outputs(val, &cfg.overrides.outputs) != 0)
                 return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps, not '%s'", val);
             cfg.overrides.has_outputs = 1;
+        } else if (strncmp(name, "--max-", 6) == 0) {
+            long long n = 0;
+            const char* lim = name + 6;
+            if (strcmp(lim, "seconds") == 0) {
+                double sec;
+                if (parse_double(val, &sec) != 0 || sec < 0.0)
+                    return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
+                cfg.max_seconds = sec;
+            } else if (parse_count(val, 1, strcmp(lim, "nodes") == 0 ? (1LL << 40) : 0x7fffffffLL, &n) != 0) {
+                if (strcmp(lim, "bytes") && strcmp(lim, "depth") && strcmp(lim, "bodies") && strcmp(lim, "nodes") &&
+                    strcmp(lim, "nodes-per-body"))
+                    return usage_error("unknown option '%s'", name);
+                return usage_error("this limit needs a positive count, not '%s'", val);
+            } else if (strcmp(lim, "bytes") == 0) {
+                cfg.max_bytes = (size_t)n;
+            } else if (strcmp(lim, "depth") == 0) {
+                cfg.max_depth = (int)n;
+            } else if (strcmp(lim, "bodies") == 0) {
+                cfg.limits.max_bodies = (int)n;
+            } else if (strcmp(lim, "nodes") == 0) {
+                cfg.limits.max_nodes = n;
+            } else if (strcmp(lim, "nodes-per-body") == 0) {
+                cfg.limits.max_nodes_per_body = (int)n;
+            } else {
+                return usage_error("unknown option '%s'", name);
+            }
         } else {
             output = val;
         }

@@ -248,13 +248,14 @@ static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     n = array_size(v);
     if (n == 0) return fail(d, "no_nodes", ptr, "body has no nodes");
     if (n > d->cfg->limits.max_nodes_per_body) {
-        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "body has %d nodes, the limit is %d", n,
+        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "body has %d nodes, more than max_nodes_per_body = %d", n,
                        d->cfg->limits.max_nodes_per_body);
         return -1;
     }
     *total += n;
     if (*total > d->cfg->limits.max_nodes) {
-        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "scene has more than %lld nodes", d->cfg->limits.max_nodes);
+        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "scene has more nodes than max_nodes = %lld",
+                       d->cfg->limits.max_nodes);
         return -1;
     }
     nodes = (nts_vec2*)nts_alloc((size_t)n * sizeof *nodes);
@@ -348,7 +349,7 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of triangles [i, j, k]");
     count = array_size(v);
     if (count == 0) return fail(d, "invalid_value", ptr, "triangles must hold at least one triangle");
-    if (count > 2 * d->cfg->limits.max_nodes_per_body) return fail(d, "limit_exceeded", ptr, "too many triangles");
+    if (count > 2 * d->cfg->limits.max_nodes_per_body) return fail(d, "limit_exceeded", ptr, "more triangles than twice max_nodes_per_body");
     tri = (int*)nts_alloc((size_t)count * 3 * sizeof *tri);
     if (!tri) {
         d->oom = 1;
@@ -535,7 +536,7 @@ static int decode_root(decoder* d, const cJSON* root) {
     n = array_size(f[ROOT_BODIES]);
     if (n == 0) return fail(d, "empty_scene", "/bodies", "scene has no bodies");
     if (n > d->cfg->limits.max_bodies) {
-        ntsj_fault_set(d->fault, "limit_exceeded", "/bodies", "scene has %d bodies, the limit is %d", n,
+        ntsj_fault_set(d->fault, "limit_exceeded", "/bodies", "scene has %d bodies, more than max_bodies = %d", n,
                        d->cfg->limits.max_bodies);
         return -1;
     }

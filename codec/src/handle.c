@@ -77,6 +77,21 @@ static int respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error
     return respond_error(out, name, err->message[0] ? err->message : nts_strerror(code), ptr, pretty);
 }
 
+/* The request-time limit (ntsj_config.max_seconds), checked between the
+ * phases: after decoding, after building the scene and after evaluating. The
+ * core's evaluation itself is not interrupted (it is linear in the nodes, and
+ * the byte limit bounds the nodes); a request over budget gets a
+ * limit_exceeded error (400) naming the limit, never a late result. */
+static int over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc) {
+    double elapsed = now_ms() - t0;
+    char msg[160];
+    if (!(cfg->max_seconds > 0.0) || elapsed <= cfg->max_seconds * 1e3) return 0;
+    snprintf(msg, sizeof msg, "the request took %.3f ms up to %s, more than max_seconds = %g s", elapsed, phase,
+             cfg->max_seconds);
+    *rc = respond_error(out, "limit_exceeded", msg, "", cfg->pretty);
+    return 1;
+}
+
 static int is_blank(const char* p, size_t n) {
     size_t i;
     for (i = 0; i < n; ++i)
@@ -106,7 +121,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
 
     if (length > cfg.max_bytes) {
         char msg[128];
-        snprintf(msg, sizeof msg, "request is %lu bytes, the limit is %lu", (unsigned long)length,
+        snprintf(msg, sizeof msg, "request is %lu bytes, more than max_bytes = %lu", (unsigned long)length,
                  (unsigned long)cfg.max_bytes);
         return respond_error(out, "payload_too_large", msg, "", pretty);
     }
@@ -119,6 +134,10 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     rc = ntsj_decode(root, &cfg, &s, &fault);
     cJSON_Delete(root);
     if (rc != 0) return respond_fault(out, &fault, pretty);
+    if (over_budget(&cfg, t0, out, "decoding", &rc)) {
+        ntsj_scene_free(&s);
+        return rc;
+    }
 
     if (nts_options_validate(&s.options, &err) != 0) {
         rc = respond_core(out, &s, &err, NTS_EINVALID_OPTION, pretty);
@@ -134,6 +153,11 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     scene = nts_scene_create(&def, &err);
     if (!scene) {
         rc = respond_core(out, &s, &err, NTS_EINTERNAL, pretty);
+        ntsj_scene_free(&s);
+        return rc;
+    }
+    if (over_budget(&cfg, t0, out, "building the scene", &rc)) {
+        nts_scene_destroy(scene);
         ntsj_scene_free(&s);
         return rc;
     }
@@ -154,10 +178,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         }
         rc = nts_evaluate(ctx, scene, &opt, &result, &err);
         elapsed = now_ms() - t0;
-        if (rc == 0 && cfg.max_seconds > 0.0 && elapsed > cfg.max_seconds * 1e3) {
-            char msg[128];
-            snprintf(msg, sizeof msg, "evaluation took %.1f ms, the budget is %.1f ms", elapsed, cfg.max_seconds * 1e3);
-            rc = respond_error(out, "timeout", msg, "", pretty);
+        if (rc == 0 && over_budget(&cfg, t0, out, "evaluating", &rc)) {
             done = 1;
         } else if (rc != 0) {
             rc = respond_core(out, &s, &err, rc, pretty);

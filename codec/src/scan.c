@@ -220,8 +220,8 @@ static int scan_container(scanner* s) {
     char close = is_array ? ']' : '}';
     scan_level* l;
     if (s->depth >= s->max_depth) {
-        char msg[64];
-        snprintf(msg, sizeof msg, "nesting deeper than %d levels", s->max_depth);
+        char msg[80];
+        snprintf(msg, sizeof msg, "nesting deeper than max_depth = %d levels", s->max_depth);
         return scan_fail(s, "too_deep", msg);
     }
     l = &s->path[s->depth++];

@@ -14,6 +14,8 @@ static const char usage[] =
     "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
     "                   [--timeout S] [--max-connections N]\n"
     "                   [--threading per-connection|pool] [--quiet]\n"
+    "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
+    "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "GET /v1/health, GET /v1/schemas/{scene,result,error}, GET /v1/openapi.json).\n"
@@ -28,6 +30,12 @@ static const char usage[] =
     "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
     "  --threading MODEL    per-connection (default) or pool (see docs/benchmarks.md)\n"
     "  --quiet              no per-request log lines on stderr\n"
+    "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
+    "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
+    "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
+    "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
+    "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
+    "                       0 = none (default 0); over -> 400 limit_exceeded\n"
     "  --help, --version\n";
 
 ntsd_config ntsd_default_config(void) {
@@ -42,6 +50,14 @@ ntsd_config ntsd_default_config(void) {
     c.max_connections = 256;
     c.threading = NTSD_THREAD_PER_CONNECTION;
     c.quiet = 0;
+    {
+        nts_limits l = nts_default_limits();
+        c.max_depth = 32;
+        c.max_bodies = l.max_bodies;
+        c.max_nodes_per_body = l.max_nodes_per_body;
+        c.max_nodes = l.max_nodes;
+        c.max_seconds = 0.0;
+    }
     return c;
 }
 
@@ -121,6 +137,28 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--max-connections") == 0) {
             if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
             cfg->max_connections = (unsigned)n;
+        } else if (strcmp(a, "--max-depth") == 0) {
+            if (parse_unsigned(a, v, 1, 100000, 0, &n)) return -1;
+            cfg->max_depth = (int)n;
+        } else if (strcmp(a, "--max-bodies") == 0) {
+            if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
+            cfg->max_bodies = (int)n;
+        } else if (strcmp(a, "--max-nodes-per-body") == 0) {
+            if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
+            cfg->max_nodes_per_body = (int)n;
+        } else if (strcmp(a, "--max-nodes") == 0) {
+            if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
+            cfg->max_nodes = (long long)n;
+        } else if (strcmp(a, "--max-seconds") == 0) {
+            char* end = NULL;
+            double sec;
+            errno = 0;
+            sec = strtod(v, &end);
+            if (errno != 0 || end == v || *end != '\0' || !(sec >= 0.0) || sec > 1e9) {
+                fprintf(stderr, "ntscontactd: --max-seconds: expected a number of seconds >= 0, got '%s'\n", v);
+                return -1;
+            }
+            cfg->max_seconds = sec;
         } else if (strcmp(a, "--threading") == 0) {
             if (strcmp(v, "pool") == 0) {
                 cfg->threading = NTSD_THREAD_POOL;

@@ -154,6 +154,11 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
     jc.pretty = query_flag(c, "pretty");
     jc.max_bytes = s->config.max_body;
+    jc.max_depth = s->config.max_depth;
+    jc.limits.max_bodies = s->config.max_bodies;
+    jc.limits.max_nodes_per_body = s->config.max_nodes_per_body;
+    jc.limits.max_nodes = s->config.max_nodes;
+    jc.max_seconds = s->config.max_seconds;
     jc.threads = 0; /* concurrency comes from requests, not from inside one */
     memset(&resp, 0, sizeof resp);
     gate_enter(s);

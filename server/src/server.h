@@ -29,6 +29,12 @@ typedef struct ntsd_config {
     unsigned max_connections;/* default 256 */
     ntsd_threading threading;
     int quiet;
+    /* Limits handed to the codec for every request (issue 7). */
+    int max_depth;           /* JSON nesting; default 32 */
+    int max_bodies;          /* bodies in a scene; default 1,000,000 */
+    int max_nodes_per_body;  /* default 10,000,000 */
+    long long max_nodes;     /* all nodes of a scene; default 50,000,000 */
+    double max_seconds;      /* wall-clock budget of one request's codec work, 0 = none */
 } ntsd_config;
 
 ntsd_config ntsd_default_config(void);

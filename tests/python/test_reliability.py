@@ -75,3 +75,96 @@ def test_sigterm_mid_load(soak_result):
 
 def test_soak_verdict(soak_result):
     assert soak_result["_failures"] == []
+
+
+# ------------------------------------------------------------------ limits
+# Each limit is configurable (CLI flag, daemon flag) and tested at and just
+# past its value: a scene that breaks one exits 3 from the CLI and gets a 4xx
+# from the daemon, with a stable code and a message naming the limit.
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import urllib.error  # noqa: E402
+import urllib.request  # noqa: E402
+
+SEED = pathlib.Path(__file__).resolve().parents[2] / "fuzz" / "seeds" / "two_disks.json"  # 2 bodies x 12 nodes
+
+
+def _scene_bytes():
+    return SEED.read_bytes()
+
+
+# (flag, value that passes, value that breaks it, code, name in the message)
+LIMITS = [
+    ("--max-bodies", "2", "1", "limit_exceeded", "max_bodies"),
+    ("--max-nodes", "24", "23", "limit_exceeded", "max_nodes"),
+    ("--max-nodes-per-body", "12", "11", "limit_exceeded", "max_nodes_per_body"),
+    ("--max-depth", "8", "3", "too_deep", "max_depth"),
+    ("--max-seconds", "3600", "1e-9", "limit_exceeded", "max_seconds"),
+]
+
+
+def _cli(paths, *args, stdin):
+    return subprocess.run([str(paths.cli), *args, "-"], input=stdin, capture_output=True, timeout=120)
+
+
+@pytest.mark.parametrize("flag,ok,bad,code,name", LIMITS, ids=[x[0] for x in LIMITS])
+def test_cli_limit(paths, flag, ok, bad, code, name):
+    body = _scene_bytes()
+    assert _cli(paths, stdin=body).returncode == 0
+    good = _cli(paths, flag, ok, stdin=body)
+    assert good.returncode == 0, good.stderr
+    broken = _cli(paths, flag, bad, stdin=body)
+    assert broken.returncode == 3, broken.stderr
+    line = broken.stderr.decode()
+    assert line.startswith(f"ntscontact: {code} at "), line
+    assert name in line, line
+    assert broken.stdout == b""
+
+
+def test_cli_body_size_limit(paths):
+    body = _scene_bytes()
+    assert _cli(paths, "--max-bytes", str(len(body)), stdin=body).returncode == 0
+    broken = _cli(paths, "--max-bytes", str(len(body) - 1), stdin=body)
+    assert broken.returncode == 3
+    assert broken.stderr.decode().startswith("ntscontact: payload_too_large at "), broken.stderr
+    assert b"max_bytes" in broken.stderr
+
+
+def test_cli_limit_flags_are_checked(paths):
+    for args in (["--max-bodies", "0"], ["--max-depth", "-1"], ["--max-nodes", "many"], ["--max-seconds", "-1"]):
+        assert _cli(paths, *args, stdin=_scene_bytes()).returncode == 2, args
+
+
+def _post(daemon, body, path="/v1/contact"):
+    req = urllib.request.Request(daemon.url(path), data=body, headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=30) as resp:
+            return resp.status, json.loads(resp.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read())
+
+
+@pytest.mark.parametrize("flag,ok,bad,code,name", LIMITS, ids=[x[0] for x in LIMITS])
+def test_daemon_limit(daemon_factory, flag, ok, bad, code, name):
+    body = _scene_bytes()
+    good = daemon_factory("--quiet", flag, ok)
+    status, doc = _post(good, body)
+    assert status == 200, doc
+    broken = daemon_factory("--quiet", flag, bad)
+    for path in ("/v1/contact", "/v1/validate"):
+        status, doc = _post(broken, body, path)
+        assert status == 400, doc
+        assert doc["error"]["code"] == code
+        assert name in doc["error"]["message"], doc
+    assert broken.stop() == 0
+    assert good.stop() == 0
+
+
+def test_daemon_body_size_limit(daemon_factory):
+    body = _scene_bytes()
+    d = daemon_factory("--quiet", "--max-body", str(len(body)))
+    assert _post(d, body)[0] == 200
+    status, doc = _post(d, body + b" ")
+    assert status == 413 and doc["error"]["code"] == "payload_too_large", doc
+    assert _post(d, body)[0] == 200  # and it still serves
+    assert d.stop() == 0
