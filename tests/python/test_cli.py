@@ -539,3 +539,11 @@ def test_malformed_scene_exits_3_with_code_and_pointer(schemas, case, tmp_path):
     if case.get("generate") != "huge":
         proc = run("-", stdin=data)
         assert proc.returncode == 3 and proc.stderr.decode().splitlines()[0] == lines[0]
+
+
+def test_codec_survives_every_allocation_failure():
+    """ntsj_handle with the Nth allocation failing, for every N: an answer, no leak."""
+    oom = BUILD / "bin" / "ntscontact_codec_oom"
+    proc = subprocess.run([str(oom), *map(str, EXAMPLES)], capture_output=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout.decode()
+    assert proc.stdout.count(b"freed everything") == 2 * len(EXAMPLES) + 4
