@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Write a scene of pressed disks on a grid (schemas/scene.schema.json).
+"""Write a scene of pressed disks (schemas/scene.schema.json) to stdout.
 
-    make_scene.py --grid 2x1 --nodes 32 > small.json     # two disks, 64 nodes
-    make_scene.py --grid 30x30 --nodes 64 > large.json   # 900 disks, 57,600 nodes
+    make_scene.py --side 2 --nodes 32 > small.json    # 4 disks, 128 nodes
+    make_scene.py --side 30 --nodes 64 > large.json   # 900 disks, 57,600 nodes
 
-Neighbouring disks of radius 1 sit 1.95 apart, so every pair overlaps a little
-and every disk has contacts: the evaluation does real work. Standard library only.
+The same scene as codec/bench/codec_bench.c builds (square packing, pitch 1.96,
+radius 1 with a 0.2% jitter from the same LCG, alpha 0.2, penalty 100, search
+radius 0.1), so that bench's stage timings (scan, parse, decode, scene, evaluate,
+encode) split the server's latency for exactly this request. Standard library only.
 """
 import argparse
 import json
@@ -13,24 +15,28 @@ import math
 import sys
 
 
-def scene(nx, ny, nodes, pitch=1.95, radius=1.0):
+def scene(side, m):
+    r, pitch, seed = 1.0, 1.96, 12345
     bodies = []
-    for j in range(ny):
-        for i in range(nx):
-            cx, cy = i * pitch, j * pitch
-            pts = [[round(cx + radius * math.cos(2 * math.pi * k / nodes), 12),
-                    round(cy + radius * math.sin(2 * math.pi * k / nodes), 12)] for k in range(nodes)]
-            bodies.append({"id": f"d{i}_{j}", "nodes": pts})
-    return {"version": 1, "options": {"alpha": 0.2, "penalty": 100.0}, "bodies": bodies}
+    for i in range(side):
+        for j in range(side):
+            cx, cy = pitch * j, pitch * i
+            nodes = []
+            for k in range(m):
+                a = 2.0 * math.pi * k / m
+                seed = (seed * 1103515245 + 12345) & 0xFFFFFFFF
+                jit = 1.0 + 0.002 * (((seed >> 16) & 0x7FFF) / 32767.0 - 0.5)
+                nodes.append([cx + r * jit * math.cos(a), cy + r * jit * math.sin(a)])
+            bodies.append({"id": len(bodies), "nodes": nodes})
+    return {"version": 1, "options": {"alpha": 0.2, "penalty": 100.0, "search_radius": 0.1}, "bodies": bodies}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--grid", default="2x1", help="disks along x and y, e.g. 30x30")
+    ap.add_argument("--side", type=int, default=2, help="disks per side of the square packing")
     ap.add_argument("--nodes", type=int, default=32, help="nodes per disk")
     a = ap.parse_args()
-    nx, ny = (int(v) for v in a.grid.lower().split("x"))
-    json.dump(scene(nx, ny, a.nodes), sys.stdout, separators=(",", ":"))
+    json.dump(scene(a.side, a.nodes), sys.stdout, separators=(",", ":"))
     sys.stdout.write("\n")
 
 

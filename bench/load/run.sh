@@ -6,9 +6,10 @@
 # Starts build/bin/ntscontactd (or $NTS_BUILD_DIR/bin) on a free port, then runs,
 # each for S seconds (default 10):
 #   health        GET /v1/health, 1 and 8 connections (HTTP alone)
-#   small         POST /v1/contact, 2 disks x 32 nodes, 1 and 8 connections
+#   small         POST /v1/contact, 2x2 disks x 32 nodes (128 nodes), 1 and 8 connections
 #   large         POST /v1/contact, 30x30 disks x 64 nodes (57,600 nodes), 1 and 4 connections
-#   stall         GET /v1/health latency while 2 clients post the large scene
+# and the stage split of the same two scenes by ntscontact_codec_bench (when built).
+#   stall         GET /v1/health latency while 4 clients post the large scene (more than the cores)
 # and prints one BENCH/STALL line per run. Needs wrk (Debian: apt-get install wrk).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -32,8 +33,8 @@ pid=""
 cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; rm -rf "$work"; }
 trap cleanup EXIT
 
-python3 bench/load/make_scene.py --grid 2x1 --nodes 32 >"$work/small.json"
-python3 bench/load/make_scene.py --grid 30x30 --nodes 64 >"$work/large.json"
+python3 bench/load/make_scene.py --side 2 --nodes 32 >"$work/small.json"
+python3 bench/load/make_scene.py --side 30 --nodes 64 >"$work/large.json"
 
 "$daemon" --port 0 --quiet --threading "$threading" >"$work/out" 2>"$work/err" &
 pid=$!
@@ -42,6 +43,7 @@ port=$(sed -n 's/.*:\([0-9]*\)$/\1/p' "$work/out")
 [ -n "$port" ] || { echo "run.sh: the daemon did not start" >&2; cat "$work/err" >&2; exit 1; }
 url="http://127.0.0.1:$port"
 echo "# ntscontactd --threading $threading on $url, $(nproc) cores, ${duration}s per run"
+echo "# load average before: $(cut -d" " -f1-3 /proc/loadavg)"
 echo "# small: $(wc -c <"$work/small.json") bytes, large: $(wc -c <"$work/large.json") bytes"
 
 run() { # name connections script path [scene]
@@ -58,4 +60,11 @@ run small 1 post.lua /v1/contact "$work/small.json"
 run small 8 post.lua /v1/contact "$work/small.json"
 run large 1 post.lua /v1/contact "$work/large.json"
 run large 4 post.lua /v1/contact "$work/large.json"
-timeout $((duration + 60)) python3 bench/load/stall.py "$port" "$work/large.json" --busy 2 --seconds "$duration"
+timeout $((duration + 60)) python3 bench/load/stall.py "$port" "$work/large.json" --busy 4 --seconds "$duration"
+
+# Where the time goes inside one request, same scenes: the codec's stage bench.
+if [ -x "$build/bin/ntscontact_codec_bench" ]; then
+  echo "# stage split (ntscontact_codec_bench SIDE NODES 5: best of 5, ns per node)"
+  echo "## small"; "$build/bin/ntscontact_codec_bench" 2 32 200
+  echo "## large"; "$build/bin/ntscontact_codec_bench" 30 64 5
+fi

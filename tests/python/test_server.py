@@ -503,7 +503,7 @@ def test_slow_upload_is_cut_off_and_others_are_served(daemon_factory, cli_answer
             pass
         result["sent"] = sent
 
-    t = threading.Thread(target=trickle)
+    t = threading.Thread(target=trickle, daemon=True)
     t.start()
     # Meanwhile other clients are answered in full.
     for _ in range(10):
@@ -575,7 +575,7 @@ def test_overload_answers_503(daemon_factory, validators):
 # ------------------------------------------------------------------- signals
 
 def test_sigterm_finishes_requests_in_flight(daemon_factory, paths, tmp_path):
-    scene = json.dumps(disks_scene(20, 20, 64)).encode()
+    scene = json.dumps(disks_scene(40, 40, 64)).encode()  # 102,400 nodes: long enough to overlap
     f = tmp_path / "scene.json"
     f.write_bytes(scene)
     cli = subprocess.run([str(paths.cli), str(f)], capture_output=True, timeout=300)
