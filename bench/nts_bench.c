@@ -791,6 +791,236 @@ static void section_peer(const char* dir) {
     }
 }
 
+/* ------------------------------------------------------------ hard cases */
+
+/* The long-double closest point on one corner (a = X2 - X3, c = X4 - X3, d =
+ * Xs - X3), built from the same double inputs as nts_corner_make. */
+static ld ref_corner_xi(nts_vec2 a, nts_vec2 c, double alpha, nts_vec2 d, int* nroots) {
+    nts_contact k;
+    (void)k;
+    {
+        lvec A = lv(0.25L * alpha * ((ld)a.x + c.x), 0.25L * alpha * ((ld)a.y + c.y));
+        lvec B = lv(0.5L * alpha * ((ld)c.x - a.x), 0.5L * alpha * ((ld)c.y - a.y));
+        lvec e = lsub(lpos(d), A);
+        ld cuts[4], roots[3], bestd = -1, best = 0;
+        ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
+        int nc = 0, nr = 0, i;
+        cuts[nc++] = -1;
+        if (qa != 0) {
+            ld disc = qb * qb - 4 * qa * qc;
+            if (disc > 0) {
+                ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
+                if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
+                if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
+                if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
+            }
+        }
+        cuts[nc++] = 1;
+        for (i = 0; i + 1 < nc; ++i) {
+            ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
+            int it;
+            if (flo == 0) { roots[nr++] = lo; continue; }
+            if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
+            if ((flo > 0) == (fhi > 0)) continue;
+            for (it = 0; it < 200; ++it) {
+                ld mid = 0.5L * (lo + hi), fm;
+                if (!(mid > lo && mid < hi)) break;
+                fm = corner_F(A, B, e, mid);
+                if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
+            }
+            roots[nr++] = 0.5L * (lo + hi);
+        }
+        if (nr == 0) roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
+        for (i = 0; i < nr; ++i) {
+            lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
+            ld d2 = ldot(r, r);
+            if (bestd < 0 || d2 < bestd) { bestd = d2; best = roots[i]; }
+        }
+        *nroots = nr;
+        return best;
+    }
+}
+
+typedef struct hard_case {
+    const char* test; /* the CUnit test that covers it (tests/core/test_hard_cases.c) */
+    const char* name;
+    nts_vec2 a, c, d;
+    double alpha;
+} hard_case;
+
+/* One corner case, both solvers: xi error and gap error against the long-double
+ * reference, roots and iterations, and the CPU time of one solve. */
+static void hard_row(FILE* f, const hard_case* h) {
+    int sv, nref = 0;
+    ld xr = ref_corner_xi(h->a, h->c, h->alpha, h->d, &nref);
+    nts_corner k = nts_corner_make(h->a, h->c, h->alpha);
+    for (sv = 0; sv < 2; ++sv) {
+        nts_corner_solution s = nts_corner_solve(k, h->d, (nts_solver)sv);
+        /* Gap of the reference point, in long double, on the same curve. */
+        lvec A = lv((ld)k.A.x, (ld)k.A.y), B = lv((ld)k.B.x, (ld)k.B.y);
+        lvec pt = ladd(A, lscale(xr, ladd(B, lscale(xr, A))));
+        lvec tau = ladd(B, lscale(2 * xr, A));
+        ld tl = sqrtl(ldot(tau, tau));
+        ld gref = ldot(lsub(lpos(h->d), pt), lv(tau.y / tl, -tau.x / tl));
+        double t0 = cpu_now(), dt;
+        int it, reps = 20000;
+        volatile double sink = 0.0;
+        for (it = 0; it < reps; ++it) sink += nts_corner_solve(k, h->d, (nts_solver)sv).xi;
+        dt = (cpu_now() - t0) / reps;
+        (void)sink;
+        fprintf(f, "%s,\"%s\",%s,%.2f,%d,%d,%d,%d,%.17g,%.3e,%.3e,%.1f,%d\n", h->test, h->name, SOLVER_NAMES[sv],
+                h->alpha, s.ok, s.roots, nref, s.iterations, s.xi, (double)fabsl((ld)s.xi - xr),
+                (double)fabsl((ld)s.gap - gref), 1e9 * dt,
+                isfinite(s.xi) && isfinite(s.gap) && isfinite(s.normal.x) && isfinite(s.normal.y));
+    }
+}
+
+static void section_hard(const char* dir) {
+    const double deg = PI / 180.0, q = 0.70710678118654752;
+    FILE* f = open_csv(dir, "hard",
+                       "test,case,solver,alpha,ok,roots,reference_roots,iterations,xi,xi_error,gap_error,ns_per_solve,"
+                       "finite");
+    FILE* g;
+    hard_case cases[] = {
+        {"test_collinear_neighbours", "collinear (A = 0)", {-1, 0}, {1, 0}, {0.05, -0.3}, 0.2},
+        {"test_collinear_neighbours", "collinear; slave inside; alpha 0.5", {-1, 0}, {1, 0}, {-0.13, 0.2}, 0.5},
+        {"test_nearly_collinear", "nearly collinear: 1e-9 rad", {-1, 0}, {0, 0}, {0.05, -0.3}, 0.2},
+        {"test_nearly_collinear", "nearly collinear: 1e-5 rad", {-1, 0}, {0, 0}, {-0.07, 0.1}, 0.2},
+        {"test_slave_on_alpha_boundaries", "projection exactly s = alpha", {-1, 0}, {0, 1}, {0.1, 0.25}, 0.25},
+        {"test_slave_on_alpha_boundaries", "projection exactly s = 1 - alpha (previous)", {-1, 0}, {0, 1},
+         {-0.25, -0.1}, 0.25},
+        {"test_slave_exactly_on_node", "slave exactly on the corner node", {-1, 0}, {0, 1}, {0, 0}, 0.2},
+        {"test_evolute_several_roots", "beyond the evolute (three roots)", {-1, 0}, {-1.2 * q, 1.2 * q},
+         {-0.42, 0.15}, 0.5},
+        {"test_one_degree_spike_and_reflex", "1 degree spike; slave outside", {-1, 0}, {0, 0}, {0.05, 0.001}, 0.2},
+        {"test_one_degree_spike_and_reflex", "359 degree reflex corner", {-1, 0}, {0, 0}, {0.05, 0.0005}, 0.2},
+    };
+    int i, n = (int)(sizeof cases / sizeof cases[0]), sv;
+    cases[2].c = nts_v2(cos(1e-9), sin(1e-9));
+    cases[3].c = nts_v2(cos(1e-5), sin(1e-5));
+    cases[8].c = nts_v2(-cos(deg), sin(deg));
+    cases[9].c = nts_v2(-cos(deg), -sin(deg));
+    for (i = 0; i < n; ++i) hard_row(f, &cases[i]);
+    fclose(f);
+
+    /* The random sweep of test_random_corners_against_reference (same generator
+     * rule, our own RNG): both solvers, error distribution, iterations, time. */
+    g = open_csv(dir, "hard_sweep",
+                 "solver,corners,xi_error_max,xi_error_median,dist_error_max,iterations_mean,iterations_max,"
+                 "ns_per_solve,fallback_or_nan");
+    for (sv = 0; sv < 2; ++sv) {
+        enum { MAXC = 4000 };
+        static nts_vec2 A_[MAXC], C_[MAXC], D_[MAXC];
+        static double AL_[MAXC], ex[MAXC], ed[MAXC];
+        int m = 0, itmax = 0, bad = 0, rep;
+        double itsum = 0.0, t0, dt;
+        volatile double sink = 0.0;
+        rng_state = 12345u;
+        while (m < (g_quick ? 500 : MAXC)) {
+            double th1 = 2 * PI * urand(), th2 = 2 * PI * urand(), al = 0.05 + 0.45 * urand();
+            nts_vec2 a = nts_scale(0.5 + urand(), nts_v2(cos(th1), sin(th1)));
+            nts_vec2 c = nts_scale(0.5 + urand(), nts_v2(cos(th2), sin(th2)));
+            nts_vec2 d = nts_v2(0.6 * (urand() - 0.5), 0.6 * (urand() - 0.5));
+            double sp, sj;
+            if (fabs(nts_cross(a, c)) < 1e-3 && nts_dot(a, c) > 0) continue;
+            sp = nts_dot(nts_sub(d, a), nts_neg(a)) / nts_dot(a, a);
+            sj = nts_dot(d, c) / nts_dot(c, c);
+            if (!(sp >= 1.0 - al && sj <= al)) continue;
+            A_[m] = a; C_[m] = c; D_[m] = d; AL_[m] = al;
+            ++m;
+        }
+        for (i = 0; i < m; ++i) {
+            int nr;
+            ld xr = ref_corner_xi(A_[i], C_[i], AL_[i], D_[i], &nr);
+            nts_corner k = nts_corner_make(A_[i], C_[i], AL_[i]);
+            nts_corner_solution s = nts_corner_solve(k, D_[i], (nts_solver)sv);
+            nts_vec2 ps = nts_corner_point(k, s.xi);
+            lvec A = lv((ld)k.A.x, (ld)k.A.y), B = lv((ld)k.B.x, (ld)k.B.y);
+            lvec pr = ladd(A, lscale(xr, ladd(B, lscale(xr, A))));
+            ld dsx = (ld)D_[i].x - ps.x, dsy = (ld)D_[i].y - ps.y;
+            lvec dr = lsub(lpos(D_[i]), pr);
+            ex[i] = (double)fabsl((ld)s.xi - xr);
+            /* Where two roots are equally near, either is right: compare distances too. */
+            ed[i] = (double)fabsl(sqrtl(dsx * dsx + dsy * dsy) - sqrtl(ldot(dr, dr)));
+            itsum += s.iterations;
+            if (s.iterations > itmax) itmax = s.iterations;
+            bad += !isfinite(s.xi) || !s.ok;
+        }
+        t0 = cpu_now();
+        for (rep = 0; rep < (g_quick ? 20 : 100); ++rep)
+            for (i = 0; i < m; ++i) {
+                nts_corner k = nts_corner_make(A_[i], C_[i], AL_[i]);
+                sink += nts_corner_solve(k, D_[i], (nts_solver)sv).xi;
+            }
+        dt = (cpu_now() - t0) / ((g_quick ? 20 : 100) * (double)m);
+        (void)sink;
+        fprintf(g, "%s,%d,%.3e,%.3e,%.3e,%.2f,%d,%.1f,%d\n", SOLVER_NAMES[sv], m, vmax(ex, m), median(ex, m),
+                vmax(ed, m), itsum / m, itmax, 1e9 * dt, bad);
+    }
+    fclose(g);
+
+    /* Scene-level hard cases: offset 1e6 with 1e-3 segments; 1e-9 and 1e9 scales. */
+    g = open_csv(dir, "hard_scenes", "test,case,solver,contacts,max_gap_difference,relative_energy_difference,all_finite");
+    for (sv = 0; sv < 2; ++sv) {
+        scene_buf b0, b1;
+        nts_scene *s0, *s1;
+        nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+        nts_options o = nts_default_options();
+        nts_result r0, r1;
+        double worst = 0.0, sc;
+        int k, j, fin = 1, si;
+        o.solver = (nts_solver)sv;
+        o.outputs = NTS_OUT_ALL;
+        o.penalty = 1e4;
+        for (si = 0; si < 2; ++si) {
+            buf_init(&b0, 2);
+            buf_init(&b1, 2);
+            for (k = 0; k < 2; ++k) {
+                b0.count[k] = b1.count[k] = 64;
+                b0.nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * 64);
+                b1.nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * 64);
+                for (j = 0; j < 64; ++j) {
+                    double th = 2 * PI * j / 64 + (k ? 0.03 : 0.0);
+                    nts_vec2 p = k ? nts_v2(0.0199 + 0.01 * cos(th), 0.0003 + 0.01 * sin(th))
+                                   : nts_v2(0.01 * cos(th), 0.01 * sin(th));
+                    b0.nodes[k][j] = p;
+                    b1.nodes[k][j] = nts_add(p, nts_v2(1e6, -1e6));
+                }
+            }
+            if (si == 1) {
+                /* scale instead of offset */
+                for (k = 0; k < 2; ++k)
+                    for (j = 0; j < 64; ++j) b1.nodes[k][j] = nts_scale(1e9, b0.nodes[k][j]);
+            }
+            s0 = scene_from(&b0);
+            s1 = scene_from(&b1);
+            eval_or_die(c0, s0, &o, &r0);
+            eval_or_die(c1, s1, &o, &r1);
+            sc = si == 1 ? 1e9 : 1.0;
+            worst = 0.0;
+            fin = 1;
+            for (k = 0; k < r0.contact_count && k < r1.contact_count; ++k) {
+                double dd = fabs(r1.contacts[k].gap / sc - r0.contacts[k].gap);
+                if (dd > worst) worst = dd;
+                fin &= isfinite(r1.contacts[k].gap) && isfinite(r1.contacts[k].param);
+            }
+            fprintf(g, "%s,%s,%s,%d/%d,%.3e,%.3e,%d\n",
+                    si ? "test_extreme_scales" : "test_large_offset_small_segments",
+                    si ? "two disks of radius 0.01 scaled by 1e9 (gaps compared after dividing by 1e9)"
+                       : "two disks of radius 0.01 (1e-3 segments) moved to (1e6; -1e6)",
+                    SOLVER_NAMES[sv], r1.contact_count, r0.contact_count, worst,
+                    fabs(r1.summary.energy / (sc * sc) - r0.summary.energy) / r0.summary.energy, fin);
+            nts_scene_destroy(s0);
+            nts_scene_destroy(s1);
+            buf_free(&b0);
+            buf_free(&b1);
+        }
+        nts_context_destroy(c0);
+        nts_context_destroy(c1);
+    }
+    fclose(g);
+}
+
 /* Digest: an FNV-1a hash of every output byte (summary, forces, contacts, gaps)
  * for a set of scenes, solvers, alphas, searches and thread counts. The "before"
  * and "after" binaries must print the same digests: the faster core changes no
@@ -902,6 +1132,7 @@ int main(int argc, char** argv) {
     RUN("scaling", section_scaling(dir));
     RUN("threads", section_threads(dir, max_threads));
     RUN("peer", section_peer(dir));
+    RUN("hard", section_hard(dir));
 #undef RUN
     fprintf(stderr, "[%s] total %.1f s\n", NTS_BENCH_VARIANT, now() - t0);
     return 0;
