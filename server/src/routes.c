@@ -73,6 +73,7 @@ char* ntsd_health_document(ntsd_server* s, size_t* length) {
     int shutting, in_flight, evaluating, n;
     unsigned connections;
     unsigned long long served;
+    double receiving, handling, sending;
     if (doc == NULL) return NULL;
     pthread_mutex_lock(&s->lock);
     shutting = s->shutting_down;
@@ -80,6 +81,9 @@ char* ntsd_health_document(ntsd_server* s, size_t* length) {
     evaluating = s->evaluating;
     connections = s->connections;
     served = s->served;
+    receiving = s->receiving_s;
+    handling = s->handling_s;
+    sending = s->sending_s;
     pthread_mutex_unlock(&s->lock);
     n = snprintf(doc, 2048,
                  "{\"status\":\"%s\",\"version\":\"%s\","
@@ -87,12 +91,13 @@ char* ntsd_health_document(ntsd_server* s, size_t* length) {
                  "\"server\":{\"threading\":\"%s\",\"threads\":%d,\"max_body\":%zu,\"timeout_s\":%u,"
                  "\"max_connections\":%u},"
                  "\"uptime_s\":%.3f,\"requests_served\":%llu,\"requests_in_flight\":%d,"
-                 "\"evaluations_running\":%d,\"connections_open\":%u}\n",
+                 "\"evaluations_running\":%d,\"connections_open\":%u,"
+                 "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f}}\n",
                  shutting ? "shutting_down" : "ok", NTS_VERSION_STRING, NTSD_BUILD_TYPE,
                  NTSD_OPENMP ? "true" : "false", NTSD_SANITIZE ? "true" : "false", MHD_get_version(),
                  ntsd_threading_name(c->threading), c->threads, c->max_body, c->timeout_s,
                  c->max_connections, ntsd_now() - s->started, served, in_flight, evaluating,
-                 connections);
+                 connections, receiving, handling, sending);
     if (n < 0 || n >= 2048) {
         free(doc);
         return NULL;

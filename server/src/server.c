@@ -25,6 +25,7 @@ typedef struct ntsd_request {
     ntsd_server* server;
     ntsd_route route;
     double t0, deadline;       /* monotonic seconds: first callback, end of the upload budget */
+    double t_body, t_answer;   /* the body is complete; the response is queued */
     ntsd_body body;
     size_t received;           /* body bytes received, kept or not */
     int queued;                /* a response is queued */
@@ -86,6 +87,8 @@ static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned
     ok = MHD_queue_response(c, status, resp);
     MHD_destroy_response(resp);
     if (ok == MHD_YES) {
+        r->t_answer = ntsd_now();
+        if (r->t_body == 0.0) r->t_body = r->t_answer;
         r->queued = 1;
         r->status = (int)status;
         r->bytes_out = length;
@@ -161,6 +164,7 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     jc.max_seconds = s->config.max_seconds;
     jc.threads = 0; /* concurrency comes from requests, not from inside one */
     memset(&resp, 0, sizeof resp);
+    r->t_body = ntsd_now();
     gate_enter(s);
     rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &resp);
     gate_leave(s);
@@ -303,19 +307,25 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
     int ok = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK && r != NULL && r->queued;
+    double t_end = ntsd_now();
     (void)c;
     if (r == NULL) return;
     ntsd_log_request(r->peer, r->method, r->path, ok ? r->status : 0,
                      ok || r->code[0] ? r->code : termination_name(toe), r->received,
-                     ok ? r->bytes_out : 0, 1e3 * (ntsd_now() - r->t0));
+                     ok ? r->bytes_out : 0, 1e3 * (t_end - r->t0));
+    pthread_mutex_lock(&s->lock);
+    s->in_flight--;
+    if (ok) {
+        s->served++;
+        s->receiving_s += r->t_body - r->t0;
+        s->handling_s += r->t_answer - r->t_body;
+        s->sending_s += t_end - r->t_answer;
+    }
+    pthread_cond_broadcast(&s->changed);
+    pthread_mutex_unlock(&s->lock);
     ntsd_body_free(&r->body);
     free(r);
     *con_cls = NULL;
-    pthread_mutex_lock(&s->lock);
-    s->in_flight--;
-    if (ok) s->served++;
-    pthread_cond_broadcast(&s->changed);
-    pthread_mutex_unlock(&s->lock);
 }
 
 static void on_connection(void* cls, struct MHD_Connection* c, void** socket_context,
