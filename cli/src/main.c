@@ -102,6 +102,17 @@ static int parse_outputs(const char* s, unsigned* out) {
     return 0;
 }
 
+/* Write `s` with JSON string escapes for control characters (and for '"' and
+ * '\\' when `quote`). */
+static void put_escaped(FILE* f, const char* s, int quote) {
+    for (; *s; ++s) {
+        unsigned char c = (unsigned char)*s;
+        if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else if (quote && (c == '"' || c == '\\')) fprintf(f, "\\%c", c);
+        else fputc(c, f);
+    }
+}
+
 /* Read all of `f`, at most `limit` + 1 bytes (one more than allowed, so the
  * codec sees the request is too large without us reading gigabytes). */
 static char* read_all(FILE* f, size_t limit, size_t* length) {
@@ -273,7 +284,14 @@ int main(int argc, char** argv) {
         /* One line: code, pointer, message (the error document, flattened). */
         char pointer[256], message[512];
         ntsj_error_fields(resp.body, resp.length, pointer, sizeof pointer, message, sizeof message);
-        fprintf(stderr, "ntscontact: %s at \"%s\": %s\n", resp.code, pointer, message);
+        /* The pointer is printed as the inside of a JSON string and control
+         * characters are escaped, so the diagnostic stays one parseable line
+         * whatever keys the request used. */
+        fprintf(stderr, "ntscontact: %s at \"", resp.code);
+        put_escaped(stderr, pointer, 1);
+        fputs("\": ", stderr);
+        put_escaped(stderr, message, 0);
+        fputc('\n', stderr);
         status = resp.http_status >= 500 ? EXIT_INTERNAL : EXIT_INVALID;
         ntsj_response_free(&resp);
         return status;
