@@ -117,13 +117,14 @@ static void put_escaped(FILE* f, const char* s, int quote) {
  * codec sees the request is too large without us reading gigabytes). */
 static char* read_all(FILE* f, size_t limit, size_t* length) {
     size_t cap = 1 << 16, len = 0;
+    const size_t most = limit < (size_t)-1 ? limit + 1 : limit; /* bytes we read at most */
     char* buf = (char*)malloc(cap);
     if (!buf) return NULL;
     for (;;) {
         size_t want, got;
         if (len == cap) {
             char* p;
-            if (cap > limit + 1) break;
+            if (cap >= most || cap > (size_t)-1 / 2) break;
             cap *= 2;
             p = (char*)realloc(buf, cap);
             if (!p) {
@@ -133,7 +134,7 @@ static char* read_all(FILE* f, size_t limit, size_t* length) {
             buf = p;
         }
         want = cap - len;
-        if (len + want > limit + 1) want = limit + 1 - len;
+        if (want > most - len) want = most - len;
         if (want == 0) break;
         got = fread(buf + len, 1, want, f);
         len += got;

@@ -121,8 +121,8 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
 
     if (length > cfg.max_bytes) {
         char msg[128];
-        snprintf(msg, sizeof msg, "request is %lu bytes, more than max_bytes = %lu", (unsigned long)length,
-                 (unsigned long)cfg.max_bytes);
+        /* A reader that stops at max_bytes + 1 (the CLI does) only knows "more". */
+        snprintf(msg, sizeof msg, "request is more than max_bytes = %lu bytes", (unsigned long)cfg.max_bytes);
         return respond_error(out, "payload_too_large", msg, "", pretty);
     }
     if (!json || is_blank(json, length)) return respond_error(out, "empty_body", "the request is empty", "", pretty);
