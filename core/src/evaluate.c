@@ -32,14 +32,15 @@ typedef struct seg_data {
 } seg_data;
 
 /* A master surface entry as the local search reads it, copied in cell order
- * (nodes sorted by cell) so the 3x3 stencil walks contiguous memory: 64 bytes,
- * one cache line. Everything else of the entry (its previous segment, its node
+ * (nodes sorted by cell) so the 3x3 stencil walks contiguous memory (72
+ * bytes). Everything else of the entry (its previous segment, its node
  * indices) is read only for the few entries that pass the cheap rejects. */
 typedef struct master_hot {
     nts_vec2 p;      /* X_j */
     nts_vec2 t;      /* segment j: X_{j+1} - X_j (minimum image) */
     nts_vec2 n;      /* its outward unit normal */
     double inv_len2; /* 1/|t|^2 */
+    double reach2;   /* no feature of this master counts for a slave farther than sqrt(reach2) */
     int body;
     int entry;       /* surface entry j */
 } master_hot;
@@ -154,7 +155,6 @@ typedef struct search_env {
     const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
     double alpha, r, eps;
     double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
-    double reach2;           /* (h (1 + 1e-9))^2: no feature of a master farther than h can count */
     double cell_reach2;      /* the same for a whole cell, with a round-off allowance */
     int cell_cull;           /* 1 when the stencil offsets are exact images (cull whole cells) */
     nts_solver solver;
@@ -221,10 +221,10 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     double d2 = d.x * d.x + d.y * d.y, sj_param;
     candidate c;
 
-    /* Cheap reject: every feature of this master lies within h = L_max + r of X_j
+    /* Cheap reject: every feature of this master lies within its reach of X_j
      * (segment: |d| <= |t| + |g|; corner: |d| <= r + alpha max(|a|, |c|); vertex:
-     * |d| = |g|), so a farther master offers nothing. */
-    if (!(d2 <= env->reach2)) return;
+     * |d| = |g|), so a farther master offers nothing (fill_hot). */
+    if (!(d2 <= m->reach2)) return;
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* erratum 2 */
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
@@ -446,6 +446,7 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
         const nts_cells* cl = env->cells;
         stencil st;
         int last_cell = -1;
+        double cell_x0 = 0.0, cell_y0 = 0.0;
         st.n = 0;
         for (i = begin; i < end && w->status == NTS_OK; ++i) {
             const int bi = s->surf_body[i], cell = cl->entry_cell[i];
@@ -455,6 +456,8 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
             if (cell != last_cell) {
                 make_stencil(cl, cell, &st);
                 last_cell = cell;
+                cell_x0 = (cell % cl->nx) * cl->hx;
+                cell_y0 = (cell / cl->nx) * cl->hy;
             }
             if (env->cell_cull) {
                 /* The slave's place inside its cell, as nts_cells_build binned it. */
@@ -463,8 +466,8 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
                     x -= s->lx * floor(x / s->lx);
                     y -= s->ly * floor(y / s->ly);
                 }
-                fx = x - (cell % cl->nx) * cl->hx;
-                fy = y - (cell / cl->nx) * cl->hy;
+                fx = x - cell_x0;
+                fy = y - cell_y0;
             }
             for (q = 0; q < st.n; ++q) {
                 int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
@@ -487,16 +490,22 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
     }
 }
 
-/* The masters' hot records in the order the search reads them. */
-static void fill_hot(nts_context* ctx, const nts_scene* s, const int* order) {
+/* The masters' hot records in the order the search reads them. The reach of
+ * master j is r + max(|t_j|, alpha |t_{j-1}|): the flat part of segment j lies
+ * within |t_j| + r, the corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex
+ * within r; the factor 1 + 1e-9 covers the round-off of the tests it replaces. */
+static void fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r) {
     int e;
     for (e = 0; e < s->surface_count; ++e) {
         int j = order != NULL ? order[e] : e;
         master_hot* m = &ctx->hot[e];
+        double lp = alpha * ctx->seg[s->surf_prev[j]].len, lj = ctx->seg[j].len;
+        double reach = (r + (lj > lp ? lj : lp)) * (1.0 + 1e-9);
         m->p = s->pos[s->surf_node[j]];
         m->t = ctx->seg[j].t;
         m->n = ctx->seg[j].n;
         m->inv_len2 = ctx->seg[j].inv_len2;
+        m->reach2 = reach * reach;
         m->body = s->surf_body[j];
         m->entry = j;
     }
@@ -569,7 +578,6 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.ly = s->ly;
     env.qx = 0.25 * s->lx;
     env.qy = 0.25 * s->ly;
-    env.reach2 = (h * (1.0 + 1e-9)) * (h * (1.0 + 1e-9));
     env.cell_reach2 = 0.0;
     env.cell_cull = 0;
     env.cells = NULL;
@@ -581,7 +589,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         double scale;
         if ((rc = nts_cells_build(&ctx->cells, s, h)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
         env.cells = cl;
-        fill_hot(ctx, s, cl->items);
+        fill_hot(ctx, s, cl->items, env.alpha, env.r);
         /* Whole-cell cull: exact when every stencil offset is a distinct image,
          * with an allowance for the round-off of binning (relative to the size of
          * the coordinates, not of the cells). */
@@ -589,7 +597,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
         env.cell_reach2 = (h * (1.0 + 1e-9) + 1e-12 * scale) * (h * (1.0 + 1e-9) + 1e-12 * scale);
     } else {
-        fill_hot(ctx, s, NULL);
+        fill_hot(ctx, s, NULL, env.alpha, env.r);
     }
 
     t1 = wall_time();
