@@ -547,3 +547,23 @@ def test_codec_survives_every_allocation_failure():
     proc = subprocess.run([str(oom), *map(str, EXAMPLES)], capture_output=True, timeout=300)
     assert proc.returncode == 0, proc.stdout.decode()
     assert proc.stdout.count(b"freed everything") == 2 * len(EXAMPLES) + 4
+
+
+SCHEMA_CODES = {"invalid_type", "missing_field", "unknown_field", "invalid_value", "invalid_option",
+                "empty_scene", "no_nodes", "loop_too_short"}
+# Faults with one of those codes that only the codec can see: a geometric
+# rule (the implicit loop of a body with 2 nodes).
+NOT_SCHEMA = {"two_node_body"}
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if "scene" in c], ids=lambda c: c["name"])
+def test_schema_and_codec_agree_on_malformed_scenes(schemas, case):
+    """What the scene schema can express, it rejects too; what it cannot, the codec still does."""
+    validator = jsonschema.Draft202012Validator(schemas["scene"])
+    errors = list(validator.iter_errors(case["scene"]))
+    if case["code"] in SCHEMA_CODES and case["name"] not in NOT_SCHEMA:
+        assert errors, f'{case["name"]}: the schema accepts what the codec rejects as {case["code"]}'
+    elif case["code"] in ("duplicate_id", "index_out_of_range", "degenerate_segment", "zero_area_loop",
+                          "zero_angle_spike", "node_in_two_loops", "non_manifold_mesh", "degenerate_triangle",
+                          "box_too_small") and case["name"] not in ("loop_index_negative",):
+        assert not errors, f'{case["name"]}: expected schema-valid, got {errors[0].message}'
