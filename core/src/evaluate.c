@@ -161,6 +161,12 @@ typedef struct search_env {
     int want_virial;
 } search_env;
 
+#if defined(__GNUC__)
+#define NTS_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define NTS_ALWAYS_INLINE
+#endif
+
 /* Xs - X exactly as nts_scene_diff computes it (contact-model.md, "Global
  * search": the minimum image), without its division and library call in the
  * common case: when |d.x| < lx/4 the image is 0 (nearbyint gives a signed zero,
@@ -171,8 +177,16 @@ static inline double min_image_1(double d, double l, double quarter) {
     if (fabs(d) < quarter) return d + 0.0;
     return d - l * nearbyint(d / l);
 }
-static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q) {
+/* `periodic` is a compile-time constant at every call (the search loop is
+ * instantiated twice), so an open scene pays nothing for the box. */
+static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
     nts_vec2 d = nts_sub(p, q);
+    if (!periodic) return d;
+    if (fabs(d.x) < env->qx && fabs(d.y) < env->qy) {
+        d.x += 0.0;
+        d.y += 0.0;
+        return d;
+    }
     d.x = min_image_1(d.x, env->lx, env->qx);
     d.y = min_image_1(d.y, env->ly, env->qy);
     return d;
@@ -207,17 +221,11 @@ static inline void offer(worker* w, const candidate* c) {
  * flat part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0)
  * at j. The arithmetic of every accepted candidate is the first core's, operation
  * for operation, so results are bitwise unchanged. */
-#if defined(__GNUC__)
-#define NTS_ALWAYS_INLINE __attribute__((always_inline))
-#else
-#define NTS_ALWAYS_INLINE
-#endif
-
 static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs,
-                                                const master_hot* m) {
+                                                const master_hot* m, const int periodic) {
     const double alpha = env->alpha, r = env->r;
     const nts_vec2 pj = m->p;
-    nts_vec2 d = search_diff(env, xs, pj); /* Xs - X0 (or Xs - X3): subtract first */
+    nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
     double d2 = d.x * d.x + d.y * d.y, sj_param;
     candidate c;
 
@@ -248,7 +256,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
         const int j = m->entry, jp = s->surf_prev[j];
         const seg_data* sp = &env->seg[jp];
         nts_vec2 pp = s->pos[s->surf_node[jp]];
-        nts_vec2 dp = search_diff(env, xs, pp);
+        nts_vec2 dp = search_diff(env, xs, pp, periodic);
         double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
         if (alpha > 0.0) {
             /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (erratum 3). */
@@ -438,53 +446,63 @@ static inline double cell_dist2(const nts_cells* c, double fx, double fy, int ox
     return ex * ex + ey * ey;
 }
 
+/* The local search of slaves [begin, end) with the cell list. */
+static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
+                                                  const int periodic) {
+    const nts_scene* s = env->s;
+    const master_hot* hot = env->hot;
+    const nts_cells* cl = env->cells;
+    stencil st;
+    int last_cell = -1, i;
+    double cell_x0 = 0.0, cell_y0 = 0.0;
+    st.n = 0;
+    for (i = begin; i < end && w->status == NTS_OK; ++i) {
+        const int bi = s->surf_body[i], cell = cl->entry_cell[i];
+        const nts_vec2 xs = s->pos[s->surf_node[i]];
+        double fx = 0.0, fy = 0.0;
+        int q;
+        if (cell != last_cell) {
+            make_stencil(cl, cell, &st);
+            last_cell = cell;
+            cell_x0 = (cell % cl->nx) * cl->hx;
+            cell_y0 = (cell / cl->nx) * cl->hy;
+        }
+        if (env->cell_cull) {
+            /* The slave's place inside its cell, as nts_cells_build binned it. */
+            double x = xs.x - cl->x0, y = xs.y - cl->y0;
+            if (periodic) {
+                x -= s->lx * floor(x / s->lx);
+                y -= s->ly * floor(y / s->ly);
+            }
+            fx = x - cell_x0;
+            fy = y - cell_y0;
+        }
+        for (q = 0; q < st.n; ++q) {
+            int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
+            /* Cell cull: a cell wholly farther than h holds no master that counts. */
+            if (env->cell_cull && cell_dist2(cl, fx, fy, st.ox[q], st.oy[q]) > env->cell_reach2) continue;
+            for (e = e0; e < e1; ++e)
+                if (hot[e].body != bi) try_master(env, w, xs, &hot[e], periodic);
+        }
+        flush_slave(env, w, i);
+    }
+}
+
 static void search_range(const search_env* env, worker* w, int begin, int end) {
     const nts_scene* s = env->s;
     const master_hot* hot = env->hot;
+    const int periodic = env->lx > 0.0 || env->ly > 0.0;
     int i;
     if (env->cells != NULL) {
-        const nts_cells* cl = env->cells;
-        stencil st;
-        int last_cell = -1;
-        double cell_x0 = 0.0, cell_y0 = 0.0;
-        st.n = 0;
-        for (i = begin; i < end && w->status == NTS_OK; ++i) {
-            const int bi = s->surf_body[i], cell = cl->entry_cell[i];
-            const nts_vec2 xs = s->pos[s->surf_node[i]];
-            double fx = 0.0, fy = 0.0;
-            int q;
-            if (cell != last_cell) {
-                make_stencil(cl, cell, &st);
-                last_cell = cell;
-                cell_x0 = (cell % cl->nx) * cl->hx;
-                cell_y0 = (cell / cl->nx) * cl->hy;
-            }
-            if (env->cell_cull) {
-                /* The slave's place inside its cell, as nts_cells_build binned it. */
-                double x = xs.x - cl->x0, y = xs.y - cl->y0;
-                if (cl->periodic) {
-                    x -= s->lx * floor(x / s->lx);
-                    y -= s->ly * floor(y / s->ly);
-                }
-                fx = x - cell_x0;
-                fy = y - cell_y0;
-            }
-            for (q = 0; q < st.n; ++q) {
-                int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
-                /* Cell cull: a cell wholly farther than h holds no master that counts. */
-                if (env->cell_cull && cell_dist2(cl, fx, fy, st.ox[q], st.oy[q]) > env->cell_reach2) continue;
-                for (e = e0; e < e1; ++e)
-                    if (hot[e].body != bi) try_master(env, w, xs, &hot[e]);
-            }
-            flush_slave(env, w, i);
-        }
+        if (periodic) search_cells(env, w, begin, end, 1);
+        else search_cells(env, w, begin, end, 0);
     } else {
         for (i = begin; i < end && w->status == NTS_OK; ++i) {
             const int bi = s->surf_body[i];
             const nts_vec2 xs = s->pos[s->surf_node[i]];
             int j;
             for (j = 0; j < s->surface_count; ++j)
-                if (hot[j].body != bi) try_master(env, w, xs, &hot[j]);
+                if (hot[j].body != bi) try_master(env, w, xs, &hot[j], 1);
             flush_slave(env, w, i);
         }
     }
