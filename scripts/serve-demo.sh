@@ -6,19 +6,21 @@
 #
 #   scripts/serve-demo.sh [--port N] [--once]
 #
-# --port N   listen on 127.0.0.1:N (default 8080, or $NTS_PORT; 0 = any free port)
+# --port N   listen on 127.0.0.1:N (default 8080, or $NTS_PORT; 0 = any free port;
+#            when the default 8080 is busy, any free port is taken)
 # --once     stop after the query instead of staying in the foreground
 # Builds first (scripts/install-deps.sh + scripts/build.sh) when the daemon is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 port=${NTS_PORT:-8080}
+port_given=${NTS_PORT:+1}
 once=0
 while [ $# -gt 0 ]; do
   case "$1" in
-    --port) port=$2; shift 2 ;;
+    --port) port=$2; port_given=1; shift 2 ;;
     --once) once=1; shift ;;
-    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "serve-demo: unknown argument: $1" >&2; exit 2 ;;
   esac
 done
@@ -39,16 +41,26 @@ cleanup() {
 }
 trap cleanup EXIT
 
-"$daemon" --host 127.0.0.1 --port "$port" >"$out" &
-pid=$!
-for _ in $(seq 100); do
-  grep -q "listening on" "$out" 2>/dev/null && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.05
-done
-if ! grep -q "listening on" "$out"; then
-  echo "serve-demo: ntscontactd did not start on port $port (busy? try --port 0)" >&2
-  exit 1
+start() { # port
+  "$daemon" --host 127.0.0.1 --port "$1" >"$out" &
+  pid=$!
+  for _ in $(seq 100); do
+    grep -q "listening on" "$out" 2>/dev/null && return 0
+    kill -0 "$pid" 2>/dev/null || break
+    sleep 0.05
+  done
+  wait "$pid" 2>/dev/null || true
+  pid=""
+  return 1
+}
+if ! start "$port"; then
+  if [ -z "$port_given" ]; then
+    echo "serve-demo: port $port is busy; taking any free port" >&2
+    start 0 || { echo "serve-demo: ntscontactd did not start" >&2; exit 1; }
+  else
+    echo "serve-demo: ntscontactd did not start on port $port (busy? try --port 0)" >&2
+    exit 1
+  fi
 fi
 bound=$(sed -n 's/.*listening on //p' "$out")
 url="http://$bound"

@@ -6,6 +6,7 @@ fixtures (conftest.py); binaries from $NTS_BUILD_DIR/bin."""
 import http.client
 import json
 import math
+import os
 import re
 import signal
 import socket
@@ -670,3 +671,13 @@ def test_port_in_use_fails_cleanly(daemon, paths):
                        timeout=30)
     assert p.returncode == 1
     assert "cannot listen" in p.stderr
+
+
+def test_serve_demo_once(paths):
+    """scripts/serve-demo.sh: start, query with the bundled example, summary, stop."""
+    env = dict(os.environ, NTS_BUILD_DIR=str(paths.build))
+    p = subprocess.run(["bash", str(paths.repo / "scripts/serve-demo.sh"), "--port", "0", "--once"],
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert re.search(r"contacts: +\d+ active", p.stdout), p.stdout
+    assert "POST /v1/contact 200" in p.stderr
