@@ -92,6 +92,55 @@ static int over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, co
     return 1;
 }
 
+static int vec_ok(nts_vec2 v) { return isfinite(v.x) && isfinite(v.y); }
+static int virial_ok(nts_virial v) { return isfinite(v.xx) && isfinite(v.yy) && isfinite(v.xy); }
+
+/* Finite input can still overflow (a penalty of 1e200 times gaps of 1e100): the
+ * contract has no NaN, no Infinity and no null, so such a result is refused as
+ * non_finite. The pointer is the penalty whatever the outputs asked for (so
+ * --validate answers alike); the message names the first node at fault. */
+static int result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f) {
+    const nts_summary* sm = &r->summary;
+    int b, k, i;
+    if (r->forces) {
+        for (b = 0; b < s->body_count; ++b) {
+            int off = nts_scene_body_node_offset(scene, b), n = nts_scene_body_node_count(scene, b);
+            for (k = 0; k < n; ++k) {
+                if (!vec_ok(r->forces[off + k])) {
+                    ntsj_fault_set(f, "non_finite", "/options/penalty",
+                                   "the contact force on /bodies/%d/nodes/%d overflows a double (reduce the penalty "
+                                   "or the coordinates)", b, k);
+                    return 1;
+                }
+            }
+        }
+    }
+    for (i = 0; r->contacts && i < r->contact_count; ++i) {
+        const nts_contact* c = &r->contacts[i];
+        if (!vec_ok(c->force) || !virial_ok(c->virial) || !isfinite(c->gap) || !vec_ok(c->point) ||
+            !vec_ok(c->normal) || !isfinite(c->param) || !isfinite(c->weights[0])) {
+            ntsj_fault_set(f, "non_finite", "/options/penalty",
+                           "the contact of /bodies/%d/nodes/%d overflows a double (reduce the penalty or the "
+                           "coordinates)", c->slave_body, c->slave_node);
+            return 1;
+        }
+    }
+    for (i = 0; r->gaps && i < r->gap_count; ++i) {
+        if (!isfinite(r->gaps[i].gap)) {
+            ntsj_fault_set(f, "non_finite", "/options/penalty", "the gap of /bodies/%d/nodes/%d overflows a double",
+                           r->gaps[i].slave_body, r->gaps[i].slave_node);
+            return 1;
+        }
+    }
+    if (!isfinite(sm->energy) || !virial_ok(sm->virial) || !isfinite(sm->max_penetration) ||
+        !isfinite(sm->search_radius) || !isfinite(sm->cell_size)) {
+        ntsj_fault_set(f, "non_finite", "/options/penalty",
+                       "the energy or the virial overflows a double (reduce the penalty or the coordinates)");
+        return 1;
+    }
+    return 0;
+}
+
 static int is_blank(const char* p, size_t n) {
     size_t i;
     for (i = 0; i < n; ++i)
@@ -182,6 +231,9 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             done = 1;
         } else if (rc != 0) {
             rc = respond_core(out, &s, &err, rc, pretty);
+            done = 1;
+        } else if (result_overflows(&s, scene, &result, &fault)) {
+            rc = respond_fault(out, &fault, pretty);
             done = 1;
         } else if (cfg.mode == NTSJ_VALIDATE) {
             ntsj_encode_validation(&b, scene, round_us(elapsed), pretty);
