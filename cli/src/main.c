@@ -30,7 +30,7 @@ static const char usage_text[] =
     "                       (empty: the summary only)\n"
     "  --validate           check the scene only; print a validation summary\n"
     "  --pretty             indent the output\n"
-    "  -o, --output FILE    write to FILE instead of standard output\n"
+    "  -o, --output FILE    write to FILE instead of standard output (- for it)\n"
     "\n"
     "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
     "too_deep, the message naming the limit; counts take k, M, G suffixes):\n"
@@ -298,7 +298,7 @@ int main(int argc, char** argv) {
         return status;
     }
 
-    if (output) {
+    if (output && strcmp(output, "-") != 0) {
         out = fopen(output, "wb");
         if (!out) {
             fprintf(stderr, "ntscontact: cannot write '%s': %s\n", output, strerror(errno));

@@ -461,6 +461,8 @@ def test_stdin_file_and_output_file_agree(tmp_path):
     out = tmp_path / "result.json"
     to_file = run("-o", out, path)
     to_file2 = run(f"--output={tmp_path / 'r2.json'}", path)
+    to_stdout = run("-o", "-", path)
+    assert to_stdout.returncode == 0 and to_stdout.stdout.startswith(b'{"version":1,')
     assert from_file.returncode == from_stdin.returncode == to_file.returncode == to_file2.returncode == 0
     assert to_file.stdout == b"" and to_file2.stdout == b""
     strip = re.compile(rb'"elapsed_ms":[^,}]*')
