@@ -56,7 +56,7 @@ class Client:
         retry = Retry(
             total=None,
             connect=retries,
-            read=0,
+            read=False,  # read errors (and read timeouts) re-raised at once, never retried
             status=0,
             redirect=0,
             other=0,
@@ -98,6 +98,9 @@ class Client:
         ``["forces", "contacts"]``) overrides the scene's ``options.outputs``."""
         body, ids = self._encode(scene, normalize_outputs(outputs))
         doc = self._request("POST", "/v1/contact", body=body, timeout=timeout, body_ids=ids)
+        if not isinstance(doc.get("summary"), dict):
+            raise ServerError(f"POST {self.base_url}/v1/contact: the answer has no summary", code="bad_response",
+                              status=200)
         return Result.from_dict(doc)
 
     def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:

@@ -107,27 +107,35 @@ class Summary:
     """``summary`` of a result (always complete). ``virial`` is a 2x2 array."""
 
     bodies: int
+    nodes: int
     surface_nodes: int
     contacts: int
+    gaps: int
     energy: float
     virial: FloatArray = field(compare=False)
     max_penetration: float
     loops_reversed: int
+    search_radius: float
+    cell_size: float
     elapsed_ms: float = field(compare=False)
     extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
-        known = ("bodies", "surface_nodes", "contacts", "energy", "virial", "max_penetration", "loops_reversed",
-                 "elapsed_ms")
+        known = ("bodies", "nodes", "surface_nodes", "contacts", "gaps", "energy", "virial", "max_penetration",
+                 "loops_reversed", "search_radius", "cell_size", "elapsed_ms")
         return cls(
             bodies=int(d.get("bodies", 0)),
+            nodes=int(d.get("nodes", 0)),
             surface_nodes=int(d.get("surface_nodes", 0)),
             contacts=int(d.get("contacts", 0)),
+            gaps=int(d.get("gaps", 0)),
             energy=float(d.get("energy", 0.0)),
             virial=virial_matrix(d.get("virial")),
             max_penetration=float(d.get("max_penetration", 0.0)),
             loops_reversed=int(d.get("loops_reversed", 0)),
+            search_radius=float(d.get("search_radius", 0.0)),
+            cell_size=float(d.get("cell_size", 0.0)),
             elapsed_ms=float(d.get("elapsed_ms", 0.0)),
             extra={k: v for k, v in d.items() if k not in known},
         )
