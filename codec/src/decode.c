@@ -97,7 +97,7 @@ static int get_number(decoder* d, const cJSON* v, const char* ptr, double* out) 
 
 /* An integer index in [0, bound). The pointer is only formatted on a fault
  * (printf-ing one per element would cost more than the rest of decoding). */
-static int get_index(decoder* d, const cJSON* v, int bound, int* out, const char* fmt, int a, int b, int c) {
+static int get_index(decoder* d, const cJSON* v, int bound, int* out, int body, const char* list, int item, int k) {
     double x;
     const char* code;
     char ptr[128], msg[96];
@@ -118,7 +118,7 @@ static int get_index(decoder* d, const cJSON* v, int bound, int* out, const char
         code = "invalid_type";
         snprintf(msg, sizeof msg, "expected an integer node index, got %s", type_name(v));
     }
-    snprintf(ptr, sizeof ptr, fmt, a, b, c);
+    snprintf(ptr, sizeof ptr, "/bodies/%d/%s/%d/%d", body, list, item, k);
     ntsj_fault_set(d->fault, code, ptr, "%s", msg);
     return -1;
 }
@@ -330,7 +330,7 @@ static int decode_loops(decoder* d, int b, const cJSON* v) {
         int k = 0;
         ints[total + l] = pos;
         cJSON_ArrayForEach(e, loop) {
-            if (get_index(d, e, node_count, &ints[pos], "/bodies/%d/loops/%d/%d", b, l, k) != 0) return -1;
+            if (get_index(d, e, node_count, &ints[pos], b, "loops", l, k) != 0) return -1;
             ++pos;
             ++k;
         }
@@ -371,7 +371,7 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
                 snprintf(p, sizeof p, "%s/%d/%d", ptr, i, k);
                 return fail(d, "invalid_value", p, "a triangle has exactly three node indices");
             }
-            if (get_index(d, e, node_count, &tri[3 * i + k], "/bodies/%d/triangles/%d/%d", b, i, k) != 0) return -1;
+            if (get_index(d, e, node_count, &tri[3 * i + k], b, "triangles", i, k) != 0) return -1;
             ++k;
         }
         if (k != 3) {

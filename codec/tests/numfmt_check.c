@@ -111,9 +111,9 @@ int main(void) {
         printf("FAIL -0.0 printed %s\n", buf);
         ++failures;
     }
-    ntsj_format_double(buf, NAN);
+    ntsj_format_double(buf, (double)NAN);
     if (strcmp(buf, "null") != 0) { printf("FAIL NaN printed %s\n", buf); ++failures; }
-    ntsj_format_double(buf, INFINITY);
+    ntsj_format_double(buf, (double)INFINITY);
     if (strcmp(buf, "null") != 0) { printf("FAIL Inf printed %s\n", buf); ++failures; }
     for (i = 0; i < 300000 && failures < 10; ++i) {
         uint64_t bits = next_u64();
