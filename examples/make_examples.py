@@ -2,6 +2,7 @@
 """Generate the bundled example scenes (deterministic: fixed seeds, stdlib only).
 
     python3 examples/make_examples.py            # writes examples/*.json
+    python3 examples/make_examples.py DIR        # writes them into DIR instead
 
 two_disks.json         two polygonal disks pressed together (a few active contacts)
 jittered_packing.json  a 6x6 packing of disks with jittered radii, centres and nodes
@@ -13,6 +14,7 @@ import json
 import math
 import os
 import random
+import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -147,6 +149,7 @@ def triangle_meshes():
 
 
 def main():
+    out_dir = sys.argv[1] if len(sys.argv) > 1 else HERE
     scenes = {
         "two_disks.json": two_disks(),
         "jittered_packing.json": jittered_packing(),
@@ -154,7 +157,7 @@ def main():
         "triangle_meshes.json": triangle_meshes(),
     }
     for name, scene in scenes.items():
-        path = os.path.join(HERE, name)
+        path = os.path.join(out_dir, name)
         with open(path, "w") as f:
             json.dump(scene, f, separators=(",", ":"))
             f.write("\n")

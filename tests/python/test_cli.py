@@ -123,6 +123,16 @@ def test_there_are_bundled_examples():
         assert p.stat().st_size < 300_000
 
 
+def test_examples_are_what_the_generator_writes(tmp_path):
+    import sys
+    subprocess.run([sys.executable, str(REPO / "examples" / "make_examples.py"), str(tmp_path)], check=True,
+                   capture_output=True, timeout=60)
+    generated = sorted(tmp_path.glob("*.json"))
+    assert len(generated) == 4
+    for p in generated:
+        assert p.read_bytes() == (REPO / "examples" / p.name).read_bytes(), p.name
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.name)
 def test_example_validates_against_scene_schema(schemas, path):
     jsonschema.validate(load(path), schemas["scene"], cls=jsonschema.Draft202012Validator)
