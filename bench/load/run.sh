@@ -47,27 +47,33 @@ echo "# load average before: $(cut -d" " -f1-3 /proc/loadavg)"
 echo "# small: $(wc -c <"$work/small.json") bytes, large: $(wc -c <"$work/large.json") bytes"
 
 health() { curl -s --max-time 10 "$url/v1/health"; }
+# CPU seconds (user + system) the daemon has used: robust to a busy machine.
+cpu() { awk -v hz="$(getconf CLK_TCK)" '{ printf "%.4f", ($14 + $15) / hz }' "/proc/$pid/stat"; }
 # Server-side split of one run from the health counters before and after it:
 # share of the server's time receiving, handling (codec + core), sending.
-split() { # before after
-  python3 - "$1" "$2" <<'PY'
+split() { # before after cpu_before cpu_after
+  python3 - "$1" "$2" "$3" "$4" <<'PY'
 import json, sys
 a, b = (json.loads(x) for x in sys.argv[1:3])
+cpu = float(sys.argv[4]) - float(sys.argv[3])
 n = b["requests_served"] - a["requests_served"] - 1  # the health request in between
 d = {k: b["time_s"][k] - a["time_s"][k] for k in ("receiving", "handling", "sending")}
 t = sum(d.values()) or 1e-12
-print(" ".join(f"{k}={1e3 * v / max(n, 1):.3f}ms({100 * v / t:.0f}%)" for k, v in d.items()))
+print(f"cpu_per_req={1e3 * cpu / max(n, 1):.3f}ms " +
+      " ".join(f"{k}={1e3 * v / max(n, 1):.3f}ms({100 * v / t:.0f}%)" for k, v in d.items()))
 PY
 }
 run() { # name connections script path [scene]
   local name=$1 c=$2 script=$3 path=$4 scene=${5:-}
   local t=$(( c < 2 ? 1 : 2 ))
-  local line before after
+  local line before after c0 c1
   before=$(health)
+  c0=$(cpu)
   line=$(timeout $((duration + 30)) wrk -t"$t" -c"$c" -d"${duration}s" --timeout 30s -s "bench/load/$script" \
          "$url$path" ${scene:+-- "$scene"} | grep '^BENCH')
+  c1=$(cpu)
   after=$(health)
-  echo "$name c=$c ${line#BENCH } | server: $(split "$before" "$after")"
+  echo "$name c=$c ${line#BENCH } | server: $(split "$before" "$after" "$c0" "$c1")"
 }
 run health 1 get.lua /v1/health
 run health 8 get.lua /v1/health

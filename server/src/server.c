@@ -138,7 +138,7 @@ static void gate_enter(ntsd_server* s) {
 static void gate_leave(ntsd_server* s) {
     pthread_mutex_lock(&s->lock);
     s->evaluating--;
-    pthread_cond_broadcast(&s->changed);
+    pthread_cond_signal(&s->changed); /* one slot freed: wake one waiter, not the herd */
     pthread_mutex_unlock(&s->lock);
 }
 
@@ -321,7 +321,6 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
         s->handling_s += r->t_answer - r->t_body;
         s->sending_s += t_end - r->t_answer;
     }
-    pthread_cond_broadcast(&s->changed);
     pthread_mutex_unlock(&s->lock);
     ntsd_body_free(&r->body);
     free(r);

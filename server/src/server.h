@@ -85,7 +85,7 @@ typedef struct ntsd_server {
     double started;            /* monotonic seconds */
 
     pthread_mutex_t lock;      /* guards everything below */
-    pthread_cond_t changed;    /* in_flight dropped, or an evaluation slot freed */
+    pthread_cond_t changed;    /* an evaluation slot was freed */
     int shutting_down;
     int in_flight;             /* requests between their first callback and completion */
     int evaluating;            /* evaluations running (<= config.threads) */
