@@ -32,7 +32,7 @@ for line in open(sys.argv[1]):
     mode = parts[0]
     key = " ".join(parts[1:3]) if parts[1] != "STALL" else "stall " + parts[2]
     for k, v in re.findall(r"(\w+)=([0-9.]+)(?:ms)?", line):
-        if k in ("rps", "p50_ms", "p90_ms", "p99_ms", "mean_ms"):
+        if k in ("rps", "p50_ms", "p90_ms", "p99_ms", "mean_ms", "cpu_per_req", "receiving", "handling", "sending"):
             rows[(key, mode)][k].append(float(v))
 for (key, mode), figs in sorted(rows.items()):
     print(f"{key:14s} {mode:15s} " + " ".join(f"{k}={statistics.median(v):.2f}" for k, v in figs.items()))
