@@ -168,3 +168,27 @@ def test_daemon_body_size_limit(daemon_factory):
     assert status == 413 and doc["error"]["code"] == "payload_too_large", doc
     assert _post(d, body)[0] == 200  # and it still serves
     assert d.stop() == 0
+
+
+# ------------------------------------------------------------ regressions
+# Found while probing the number paths (docs/reliability.md, "Findings"): bodies
+# of radius 1e100 pressed together with penalty 1e200 overflow the energy and
+# the virial to infinity, which the encoder wrote as null in a 200 answer
+# (breaking result.schema.json). Now a 400 non_finite pointing at the penalty.
+# The same bytes are replayed by the fuzz driver (fuzz/regressions/).
+OVERFLOW = pathlib.Path(__file__).resolve().parents[2] / "fuzz" / "regressions" / "overflow-energy-null.json"
+
+
+def test_overflowing_result_is_an_input_error(paths):
+    body = OVERFLOW.read_bytes()
+    for mode in ([], ["--validate"]):
+        proc = _cli(paths, *mode, stdin=body)
+        assert proc.returncode == 3, (mode, proc.stdout[:300], proc.stderr)
+        assert proc.stderr.decode().startswith('ntscontact: non_finite at "/options/penalty": '), proc.stderr
+        assert b"null" not in proc.stdout
+
+
+def test_overflowing_result_over_http(daemon):
+    status, doc = _post(daemon, OVERFLOW.read_bytes())
+    assert status == 400, doc
+    assert doc["error"]["code"] == "non_finite" and doc["error"]["pointer"] == "/options/penalty"
