@@ -12,7 +12,7 @@ as in deformable-polygon models of cells and foams (Boromand et al., PRL 121,
 248003, 2018). ``A0`` is a little above the area of the regular polygon of edge
 ``l0`` (``--inflation``), so a free cell is a taut regular polygon with no soft
 mode. The cells (bidisperse, 1 : 1.4) start apart in a periodic box, which is
-compressed affinely in ``--stages`` steps to the packing fraction ``--phi``
+compressed affinely in ``--stages`` equal steps of packing fraction to ``--phi``
 (sum of preferred areas over box area); after each step FIRE relaxes the
 packing (loosely between steps, to ``--tol`` at the end). Contact is the
 service's penalty node-to-segment contact (``1/2 eps g^2`` per active slave
@@ -44,7 +44,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -71,7 +71,7 @@ class Config:
     vertices: int = 16
     phi: float = 1.02
     phi0: float = 0.55
-    stages: int = 6
+    stages: int = 20
     penalty: float = 10.0
     ka: float = 1.0
     kl: float = 5.0
@@ -81,7 +81,7 @@ class Config:
     tol: float = 1e-10
     stage_tol: float = 1e-3
     max_iter: int = 20000
-    dt0: float = 0.03
+    dt0: float = 0.0  # 0: 0.1 / sqrt(2 penalty + 4 kl), well inside the MD stability limit
     seed: int = 7
 
 
@@ -207,7 +207,10 @@ class FireStats:
     energy: float
 
 
-def fire(force: Forces, x: np.ndarray, tol: float, max_iter: int, dt0: float) -> Tuple[np.ndarray, FireStats]:
+ForceFn = Callable[[np.ndarray], Tuple[float, np.ndarray]]
+
+
+def fire(force: ForceFn, x: np.ndarray, tol: float, max_iter: int, dt0: float) -> Tuple[np.ndarray, FireStats]:
     """FIRE minimisation (Bitzek et al. 2006) from x with zero velocity."""
     v = np.zeros_like(x)
     energy, f = force(x)
@@ -257,8 +260,10 @@ def relax(client: ntscontact.Client, cfg: Config, alpha: float) -> Tuple[Run, Pa
     t0 = time.perf_counter()
     pk = make_packing(cfg)
     force = Forces(client, pk, cfg, alpha)
-    target = math.sqrt(float(pk.a0.sum()) / cfg.phi)
-    boxes = np.geomspace(pk.box, target, cfg.stages + 1)[1:]
+    # equal steps in packing fraction, from the loose start to the target
+    phi_start = float(pk.a0.sum()) / pk.box ** 2
+    boxes = [math.sqrt(float(pk.a0.sum()) / phi) for phi in np.linspace(phi_start, cfg.phi, cfg.stages + 1)[1:]]
+    dt0 = cfg.dt0 or 0.1 / math.sqrt(2.0 * cfg.penalty + 4.0 * cfg.kl)
     total = 0
     stages: List[Dict[str, Any]] = []
     stats = FireStats(0, math.inf, False, math.nan)
@@ -266,7 +271,7 @@ def relax(client: ntscontact.Client, cfg: Config, alpha: float) -> Tuple[Run, Pa
         compress(pk, float(box))
         last = k == len(boxes) - 1
         tol = cfg.tol if last else cfg.stage_tol
-        x, stats = fire(force, pk.flat(), tol, cfg.max_iter, cfg.dt0)
+        x, stats = fire(force, pk.flat(), tol, cfg.max_iter, dt0)
         pk.nodes = [p.copy() for p in pk.unflat(x)]
         total += stats.iterations
         stages.append({"box": float(box), "tol": tol, **asdict(stats)})
@@ -369,7 +374,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> Tuple[argparse.Namespace
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--url", help="a running ntscontactd (default: start one from the build dir)")
     p.add_argument("--build-dir", default=os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
-    p.add_argument("--tiny", action="store_true", help="3 cells x 10 vertices, 3 stages: seconds, for the tests")
+    p.add_argument("--tiny", action="store_true", help="4 cells x 8 vertices, 8 stages: seconds, for the tests")
     p.add_argument("--cells", type=int)
     p.add_argument("--vertices", type=int)
     p.add_argument("--phi", type=float, default=d.phi, help="final packing fraction sum(A0)/box area")
@@ -385,7 +390,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> Tuple[argparse.Namespace
     cfg = Config(phi=args.phi, penalty=args.penalty, tol=args.tol, max_iter=args.max_iter, seed=args.seed,
                  alphas=tuple(float(a) for a in args.alphas.split(",") if a.strip()))
     if args.tiny:
-        cfg.cells, cfg.vertices, cfg.stages = 3, 10, 3
+        cfg.cells, cfg.vertices, cfg.stages = 4, 8, 8
     for name in ("cells", "vertices", "stages"):
         if getattr(args, name) is not None:
             setattr(cfg, name, getattr(args, name))
