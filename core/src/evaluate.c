@@ -656,6 +656,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         const int want_gaps = (opt->outputs & NTS_OUT_GAPS) != 0u;
         int total = 0, ncontact = 0, ngap = 0, t;
         double energy = 0.0, maxpen = 0.0;
+        int overflow = 0;
         nts_virial vir = {0.0, 0.0, 0.0};
         for (t = 0; t < nthreads; ++t) total += ctx->workers[t].rec_count;
         if (want_forces) {
@@ -681,6 +682,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                     ctx->contacts[ncontact] = *c;
                 }
                 ++ncontact;
+                overflow |= !isfinite(env.eps * c->gap) || !isfinite(c->virial.xx + c->virial.yy + c->virial.xy);
                 energy += 0.5 * env.eps * c->gap * c->gap;
                 if (-c->gap > maxpen) maxpen = -c->gap;
                 vir.xx += c->virial.xx;
@@ -697,6 +699,17 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                     }
                 }
             }
+        }
+        /* Finite input can still overflow (a huge penalty or huge coordinates):
+         * NaN and infinity never leave the library, the caller gets an error. */
+        overflow |= !isfinite(energy) || !isfinite(vir.xx) || !isfinite(vir.yy) || !isfinite(vir.xy);
+        if (want_forces && !overflow)
+            for (i = 0; i < s->node_count && !overflow; ++i) overflow = !nts_is_valid_vec2(ctx->forces[i]);
+        if (overflow) {
+            rc = eval_fail(err, NTS_ENONFINITE, -1, -1,
+                           "the result overflows a double (penalty or coordinates too large)");
+            if (err != NULL) snprintf(err->option, sizeof err->option, "penalty");
+            return rc;
         }
         sum = &out->summary;
         sum->bodies = s->body_count;

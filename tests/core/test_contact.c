@@ -184,6 +184,30 @@ static void test_interior_nodes_get_zero_force(void) {
     nts_scene_destroy(s);
 }
 
+static void test_overflow_is_an_error_not_nan(void) {
+    /* Finite input whose energy overflows (gaps ~1e148, eps g^2 ~1e317): an
+     * error naming the penalty, never Inf or NaN out of the library. */
+    test_body b[2];
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_context* ctx = nts_context_create();
+    nts_error err;
+    make_polygon(&b[0], 32, 1e150, nts_v2(0, 0), 0.0);
+    make_polygon(&b[1], 32, 1e150, nts_v2(1.95e150, 0.0), 0.1);
+    s = make_scene(b, 2, 0, 0);
+    CU_ASSERT_FATAL(s != NULL);
+    o.penalty = 1e20;
+    o.outputs = NTS_OUT_ALL;
+    ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), NTS_ENONFINITE);
+    CU_ASSERT(strcmp(err.option, "penalty") == 0);
+    o.penalty = 1e-20; /* same scene, representable result: fine */
+    ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), 0);
+    CU_ASSERT(isfinite(r.summary.energy) && r.summary.energy > 0.0);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+}
+
 void register_contact_suite(void) {
     CU_pSuite s = CU_add_suite("contact", NULL, NULL);
     ADD_TEST(s, test_outputs_only_when_asked);
@@ -191,4 +215,5 @@ void register_contact_suite(void) {
     ADD_TEST(s, test_periodic_contact_across_the_boundary);
     ADD_TEST(s, test_box_too_small_is_an_error);
     ADD_TEST(s, test_interior_nodes_get_zero_force);
+    ADD_TEST(s, test_overflow_is_an_error_not_nan);
 }
