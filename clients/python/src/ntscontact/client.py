@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import requests
 from requests.adapters import HTTPAdapter
@@ -124,11 +124,11 @@ class Client:
     # ------------------------------------------------------------ internals
 
     @staticmethod
-    def _encode(scene: SceneLike, outputs: Optional[Sequence[str]]) -> Tuple[bytes, Optional[list]]:
+    def _encode(scene: SceneLike, outputs: Optional[Sequence[str]]) -> Tuple[bytes, Optional[List[Any]]]:
         if isinstance(scene, Scene):
             scene.check()
             doc: Any = scene.to_dict()
-            ids: Optional[list] = scene.body_ids
+            ids: Optional[List[Any]] = list(scene.body_ids)
         elif isinstance(scene, Mapping):
             doc = dict(scene)
             ids = [b.get("id") for b in doc.get("bodies", []) if isinstance(b, Mapping)] \
@@ -153,7 +153,7 @@ class Client:
         *,
         body: Optional[bytes] = None,
         timeout: Optional[TimeoutLike] = None,
-        body_ids: Optional[list] = None,
+        body_ids: Optional[List[Any]] = None,
     ) -> Dict[str, Any]:
         url = self.base_url + path
         headers = {"Content-Type": "application/json"} if body is not None else None

@@ -131,13 +131,14 @@ def error_from_response(
     message = str(err.get("message", fallback_text.strip()[:500] or "HTTP %d" % status))
     pointer = str(err.get("pointer", "") or "")
     where = describe_pointer(pointer, bodies)
-    kwargs = dict(code=code, pointer=pointer, status=status, where=where)
+    cls: type = RequestRejected
     if status == 413:
-        return PayloadTooLarge(message, **kwargs)
-    if status == 503:
-        return ServiceUnavailable(message, **kwargs)
-    if status >= 500:
-        return ServerError(message, **kwargs)
-    if status in (400, 422):
-        return InvalidScene(message, **kwargs)
-    return RequestRejected(message, **kwargs)
+        cls = PayloadTooLarge
+    elif status == 503:
+        cls = ServiceUnavailable
+    elif status >= 500:
+        cls = ServerError
+    elif status in (400, 422):
+        cls = InvalidScene
+    exc: NtsError = cls(message, code=code, pointer=pointer, status=status, where=where)
+    return exc

@@ -96,7 +96,7 @@ def boundary_loops(triangles: npt.ArrayLike) -> List[IntArray]:
                                    code="non_manifold_mesh")
             nxt[a] = b
     loops: List[IntArray] = []
-    seen: set = set()
+    seen: set[int] = set()
     for start in sorted(nxt):
         if start in seen:
             continue
@@ -150,7 +150,7 @@ def connected_components(triangles: npt.ArrayLike, n_points: int) -> IntArray:
 def _read(mesh: Any) -> Any:
     if isinstance(mesh, (str, os.PathLike)):
         try:
-            import meshio
+            import meshio  # type: ignore[import-untyped]
         except ImportError as exc:  # pragma: no cover - depends on the install
             raise ImportError("reading mesh files needs meshio: pip install 'ntscontact[mesh]'") from exc
         return meshio.read(os.fspath(mesh))

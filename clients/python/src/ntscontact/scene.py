@@ -26,6 +26,8 @@ BodyId = Union[str, int]
 ArrayLike = npt.ArrayLike
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+#: Loops: a list of index sequences (or one flat sequence for a single loop).
+LoopsLike = Union[Sequence[ArrayLike], npt.NDArray[Any]]
 
 #: The outputs a scene may ask for (``options.outputs``).
 OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps")
@@ -179,7 +181,7 @@ class Scene:
     def add_body(
         self,
         nodes: ArrayLike,
-        loops: Optional[Sequence[Sequence[int]]] = None,
+        loops: Optional[LoopsLike] = None,
         triangles: Optional[ArrayLike] = None,
         id: Optional[BodyId] = None,  # noqa: A002 - the JSON field's name
     ) -> BodyId:
@@ -208,7 +210,7 @@ class Scene:
                                pointer=f"/bodies/{index}", where=where)
         loop_list: Optional[List[IntArray]] = None
         if loops is not None:
-            raw = list(loops) if not isinstance(loops, np.ndarray) else [loops] if loops.ndim == 1 else list(loops)
+            raw: List[Any] = list(loops) if not isinstance(loops, np.ndarray) or loops.ndim != 1 else [loops]
             if raw and np.ndim(raw[0]) == 0:  # a single flat loop
                 raw = [raw]
             if not raw:
