@@ -152,6 +152,7 @@ class Stats:
         self.fault_problems = []
         self.sigterm_at = None
         self.refused_after_sigterm = 0
+        self.latencies_after = []
 
     def record(self, case, status, data, latency):
         problem = check(case, status, data)
@@ -163,7 +164,10 @@ class Stats:
                 return
             self.requests += 1
             self.by_status[status] = self.by_status.get(status, 0) + 1
-            self.latencies.append(latency)
+            if self.sigterm_at is None:  # the figures describe the steady load
+                self.latencies.append(latency)
+            else:
+                self.latencies_after.append(latency)
             if status >= 500:
                 self.server_errors += 1
             if problem is not None:
@@ -536,7 +540,10 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
         "transport_errors_after_sigterm": stats.transport_after,
         "refused_503_after_sigterm": stats.refused_after_sigterm,
         "latency_ms": {"p50": percentile(lat_ms, 50), "p90": percentile(lat_ms, 90),
-                       "p99": percentile(lat_ms, 99), "max": max(lat_ms) if lat_ms else None},
+                       "p99": percentile(lat_ms, 99), "p999": percentile(lat_ms, 99.9),
+                       "max": max(lat_ms) if lat_ms else None,
+                       "over_1s": sum(1 for x in lat_ms if x > 1000.0),
+                       "max_after_sigterm": 1e3 * max(stats.latencies_after) if stats.latencies_after else None},
         "rss_kib": {"start": rss[0][1] if rss else None, "after_warmup": base,
                     "before_stop": rss_before_stop, "max": max((r for _, r in rss), default=None)},
         "rss_growth_kib_after_warmup": (rss_before_stop - base) if (rss_before_stop and base) else None,
