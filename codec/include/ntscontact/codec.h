@@ -35,7 +35,8 @@ typedef struct ntsj_config {
     nts_limits limits;      /* bodies, nodes per body, nodes per scene */
     int max_depth;          /* JSON nesting; default 32 */
     size_t max_bytes;       /* request size; default 64 MiB */
-    double max_seconds;     /* wall-clock budget of one evaluation, 0 = none */
+    double max_seconds;     /* wall-clock budget of one request, 0 = none: checked after decoding,
+                             * building the scene and evaluating; over it -> limit_exceeded (400) */
     int threads;            /* passed to nts_options.threads */
 } ntsj_config;
 ntsj_config ntsj_default_config(void);
