@@ -42,7 +42,7 @@ import select
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -242,6 +242,7 @@ def fire(force: ForceFn, x: np.ndarray, tol: float, max_iter: int, dt0: float) -
 @dataclass
 class Run:
     alpha: float
+    seed: int
     iterations: int
     iterations_total: int
     residual: float
@@ -279,7 +280,7 @@ def relax(client: ntscontact.Client, cfg: Config, alpha: float) -> Tuple[Run, Pa
     res = force.last
     assert res is not None
     pairs = {tuple(sorted((str(c.slave_body), str(c.master_body)))) for c in res.contacts}
-    run = Run(alpha=alpha, iterations=stats.iterations, iterations_total=total, residual=stats.residual,
+    run = Run(alpha=alpha, seed=cfg.seed, iterations=stats.iterations, iterations_total=total, residual=stats.residual,
               converged=stats.converged, energy=final, contact_energy=res.energy, contacts=res.summary.contacts,
               touching_pairs=len(pairs), max_penetration=res.summary.max_penetration, box=pk.box,
               seconds=time.perf_counter() - t0, stages=stages)
@@ -294,12 +295,22 @@ def table(runs: Sequence[Run], cfg: Config) -> str:
         f"{cfg.cells} cells x {cfg.vertices} vertices, phi = {cfg.phi}, penalty = {cfg.penalty}, "
         f"{cfg.stages} compression stages, FIRE to max|F| < {cfg.tol:g} (cap {cfg.max_iter})",
         f"{'alpha':>6} {'FIRE iter':>10} {'all stages':>10} {'residual':>10} {'converged':>9} "
-        f"{'energy':>22} {'contacts':>8} {'pairs':>5} {'max pen.':>9} {'s':>6}",
+        f"{'energy':>22} {'contacts':>8} {'pairs':>5} {'max pen.':>9} {'s':>6} {'seed':>5}",
     ]
     for r in runs:
         lines.append(f"{r.alpha:6.2f} {r.iterations:10d} {r.iterations_total:10d} {r.residual:10.2e} "
                      f"{'yes' if r.converged else 'no':>9} {r.energy:22.15e} {r.contacts:8d} {r.touching_pairs:5d} "
-                     f"{r.max_penetration:9.2e} {r.seconds:6.1f}")
+                     f"{r.max_penetration:9.2e} {r.seconds:6.1f} {r.seed:5d}")
+    seeds = sorted({r.seed for r in runs})
+    if len(seeds) > 1:
+        lines.append(f"mean over {len(seeds)} seeds (FIRE iterations of the last step; converged runs / runs):")
+        for alpha in sorted({r.alpha for r in runs}):
+            rs = [r for r in runs if r.alpha == alpha]
+            it = np.array([r.iterations for r in rs], dtype=float)
+            lines.append(f"{alpha:6.2f} {it.mean():10.0f} {np.mean([r.iterations_total for r in rs]):10.0f} "
+                         f"{'-':>10} {f'{sum(r.converged for r in rs)}/{len(rs)}':>9} "
+                         f"{np.mean([r.energy for r in rs]):22.15e} {np.mean([r.contacts for r in rs]):8.1f} "
+                         f"   median iterations {np.median(it):.0f}")
     return "\n".join(lines)
 
 
@@ -330,14 +341,17 @@ def plot(path: str, results: Sequence[Tuple[Run, Packing, ntscontact.Result]]) -
             i = int(str(ct.slave_body).split("-")[1])
             xs = pk.nodes[i][ct.slave_node]
             xs = xs - L * np.floor(xs / L)
-            f = np.array(ct.force) / fmax * 0.25 * L / math.sqrt(len(pk.nodes))
-            ax.arrow(xs[0], xs[1], f[0], f[1], width=0.004 * L, color="crimson", length_includes_head=True)
+            f = np.array(ct.force) / fmax * 0.12 * L / math.sqrt(len(pk.nodes))
+            ax.arrow(xs[0], xs[1], f[0], f[1], width=0.002 * L, head_width=0.008 * L, color="crimson",
+                     length_includes_head=True)
         ax.set_xlim(0, L)
         ax.set_ylim(0, L)
         ax.set_aspect("equal")
-        ax.set_title(f"alpha = {run.alpha:g}: {run.iterations} FIRE iterations, {run.contacts} contacts")
+        ax.set_title(f"alpha = {run.alpha:g}: {run.iterations} FIRE iterations, {run.contacts} contacts",
+                     fontsize=10)
+    fig.suptitle("contact forces on the slave nodes (arrows, scaled to the largest)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return True
 
@@ -384,6 +398,7 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> Tuple[argparse.Namespace
     p.add_argument("--tol", type=float, default=d.tol)
     p.add_argument("--max-iter", type=int, default=d.max_iter)
     p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument("--seeds", type=int, default=1, help="run seeds SEED .. SEED+N-1 and print the means")
     p.add_argument("--png", help="plot the final packings with their contact forces (needs matplotlib)")
     p.add_argument("--json", help="write the runs as JSON")
     args = p.parse_args(argv)
@@ -406,14 +421,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         results = []
         with ntscontact.Client(url, timeout=60.0) as client:
-            for alpha in cfg.alphas:
-                results.append(relax(client, cfg, alpha))
+            for seed in range(args.seed, args.seed + max(1, args.seeds)):
+                for alpha in cfg.alphas:
+                    results.append(relax(client, replace(cfg, seed=seed), alpha))
         runs = [r for r, _, _ in results]
         print(table(runs, cfg))
         if args.json:
             with open(args.json, "w", encoding="utf-8") as fh:
                 json.dump({"config": asdict(cfg), "runs": [asdict(r) for r in runs]}, fh, indent=2)
-        if args.png and plot(args.png, results):
+        if args.png and plot(args.png, results[:len(cfg.alphas)]):
             print(f"wrote {args.png}")
     finally:
         if proc is not None:
