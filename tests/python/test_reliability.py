@@ -51,9 +51,12 @@ def test_faults_get_their_4xx_and_hurt_nobody(soak_result):
     r = soak_result
     assert r["fault_problems"] == []
     f = r["faults"]
+    # Each kind gets its own status; a connection the daemon closed before we
+    # read (a reset racing the answer) is tolerated, any other status is not.
     for kind, status in (("method", "405"), ("path", "404"), ("media_type", "415"), ("huge_length", "413")):
         if kind in f:
-            assert set(f[kind]) <= {status}, (kind, f[kind])
+            assert set(f[kind]) <= {status, "closed", "reset"}, (kind, f[kind])
+            assert f[kind].get(status, 0) > 0, (kind, f[kind])
     assert f["disconnect_mid_upload"].get("sent", 0) > 0
     assert all(not k.startswith("5") for k in f["garbage"]), f["garbage"]
     assert r["health_before_stop"]["status"] == 200
