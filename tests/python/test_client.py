@@ -420,3 +420,23 @@ def test_connection_failures_are_retried():
         assert c.health() == {"status": "ok", "late": True}
     holder["srv"].shutdown()
     holder["srv"].server_close()
+
+
+def test_module_command_line(daemon, paths, tmp_path):
+    """`python -m ntscontact contact SCENE --url` answers as the C CLI does."""
+    import sys
+
+    path = paths.examples / "two_disks.json"
+    proc = subprocess.run([sys.executable, "-m", "ntscontact", "contact", str(path), "--url", daemon.base],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    cli = _cli(paths, path)
+    assert _without_elapsed(json.loads(proc.stdout)) == _without_elapsed(json.loads(cli.stdout))
+    proc = subprocess.run([sys.executable, "-m", "ntscontact", "health", "--url", daemon.base],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and json.loads(proc.stdout)["status"] == "ok"
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"version": 1, "options": {"penalty": 1}, "bodies": [{"id": 1, "nodes": [[0, 0], [1, 0]]}]}')
+    proc = subprocess.run([sys.executable, "-m", "ntscontact", "contact", str(bad), "--url", daemon.base],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 3 and "loop_too_short" in proc.stderr

@@ -325,7 +325,7 @@ class Scene:
             raise InvalidScene("a scene is a JSON object", code="invalid_type", pointer="")
         version = doc.get("version", 1)
         if version != 1:
-            raise InvalidScene(f"unsupported scene version {version!r}", code="unsupported_version",
+            raise InvalidScene(f"unsupported scene version {version!r}", code="invalid_value",
                                pointer="/version")
         opts = dict(doc.get("options") or {})
         periodic = opts.pop("periodic", None)
