@@ -81,3 +81,64 @@ def test_cli_validate_clean(paths, tmp_path, scene):
 def test_cli_error_paths_clean(paths, tmp_path, name):
     proc = _memcheck(paths, tmp_path, ["-"], stdin=MALFORMED[name])
     assert proc.returncode == 3, proc.stderr.decode(errors="replace")
+
+
+def test_daemon_clean(paths, tmp_path):
+    """The daemon under memcheck: every example posted to /v1/contact and
+    /v1/validate, a malformed request, a 404, a 405, a health check; then
+    SIGTERM: exit 0, zero errors, nothing definitely or indirectly lost."""
+    import json
+    import selectors
+    import signal
+    import urllib.error
+    import urllib.request
+
+    if _sanitized(paths.build):
+        pytest.skip("binaries built with -DNTS_SANITIZE=ON: valgrind runs on the plain build")
+    binary = paths.bin / "ntscontactd"
+    if not binary.exists():
+        pytest.fail(f"{binary} is not built")
+    log = tmp_path / "valgrind.log"
+    cmd = [VALGRIND, "--tool=memcheck", "--error-exitcode=99", "--leak-check=full",
+           "--errors-for-leak-kinds=definite,indirect", "--show-leak-kinds=definite,indirect",
+           f"--log-file={log}", str(binary), "--host", "127.0.0.1", "--port", "0", "--quiet", "--threads", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    try:
+        sel = selectors.DefaultSelector()
+        sel.register(proc.stdout, selectors.EVENT_READ)
+        line = proc.stdout.readline().decode() if sel.select(120) else ""
+        sel.close()
+        assert line.startswith("ntscontactd listening on "), line
+        base = "http://127.0.0.1:" + line.strip().rsplit(":", 1)[1]
+
+        def call(method, path, body=None):
+            req = urllib.request.Request(base + path, data=body, method=method,
+                                         headers={"Content-Type": "application/json"})
+            try:
+                with urllib.request.urlopen(req, timeout=300) as r:
+                    return r.status, r.read()
+            except urllib.error.HTTPError as e:
+                return e.code, e.read()
+
+        for scene in EXAMPLES:
+            assert call("POST", "/v1/contact", scene.read_bytes())[0] == 200
+            assert call("POST", "/v1/validate", scene.read_bytes())[0] == 200
+        for body in MALFORMED.values():
+            assert call("POST", "/v1/contact", body)[0] == 400
+        assert call("GET", "/v1/nothing")[0] == 404
+        assert call("GET", "/v1/contact")[0] == 405
+        status, doc = call("GET", "/v1/health")
+        assert status == 200 and json.loads(doc)["status"] == "ok"
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+        try:
+            rc = proc.wait(timeout=300)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            rc = proc.wait()
+        proc.stdout.close()
+    text = log.read_text(errors="replace")
+    assert rc != 99, f"valgrind found errors or leaks:\n{text[-6000:]}"
+    assert rc == 0, text[-4000:]
+    assert "ERROR SUMMARY: 0 errors" in text, text[-6000:]
