@@ -314,6 +314,18 @@ def table(runs: Sequence[Run], cfg: Config) -> str:
     return "\n".join(lines)
 
 
+def smoothed_outline(p: np.ndarray, alpha: float, samples: int = 9) -> np.ndarray:
+    """The contact surface the service sees: each corner j replaced by its
+    polynomial X(xi) = N2 X2 + N3 X3 + N4 X4, xi in [-1, 1] (contact-model.md);
+    the polygon itself when alpha = 0."""
+    if alpha <= 0.0:
+        return p
+    xi = np.linspace(-1.0, 1.0, samples)[:, None]
+    n2, n3, n4 = alpha * (1 - xi) ** 2 / 4, 1 - alpha * (1 + xi ** 2) / 2, alpha * (1 + xi) ** 2 / 4
+    prv, nxt = np.roll(p, 1, axis=0), np.roll(p, -1, axis=0)
+    return np.concatenate([n2 * prv[j] + n3 * p[j] + n4 * nxt[j] for j in range(len(p))], axis=0)
+
+
 def plot(path: str, results: Sequence[Tuple[Run, Packing, ntscontact.Result]]) -> bool:
     try:
         import matplotlib
@@ -328,7 +340,8 @@ def plot(path: str, results: Sequence[Tuple[Run, Packing, ntscontact.Result]]) -
     for ax, (run, pk, res) in zip(axes[0], results):
         L = pk.box
         fmax = max((math.hypot(*c.force) for c in res.contacts), default=1.0) or 1.0
-        for i, p in enumerate(pk.nodes):
+        for i, raw in enumerate(pk.nodes):
+            p = smoothed_outline(raw, run.alpha)
             c = p.mean(axis=0)
             shift = L * np.floor(c / L)
             for dx in (-L, 0.0, L):
@@ -349,7 +362,8 @@ def plot(path: str, results: Sequence[Tuple[Run, Packing, ntscontact.Result]]) -
         ax.set_aspect("equal")
         ax.set_title(f"alpha = {run.alpha:g}: {run.iterations} FIRE iterations, {run.contacts} contacts",
                      fontsize=10)
-    fig.suptitle("contact forces on the slave nodes (arrows, scaled to the largest)", fontsize=10)
+    fig.suptitle("cells drawn as the contact surface (corners smoothed when alpha > 0); "
+                 "contact forces on the slave nodes (arrows, scaled to the largest)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
