@@ -1073,16 +1073,17 @@ static void section_digest(const char* dir) {
     fclose(f);
 }
 
-/* A fixed workload for profilers (callgrind, perf): 5 evaluations of a periodic
- * packing of 2,000 particles with the default options. */
-static void section_profile(void) {
+/* A fixed workload for profilers (callgrind, perf): 5 evaluations of a packing
+ * of 2,000 particles with the default options (periodic, or open with
+ * --sections profile_open). */
+static void section_profile(int periodic) {
     scene_buf b;
     nts_scene* s;
     nts_context* ctx = nts_context_create();
     nts_options o = nts_default_options();
     nts_result r;
     int k;
-    make_packing(&b, 2000, 1, 2024u);
+    make_packing(&b, 2000, periodic, 2024u);
     s = scene_from(&b);
     for (k = 0; k < 5; ++k) eval_or_die(ctx, s, &o, &r);
     nts_context_destroy(ctx);
@@ -1123,7 +1124,8 @@ int main(int argc, char** argv) {
         call;                                                                            \
         fprintf(stderr, "[%s] %s: %.1f s\n", NTS_BENCH_VARIANT, name, now() - ts);       \
     }
-    if (sections != NULL && has_section(sections, "profile")) section_profile();
+    if (sections != NULL && has_section(sections, "profile")) section_profile(1);
+    if (sections != NULL && has_section(sections, "profile_open")) section_profile(0);
     RUN("digest", section_digest(dir));
     RUN("disks", section_disks(dir));
     RUN("packing", section_packing(dir));

@@ -221,7 +221,7 @@ static inline void offer(worker* w, const candidate* c) {
  * flat part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0)
  * at j. The arithmetic of every accepted candidate is the first core's, operation
  * for operation, so results are bitwise unchanged. */
-static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs,
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int slave_body,
                                                 const master_hot* m, const int periodic) {
     const double alpha = env->alpha, r = env->r;
     const nts_vec2 pj = m->p;
@@ -231,8 +231,9 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
 
     /* Cheap reject: every feature of this master lies within its reach of X_j
      * (segment: |d| <= |t| + |g|; corner: |d| <= r + alpha max(|a|, |c|); vertex:
-     * |d| = |g|), so a farther master offers nothing (fill_hot). */
-    if (!(d2 <= m->reach2)) return;
+     * |d| = |g|), so a farther master offers nothing (fill_hot). One branch
+     * for both tests (no self-contact): they are hard to predict. */
+    if (!((d2 <= m->reach2) & (m->body != slave_body))) return;
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* erratum 2 */
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
@@ -313,6 +314,10 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     }
 }
 
+/* flush_slave writes every field of a record instead of clearing it first: that
+ * gives the same bytes only while nts_contact has no padding (compile-time check). */
+typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 14 * sizeof(double) ? 1 : -1];
+
 /* Move the current slave's best candidates to the worker's records, filling the
  * slave fields, forces and virial; reset the slot map. Candidates are emitted in
  * increasing master body order (determinism independent of visiting order). */
@@ -338,7 +343,11 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         w->slot[b->body] = -1;
         if (w->status != NTS_OK) continue;
         c = &w->recs[w->rec_count++];
-        memset(c, 0, sizeof *c);
+        /* Every field is written below (nts_contact has no padding: 8 ints, then
+         * doubles), zeros where the first core's memset left them. */
+        c->weights[1] = c->weights[2] = 0.0;
+        c->force = nts_v2(0.0, 0.0);
+        c->virial.xx = c->virial.yy = c->virial.xy = 0.0;
         c->master_body = b->body;
         c->kind = (nts_kind)b->kind;
         if (b->kind == NTS_KIND_SEGMENT) {
@@ -407,6 +416,28 @@ typedef struct stencil {
 static void make_stencil(const nts_cells* c, int cell, stencil* st) {
     int cx = cell % c->nx, cy = cell / c->nx, dx, dy;
     st->n = 0;
+    if (!c->periodic || (c->nx >= 3 && c->ny >= 3)) {
+        /* No repeats: wrap (periodic) or clip (open) each neighbour once. */
+        for (dy = -1; dy <= 1; ++dy) {
+            int y = cy + dy;
+            if (y < 0 || y >= c->ny) {
+                if (!c->periodic) continue;
+                y += y < 0 ? c->ny : -c->ny;
+            }
+            for (dx = -1; dx <= 1; ++dx) {
+                int x = cx + dx;
+                if (x < 0 || x >= c->nx) {
+                    if (!c->periodic) continue;
+                    x += x < 0 ? c->nx : -c->nx;
+                }
+                st->cell[st->n] = y * c->nx + x;
+                st->ox[st->n] = dx;
+                st->oy[st->n] = dy;
+                ++st->n;
+            }
+        }
+        return;
+    }
     for (dy = -1; dy <= 1; ++dy) {
         int y = cy + dy, dup, k;
         if (c->periodic) y = ((y % c->ny) + c->ny) % c->ny;
@@ -435,54 +466,100 @@ static void make_stencil(const nts_cells* c, int cell, stencil* st) {
     }
 }
 
-/* Distance from a point at (fx, fy) inside its own cell (coordinates from the
- * cell's corner) to the neighbour cell at offset (ox, oy), squared. */
-static inline double cell_dist2(const nts_cells* c, double fx, double fy, int ox, int oy) {
-    double lo = ox * c->hx, hi = lo + c->hx, ex = 0.0, ey = 0.0;
-    if (fx < lo) ex = lo - fx; else if (fx > hi) ex = fx - hi;
-    lo = oy * c->hy;
-    hi = lo + c->hy;
-    if (fy < lo) ey = lo - fy; else if (fy > hi) ey = fy - hi;
-    return ex * ex + ey * ey;
+static inline double max2(double a, double b) { return a > b ? a : b; }
+
+/* Distance from fx (the slave's place in its cell, from the cell's low edge) to
+ * the neighbour cell at offset o of side h, branch-free. */
+static inline double cell_gap(double f, int o, double h) {
+    double lo = o * h;
+    return max2(0.0, max2(lo - f, f - (lo + h)));
 }
 
-/* The local search of slaves [begin, end) with the cell list. */
+/* The local search of slaves [begin, end) with the cell list. With the
+ * whole-cell cull, the stencil cells that survive it form, in each row, one run
+ * of consecutive cells (the distance is convex along the row), whose masters
+ * are contiguous in cell order: one range per row (two where the row wraps
+ * around the periodic box), so the inner loop runs long and branches little. */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
                                                   const int periodic) {
     const nts_scene* s = env->s;
     const master_hot* hot = env->hot;
     const nts_cells* cl = env->cells;
+    const int nx = cl->nx, ny = cl->ny;
+    const double reach2 = env->cell_reach2;
     stencil st;
-    int last_cell = -1, i;
+    int last_cell = -1, i, cx = 0, cy = 0;
     double cell_x0 = 0.0, cell_y0 = 0.0;
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = s->surf_body[i], cell = cl->entry_cell[i];
         const nts_vec2 xs = s->pos[s->surf_node[i]];
-        double fx = 0.0, fy = 0.0;
         int q;
         if (cell != last_cell) {
-            make_stencil(cl, cell, &st);
             last_cell = cell;
-            cell_x0 = (cell % cl->nx) * cl->hx;
-            cell_y0 = (cell / cl->nx) * cl->hy;
+            cx = cell % nx;
+            cy = cell / nx;
+            cell_x0 = cx * cl->hx;
+            cell_y0 = cy * cl->hy;
+            if (!env->cell_cull) make_stencil(cl, cell, &st);
         }
         if (env->cell_cull) {
             /* The slave's place inside its cell, as nts_cells_build binned it. */
-            double x = xs.x - cl->x0, y = xs.y - cl->y0;
+            double x = xs.x - cl->x0, y = xs.y - cl->y0, fx, fy, ex[3];
+            int rb[6], re[6], nr = 0, dy, k;
             if (periodic) {
                 x -= s->lx * floor(x / s->lx);
                 y -= s->ly * floor(y / s->ly);
             }
             fx = x - cell_x0;
             fy = y - cell_y0;
-        }
-        for (q = 0; q < st.n; ++q) {
-            int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
-            /* Cell cull: a cell wholly farther than h holds no master that counts. */
-            if (env->cell_cull && cell_dist2(cl, fx, fy, st.ox[q], st.oy[q]) > env->cell_reach2) continue;
-            for (e = e0; e < e1; ++e)
-                if (hot[e].body != bi) try_master(env, w, xs, &hot[e], periodic);
+            for (k = 0; k < 3; ++k) ex[k] = cell_gap(fx, k - 1, cl->hx);
+            for (dy = -1; dy <= 1; ++dy) {
+                double ey = cell_gap(fy, dy, cl->hy), ey2 = ey * ey;
+                int yy = cy + dy, lo = 2, hi = -1, row;
+                if (yy < 0 || yy >= ny) {
+                    if (!periodic) continue;
+                    yy += yy < 0 ? ny : -ny;
+                }
+                for (k = 0; k < 3; ++k)
+                    if (ex[k] * ex[k] + ey2 <= reach2) {
+                        if (k < lo) lo = k;
+                        hi = k;
+                    }
+                if (hi < 0) continue;
+                row = yy * nx;
+                lo += cx - 1;
+                hi += cx - 1;
+                if (!periodic) {
+                    if (lo < 0) lo = 0;
+                    if (hi > nx - 1) hi = nx - 1;
+                    if (lo > hi) continue;
+                    rb[nr] = cl->cell_start[row + lo];
+                    re[nr++] = cl->cell_start[row + hi + 1];
+                } else if (lo < 0) {
+                    rb[nr] = cl->cell_start[row + lo + nx];
+                    re[nr++] = cl->cell_start[row + nx];
+                    rb[nr] = cl->cell_start[row];
+                    re[nr++] = cl->cell_start[row + hi + 1];
+                } else if (hi > nx - 1) {
+                    rb[nr] = cl->cell_start[row + lo];
+                    re[nr++] = cl->cell_start[row + nx];
+                    rb[nr] = cl->cell_start[row];
+                    re[nr++] = cl->cell_start[row + hi - nx + 1];
+                } else {
+                    rb[nr] = cl->cell_start[row + lo];
+                    re[nr++] = cl->cell_start[row + hi + 1];
+                }
+            }
+            for (q = 0; q < nr; ++q) {
+                int e;
+                for (e = rb[q]; e < re[q]; ++e) try_master(env, w, xs, bi, &hot[e], periodic);
+            }
+        } else {
+            for (q = 0; q < st.n; ++q) {
+                int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
+                for (e = e0; e < e1; ++e) try_master(env, w, xs, bi, &hot[e], periodic);
+            }
         }
         flush_slave(env, w, i);
     }
@@ -502,7 +579,7 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
             const nts_vec2 xs = s->pos[s->surf_node[i]];
             int j;
             for (j = 0; j < s->surface_count; ++j)
-                if (hot[j].body != bi) try_master(env, w, xs, &hot[j], 1);
+                try_master(env, w, xs, bi, &hot[j], 1);
             flush_slave(env, w, i);
         }
     }
