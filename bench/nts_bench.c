@@ -235,6 +235,7 @@ typedef struct timing {
 } timing;
 
 static int g_quick = 0;
+static int g_profile_evals = 5; /* --evals N: evaluations of the profile sections */
 
 /* Median over repeated evaluations on a warm context. Repeats until `budget`
  * seconds are used, at least 3 and at most 25 times. */
@@ -1085,7 +1086,7 @@ static void section_profile(int periodic) {
     int k;
     make_packing(&b, 2000, periodic, 2024u);
     s = scene_from(&b);
-    for (k = 0; k < 5; ++k) eval_or_die(ctx, s, &o, &r);
+    for (k = 0; k < g_profile_evals; ++k) eval_or_die(ctx, s, &o, &r);
     nts_context_destroy(ctx);
     nts_scene_destroy(s);
     buf_free(&b);
@@ -1112,6 +1113,7 @@ int main(int argc, char** argv) {
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) dir = argv[++i];
         else if (strcmp(argv[i], "--sections") == 0 && i + 1 < argc) sections = argv[++i];
         else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc) max_threads = atoi(argv[++i]);
+        else if (strcmp(argv[i], "--evals") == 0 && i + 1 < argc) g_profile_evals = atoi(argv[++i]);
         else {
             fprintf(stderr, "usage: %s [--quick] [--out DIR] [--sections disks,packing,errors,smooth,scaling,threads,peer] [--threads N]\n", argv[0]);
             return 2;
