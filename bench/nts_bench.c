@@ -526,7 +526,7 @@ static void section_errors(const char* dir) {
     FILE* g = open_csv(dir, "discretisation",
                        "nodes_per_disk,solver,alpha,records,gap_err_max,gap_err_median,normal_err_max_rad,"
                        "normal_err_median_rad");
-    int si, sv, a, i;
+    int si, sv, a, i, per;
     for (si = 0; si < 7; ++si) {
         scene_buf b;
         nts_scene* s;
@@ -573,11 +573,11 @@ static void section_errors(const char* dir) {
         nts_scene_destroy(s);
         buf_free(&b);
     }
-    {
+    for (per = 0; per < 2; ++per) {
         scene_buf b;
         nts_scene* s;
         nts_context* ctx = nts_context_create();
-        make_packing(&b, g_quick ? 100 : 1000, 1, 99u);
+        make_packing(&b, g_quick ? 100 : 1000, per, 99u);
         s = scene_from(&b);
         g_lx = b.lx;
         g_ly = b.ly;
@@ -591,7 +591,8 @@ static void section_errors(const char* dir) {
                 o.outputs = NTS_OUT_ALL;
                 eval_or_die(ctx, s, &o, &r);
                 st = solver_errors(s, &r, o.alpha, o.penalty);
-                fprintf(f, "packing,%d,%s,%.2f,%d,%d,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e\n", b.total, SOLVER_NAMES[sv],
+                fprintf(f, "%s,%d,%s,%.2f,%d,%d,%.3e,%.3e,%.3e,%.3e,%.3e,%.3e\n",
+                        per ? "packing_periodic" : "packing_open", b.total, SOLVER_NAMES[sv],
                         o.alpha, st.n, st.corners, st.xi_max, st.xi_med, st.gap_max, st.gap_med, st.f_max,
                         st.f_med);
             }
