@@ -407,7 +407,10 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> Tuple[argparse.Namespace
     p.add_argument("--vertices", type=int)
     p.add_argument("--phi", type=float, default=d.phi, help="final packing fraction sum(A0)/box area")
     p.add_argument("--stages", type=int)
-    p.add_argument("--penalty", type=float, default=d.penalty)
+    p.add_argument("--penalty", type=float, default=d.penalty, help="contact penalty eps")
+    p.add_argument("--ka", type=float, default=d.ka, help="area spring")
+    p.add_argument("--kl", type=float, default=d.kl, help="edge (perimeter) springs")
+    p.add_argument("--search-radius", type=float, default=d.search_radius)
     p.add_argument("--alphas", default=",".join(str(a) for a in d.alphas), help="comma-separated, e.g. 0,0.25")
     p.add_argument("--tol", type=float, default=d.tol)
     p.add_argument("--max-iter", type=int, default=d.max_iter)
@@ -416,7 +419,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> Tuple[argparse.Namespace
     p.add_argument("--png", help="plot the final packings with their contact forces (needs matplotlib)")
     p.add_argument("--json", help="write the runs as JSON")
     args = p.parse_args(argv)
-    cfg = Config(phi=args.phi, penalty=args.penalty, tol=args.tol, max_iter=args.max_iter, seed=args.seed,
+    cfg = Config(phi=args.phi, penalty=args.penalty, ka=args.ka, kl=args.kl, search_radius=args.search_radius,
+                 tol=args.tol, max_iter=args.max_iter, seed=args.seed,
                  alphas=tuple(float(a) for a in args.alphas.split(",") if a.strip()))
     if args.tiny:
         cfg.cells, cfg.vertices, cfg.stages = 4, 8, 8
