@@ -93,3 +93,17 @@ def test_tiny_packing_is_in_equilibrium_for_the_service(fp, daemon):
     assert contact.summary.contacts == run.contacts > 0
     # contact is a real load: the largest contact force is far above the residual
     assert max(np.hypot(*c.force) for c in contact.contacts) > 1e6 * cfg.tol
+
+
+def test_example_starts_its_own_daemon(paths, tmp_path):
+    """Without --url the example starts ntscontactd from the build dir on a free
+    port, and stops it when done."""
+    import os
+
+    env = dict(os.environ, NTS_BUILD_DIR=str(paths.build))
+    out = tmp_path / "runs.json"
+    proc = subprocess.run([sys.executable, str(paths.examples / "fire_packing.py"), "--tiny", "--alphas", "0.25",
+                           "--json", str(out)], capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (run,) = json.loads(out.read_text())["runs"]
+    assert run["converged"] and run["residual"] < 1e-10
