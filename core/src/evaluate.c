@@ -67,6 +67,9 @@ typedef struct worker {
     nts_contact* recs;
     int rec_count, rec_cap;
     int status;
+    /* Workers sit side by side in one array and update their counts all the
+     * time: keep each on its own cache lines (no false sharing between threads). */
+    char pad[64];
 } worker;
 
 struct nts_context {
