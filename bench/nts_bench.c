@@ -707,20 +707,41 @@ static void section_scaling(const char* dir) {
 }
 
 /* Threads: bitwise identical results for 0..4 threads, and the speed-up. */
+/* How many cores this process really gets now: CPU time over wall time of a
+ * 2-thread busy loop (2.0 on an idle 2-core machine; about 1 when another
+ * process keeps one core busy). The threads table reports it next to the
+ * speed-ups, which cannot exceed it. */
+static double cores_available(void) {
+#ifdef _OPENMP
+    double x = 0.0, t0 = now(), u0 = cpu_now();
+    long i;
+#pragma omp parallel for num_threads(2) reduction(+ : x) schedule(static)
+    for (i = 0; i < 60000000L; ++i) x += 1e-9 * (double)i;
+    if (!(x > 0.0)) return 0.0;
+    return (cpu_now() - u0) / (now() - t0);
+#else
+    return 1.0;
+#endif
+}
+
 static void section_threads(const char* dir, int max_threads) {
-    FILE* f = open_csv(dir, "threads", TIMING_HEADER ",speedup,bitwise_identical");
+    FILE* f = open_csv(dir, "threads", TIMING_HEADER ",speedup,speedup_best,bitwise_identical,cores_available");
     scene_buf b;
     nts_scene* s;
     nts_context* c0 = nts_context_create();
-    nts_context* c1 = nts_context_create();
+    nts_context* ct[8];
     nts_result r0, r1;
-    double base = 0.0;
-    int th, sv, a;
+    int th, sv, a, k;
+    if (max_threads > 8) max_threads = 8;
+    for (th = 0; th < max_threads; ++th) ct[th] = nts_context_create();
     make_packing(&b, g_quick ? 1000 : 4000, 1, 4242u);
     s = scene_from(&b);
     for (sv = 0; sv < 2; ++sv)
         for (a = 0; a < 4; ++a) {
             nts_options o = nts_default_options();
+            enum { REPS = 15 };
+            double te[8][REPS], tu[8][REPS], best[8], cores;
+            int same[8], reps = g_quick ? 5 : REPS, n = nts_scene_surface_node_count(s);
             if (!(a == 0 || a == 2) && sv == 1) continue;
             if (g_quick && !(a == 2 && sv == 0)) continue;
             o.alpha = ALPHAS[a];
@@ -728,27 +749,54 @@ static void section_threads(const char* dir, int max_threads) {
             o.outputs = NTS_OUT_ALL;
             eval_or_die(c0, s, &o, &r0);
             for (th = 1; th <= max_threads; ++th) {
-                timing t;
-                int same;
                 o.threads = th;
                 o.outputs = NTS_OUT_ALL;
-                eval_or_die(c1, s, &o, &r1);
-                same = r1.gap_count == r0.gap_count && r1.contact_count == r0.contact_count &&
-                       memcmp(r1.gaps, r0.gaps, sizeof(nts_contact) * (size_t)r0.gap_count) == 0 &&
-                       memcmp(r1.contacts, r0.contacts, sizeof(nts_contact) * (size_t)r0.contact_count) == 0 &&
-                       memcmp(r1.forces, r0.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0 &&
-                       memcmp(&r1.summary, &r0.summary, sizeof r0.summary) == 0;
+                eval_or_die(ct[th - 1], s, &o, &r1);
+                same[th - 1] =
+                    r1.gap_count == r0.gap_count && r1.contact_count == r0.contact_count &&
+                    memcmp(r1.gaps, r0.gaps, sizeof(nts_contact) * (size_t)r0.gap_count) == 0 &&
+                    memcmp(r1.contacts, r0.contacts, sizeof(nts_contact) * (size_t)r0.contact_count) == 0 &&
+                    memcmp(r1.forces, r0.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0 &&
+                    memcmp(&r1.summary, &r0.summary, sizeof r0.summary) == 0;
                 o.outputs = nts_default_options().outputs;
-                t = time_eval(s, &o, g_quick ? 0.05 : 0.4);
-                if (th == 1) base = t.eval;
+                eval_or_die(ct[th - 1], s, &o, &r1); /* warm with the timed outputs */
+            }
+            cores = cores_available();
+            /* Interleaved: every round times 1, 2, ..., max threads in turn, so a
+             * burst of load from other processes hits every count alike. */
+            for (k = 0; k < reps; ++k)
+                for (th = 1; th <= max_threads; ++th) {
+                    double u0 = cpu_now(), t0 = now();
+                    o.threads = th;
+                    eval_or_die(ct[th - 1], s, &o, &r1);
+                    te[th - 1][k] = 1e9 * (now() - t0) / n;
+                    tu[th - 1][k] = 1e9 * (cpu_now() - u0) / n;
+                }
+            for (th = 1; th <= max_threads; ++th) {
+                timing t;
+                double ph[4];
+                memset(&t, 0, sizeof t);
+                nts_context_phase_times(ct[th - 1], ph);
+                t.reps = reps;
+                t.cells = 1e9 * ph[1] / n; /* last evaluation's phases */
+                t.search = 1e9 * ph[2] / n;
+                best[th - 1] = te[th - 1][0];
+                for (k = 1; k < reps; ++k)
+                    if (te[th - 1][k] < best[th - 1]) best[th - 1] = te[th - 1][k];
+                t.eval_min = best[th - 1];
+                t.eval = median(te[th - 1], reps);
+                t.eval_cpu = median(tu[th - 1], reps);
+                t.gaps = r1.summary.gaps;
+                t.contacts = r1.summary.contacts;
                 write_timing(f, "packing", 1, b.nb, b.total, sv, o.alpha, th, &t);
                 fseek(f, -1, SEEK_CUR);
-                fprintf(f, ",%.3f,%d\n", base / t.eval, same);
+                fprintf(f, ",%.3f,%.3f,%d,%.2f\n", median(te[0], reps) / t.eval, best[0] / best[th - 1], same[th - 1],
+                        cores);
                 fflush(f);
             }
         }
     nts_context_destroy(c0);
-    nts_context_destroy(c1);
+    for (th = 0; th < max_threads; ++th) nts_context_destroy(ct[th]);
     nts_scene_destroy(s);
     buf_free(&b);
     fclose(f);
