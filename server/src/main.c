@@ -1,13 +1,14 @@
 /* ntscontactd: node-to-segment contact over HTTP.
  * Lifetime: parse the flags, ignore SIGPIPE, block SIGTERM and SIGINT in every
  * thread (libmicrohttpd's threads inherit the mask), start, print the bound
- * address, wait for a signal, stop accepting, let the requests in flight finish
- * (a second signal cuts this short), stop, exit 0. */
+ * address, wait for a signal, stop accepting, let the requests in flight finish,
+ * stop, exit 0. A second signal while waiting abandons them: exit 1 at once. */
 #include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "server.h"
 
@@ -53,8 +54,10 @@ int main(int argc, char** argv) {
     while (ntsd_server_in_flight(&server) > 0) {
         struct timespec tick = {0, 50 * 1000 * 1000};
         if (sigtimedwait(&stop_signals, NULL, &tick) > 0) {
-            ntsd_log_message("second signal: closing %d request(s) in flight", ntsd_server_in_flight(&server));
-            break;
+            /* Evaluations cannot be interrupted and libmicrohttpd would wait
+             * for them (and for suspended connections): leave at once. */
+            ntsd_log_message("second signal: abandoning %d request(s) in flight", ntsd_server_in_flight(&server));
+            _exit(1);
         }
     }
     ntsd_server_stop(&server);

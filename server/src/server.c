@@ -36,6 +36,15 @@ typedef struct ntsd_request {
     char method[16];
     char path[256];
     char peer[64];
+    /* Pool model, large bodies: evaluated by a worker while the connection is
+     * suspended (MHD_suspend_connection), then answered when resumed. */
+    ntsd_job job;
+    struct MHD_Connection* conn;
+    int offloaded;             /* handed to a worker */
+    int evaluated;             /* `resp` and `rc` are filled */
+    int pretty;
+    int rc;
+    ntsj_response resp;
 } ntsd_request;
 
 double ntsd_now(void) {
@@ -148,14 +157,15 @@ static int query_flag(struct MHD_Connection* c, const char* name) {
     return *v == '\0' || strcmp(v, "1") == 0 || strcmp(v, "true") == 0;
 }
 
-/* POST /v1/contact and /v1/validate: the whole body is here. */
-static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
+/* Run the codec on the whole body: fills r->resp and r->rc, frees the body.
+ * Per-connection model: at most --threads at once (the gate). Pool model: the
+ * caller is a worker, or a polling thread with a small body; never block. */
+static void evaluate(ntsd_request* r) {
     ntsd_server* s = r->server;
     ntsj_config jc = ntsj_default_config();
-    ntsj_response resp;
-    int rc;
+    int gated = s->config.threading == NTSD_THREAD_PER_CONNECTION;
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
-    jc.pretty = query_flag(c, "pretty");
+    jc.pretty = r->pretty;
     jc.max_bytes = s->config.max_body;
     jc.max_depth = s->config.max_depth;
     jc.limits.max_bodies = s->config.max_bodies;
@@ -163,19 +173,63 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     jc.limits.max_nodes = s->config.max_nodes;
     jc.max_seconds = s->config.max_seconds;
     jc.threads = 0; /* concurrency comes from requests, not from inside one */
-    memset(&resp, 0, sizeof resp);
-    r->t_body = ntsd_now();
-    gate_enter(s);
-    rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &resp);
-    gate_leave(s);
+    memset(&r->resp, 0, sizeof r->resp);
+    if (gated) {
+        gate_enter(s);
+    } else {
+        pthread_mutex_lock(&s->lock);
+        s->evaluating++;
+        pthread_mutex_unlock(&s->lock);
+    }
+    r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
+    if (gated) {
+        gate_leave(s);
+    } else {
+        pthread_mutex_lock(&s->lock);
+        s->evaluating--;
+        pthread_mutex_unlock(&s->lock);
+    }
     ntsd_body_free(&r->body);
-    if (rc != 0 || resp.body == NULL) {
-        ntsj_response_free(&resp);
+    r->evaluated = 1;
+}
+
+/* Queue the codec's answer. */
+static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r) {
+    char* body = r->resp.body;
+    if (r->rc != 0 || body == NULL) {
+        ntsj_response_free(&r->resp);
         return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
     }
-    /* The codec's buffer goes to libmicrohttpd without a copy, freed by nts_free. */
-    return reply(c, r, (unsigned)resp.http_status, resp.code ? resp.code : "-", resp.body, resp.length,
+    r->resp.body = NULL; /* to libmicrohttpd without a copy, freed by nts_free */
+    return reply(c, r, (unsigned)r->resp.http_status, r->resp.code ? r->resp.code : "-", body, r->resp.length,
                  nts_free, "application/json", NULL, 0);
+}
+
+/* A worker's job: evaluate, then wake the suspended connection, whose next
+ * callback answers. `r` is not touched after the resume. */
+static void run_offloaded(void* arg) {
+    ntsd_request* r = arg;
+    struct MHD_Connection* c = r->conn;
+    evaluate(r);
+    MHD_resume_connection(c);
+}
+
+/* POST /v1/contact and /v1/validate: the whole body is here. */
+static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
+    ntsd_server* s = r->server;
+    r->pretty = query_flag(c, "pretty");
+    r->t_body = ntsd_now();
+    if (s->config.threading == NTSD_THREAD_POOL && r->body.length > NTSD_INLINE_MAX_BYTES) {
+        r->conn = c;
+        r->offloaded = 1;
+        r->job.run = run_offloaded;
+        r->job.arg = r;
+        MHD_suspend_connection(c);
+        ntsd_workers_push(&s->workers, &r->job);
+        return MHD_YES;
+    }
+    evaluate(r);
+    return reply_evaluated(c, r);
 }
 
 /* ------------------------------------------------------------- callbacks */
@@ -284,6 +338,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     }
 
     if (r->queued) return MHD_YES;
+    if (r->offloaded) return r->evaluated ? reply_evaluated(c, r) : MHD_YES; /* resumed by the worker */
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
         return reply_error(c, r, "payload_too_large",
@@ -323,6 +378,7 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     }
     pthread_mutex_unlock(&s->lock);
     ntsd_body_free(&r->body);
+    ntsj_response_free(&r->resp); /* evaluated, but the client left before the answer */
     free(r);
     *con_cls = NULL;
 }
@@ -364,7 +420,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         a4->sin_port = htons((unsigned short)cfg->port);
         if (inet_pton(AF_INET, cfg->host, &a4->sin_addr) != 1) goto bad_host;
     }
-    flags |= pool ? MHD_USE_EPOLL : (MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL);
+    flags |= pool ? (MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME) : (MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL);
 
     /* Room above --max-connections so that the extra clients get a 503 instead
      * of a closed socket. */
@@ -372,6 +428,12 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
 
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
+    if (pool && ntsd_workers_start(&s->workers, cfg->threads) != 0) {
+        ntsd_log_message("cannot start %d evaluation threads", cfg->threads);
+        pthread_cond_destroy(&s->changed);
+        pthread_mutex_destroy(&s->lock);
+        return -1;
+    }
     s->started = ntsd_now();
     s->daemon = MHD_start_daemon(
         flags, (uint16_t)cfg->port, NULL, NULL, on_request, s,
@@ -387,6 +449,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_END);
     if (s->daemon == NULL) {
         ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);
+        ntsd_workers_stop(&s->workers);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
         return -1;
@@ -419,6 +482,7 @@ int ntsd_server_in_flight(ntsd_server* s) {
 void ntsd_server_stop(ntsd_server* s) {
     MHD_stop_daemon(s->daemon);
     s->daemon = NULL;
+    ntsd_workers_stop(&s->workers);
     pthread_cond_destroy(&s->changed);
     pthread_mutex_destroy(&s->lock);
 }

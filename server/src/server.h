@@ -17,7 +17,8 @@
 
 typedef enum ntsd_threading {
     NTSD_THREAD_PER_CONNECTION = 0, /* one thread per connection, evaluations gated to --threads */
-    NTSD_THREAD_POOL = 1            /* --threads epoll polling threads; evaluations run inline */
+    NTSD_THREAD_POOL = 1            /* --threads epoll polling threads; evaluations of large bodies
+                                       on --threads workers (suspend/resume), small ones inline */
 } ntsd_threading;
 
 typedef struct ntsd_config {
@@ -76,11 +77,40 @@ void ntsd_log_request(const char* peer, const char* method, const char* path, in
 /* libmicrohttpd's own diagnostics (MHD_OPTION_EXTERNAL_LOGGER). */
 void ntsd_log_mhd(void* cls, const char* fmt, va_list ap);
 
+/* --------------------------------------------------------------- workers */
+
+/* A job for the evaluation threads; `next` belongs to the queue. */
+typedef struct ntsd_job {
+    void (*run)(void* arg);
+    void* arg;
+    struct ntsd_job* next;
+} ntsd_job;
+
+typedef struct ntsd_workers {
+    pthread_t* threads;
+    int count;
+    pthread_mutex_t lock;
+    pthread_cond_t ready;
+    ntsd_job *head, *tail;
+    int queued, stopping;
+} ntsd_workers;
+
+/* Start `count` threads. 0 or -1. */
+int ntsd_workers_start(ntsd_workers* w, int count);
+void ntsd_workers_push(ntsd_workers* w, ntsd_job* job);
+/* Run what is queued, then join the threads. */
+void ntsd_workers_stop(ntsd_workers* w);
+
 /* ---------------------------------------------------------------- server */
+
+/* In the pool model, bodies up to this size are evaluated by the polling
+ * thread itself (well under a millisecond); larger ones go to the workers. */
+#define NTSD_INLINE_MAX_BYTES ((size_t)64 * 1024)
 
 typedef struct ntsd_server {
     ntsd_config config;
     struct MHD_Daemon* daemon;
+    ntsd_workers workers;      /* pool model: the evaluation threads */
     unsigned port;             /* the bound port */
     double started;            /* monotonic seconds */
 

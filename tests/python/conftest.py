@@ -70,11 +70,13 @@ class Daemon:
 
 
 def start_daemon(binary, log_path, *args, timeout=20):
-    """Start `binary --port 0 ARGS`, wait for its address line, return a Daemon."""
+    """Start `binary --port 0 $NTS_DAEMON_ARGS ARGS`, wait for its address line, return a Daemon."""
     if not pathlib.Path(binary).exists():
         pytest.fail(f"{binary} is not built (NTS_BUILD_DIR={BUILD})")
     log = open(log_path, "wb")
-    proc = subprocess.Popen([str(binary), "--port", "0", *map(str, args)],
+    # NTS_DAEMON_ARGS: extra flags for every daemon of the tests (e.g. "--threading pool").
+    extra = os.environ.get("NTS_DAEMON_ARGS", "").split()
+    proc = subprocess.Popen([str(binary), "--port", "0", *extra, *map(str, args)],
                             stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)
     log.close()
     sel = selectors.DefaultSelector()
