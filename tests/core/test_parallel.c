@@ -113,6 +113,10 @@ static void test_cells_equal_brute_force(void) {
 static long long g_allocs;
 static void* counting_alloc(size_t n, void* user) {
     (void)user;
+    /* Called from the worker threads too when options.threads > 1. */
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
     ++g_allocs;
     return malloc(n);
 }
