@@ -13,7 +13,7 @@
 static const char usage[] =
     "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
     "                   [--timeout S] [--max-connections N]\n"
-    "                   [--threading per-connection|pool] [--quiet]\n"
+    "                   [--threading pool|per-connection] [--quiet]\n"
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "\n"
@@ -23,12 +23,14 @@ static const char usage[] =
     "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
     "  --port N             TCP port, 0 for any free one (default 8080); the bound\n"
     "                       address is printed on stdout: 'ntscontactd listening on HOST:PORT'\n"
-    "  --threads N          evaluations running at once, and polling threads of the\n"
-    "                       pool model (default: online cores)\n"
+    "  --threads N          polling threads, and evaluation threads (default: online cores)\n"
     "  --max-body BYTES     largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
     "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
     "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
-    "  --threading MODEL    per-connection (default) or pool (see docs/benchmarks.md)\n"
+    "  --threading MODEL    pool (default): epoll polling threads, scenes over 64 KiB\n"
+    "                       evaluated by the evaluation threads while their connection\n"
+    "                       waits; per-connection: a thread per connection, at most\n"
+    "                       --threads evaluations at once (docs/benchmarks.md, Server)\n"
     "  --quiet              no per-request log lines on stderr\n"
     "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
@@ -48,7 +50,7 @@ ntsd_config ntsd_default_config(void) {
     c.max_body = (size_t)64 << 20;
     c.timeout_s = 30;
     c.max_connections = 256;
-    c.threading = NTSD_THREAD_PER_CONNECTION;
+    c.threading = NTSD_THREAD_POOL;
     c.quiet = 0;
     {
         nts_limits l = nts_default_limits();
