@@ -354,9 +354,10 @@ def report(res, made):
         two = [r for r in thr if r["threads"] == "2"]
         cores = [float(r.get("cores_available", "nan")) for r in two]
         L.append("- Threads: results bitwise identical for 1..%s threads in every case: **%s**. Speed-up with 2 "
-                 "threads on this machine's %s cores: %s (median wall time), %s (best times), while a 2-thread "
-                 "busy loop measured only %s cores actually available to the benchmark (other sessions kept "
-                 "the machine busy): no speed-up could be shown here; see \"Threads\"."
+                 "threads on this machine's %s cores: %s from median wall times, %s from the best times (the "
+                 "moments both cores were free), while a 2-thread busy loop found %s cores actually available "
+                 "(other sessions kept the machine busy, so the medians mostly show time-sharing of one core); "
+                 "see \"Threads\"."
                  % (max(int(r["threads"]) for r in thr), "yes" if allsame else "NO", meta.get("nproc", "?"),
                     "-".join([fnum(min(float(r["speedup"]) for r in two)), fnum(max(float(r["speedup"])
                                                                                      for r in two))]),
