@@ -758,6 +758,23 @@ def hard_cases_doc(res, path):
                  % (fnum(cf["xi_error_max"]), fnum(nw["xi_error_max"]), fnum(cf["ns_per_solve"]),
                     fnum(nw["ns_per_solve"]), cf["iterations_mean"], nw["iterations_mean"]))
         L.append("")
+    # Keep in step with the tests: every test of the suite gets a section, measured or not.
+    tests_path = os.path.join(ROOT, "tests", "core", "test_hard_cases.c")
+    if os.path.exists(tests_path):
+        import re
+        with open(tests_path) as f:
+            names = re.findall(r"ADD_TEST\(\s*\w+\s*,\s*(\w+)\s*\)", f.read())
+        missing = [n for n in names if n not in HARD_TEXT]
+        gone = [n for n in HARD_TEXT if names and n not in names]
+        for n in missing:
+            L.append("## `%s`" % n)
+            L.append("")
+            L.append("Not measured yet: a new test of the suite. Add its case to `section_hard` in "
+                     "`bench/nts_bench.c` and a paragraph to `HARD_TEXT` in `bench/report.py`.")
+            L.append("")
+            sys.stderr.write("hard-cases.md: %s is not measured yet\n" % n)
+        for n in gone:
+            sys.stderr.write("hard-cases.md: %s is described but no longer in the suite\n" % n)
     L.append("## Other hard cases the tests cover")
     L.append("")
     L.append("- `tests/core/test_parallel.c`: results bitwise identical for 1 to 7 threads (open and periodic "
