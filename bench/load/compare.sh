@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
-# A/B of the two threading models under the same (possibly noisy) conditions:
-# alternate per-connection and pool for R rounds of bench/load/run.sh, then print
-# the median of each figure per model and run.
+# A/B/C of the threading models under the same (possibly noisy) conditions:
+# alternate, for R rounds of bench/load/run.sh,
+#   per-connection  a thread per connection, --threads evaluations at once
+#   pool            epoll polling threads; scenes over 64 KiB on evaluation threads
+#   pool-inline     the same polling threads evaluating every scene themselves
+#                   (--inline-max 1G: libmicrohttpd's plain thread pool)
+# then print the median of each figure per model and run.
 #
 #   bench/load/compare.sh [--rounds R] [--duration S]     (default 3 rounds of 5 s runs)
 set -euo pipefail
@@ -18,8 +22,12 @@ done
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 for r in $(seq "$rounds"); do
-  for mode in per-connection pool; do
-    bash bench/load/run.sh --threading "$mode" --duration "$duration" | grep -v '^#' | grep -v '^##' |
+  for mode in per-connection pool pool-inline; do
+    case $mode in
+      pool-inline) flags=(--threading pool --daemon-args "--inline-max 1G") ;;
+      *) flags=(--threading "$mode") ;;
+    esac
+    bash bench/load/run.sh "${flags[@]}" --duration "$duration" | grep -v '^#' | grep -v '^##' |
       grep -E '^(health|small|large|STALL)' | sed "s/^/$mode /" | tee -a "$out"
   done
 done

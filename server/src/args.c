@@ -13,7 +13,7 @@
 static const char usage[] =
     "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
     "                   [--timeout S] [--max-connections N]\n"
-    "                   [--threading pool|per-connection] [--quiet]\n"
+    "                   [--threading pool|per-connection] [--inline-max BYTES] [--quiet]\n"
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "\n"
@@ -31,6 +31,8 @@ static const char usage[] =
     "                       evaluated by the evaluation threads while their connection\n"
     "                       waits; per-connection: a thread per connection, at most\n"
     "                       --threads evaluations at once (docs/benchmarks.md, Server)\n"
+    "  --inline-max BYTES   pool model: bodies up to this size are evaluated by the\n"
+    "                       polling thread itself (default 64k)\n"
     "  --quiet              no per-request log lines on stderr\n"
     "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
@@ -51,6 +53,7 @@ ntsd_config ntsd_default_config(void) {
     c.timeout_s = 30;
     c.max_connections = 256;
     c.threading = NTSD_THREAD_POOL;
+    c.inline_max = NTSD_INLINE_MAX_BYTES;
     c.quiet = 0;
     {
         nts_limits l = nts_default_limits();
@@ -161,6 +164,9 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 return -1;
             }
             cfg->max_seconds = sec;
+        } else if (strcmp(a, "--inline-max") == 0) {
+            if (parse_unsigned(a, v, 0, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+            cfg->inline_max = (size_t)n;
         } else if (strcmp(a, "--threading") == 0) {
             if (strcmp(v, "pool") == 0) {
                 cfg->threading = NTSD_THREAD_POOL;

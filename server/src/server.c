@@ -219,7 +219,7 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_server* s = r->server;
     r->pretty = query_flag(c, "pretty");
     r->t_body = ntsd_now();
-    if (s->config.threading == NTSD_THREAD_POOL && r->body.length > NTSD_INLINE_MAX_BYTES) {
+    if (s->config.threading == NTSD_THREAD_POOL && r->body.length > s->config.inline_max) {
         r->conn = c;
         r->offloaded = 1;
         r->job.run = run_offloaded;

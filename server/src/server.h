@@ -29,6 +29,8 @@ typedef struct ntsd_config {
     unsigned timeout_s;      /* idle connection timeout and body upload budget; default 30 */
     unsigned max_connections;/* default 256 */
     ntsd_threading threading;
+    size_t inline_max;       /* pool model: bodies up to this size are evaluated by the polling
+                                thread itself; default 64 KiB (NTSD_INLINE_MAX_BYTES) */
     int quiet;
     /* Limits handed to the codec for every request (issue 7). */
     int max_depth;           /* JSON nesting; default 32 */
@@ -103,8 +105,9 @@ void ntsd_workers_stop(ntsd_workers* w);
 
 /* ---------------------------------------------------------------- server */
 
-/* In the pool model, bodies up to this size are evaluated by the polling
- * thread itself (well under a millisecond); larger ones go to the workers. */
+/* Default of --inline-max: in the pool model, bodies up to this size are
+ * evaluated by the polling thread itself (well under a millisecond); larger
+ * ones go to the evaluation threads. */
 #define NTSD_INLINE_MAX_BYTES ((size_t)64 * 1024)
 
 typedef struct ntsd_server {
