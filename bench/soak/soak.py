@@ -153,6 +153,7 @@ class Stats:
         self.sigterm_at = None
         self.refused_after_sigterm = 0
         self.latencies_after = []
+        self.idle_reconnects = 0
 
     def record(self, case, status, data, latency):
         problem = check(case, status, data)
@@ -186,27 +187,47 @@ class Stats:
             d[outcome] = d.get(outcome, 0) + 1
 
 
-def load_client(port, cases, seed, stop, stats):
+def load_client(port, cases, seed, stop, stats, idle_timeout=None):
+    """Posts random bodies on one keep-alive connection. A connection the
+    daemon closed because it sat idle for its --timeout (this client was
+    starved of CPU that long) is not a lost request: the request is sent again
+    on a new connection, as HTTP clients do, and counted apart. Any other
+    transport failure before SIGTERM is a lost request."""
     rng = random.Random(seed)
     conn = http.client.HTTPConnection(HOST, port, timeout=120)
+    last_done = None  # when the last answer on `conn` completed
+    retry = None
     while not stop.is_set():
-        case = rng.choice(cases)
+        case = retry if retry is not None else rng.choice(cases)
         t0 = time.perf_counter()
+        started = time.monotonic()
         try:
             conn.request("POST", "/v1/contact", body=case.body, headers={"Content-Type": "application/json"})
             resp = conn.getresponse()
             data = resp.read()
         except (OSError, http.client.HTTPException) as exc:
-            stats.transport(exc)
             conn.close()
-            if stats.sigterm_at is not None:
-                time.sleep(0.05)  # the daemon is going away: do not spin
+            idle = None if last_done is None else started - last_done
+            if (retry is None and idle_timeout is not None and idle is not None and idle >= 0.9 * idle_timeout
+                    and isinstance(exc, (BrokenPipeError, ConnectionResetError, http.client.RemoteDisconnected))):
+                with stats.lock:
+                    stats.idle_reconnects += 1
+                retry = case
+            else:
+                stats.transport(exc)
+                retry = None
+                if stats.sigterm_at is not None:
+                    time.sleep(0.05)  # the daemon is going away: do not spin
             conn = http.client.HTTPConnection(HOST, port, timeout=120)
+            last_done = None
             continue
+        retry = None
+        last_done = time.monotonic()
         stats.record(case, resp.status, data, time.perf_counter() - t0)
         if resp.will_close:
             conn.close()
             conn = http.client.HTTPConnection(HOST, port, timeout=120)
+            last_done = None
     conn.close()
 
 
@@ -444,7 +465,12 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
     cases = build_cases(cli, rng, variants=variants, log=log)
     valid = [c for c in cases if c.ok]
     log_path = pathlib.Path(log_path or (build_dir / "soak-daemon.log"))
-    proc, port = start_daemon(daemon_bin, log_path, list(daemon_flags))
+    flags = list(daemon_flags)
+    idle_timeout = 30.0  # the daemon's default --timeout
+    for k, f in enumerate(flags[:-1]):
+        if f == "--timeout":
+            idle_timeout = float(flags[k + 1])
+    proc, port = start_daemon(daemon_bin, log_path, flags)
     stats = Stats()
     stop_load, stop_faults = threading.Event(), threading.Event()
     rss = []
@@ -460,7 +486,8 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
 
     threads = [threading.Thread(target=sample, daemon=True)]
     for i in range(connections):
-        threads.append(threading.Thread(target=load_client, args=(port, cases, seed * 1000 + i, stop_load, stats),
+        threads.append(threading.Thread(target=load_client,
+                                        args=(port, cases, seed * 1000 + i, stop_load, stats, idle_timeout),
                                         daemon=True))
     fault_threads = []
     if faults:
@@ -533,12 +560,13 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
         "requests_per_s": round(stats.requests / max(duration, 1e-9), 1),
         "by_status": {str(k): v for k, v in sorted(stats.by_status.items())},
         "wrong_answers": len(stats.wrong),
-        "wrong_examples": stats.wrong[:5],
+        "wrong_examples": stats.wrong[:10],
         "server_errors_5xx": stats.server_errors,
         "transport_errors_before_sigterm": len(stats.transport_before),
-        "transport_errors_examples": stats.transport_before[:5],
+        "transport_errors_examples": stats.transport_before[:10],
         "transport_errors_after_sigterm": stats.transport_after,
         "refused_503_after_sigterm": stats.refused_after_sigterm,
+        "idle_reconnects": stats.idle_reconnects,
         "latency_ms": {"p50": percentile(lat_ms, 50), "p90": percentile(lat_ms, 90),
                        "p99": percentile(lat_ms, 99), "p999": percentile(lat_ms, 99.9),
                        "max": max(lat_ms) if lat_ms else None,

@@ -71,8 +71,9 @@ typedef struct nts_error {
 nts_error nts_error_none(void);
 
 /* Allocator hook (all library allocations go through it; NULL restores malloc).
- * `realloc_fn` may be NULL, then the library uses alloc + copy + free.
- * Not thread-safe to change while evaluations run. */
+ * The hook must be thread-safe: with nts_options.threads > 1 the worker threads
+ * of one evaluation call it concurrently (to grow their record buffers). Do not
+ * change the hook while evaluations run. */
 typedef void* nts_alloc_fn(size_t size, void* user);
 typedef void nts_free_fn(void* ptr, void* user);
 void nts_set_allocator(nts_alloc_fn* alloc_fn, nts_free_fn* free_fn, void* user);
