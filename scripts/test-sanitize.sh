@@ -8,6 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 dir=${NTS_ASAN_BUILD_DIR:-build-asan}
+[ -x .venv/bin/python ] || bash scripts/install-deps.sh
 NTS_BUILD_DIR="$dir" bash scripts/build.sh -DNTS_SANITIZE=ON -DNTS_WERROR=ON "$@"
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:halt_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1:check_initialization_order=1}
