@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Bounded load test of ntscontactd on 127.0.0.1 (wrk, fixed duration per run).
 #
-#   bench/load/run.sh [--threading pool|per-connection] [--daemon-args "FLAGS"] [--duration S] [--quick]
+#   bench/load/run.sh [--threading per-connection|pool] [--daemon-args "FLAGS"] [--duration S] [--quick]
 #
 # Starts build/bin/ntscontactd (or $NTS_BUILD_DIR/bin) on a free port, then runs,
 # each for S seconds (default 10):
@@ -13,7 +13,7 @@
 # and prints one BENCH/STALL line per run. Needs wrk (Debian: apt-get install wrk).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-threading=pool
+threading=per-connection
 daemon_args=""
 duration=10
 while [ $# -gt 0 ]; do
@@ -22,7 +22,7 @@ while [ $# -gt 0 ]; do
     --daemon-args) daemon_args=$2; shift 2 ;;
     --duration) duration=$2; shift 2 ;;
     --quick) duration=3; shift ;;
-    *) echo "usage: $0 [--threading pool|per-connection] [--daemon-args FLAGS] [--duration S] [--quick]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--threading per-connection|pool] [--daemon-args FLAGS] [--duration S] [--quick]" >&2; exit 2 ;;
   esac
 done
 build=${NTS_BUILD_DIR:-build}

@@ -13,7 +13,7 @@
 static const char usage[] =
     "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
     "                   [--timeout S] [--max-connections N]\n"
-    "                   [--threading pool|per-connection] [--inline-max BYTES] [--quiet]\n"
+    "                   [--threading per-connection|pool] [--inline-max BYTES] [--quiet]\n"
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "\n"
@@ -23,14 +23,15 @@ static const char usage[] =
     "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
     "  --port N             TCP port, 0 for any free one (default 8080); the bound\n"
     "                       address is printed on stdout: 'ntscontactd listening on HOST:PORT'\n"
-    "  --threads N          polling threads, and evaluation threads (default: online cores)\n"
+    "  --threads N          evaluations at once; in the pool model also the polling\n"
+    "                       threads (default: online cores)\n"
     "  --max-body BYTES     largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
     "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
     "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
-    "  --threading MODEL    pool (default): epoll polling threads, scenes over 64 KiB\n"
-    "                       evaluated by the evaluation threads while their connection\n"
-    "                       waits; per-connection: a thread per connection, at most\n"
-    "                       --threads evaluations at once (docs/benchmarks.md, Server)\n"
+    "  --threading MODEL    per-connection (default): a thread per connection, at most\n"
+    "                       --threads evaluations at once; pool: epoll polling threads,\n"
+    "                       bodies over --inline-max evaluated by --threads evaluation\n"
+    "                       threads while their connection waits (docs/benchmarks.md)\n"
     "  --inline-max BYTES   pool model: bodies up to this size are evaluated by the\n"
     "                       polling thread itself (default 64k)\n"
     "  --quiet              no per-request log lines on stderr\n"
@@ -52,7 +53,7 @@ ntsd_config ntsd_default_config(void) {
     c.max_body = (size_t)64 << 20;
     c.timeout_s = 30;
     c.max_connections = 256;
-    c.threading = NTSD_THREAD_POOL;
+    c.threading = NTSD_THREAD_PER_CONNECTION;
     c.inline_max = NTSD_INLINE_MAX_BYTES;
     c.quiet = 0;
     {
