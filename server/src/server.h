@@ -3,7 +3,9 @@
  *   args.c   command line            log.c     one line per request
  *   body.c   capped body buffer      routes.c  URL + method -> answer
  *   server.c libmicrohttpd callbacks, counters, start/stop
- *   main.c   signals and lifetime */
+ *   workers.c evaluation threads of the pool model
+ *   main.c   signals and lifetime
+ * The threading models and why per-connection is the default: docs/benchmarks.md, "Server". */
 #ifndef NTSD_SERVER_H
 #define NTSD_SERVER_H
 
@@ -16,7 +18,7 @@
 /* ------------------------------------------------------------------ args */
 
 typedef enum ntsd_threading {
-    NTSD_THREAD_PER_CONNECTION = 0, /* one thread per connection, evaluations gated to --threads */
+    NTSD_THREAD_PER_CONNECTION = 0, /* default: one thread per connection, evaluations gated to --threads */
     NTSD_THREAD_POOL = 1            /* --threads epoll polling threads; evaluations of large bodies
                                        on --threads workers (suspend/resume), small ones inline */
 } ntsd_threading;
