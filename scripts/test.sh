@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Build everything and run every test: CUnit (through ctest) and pytest.
+# Build everything and run every test: CUnit (through ctest) and pytest, in the
+# normal build and under sanitizers, and a bounded fuzzing run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -13,4 +14,8 @@ if [ -d tests/python ]; then
   [ $rc -eq 5 ] && rc=0   # no tests collected is not a failure of the suite
   [ $rc -ne 0 ] && exit $rc
 fi
+# Reliability (issue 7): everything again under ASan + UBSan, then a bounded
+# libFuzzer run of decode + evaluate + encode (fails on crash, leak or timeout).
+bash scripts/test-sanitize.sh
+bash scripts/fuzz.sh 60
 echo "all tests passed"
