@@ -81,8 +81,16 @@ static double bracketed_root(const corner_problem* p, double lo, double hi, doub
         if (f == 0.0) break;
         if ((f > 0.0) == (flo > 0.0)) lo = x; else hi = x;
         xn = (df != 0.0) ? x - f / df : 0.5 * (lo + hi);
+        /* A converged Newton step is accepted before the bracket test: at the
+         * root x sits on the bracket's edge and a sub-ulp step lands on it too,
+         * which must not send the iteration bisecting away. */
+        if (df != 0.0 && fabs(xn - x) <= tol) {
+            x = xn < lo ? lo : (xn > hi ? hi : xn);
+            ++it;
+            break;
+        }
         if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi); /* Newton left the bracket: bisect */
-        if (fabs(xn - x) <= tol || hi - lo <= tol) { x = xn; ++it; break; }
+        if (hi - lo <= tol) { x = xn; ++it; break; }
         x = xn;
     }
     *iters += it;

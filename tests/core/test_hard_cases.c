@@ -104,6 +104,19 @@ static void test_nearly_collinear(void) {
                  1e-10, 1);
 }
 
+static void test_newton_converges_quickly_when_nearly_straight(void) {
+    /* Regression: at the root, a sub-ulp Newton step landed on the bracket's
+     * edge and was taken for "left the bracket", so the solver bisected away and
+     * crawled back (52 steps on this case). F is nearly linear here: a handful of
+     * steps must do. */
+    double th = 1e-5;
+    nts_corner k = nts_corner_make(nts_v2(-1, 0), nts_v2(cos(th), sin(th)), 0.2);
+    nts_corner_solution s = nts_corner_solve(k, nts_v2(-0.07, 0.1), NTS_SOLVER_NEWTON);
+    CU_ASSERT(s.ok);
+    if (s.iterations > 8) fprintf(stderr, "\n  newton took %d steps\n", s.iterations);
+    CU_ASSERT(s.iterations <= 8);
+}
+
 static void test_slave_on_alpha_boundaries(void) {
     /* Slave whose projection is exactly s = alpha on the next segment: the corner
      * root is xi = 1 (the curve's end Xb), and the flat candidate sees the same point. */
@@ -269,6 +282,7 @@ void register_hard_cases_suite(void) {
     CU_pSuite s = CU_add_suite("hard_cases", NULL, NULL);
     ADD_TEST(s, test_collinear_neighbours);
     ADD_TEST(s, test_nearly_collinear);
+    ADD_TEST(s, test_newton_converges_quickly_when_nearly_straight);
     ADD_TEST(s, test_slave_on_alpha_boundaries);
     ADD_TEST(s, test_slave_exactly_on_node);
     ADD_TEST(s, test_evolute_several_roots);
