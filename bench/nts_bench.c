@@ -955,12 +955,15 @@ static void section_hard(const char* dir) {
          {-0.42, 0.15}, 0.5},
         {"test_one_degree_spike_and_reflex", "1 degree spike; slave outside", {-1, 0}, {0, 0}, {0.05, 0.001}, 0.2},
         {"test_one_degree_spike_and_reflex", "359 degree reflex corner", {-1, 0}, {0, 0}, {0.05, 0.0005}, 0.2},
+        {"test_newton_converges_quickly_when_nearly_straight", "nearly straight: 1e-5 rad (step count)", {-1, 0},
+         {0, 0}, {-0.07, 0.1}, 0.2},
     };
     int i, n = (int)(sizeof cases / sizeof cases[0]), sv;
     cases[2].c = nts_v2(cos(1e-9), sin(1e-9));
     cases[3].c = nts_v2(cos(1e-5), sin(1e-5));
     cases[8].c = nts_v2(-cos(deg), sin(deg));
     cases[9].c = nts_v2(-cos(deg), -sin(deg));
+    cases[10].c = nts_v2(cos(1e-5), sin(1e-5));
     for (i = 0; i < n; ++i) hard_row(f, &cases[i]);
     fclose(f);
 

@@ -643,8 +643,12 @@ HARD_TEXT = {
         "Nearly collinear neighbours (1e-9 and 1e-5 rad): A is tiny but not zero; the monic cubic's coefficients "
         "are huge (1/A.A).",
         "Closed form: below the 1e-6 ratio the cubic term is dropped for the first guess and Newton polishing "
-        "restores it; above it GSL's cubic. Newton: the critical points of F lie far outside [-1, 1] or close "
-        "together, so the bracket is wide and rtsafe may bisect for a while (see the iterations)."),
+        "restores it; above it GSL's cubic. Newton: F' has no critical point in [-1, 1], one wide bracket; "
+        "F is nearly linear, so Newton converges in a few steps (see the iterations)."),
+    "test_newton_converges_quickly_when_nearly_straight": (
+        "Regression: the Newton solver used to take a converged sub-ulp step, landing on the bracket's edge, "
+        "for a step that left the bracket, and bisected away from the root (52 steps on this corner).",
+        "The converged step is now accepted before the bracket test: a handful of steps (the test allows 8)."),
     "test_slave_on_alpha_boundaries": (
         "The slave's projection is exactly s = alpha on the next segment (or s = 1 - alpha on the previous one): "
         "the corner root is the curve's end xi = +-1, where the corner and the flat candidate meet.",
