@@ -400,6 +400,55 @@ static ld corner_F(lvec A, lvec B, lvec e, ld xi) {
     return ldot(r, tau);
 }
 
+/* Every root of F in [-1, 1] in long double: [-1, 1] cut at the critical points
+ * of F (roots of F' = -6 A.A xi^2 - 6 A.B xi + 2 e.A - B.B) into monotone pieces,
+ * every sign change bisected to the last bit; with no sign change, the better
+ * endpoint. Returns how many (1 to 3). */
+static int ref_corner_roots(lvec A, lvec B, lvec e, ld roots[3]) {
+    ld cuts[4];
+    ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
+    int nc = 0, nr = 0, i;
+    cuts[nc++] = -1;
+    if (qa != 0) {
+        ld disc = qb * qb - 4 * qa * qc;
+        if (disc > 0) {
+            ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
+            if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
+            if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
+            if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
+        }
+    }
+    cuts[nc++] = 1;
+    for (i = 0; i + 1 < nc; ++i) {
+        ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
+        int it;
+        if (flo == 0) { roots[nr++] = lo; continue; }
+        if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
+        if ((flo > 0) == (fhi > 0)) continue;
+        for (it = 0; it < 200; ++it) {
+            ld mid = 0.5L * (lo + hi), fm;
+            if (!(mid > lo && mid < hi)) break;
+            fm = corner_F(A, B, e, mid);
+            if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
+        }
+        roots[nr++] = 0.5L * (lo + hi);
+    }
+    if (nr == 0) roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
+    return nr;
+}
+
+/* The root nearest to the slave (the first of equals). */
+static ld ref_nearest_root(lvec A, lvec B, lvec e, const ld* roots, int nr) {
+    ld best = roots[0], bestd = -1;
+    int i;
+    for (i = 0; i < nr; ++i) {
+        lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
+        ld d2 = ldot(r, r);
+        if (bestd < 0 || d2 < bestd) { bestd = d2; best = roots[i]; }
+    }
+    return best;
+}
+
 static double g_lx = 0.0, g_ly = 0.0; /* the periodic box of the scene under test */
 
 static ref_point reference(const nts_scene* s, const nts_contact* c, double alpha) {
@@ -428,45 +477,10 @@ static ref_point reference(const nts_scene* s, const nts_contact* c, double alph
         lvec d = lmin_image(lsub(xs, x3), g_lx, g_ly);
         ld al = (ld)alpha;
         lvec A = lscale(al / 4, ladd(a, cc)), B = lscale(al / 2, lsub(cc, a)), e = lsub(d, A);
-        ld cuts[4], roots[3], best = -1, bestd = 0;
-        int nc = 0, nr = 0, i;
-        /* F' = -6 A.A xi^2 - 6 A.B xi + 2 e.A - B.B */
-        ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
-        cuts[nc++] = -1;
-        if (qa != 0) {
-            ld disc = qb * qb - 4 * qa * qc;
-            if (disc > 0) {
-                ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
-                if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
-                if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
-                if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
-            }
-        }
-        cuts[nc++] = 1;
-        for (i = 0; i + 1 < nc; ++i) {
-            ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
-            int it;
-            if (flo == 0) { roots[nr++] = lo; continue; }
-            if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
-            if ((flo > 0) == (fhi > 0)) continue;
-            for (it = 0; it < 200; ++it) {
-                ld mid = 0.5L * (lo + hi), fm;
-                if (!(mid > lo && mid < hi)) break;
-                fm = corner_F(A, B, e, mid);
-                if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
-            }
-            roots[nr++] = 0.5L * (lo + hi);
-        }
-        if (nr == 0) { /* no sign change seen: the better endpoint */
-            roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
-        }
-        for (i = 0; i < nr; ++i) {
-            lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
-            ld d2 = ldot(r, r);
-            if (best < 0 || d2 < bestd) { best = i; bestd = d2; }
-        }
+        ld roots[3];
+        int nr = ref_corner_roots(A, B, e, roots);
+        ld xi = ref_nearest_root(A, B, e, roots, nr);
         {
-            ld xi = roots[(int)best];
             lvec tau = ladd(B, lscale(2 * xi, A)), pt = ladd(A, lscale(xi, ladd(B, lscale(xi, A))));
             ld tl = sqrtl(ldot(tau, tau));
             rp.param = xi;
@@ -863,40 +877,9 @@ static ld ref_corner_xi(nts_vec2 a, nts_vec2 c, double alpha, nts_vec2 d, int* n
         lvec A = lv(0.25L * alpha * ((ld)a.x + c.x), 0.25L * alpha * ((ld)a.y + c.y));
         lvec B = lv(0.5L * alpha * ((ld)c.x - a.x), 0.5L * alpha * ((ld)c.y - a.y));
         lvec e = lsub(lpos(d), A);
-        ld cuts[4], roots[3], bestd = -1, best = 0;
-        ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
-        int nc = 0, nr = 0, i;
-        cuts[nc++] = -1;
-        if (qa != 0) {
-            ld disc = qb * qb - 4 * qa * qc;
-            if (disc > 0) {
-                ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
-                if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
-                if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
-                if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
-            }
-        }
-        cuts[nc++] = 1;
-        for (i = 0; i + 1 < nc; ++i) {
-            ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
-            int it;
-            if (flo == 0) { roots[nr++] = lo; continue; }
-            if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
-            if ((flo > 0) == (fhi > 0)) continue;
-            for (it = 0; it < 200; ++it) {
-                ld mid = 0.5L * (lo + hi), fm;
-                if (!(mid > lo && mid < hi)) break;
-                fm = corner_F(A, B, e, mid);
-                if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
-            }
-            roots[nr++] = 0.5L * (lo + hi);
-        }
-        if (nr == 0) roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
-        for (i = 0; i < nr; ++i) {
-            lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
-            ld d2 = ldot(r, r);
-            if (bestd < 0 || d2 < bestd) { bestd = d2; best = roots[i]; }
-        }
+        ld roots[3];
+        int nr = ref_corner_roots(A, B, e, roots);
+        ld best = ref_nearest_root(A, B, e, roots, nr);
         *nroots = nr;
         return best;
     }
