@@ -95,6 +95,22 @@ void nts_context_phase_times(const nts_context* ctx, double out[4]) {
     for (i = 0; i < 4; ++i) out[i] = ctx->phase[i];
 }
 
+size_t nts_context_memory_bytes(const nts_context* ctx) {
+    size_t n;
+    int i;
+    if (ctx == NULL) return 0;
+    n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) + (size_t)ctx->hot_cap * sizeof(master_hot) +
+        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
+        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
+        2 * (size_t)ctx->cells.cap_items * sizeof(int);
+    for (i = 0; i < ctx->worker_count; ++i) {
+        const worker* w = &ctx->workers[i];
+        n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
+             (size_t)w->rec_cap * sizeof(nts_contact);
+    }
+    return n;
+}
+
 nts_context* nts_context_create(void) {
     nts_context* ctx = (nts_context*)nts_alloc(sizeof *ctx);
     if (ctx != NULL) memset(ctx, 0, sizeof *ctx);

@@ -26,6 +26,13 @@ struct nts_scene {
     int* surf_prev;       /* surface entry -> previous entry of its loop */
     int* surf_next;       /* surface entry -> next entry of its loop */
     int* surf_body;       /* surface entry -> body */
+    /* What nts_scene_update_positions needs to tell whether new positions keep
+     * the normalisation that nts_scene_create gave (sessions): */
+    unsigned char* loop_reversed; /* loop_total: 1 when stored reversed from the input order */
+    int* body_outer;      /* body_count: the outer loop (index into loop_start) */
+    int* body_tri_start;  /* body_count + 1 into tri/tri_sign; NULL when no body has triangles */
+    int* tri;             /* 3 per triangle, body-local node indices */
+    signed char* tri_sign;/* winding of each triangle at creation: +1 or -1 */
 };
 
 /* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping
@@ -42,6 +49,10 @@ typedef struct nts_boundary {
 int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int* tri, int tri_count,
                                 double lx, double ly, nts_boundary* out, nts_error* err);
 void nts_boundary_free(nts_boundary* b);
+/* Winding of triangle v[0..3) (minimum image in a periodic box): +1 counter-
+ * clockwise, -1 clockwise, 0 when it has a repeated node or zero area (the
+ * rule of nts_boundary_from_triangles, shared by nts_scene_update_positions). */
+int nts_triangle_winding(const nts_vec2* nodes, const int v[3], double lx, double ly);
 
 /* Cell list (cell_list.c): square-ish buckets of side >= h over the surface nodes,
  * built with a counting sort. Buffers grow only. */

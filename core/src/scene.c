@@ -67,35 +67,46 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->surf_prev);
     nts_free(s->surf_next);
     nts_free(s->surf_body);
+    nts_free(s->loop_reversed);
+    nts_free(s->body_outer);
+    nts_free(s->body_tri_start);
+    nts_free(s->tri);
+    nts_free(s->tri_sign);
     nts_free(s);
 }
 
-/* Geometry checks of one normalised loop: degenerate segments (relative to the
- * scene's extent), zero-angle spikes, zero area. */
-static int check_loop(const nts_scene* s, int body, int loop, const int* nodes, int n, int node0,
-                      double len_tol, double* area2_out, nts_error* err) {
+/* Geometry checks of one loop: degenerate segments (relative to the scene's
+ * extent), zero-angle spikes, zero area. `nodes` holds the loop as stored; when
+ * `reversed` the input order is its reversal keeping the first node (input
+ * place k is stored place (n - k) mod n), so that the checks, their error
+ * messages and the signed area are always those of the caller's own order.
+ * Positions come from `pos` (global order), so new positions can be checked
+ * before they are taken (nts_scene_update_positions). */
+static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loop, const int* nodes, int n,
+                      int reversed, int node0, double len_tol, double* area2_out, nts_error* err) {
     double perim = 0.0, a2;
     int k;
+#define NODE_AT(k) nodes[reversed ? (n - (k)) % n : (k)]
     for (k = 0; k < n; ++k) {
-        nts_vec2 p = s->pos[node0 + nodes[k]];
-        nts_vec2 t = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], p);
+        int a = NODE_AT(k), c = NODE_AT((k + 1) % n);
+        nts_vec2 t = nts_scene_diff(s, pos[node0 + c], pos[node0 + a]);
         double len = nts_length(t);
         if (!(len > len_tol))
-            return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, nodes[k],
+            return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, a,
                         "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g)",
-                        body, loop, nodes[k], nodes[(k + 1) % n], len, len_tol);
+                        body, loop, a, c, len, len_tol);
         perim += len;
     }
     for (k = 0; k < n; ++k) {
         /* Zero-angle spike: both neighbours leave node k in the same direction,
          * so the corner tangent vanishes (contact-model.md, corner polynomial). */
-        nts_vec2 p = s->pos[node0 + nodes[k]];
-        nts_vec2 a = nts_scene_diff(s, s->pos[node0 + nodes[(k + n - 1) % n]], p);
-        nts_vec2 c = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], p);
+        nts_vec2 p = pos[node0 + NODE_AT(k)];
+        nts_vec2 a = nts_scene_diff(s, pos[node0 + NODE_AT((k + n - 1) % n)], p);
+        nts_vec2 c = nts_scene_diff(s, pos[node0 + NODE_AT((k + 1) % n)], p);
         double cr = nts_cross(a, c), la = nts_length(a), lc = nts_length(c);
         if (nts_dot(a, c) > 0.0 && fabs(cr) <= 64.0 * DBL_EPSILON * la * lc)
-            return fail(err, NTS_ESPIKE, body, loop, k, nodes[k],
-                        "body %d loop %d: zero-angle spike at node %d", body, loop, nodes[k]);
+            return fail(err, NTS_ESPIKE, body, loop, k, NODE_AT(k),
+                        "body %d loop %d: zero-angle spike at node %d", body, loop, NODE_AT(k));
     }
     /* Twice the signed area (shoelace) from consecutive minimum-image steps taken
      * relative to the loop's first node: subtracting first keeps precision when
@@ -104,16 +115,25 @@ static int check_loop(const nts_scene* s, int body, int loop, const int* nodes, 
     {
         nts_vec2 cur = nts_v2(0.0, 0.0);
         for (k = 0; k < n; ++k) {
-            nts_vec2 step = nts_scene_diff(s, s->pos[node0 + nodes[(k + 1) % n]], s->pos[node0 + nodes[k]]);
+            nts_vec2 step = nts_scene_diff(s, pos[node0 + NODE_AT((k + 1) % n)], pos[node0 + NODE_AT(k)]);
             nts_vec2 next = nts_add(cur, step);
             a2 += nts_cross(cur, next);
             cur = next;
         }
     }
+#undef NODE_AT
     if (!(fabs(a2) > 64.0 * DBL_EPSILON * perim * perim))
         return fail(err, NTS_EZERO_AREA, body, loop, -1, -1, "body %d loop %d encloses zero area", body, loop);
     *area2_out = a2;
     return NTS_OK;
+}
+
+/* Degenerate segments are judged against the scene's extent (the bounding box
+ * diagonal, at most the periodic box), so the rule is the same at every scale. */
+static double length_tolerance(double xmin, double xmax, double ymin, double ymax, double lx, double ly) {
+    double ex = xmax - xmin, ey = ymax - ymin;
+    if (lx > 0.0) { if (ex > lx) ex = lx; if (ey > ly) ey = ly; }
+    return 1e-12 * sqrt(ex * ex + ey * ey);
 }
 
 nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
@@ -122,7 +142,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     int* mark = NULL;         /* per node of the body being checked: loop place + 1 */
     int* loop_tmp = NULL;
     double* area2 = NULL;
-    long long total_nodes = 0, total_surf = 0, total_loops = 0;
+    long long total_nodes = 0, total_surf = 0, total_loops = 0, total_tris = 0;
     int b, max_body_nodes = 0, rc = NTS_OK;
     double xmin = 0, xmax = 0, ymin = 0, ymax = 0, len_tol;
 
@@ -194,6 +214,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             }
             total_loops += bnd[b].loop_count;
             total_surf += bnd[b].loop_start[bnd[b].loop_count];
+            total_tris += bd->triangle_count;
         } else if (bd->loop_count > 0) {
             if (bd->loop_nodes == NULL || bd->loop_start == NULL) {
                 rc = fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
@@ -206,7 +227,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             total_surf += bd->node_count;
         }
     }
-    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff) {
+    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff || total_tris > 0x3fffffff) {
         rc = fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has more than 2^30 loop places");
         goto fail;
     }
@@ -229,26 +250,32 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     s->surf_prev = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
     s->surf_next = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
     s->surf_body = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
+    s->loop_reversed = (unsigned char*)nts_alloc((size_t)total_loops);
+    s->body_outer = (int*)nts_alloc(sizeof(int) * (size_t)def->body_count);
+    if (total_tris > 0) {
+        s->body_tri_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
+        s->tri = (int*)nts_alloc(sizeof(int) * 3 * (size_t)total_tris);
+        s->tri_sign = (signed char*)nts_alloc((size_t)total_tris);
+        if (!s->body_tri_start || !s->tri || !s->tri_sign) {
+            rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+            goto fail;
+        }
+    }
     mark = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
     area2 = (double*)nts_alloc(sizeof(double) * (size_t)(total_loops + 1));
     loop_tmp = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
-        !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !mark || !area2 || !loop_tmp) {
+        !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
+        !mark || !area2 || !loop_tmp) {
         rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
         goto fail;
     }
 
-    /* Degenerate segments are judged against the scene's extent (the bounding
-     * box diagonal), so the rule is the same at every scale. */
-    {
-        double ex = xmax - xmin, ey = ymax - ymin;
-        if (s->lx > 0.0) { if (ex > s->lx) ex = s->lx; if (ey > s->ly) ey = s->ly; }
-        len_tol = 1e-12 * sqrt(ex * ex + ey * ey);
-    }
+    len_tol = length_tolerance(xmin, xmax, ymin, ymax, s->lx, s->ly);
 
     /* Pass 2: copy, check topology and geometry, normalise orientation. */
     {
-        int node_off = 0, loop_i = 0, surf = 0;
+        int node_off = 0, loop_i = 0, surf = 0, tri_i = 0;
         for (b = 0; b < def->body_count; ++b) {
             const nts_body_def* bd = &def->bodies[b];
             const int* ln;
@@ -259,6 +286,19 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             s->body_node_start[b] = node_off;
             s->body_loop_start[b] = loop_i;
             memcpy(s->pos + node_off, bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
+            if (s->body_tri_start != NULL) {
+                /* Keep the mesh and its windings: new positions keep the boundary
+                 * only while no triangle flips (nts_scene_update_positions). */
+                int t;
+                s->body_tri_start[b] = tri_i;
+                if (bnd[b].loop_nodes != NULL) {
+                    for (t = 0; t < bd->triangle_count; ++t, ++tri_i) {
+                        memcpy(s->tri + 3 * (size_t)tri_i, bd->triangles + 3 * (size_t)t, 3 * sizeof(int));
+                        s->tri_sign[tri_i] = (signed char)nts_triangle_winding(bd->nodes, s->tri + 3 * (size_t)tri_i,
+                                                                               def->lx, def->ly);
+                    }
+                }
+            }
             if (bnd[b].loop_nodes != NULL) {
                 ln = bnd[b].loop_nodes; ls = bnd[b].loop_start; nl = bnd[b].loop_count;
             } else if (bd->loop_count > 0) {
@@ -291,7 +331,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
                     mark[v] = 1;
                     loop_tmp[k] = v;
                 }
-                rc = check_loop(s, b, l, loop_tmp, n, node_off, len_tol, &area2[loop_i], err);
+                rc = check_loop(s, s->pos, b, l, loop_tmp, n, 0, node_off, len_tol, &area2[loop_i], err);
                 if (rc != NTS_OK) {
                     if (implicit && err != NULL) err->loop = err->loop_pos = -1;
                     goto fail;
@@ -308,11 +348,13 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             /* Orientation: the loop with the largest |area| is the outer one and
              * runs counter-clockwise; holes run clockwise. A loop the wrong way is
              * reversed keeping its first node. */
+            s->body_outer[b] = outer;
             for (l = body_loop0; l < loop_i; ++l) {
                 int want_ccw = (l == outer);
                 int first = s->loop_start[l], n = surf - first, k;
                 if (l + 1 < loop_i) n = s->loop_start[l + 1] - first;
-                if ((area2[l] > 0.0) != want_ccw) {
+                s->loop_reversed[l] = (unsigned char)((area2[l] > 0.0) != want_ccw);
+                if (s->loop_reversed[l]) {
                     for (k = 1; k < n - k; ++k) {
                         int t = s->surf_local[first + k];
                         s->surf_local[first + k] = s->surf_local[first + n - k];
@@ -329,6 +371,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             node_off += bd->node_count;
         }
         s->body_node_start[def->body_count] = node_off;
+        if (s->body_tri_start != NULL) s->body_tri_start[def->body_count] = tri_i;
         s->body_loop_start[def->body_count] = loop_i;
         s->loop_start[loop_i] = surf;
         assert(surf == s->surface_count && loop_i == s->loop_total);
@@ -365,6 +408,79 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
             return fail(err, NTS_ENONFINITE, body, -1, -1, i, "body %d node %d has a non-finite coordinate", body, i);
     memcpy(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n);
     return NTS_OK;
+}
+
+int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err) {
+    double xmin = 0.0, xmax = 0.0, ymin = 0.0, ymax = 0.0, len_tol;
+    int b, i;
+    if (err != NULL) *err = nts_error_none();
+    if (s == NULL || pos == NULL) return fail(err, NTS_EINVALID_ARGUMENT, -1, -1, -1, -1, "null argument");
+    /* The checks of nts_scene_create, in its order, on the new positions. */
+    for (b = 0; b < s->body_count; ++b) {
+        int off = s->body_node_start[b], n = s->body_node_start[b + 1] - off;
+        for (i = 0; i < n; ++i) {
+            nts_vec2 p = pos[off + i];
+            if (!nts_is_valid_vec2(p))
+                return fail(err, NTS_ENONFINITE, b, -1, -1, i, "body %d node %d has a non-finite coordinate", b, i);
+            if (off + i == 0) { xmin = xmax = p.x; ymin = ymax = p.y; }
+            if (p.x < xmin) xmin = p.x;
+            if (p.x > xmax) xmax = p.x;
+            if (p.y < ymin) ymin = p.y;
+            if (p.y > ymax) ymax = p.y;
+        }
+        if (s->body_tri_start != NULL) {
+            /* The boundary of a mesh follows from its triangles' windings: it is
+             * the same boundary while no triangle flips or collapses. */
+            int t;
+            for (t = s->body_tri_start[b]; t < s->body_tri_start[b + 1]; ++t) {
+                int w = nts_triangle_winding(pos + off, s->tri + 3 * (size_t)t, s->lx, s->ly);
+                int tl = t - s->body_tri_start[b];
+                if (w == 0) {
+                    fail(err, NTS_EDEGENERATE_TRIANGLE, b, -1, -1, -1, "body %d triangle %d has zero area", b, tl);
+                    if (err != NULL) err->triangle = tl;
+                    return NTS_EDEGENERATE_TRIANGLE;
+                }
+                if (w != s->tri_sign[t]) {
+                    fail(err, NTS_ERESHAPED, b, -1, -1, -1,
+                         "body %d triangle %d turned over: the mesh's boundary changes; create the scene anew", b, tl);
+                    if (err != NULL) err->triangle = tl;
+                    return NTS_ERESHAPED;
+                }
+            }
+        }
+    }
+    len_tol = length_tolerance(xmin, xmax, ymin, ymax, s->lx, s->ly);
+    for (b = 0; b < s->body_count; ++b) {
+        int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1], l, outer = -1;
+        double outer_abs = -1.0, a2;
+        for (l = l0; l < l1; ++l) {
+            int first = s->loop_start[l], n = s->loop_start[l + 1] - first, rc;
+            rc = check_loop(s, pos, b, l - l0, s->surf_local + first, n, s->loop_reversed[l], s->body_node_start[b],
+                            len_tol, &a2, err);
+            if (rc != NTS_OK) return rc;
+            if (fabs(a2) > outer_abs) { outer_abs = fabs(a2); outer = l; }
+            /* nts_scene_create reverses a loop whose sign disagrees with its role
+             * (the outer loop counter-clockwise, holes clockwise): the stored order
+             * is still the one it would give while each verdict is unchanged. */
+            if (((a2 > 0.0) != (l == s->body_outer[b])) != (s->loop_reversed[l] != 0))
+                return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
+                            "body %d loop %d turned over; create the scene anew", b, l - l0);
+        }
+        if (outer != s->body_outer[b])
+            return fail(err, NTS_ERESHAPED, b, -1, -1, -1,
+                        "body %d: another loop became the outer one; create the scene anew", b);
+    }
+    memcpy(s->pos, pos, sizeof(nts_vec2) * (size_t)s->node_count);
+    return NTS_OK;
+}
+
+size_t nts_scene_memory_bytes(const nts_scene* s) {
+    size_t tris;
+    if (s == NULL) return 0;
+    tris = s->body_tri_start != NULL ? (size_t)s->body_tri_start[s->body_count] : 0;
+    return sizeof *s + (size_t)s->node_count * sizeof(nts_vec2) + (size_t)s->surface_count * 5 * sizeof(int) +
+           (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total +
+           (size_t)(s->body_count + 1) * 3 * sizeof(int) + tris * (3 * sizeof(int) + 1);
 }
 
 int nts_scene_body_count(const nts_scene* s) { return s->body_count; }

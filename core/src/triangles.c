@@ -43,6 +43,18 @@ void nts_boundary_free(nts_boundary* b) {
     b->loop_count = 0;
 }
 
+int nts_triangle_winding(const nts_vec2* nodes, const int v[3], double lx, double ly) {
+    nts_vec2 e1, e2;
+    double cr;
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return 0;
+    e1 = nts_min_image(nts_sub(nodes[v[1]], nodes[v[0]]), lx, ly);
+    e2 = nts_min_image(nts_sub(nodes[v[2]], nodes[v[0]]), lx, ly);
+    cr = nts_cross(e1, e2);
+    /* Zero area relative to the edges' own lengths: the same verdict at any scale. */
+    if (!(fabs(cr) > 64.0 * DBL_EPSILON * nts_length(e1) * nts_length(e2))) return 0;
+    return cr > 0.0 ? 1 : -1;
+}
+
 int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int* tri, int tri_count,
                                 double lx, double ly, nts_boundary* out, nts_error* err) {
     edge_rec* edges = NULL;
@@ -61,9 +73,7 @@ int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int
         goto done;
     }
     for (t = 0; t < tri_count; ++t) {
-        int v[3], k;
-        nts_vec2 e1, e2;
-        double cr;
+        int v[3], k, winding;
         for (k = 0; k < 3; ++k) {
             v[k] = tri[3 * t + k];
             if (v[k] < 0 || v[k] >= node_count) {
@@ -72,16 +82,13 @@ int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int
                 goto done;
             }
         }
-        e1 = nts_min_image(nts_sub(nodes[v[1]], nodes[v[0]]), lx, ly);
-        e2 = nts_min_image(nts_sub(nodes[v[2]], nodes[v[0]]), lx, ly);
-        cr = nts_cross(e1, e2);
-        if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2] ||
-            !(fabs(cr) > 64.0 * DBL_EPSILON * nts_length(e1) * nts_length(e2))) {
+        winding = nts_triangle_winding(nodes, v, lx, ly);
+        if (winding == 0) {
             snprintf(msg, sizeof msg, "triangle %d (%d, %d, %d) has zero area", t, v[0], v[1], v[2]);
             rc = tri_fail(err, NTS_EDEGENERATE_TRIANGLE, t, -1, -1, msg);
             goto done;
         }
-        if (cr < 0.0) { int tmp = v[1]; v[1] = v[2]; v[2] = tmp; } /* counter-clockwise */
+        if (winding < 0) { int tmp = v[1]; v[1] = v[2]; v[2] = tmp; } /* counter-clockwise */
         for (k = 0; k < 3; ++k) {
             edge_rec* e = &edges[3 * t + k];
             e->from = v[k];

@@ -37,14 +37,15 @@ extern "C" {
     XX(BOX_TOO_SMALL, -15, "box_too_small", "periodic box smaller than twice the search reach") \
     XX(LIMIT, -16, "limit_exceeded", "a configured limit was exceeded")                    \
     XX(NO_BOUNDARY, -17, "no_boundary", "triangle mesh has no boundary")                   \
-    XX(INTERNAL, -18, "internal_error", "internal error")
+    XX(INTERNAL, -18, "internal_error", "internal error")                                  \
+    XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")
 
 typedef enum nts_status {
     NTS_OK = 0,
 #define NTS_XX_(e, v, name, msg) NTS_E##e = (v),
     NTS_ERRNO_MAP(NTS_XX_)
 #undef NTS_XX_
-    NTS_E_COUNT_ = 19
+    NTS_E_COUNT_ = 20
 } nts_status;
 
 /* Stable snake_case name of a status ("ok", "degenerate_segment", ...). */

@@ -61,6 +61,19 @@ void nts_scene_destroy(nts_scene* scene);
  * Checks finiteness; allocates nothing. */
 int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
 
+/* New positions for every node (node_count entries, global order: bodies in
+ * order, nodes in body order), for a solver that evaluates the same topology at
+ * many configurations (sessions). Makes every check of nts_scene_create on the
+ * new positions and takes them only when creating the scene anew from them
+ * would give this very scene: every loop keeps its orientation verdict, the
+ * outer loop of each body stays the outer one and no triangle of a mesh turns
+ * over. Otherwise returns the error of the failed check, or NTS_ERESHAPED when
+ * the positions are valid but the scene must be created anew from them; the
+ * scene is then unchanged. Allocates nothing; O(nodes + triangles). */
+int nts_scene_update_positions(nts_scene* scene, const nts_vec2* positions, nts_error* err);
+/* Bytes held by the scene (its arrays), for budgets. */
+size_t nts_scene_memory_bytes(const nts_scene* scene);
+
 int nts_scene_body_count(const nts_scene* scene);
 int nts_scene_node_count(const nts_scene* scene);          /* all nodes of all bodies */
 int nts_scene_surface_node_count(const nts_scene* scene);  /* nodes on loops */
@@ -146,6 +159,8 @@ typedef struct nts_result {
 typedef struct nts_context nts_context;
 nts_context* nts_context_create(void);
 void nts_context_destroy(nts_context* ctx);
+/* Bytes held by the context's buffers (they only grow), for budgets. */
+size_t nts_context_memory_bytes(const nts_context* ctx);
 
 /* Evaluate contact. Returns 0 or a negative status (with *err filled when not
  * NULL); on success fills *out. Reusing a context on the same scene allocates

@@ -1,0 +1,185 @@
+/* Update suite: nts_scene_update_positions takes new positions only when
+ * creating the scene anew from them would give the very same scene, so an
+ * evaluation after an update equals, bit for bit, one on a fresh scene. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+/* All positions of test bodies in global order (caller frees). */
+static nts_vec2* gather(const test_body* bodies, int count, int* n_out) {
+    int b, n = 0, k = 0;
+    nts_vec2* p;
+    for (b = 0; b < count; ++b) n += bodies[b].node_count;
+    p = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    for (b = 0; b < count; ++b) {
+        memcpy(p + k, bodies[b].nodes, sizeof(nts_vec2) * (size_t)bodies[b].node_count);
+        k += bodies[b].node_count;
+    }
+    *n_out = n;
+    return p;
+}
+
+/* Forces and summary of an evaluation on `updated` equal those on a scene made
+ * fresh from `bodies`, bit for bit. */
+static void assert_same_as_fresh(const nts_scene* updated, const test_body* bodies, int count, double lx, double ly) {
+    nts_scene* fresh = make_scene(bodies, count, lx, ly);
+    nts_options opt = nts_default_options();
+    nts_context *c1 = nts_context_create(), *c2 = nts_context_create();
+    nts_result r1, r2;
+    nts_error err;
+    CU_ASSERT_FATAL(fresh != NULL);
+    opt.outputs = NTS_OUT_ALL;
+    ASSERT_INT_EQ(nts_evaluate(c1, updated, &opt, &r1, &err), 0);
+    ASSERT_INT_EQ(nts_evaluate(c2, fresh, &opt, &r2, &err), 0);
+    ASSERT_INT_EQ(nts_scene_loops_reversed(updated), nts_scene_loops_reversed(fresh));
+    ASSERT_INT_EQ(r1.summary.contacts, r2.summary.contacts);
+    ASSERT_INT_EQ(r1.gap_count, r2.gap_count);
+    CU_ASSERT(memcmp(&r1.summary.energy, &r2.summary.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(&r1.summary.virial, &r2.summary.virial, sizeof(nts_virial)) == 0);
+    CU_ASSERT(memcmp(r1.forces, r2.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(fresh)) == 0);
+    if (r1.gap_count == r2.gap_count && r1.gap_count > 0)
+        CU_ASSERT(memcmp(r1.gaps, r2.gaps, sizeof(nts_contact) * (size_t)r1.gap_count) == 0);
+    nts_context_destroy(c1);
+    nts_context_destroy(c2);
+    nts_scene_destroy(fresh);
+}
+
+static void check_random_moves(int periodic) {
+    test_packing p = make_packing(16, 24, 1.0, 1.9, periodic, 7);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    test_rng rng = {12345};
+    int step, n, b, k;
+    CU_ASSERT_FATAL(s != NULL);
+    for (step = 0; step < 5; ++step) {
+        nts_vec2* pos;
+        nts_error err;
+        for (b = 0; b < p.count; ++b) {
+            /* A rigid shift of each body plus a small jitter of its nodes. */
+            double dx = 0.05 * (rng_uniform(&rng) - 0.5), dy = 0.05 * (rng_uniform(&rng) - 0.5);
+            for (k = 0; k < p.bodies[b].node_count; ++k) {
+                p.bodies[b].nodes[k].x += dx + 0.01 * (rng_uniform(&rng) - 0.5);
+                p.bodies[b].nodes[k].y += dy + 0.01 * (rng_uniform(&rng) - 0.5);
+            }
+        }
+        pos = gather(p.bodies, p.count, &n);
+        ASSERT_INT_EQ(n, nts_scene_node_count(s));
+        ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
+        CU_ASSERT(memcmp(nts_scene_positions(s), pos, sizeof(nts_vec2) * (size_t)n) == 0);
+        assert_same_as_fresh(s, p.bodies, p.count, p.lx, p.ly);
+        free(pos);
+    }
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void test_random_moves_open(void) { check_random_moves(0); }
+static void test_random_moves_periodic(void) { check_random_moves(1); }
+
+/* Outer loop given clockwise and a hole counter-clockwise (both reversed by the
+ * scene): moves that keep the orientations are taken; mirroring is refused. */
+static void test_orientation_kept_or_refused(void) {
+    test_body b[2];
+    nts_scene* s;
+    nts_vec2 pos[12], before[12];
+    nts_error err;
+    int i;
+    memset(b, 0, sizeof b);
+    /* body 0: square 0..4 clockwise, hole 1..3 counter-clockwise */
+    {
+        nts_vec2 pts[8] = {{0, 0}, {0, 4}, {4, 4}, {4, 0}, {1, 1}, {3, 1}, {3, 3}, {1, 3}};
+        memcpy(b[0].nodes, pts, sizeof pts);
+        b[0].node_count = 8;
+        for (i = 0; i < 8; ++i) b[0].loop_nodes[i] = i;
+        b[0].loop_start[0] = 0; b[0].loop_start[1] = 4; b[0].loop_start[2] = 8;
+        b[0].loop_count = 2;
+    }
+    make_polygon(&b[1], 4, 0.8, nts_v2(2.0, 2.0), 0.3); /* inside the hole, touching nothing */
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(nts_scene_loops_reversed(s), 2);
+
+    b[0].nodes[5].x += 0.2; /* a small move of a hole node */
+    b[1].nodes[0].x += 0.9; /* the square pokes into the hole's edge: a contact */
+    for (i = 0; i < 8; ++i) pos[i] = b[0].nodes[i];
+    for (i = 0; i < 4; ++i) pos[8 + i] = b[1].nodes[i];
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
+    assert_same_as_fresh(s, b, 2, 0.0, 0.0);
+
+    /* Mirror body 1 (x -> 4 - x): its loop turns clockwise. */
+    memcpy(before, nts_scene_positions(s), sizeof before);
+    for (i = 8; i < 12; ++i) pos[i].x = 4.0 - pos[i].x;
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(err.loop, 0);
+    CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0); /* unchanged */
+
+    /* The hole grows larger than the outer loop: another loop is the outer one. */
+    for (i = 0; i < 12; ++i) pos[i] = before[i];
+    for (i = 4; i < 8; ++i) pos[i] = nts_v2(2.0 + 5.0 * (pos[i].x - 2.0), 2.0 + 5.0 * (pos[i].y - 2.0));
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 0);
+
+    /* The checks of creation, with its codes. */
+    for (i = 0; i < 12; ++i) pos[i] = before[i];
+    pos[1] = pos[0];
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(err.body, 0);
+    pos[1] = before[1];
+    pos[10].y = NAN;
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ENONFINITE);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(err.node, 2);
+    CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, NULL, &err), NTS_EINVALID_ARGUMENT);
+    nts_scene_destroy(s);
+}
+
+/* A triangle mesh keeps its boundary while no triangle turns over. */
+static void test_triangle_windings(void) {
+    nts_vec2 pts[9], pos[9];
+    int tri[8 * 3], t = 0, i, j;
+    nts_body_def bd;
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    nts_scene* s;
+    for (j = 0; j < 3; ++j)
+        for (i = 0; i < 3; ++i) pts[3 * j + i] = nts_v2(i, j);
+    for (j = 0; j < 2; ++j)
+        for (i = 0; i < 2; ++i) {
+            int v = 3 * j + i;
+            tri[3 * t] = v; tri[3 * t + 1] = v + 1; tri[3 * t + 2] = v + 4; ++t;
+            tri[3 * t] = v; tri[3 * t + 1] = v + 3; tri[3 * t + 2] = v + 4; ++t;
+        }
+    memset(&bd, 0, sizeof bd);
+    bd.nodes = pts;
+    bd.node_count = 9;
+    bd.triangles = tri;
+    bd.triangle_count = 8;
+    def.bodies = &bd;
+    def.body_count = 1;
+    s = nts_scene_create(&def, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    memcpy(pos, pts, sizeof pts);
+    pos[4] = nts_v2(1.2, 0.9); /* the interior node moves: every triangle keeps its winding */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
+    pos[4] = nts_v2(0.5, 0.0); /* on the edge 0-1: triangle (0, 1, 4) collapses */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_EDEGENERATE_TRIANGLE);
+    ASSERT_INT_EQ(err.triangle, 0);
+    pos[4] = nts_v2(0.5, -0.5); /* beyond it: triangle 0 turns over */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 0);
+    ASSERT_INT_EQ(err.triangle, 0);
+    CU_ASSERT(nts_scene_positions(s)[4].x == 1.2 && nts_scene_positions(s)[4].y == 0.9);
+    CU_ASSERT(nts_scene_memory_bytes(s) > 9 * sizeof(nts_vec2) + 8 * 3 * sizeof(int));
+    nts_scene_destroy(s);
+}
+
+void register_update_suite(void) {
+    CU_pSuite s = CU_add_suite("update", NULL, NULL);
+    ADD_TEST(s, test_random_moves_open);
+    ADD_TEST(s, test_random_moves_periodic);
+    ADD_TEST(s, test_orientation_kept_or_refused);
+    ADD_TEST(s, test_triangle_windings);
+}
