@@ -22,7 +22,8 @@
     XX("method_not_allowed", 405)          \
     XX("unsupported_media_type", 415)      \
     XX("overloaded", 503)                  \
-    XX("timeout", 503)
+    XX("timeout", 503)                     \
+    XX("unknown_scene", 404)
 
 typedef struct code_entry {
     const char* name;

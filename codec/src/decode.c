@@ -156,15 +156,15 @@ static int decode_periodic(decoder* d, const cJSON* v) {
     return 0;
 }
 
-static int decode_outputs(decoder* d, const cJSON* v, unsigned* out) {
+static int decode_outputs(decoder* d, const cJSON* v, const char* ptr, unsigned* out) {
     const cJSON* e;
     unsigned flags = 0;
     int i = 0;
-    if (!cJSON_IsArray(v)) return fail_type(d, "/options/outputs", v, "an array of output names");
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of output names");
     cJSON_ArrayForEach(e, v) {
-        char p[48];
+        char p[80];
         unsigned f;
-        snprintf(p, sizeof p, "/options/outputs/%d", i++);
+        snprintf(p, sizeof p, "%.60s/%d", ptr, i++);
         if (!cJSON_IsString(e)) return fail_type(d, p, e, "an output name (a string)");
         f = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
         if (!f) return fail(d, "invalid_value", p, "unknown output (expected forces, energy, virial, contacts or gaps)");
@@ -173,6 +173,13 @@ static int decode_outputs(decoder* d, const cJSON* v, unsigned* out) {
     }
     *out = flags;
     return 0;
+}
+
+int ntsj_decode_outputs(const cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault) {
+    decoder d;
+    memset(&d, 0, sizeof d);
+    d.fault = fault;
+    return decode_outputs(&d, v, ptr, out);
 }
 
 static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
@@ -196,7 +203,7 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
         if (ntsj_solver_from_name(f[OPT_SOLVER]->valuestring, &o->solver) != 0)
             return fail(d, "invalid_value", "/options/solver", "unknown solver (expected closed_form or newton)");
     }
-    if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], &o->outputs) != 0) return -1;
+    if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], "/options/outputs", &o->outputs) != 0) return -1;
     if (f[OPT_SEARCH]) {
         const cJSON* s = f[OPT_SEARCH];
         if (!cJSON_IsString(s)) return fail_type(d, "/options/search", s, "a string");

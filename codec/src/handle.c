@@ -29,16 +29,16 @@ ntsj_config ntsj_default_config(void) {
     return c;
 }
 
-static double now_ms(void) {
+double ntsj_now_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
 /* Elapsed wall time rounded to whole microseconds: the digits beyond are noise. */
-static double round_us(double ms) { return floor(ms * 1e3 + 0.5) / 1e3; }
+double ntsj_round_us(double ms) { return floor(ms * 1e3 + 0.5) / 1e3; }
 
-static int finish(ntsj_response* out, ntsj_buf* b, const char* code) {
+int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code) {
     if (b->oom || !b->data) {
         ntsj_buf_free(b);
         out->ok = 0;
@@ -56,25 +56,25 @@ static int finish(ntsj_response* out, ntsj_buf* b, const char* code) {
     return 0;
 }
 
-static int respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer,
+int ntsj_respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer,
                          int pretty) {
     ntsj_buf b;
     ntsj_buf_init(&b);
     ntsj_encode_error(&b, code, message, pointer, pretty);
-    return finish(out, &b, code);
+    return ntsj_finish(out, &b, code);
 }
 
-static int respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
-    return respond_error(out, f->code ? f->code : "internal_error", f->message, f->pointer, pretty);
+int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
+    return ntsj_respond_error(out, f->code ? f->code : "internal_error", f->message, f->pointer, pretty);
 }
 
-static int respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty) {
+int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty) {
     char ptr[256];
     int code = err->code ? err->code : status;
     const char* name = nts_status_name(code);
     if (!name || !ntsj_code_known(name)) name = "internal_error";
     ntsj_pointer_of_error(s, err, ptr, sizeof ptr);
-    return respond_error(out, name, err->message[0] ? err->message : nts_strerror(code), ptr, pretty);
+    return ntsj_respond_error(out, name, err->message[0] ? err->message : nts_strerror(code), ptr, pretty);
 }
 
 /* The request-time limit (ntsj_config.max_seconds), checked between the
@@ -82,13 +82,13 @@ static int respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error
  * core's evaluation itself is not interrupted (it is linear in the nodes, and
  * the byte limit bounds the nodes); a request over budget gets a
  * limit_exceeded error (400) naming the limit, never a late result. */
-static int over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc) {
-    double elapsed = now_ms() - t0;
+int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc) {
+    double elapsed = ntsj_now_ms() - t0;
     char msg[160];
     if (!(cfg->max_seconds > 0.0) || elapsed <= cfg->max_seconds * 1e3) return 0;
     snprintf(msg, sizeof msg, "the request took %.3f ms up to %s, more than max_seconds = %g s", elapsed, phase,
              cfg->max_seconds);
-    *rc = respond_error(out, "limit_exceeded", msg, "", cfg->pretty);
+    *rc = ntsj_respond_error(out, "limit_exceeded", msg, "", cfg->pretty);
     return 1;
 }
 
@@ -99,7 +99,7 @@ static int virial_ok(nts_virial v) { return isfinite(v.xx) && isfinite(v.yy) && 
  * contract has no NaN, no Infinity and no null, so such a result is refused as
  * non_finite. The pointer is the penalty whatever the outputs asked for (so
  * --validate answers alike); the message names the first node at fault. */
-static int result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f) {
+int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f) {
     const nts_summary* sm = &r->summary;
     int b, k, i;
     if (r->forces) {
@@ -160,7 +160,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     cJSON* root;
     ntsj_buf b;
     const char* parse_end = NULL;
-    double t0 = now_ms(), elapsed;
+    double t0 = ntsj_now_ms(), elapsed;
     int rc, done = 0, pretty = cfg.pretty;
 
     memset(out, 0, sizeof *out);
@@ -172,24 +172,24 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         char msg[128];
         /* A reader that stops at max_bytes + 1 (the CLI does) only knows "more". */
         snprintf(msg, sizeof msg, "request is more than max_bytes = %lu bytes", (unsigned long)cfg.max_bytes);
-        return respond_error(out, "payload_too_large", msg, "", pretty);
+        return ntsj_respond_error(out, "payload_too_large", msg, "", pretty);
     }
-    if (!json || is_blank(json, length)) return respond_error(out, "empty_body", "the request is empty", "", pretty);
-    if (ntsj_scan(json, length, cfg.max_depth, &fault) != 0) return respond_fault(out, &fault, pretty);
+    if (!json || is_blank(json, length)) return ntsj_respond_error(out, "empty_body", "the request is empty", "", pretty);
+    if (ntsj_scan(json, length, cfg.max_depth, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
 
     root = cJSON_ParseWithLengthOpts(json, length, &parse_end, 0);
     if (!root) /* the scan accepted it, so this is cJSON running out of memory */
-        return respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
+        return ntsj_respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
     rc = ntsj_decode(root, &cfg, &s, &fault);
     cJSON_Delete(root);
-    if (rc != 0) return respond_fault(out, &fault, pretty);
-    if (over_budget(&cfg, t0, out, "decoding", &rc)) {
+    if (rc != 0) return ntsj_respond_fault(out, &fault, pretty);
+    if (ntsj_over_budget(&cfg, t0, out, "decoding", &rc)) {
         ntsj_scene_free(&s);
         return rc;
     }
 
     if (nts_options_validate(&s.options, &err) != 0) {
-        rc = respond_core(out, &s, &err, NTS_EINVALID_OPTION, pretty);
+        rc = ntsj_respond_core(out, &s, &err, NTS_EINVALID_OPTION, pretty);
         ntsj_scene_free(&s);
         return rc;
     }
@@ -201,11 +201,11 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     def.limits = cfg.limits;
     scene = nts_scene_create(&def, &err);
     if (!scene) {
-        rc = respond_core(out, &s, &err, NTS_EINTERNAL, pretty);
+        rc = ntsj_respond_core(out, &s, &err, NTS_EINTERNAL, pretty);
         ntsj_scene_free(&s);
         return rc;
     }
-    if (over_budget(&cfg, t0, out, "building the scene", &rc)) {
+    if (ntsj_over_budget(&cfg, t0, out, "building the scene", &rc)) {
         nts_scene_destroy(scene);
         ntsj_scene_free(&s);
         return rc;
@@ -223,22 +223,22 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         if (!ctx) {
             nts_scene_destroy(scene);
             ntsj_scene_free(&s);
-            return respond_error(out, "out_of_memory", "out of memory", "", pretty);
+            return ntsj_respond_error(out, "out_of_memory", "out of memory", "", pretty);
         }
         rc = nts_evaluate(ctx, scene, &opt, &result, &err);
-        elapsed = now_ms() - t0;
-        if (rc == 0 && over_budget(&cfg, t0, out, "evaluating", &rc)) {
+        elapsed = ntsj_now_ms() - t0;
+        if (rc == 0 && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) {
             done = 1;
         } else if (rc != 0) {
-            rc = respond_core(out, &s, &err, rc, pretty);
+            rc = ntsj_respond_core(out, &s, &err, rc, pretty);
             done = 1;
-        } else if (result_overflows(&s, scene, &result, &fault)) {
-            rc = respond_fault(out, &fault, pretty);
+        } else if (ntsj_result_overflows(&s, scene, &result, &fault)) {
+            rc = ntsj_respond_fault(out, &fault, pretty);
             done = 1;
         } else if (cfg.mode == NTSJ_VALIDATE) {
-            ntsj_encode_validation(&b, scene, round_us(elapsed), pretty);
+            ntsj_encode_validation(&b, scene, ntsj_round_us(elapsed), pretty);
         } else {
-            ntsj_encode_result(&b, &s, scene, &result, round_us(elapsed), pretty);
+            ntsj_encode_result(&b, &s, scene, &result, ntsj_round_us(elapsed), pretty);
         }
         nts_context_destroy(ctx);
         if (done) {
@@ -250,7 +250,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     }
     nts_scene_destroy(scene);
     ntsj_scene_free(&s);
-    return finish(out, &b, "ok");
+    return ntsj_finish(out, &b, "ok");
 }
 
 void ntsj_response_free(ntsj_response* response) {

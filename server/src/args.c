@@ -16,8 +16,10 @@ static const char usage[] =
     "                   [--threading per-connection|pool] [--inline-max BYTES] [--quiet]\n"
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
+    "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
+    "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
     "GET /v1/health, GET /v1/schemas/{scene,result,error}, GET /v1/openapi.json).\n"
     "\n"
     "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
@@ -41,6 +43,12 @@ static const char usage[] =
     "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
     "                       0 = none (default 0); over -> 400 limit_exceeded\n"
+    "  --max-sessions N     scene sessions held at once (default 64); when full, the\n"
+    "                       least recently used idle one is evicted\n"
+    "  --session-ttl S      a session unused for S seconds is dropped (default 600)\n"
+    "  --session-memory BYTES  memory of all sessions together, suffixes k, M, G\n"
+    "                       (default 1G); beyond it the least recently used idle\n"
+    "                       sessions are evicted\n"
     "  --help, --version\n";
 
 ntsd_config ntsd_default_config(void) {
@@ -64,6 +72,9 @@ ntsd_config ntsd_default_config(void) {
         c.max_nodes = l.max_nodes;
         c.max_seconds = 0.0;
     }
+    c.max_sessions = 64;
+    c.session_ttl_s = 600;
+    c.session_memory = (size_t)1 << 30;
     return c;
 }
 
@@ -149,6 +160,15 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--max-bodies") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
             cfg->max_bodies = (int)n;
+        } else if (strcmp(a, "--max-sessions") == 0) {
+            if (parse_unsigned(a, v, 1, 1000000, 1, &n)) return -1;
+            cfg->max_sessions = (int)n;
+        } else if (strcmp(a, "--session-ttl") == 0) {
+            if (parse_unsigned(a, v, 1, 30 * 86400, 0, &n)) return -1;
+            cfg->session_ttl_s = (unsigned)n;
+        } else if (strcmp(a, "--session-memory") == 0) {
+            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+            cfg->session_memory = (size_t)n;
         } else if (strcmp(a, "--max-nodes-per-body") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
             cfg->max_nodes_per_body = (int)n;

@@ -44,9 +44,17 @@ int main(int argc, char** argv) {
                          ntsd_threading_name(cfg.threading), cfg.threads, cfg.max_body, cfg.timeout_s,
                          cfg.max_connections);
 
-    do {
-        rc = sigwait(&stop_signals, &sig);
-    } while (rc != 0);
+    /* Wait for a stop signal; every few seconds, drop the expired sessions so
+     * that their memory does not wait for the next request. */
+    for (;;) {
+        struct timespec tick = {5, 0};
+        rc = sigtimedwait(&stop_signals, NULL, &tick);
+        if (rc > 0) {
+            sig = rc;
+            break;
+        }
+        ntsd_sessions_sweep(&server.sessions);
+    }
 
     ntsd_log_info("%s: stopping, %d request(s) in flight", sig == SIGINT ? "SIGINT" : "SIGTERM",
                      ntsd_server_in_flight(&server));

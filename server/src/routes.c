@@ -11,10 +11,27 @@
 
 #define ALLOW_POST "POST"
 #define ALLOW_GET "GET, HEAD"
+#define ALLOW_SCENE "GET, HEAD, DELETE"
 
 static int method_in(const char* method, const char* allow) {
     if (strcmp(allow, ALLOW_POST) == 0) return strcmp(method, "POST") == 0;
+    if (strcmp(method, "DELETE") == 0) return strcmp(allow, ALLOW_SCENE) == 0;
     return strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
+}
+
+/* The {id} of /v1/scenes/{id}[/contact]: `n` bytes of base64url of the length
+ * the store hands out; anything else names no session. */
+static void take_scene_id(const char* id, size_t n, ntsd_route* r) {
+    size_t i;
+    r->scene_id[0] = '\0';
+    if (n != NTSD_SESSION_ID_LEN) return;
+    for (i = 0; i < n; ++i) {
+        char c = id[i];
+        if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_'))
+            return;
+    }
+    memcpy(r->scene_id, id, n);
+    r->scene_id[n] = '\0';
 }
 
 static int find_asset(const char* name) {
@@ -31,12 +48,29 @@ ntsd_route ntsd_route_find(const char* path, const char* method) {
     r.allow = "";
     r.method_ok = 0;
     r.asset = -1;
+    r.scene_id[0] = '\0';
     if (strcmp(path, "/v1/contact") == 0) {
         r.kind = NTSD_ROUTE_CONTACT;
         r.allow = ALLOW_POST;
     } else if (strcmp(path, "/v1/validate") == 0) {
         r.kind = NTSD_ROUTE_VALIDATE;
         r.allow = ALLOW_POST;
+    } else if (strcmp(path, "/v1/scenes") == 0) {
+        r.kind = NTSD_ROUTE_SCENES;
+        r.allow = ALLOW_POST;
+    } else if (strncmp(path, "/v1/scenes/", 11) == 0 && path[11] != '\0') {
+        static const char tail[] = "/contact";
+        const char* id = path + 11;
+        size_t n = strcspn(id, "/");
+        if (id[n] == '\0') {
+            r.kind = NTSD_ROUTE_SCENE;
+            r.allow = ALLOW_SCENE;
+            take_scene_id(id, n, &r);
+        } else if (strcmp(id + n, tail) == 0) {
+            r.kind = NTSD_ROUTE_SCENE_CONTACT;
+            r.allow = ALLOW_POST;
+            take_scene_id(id, n, &r);
+        }
     } else if (strcmp(path, "/v1/health") == 0) {
         r.kind = NTSD_ROUTE_HEALTH;
         r.allow = ALLOW_GET;
@@ -67,6 +101,14 @@ int ntsd_is_json_media_type(const char* ct) {
     return 0;
 }
 
+int ntsd_is_media_type(const char* ct, const char* type) {
+    size_t n, m = strlen(type);
+    if (ct == NULL) return 0;
+    while (*ct == ' ' || *ct == '\t') ct++;
+    n = strcspn(ct, "; \t");
+    return n == m && strncasecmp(ct, type, m) == 0;
+}
+
 char* ntsd_health_document(ntsd_server* s, size_t* length) {
     const ntsd_config* c = &s->config;
     char* doc = malloc(2048);
@@ -74,6 +116,7 @@ char* ntsd_health_document(ntsd_server* s, size_t* length) {
     unsigned connections;
     unsigned long long served;
     double receiving, handling, sending;
+    ntsd_sessions_stats ss = ntsd_sessions_get_stats(&s->sessions);
     if (doc == NULL) return NULL;
     pthread_mutex_lock(&s->lock);
     shutting = s->shutting_down;
@@ -92,12 +135,15 @@ char* ntsd_health_document(ntsd_server* s, size_t* length) {
                  "\"max_connections\":%u},"
                  "\"uptime_s\":%.3f,\"requests_served\":%llu,\"requests_in_flight\":%d,"
                  "\"evaluations_running\":%d,\"connections_open\":%u,"
-                 "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f}}\n",
+                 "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f},"
+                 "\"sessions\":{\"held\":%d,\"memory_bytes\":%zu,\"max\":%d,\"ttl_s\":%u,\"memory_max\":%zu,"
+                 "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu}}\n",
                  shutting ? "shutting_down" : "ok", NTS_VERSION_STRING, NTSD_BUILD_TYPE,
                  NTSD_OPENMP ? "true" : "false", NTSD_SANITIZE ? "true" : "false", MHD_get_version(),
                  ntsd_threading_name(c->threading), c->threads, c->max_body, c->timeout_s,
                  c->max_connections, ntsd_now() - s->started, served, in_flight, evaluating,
-                 connections, receiving, handling, sending);
+                 connections, receiving, handling, sending, ss.held, ss.memory, c->max_sessions, c->session_ttl_s,
+                 c->session_memory, ss.created, ss.evicted, ss.expired, ss.deleted);
     if (n < 0 || n >= 2048) {
         free(doc);
         return NULL;

@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -20,6 +21,8 @@
 #include "assets.h"
 #include <ntscontact/codec.h>
 #include "server.h"
+
+#define NTSD_MAX_QUERY_PARAMS 16
 
 typedef struct ntsd_request {
     ntsd_server* server;
@@ -45,6 +48,15 @@ typedef struct ntsd_request {
     int pretty;
     int rc;
     ntsj_response resp;
+    /* Sessions: a step's body kind and answer, its query options, the Location
+     * of a new session. */
+    int binary_in;             /* Content-Type: application/octet-stream */
+    int answer_binary;         /* Accept: application/octet-stream */
+    int param_count;
+    const char* param_names[NTSD_MAX_QUERY_PARAMS];
+    const char* param_values[NTSD_MAX_QUERY_PARAMS];
+    int too_many_params;
+    char location[16 + NTSD_SESSION_ID_LEN];
 } ntsd_request;
 
 double ntsd_now(void) {
@@ -77,9 +89,9 @@ static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
 
 /* Queue a response. `body` is freed with `free_fn` once sent (NULL: static
  * storage). `close`: ask the client to close (the body may be left unread). */
-static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
-                             char* body, size_t length, void (*free_fn)(void*), const char* content_type,
-                             const char* allow, int close) {
+static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
+                                     char* body, size_t length, void (*free_fn)(void*), const char* content_type,
+                                     const char* allow, int close, const char* const* extra) {
     struct MHD_Response* resp;
     enum MHD_Result ok;
     if (free_fn != NULL) {
@@ -93,6 +105,7 @@ static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned
     if (allow != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
     if (status == MHD_HTTP_SERVICE_UNAVAILABLE) MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "1");
     if (close) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
+    for (; extra != NULL && extra[0] != NULL; extra += 2) MHD_add_response_header(resp, extra[0], extra[1]);
     ok = MHD_queue_response(c, status, resp);
     MHD_destroy_response(resp);
     if (ok == MHD_YES) {
@@ -104,6 +117,12 @@ static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned
         copy_str(r->code, sizeof r->code, code);
     }
     return ok;
+}
+
+static enum MHD_Result reply(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
+                             char* body, size_t length, void (*free_fn)(void*), const char* content_type,
+                             const char* allow, int close) {
+    return reply_headers(c, r, status, code, body, length, free_fn, content_type, allow, close, NULL);
 }
 
 static const char fallback_error[] =
@@ -123,7 +142,35 @@ static enum MHD_Result reply_error(struct MHD_Connection* c, ntsd_request* r, co
                  "application/json", allow, close);
 }
 
+static const char unknown_scene_message[] =
+    "no scene session with this id (it expired, was evicted or deleted, or the daemon restarted): "
+    "create it again with POST /v1/scenes";
+
+/* GET, HEAD or DELETE /v1/scenes/{id}. */
+static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
+    ntsd_server* s = r->server;
+    ntsd_session_meta m;
+    char* doc;
+    int n;
+    if (strcmp(r->method, "DELETE") == 0) {
+        if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id) != 0)
+            return reply_error(c, r, "unknown_scene", unknown_scene_message, NULL, 0);
+        return reply(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, "application/json", NULL, 0);
+    }
+    if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, &m) != 0)
+        return reply_error(c, r, "unknown_scene", unknown_scene_message, NULL, 0);
+    doc = malloc(512);
+    if (doc == NULL) return reply_error(c, r, "overloaded", "out of memory", NULL, 0);
+    n = snprintf(doc, 512,
+                 "{\"id\":\"%s\",\"nodes\":%d,\"surface_nodes\":%d,\"bodies\":%d,\"expires_in_s\":%.3f,"
+                 "\"steps\":%llu,\"memory_bytes\":%zu,\"age_s\":%.3f,\"idle_s\":%.3f}\n",
+                 r->route.scene_id, m.nodes, m.surface_nodes, m.bodies, m.expires_in_s, m.steps, m.memory_bytes,
+                 m.age_s, m.idle_s);
+    return reply(c, r, MHD_HTTP_OK, "ok", doc, (size_t)n, free, "application/json", NULL, 0);
+}
+
 static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
+    if (r->route.kind == NTSD_ROUTE_SCENE) return answer_scene(c, r);
     if (r->route.kind == NTSD_ROUTE_HEALTH) {
         size_t n = 0;
         char* doc = ntsd_health_document(r->server, &n);
@@ -157,6 +204,102 @@ static int query_flag(struct MHD_Connection* c, const char* name) {
     return *v == '\0' || strcmp(v, "1") == 0 || strcmp(v, "true") == 0;
 }
 
+/* An error document as the codec's answer (r->resp), for the sessions' own faults. */
+static void resp_error(ntsd_request* r, const char* code, const char* message) {
+    memset(&r->resp, 0, sizeof r->resp);
+    r->resp.body = ntsj_error_document(code, message, "");
+    r->resp.length = r->resp.body ? strlen(r->resp.body) : 0;
+    r->resp.code = code;
+    r->resp.http_status = ntsj_code_http_status(code);
+    r->rc = r->resp.body ? 0 : NTS_ENOMEM;
+}
+
+/* POST /v1/scenes: build the session, hand it to the store, answer 201. */
+static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
+    ntsd_server* s = r->server;
+    ntsj_session* ss = NULL;
+    char id[NTSD_SESSION_ID_LEN + 1];
+    ntsj_session_info info;
+    int rc;
+    r->rc = ntsj_session_create(r->body.data ? r->body.data : "", r->body.length, jc, &ss, &r->resp);
+    if (ss == NULL) return;
+    info = ntsj_session_get_info(ss);
+    rc = ntsd_sessions_add(&s->sessions, ss, id);
+    if (rc == NTSD_SESSIONS_TOO_LARGE) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "the session would hold %zu bytes, more than --session-memory = %zu",
+                 info.memory_bytes, s->config.session_memory);
+        ntsj_session_destroy(ss);
+        resp_error(r, "payload_too_large", msg);
+        return;
+    }
+    if (rc != 0) {
+        ntsj_session_destroy(ss);
+        resp_error(r, "overloaded", "every scene session is in use (--max-sessions, --session-memory); retry later");
+        return;
+    }
+    memset(&r->resp, 0, sizeof r->resp);
+    r->resp.body = nts_alloc(256);
+    if (r->resp.body == NULL) {
+        ntsd_sessions_remove(&s->sessions, id);
+        resp_error(r, "overloaded", "out of memory");
+        return;
+    }
+    r->resp.length = (size_t)snprintf(r->resp.body, 256,
+                                      "{\"id\":\"%s\",\"nodes\":%d,\"surface_nodes\":%d,\"bodies\":%d,"
+                                      "\"expires_in_s\":%u}\n",
+                                      id, info.nodes, info.surface_nodes, info.bodies, s->config.session_ttl_s);
+    r->resp.ok = 1;
+    r->resp.code = "ok";
+    r->resp.http_status = MHD_HTTP_CREATED;
+    snprintf(r->location, sizeof r->location, "/v1/scenes/%s", id);
+    r->rc = 0;
+}
+
+/* POST /v1/scenes/{id}/contact: one step, serialised per session. */
+static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
+    ntsd_server* s = r->server;
+    ntsd_session_entry* e;
+    ntsj_step st;
+    size_t memory;
+    if (r->too_many_params) {
+        resp_error(r, "invalid_value", "too many query parameters");
+        return;
+    }
+    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id) : NULL;
+    if (e == NULL) {
+        resp_error(r, "unknown_scene", unknown_scene_message);
+        return;
+    }
+    memset(&st, 0, sizeof st);
+    st.kind = r->body.length == 0 ? NTSJ_STEP_EMPTY : r->binary_in ? NTSJ_STEP_BINARY : NTSJ_STEP_JSON;
+    st.body = r->body.data;
+    st.length = r->body.length;
+    st.answer_binary = r->answer_binary;
+    st.param_count = r->param_count;
+    st.param_names = r->param_names;
+    st.param_values = r->param_values;
+    pthread_mutex_lock(&e->step_lock);
+    if (gated) {
+        gate_enter(s);
+    } else {
+        pthread_mutex_lock(&s->lock);
+        s->evaluating++;
+        pthread_mutex_unlock(&s->lock);
+    }
+    r->rc = ntsj_session_step(e->session, &st, jc, &r->resp);
+    memory = r->resp.ok ? ntsj_session_get_info(e->session).memory_bytes : 0;
+    if (gated) {
+        gate_leave(s);
+    } else {
+        pthread_mutex_lock(&s->lock);
+        s->evaluating--;
+        pthread_mutex_unlock(&s->lock);
+    }
+    pthread_mutex_unlock(&e->step_lock);
+    ntsd_sessions_release(&s->sessions, e, memory);
+}
+
 /* Run the codec on the whole body: fills r->resp and r->rc, frees the body.
  * Per-connection model: at most --threads at once (the gate). Pool model: the
  * caller is a worker, or a polling thread with a small body; never block. */
@@ -174,6 +317,14 @@ static void evaluate(ntsd_request* r) {
     jc.max_seconds = s->config.max_seconds;
     jc.threads = 0; /* concurrency comes from requests, not from inside one */
     memset(&r->resp, 0, sizeof r->resp);
+    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
+        /* Wait for the session before taking an evaluation slot: a step queued
+         * behind another on the same session must not hold one. */
+        evaluate_step(r, &jc, gated);
+        ntsd_body_free(&r->body);
+        r->evaluated = 1;
+        return;
+    }
     if (gated) {
         gate_enter(s);
     } else {
@@ -181,7 +332,10 @@ static void evaluate(ntsd_request* r) {
         s->evaluating++;
         pthread_mutex_unlock(&s->lock);
     }
-    r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
+    if (r->route.kind == NTSD_ROUTE_SCENES)
+        evaluate_create(r, &jc);
+    else
+        r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
     if (gated) {
         gate_leave(s);
     } else {
@@ -201,6 +355,30 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
     }
     r->resp.body = NULL; /* to libmicrohttpd without a copy, freed by nts_free */
+    if (r->resp.ok && r->resp.binary) {
+        /* The forces as raw bytes, the summary in headers that read back bitwise. */
+        const nts_summary* sm = &r->resp.summary;
+        char energy[32], virial[100], contacts[24], pen[32], ms[32];
+        const char* extra[] = {"NTS-Energy", energy, "NTS-Virial", virial, "NTS-Contacts", contacts,
+                               "NTS-Max-Penetration", pen, "NTS-Elapsed-Ms", ms, NULL};
+        size_t k;
+        ntsj_format_double(energy, sm->energy);
+        k = (size_t)ntsj_format_double(virial, sm->virial.xx);
+        virial[k++] = ',';
+        k += (size_t)ntsj_format_double(virial + k, sm->virial.yy);
+        virial[k++] = ',';
+        ntsj_format_double(virial + k, sm->virial.xy);
+        snprintf(contacts, sizeof contacts, "%d", sm->contacts);
+        ntsj_format_double(pen, sm->max_penetration);
+        ntsj_format_double(ms, r->resp.elapsed_ms);
+        return reply_headers(c, r, (unsigned)r->resp.http_status, "ok", body, r->resp.length, nts_free,
+                             "application/octet-stream", NULL, 0, extra);
+    }
+    if (r->location[0] != '\0' && r->resp.ok) {
+        const char* extra[] = {MHD_HTTP_HEADER_LOCATION, r->location, NULL};
+        return reply_headers(c, r, (unsigned)r->resp.http_status, "ok", body, r->resp.length, nts_free,
+                             "application/json", NULL, 0, extra);
+    }
     return reply(c, r, (unsigned)r->resp.http_status, r->resp.code ? r->resp.code : "-", body, r->resp.length,
                  nts_free, "application/json", NULL, 0);
 }
@@ -215,11 +393,30 @@ static void run_offloaded(void* arg) {
 }
 
 /* POST /v1/contact and /v1/validate: the whole body is here. */
+static enum MHD_Result collect_param(void* cls, enum MHD_ValueKind kind, const char* key, const char* value) {
+    ntsd_request* r = cls;
+    (void)kind;
+    if (key == NULL || strcmp(key, "pretty") == 0) return MHD_YES;
+    if (r->param_count == NTSD_MAX_QUERY_PARAMS) {
+        r->too_many_params = 1;
+        return MHD_NO;
+    }
+    r->param_names[r->param_count] = key;
+    r->param_values[r->param_count] = value != NULL ? value : "";
+    r->param_count++;
+    return MHD_YES;
+}
+
 static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_server* s = r->server;
     r->pretty = query_flag(c, "pretty");
     r->t_body = ntsd_now();
-    if (s->config.threading == NTSD_THREAD_POOL && r->body.length > s->config.inline_max) {
+    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT)
+        MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, collect_param, r);
+    /* Pool model: a step may wait for another on its session, so it never runs
+     * on a polling thread. */
+    if (s->config.threading == NTSD_THREAD_POOL &&
+        (r->body.length > s->config.inline_max || r->route.kind == NTSD_ROUTE_SCENE_CONTACT)) {
         r->conn = c;
         r->offloaded = 1;
         r->job.run = run_offloaded;
@@ -235,7 +432,17 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
 /* ------------------------------------------------------------- callbacks */
 
 static int is_post_route(const ntsd_request* r) {
-    return r->route.method_ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_VALIDATE);
+    return r->route.method_ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_VALIDATE ||
+                                  r->route.kind == NTSD_ROUTE_SCENES || r->route.kind == NTSD_ROUTE_SCENE_CONTACT);
+}
+
+/* Accept names application/octet-stream (a session step's binary answer). */
+static int accepts_octet_stream(const char* accept) {
+    const char* p;
+    if (accept == NULL) return 0;
+    for (p = accept; *p; ++p)
+        if (strncasecmp(p, "application/octet-stream", 24) == 0) return 1;
+    return 0;
 }
 
 /* The answers that need no body. Sent from the first call only when the request
@@ -274,9 +481,19 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
                            "too many connections; retry later", NULL, 1);
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
 
-    if (!ntsd_is_json_media_type(ct))
+    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
+        /* A step: JSON positions, raw float64 positions, or nothing at all. */
+        const char* accept = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+        r->answer_binary = accepts_octet_stream(accept);
+        if (ct != NULL && ntsd_is_media_type(ct, "application/octet-stream"))
+            r->binary_in = 1;
+        else if (has_body && !ntsd_is_json_media_type(ct))
+            return reply_error(c, r, "unsupported_media_type",
+                               "a step's body must be application/json or application/octet-stream", NULL, 1);
+    } else if (!ntsd_is_json_media_type(ct)) {
         return reply_error(c, r, "unsupported_media_type",
                            "the request body must be application/json", NULL, 1);
+    }
     /* Answer before reading the body when its announced length is too large. */
     if (length > (unsigned long long)s->config.max_body)
         return reply_error(c, r, "payload_too_large",
@@ -426,10 +643,15 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
      * of a closed socket. */
     hard_limit = cfg->max_connections + 8 + cfg->max_connections / 16;
 
+    if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, cfg->session_ttl_s, cfg->session_memory) != 0) {
+        ntsd_log_message("cannot allocate the session table");
+        return -1;
+    }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
     if (pool && ntsd_workers_start(&s->workers, cfg->threads) != 0) {
         ntsd_log_message("cannot start %d evaluation threads", cfg->threads);
+        ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
         return -1;
@@ -450,6 +672,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     if (s->daemon == NULL) {
         ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);
         ntsd_workers_stop(&s->workers);
+        ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
         return -1;
@@ -483,6 +706,7 @@ void ntsd_server_stop(ntsd_server* s) {
     MHD_stop_daemon(s->daemon);
     s->daemon = NULL;
     ntsd_workers_stop(&s->workers);
+    ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);
     pthread_mutex_destroy(&s->lock);
 }

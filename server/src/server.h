@@ -15,6 +15,8 @@
 
 #include <microhttpd.h>
 
+#include <ntscontact/codec.h>
+
 /* ------------------------------------------------------------------ args */
 
 typedef enum ntsd_threading {
@@ -40,6 +42,10 @@ typedef struct ntsd_config {
     int max_nodes_per_body;  /* default 10,000,000 */
     long long max_nodes;     /* all nodes of a scene; default 50,000,000 */
     double max_seconds;      /* wall-clock budget of one request's codec work, 0 = none */
+    /* Scene sessions (sessions.c). */
+    int max_sessions;        /* default 64 */
+    unsigned session_ttl_s;  /* since last use; default 600 */
+    size_t session_memory;   /* all sessions together; default 1 GiB */
 } ntsd_config;
 
 ntsd_config ntsd_default_config(void);
@@ -105,6 +111,68 @@ void ntsd_workers_push(ntsd_workers* w, ntsd_job* job);
 /* Run what is queued, then join the threads. */
 void ntsd_workers_stop(ntsd_workers* w);
 
+/* -------------------------------------------------------------- sessions */
+
+#define NTSD_SESSION_ID_LEN 43 /* 256 random bits in base64url */
+
+typedef struct ntsd_session_entry {
+    char id[NTSD_SESSION_ID_LEN + 1];
+    ntsj_session* session;
+    pthread_mutex_t step_lock; /* one step at a time */
+    int users;                 /* requests holding it: never evicted or freed meanwhile */
+    int doomed;                /* unlinked while in use: the last user frees it */
+    int linked;
+    double created, last_used; /* monotonic seconds */
+    size_t memory;             /* counted against --session-memory */
+    int bodies, nodes, surface_nodes; /* fixed for the session's life */
+    unsigned long long steps;  /* successful steps */
+    struct ntsd_session_entry *prev, *next; /* LRU list, most recent first */
+    struct ntsd_session_entry* hnext;       /* hash chain */
+} ntsd_session_entry;
+
+typedef struct ntsd_sessions {
+    pthread_mutex_t lock;
+    ntsd_session_entry** buckets;
+    unsigned bucket_count;     /* a power of two */
+    ntsd_session_entry *head, *tail;
+    int count, max;
+    unsigned ttl_s;
+    size_t memory, memory_max;
+    unsigned long long created, evicted, expired, deleted;
+} ntsd_sessions;
+
+typedef struct ntsd_sessions_stats {
+    int held;
+    size_t memory;
+    unsigned long long created, evicted, expired, deleted;
+} ntsd_sessions_stats;
+
+enum { NTSD_SESSIONS_FULL = -1, NTSD_SESSIONS_TOO_LARGE = -2 };
+
+int ntsd_sessions_init(ntsd_sessions* st, int max, unsigned ttl_s, size_t memory_max);
+void ntsd_sessions_free(ntsd_sessions* st);
+/* Take ownership of `session` under a new id: 0, NTSD_SESSIONS_FULL (every
+ * session is in use; the caller keeps `session`) or NTSD_SESSIONS_TOO_LARGE
+ * (it alone exceeds --session-memory). Evicts idle sessions, LRU first. */
+int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD_SESSION_ID_LEN + 1]);
+/* The session of `id`, held until ntsd_sessions_release, or NULL. */
+ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id);
+/* `stepped_memory`: after a successful step, what the session holds now
+ * (ntsj_session_get_info, read under its step lock); 0 otherwise. */
+void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, size_t stepped_memory);
+/* 0, or -1 when there is no such session. */
+int ntsd_sessions_remove(ntsd_sessions* st, const char* id);
+void ntsd_sessions_sweep(ntsd_sessions* st); /* drop the expired ones */
+ntsd_sessions_stats ntsd_sessions_get_stats(ntsd_sessions* st);
+typedef struct ntsd_session_meta {
+    int bodies, nodes, surface_nodes;
+    unsigned long long steps;
+    size_t memory_bytes;
+    double expires_in_s, age_s, idle_s;
+} ntsd_session_meta;
+/* What GET /v1/scenes/{id} shows, without counting as a use: 0 or -1 (none). */
+int ntsd_sessions_describe(ntsd_sessions* st, const char* id, ntsd_session_meta* out);
+
 /* ---------------------------------------------------------------- server */
 
 /* Default of --inline-max: in the pool model, bodies up to this size are
@@ -116,6 +184,7 @@ typedef struct ntsd_server {
     ntsd_config config;
     struct MHD_Daemon* daemon;
     ntsd_workers workers;      /* pool model: the evaluation threads */
+    ntsd_sessions sessions;
     unsigned port;             /* the bound port */
     double started;            /* monotonic seconds */
 
@@ -149,7 +218,10 @@ typedef enum ntsd_route_kind {
     NTSD_ROUTE_CONTACT,
     NTSD_ROUTE_VALIDATE,
     NTSD_ROUTE_HEALTH,
-    NTSD_ROUTE_ASSET
+    NTSD_ROUTE_ASSET,
+    NTSD_ROUTE_SCENES,        /* POST /v1/scenes */
+    NTSD_ROUTE_SCENE,         /* GET, HEAD, DELETE /v1/scenes/{id} */
+    NTSD_ROUTE_SCENE_CONTACT  /* POST /v1/scenes/{id}/contact */
 } ntsd_route_kind;
 
 typedef struct ntsd_route {
@@ -157,12 +229,15 @@ typedef struct ntsd_route {
     const char* allow;   /* the Allow header of the path ("POST", "GET, HEAD") */
     int method_ok;       /* the method is one of `allow` */
     int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
+    char scene_id[NTSD_SESSION_ID_LEN + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 
 /* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
 ntsd_route ntsd_route_find(const char* path, const char* method);
 /* 1 when a Content-Type header value names JSON (application/json, *+json). */
 int ntsd_is_json_media_type(const char* content_type);
+/* 1 when a Content-Type header value is `type` (parameters aside, any case). */
+int ntsd_is_media_type(const char* content_type, const char* type);
 /* The /v1/health document (malloc'ed, ends with '\n'), or NULL. */
 char* ntsd_health_document(ntsd_server* s, size_t* length);
 

@@ -45,8 +45,12 @@ typedef struct ntsj_response {
     int ok;           /* 1 when body is a result (or a validation report) */
     int http_status;  /* 200, or the 4xx/5xx this error maps to */
     const char* code; /* stable error code ("invalid_json", "degenerate_segment", ...), "ok" on success */
-    char* body;       /* NUL-terminated JSON (result or error document), ends with '\n' */
-    size_t length;    /* strlen(body) */
+    char* body;       /* NUL-terminated JSON (result or error document), ends with '\n';
+                       * for a binary session answer (binary == 1): the raw forces */
+    size_t length;    /* strlen(body), or the bytes of a binary answer */
+    int binary;       /* ok and body holds 16 N bytes: little-endian float64 forces, x then y per node */
+    nts_summary summary; /* of a successful evaluation (sessions: for the headers of a binary answer) */
+    double elapsed_ms;   /* of the request, rounded to whole microseconds */
 } ntsj_response;
 
 /* Decode, validate, evaluate and encode. Never crashes on any input bytes;
@@ -70,6 +74,53 @@ int ntsj_code_http_status(const char* code);
 int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
                       size_t message_size);
 
+/* ------------------------------------------------------------ sessions
+ * A session holds one decoded scene (topology, options, positions), its core
+ * scene and a warm evaluation context, so that a solver evaluates the same
+ * topology at many positions without sending or parsing it again. An answer
+ * equals, bit for bit (elapsed_ms aside), what ntsj_handle gives for the full
+ * scene at the same positions and options. Not thread-safe: one step at a time
+ * per session (the server serialises them). */
+typedef struct ntsj_session ntsj_session;
+
+typedef struct ntsj_session_info {
+    int bodies, nodes, surface_nodes;
+    unsigned long long steps;  /* successful evaluations */
+    size_t memory_bytes;       /* everything the session holds */
+} ntsj_session_info;
+
+typedef enum ntsj_step_body {
+    NTSJ_STEP_EMPTY = 0,  /* evaluate at the stored positions */
+    NTSJ_STEP_JSON = 1,   /* {"positions": [[x, y], ...], "options": {...}}, both optional */
+    NTSJ_STEP_BINARY = 2  /* exactly 16 N bytes: little-endian float64, x then y per node */
+} ntsj_step_body;
+
+typedef struct ntsj_step {
+    ntsj_step_body kind;
+    const char* body;
+    size_t length;
+    int answer_binary;   /* answer the forces as raw bytes (ntsj_response.binary) */
+    /* Option overrides as text, for binary steps (a URL's query): penalty, alpha,
+     * search_radius, solver, outputs (comma-separated names, empty for none). */
+    int param_count;
+    const char* const* param_names;
+    const char* const* param_values;
+} ntsj_step;
+
+/* Decode and build a session from a scene document (the schema of ntsj_handle),
+ * and evaluate it once with no outputs, so that every fault ntsj_handle would
+ * report shows now and the context is warm. Returns 0 with *out set, or fills
+ * *error with the error document (the same as ntsj_handle's) and sets *out to
+ * NULL; NTS_ENOMEM when even that failed. */
+int ntsj_session_create(const char* json, size_t length, const ntsj_config* config, ntsj_session** out,
+                        ntsj_response* error);
+void ntsj_session_destroy(ntsj_session* session);
+ntsj_session_info ntsj_session_get_info(const ntsj_session* session);
+/* Evaluate at new positions (which become the stored ones once they pass the
+ * scene's checks). Fills *out like ntsj_handle; errors name their place:
+ * /positions/17 for a bad position, /options/alpha for a bad option. */
+int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
+
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
  * "forces", "energy", "virial", "contacts", "gaps" (n bytes of name) to its
  * NTS_OUT_* flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
@@ -77,6 +128,10 @@ int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t poi
 unsigned ntsj_output_flag(const char* name, size_t n);
 int ntsj_solver_from_name(const char* name, nts_solver* out);
 const char* ntsj_solver_name(nts_solver solver);
+/* The shortest text of a finite double that reads back bitwise equal with
+ * strtod (always with a '.' or an exponent), into out (>= 32 bytes); returns
+ * its length. For the summary headers of a binary session answer. */
+int ntsj_format_double(char* out, double v);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,496 @@
+/* Sessions: one scene decoded once, evaluated at many positions.
+ *
+ * A step reads positions (JSON or raw little-endian float64), lets the core
+ * check them against the scene (nts_scene_update_positions: every check of
+ * nts_scene_create, and the same normalisation), and evaluates with the warm
+ * context. When the core says the positions would give another scene (a loop
+ * turned over, a triangle flipped) or fail a check, the scene is created anew
+ * from them exactly as ntsj_handle would, so the answer, error or result, is
+ * the full call's, bit for bit (elapsed_ms aside). */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+
+#include "codec_internal.h"
+
+struct ntsj_session {
+    ntsj_scene js;       /* decoded request: ids, options, topology; node arrays are scratch for rebuilds */
+    nts_scene* scene;    /* the authority on the stored positions */
+    nts_context* ctx;
+    nts_vec2* next;      /* node_count: a step's positions before the core takes them */
+    int limits_set;
+    nts_limits limits;
+    unsigned long long steps;
+};
+
+static size_t decoded_bytes(const ntsj_scene* s) {
+    size_t n = (size_t)s->body_count * (sizeof(nts_body_def) + sizeof(ntsj_id) + sizeof(int) + 2 * sizeof(void*));
+    int b;
+    for (b = 0; b < s->body_count; ++b) {
+        const nts_body_def* d = &s->defs[b];
+        n += (size_t)d->node_count * sizeof(nts_vec2);
+        if (d->triangle_count > 0) n += 3 * (size_t)d->triangle_count * sizeof(int);
+        else if (d->loop_count > 0) n += ((size_t)d->loop_start[d->loop_count] + (size_t)d->loop_count + 1) * sizeof(int);
+        if (!s->ids[b].is_int && s->ids[b].sval) n += strlen(s->ids[b].sval) + 1;
+    }
+    return n;
+}
+
+ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
+    ntsj_session_info i;
+    memset(&i, 0, sizeof i);
+    if (ss == NULL) return i;
+    i.bodies = nts_scene_body_count(ss->scene);
+    i.nodes = nts_scene_node_count(ss->scene);
+    i.surface_nodes = nts_scene_surface_node_count(ss->scene);
+    i.steps = ss->steps;
+    i.memory_bytes = sizeof *ss + decoded_bytes(&ss->js) + nts_scene_memory_bytes(ss->scene) +
+                     nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2);
+    return i;
+}
+
+void ntsj_session_destroy(ntsj_session* ss) {
+    if (ss == NULL) return;
+    nts_context_destroy(ss->ctx);
+    nts_scene_destroy(ss->scene);
+    nts_free(ss->next);
+    ntsj_scene_free(&ss->js);
+    nts_free(ss);
+}
+
+static nts_scene_def scene_def_of(const ntsj_scene* s, const nts_limits* limits) {
+    nts_scene_def def = nts_default_scene_def();
+    def.bodies = s->defs;
+    def.body_count = s->body_count;
+    def.lx = s->has_periodic ? s->lx : 0.0;
+    def.ly = s->has_periodic ? s->ly : 0.0;
+    def.limits = *limits;
+    return def;
+}
+
+/* The evaluation options of ntsj_handle: the summary is always complete. */
+static nts_options eval_options(nts_options o, int answer_binary) {
+    o.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+    if (answer_binary) o.outputs |= NTS_OUT_FORCES;
+    return o;
+}
+
+int ntsj_session_create(const char* json, size_t length, const ntsj_config* config, ntsj_session** out,
+                        ntsj_response* error) {
+    ntsj_config cfg = config ? *config : ntsj_default_config();
+    ntsj_session* ss;
+    nts_scene_def def;
+    nts_error err = nts_error_none();
+    nts_result result;
+    ntsj_fault fault;
+    cJSON* root;
+    int rc;
+
+    *out = NULL;
+    memset(error, 0, sizeof *error);
+    memset(&fault, 0, sizeof fault);
+    cfg.mode = NTSJ_EVALUATE;
+    if (cfg.max_depth <= 0) cfg.max_depth = 32;
+    if (cfg.max_bytes == 0) cfg.max_bytes = (size_t)64 << 20;
+    /* The size, emptiness and grammar checks of ntsj_handle, with its answers:
+     * run it in validation mode on what is not a valid scene. Cheap in both
+     * cases compared with what follows. */
+    if (json == NULL || length > cfg.max_bytes || ntsj_scan(json, length, cfg.max_depth, &fault) != 0) {
+        cfg.mode = NTSJ_VALIDATE;
+        return ntsj_handle(json, length, &cfg, error);
+    }
+    ss = (ntsj_session*)nts_alloc(sizeof *ss);
+    if (ss == NULL) return ntsj_respond_error(error, "out_of_memory", "out of memory", "", cfg.pretty);
+    memset(ss, 0, sizeof *ss);
+    root = cJSON_ParseWithLengthOpts(json, length, NULL, 0);
+    if (root == NULL) {
+        nts_free(ss);
+        return ntsj_respond_error(error, "out_of_memory", "out of memory while parsing the request", "", cfg.pretty);
+    }
+    rc = ntsj_decode(root, &cfg, &ss->js, &fault);
+    cJSON_Delete(root);
+    if (rc != 0) {
+        nts_free(ss);
+        return ntsj_respond_fault(error, &fault, cfg.pretty);
+    }
+    if (nts_options_validate(&ss->js.options, &err) != 0) {
+        rc = ntsj_respond_core(error, &ss->js, &err, NTS_EINVALID_OPTION, cfg.pretty);
+        ntsj_session_destroy(ss);
+        return rc;
+    }
+    ss->limits = cfg.limits;
+    def = scene_def_of(&ss->js, &ss->limits);
+    ss->scene = nts_scene_create(&def, &err);
+    if (ss->scene == NULL) {
+        rc = ntsj_respond_core(error, &ss->js, &err, NTS_EINTERNAL, cfg.pretty);
+        ntsj_session_destroy(ss);
+        return rc;
+    }
+    ss->ctx = nts_context_create();
+    ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
+    if (ss->ctx == NULL || ss->next == NULL) {
+        ntsj_session_destroy(ss);
+        return ntsj_respond_error(error, "out_of_memory", "out of memory", "", cfg.pretty);
+    }
+    /* "Valid" means "evaluates": faults that depend on the options and the
+     * whole scene (a periodic box too small for the search reach) show now. */
+    {
+        nts_options opt = ss->js.options;
+        opt.outputs = 0u;
+        rc = nts_evaluate(ss->ctx, ss->scene, &opt, &result, &err);
+        if (rc != 0) {
+            rc = ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
+            ntsj_session_destroy(ss);
+            return rc;
+        }
+        if (ntsj_result_overflows(&ss->js, ss->scene, &result, &fault)) {
+            rc = ntsj_respond_fault(error, &fault, cfg.pretty);
+            ntsj_session_destroy(ss);
+            return rc;
+        }
+    }
+    *out = ss;
+    error->ok = 1;
+    error->http_status = 201;
+    error->code = "ok";
+    return 0;
+}
+
+/* --------------------------------------------------------------- positions */
+
+static int host_is_little_endian(void) {
+    const uint16_t one = 1;
+    unsigned char c;
+    memcpy(&c, &one, 1);
+    return c == 1;
+}
+
+/* Little-endian float64 at p. */
+static double read_le_double(const unsigned char* p) {
+    uint64_t u = 0;
+    double d;
+    int i;
+    for (i = 7; i >= 0; --i) u = (u << 8) | (uint64_t)p[i];
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+
+static int position_fault(const ntsj_session* ss, int k, const char* what, ntsj_fault* f) {
+    int b, nb = nts_scene_body_count(ss->scene);
+    for (b = nb - 1; b > 0 && nts_scene_body_node_offset(ss->scene, b) > k; --b) continue;
+    ntsj_fault_set(f, "non_finite", "", "position %d (/bodies/%d/nodes/%d) has a non-finite %s", k, b,
+                   k - nts_scene_body_node_offset(ss->scene, b), what);
+    snprintf(f->pointer, sizeof f->pointer, "/positions/%d", k);
+    return -1;
+}
+
+static int read_binary(ntsj_session* ss, const char* body, size_t length, ntsj_fault* f) {
+    int n = nts_scene_node_count(ss->scene), k;
+    size_t expected = (size_t)n * 16u;
+    if (length != expected) {
+        ntsj_fault_set(f, "invalid_value", "",
+                       "expected 16*N = 16 * %d = %lu bytes (little-endian float64, x then y for every node), got %lu",
+                       n, (unsigned long)expected, (unsigned long)length);
+        return -1;
+    }
+    if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
+        memcpy(ss->next, body, expected);
+    } else {
+        const unsigned char* p = (const unsigned char*)body;
+        for (k = 0; k < n; ++k) ss->next[k] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
+    }
+    for (k = 0; k < n; ++k) {
+        if (!isfinite(ss->next[k].x)) return position_fault(ss, k, "x", f);
+        if (!isfinite(ss->next[k].y)) return position_fault(ss, k, "y", f);
+    }
+    return 0;
+}
+
+static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) {
+    int n = nts_scene_node_count(ss->scene), k = 0, m = 0;
+    const cJSON* e;
+    if (!cJSON_IsArray(v)) {
+        ntsj_fault_set(f, "invalid_type", "/positions", "expected an array of [x, y] pairs");
+        return -1;
+    }
+    cJSON_ArrayForEach(e, v) { if (m < 2147483647) ++m; }
+    if (m != n) {
+        ntsj_fault_set(f, "invalid_value", "/positions",
+                       "expected %d positions (every node, bodies in scene order, nodes in body order), got %d", n, m);
+        return -1;
+    }
+    cJSON_ArrayForEach(e, v) {
+        const cJSON* x = cJSON_IsArray(e) ? e->child : NULL;
+        const cJSON* y = x ? x->next : NULL;
+        if (!x || !y || y->next || !cJSON_IsNumber(x) || !cJSON_IsNumber(y)) {
+            ntsj_fault_set(f, "invalid_type", "", "expected a pair of numbers [x, y]");
+            snprintf(f->pointer, sizeof f->pointer, "/positions/%d", k);
+            return -1;
+        }
+        ss->next[k] = nts_v2(x->valuedouble, y->valuedouble);
+        if (!isfinite(ss->next[k].x) || !isfinite(ss->next[k].y))
+            return position_fault(ss, k, isfinite(ss->next[k].x) ? "y" : "x", f);
+        ++k;
+    }
+    return 0;
+}
+
+/* ----------------------------------------------------------------- options */
+
+static const char* const step_option_names[] = {"penalty", "alpha", "search_radius", "solver", "outputs"};
+enum { SO_PENALTY, SO_ALPHA, SO_RADIUS, SO_SOLVER, SO_OUTPUTS, SO_COUNT };
+
+static int option_index(const char* name) {
+    int i;
+    for (i = 0; i < SO_COUNT; ++i)
+        if (strcmp(name, step_option_names[i]) == 0) return i;
+    return -1;
+}
+
+/* A numeric option; `ptr` is "/options/<name>". */
+static int set_number(double* dst, double v, const char* ptr, ntsj_fault* f) {
+    const char* name = ptr + 9;
+    if (!isfinite(v)) {
+        ntsj_fault_set(f, "non_finite", ptr, "%s is not a finite number", name);
+        return -1;
+    }
+    /* The core reads a negative radius as "the longest segment"; a step says so
+     * by not overriding it. */
+    if (strcmp(name, "search_radius") == 0 && !(v >= 0.0)) {
+        ntsj_fault_set(f, "invalid_option", ptr, "search_radius must be >= 0");
+        return -1;
+    }
+    *dst = v;
+    return 0;
+}
+
+static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
+    const cJSON* m;
+    unsigned seen = 0;
+    if (!cJSON_IsObject(v)) {
+        ntsj_fault_set(f, "invalid_type", "/options", "expected an object of option overrides");
+        return -1;
+    }
+    cJSON_ArrayForEach(m, v) {
+        const char* key = m->string ? m->string : "";
+        int i = option_index(key);
+        char ptr[96];
+        snprintf(ptr, sizeof ptr, "/options/%.64s", key);
+        if (i < 0) {
+            ntsj_fault_set(f, "unknown_field", ptr,
+                           "unknown option \"%.64s\" (a step overrides penalty, alpha, search_radius, solver, outputs)",
+                           key);
+            return -1;
+        }
+        if (seen & (1u << i)) {
+            ntsj_fault_set(f, "duplicate_key", ptr, "key \"%.64s\" appears more than once", key);
+            return -1;
+        }
+        seen |= 1u << i;
+        if (i == SO_OUTPUTS) {
+            if (ntsj_decode_outputs(m, ptr, &o->outputs, f) != 0) return -1;
+        } else if (i == SO_SOLVER) {
+            if (!cJSON_IsString(m) || ntsj_solver_from_name(m->valuestring, &o->solver) != 0) {
+                ntsj_fault_set(f, cJSON_IsString(m) ? "invalid_value" : "invalid_type", ptr,
+                               "expected a solver name (closed_form or newton)");
+                return -1;
+            }
+        } else {
+            double* dst = i == SO_PENALTY ? &o->penalty : i == SO_ALPHA ? &o->alpha : &o->search_radius;
+            if (!cJSON_IsNumber(m)) {
+                ntsj_fault_set(f, "invalid_type", ptr, "expected a number");
+                return -1;
+            }
+            if (set_number(dst, m->valuedouble, ptr, f) != 0) return -1;
+        }
+    }
+    return 0;
+}
+
+/* Query parameters (binary steps): the same names, values as text. */
+static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
+    int k;
+    for (k = 0; k < st->param_count; ++k) {
+        const char* name = st->param_names[k] ? st->param_names[k] : "";
+        const char* val = st->param_values[k] ? st->param_values[k] : "";
+        int i = option_index(name);
+        char ptr[96];
+        snprintf(ptr, sizeof ptr, "/options/%.64s", name);
+        if (i < 0) {
+            ntsj_fault_set(f, "unknown_field", ptr,
+                           "unknown query parameter \"%.64s\" (a step overrides penalty, alpha, search_radius, "
+                           "solver, outputs)", name);
+            return -1;
+        }
+        if (i == SO_OUTPUTS) {
+            unsigned flags = 0;
+            const char* p = val;
+            while (*p) {
+                size_t n = strcspn(p, ",");
+                unsigned fl = ntsj_output_flag(p, n);
+                if (!fl || (flags & fl)) {
+                    ntsj_fault_set(f, "invalid_value", ptr, "outputs=%.64s: %s \"%.*s\"", val,
+                                   fl ? "output listed twice:" : "unknown output", (int)(n > 32 ? 32 : n), p);
+                    return -1;
+                }
+                flags |= fl;
+                p += n;
+                if (*p == ',') ++p;
+            }
+            o->outputs = flags;
+        } else if (i == SO_SOLVER) {
+            if (ntsj_solver_from_name(val, &o->solver) != 0) {
+                ntsj_fault_set(f, "invalid_value", ptr, "unknown solver \"%.32s\" (expected closed_form or newton)", val);
+                return -1;
+            }
+        } else {
+            double* dst = i == SO_PENALTY ? &o->penalty : i == SO_ALPHA ? &o->alpha : &o->search_radius;
+            char* end = NULL;
+            double v = strtod(val, &end);
+            if (*val == '\0' || end == NULL || *end != '\0') {
+                ntsj_fault_set(f, "invalid_value", ptr, "query parameter %.64s=%.32s is not a number", name, val);
+                return -1;
+            }
+            if (set_number(dst, v, ptr, f) != 0) return -1;
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------- steps */
+
+/* The positions in ss->next would make another scene, or fail a check: build
+ * it as ntsj_handle would. On success the new scene replaces the old one. */
+static int rebuild(ntsj_session* ss, nts_error* err) {
+    nts_scene_def def;
+    nts_scene* fresh;
+    int b;
+    for (b = 0; b < ss->js.body_count; ++b) {
+        int off = nts_scene_body_node_offset(ss->scene, b);
+        memcpy(ss->js.nodes[b], ss->next + off, sizeof(nts_vec2) * (size_t)ss->js.defs[b].node_count);
+    }
+    def = scene_def_of(&ss->js, &ss->limits);
+    fresh = nts_scene_create(&def, err);
+    if (fresh == NULL) return err->code ? err->code : NTS_EINTERNAL;
+    nts_scene_destroy(ss->scene);
+    ss->scene = fresh;
+    return NTS_OK;
+}
+
+static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result* r) {
+    int n = nts_scene_node_count(scene), k;
+    size_t bytes = (size_t)n * 16u;
+    if (ntsj_buf_reserve(b, bytes + 1) != 0) return;
+    if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
+        memcpy(b->data, r->forces, bytes);
+    } else {
+        for (k = 0; k < 2 * n; ++k) {
+            double d = k % 2 ? r->forces[k / 2].y : r->forces[k / 2].x;
+            uint64_t u;
+            int i;
+            memcpy(&u, &d, sizeof u);
+            for (i = 0; i < 8; ++i) b->data[8 * (size_t)k + (size_t)i] = (char)(unsigned char)(u >> (8 * i));
+        }
+    }
+    b->len = bytes;
+    b->data[bytes] = '\0';
+}
+
+int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
+    ntsj_config cfg = config ? *config : ntsj_default_config();
+    double t0 = ntsj_now_ms();
+    nts_options opt;
+    nts_error err = nts_error_none();
+    nts_result result;
+    ntsj_fault fault;
+    ntsj_buf b;
+    int rc, pretty = cfg.pretty, have_positions = 0;
+
+    memset(out, 0, sizeof *out);
+    memset(&fault, 0, sizeof fault);
+    if (ss == NULL || st == NULL) return ntsj_respond_error(out, "internal_error", "no session", "", pretty);
+    if (cfg.max_depth <= 0) cfg.max_depth = 32;
+    opt = ss->js.options;
+
+    if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
+        if (read_binary(ss, st->body, st->length, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+        have_positions = 1;
+    } else if (st->kind == NTSJ_STEP_JSON && st->length > 0) {
+        static const char* const fields[] = {"positions", "options"};
+        const cJSON* m;
+        cJSON* root;
+        unsigned seen = 0;
+        if (ntsj_scan(st->body, st->length, cfg.max_depth, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+        root = cJSON_ParseWithLengthOpts(st->body, st->length, NULL, 0);
+        if (root == NULL)
+            return ntsj_respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
+        if (!cJSON_IsObject(root)) {
+            cJSON_Delete(root);
+            return ntsj_respond_error(out, "invalid_type", "expected an object {\"positions\", \"options\"}", "",
+                                      pretty);
+        }
+        rc = 0;
+        cJSON_ArrayForEach(m, root) {
+            const char* key = m->string ? m->string : "";
+            int i = strcmp(key, fields[0]) == 0 ? 0 : strcmp(key, fields[1]) == 0 ? 1 : -1;
+            if (i < 0 || (seen & (1u << i))) {
+                ntsj_fault_set(&fault, i < 0 ? "unknown_field" : "duplicate_key", "",
+                               i < 0 ? "unknown field \"%.64s\" (a step has \"positions\" and \"options\")"
+                                     : "key \"%.64s\" appears more than once", key);
+                snprintf(fault.pointer, sizeof fault.pointer, "/%.64s", key);
+                rc = -1;
+                break;
+            }
+            seen |= 1u << i;
+            rc = i == 0 ? read_json_positions(ss, m, &fault) : json_options(m, &opt, &fault);
+            if (rc != 0) break;
+            if (i == 0) have_positions = 1;
+        }
+        cJSON_Delete(root);
+        if (rc != 0) return ntsj_respond_fault(out, &fault, pretty);
+    }
+    if (query_options(st, &opt, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+    if (nts_options_validate(&opt, &err) != 0)
+        return ntsj_respond_core(out, &ss->js, &err, NTS_EINVALID_OPTION, pretty);
+
+    if (have_positions) {
+        rc = nts_scene_update_positions(ss->scene, ss->next, &err);
+        if (rc != NTS_OK && (rc = rebuild(ss, &err)) != NTS_OK) {
+            if (rc == NTS_ENOMEM) return ntsj_respond_error(out, "out_of_memory", "out of memory", "", pretty);
+            return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
+        }
+    }
+    if (ntsj_over_budget(&cfg, t0, out, "reading the positions", &rc)) return rc;
+
+    {
+        nts_options eo = eval_options(opt, st->answer_binary);
+        rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
+    }
+    if (rc != 0) return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
+    if (ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
+    if (ntsj_result_overflows(&ss->js, ss->scene, &result, &fault)) return ntsj_respond_fault(out, &fault, pretty);
+
+    ntsj_buf_init(&b);
+    if (st->answer_binary) {
+        encode_binary(&b, ss->scene, &result);
+    } else {
+        /* The encoder writes what the scene's options ask for: this step's. */
+        nts_options keep = ss->js.options;
+        ss->js.options = opt;
+        ntsj_encode_result(&b, &ss->js, ss->scene, &result, ntsj_round_us(ntsj_now_ms() - t0), pretty);
+        ss->js.options = keep;
+    }
+    rc = ntsj_finish(out, &b, "ok");
+    if (rc == 0) {
+        ss->steps++;
+        out->binary = st->answer_binary;
+        out->summary = result.summary;
+        out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
+    }
+    return rc;
+}
