@@ -29,7 +29,7 @@ def paths():
 def schemas(paths):
     """The JSON Schemas by short name: schemas["scene"], ["result"], ["error"]."""
     return {name: json.loads((paths.schemas / f"{name}.schema.json").read_text())
-            for name in ("scene", "result", "error")}
+            for name in ("scene", "result", "error", "session")}
 
 
 # ------------------------------------------------------------ ntscontactd

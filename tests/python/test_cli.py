@@ -92,7 +92,7 @@ def boundary_nodes(triangles):
 
 # ------------------------------------------------------------------ schemas
 
-@pytest.mark.parametrize("name", ["scene", "result", "error"])
+@pytest.mark.parametrize("name", ["scene", "result", "error", "session"])
 def test_schema_is_valid_2020_12(schemas, name):
     schema = schemas[name]
     jsonschema.Draft202012Validator.check_schema(schema)

@@ -169,7 +169,7 @@ def test_head_has_headers_only(daemon):
     assert r.headers["Content-Type"] == "application/json"
 
 
-@pytest.mark.parametrize("name", ["scene", "result", "error"])
+@pytest.mark.parametrize("name", ["scene", "result", "error", "session"])
 def test_schemas_are_the_files(daemon, paths, name):
     r = requests.get(daemon.url(f"/v1/schemas/{name}"), timeout=10)
     assert r.status_code == 200
@@ -204,11 +204,12 @@ def test_openapi_document_references_resolve(daemon, paths):
     doc = r.json()
     assert doc["openapi"].startswith("3.1.")
     assert set(doc["paths"]) == {"/v1/contact", "/v1/validate", "/v1/health", "/v1/schemas/{name}",
-                                 "/v1/openapi.json"}
+                                 "/v1/openapi.json", "/v1/scenes", "/v1/scenes/{id}", "/v1/scenes/{id}/contact"}
     assert set(doc["paths"]["/v1/contact"]) == {"post"}
     refs = collect_refs(doc, [])
     external = {ref for ref in refs if not ref.startswith("#")}
-    assert {ref.split("#")[0] for ref in external} == {"schemas/scene", "schemas/result", "schemas/error"}
+    assert {ref.split("#")[0] for ref in external} == {"schemas/scene", "schemas/result", "schemas/error",
+                                                       "schemas/session"}
     for ref in refs:
         target, _, fragment = ref.partition("#")
         if target:
