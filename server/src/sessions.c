@@ -205,6 +205,19 @@ void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, size_t step
         st->memory = st->memory - e->memory + memory;
         e->memory = memory;
         e->steps++;
+        /* Grown past the budget: the least recently used idle sessions go. */
+        {
+            ntsd_session_entry* v = st->tail;
+            while (v != NULL && st->memory > st->memory_max) {
+                ntsd_session_entry* prev = v->prev;
+                if (v->users == 0 && v != e) {
+                    unlink_entry(st, v);
+                    retire(v);
+                    st->evicted++;
+                }
+                v = prev;
+            }
+        }
     }
     e->last_used = ntsd_now();
     e->users--;

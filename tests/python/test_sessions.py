@@ -1,0 +1,452 @@
+"""Scene sessions over HTTP (POST /v1/scenes, /v1/scenes/{id}/contact, GET and
+DELETE /v1/scenes/{id}): a step's answer equals, bit for bit, POST /v1/contact
+on the full scene at the same positions and options (summary.elapsed_ms aside),
+in JSON and in binary; bad input gets a 4xx naming its place; the store keeps
+to its bounds. Every test runs against both threading models."""
+import copy
+import json
+import threading
+import time
+
+import jsonschema
+import numpy as np
+import pytest
+import requests
+
+from conftest import start_daemon
+
+EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
+OCTET = {"Content-Type": "application/octet-stream"}
+BINARY = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
+
+
+@pytest.fixture(scope="module", params=["per-connection", "pool"])
+def daemon(request, paths, tmp_path_factory):
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path_factory.mktemp("sessions") / "daemon.log",
+                     "--threading", request.param, "--threads", "2")
+    yield d
+    assert d.stop() == 0, d.log()[-2000:]
+
+
+@pytest.fixture(scope="module")
+def validators(schemas):
+    session = schemas["session"]
+    defs = lambda name: {**session["$defs"][name], "$defs": session["$defs"]}  # noqa: E731
+    return {
+        "created": jsonschema.Draft202012Validator(defs("created")),
+        "info": jsonschema.Draft202012Validator(defs("info")),
+        "step": jsonschema.Draft202012Validator(defs("step")),
+        "result": jsonschema.Draft202012Validator(schemas["result"]),
+        "error": jsonschema.Draft202012Validator(schemas["error"]),
+    }
+
+
+def load(paths, name):
+    return json.loads((paths.examples / f"{name}.json").read_text())
+
+
+def positions_of(scene):
+    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
+
+
+def with_positions(scene, pos):
+    out = copy.deepcopy(scene)
+    k = 0
+    for b in out["bodies"]:
+        n = len(b["nodes"])
+        b["nodes"] = pos[k:k + n].tolist()
+        k += n
+    return out
+
+
+def without_elapsed(doc):
+    doc = copy.deepcopy(doc)
+    doc["summary"].pop("elapsed_ms", None)
+    return doc
+
+
+def forces_of(result):
+    return np.concatenate([np.asarray(b["forces"], dtype=float).reshape(-1, 2) for b in result["bodies"]])
+
+
+def create(daemon, scene, validators):
+    r = requests.post(daemon.url("/v1/scenes"), json=scene, timeout=60)
+    assert r.status_code == 201, r.text
+    doc = r.json()
+    validators["created"].validate(doc)
+    assert r.headers["Location"] == f"/v1/scenes/{doc['id']}"
+    return doc
+
+
+def full_contact(daemon, scene):
+    r = requests.post(daemon.url("/v1/contact"), json=scene, timeout=60)
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def step_json(daemon, sid, body, **kw):
+    return requests.post(daemon.url(f"/v1/scenes/{sid}/contact"), json=body, timeout=60, **kw)
+
+
+def step_binary(daemon, sid, pos, params=None):
+    data = np.ascontiguousarray(pos, dtype="<f8").tobytes()
+    return requests.post(daemon.url(f"/v1/scenes/{sid}/contact"), data=data, headers=BINARY, params=params,
+                         timeout=60)
+
+
+def check_error(validators, r, status, code, pointer=None):
+    assert r.status_code == status, (r.status_code, r.text)
+    assert r.headers["Content-Type"].startswith("application/json")
+    doc = r.json()
+    validators["error"].validate(doc)
+    assert doc["error"]["code"] == code, doc
+    if pointer is not None:
+        assert doc["error"]["pointer"] == pointer, doc
+    return doc["error"]
+
+
+def assert_binary_equals(r, result):
+    """A binary answer carries the forces and the summary of `result`, bit for bit."""
+    assert r.status_code == 200, r.text
+    assert r.headers["Content-Type"] == "application/octet-stream"
+    forces = np.frombuffer(r.content, dtype="<f8").reshape(-1, 2)
+    assert np.array_equal(forces, forces_of(result))
+    s = result["summary"]
+    assert float(r.headers["NTS-Energy"]) == s["energy"]
+    assert [float(v) for v in r.headers["NTS-Virial"].split(",")] == [s["virial"][k] for k in ("xx", "yy", "xy")]
+    assert int(r.headers["NTS-Contacts"]) == s["contacts"]
+    assert float(r.headers["NTS-Max-Penetration"]) == s["max_penetration"]
+    assert float(r.headers["NTS-Elapsed-Ms"]) >= 0.0
+
+
+# ------------------------------------------------------------ bit for bit
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_steps_equal_full_scene_calls(daemon, paths, validators, name):
+    scene = load(paths, name)
+    scene.setdefault("options", {})["outputs"] = ["forces", "energy", "virial", "contacts", "gaps"]
+    doc = create(daemon, scene, validators)
+    pos0 = positions_of(scene)
+    assert doc["nodes"] == len(pos0) and doc["bodies"] == len(scene["bodies"])
+    rng = np.random.default_rng(sum(map(ord, name)))
+    scale = float(np.ptp(pos0[:, 0])) * 1e-3
+    for step in range(4):
+        # Rigid moves of whole bodies plus a jitter of every node.
+        pos = pos0.copy()
+        k = 0
+        for b in scene["bodies"]:
+            n = len(b["nodes"])
+            pos[k:k + n] += rng.normal(scale=3 * scale, size=2) + rng.normal(scale=scale, size=(n, 2))
+            k += n
+        want = full_contact(daemon, with_positions(scene, pos))
+        r = step_json(daemon, doc["id"], {"positions": pos.tolist()})
+        assert r.status_code == 200, r.text
+        got = r.json()
+        validators["result"].validate(got)
+        assert without_elapsed(got) == without_elapsed(want)
+        assert_binary_equals(step_binary(daemon, doc["id"], pos), want)
+    # An empty body: the stored positions (the last step's).
+    r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), timeout=60)
+    assert without_elapsed(r.json()) == without_elapsed(want)
+    r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), data=b"", headers=BINARY, timeout=60)
+    assert_binary_equals(r, want)
+    info = requests.get(daemon.url(f"/v1/scenes/{doc['id']}"), timeout=10)
+    assert info.status_code == 200
+    validators["info"].validate(info.json())
+    assert info.json()["steps"] == 10
+    assert requests.delete(daemon.url(f"/v1/scenes/{doc['id']}"), timeout=10).status_code == 204
+
+
+def test_step_options_equal_the_scene_options(daemon, paths, validators):
+    scene = load(paths, "jittered_packing")
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene)
+    over = {"penalty": 123.5, "alpha": 0.1, "solver": "newton", "search_radius": 0.05,
+            "outputs": ["forces", "contacts"]}
+    changed = copy.deepcopy(scene)
+    changed["options"].update(over)
+    want = full_contact(daemon, changed)
+    r = step_json(daemon, doc["id"], {"positions": pos.tolist(), "options": over})
+    assert without_elapsed(r.json()) == without_elapsed(want)
+    assert "contacts" in r.json()
+    # The same overrides as query parameters of a binary step.
+    r = step_binary(daemon, doc["id"], pos, params={"penalty": "123.5", "alpha": "0.1", "solver": "newton",
+                                                     "search_radius": "0.05", "outputs": "forces,contacts"})
+    assert_binary_equals(r, want)
+    # Overrides hold for one step only: the next one has the scene's options.
+    r = step_json(daemon, doc["id"], {})
+    assert without_elapsed(r.json()) == without_elapsed(full_contact(daemon, scene))
+    # A JSON step may answer in binary too.
+    r = step_json(daemon, doc["id"], {"positions": pos.tolist()}, headers={"Accept": "application/octet-stream"})
+    assert_binary_equals(r, full_contact(daemon, scene))
+
+
+def test_positions_that_change_the_scene_are_rebuilt(daemon, paths, validators):
+    """Mirroring a body turns its loop over: the session builds the scene anew,
+    as the full call does (loops_reversed counts the reversal)."""
+    scene = load(paths, "two_disks")
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene)
+    n0 = len(scene["bodies"][0]["nodes"])
+    mirrored = pos.copy()
+    cx = mirrored[n0:, 0].mean()
+    mirrored[n0:, 0] = 2 * cx - mirrored[n0:, 0]
+    want = full_contact(daemon, with_positions(scene, mirrored))
+    assert want["summary"]["loops_reversed"] == 1
+    got = step_json(daemon, doc["id"], {"positions": mirrored.tolist()}).json()
+    assert without_elapsed(got) == without_elapsed(want)
+    # And back.
+    got = step_json(daemon, doc["id"], {"positions": pos.tolist()}).json()
+    assert without_elapsed(got) == without_elapsed(full_contact(daemon, scene))
+
+
+def test_a_failing_step_gives_the_full_calls_error_and_keeps_the_session(daemon, paths, validators):
+    scene = load(paths, "two_disks")
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene)
+    bad = pos.copy()
+    bad[1] = bad[0]  # a zero-length segment
+    full = requests.post(daemon.url("/v1/contact"), json=with_positions(scene, bad), timeout=60)
+    r = step_json(daemon, doc["id"], {"positions": bad.tolist()})
+    err = check_error(validators, r, 400, "degenerate_segment")
+    assert r.json() == full.json()
+    assert err["pointer"].startswith("/bodies/0")
+    # The stored positions are still the good ones.
+    r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), timeout=60)
+    assert without_elapsed(r.json()) == without_elapsed(full_contact(daemon, scene))
+
+
+# ------------------------------------------------------------ bad input
+
+def test_bad_steps_are_4xx_naming_the_place(daemon, paths, validators):
+    scene = load(paths, "two_disks")
+    doc = create(daemon, scene, validators)
+    sid, n = doc["id"], doc["nodes"]
+    pos = positions_of(scene)
+    url = daemon.url(f"/v1/scenes/{sid}/contact")
+
+    r = requests.post(url, data=b"\0" * (16 * n - 8), headers=OCTET, timeout=10)
+    e = check_error(validators, r, 400, "invalid_value", "")
+    assert f"expected 16*N = 16 * {n} = {16 * n} bytes" in e["message"] and f"got {16 * n - 8}" in e["message"]
+    bad = pos.copy()
+    bad[57, 1] = np.nan
+    e = check_error(validators, step_binary(daemon, sid, bad), 400, "non_finite", "/positions/57")
+    assert "/bodies/1/nodes/" in e["message"]
+    bad[57, 1] = np.inf
+    check_error(validators, step_binary(daemon, sid, bad), 400, "non_finite", "/positions/57")
+    check_error(validators, step_json(daemon, sid, {"positions": pos[:-1].tolist()}), 400, "invalid_value",
+                "/positions")
+    rows = pos.tolist()
+    rows[3] = [1.0]
+    check_error(validators, step_json(daemon, sid, {"positions": rows}), 400, "invalid_type", "/positions/3")
+    rows[3] = [1.0, "x"]
+    check_error(validators, step_json(daemon, sid, {"positions": rows}), 400, "invalid_type", "/positions/3")
+    r = requests.post(url, data=b'{"positions": [[1e999, 0]]}', headers={"Content-Type": "application/json"},
+                      timeout=10)
+    check_error(validators, r, 400, "invalid_value", "/positions")  # the count is checked first
+    check_error(validators, step_json(daemon, sid, {"options": {"friction": 1}}), 400, "unknown_field",
+                "/options/friction")
+    check_error(validators, step_json(daemon, sid, {"options": {"alpha": 0.9}}), 400, "invalid_option",
+                "/options/alpha")
+    check_error(validators, step_json(daemon, sid, {"options": {"search_radius": -1}}), 400, "invalid_option",
+                "/options/search_radius")
+    check_error(validators, step_json(daemon, sid, {"options": {"outputs": ["forces", "stress"]}}), 400,
+                "invalid_value", "/options/outputs/1")
+    check_error(validators, step_json(daemon, sid, {"positions": pos.tolist(), "extra": 1}), 400,
+                "unknown_field", "/extra")
+    check_error(validators, step_binary(daemon, sid, pos, params={"friction": "1"}), 400, "unknown_field",
+                "/options/friction")
+    check_error(validators, step_binary(daemon, sid, pos, params={"penalty": "abc"}), 400, "invalid_value",
+                "/options/penalty")
+    check_error(validators, step_binary(daemon, sid, pos, params={"penalty": "0"}), 400, "invalid_option",
+                "/options/penalty")
+    check_error(validators, step_binary(daemon, sid, pos, params={"outputs": "forces,bogus"}), 400,
+                "invalid_value", "/options/outputs")
+    r = requests.post(url, data=b"1,2", headers={"Content-Type": "text/csv"}, timeout=10)
+    check_error(validators, r, 415, "unsupported_media_type")
+    r = requests.post(url, data=b"{", headers={"Content-Type": "application/json"}, timeout=10)
+    check_error(validators, r, 400, "invalid_json")
+    # None of these changed the session: it still answers at its stored positions.
+    r = requests.post(url, timeout=10)
+    assert without_elapsed(r.json()) == without_elapsed(full_contact(daemon, scene))
+
+
+def test_an_invalid_scene_makes_no_session(daemon, paths, validators):
+    scene = load(paths, "two_disks")
+    bad = copy.deepcopy(scene)
+    bad["bodies"][1]["nodes"][2] = bad["bodies"][1]["nodes"][1]
+    full = requests.post(daemon.url("/v1/contact"), json=bad, timeout=10)
+    r = requests.post(daemon.url("/v1/scenes"), json=bad, timeout=10)
+    check_error(validators, r, 400, "degenerate_segment")
+    assert r.json() == full.json()
+    r = requests.post(daemon.url("/v1/scenes"), data=b"[1,", headers={"Content-Type": "application/json"},
+                      timeout=10)
+    check_error(validators, r, 400, "invalid_json")
+    box = copy.deepcopy(scene)
+    box["options"]["periodic"] = {"lx": 0.3, "ly": 0.3}
+    full = requests.post(daemon.url("/v1/contact"), json=box, timeout=10)
+    r = requests.post(daemon.url("/v1/scenes"), json=box, timeout=10)
+    check_error(validators, r, 400, "box_too_small")
+    assert r.json() == full.json()
+
+
+@pytest.mark.parametrize("method", ["GET", "DELETE", "POST"])
+@pytest.mark.parametrize("sid", ["A" * 43, "nope", "A" * 44])
+def test_unknown_scene_is_404(daemon, validators, method, sid):
+    path = f"/v1/scenes/{sid}" + ("/contact" if method == "POST" else "")
+    r = requests.request(method, daemon.url(path), timeout=10)
+    check_error(validators, r, 404, "unknown_scene")
+
+
+def test_scene_routes_methods(daemon, validators):
+    r = requests.get(daemon.url("/v1/scenes"), timeout=10)
+    assert r.status_code == 405 and r.headers["Allow"] == "POST"
+    r = requests.put(daemon.url("/v1/scenes/" + "A" * 43), timeout=10)
+    assert r.status_code == 405 and r.headers["Allow"] == "GET, HEAD, DELETE"
+    r = requests.get(daemon.url("/v1/scenes/" + "A" * 43 + "/contact"), timeout=10)
+    assert r.status_code == 405 and r.headers["Allow"] == "POST"
+    r = requests.get(daemon.url("/v1/scenes/" + "A" * 43 + "/other"), timeout=10)
+    check_error(validators, r, 404, "not_found")
+
+
+def test_ids_are_unguessable(daemon, paths, validators):
+    scene = load(paths, "two_disks")
+    ids = [create(daemon, scene, validators)["id"] for _ in range(8)]
+    assert len(set(ids)) == 8
+    for sid in ids:
+        assert len(sid) == 43  # 256 bits of base64url: the schema's pattern checks the alphabet
+        assert requests.delete(daemon.url(f"/v1/scenes/{sid}"), timeout=10).status_code == 204
+    # 8 ids of 256 random bits: every one of the 64 characters is about equally likely; at least
+    # 20 distinct ones among 344 characters (a fixed or counter-like id would fail).
+    assert len(set("".join(ids))) >= 20
+
+
+# ------------------------------------------------------------ concurrency
+
+def test_concurrent_steps_on_one_session_never_interleave(daemon, paths, validators):
+    scene = load(paths, "jittered_packing")
+    doc = create(daemon, scene, validators)
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(5)
+    moves = [pos0 + rng.normal(scale=0.003, size=pos0.shape) for _ in range(6)]
+    wants = [full_contact(daemon, with_positions(scene, p)) for p in moves]
+    failures = []
+
+    def worker(i):
+        s = requests.Session()
+        for rep in range(5):
+            k = (i + rep) % len(moves)
+            if (i + rep) % 2:
+                r = s.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"),
+                           data=moves[k].astype("<f8").tobytes(), headers=BINARY, timeout=60)
+                f = np.frombuffer(r.content, dtype="<f8").reshape(-1, 2)
+                if r.status_code != 200 or not np.array_equal(f, forces_of(wants[k])):
+                    failures.append((i, rep, r.status_code))
+            else:
+                r = s.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), json={"positions": moves[k].tolist()},
+                           timeout=60)
+                if r.status_code != 200 or without_elapsed(r.json()) != without_elapsed(wants[k]):
+                    failures.append((i, rep, r.status_code))
+
+    threads = [threading.Thread(target=worker, args=(i,)) for i in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert failures == []
+    assert requests.get(daemon.url(f"/v1/scenes/{doc['id']}"), timeout=10).json()["steps"] == 30
+
+
+# ------------------------------------------------------------ bounds
+
+def health_sessions(d):
+    return requests.get(d.url("/v1/health"), timeout=10).json()["sessions"]
+
+
+def test_max_sessions_evicts_the_least_recently_used(daemon_factory, paths, validators):
+    d = daemon_factory("--max-sessions", "2")
+    scene = load(paths, "two_disks")
+    a = create(d, scene, validators)["id"]
+    b = create(d, scene, validators)["id"]
+    assert requests.post(d.url(f"/v1/scenes/{a}/contact"), timeout=10).status_code == 200  # a is now newer than b
+    c = create(d, scene, validators)["id"]
+    assert requests.post(d.url(f"/v1/scenes/{b}/contact"), timeout=10).status_code == 404
+    for sid in (a, c):
+        assert requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=10).status_code == 200
+    h = health_sessions(d)
+    assert h["held"] == 2 and h["evicted"] == 1 and h["max"] == 2 and h["created"] == 3
+
+
+def test_session_memory_budget(daemon_factory, paths, validators):
+    scene = load(paths, "jittered_packing")
+    probe = daemon_factory()
+    sid = create(probe, scene, validators)["id"]
+    requests.post(probe.url(f"/v1/scenes/{sid}/contact"), timeout=10)
+    one = requests.get(probe.url(f"/v1/scenes/{sid}"), timeout=10).json()["memory_bytes"]
+    assert one > 16 * positions_of(scene).size // 2  # at least the positions themselves
+    assert health_sessions(probe)["memory_bytes"] == one
+    # Room for two and a half: the third evicts the first (when its first step
+    # grows it to its full size, at the latest).
+    d = daemon_factory("--session-memory", str(int(2.5 * one)))
+    ids = []
+    for _ in range(3):
+        ids.append(create(d, scene, validators)["id"])
+        assert requests.post(d.url(f"/v1/scenes/{ids[-1]}/contact"), timeout=10).status_code == 200
+    h = health_sessions(d)
+    assert h["held"] == 2 and h["evicted"] == 1 and h["memory_bytes"] <= int(2.5 * one)
+    assert requests.post(d.url(f"/v1/scenes/{ids[0]}/contact"), timeout=10).status_code == 404
+    # A scene that alone exceeds the budget is refused, naming the flag.
+    tiny = daemon_factory("--session-memory", "10k")
+    r = requests.post(tiny.url("/v1/scenes"), json=scene, timeout=10)
+    e = check_error(validators, r, 413, "payload_too_large")
+    assert "--session-memory" in e["message"]
+
+
+def test_session_ttl(daemon_factory, paths, validators):
+    d = daemon_factory("--session-ttl", "1")
+    scene = load(paths, "two_disks")
+    sid = create(d, scene, validators)["id"]
+    assert create(d, scene, validators)["expires_in_s"] == 1
+    time.sleep(0.6)
+    assert requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=10).status_code == 200  # a use
+    time.sleep(0.6)
+    assert requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=10).status_code == 200  # still alive
+    time.sleep(1.5)
+    check_error(validators, requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=10), 404, "unknown_scene")
+    assert health_sessions(d)["expired"] == 2
+    assert health_sessions(d)["held"] == 0
+
+
+def test_a_session_in_use_is_never_evicted(daemon_factory, paths, validators):
+    """--max-sessions 1: while a step runs, creating another session answers 503
+    (every session is in use), never evicts the busy one."""
+    d = daemon_factory("--max-sessions", "1", "--threads", "2")
+    big = {"version": 1, "options": {"penalty": 1.0, "search": "brute_force"}, "bodies": []}
+    for i in range(40):
+        th = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+        big["bodies"].append({"id": i, "nodes": np.c_[np.cos(th) + 1.9 * (i % 8),
+                                                        np.sin(th) + 1.9 * (i // 8)].tolist()})
+    sid = create(d, big, validators)["id"]
+    result = {}
+
+    def slow_step():
+        result["r"] = requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=120)
+
+    saw_busy = False
+    for _ in range(5):
+        t = threading.Thread(target=slow_step)
+        t.start()
+        time.sleep(0.05)
+        r = requests.post(d.url("/v1/scenes"), json=load(paths, "two_disks"), timeout=60)
+        t.join()
+        assert result["r"].status_code == 200
+        if r.status_code == 503:
+            check_error(validators, r, 503, "overloaded")
+            assert r.headers["Retry-After"] == "1"
+            saw_busy = True
+            break
+        # The step had finished before the create: it was evicted, which is right for an idle one.
+        assert r.status_code == 201
+        sid = create(d, big, validators)["id"]
+    assert saw_busy
+    assert requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=120).status_code == 200
