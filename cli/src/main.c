@@ -14,9 +14,12 @@
 
 enum { EXIT_DONE = 0, EXIT_INTERNAL = 1, EXIT_USAGE = 2, EXIT_INVALID = 3 };
 
+static void put_escaped(FILE* f, const char* s, int quote);
+
 static const char usage_text[] =
     "usage: ntscontact [options] SCENE.json\n"
     "       ntscontact [options] -            (read the scene from standard input)\n"
+    "       ntscontact [options] --frames FRAMES.bin SCENE.json\n"
     "\n"
     "Evaluate node-to-segment contact for a scene (schemas/scene.schema.json) and\n"
     "write the result (schemas/result.schema.json) as JSON.\n"
@@ -31,6 +34,12 @@ static const char usage_text[] =
     "  --validate           check the scene only; print a validation summary\n"
     "  --pretty             indent the output\n"
     "  -o, --output FILE    write to FILE instead of standard output (- for it)\n"
+    "  --frames FILE        evaluate the scene's topology at many positions without\n"
+    "                       parsing it again: FILE (- for standard input) holds frames\n"
+    "                       of 16 N bytes each, N the scene's nodes, little-endian\n"
+    "                       float64 x then y for every node (bodies in scene order,\n"
+    "                       nodes in body order); one result per frame, one line\n"
+    "                       each (JSON Lines), as POST /v1/scenes/{id}/contact gives\n"
     "\n"
     "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
     "too_deep, the message naming the limit; counts take k, M, G suffixes):\n"
@@ -45,6 +54,23 @@ static const char usage_text[] =
     "\n"
     "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
     "error: code, JSON pointer, message), 1 internal error\n";
+
+/* One line on standard error: [frame K: ]code at "pointer": message. */
+static int print_error(const ntsj_response* resp, long long frame) {
+    char pointer[256], message[512];
+    ntsj_error_fields(resp->body, resp->length, pointer, sizeof pointer, message, sizeof message);
+    /* The pointer is printed as the inside of a JSON string and control
+     * characters are escaped, so the diagnostic stays one parseable line
+     * whatever keys the request used. */
+    fprintf(stderr, "ntscontact: ");
+    if (frame >= 0) fprintf(stderr, "frame %lld: ", frame);
+    fprintf(stderr, "%s at \"", resp->code);
+    put_escaped(stderr, pointer, 1);
+    fputs("\": ", stderr);
+    put_escaped(stderr, message, 0);
+    fputc('\n', stderr);
+    return resp->http_status >= 500 ? EXIT_INTERNAL : EXIT_INVALID;
+}
 
 static int usage_error(const char* fmt, const char* arg) {
     fprintf(stderr, "ntscontact: ");
@@ -148,11 +174,105 @@ static char* read_all(FILE* f, size_t limit, size_t* length) {
     return buf;
 }
 
+static FILE* open_output(const char* output) {
+    FILE* out;
+    if (!output || strcmp(output, "-") == 0) return stdout;
+    out = fopen(output, "wb");
+    if (!out) fprintf(stderr, "ntscontact: cannot write '%s': %s\n", output, strerror(errno));
+    return out;
+}
+
+/* --frames: one session (the scene parsed once), one step per frame. */
+static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, const char* frames,
+                      const char* output) {
+    ntsj_session* ss = NULL;
+    ntsj_response resp;
+    ntsj_step step;
+    FILE* in;
+    FILE* out;
+    char* frame = NULL;
+    size_t frame_bytes;
+    long long k = 0;
+    int status = EXIT_DONE, nodes, write_failed = 0;
+
+    if (ntsj_session_create(scene, length, cfg, &ss, &resp) != 0 && !resp.body) {
+        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
+        return EXIT_INTERNAL;
+    }
+    if (ss == NULL) {
+        status = print_error(&resp, -1);
+        ntsj_response_free(&resp);
+        return status;
+    }
+    nodes = ntsj_session_get_info(ss).nodes;
+    frame_bytes = (size_t)nodes * 16u;
+    in = strcmp(frames, "-") == 0 ? stdin : fopen(frames, "rb");
+    if (!in) {
+        fprintf(stderr, "ntscontact: cannot open '%s': %s\n", frames, strerror(errno));
+        ntsj_session_destroy(ss);
+        return EXIT_USAGE;
+    }
+    frame = (char*)malloc(frame_bytes);
+    out = frame ? open_output(output) : NULL;
+    if (!frame || !out) {
+        if (in != stdin) fclose(in);
+        free(frame);
+        ntsj_session_destroy(ss);
+        return frame ? EXIT_USAGE : EXIT_INTERNAL;
+    }
+    memset(&step, 0, sizeof step);
+    step.kind = NTSJ_STEP_BINARY;
+    step.body = frame;
+    for (;; ++k) {
+        size_t got = fread(frame, 1, frame_bytes, in);
+        if (got == 0 && (feof(in) || ferror(in))) break;
+        if (got < frame_bytes) {
+            fprintf(stderr,
+                    "ntscontact: frame %lld: invalid_value at \"\": %s has %lu bytes left, a frame is 16*N = 16 * %d = "
+                    "%lu bytes\n", k, frames, (unsigned long)got, nodes, (unsigned long)frame_bytes);
+            status = EXIT_INVALID;
+            break;
+        }
+        step.length = got;
+        if (ntsj_session_step(ss, &step, cfg, &resp) != 0 && !resp.body) {
+            fprintf(stderr, "ntscontact: frame %lld: out_of_memory at \"\": out of memory\n", k);
+            status = EXIT_INTERNAL;
+            break;
+        }
+        if (!resp.ok) {
+            status = print_error(&resp, k);
+            ntsj_response_free(&resp);
+            break;
+        }
+        if (fwrite(resp.body, 1, resp.length, out) != resp.length) write_failed = 1;
+        ntsj_response_free(&resp);
+        if (write_failed) break;
+    }
+    if (ferror(in)) {
+        fprintf(stderr, "ntscontact: cannot read '%s'\n", frames);
+        status = EXIT_USAGE;
+    }
+    if (in != stdin) fclose(in);
+    if (out != stdout) {
+        if (fclose(out) != 0) write_failed = 1;
+    } else if (fflush(out) != 0) {
+        write_failed = 1;
+    }
+    if (write_failed) {
+        fprintf(stderr, "ntscontact: error writing the results\n");
+        status = EXIT_INTERNAL;
+    }
+    free(frame);
+    ntsj_session_destroy(ss);
+    return status;
+}
+
 int main(int argc, char** argv) {
     ntsj_config cfg = ntsj_default_config();
     ntsj_response resp;
     const char* input = NULL;
     const char* output = NULL;
+    const char* frames = NULL;
     FILE* in;
     FILE* out;
     char* data;
@@ -203,7 +323,7 @@ int main(int argc, char** argv) {
         }
         if (strcmp(name, "--alpha") != 0 && strcmp(name, "--penalty") != 0 && strcmp(name, "--search-radius") != 0 &&
             strcmp(name, "--solver") != 0 && strcmp(name, "--outputs") != 0 && strcmp(name, "-o") != 0 &&
-            strcmp(name, "--output") != 0 && strncmp(name, "--max-", 6) != 0)
+            strcmp(name, "--output") != 0 && strcmp(name, "--frames") != 0 && strncmp(name, "--max-", 6) != 0)
             return usage_error("unknown option '%s'", a);
         if (!val) {
             if (i + 1 >= argc) return usage_error("option '%s' needs a value", name);
@@ -253,11 +373,17 @@ int main(int argc, char** argv) {
             } else {
                 return usage_error("unknown option '%s'", name);
             }
+        } else if (strcmp(name, "--frames") == 0) {
+            frames = val;
         } else {
             output = val;
         }
     }
     if (!input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
+    if (frames && strcmp(frames, "-") == 0 && strcmp(input, "-") == 0)
+        return usage_error("%s", "--frames - and a scene from standard input: only one can read it");
+    if (frames && (cfg.mode == NTSJ_VALIDATE || cfg.pretty))
+        return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
 
     if (strcmp(input, "-") == 0) {
         in = stdin;
@@ -275,6 +401,11 @@ int main(int argc, char** argv) {
         return EXIT_INTERNAL;
     }
 
+    if (frames) {
+        status = run_frames(data, length, &cfg, frames, output);
+        free(data);
+        return status;
+    }
     status = ntsj_handle(data, length, &cfg, &resp);
     free(data);
     if (status != 0 || !resp.body) {
@@ -282,18 +413,7 @@ int main(int argc, char** argv) {
         return EXIT_INTERNAL;
     }
     if (!resp.ok) {
-        /* One line: code, pointer, message (the error document, flattened). */
-        char pointer[256], message[512];
-        ntsj_error_fields(resp.body, resp.length, pointer, sizeof pointer, message, sizeof message);
-        /* The pointer is printed as the inside of a JSON string and control
-         * characters are escaped, so the diagnostic stays one parseable line
-         * whatever keys the request used. */
-        fprintf(stderr, "ntscontact: %s at \"", resp.code);
-        put_escaped(stderr, pointer, 1);
-        fputs("\": ", stderr);
-        put_escaped(stderr, message, 0);
-        fputc('\n', stderr);
-        status = resp.http_status >= 500 ? EXIT_INTERNAL : EXIT_INVALID;
+        status = print_error(&resp, -1);
         ntsj_response_free(&resp);
         return status;
     }

@@ -1,0 +1,105 @@
+"""`ntscontact --frames FRAMES.bin SCENE.json`: the scene parsed once, one
+result line per frame of raw float64 positions, each equal to the one-shot
+CLI on the full scene at those positions (elapsed_ms aside)."""
+import copy
+import json
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
+EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
+
+
+def run(*args, stdin=None):
+    return subprocess.run([str(CLI), *map(str, args)], input=stdin, capture_output=True, timeout=120)
+
+
+def positions_of(scene):
+    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
+
+
+def with_positions(scene, pos):
+    out = copy.deepcopy(scene)
+    k = 0
+    for b in out["bodies"]:
+        n = len(b["nodes"])
+        b["nodes"] = pos[k:k + n].tolist()
+        k += n
+    return out
+
+
+def without_elapsed(doc):
+    doc["summary"].pop("elapsed_ms", None)
+    return doc
+
+
+def moves(scene, count, seed):
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(seed)
+    return [pos0 + rng.normal(scale=1e-3, size=pos0.shape) for _ in range(count)]
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_each_frame_equals_the_one_shot_cli(tmp_path, name):
+    scene_path = REPO / "examples" / f"{name}.json"
+    scene = json.loads(scene_path.read_text())
+    frames = moves(scene, 3, len(name))
+    path = tmp_path / "frames.bin"
+    path.write_bytes(b"".join(f.astype("<f8").tobytes() for f in frames))
+    r = run("--frames", path, "--outputs", "forces,contacts", scene_path)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.decode().splitlines()
+    assert len(lines) == 3
+    for line, pos in zip(lines, frames):
+        one = tmp_path / "one.json"
+        one.write_text(json.dumps(with_positions(scene, pos)))
+        want = run("--outputs", "forces,contacts", one)
+        assert want.returncode == 0
+        assert without_elapsed(json.loads(line)) == without_elapsed(json.loads(want.stdout))
+    # From standard input too, and to a file.
+    out = tmp_path / "out.jsonl"
+    r = run("--frames", "-", "-o", out, "--outputs", "forces,contacts", scene_path, stdin=path.read_bytes())
+    assert r.returncode == 0, r.stderr
+    assert [without_elapsed(json.loads(a)) for a in out.read_text().splitlines()] == \
+           [without_elapsed(json.loads(a)) for a in lines]
+
+
+def test_no_frames_no_lines(tmp_path):
+    path = tmp_path / "empty.bin"
+    path.write_bytes(b"")
+    r = run("--frames", path, REPO / "examples" / "two_disks.json")
+    assert r.returncode == 0 and r.stdout == b""
+
+
+def test_bad_frames_name_the_frame(tmp_path):
+    scene_path = REPO / "examples" / "two_disks.json"
+    scene = json.loads(scene_path.read_text())
+    n = len(positions_of(scene))
+    frames = moves(scene, 3, 1)
+    frames[1][17, 0] = np.nan
+    path = tmp_path / "frames.bin"
+    path.write_bytes(b"".join(f.astype("<f8").tobytes() for f in frames))
+    r = run("--frames", path, scene_path)
+    assert r.returncode == 3
+    assert len(r.stdout.decode().splitlines()) == 1  # frame 0 was answered
+    assert r.stderr.decode().startswith('ntscontact: frame 1: non_finite at "/positions/17": ')
+    # A truncated last frame.
+    path.write_bytes(frames[0].astype("<f8").tobytes() + b"\0" * 40)
+    r = run("--frames", path, scene_path)
+    assert r.returncode == 3
+    assert f"frame 1: invalid_value" in r.stderr.decode() and f"16 * {n}" in r.stderr.decode()
+    # An invalid scene fails before any frame.
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"options": {"penalty": 1}, "bodies": []}')
+    r = run("--frames", path, bad)
+    assert r.returncode == 3 and r.stderr.decode().startswith("ntscontact: empty_scene")
+    # Usage errors.
+    assert run("--frames", path, "--pretty", scene_path).returncode == 2
+    assert run("--frames", path, "--validate", scene_path).returncode == 2
+    assert run("--frames", "-", "-", stdin=b"").returncode == 2
+    assert run("--frames", tmp_path / "missing.bin", scene_path).returncode == 2
