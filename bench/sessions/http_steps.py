@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+"""Per-step cost of a solver loop through ntscontactd on loopback (issue 10, item 9).
+
+For square packings of pressed 64-node disks (bench/load/make_scene.py: the same
+scene as codec/bench/codec_bench.c) of about 1e3, 1e4, 1e5 and 1e6 surface nodes,
+one run measures side by side the wall time of one step:
+
+  (a) POST /v1/contact with the whole scene as JSON (today's call),
+  (b) POST /v1/scenes/{id}/contact with JSON positions, JSON answer,
+  (c) the same with binary positions in and binary forces out,
+  (d) nts_evaluate alone, in process (codec_bench's "evaluate" stage, best of runs),
+
+each over one keep-alive connection with the request bodies encoded beforehand
+(so the client's own JSON encoding is not counted: the Python client's figures
+are in the section "Sessions through the Python client"). Every step moves the
+nodes, so the session really takes new positions. Medians of the repeats.
+
+    bench/sessions/http_steps.py [--sizes 4,12,40,125] [--repeats 7] [--out docs/benchmarks.md]
+
+Writes bench/results/sessions_http.csv and replaces the section "Sessions over
+HTTP" of docs/benchmarks.md. Standard library plus numpy.
+"""
+import argparse
+import csv
+import http.client
+import json
+import os
+import pathlib
+import re
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
+sys.path.insert(0, str(REPO / "bench" / "load"))
+from make_scene import scene as make_scene  # noqa: E402
+
+NODES_PER_DISK = 64
+SECTION = "## Sessions over HTTP"
+
+
+def start_daemon():
+    proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
+                             "--max-body", "256M", "--session-memory", "8G"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    line = proc.stdout.readline().decode()
+    if not line.startswith("ntscontactd listening on "):
+        proc.kill()
+        raise SystemExit(f"ntscontactd did not start: {line!r}")
+    return proc, int(line.rsplit(":", 1)[1])
+
+
+def request(conn, method, path, body=None, headers=None):
+    conn.request(method, path, body=body, headers=headers or {})
+    r = conn.getresponse()
+    data = r.read()
+    if r.status >= 300:
+        raise SystemExit(f"{method} {path}: {r.status} {data[:300]!r}")
+    return r, data
+
+
+def timed(fn, repeats):
+    times = []
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        fn(i)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def evaluate_in_process(side, repeats):
+    exe = BUILD / "bin" / "ntscontact_codec_bench"
+    if not exe.exists():
+        exe = BUILD / "codec" / "ntscontact_codec_bench"
+    out = subprocess.run([str(exe), str(side), str(NODES_PER_DISK), str(repeats)], capture_output=True, text=True,
+                         check=True).stdout
+    m = re.search(r"^nts_evaluate\S*\s+([0-9.]+)", out, re.M) or re.search(r"^evaluate\S*\s+([0-9.]+)", out, re.M)
+    if not m:
+        raise SystemExit(f"no evaluate line in codec_bench's output:\n{out}")
+    return float(m.group(1)) / 1e3
+
+
+def measure(port, side, repeats):
+    scene = make_scene(side, NODES_PER_DISK)
+    pos0 = np.concatenate([np.asarray(b["nodes"], dtype=float) for b in scene["bodies"]])
+    n = len(pos0)
+    rng = np.random.default_rng(side)
+    frames = [pos0 + rng.normal(scale=1e-4, size=pos0.shape) for _ in range(repeats)]
+    full_bodies, json_steps, bin_steps = [], [], []
+    for f in frames:
+        k = 0
+        for b in scene["bodies"]:
+            b["nodes"] = f[k:k + NODES_PER_DISK].tolist()
+            k += NODES_PER_DISK
+        full_bodies.append(json.dumps(scene, separators=(",", ":")).encode())
+        json_steps.append(json.dumps({"positions": f.tolist()}, separators=(",", ":")).encode())
+        bin_steps.append(f.astype("<f8").tobytes())
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=600)
+    JSON = {"Content-Type": "application/json"}
+    BIN = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
+    _, created = request(conn, "POST", "/v1/scenes", full_bodies[0], JSON)
+    sid = json.loads(created)["id"]
+    path = f"/v1/scenes/{sid}/contact"
+    request(conn, "POST", path, bin_steps[0], BIN)  # warm
+    server_ms = []
+
+    def step_bin(i):
+        r, _ = request(conn, "POST", path, bin_steps[i], BIN)
+        server_ms.append(float(r.getheader("NTS-Elapsed-Ms")))
+
+    row = {
+        "surface_nodes": n,
+        "request_mb_full": len(full_bodies[0]) / 1e6,
+        "request_mb_json_step": len(json_steps[0]) / 1e6,
+        "request_mb_binary_step": len(bin_steps[0]) / 1e6,
+        "a_full_json_ms": 1e3 * timed(lambda i: request(conn, "POST", "/v1/contact", full_bodies[i], JSON), repeats),
+        "b_session_json_ms": 1e3 * timed(lambda i: request(conn, "POST", path, json_steps[i], JSON), repeats),
+        "c_session_binary_ms": 1e3 * timed(step_bin, repeats),
+        "d_evaluate_ms": 1e3 * evaluate_in_process(side, max(3, repeats // 2)),
+    }
+    row["c_server_ms"] = statistics.median(server_ms)
+    request(conn, "DELETE", f"/v1/scenes/{sid}")
+    conn.close()
+    return row
+
+
+def markdown(rows, repeats):
+    lines = [SECTION, "",
+             "Wall time of one solver step through `ntscontactd` on loopback (one keep-alive connection, bodies",
+             f"encoded beforehand, median of {repeats} steps that each move every node), for square packings of",
+             "pressed 64-node disks, default model (alpha 0.2, penalty 100, search radius 0.1), one evaluation",
+             "thread. (a) `POST /v1/contact` with the whole scene; (b) a session step with JSON positions and a",
+             "JSON answer; (c) a session step with binary positions in and binary forces out; (d) `nts_evaluate`",
+             "alone in process (codec_bench's evaluate stage, best of runs). `bench/sessions/http_steps.py`",
+             "writes this section and `bench/results/sessions_http.csv`.", "",
+             "| surface nodes | (a) full JSON | (b) session + JSON | (c) session + binary | (d) evaluate | (c)/(d) "
+             "| (a)/(c) | request (a) / (c) | server time of (c) |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['surface_nodes']:,} | {r['a_full_json_ms']:.2f} ms | {r['b_session_json_ms']:.2f} ms "
+                     f"| {r['c_session_binary_ms']:.2f} ms | {r['d_evaluate_ms']:.2f} ms "
+                     f"| {r['c_session_binary_ms'] / r['d_evaluate_ms']:.2f} "
+                     f"| {r['a_full_json_ms'] / r['c_session_binary_ms']:.1f} "
+                     f"| {r['request_mb_full']:.2f} MB / {r['request_mb_binary_step']:.2f} MB "
+                     f"| {r['c_server_ms']:.2f} ms |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def replace_section(doc, section):
+    start = doc.find(SECTION + "\n")
+    if start < 0:
+        return doc.rstrip("\n") + "\n\n" + section
+    end = doc.find("\n## ", start + len(SECTION))
+    return doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", default="4,12,40,125", help="disks per side (x64 nodes each)")
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--out", default=str(REPO / "docs" / "benchmarks.md"))
+    a = ap.parse_args()
+    proc, port = start_daemon()
+    rows = []
+    try:
+        for side in map(int, a.sizes.split(",")):
+            reps = a.repeats if side < 100 else max(3, a.repeats // 2)
+            rows.append(measure(port, side, reps))
+            print(json.dumps(rows[-1]), flush=True)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)
+    results = REPO / "bench" / "results" / "sessions_http.csv"
+    with open(results, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    out = pathlib.Path(a.out)
+    out.write_text(replace_section(out.read_text() if out.exists() else "", markdown(rows, a.repeats)))
+    print(f"wrote {results} and {out}")
+
+
+if __name__ == "__main__":
+    main()
