@@ -12,6 +12,10 @@
  *   - the body parses as JSON and never holds NaN, Infinity or null (the
  *     encoder's stand-in for a non-finite number); an error body
  *     is {"error": {"code": <the same code>, ...}}.
+ * Each input is also a session step (issue 10) on a small fixed scene: as a
+ * JSON step body, and as raw bytes repeated into the 16 N bytes of a binary
+ * step (any doubles: NaN, huge, turned-over loops), answered in JSON and in
+ * binary; a binary answer must be 16 N bytes of finite doubles.
  * The same file links into the plain replay driver (replay_main.c), which
  * replays the corpus under gcc's sanitizers inside the test suite. */
 #include <stdint.h>
@@ -96,6 +100,77 @@ static void check_no_nonfinite(const char* s, size_t n) {
     }
 }
 
+/* Two squares and a triangle mesh square: loops, triangles and holes are not
+ * needed for the step paths, reversals and rebuilds are. */
+static const char step_scene[] =
+    "{\"options\":{\"penalty\":10,\"alpha\":0.2,\"outputs\":[\"forces\",\"contacts\",\"gaps\"]},\"bodies\":["
+    "{\"id\":\"a\",\"nodes\":[[0,0],[1,0],[1,1],[0,1]]},"
+    "{\"id\":2,\"nodes\":[[0.9,0.2],[1.9,0.2],[1.9,1.2],[0.9,1.2]]},"
+    "{\"id\":\"m\",\"nodes\":[[0,1.05],[1,1.05],[1,2],[0,2]],\"triangles\":[[0,1,2],[0,2,3]]}]}";
+
+static void fuzz_steps(const uint8_t* data, size_t size) {
+    ntsj_config cfg = ntsj_default_config();
+    ntsj_session* ss = NULL;
+    ntsj_response r;
+    ntsj_step st;
+    char* bin;
+    size_t bytes, i;
+    int rc, nodes, pass;
+
+    rc = ntsj_session_create(step_scene, sizeof step_scene - 1, &cfg, &ss, &r);
+    CHECK(rc == 0 && ss != NULL);
+    nodes = ntsj_session_get_info(ss).nodes;
+    bytes = 16u * (size_t)nodes;
+    memset(&st, 0, sizeof st);
+    st.kind = NTSJ_STEP_JSON;
+    st.body = (const char*)data;
+    st.length = size;
+    rc = ntsj_session_step(ss, &st, &cfg, &r);
+    check_response(&r, rc);
+    check_no_nonfinite(r.body, r.length);
+    ntsj_response_free(&r);
+
+    bin = malloc(bytes);
+    CHECK(bin != NULL);
+    for (i = 0; i < bytes; ++i) bin[i] = size ? (char)data[i % size] : 0;
+    for (pass = 0; pass < 2; ++pass) {
+        st.kind = NTSJ_STEP_BINARY;
+        st.body = bin;
+        st.length = bytes;
+        st.answer_binary = pass;
+        rc = ntsj_session_step(ss, &st, &cfg, &r);
+        CHECK(rc == 0 && r.body != NULL);
+        if (r.ok && r.binary) {
+            CHECK(r.length == bytes);
+            for (i = 0; i < bytes; i += 8) {
+                double v;
+                memcpy(&v, r.body + i, sizeof v);
+                CHECK(v - v == 0.0);
+            }
+        } else {
+            check_response(&r, rc);
+            check_no_nonfinite(r.body, r.length);
+        }
+        ntsj_response_free(&r);
+        /* The input's bytes as small moves of the stored positions instead:
+         * nearby configurations, contacts and reversals rather than NaN. */
+        for (i = 0; i + 16 <= bytes; i += 16) {
+            double x = (double)(i / 16 % 4 == 1 || i / 16 % 4 == 2) + (double)(signed char)bin[i] / 256.0;
+            double y = (double)(i / 16 % 4 >= 2) + (double)(i / 64) * 1.05 + (double)(signed char)bin[i + 8] / 256.0;
+            memcpy(bin + i, &x, 8);
+            memcpy(bin + i + 8, &y, 8);
+        }
+    }
+    st.kind = NTSJ_STEP_EMPTY;
+    st.length = 0;
+    st.answer_binary = 0;
+    rc = ntsj_session_step(ss, &st, &cfg, &r);
+    check_response(&r, rc);
+    ntsj_response_free(&r);
+    free(bin);
+    ntsj_session_destroy(ss);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     ntsj_config cfg = ntsj_default_config();
     ntsj_response r;
@@ -117,5 +192,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     check_response(&r, rc);
     check_no_nonfinite(r.body, r.length);
     ntsj_response_free(&r);
+
+    fuzz_steps(data, size);
     return 0;
 }
