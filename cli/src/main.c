@@ -72,6 +72,44 @@ static int print_error(const ntsj_response* resp, long long frame) {
     return resp->http_status >= 500 ? EXIT_INTERNAL : EXIT_INVALID;
 }
 
+/* A mesh file given where a scene is expected: the kind of mesh it looks like
+ * (by its first bytes, or its extension when they say nothing), or NULL. The
+ * mesh readers live in the Python package (meshio), which converts. */
+static const char* mesh_kind(const char* name, const char* data, size_t length) {
+    static const struct { const char* ext; const char* kind; } exts[] = {
+        {".msh", "a Gmsh mesh"}, {".vtk", "a legacy VTK file"}, {".vtu", "a VTK XML mesh"},
+        {".vtp", "a VTK XML mesh"}, {".xdmf", "an XDMF mesh"}, {".xmf", "an XDMF mesh"}, {".med", "a MED mesh"},
+        {".inp", "an Abaqus mesh"}, {".mesh", "a Medit mesh"}, {".stl", "an STL mesh"}, {".obj", "an OBJ mesh"},
+        {".off", "an OFF mesh"}, {".ply", "a PLY mesh"}, {".exo", "an Exodus mesh"}, {".e", "an Exodus mesh"},
+        {".nas", "a Nastran mesh"}, {".bdf", "a Nastran mesh"}, {".su2", "an SU2 mesh"}, {".h5m", "a MOAB mesh"}};
+    size_t i = 0, n = length < 512 ? length : 512, len = name ? strlen(name) : 0, k;
+    while (i < n && (data[i] == ' ' || data[i] == '\t' || data[i] == '\r' || data[i] == '\n')) ++i;
+    if (i < n && (data[i] == '{' || data[i] == '[')) return NULL; /* JSON: the codec decides */
+    if (n - i >= 11 && memcmp(data + i, "$MeshFormat", 11) == 0) return "a Gmsh mesh";
+    if (n - i >= 14 && memcmp(data + i, "# vtk DataFile", 14) == 0) return "a legacy VTK file";
+    if (n >= 4 && memcmp(data, "\x89HDF", 4) == 0) return "an HDF5 file (MED, XDMF or MOAB mesh data)";
+    if (n - i >= 20 && memcmp(data + i, "MeshVersionFormatted", 20) == 0) return "a Medit mesh";
+    for (k = i; k + 8 <= n; ++k) {
+        if (memcmp(data + k, "<VTKFile", 8) == 0) return "a VTK XML mesh";
+        if (memcmp(data + k, "<Xdmf", 5) == 0) return "an XDMF mesh";
+    }
+    if (n - i >= 8 && (strncmp(data + i, "*Heading", 8) == 0 || strncmp(data + i, "*HEADING", 8) == 0))
+        return "an Abaqus mesh";
+    for (k = 0; k < sizeof exts / sizeof exts[0]; ++k) {
+        size_t m = strlen(exts[k].ext);
+        if (len > m) {
+            size_t j;
+            for (j = 0; j < m; ++j) {
+                char c = name[len - m + j];
+                if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
+                if (c != exts[k].ext[j]) break;
+            }
+            if (j == m) return exts[k].kind;
+        }
+    }
+    return NULL;
+}
+
 static int usage_error(const char* fmt, const char* arg) {
     fprintf(stderr, "ntscontact: ");
     fprintf(stderr, fmt, arg);
@@ -401,6 +439,18 @@ int main(int argc, char** argv) {
         return EXIT_INTERNAL;
     }
 
+    {
+        const char* kind = mesh_kind(strcmp(input, "-") == 0 ? NULL : input, data, length);
+        if (kind) {
+            const char* shown = strcmp(input, "-") == 0 ? "MESH" : input;
+            fprintf(stderr,
+                    "ntscontact: invalid_json at \"\": %s looks like %s, not a scene (JSON); convert it first: "
+                    ".venv/bin/python -m ntscontact convert %s -o scene.json --penalty EPS (docs/python.md)\n",
+                    strcmp(input, "-") == 0 ? "the input" : input, kind, shown);
+            free(data);
+            return EXIT_INVALID;
+        }
+    }
     if (frames) {
         status = run_frames(data, length, &cfg, frames, output);
         free(data);
