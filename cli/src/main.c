@@ -40,6 +40,9 @@ static const char usage_text[] =
     "                       float64 x then y for every node (bodies in scene order,\n"
     "                       nodes in body order); one result per frame, one line\n"
     "                       each (JSON Lines), as POST /v1/scenes/{id}/contact gives\n"
+    "  --vtk FILE.vtu       also write the result for ParaView (VTK XML unstructured\n"
+    "                       grid: surfaces, forces, contacts with gaps and normals);\n"
+    "                       with --frames, FILE_000000.vtu, ... and a FILE.pvd series\n"
     "\n"
     "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
     "too_deep, the message naming the limit; counts take k, M, G suffixes):\n"
@@ -220,9 +223,69 @@ static FILE* open_output(const char* output) {
     return out;
 }
 
+static int write_file(const char* path, const char* data, size_t n) {
+    FILE* f = fopen(path, "wb");
+    int bad;
+    if (!f) {
+        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
+        return -1;
+    }
+    bad = fwrite(data, 1, n, f) != n;
+    if (fclose(f) != 0) bad = 1;
+    if (bad) fprintf(stderr, "ntscontact: error writing '%s'\n", path);
+    return bad ? -1 : 0;
+}
+
+/* FILE.vtu -> FILE_000123.vtu: one file per frame, a series ParaView opens
+ * through FILE.pvd. */
+static void frame_path(char* out, size_t cap, const char* vtk, long long k) {
+    size_t stem = strlen(vtk) - 4;
+    snprintf(out, cap, "%.*s_%06lld.vtu", (int)stem, vtk, k);
+}
+
+static int write_vtk_frame(const char* vtk, long long k, const ntsj_response* resp) {
+    char path[4096];
+    if (strlen(vtk) + 16 > sizeof path) {
+        fprintf(stderr, "ntscontact: --vtk: file name too long\n");
+        return -1;
+    }
+    frame_path(path, sizeof path, vtk, k);
+    return write_file(path, resp->vtk, resp->vtk_length);
+}
+
+static int write_pvd(const char* vtk, long long frames) {
+    char path[4096];
+    const char* base;
+    long long k;
+    size_t n = strlen(vtk);
+    FILE* f;
+    int bad;
+    if (n + 16 > sizeof path) return -1;
+    snprintf(path, sizeof path, "%.*s.pvd", (int)(n - 4), vtk);
+    f = fopen(path, "wb");
+    if (!f) {
+        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
+        return -1;
+    }
+    /* The series names its files relative to itself. */
+    base = strrchr(vtk, '/');
+    base = base ? base + 1 : vtk;
+    fputs("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n", f);
+    for (k = 0; k < frames; ++k) {
+        char name[4096];
+        frame_path(name, sizeof name, base, k);
+        fprintf(f, "<DataSet timestep=\"%lld\" part=\"0\" file=\"%s\"/>\n", k, name);
+    }
+    fputs("</Collection>\n</VTKFile>\n", f);
+    bad = ferror(f) != 0;
+    if (fclose(f) != 0) bad = 1;
+    if (bad) fprintf(stderr, "ntscontact: error writing '%s'\n", path);
+    return bad ? -1 : 0;
+}
+
 /* --frames: one session (the scene parsed once), one step per frame. */
 static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, const char* frames,
-                      const char* output) {
+                      const char* output, const char* vtk) {
     ntsj_session* ss = NULL;
     ntsj_response resp;
     ntsj_step step;
@@ -283,9 +346,15 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
             break;
         }
         if (fwrite(resp.body, 1, resp.length, out) != resp.length) write_failed = 1;
+        if (vtk && !write_failed && write_vtk_frame(vtk, k, &resp) != 0) {
+            ntsj_response_free(&resp);
+            status = EXIT_USAGE;
+            break;
+        }
         ntsj_response_free(&resp);
         if (write_failed) break;
     }
+    if (vtk && k > 0 && write_pvd(vtk, k) != 0 && status == EXIT_DONE) status = EXIT_USAGE;
     if (ferror(in)) {
         fprintf(stderr, "ntscontact: cannot read '%s'\n", frames);
         status = EXIT_USAGE;
@@ -311,6 +380,7 @@ int main(int argc, char** argv) {
     const char* input = NULL;
     const char* output = NULL;
     const char* frames = NULL;
+    const char* vtk = NULL;
     FILE* in;
     FILE* out;
     char* data;
@@ -361,7 +431,8 @@ int main(int argc, char** argv) {
         }
         if (strcmp(name, "--alpha") != 0 && strcmp(name, "--penalty") != 0 && strcmp(name, "--search-radius") != 0 &&
             strcmp(name, "--solver") != 0 && strcmp(name, "--outputs") != 0 && strcmp(name, "-o") != 0 &&
-            strcmp(name, "--output") != 0 && strcmp(name, "--frames") != 0 && strncmp(name, "--max-", 6) != 0)
+            strcmp(name, "--output") != 0 && strcmp(name, "--frames") != 0 && strcmp(name, "--vtk") != 0 &&
+            strncmp(name, "--max-", 6) != 0)
             return usage_error("unknown option '%s'", a);
         if (!val) {
             if (i + 1 >= argc) return usage_error("option '%s' needs a value", name);
@@ -413,6 +484,12 @@ int main(int argc, char** argv) {
             }
         } else if (strcmp(name, "--frames") == 0) {
             frames = val;
+        } else if (strcmp(name, "--vtk") == 0) {
+            size_t n = strlen(val);
+            if (n < 5 || strcmp(val + n - 4, ".vtu") != 0)
+                return usage_error("--vtk needs a file name ending in .vtu, not '%s'", val);
+            vtk = val;
+            cfg.vtk = 1;
         } else {
             output = val;
         }
@@ -420,6 +497,7 @@ int main(int argc, char** argv) {
     if (!input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
     if (frames && strcmp(frames, "-") == 0 && strcmp(input, "-") == 0)
         return usage_error("%s", "--frames - and a scene from standard input: only one can read it");
+    if (vtk && cfg.mode == NTSJ_VALIDATE) return usage_error("%s", "--vtk writes a result: not with --validate");
     if (frames && (cfg.mode == NTSJ_VALIDATE || cfg.pretty))
         return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
 
@@ -452,7 +530,7 @@ int main(int argc, char** argv) {
         }
     }
     if (frames) {
-        status = run_frames(data, length, &cfg, frames, output);
+        status = run_frames(data, length, &cfg, frames, output, vtk);
         free(data);
         return status;
     }
@@ -479,6 +557,11 @@ int main(int argc, char** argv) {
         out = stdout;
     }
     status = EXIT_DONE;
+    if (vtk && write_file(vtk, resp.vtk, resp.vtk_length) != 0) {
+        if (out != stdout) fclose(out);
+        ntsj_response_free(&resp);
+        return EXIT_USAGE;
+    }
     if (fwrite(resp.body, 1, resp.length, out) != resp.length) status = EXIT_INTERNAL;
     if (out != stdout) {
         if (fclose(out) != 0) status = EXIT_INTERNAL;

@@ -99,6 +99,11 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
                         double elapsed_ms, int pretty);
 void ntsj_encode_validation(ntsj_buf* b, const nts_scene* scene, double elapsed_ms, int pretty);
 void ntsj_encode_error(ntsj_buf* b, const char* code, const char* message, const char* pointer, int pretty);
+/* The result as a VTK XML unstructured grid (vtk.c); needs forces and contacts. */
+void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, const nts_result* r);
+/* Attach the VTK document of a successful evaluation to `out` (when asked):
+ * 0, or NTS_ENOMEM. */
+int ntsj_attach_vtk(ntsj_response* out, const ntsj_scene* s, const nts_scene* scene, const nts_result* r);
 
 /* ------------------------------------------------------------ codes */
 

@@ -46,6 +46,9 @@ int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code) {
         out->code = "out_of_memory";
         out->body = NULL;
         out->length = 0;
+        nts_free(out->vtk); /* attached before the body failed */
+        out->vtk = NULL;
+        out->vtk_length = 0;
         return NTS_ENOMEM;
     }
     out->ok = strcmp(code, "ok") == 0;
@@ -219,6 +222,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
          * options and the whole scene (a periodic box too small for the search
          * reach) only show there, and "valid" must mean "evaluates". */
         opt.outputs = cfg.mode == NTSJ_VALIDATE ? 0u : (opt.outputs | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+        if (cfg.vtk && cfg.mode != NTSJ_VALIDATE) opt.outputs |= NTS_OUT_FORCES | NTS_OUT_CONTACTS;
         ctx = nts_context_create();
         if (!ctx) {
             nts_scene_destroy(scene);
@@ -239,6 +243,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             ntsj_encode_validation(&b, scene, ntsj_round_us(elapsed), pretty);
         } else {
             ntsj_encode_result(&b, &s, scene, &result, ntsj_round_us(elapsed), pretty);
+            if (cfg.vtk && ntsj_attach_vtk(out, &s, scene, &result) != 0) b.oom = 1;
         }
         nts_context_destroy(ctx);
         if (done) {
@@ -256,8 +261,24 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
 void ntsj_response_free(ntsj_response* response) {
     if (!response) return;
     nts_free(response->body);
+    nts_free(response->vtk);
     response->body = NULL;
     response->length = 0;
+    response->vtk = NULL;
+    response->vtk_length = 0;
+}
+
+int ntsj_attach_vtk(ntsj_response* out, const ntsj_scene* s, const nts_scene* scene, const nts_result* r) {
+    ntsj_buf v;
+    ntsj_buf_init(&v);
+    ntsj_encode_vtk(&v, s, scene, r);
+    if (v.oom || !v.data) {
+        ntsj_buf_free(&v);
+        return NTS_ENOMEM;
+    }
+    out->vtk = v.data;
+    out->vtk_length = v.len;
+    return 0;
 }
 
 char* ntsj_error_document(const char* code, const char* message, const char* pointer) {

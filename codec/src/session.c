@@ -74,9 +74,10 @@ static nts_scene_def scene_def_of(const ntsj_scene* s, const nts_limits* limits)
 }
 
 /* The evaluation options of ntsj_handle: the summary is always complete. */
-static nts_options eval_options(nts_options o, int answer_binary) {
+static nts_options eval_options(nts_options o, int answer_binary, int vtk) {
     o.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
     if (answer_binary) o.outputs |= NTS_OUT_FORCES;
+    if (vtk) o.outputs |= NTS_OUT_FORCES | NTS_OUT_CONTACTS;
     return o;
 }
 
@@ -468,7 +469,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
     if (ntsj_over_budget(&cfg, t0, out, "reading the positions", &rc)) return rc;
 
     {
-        nts_options eo = eval_options(opt, st->answer_binary);
+        nts_options eo = eval_options(opt, st->answer_binary, cfg.vtk);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
     if (rc != 0) return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
@@ -485,6 +486,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         ntsj_encode_result(&b, &ss->js, ss->scene, &result, ntsj_round_us(ntsj_now_ms() - t0), pretty);
         ss->js.options = keep;
     }
+    if (cfg.vtk && ntsj_attach_vtk(out, &ss->js, ss->scene, &result) != 0) b.oom = 1;
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) {
         ss->steps++;

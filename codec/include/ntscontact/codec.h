@@ -38,6 +38,8 @@ typedef struct ntsj_config {
     double max_seconds;     /* wall-clock budget of one request, 0 = none: checked after decoding,
                              * building the scene and evaluating; over it -> limit_exceeded (400) */
     int threads;            /* passed to nts_options.threads */
+    int vtk;                /* also write the result as a VTK XML unstructured grid (ntsj_response.vtk):
+                             * surfaces, forces, contacts with their gaps and normals (codec/src/vtk.c) */
 } ntsj_config;
 ntsj_config ntsj_default_config(void);
 
@@ -51,6 +53,8 @@ typedef struct ntsj_response {
     int binary;       /* ok and body holds 16 N bytes: little-endian float64 forces, x then y per node */
     nts_summary summary; /* of a successful evaluation (sessions: for the headers of a binary answer) */
     double elapsed_ms;   /* of the request, rounded to whole microseconds */
+    char* vtk;           /* with ntsj_config.vtk, on success: the .vtu document (NUL-terminated) */
+    size_t vtk_length;
 } ntsj_response;
 
 /* Decode, validate, evaluate and encode. Never crashes on any input bytes;
