@@ -176,10 +176,14 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     ntsj_response r;
     int rc;
 
+    cfg.vtk = 1; /* the VTK document too: present exactly when the result is */
     rc = ntsj_handle((const char*)data, size, &cfg, &r);
     check_response(&r, rc);
     check_no_nonfinite(r.body, r.length);
+    CHECK(r.ok == (r.vtk != NULL));
+    CHECK(r.vtk == NULL || (r.vtk_length == strlen(r.vtk) && strstr(r.vtk, "</VTKFile>") != NULL));
     ntsj_response_free(&r);
+    cfg.vtk = 0;
 
     cfg.mode = NTSJ_VALIDATE;
     cfg.pretty = 1;
