@@ -117,6 +117,10 @@ def assert_binary_equals(r, result):
     assert int(r.headers["NTS-Contacts"]) == s["contacts"]
     assert float(r.headers["NTS-Max-Penetration"]) == s["max_penetration"]
     assert float(r.headers["NTS-Elapsed-Ms"]) >= 0.0
+    assert int(r.headers["NTS-Gaps"]) == s["gaps"]
+    assert int(r.headers["NTS-Loops-Reversed"]) == s["loops_reversed"]
+    assert float(r.headers["NTS-Search-Radius"]) == s["search_radius"]
+    assert float(r.headers["NTS-Cell-Size"]) == s["cell_size"]
 
 
 # ------------------------------------------------------------ bit for bit
