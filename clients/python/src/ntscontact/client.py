@@ -13,6 +13,7 @@ from . import __version__
 from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
 from .result import Result
 from .scene import Scene, normalize_outputs
+from .session import Session
 
 __all__ = ["Client", "USER_AGENT", "DEFAULT_URL"]
 
@@ -36,6 +37,9 @@ class Client:
     the environment; the service normally runs next to the solver, and that
     lookup costs about a millisecond per call, as much as a small evaluation.
 
+    :meth:`session` holds a scene in the service for a solver loop: each step
+    then sends only positions (see :class:`Session`).
+
     Use as a context manager, or call :meth:`close`.
     """
 
@@ -47,12 +51,13 @@ class Client:
         retries: int = 3,
         backoff: float = 0.1,
         trust_env: bool = False,
-        session: Optional[requests.Session] = None,
+        http: Optional[requests.Session] = None,
     ) -> None:
         self.base_url = base_url.rstrip("/")
         self.timeout = timeout
-        self.session = session if session is not None else requests.Session()
-        self.session.trust_env = trust_env
+        #: The requests.Session all calls go through (``http=`` to bring your own).
+        self.http = http if http is not None else requests.Session()
+        self.http.trust_env = trust_env
         retry = Retry(
             total=None,
             connect=retries,
@@ -66,14 +71,14 @@ class Client:
             respect_retry_after_header=False,
         )
         adapter = HTTPAdapter(max_retries=retry)
-        self.session.mount("http://", adapter)
-        self.session.mount("https://", adapter)
-        self.session.headers.update({"User-Agent": USER_AGENT, "Accept": "application/json"})
+        self.http.mount("http://", adapter)
+        self.http.mount("https://", adapter)
+        self.http.headers.update({"User-Agent": USER_AGENT, "Accept": "application/json"})
 
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
-        self.session.close()
+        self.http.close()
 
     def __enter__(self) -> "Client":
         return self
@@ -102,6 +107,12 @@ class Client:
             raise ServerError(f"POST {self.base_url}/v1/contact: the answer has no summary", code="bad_response",
                               status=200)
         return Result.from_dict(doc)
+
+    def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Session:
+        """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for
+        a solver loop (``with client.session(scene) as s: s.contact(x)``). The
+        session is deleted when the ``with`` block ends (or on ``close()``)."""
+        return Session(self, scene, timeout=timeout)
 
     def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
         """``POST /v1/validate``: the service's check of a scene without evaluating it.
@@ -158,7 +169,7 @@ class Client:
         url = self.base_url + path
         headers = {"Content-Type": "application/json"} if body is not None else None
         try:
-            resp = self.session.request(method, url, data=body, headers=headers,
+            resp = self.http.request(method, url, data=body, headers=headers,
                                         timeout=self.timeout if timeout is None else timeout)
         except requests.Timeout as exc:
             raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc

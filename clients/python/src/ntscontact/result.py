@@ -156,6 +156,8 @@ class Result:
     contacts: List[Contact]
     gaps: List[Gap]
     raw: Dict[str, Any] = field(repr=False)
+    #: A binary session answer's (N, 2) forces; ``forces`` holds views into it.
+    _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
 
     @property
     def energy(self) -> float:
@@ -171,7 +173,11 @@ class Result:
 
     def force_array(self, order: Optional[Sequence[BodyId]] = None) -> FloatArray:
         """All forces stacked into one ``(N, 2)`` array, bodies in ``order`` (default:
-        the order of the answer, which is the order of the scene)."""
+        the order of the answer, which is the order of the scene: the global node
+        order of sessions). A binary session answer gives its array as it came,
+        read-only and without a copy."""
+        if order is None and self._force_array is not None:
+            return self._force_array
         ids = list(self.forces) if order is None else list(order)
         if not ids:
             return np.zeros((0, 2), dtype=np.float64)

@@ -1,0 +1,265 @@
+"""Scene sessions: the topology sent once, then positions at every step.
+
+>>> with client.session(scene) as s:                         # doctest: +SKIP
+...     for step in range(1000):
+...         r = s.contact(x)                                  # x: (N, 2) float64, global order
+...         f = r.force_array()                               # (N, 2), no per-node Python work
+
+The positions travel as raw little-endian float64 (16 N bytes) and, when only
+forces, energy and virial are asked for, the forces come back the same way
+(``np.frombuffer``), with the summary in the ``NTS-*`` headers. Contacts or
+gaps need the JSON answer; the positions are still sent raw. Global order is
+bodies in the scene's order, nodes in each body's order.
+
+If the service no longer knows the session (it expired or was evicted, the
+daemon restarted, or a load balancer sent the step to another daemon), the
+session is created again from the scene it holds and the step retried once.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+import requests
+
+from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
+from .result import Result, Summary, virial_matrix
+from .scene import BodyId, Scene, normalize_outputs
+
+__all__ = ["Session", "PositionsLike"]
+
+FloatArray = npt.NDArray[np.float64]
+PositionsLike = Union[npt.ArrayLike, Mapping[BodyId, npt.ArrayLike]]
+
+#: Outputs a binary answer carries (the forces, and the summary in headers).
+_BINARY_OUTPUTS = frozenset(("forces", "energy", "virial"))
+_OCTET = "application/octet-stream"
+
+
+class Session:
+    """A scene held by the service (``POST /v1/scenes``); see the module's doc.
+
+    Made by :meth:`Client.session`. ``id`` is the service's id, ``nodes`` the
+    number N of positions a step takes, ``body_ids`` and ``node_counts`` the
+    layout of the global order. ``recreated`` counts the times the session had
+    to be created again (after a 404 ``unknown_scene``).
+    """
+
+    def __init__(self, client: Any, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
+                 timeout: Optional[Any] = None) -> None:
+        self.client = client
+        self.timeout = timeout
+        if isinstance(scene, Scene):
+            scene.check()
+            doc: Dict[str, Any] = scene.to_dict()
+        elif isinstance(scene, Mapping):
+            doc = dict(scene)
+        elif isinstance(scene, (str, bytes, bytearray)):
+            doc = json.loads(scene)
+        else:
+            raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")
+        bodies = doc.get("bodies")
+        if not isinstance(bodies, list) or not bodies:
+            raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
+        self._body = json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
+        self.body_ids: List[BodyId] = [b.get("id") for b in bodies]
+        self.node_counts: List[int] = [len(b.get("nodes") or []) for b in bodies]
+        self._offsets = np.concatenate([[0], np.cumsum(self.node_counts)]).astype(np.int64)
+        self._index = {(type(i), i): k for k, i in enumerate(self.body_ids)}
+        options = doc.get("options") if isinstance(doc.get("options"), Mapping) else {}
+        self._scene_outputs = frozenset(options.get("outputs", ("forces", "energy", "virial")))
+        self.nodes = int(self._offsets[-1])
+        # The client's copy of the stored positions: what a re-created session
+        # must be sent to go on where the lost one was.
+        self._positions: FloatArray = np.concatenate(
+            [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2) for b in bodies])
+        self.id = ""
+        self.surface_nodes = 0
+        self.recreated = 0
+        self.steps = 0
+        self._closed = False
+        self._create()
+
+    # ------------------------------------------------------------ lifecycle
+
+    def _create(self) -> None:
+        doc, _ = self._request("POST", "/v1/scenes", data=self._body, headers={"Content-Type": "application/json"})
+        self.id = str(doc["id"])
+        self.surface_nodes = int(doc.get("surface_nodes", 0))
+        if int(doc.get("nodes", -1)) != self.nodes:
+            raise ServerError(f"the service counts {doc.get('nodes')} nodes, the scene has {self.nodes}",
+                              code="bad_response")
+
+    def close(self) -> None:
+        """``DELETE /v1/scenes/{id}`` (a session the service no longer has is fine)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._request("DELETE", f"/v1/scenes/{self.id}", expect_json=False)
+        except NtsError as exc:
+            if exc.status != 404:
+                raise
+
+    def __enter__(self) -> "Session":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Session(id={self.id!r}, nodes={self.nodes}, steps={self.steps}, recreated={self.recreated})"
+
+    def info(self) -> Dict[str, Any]:
+        """``GET /v1/scenes/{id}``: nodes, steps, memory, time to expiry (not a use)."""
+        doc, _ = self._request("GET", f"/v1/scenes/{self.id}")
+        return doc
+
+    # ------------------------------------------------------------ positions
+
+    def positions(self) -> FloatArray:
+        """A copy of the stored positions, (N, 2) in global order."""
+        return self._positions.copy()
+
+    def _as_positions(self, positions: PositionsLike) -> FloatArray:
+        if isinstance(positions, Mapping):
+            out = self._positions.copy()
+            for body_id, value in positions.items():
+                try:
+                    k = self._index[(type(body_id), body_id)]
+                except KeyError:
+                    raise KeyError(f"no body with id {body_id!r} in this session") from None
+                arr = np.asarray(value, dtype=np.float64)
+                want = (self.node_counts[k], 2)
+                if arr.shape != want:
+                    raise InvalidScene(f"body {body_id!r}: positions of shape {arr.shape}, expected {want}",
+                                       code="invalid_value", pointer=f"/bodies/{k}/nodes")
+                out[self._offsets[k]:self._offsets[k + 1]] = arr
+            arr = out
+        else:
+            arr = np.asarray(positions, dtype=np.float64)
+            if arr.shape != (self.nodes, 2):
+                raise InvalidScene(f"positions of shape {arr.shape}, expected ({self.nodes}, 2): every node, "
+                                   "bodies in scene order, nodes in body order", code="invalid_value",
+                                   pointer="/positions")
+        bad = ~np.isfinite(arr).all(axis=1)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise InvalidScene(f"position {k} is not finite", code="non_finite", pointer=f"/positions/{k}")
+        return np.ascontiguousarray(arr, dtype="<f8")
+
+    # ------------------------------------------------------------ steps
+
+    def contact(
+        self,
+        positions: Optional[PositionsLike] = None,
+        *,
+        outputs: Optional[Union[str, Sequence[str]]] = None,
+        penalty: Optional[float] = None,
+        alpha: Optional[float] = None,
+        search_radius: Optional[float] = None,
+        solver: Optional[str] = None,
+        timeout: Optional[Any] = None,
+    ) -> Result:
+        """One step at ``positions`` ((N, 2) in global order, or ``{body_id:
+        (n_b, 2)}`` for the bodies that moved), or at the stored positions when
+        None. The options override the scene's for this step only."""
+        if self._closed:
+            raise NtsError("the session is closed", code="closed")
+        pos = self._as_positions(positions) if positions is not None else None
+        outs = normalize_outputs(outputs)
+        params: Dict[str, str] = {}
+        if outs is not None:
+            params["outputs"] = ",".join(outs)
+        for name, value in (("penalty", penalty), ("alpha", alpha), ("search_radius", search_radius)):
+            if value is not None:
+                params[name] = repr(float(value))
+        if solver is not None:
+            params["solver"] = str(solver)
+        # The binary answer when everything asked for fits in it (the forces
+        # and the summary): the step's outputs, else the scene's.
+        binary = (set(outs) if outs is not None else self._scene_outputs) <= _BINARY_OUTPUTS
+        headers = {"Content-Type": _OCTET}
+        if binary:
+            headers["Accept"] = _OCTET
+        for attempt in (0, 1):
+            # After a re-creation the new session holds the scene's first
+            # positions: send ours explicitly.
+            send = pos if pos is not None else (self._positions if attempt else None)
+            data = send.tobytes() if send is not None else b""
+            try:
+                doc, resp = self._request("POST", f"/v1/scenes/{self.id}/contact", data=data, headers=headers,
+                                          params=params, timeout=timeout, expect_json=not binary)
+                break
+            except NtsError as exc:
+                if attempt == 0 and exc.status == 404 and exc.code == "unknown_scene":
+                    self._create()
+                    self.recreated += 1
+                    continue
+                raise
+        if pos is not None:
+            self._positions = pos.astype(np.float64, copy=True)
+        self.steps += 1
+        if binary:
+            return self._binary_result(resp)
+        return Result.from_dict(doc)
+
+    def _binary_result(self, resp: requests.Response) -> Result:
+        forces = np.frombuffer(resp.content, dtype="<f8")
+        if forces.size != 2 * self.nodes:
+            raise ServerError(f"a binary answer of {len(resp.content)} bytes, expected {16 * self.nodes}",
+                              code="bad_response", status=resp.status_code)
+        forces = forces.reshape(self.nodes, 2)
+        h = resp.headers
+        try:
+            virial = [float(v) for v in h["NTS-Virial"].split(",")]
+            summary = Summary(
+                bodies=len(self.body_ids), nodes=self.nodes, surface_nodes=self.surface_nodes,
+                contacts=int(h["NTS-Contacts"]), gaps=int(h.get("NTS-Gaps", 0)), energy=float(h["NTS-Energy"]),
+                virial=virial_matrix({"xx": virial[0], "yy": virial[1], "xy": virial[2]}),
+                max_penetration=float(h["NTS-Max-Penetration"]),
+                loops_reversed=int(h.get("NTS-Loops-Reversed", 0)),
+                search_radius=float(h.get("NTS-Search-Radius", 0.0)), cell_size=float(h.get("NTS-Cell-Size", 0.0)),
+                elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)))
+        except (KeyError, ValueError, IndexError) as exc:
+            raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
+                              status=resp.status_code) from exc
+        per_body = {i: forces[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
+        return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, _force_array=forces)
+
+    # ------------------------------------------------------------ HTTP
+
+    def _request(self, method: str, path: str, *, data: Optional[bytes] = None,
+                 headers: Optional[Dict[str, str]] = None, params: Optional[Dict[str, str]] = None,
+                 timeout: Optional[Any] = None, expect_json: bool = True) -> Tuple[Dict[str, Any],
+                                                                                    requests.Response]:
+        c = self.client
+        url = c.base_url + path
+        t = timeout if timeout is not None else (self.timeout if self.timeout is not None else c.timeout)
+        try:
+            resp = c.http.request(method, url, data=data, headers=headers, params=params, timeout=t)
+        except requests.Timeout as exc:
+            raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
+        except requests.ConnectionError as exc:
+            raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
+        except requests.RequestException as exc:
+            raise NtsError(f"{method} {url}: {exc}", code="request_failed") from exc
+        if resp.status_code >= 400:
+            try:
+                doc = resp.json()
+            except ValueError:
+                doc = None
+            raise error_from_response(resp.status_code, doc, resp.text, self.body_ids)
+        if not expect_json or resp.status_code == 204:
+            return {}, resp
+        try:
+            doc = resp.json()
+        except ValueError:
+            doc = None
+        if not isinstance(doc, dict):
+            raise ServerError(f"{method} {url}: the answer is not a JSON object: {resp.text[:200]!r}",
+                              code="bad_response", status=resp.status_code)
+        return doc, resp

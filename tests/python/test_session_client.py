@@ -1,0 +1,192 @@
+"""The Python client's sessions (`Client.session`, `Session.contact`) against the
+real daemon: binary and JSON steps equal full-scene calls bit for bit, positions
+as one array or per body, the stored positions, the transparent re-creation
+after a 404, and the checks made before anything is sent."""
+import copy
+import json
+
+import numpy as np
+import pytest
+import requests
+
+ntscontact = pytest.importorskip("ntscontact")
+from ntscontact import Client, InvalidScene, NtsError, Scene, Session  # noqa: E402
+
+EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
+
+
+def load(paths, name):
+    return json.loads((paths.examples / f"{name}.json").read_text())
+
+
+def positions_of(scene):
+    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
+
+
+def with_positions(scene, pos):
+    out = copy.deepcopy(scene)
+    k = 0
+    for b in out["bodies"]:
+        n = len(b["nodes"])
+        b["nodes"] = pos[k:k + n].tolist()
+        k += n
+    return out
+
+
+def same_summary(a, b):
+    fields = ("contacts", "gaps", "energy", "max_penetration", "loops_reversed", "search_radius", "cell_size",
+              "nodes", "surface_nodes", "bodies")
+    assert {f: getattr(a, f) for f in fields} == {f: getattr(b, f) for f in fields}
+    assert np.array_equal(a.virial, b.virial)
+
+
+@pytest.fixture
+def client(daemon):
+    with Client(daemon.base, timeout=60) as c:
+        yield c
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_binary_steps_equal_full_calls(client, paths, name):
+    scene = load(paths, name)
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(len(name))
+    with client.session(scene) as s:
+        assert isinstance(s, Session) and s.nodes == len(pos0)
+        for _ in range(3):
+            pos = pos0 + rng.normal(scale=1e-3, size=pos0.shape)
+            got = s.contact(pos, outputs=["forces", "energy", "virial"])
+            want = client.contact(with_positions(scene, pos), outputs=["forces", "energy", "virial"])
+            f = got.force_array()
+            assert f.shape == pos.shape and not f.flags.writeable  # the answer's own buffer
+            assert np.array_equal(f, want.force_array())
+            for body_id in want.forces:
+                assert np.array_equal(got.forces[body_id], want.forces[body_id])
+            same_summary(got.summary, want.summary)
+        # JSON answers (contacts asked for) of the same step are equal too.
+        got = s.contact(pos, outputs=["forces", "contacts", "gaps"])
+        want = client.contact(with_positions(scene, pos), outputs=["forces", "contacts", "gaps"])
+        assert got.contacts == want.contacts and got.gaps == want.gaps
+        assert np.array_equal(got.force_array(), want.force_array())
+        assert s.steps == 4 and s.recreated == 0
+
+
+def test_positions_per_body_and_stored(client, paths):
+    scene = load(paths, "jittered_packing")
+    pos = positions_of(scene)
+    ids = [b["id"] for b in scene["bodies"]]
+    n0 = len(scene["bodies"][0]["nodes"])
+    with client.session(scene) as s:
+        moved = pos.copy()
+        moved[:n0] += [0.01, -0.005]
+        got = s.contact({ids[0]: moved[:n0]})
+        want = client.contact(with_positions(scene, moved))
+        assert np.array_equal(got.force_array(), want.force_array())
+        # Nothing given: the stored positions (the last step's).
+        again = s.contact()
+        assert np.array_equal(again.force_array(), want.force_array())
+        assert np.array_equal(s.positions(), moved)
+        # Options of one step only.
+        stiff = s.contact(moved, penalty=250.0, alpha=0.1)
+        scene250 = with_positions(scene, moved)
+        scene250["options"].update(penalty=250.0, alpha=0.1)
+        assert np.array_equal(stiff.force_array(), client.contact(scene250).force_array())
+        assert np.array_equal(s.contact().force_array(), want.force_array())
+
+
+def test_a_scene_object_and_the_stored_positions(client):
+    scene = Scene(penalty=50.0, alpha=0.2)
+    th = np.linspace(0, 2 * np.pi, 32, endpoint=False)
+    scene.add_body(np.c_[np.cos(th), np.sin(th)], id="a")
+    scene.add_body(np.c_[np.cos(th) + 1.95, np.sin(th)], id="b")
+    with client.session(scene) as s:
+        r = s.contact()
+        assert r.summary.contacts > 0
+        assert np.array_equal(r.force_array(), client.contact(scene).force_array())
+
+
+def test_recreated_once_after_a_404(client, daemon, paths):
+    scene = load(paths, "two_disks")
+    pos = positions_of(scene) + 0.002
+    with client.session(scene) as s:
+        s.contact(pos)
+        first = s.id
+        # The service loses the session (expired, evicted, restarted: here deleted behind the client's back).
+        assert requests.delete(daemon.url(f"/v1/scenes/{first}"), timeout=10).status_code == 204
+        got = s.contact()  # no positions: the client sends its own copy to the new session
+        assert s.recreated == 1 and s.id != first
+        assert np.array_equal(got.force_array(), client.contact(with_positions(scene, pos)).force_array())
+        requests.delete(daemon.url(f"/v1/scenes/{s.id}"), timeout=10)
+        pos2 = pos - 0.001
+        got = s.contact(pos2, outputs=["forces", "contacts"])  # the JSON answer path too
+        assert s.recreated == 2
+        assert got.contacts == client.contact(with_positions(scene, pos2), outputs=["forces", "contacts"]).contacts
+
+
+def test_another_daemon_takes_over(daemon_factory, paths):
+    """A load balancer sends the step to a daemon that never saw the session."""
+    scene = load(paths, "two_disks")
+    a, b = daemon_factory(), daemon_factory()
+    with Client(a.base, timeout=60) as c:
+        s = c.session(scene)
+        s.contact()
+        c.base_url = b.base
+        r = s.contact(positions_of(scene))
+        assert s.recreated == 1
+        assert r.summary.contacts > 0
+        assert requests.get(b.url(f"/v1/scenes/{s.id}"), timeout=10).status_code == 200
+        s.close()
+        assert requests.get(b.url(f"/v1/scenes/{s.id}"), timeout=10).status_code == 404
+
+
+def test_a_second_404_is_raised(client, daemon, paths, monkeypatch):
+    scene = load(paths, "two_disks")
+    s = client.session(scene)
+    original = Session._create
+
+    def create_then_lose(self):
+        original(self)
+        requests.delete(daemon.url(f"/v1/scenes/{self.id}"), timeout=10)
+
+    requests.delete(daemon.url(f"/v1/scenes/{s.id}"), timeout=10)
+    monkeypatch.setattr(Session, "_create", create_then_lose)
+    with pytest.raises(NtsError) as info:
+        s.contact()
+    assert info.value.status == 404 and info.value.code == "unknown_scene"
+    assert s.recreated == 1
+
+
+def test_context_manager_deletes(client, daemon, paths):
+    with client.session(load(paths, "two_disks")) as s:
+        sid = s.id
+        assert s.info()["id"] == sid
+    assert requests.get(daemon.url(f"/v1/scenes/{sid}"), timeout=10).status_code == 404
+    s.close()  # twice is fine
+    with pytest.raises(NtsError):
+        s.contact()
+
+
+def test_bad_positions_are_refused_before_sending(client, paths, daemon):
+    scene = load(paths, "two_disks")
+    pos = positions_of(scene)
+    with client.session(scene) as s:
+        before = requests.get(daemon.url(f"/v1/scenes/{s.id}"), timeout=10).json()["steps"]
+        with pytest.raises(InvalidScene) as e:
+            s.contact(pos[:-1])
+        assert e.value.pointer == "/positions"
+        bad = pos.copy()
+        bad[7, 0] = np.inf
+        with pytest.raises(InvalidScene) as e:
+            s.contact(bad)
+        assert e.value.code == "non_finite" and e.value.pointer == "/positions/7"
+        with pytest.raises(InvalidScene):
+            s.contact({scene["bodies"][0]["id"]: pos[:3]})
+        with pytest.raises(KeyError):
+            s.contact({"nope": pos[:3]})
+        with pytest.raises(InvalidScene):
+            s.contact(outputs=["stress"])
+        assert requests.get(daemon.url(f"/v1/scenes/{s.id}"), timeout=10).json()["steps"] == before
+        # The service's own checks come back typed, with their pointer.
+        with pytest.raises(InvalidScene) as e:
+            s.contact(pos, alpha=0.9)
+        assert e.value.code == "invalid_option" and e.value.pointer == "/options/alpha"
