@@ -170,7 +170,12 @@ def compress(pk: Packing, new_box: float) -> None:
 
 
 class Forces:
-    """Total forces: the cells' own springs (here) plus contact (the service)."""
+    """Total forces: the cells' own springs (here) plus contact (the service).
+
+    The contact scene lives in the service as a session: each FIRE step sends
+    the positions as raw float64 and gets the forces back the same way. The
+    periodic box belongs to the scene, so each compression stage (a new box)
+    opens a new session."""
 
     def __init__(self, client: ntscontact.Client, pk: Packing, cfg: Config, alpha: float) -> None:
         self.client, self.pk, self.cfg = client, pk, cfg
@@ -178,25 +183,38 @@ class Forces:
                                       periodic=(pk.box, pk.box), outputs=["forces", "energy"])
         for i, p in enumerate(pk.nodes):
             self.scene.add_body(p, id=f"cell-{i}")
+        self.session: Optional[ntscontact.Session] = None
+        self.box = math.nan
         self.calls = 0
         self.last: Optional[ntscontact.Result] = None
 
+    def close(self) -> None:
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+
     def __call__(self, x: np.ndarray, outputs: Optional[Sequence[str]] = None) -> Tuple[float, np.ndarray]:
         pk = self.pk
-        self.scene.periodic = (pk.box, pk.box)
         parts = pk.unflat(x)
-        for i, p in enumerate(parts):
-            self.scene.set_nodes(f"cell-{i}", p)
-        res = self.client.contact(self.scene, outputs=outputs)
+        if self.session is None or self.box != pk.box:
+            self.close()
+            self.scene.periodic = (pk.box, pk.box)
+            for i, p in enumerate(parts):
+                self.scene.set_nodes(f"cell-{i}", p)
+            self.session = self.client.session(self.scene)
+            self.box = pk.box
+        res = self.session.contact(x, outputs=outputs)  # x: every node, cells in order
         self.calls += 1
         self.last = res
         energy = res.energy
-        forces = []
+        forces = res.force_array().copy()
+        k = 0
         for i, p in enumerate(parts):
             e, f = shape_energy_forces(p, pk.l0[i], pk.a0[i], self.cfg.ka, self.cfg.kl)
             energy += e
-            forces.append(f + res.forces[f"cell-{i}"])
-        return energy, np.concatenate(forces, axis=0)
+            forces[k:k + len(p)] += f
+            k += len(p)
+        return energy, forces
 
 
 @dataclass
@@ -277,6 +295,7 @@ def relax(client: ntscontact.Client, cfg: Config, alpha: float) -> Tuple[Run, Pa
         total += stats.iterations
         stages.append({"box": float(box), "tol": tol, **asdict(stats)})
     final = force(pk.flat(), outputs=["forces", "energy", "virial", "contacts"])[0]
+    force.close()
     res = force.last
     assert res is not None
     pairs = {tuple(sorted((str(c.slave_body), str(c.master_body)))) for c in res.contacts}
