@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""Per-step cost of a solver loop through the Python client (issue 10, item 9).
+
+Two kinds of scene, each stepped with every node moved:
+  - square packings of pressed 64-node disks (bench/load/make_scene.py) of about
+    1e3, 1e4, 1e5 (and 1e6) surface nodes, as loops;
+  - an FEM-like scene of 66k nodes: four disks meshed with linear triangles
+    (structured polar meshes), pressed together, sent as triangles, as an FEM
+    code coupled to the service does (every mesh node, interior ones included).
+
+For each, the wall time of one step as a user writes it:
+  full     scene.set_nodes(...) for every body, then client.contact(scene)
+           (the JSON of the whole scene encoded in Python, sent, decoded, and the
+           JSON answer parsed into numpy);
+  session  s.contact(x) then res.force_array() (raw float64 both ways).
+Medians of the repeats, one keep-alive connection, a daemon started here with
+one evaluation thread.
+
+    bench/sessions/python_steps.py [--sizes 4,12,40] [--repeats 7] [--out docs/benchmarks.md]
+
+Writes bench/results/sessions_python.csv and replaces the section "Sessions
+through the Python client" of docs/benchmarks.md.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import pathlib
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
+sys.path.insert(0, str(REPO / "bench" / "load"))
+from make_scene import scene as make_scene  # noqa: E402
+
+import ntscontact  # noqa: E402
+
+SECTION = "## Sessions through the Python client"
+
+
+def polar_disk_mesh(radius, rings, cx, cy):
+    """A disk of linear triangles: a centre node, `rings` rings of 6k nodes."""
+    pts = [(cx, cy)]
+    tris = []
+    start = [0]
+    for k in range(1, rings + 1):
+        start.append(len(pts))
+        n = 6 * k
+        for j in range(n):
+            a = 2 * math.pi * j / n
+            pts.append((cx + radius * k / rings * math.cos(a), cy + radius * k / rings * math.sin(a)))
+    for k in range(1, rings + 1):
+        n_in, n_out = 6 * (k - 1), 6 * k
+        for j in range(n_out):
+            o0, o1 = start[k] + j, start[k] + (j + 1) % n_out
+            if k == 1:
+                tris.append((0, o0, o1))
+                continue
+            # inner node under this outer edge, and the next one
+            ji = (j * n_in) // n_out
+            i0 = start[k - 1] + ji % n_in
+            tris.append((i0, o0, o1))
+            if ((j + 1) * n_in) // n_out != ji or j == n_out - 1:
+                i1 = start[k - 1] + (ji + 1) % n_in
+                tris.append((i0, o1, i1))
+    return np.array(pts), np.array(tris, dtype=np.int64)
+
+
+def fem_scene(total_nodes=66000):
+    # four disks of equal size: 1 + 3 r (r + 1) nodes each
+    per = total_nodes // 4
+    rings = math.ceil((-3 + math.sqrt(9 + 12 * (per - 1))) / 6)
+    scene = ntscontact.Scene(penalty=100.0, alpha=0.2, search_radius=0.01, outputs=["forces", "energy", "virial"])
+    for i, (cx, cy) in enumerate([(0, 0), (1.995, 0), (0, 1.995), (1.995, 1.995)]):
+        nodes, tri = polar_disk_mesh(1.0, rings, cx, cy)
+        scene.add_body(nodes, triangles=tri, id=f"disk-{i}")
+    return scene
+
+
+def packing_scene(side):
+    doc = make_scene(side, 64)
+    doc["options"]["outputs"] = ["forces", "energy", "virial"]
+    return ntscontact.Scene.from_dict(doc)
+
+
+def start_daemon():
+    proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
+                             "--max-body", "512M", "--session-memory", "8G"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    line = proc.stdout.readline().decode()
+    if not line.startswith("ntscontactd listening on "):
+        proc.kill()
+        raise SystemExit(f"ntscontactd did not start: {line!r}")
+    return proc, "http://" + line.split()[-1]
+
+
+def measure(client, name, scene, repeats):
+    ids = scene.body_ids
+    counts = [scene.body(i).node_count for i in ids]
+    x0 = np.concatenate([scene.body(i).nodes for i in ids])
+    rng = np.random.default_rng(len(x0))
+    frames = [x0 + rng.normal(scale=1e-5, size=x0.shape) for _ in range(repeats)]
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+
+    def full(i):
+        for k, body_id in enumerate(ids):
+            scene.set_nodes(body_id, frames[i][offsets[k]:offsets[k + 1]])
+        return client.contact(scene).force_array()
+
+    request_bytes = len(scene.to_json())
+    full(0)
+    t_full = []
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        f_full = full(i)
+        t_full.append(time.perf_counter() - t0)
+    with client.session(scene) as s:
+        s.contact(frames[0])
+        t_sess = []
+        for i in range(repeats):
+            t0 = time.perf_counter()
+            f_sess = s.contact(frames[i]).force_array()
+            t_sess.append(time.perf_counter() - t0)
+    assert np.array_equal(f_full, f_sess), "session and full call disagree"
+    row = {"scene": name, "nodes": int(len(x0)), "full_request_mb": request_bytes / 1e6,
+           "session_request_mb": 16 * len(x0) / 1e6, "full_ms": 1e3 * statistics.median(t_full),
+           "session_ms": 1e3 * statistics.median(t_sess)}
+    row["speedup"] = row["full_ms"] / row["session_ms"]
+    return row
+
+
+def markdown(rows, repeats):
+    lines = [SECTION, "",
+             "Wall time of one solver step as a Python user writes it (`bench/sessions/python_steps.py`, median",
+             f"of {repeats} steps that each move every node, one evaluation thread, loopback): **full** is",
+             "`scene.set_nodes(...)` for every body then `client.contact(scene)` (the whole scene as JSON, the",
+             "JSON answer parsed into numpy); **session** is `s.contact(x).force_array()` (raw float64 both",
+             "ways). The forces of the two are checked equal, bit for bit, in the same run. The FEM scene is four",
+             "disks of linear triangles sent as triangles, every mesh node included, as an FEM code sends them.",
+             "", "| scene | nodes | full: request | full | session: request | session | speed-up |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['nodes']:,} | {r['full_request_mb']:.2f} MB | {r['full_ms']:.1f} ms "
+                     f"| {r['session_request_mb']:.2f} MB | {r['session_ms']:.2f} ms | {r['speedup']:.1f}x |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def replace_section(doc, section):
+    start = doc.find(SECTION + "\n")
+    if start < 0:
+        return doc.rstrip("\n") + "\n\n" + section
+    end = doc.find("\n## ", start + len(SECTION))
+    return doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", default="4,12,40", help="disks per side of the packings (x64 nodes each)")
+    ap.add_argument("--fem-nodes", type=int, default=66000)
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--out", default=str(REPO / "docs" / "benchmarks.md"))
+    a = ap.parse_args()
+    proc, url = start_daemon()
+    rows = []
+    try:
+        with ntscontact.Client(url, timeout=600) as client:
+            for side in map(int, a.sizes.split(",")):
+                rows.append(measure(client, f"packing {side}x{side} disks", packing_scene(side), a.repeats))
+                print(json.dumps(rows[-1]), flush=True)
+            rows.append(measure(client, "FEM: 4 triangle-mesh disks", fem_scene(a.fem_nodes), a.repeats))
+            print(json.dumps(rows[-1]), flush=True)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)
+    results = REPO / "bench" / "results" / "sessions_python.csv"
+    with open(results, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    out = pathlib.Path(a.out)
+    out.write_text(replace_section(out.read_text() if out.exists() else "", markdown(rows, a.repeats)))
+    print(f"wrote {results} and {out}")
+
+
+if __name__ == "__main__":
+    main()
