@@ -148,6 +148,47 @@ int main(int argc, char** argv) {
     for (i = 0; i < STAGES; ++i)
         printf("%-26s %12.3f %12.1f %10.2f\n", stage_names[i], best[i] * 1e3, best[i] * 1e9 / (double)nodes,
                best[i] / best[4]);
+    /* What a solver loop pays per step for the evaluation alone: the median of
+     * REPEATS evaluations on a warm context (its buffers grown), forces, energy
+     * and virial only, as a session step evaluates. */
+    {
+        ntsj_fault fault;
+        ntsj_scene s;
+        nts_scene_def def;
+        nts_scene* scene;
+        nts_context* ctx = nts_context_create();
+        nts_result res;
+        nts_error err = nts_error_none();
+        double* times = malloc(sizeof(double) * (size_t)(repeats > 0 ? repeats : 1));
+        cJSON* root = cJSON_ParseWithLengthOpts(req.data, req.len, NULL, 0);
+        int k;
+        if (!root || !ctx || !times || ntsj_decode(root, &cfg, &s, &fault) != 0) return 1;
+        cJSON_Delete(root);
+        def = nts_default_scene_def();
+        def.bodies = s.defs;
+        def.body_count = s.body_count;
+        scene = nts_scene_create(&def, &err);
+        if (!scene) return 1;
+        s.options.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+        if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
+        for (k = 0; k < repeats; ++k) {
+            double te = now_s();
+            if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
+            times[k] = now_s() - te;
+        }
+        for (k = 1; k < repeats; ++k) { /* insertion sort: a handful of values */
+            double v = times[k];
+            int j = k - 1;
+            while (j >= 0 && times[j] > v) { times[j + 1] = times[j]; --j; }
+            times[j + 1] = v;
+        }
+        printf("%-26s %12.3f %12.1f\n", "warm evaluate (median)", times[repeats / 2] * 1e3,
+               times[repeats / 2] * 1e9 / (double)nodes);
+        free(times);
+        nts_context_destroy(ctx);
+        nts_scene_destroy(scene);
+        ntsj_scene_free(&s);
+    }
     ntsj_buf_free(&req);
     return 0;
 }
