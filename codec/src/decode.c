@@ -133,8 +133,8 @@ static int array_size(const cJSON* a) {
 /* ----------------------------------------------------------- options */
 
 static const char* const option_fields[] = {"alpha", "penalty", "search_radius", "periodic",
-                                            "solver", "outputs", "search"};
-enum { OPT_ALPHA, OPT_PENALTY, OPT_RADIUS, OPT_PERIODIC, OPT_SOLVER, OPT_OUTPUTS, OPT_SEARCH, OPT_COUNT };
+                                            "solver", "outputs", "search", "penalty_scaling"};
+enum { OPT_ALPHA, OPT_PENALTY, OPT_RADIUS, OPT_PERIODIC, OPT_SOLVER, OPT_OUTPUTS, OPT_SEARCH, OPT_SCALING, OPT_COUNT };
 
 static int decode_periodic(decoder* d, const cJSON* v) {
     static const char* const names[] = {"lx", "ly"};
@@ -204,6 +204,13 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
             return fail(d, "invalid_value", "/options/solver", "unknown solver (expected closed_form or newton)");
     }
     if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], "/options/outputs", &o->outputs) != 0) return -1;
+    if (f[OPT_SCALING]) {
+        const cJSON* s = f[OPT_SCALING];
+        if (!cJSON_IsString(s)) return fail_type(d, "/options/penalty_scaling", s, "a string");
+        if (strcmp(s->valuestring, "node") == 0) o->penalty_scaling = NTS_PENALTY_PER_NODE;
+        else if (strcmp(s->valuestring, "length") == 0) o->penalty_scaling = NTS_PENALTY_PER_LENGTH;
+        else return fail(d, "invalid_value", "/options/penalty_scaling", "unknown penalty_scaling (expected node or length)");
+    }
     if (f[OPT_SEARCH]) {
         const cJSON* s = f[OPT_SEARCH];
         if (!cJSON_IsString(s)) return fail_type(d, "/options/search", s, "a string");
@@ -232,9 +239,13 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     }
     if (cJSON_IsNumber(v)) {
         double x = v->valuedouble;
-        /* Integers that a double holds exactly, so they echo back unchanged. */
-        if (!isfinite(x) || x != floor(x) || fabs(x) > 9007199254740992.0)
-            return fail(d, "invalid_value", ptr, "a numeric body id must be an integer with |id| <= 2^53");
+        /* Integers that a double holds exactly, so they echo back unchanged:
+         * |id| < 2^53, since 2^53 itself may be 2^53 + 1 rounded by the parser
+         * (two different ids would then collide). */
+        if (!isfinite(x) || x != floor(x) || fabs(x) >= 9007199254740992.0)
+            return fail(d, "invalid_value", ptr,
+                        "a numeric body id must be an integer with |id| < 2^53 (9007199254740992); larger ids do "
+                        "not survive a JSON number: send them as strings");
         id->is_int = 1;
         id->ival = (long long)x;
         return 0;
@@ -242,8 +253,8 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     return fail_type(d, ptr, v, "a string or an integer");
 }
 
-static const char* const body_fields[] = {"id", "nodes", "loops", "triangles"};
-enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_COUNT };
+static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role"};
+enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_COUNT };
 
 static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     char ptr[96];
@@ -408,6 +419,26 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         return fail(d, "missing_field", p, "a body needs \"nodes\"");
     }
     if (decode_nodes(d, b, f[BODY_NODES], total) != 0) return -1;
+    if (f[BODY_ALPHA]) {
+        /* Per-body smoothing: this body's surface (docs/model.md, "Per-body options"). */
+        char p[80];
+        nts_body_def* bd = &d->scene->defs[b];
+        snprintf(p, sizeof p, "%s/alpha", ptr);
+        if (get_number(d, f[BODY_ALPHA], p, &bd->alpha) != 0) return -1;
+        if (!(bd->alpha >= 0.0 && bd->alpha <= 0.5)) return fail(d, "invalid_option", p, "alpha must be in [0, 0.5]");
+        bd->has_alpha = 1;
+    }
+    if (f[BODY_ROLE]) {
+        char p[80];
+        const cJSON* r = f[BODY_ROLE];
+        nts_body_def* bd = &d->scene->defs[b];
+        snprintf(p, sizeof p, "%s/role", ptr);
+        if (!cJSON_IsString(r)) return fail_type(d, p, r, "a role (\"both\", \"master\" or \"slave\")");
+        if (strcmp(r->valuestring, "both") == 0) bd->role = NTS_ROLE_BOTH;
+        else if (strcmp(r->valuestring, "master") == 0) bd->role = NTS_ROLE_MASTER;
+        else if (strcmp(r->valuestring, "slave") == 0) bd->role = NTS_ROLE_SLAVE;
+        else return fail(d, "invalid_value", p, "unknown role (expected both, master or slave)");
+    }
     if (f[BODY_LOOPS] && f[BODY_TRIANGLES]) {
         char p[80];
         snprintf(p, sizeof p, "%s/triangles", ptr);
@@ -587,6 +618,12 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
     out[0] = '\0';
     if (err->code == NTS_EBOX_TOO_SMALL) {
         snprintf(out, size, "/options/periodic");
+        return;
+    }
+    if (err->option[0] && err->body >= 0 && s && err->body < s->body_count) {
+        /* A body's own option (alpha, role). */
+        snprintf(out, size, "/bodies/%d", err->body);
+        pointer_append_key(out, size, err->option);
         return;
     }
     if (err->option[0]) {

@@ -4,6 +4,7 @@
  * buffers; a serial pass scatters them in slave order, so the result is bitwise
  * the same for any number of threads. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "internal.h"
@@ -40,7 +41,10 @@ typedef struct master_hot {
     nts_vec2 t;      /* segment j: X_{j+1} - X_j (minimum image) */
     nts_vec2 n;      /* its outward unit normal */
     double inv_len2; /* 1/|t|^2 */
-    double reach2;   /* no feature of this master counts for a slave farther than sqrt(reach2) */
+    double reach2;   /* no feature of this master counts for a slave farther than sqrt(reach2);
+                        -1 when it offers nothing from here (a "slave" body, or a long entry
+                        of the cell list, searched through its own list) */
+    double alpha;    /* the smoothing of this master's body (per-body options) */
     int body;
     int entry;       /* surface entry j */
 } master_hot;
@@ -87,6 +91,16 @@ struct nts_context {
     nts_contact* gaps;
     int gaps_cap;
     double phase[4]; /* seconds of the last evaluation: segments, cells, local search, scatter */
+    double* scratch;   /* surface_count: segment lengths for the median and the percentile */
+    int scratch_cap;
+    /* Long entries of the cell list (reach longer than the cell side allows):
+     * each is listed in every cell its reach box overlaps (cell_list.c). */
+    master_hot* long_hot;
+    int long_hot_cap, long_count;
+    int* long_start;   /* cells + 1 */
+    int long_start_cap;
+    int* long_items;   /* into long_hot, by cell */
+    int long_items_cap;
 };
 
 /* Phase timings of the last evaluation (internal.h; used by bench/). */
@@ -102,7 +116,9 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) + (size_t)ctx->hot_cap * sizeof(master_hot) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
-        2 * (size_t)ctx->cells.cap_items * sizeof(int);
+        2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
+        (size_t)ctx->long_hot_cap * sizeof(master_hot) + (size_t)ctx->long_start_cap * sizeof(int) +
+        (size_t)ctx->long_items_cap * sizeof(int);
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
@@ -139,6 +155,10 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->forces);
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
+    nts_free(ctx->scratch);
+    nts_free(ctx->long_hot);
+    nts_free(ctx->long_start);
+    nts_free(ctx->long_items);
     nts_free(ctx);
 }
 
@@ -172,7 +192,11 @@ typedef struct search_env {
     const seg_data* seg;
     const nts_cells* cells;  /* NULL: brute force */
     const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
-    double alpha, r, eps;
+    const master_hot* long_hot; /* the long entries, listed per cell by long_start/long_items */
+    const int* long_start;
+    const int* long_items;
+    double alpha, r, eps;    /* alpha: the options' (a body may have its own: master_hot.alpha) */
+    int per_length;          /* NTS_PENALTY_PER_LENGTH */
     double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
     double cell_reach2;      /* the same for a whole cell, with a round-off allowance */
     int cell_cull;           /* 1 when the stencil offsets are exact images (cull whole cells) */
@@ -242,7 +266,7 @@ static inline void offer(worker* w, const candidate* c) {
  * for operation, so results are bitwise unchanged. */
 static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int slave_body,
                                                 const master_hot* m, const int periodic) {
-    const double alpha = env->alpha, r = env->r;
+    const double alpha = m->alpha, r = env->r; /* the master's alpha shapes the master's surface */
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
     double d2 = d.x * d.x + d.y * d.y, sj_param;
@@ -335,7 +359,13 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
 
 /* flush_slave writes every field of a record instead of clearing it first: that
  * gives the same bytes only while nts_contact has no padding (compile-time check). */
-typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 14 * sizeof(double) ? 1 : -1];
+typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
+
+/* The alpha that shapes body b's surface (its own, or the options'). */
+static inline double body_alpha(const search_env* env, int b) {
+    double a = env->s->body_alpha[b];
+    return a >= 0.0 ? a : env->alpha;
+}
 
 /* Move the current slave's best candidates to the worker's records, filling the
  * slave fields, forces and virial; reset the slot map. Candidates are emitted in
@@ -344,6 +374,9 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     const nts_scene* s = env->s;
     int k, m, need = w->rec_count + w->best_count;
     nts_vec2 xs = s->pos[s->surf_node[i]];
+    /* The slave's penalty (contact-model.md, "Forces"): per node, or per unit of
+     * the node's tributary length at creation (a pressure stiffness). */
+    const double eps = env->per_length ? env->eps * s->surf_trib[i] : env->eps;
     if (w->best_count == 0) return;
     if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(nts_contact)) != NTS_OK) {
         w->status = NTS_ENOMEM;
@@ -377,7 +410,7 @@ static void flush_slave(const search_env* env, worker* w, int i) {
             c->weights[0] = 1.0 - b->param;
             c->weights[1] = b->param;
         } else if (b->kind == NTS_KIND_CORNER) {
-            nts_shape3 N = nts_corner_shape(env->alpha, b->param);
+            nts_shape3 N = nts_corner_shape(body_alpha(env, b->body), b->param);
             c->master_count = 3;
             c->master_nodes[0] = s->surf_local[s->surf_prev[j]];
             c->master_nodes[1] = s->surf_local[j];
@@ -397,9 +430,10 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         c->point = b->point;
         c->slave_body = s->surf_body[i];
         c->slave_node = s->surf_local[i];
+        c->penalty = eps;
         if (c->gap < 0.0) {
             /* f_s = -eps g n (contact-model.md, "Forces"). */
-            double eg = env->eps * c->gap;
+            double eg = eps * c->gap;
             c->force = nts_scale(-eg, c->normal);
             if (env->want_virial) {
                 /* W_ab = -sum_k f_ka (X_k - Xs)_b over the master nodes, f_k = eps g N_k n
@@ -514,6 +548,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
         const int bi = s->surf_body[i], cell = cl->entry_cell[i];
         const nts_vec2 xs = s->pos[s->surf_node[i]];
         int q;
+        if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
         if (cell != last_cell) {
             last_cell = cell;
             cx = cell % nx;
@@ -580,6 +615,11 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 for (e = e0; e < e1; ++e) try_master(env, w, xs, bi, &hot[e], periodic);
             }
         }
+        if (env->long_start != NULL) {
+            /* The long masters whose reach box overlaps the slave's own cell. */
+            int e, e0 = env->long_start[cell], e1 = env->long_start[cell + 1];
+            for (e = e0; e < e1; ++e) try_master(env, w, xs, bi, &env->long_hot[env->long_items[e]], periodic);
+        }
         flush_slave(env, w, i);
     }
 }
@@ -597,6 +637,7 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
             const int bi = s->surf_body[i];
             const nts_vec2 xs = s->pos[s->surf_node[i]];
             int j;
+            if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
             for (j = 0; j < s->surface_count; ++j)
                 try_master(env, w, xs, bi, &hot[j], 1);
             flush_slave(env, w, i);
@@ -604,25 +645,165 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
     }
 }
 
-/* The masters' hot records in the order the search reads them. The reach of
- * master j is r + max(|t_j|, alpha |t_{j-1}|): the flat part of segment j lies
- * within |t_j| + r, the corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex
- * within r; the factor 1 + 1e-9 covers the round-off of the tests it replaces. */
-static void fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r) {
+/* The reach length of master j: its features lie within r + max(|t_j|,
+ * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
+ * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
+ * alpha the master body's. */
+static inline double reach_length(const seg_data* seg, const nts_scene* s, int j, double alpha) {
+    double lp = alpha * seg[s->surf_prev[j]].len, lj = seg[j].len;
+    return lj > lp ? lj : lp;
+}
+
+static double alpha_of_body(const nts_scene* s, int b, double alpha) {
+    return s->body_alpha[b] >= 0.0 ? s->body_alpha[b] : alpha;
+}
+
+/* The masters' hot records in the order the search reads them; the factor
+ * 1 + 1e-9 on the reach covers the round-off of the tests it replaces. With a
+ * cell list (`long_len` > 0), a master whose reach length exceeds `long_len`
+ * (the cell side minus r) is searched through the long lists instead: its
+ * record here offers nothing, and a copy with its real reach goes to
+ * ctx->long_hot. A body with role "slave" offers nothing at all. */
+static void fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
+                     double long_len) {
     int e;
+    ctx->long_count = 0;
     for (e = 0; e < s->surface_count; ++e) {
-        int j = order != NULL ? order[e] : e;
+        int j = order != NULL ? order[e] : e, b = s->surf_body[j];
         master_hot* m = &ctx->hot[e];
-        double lp = alpha * ctx->seg[s->surf_prev[j]].len, lj = ctx->seg[j].len;
-        double reach = (r + (lj > lp ? lj : lp)) * (1.0 + 1e-9);
+        double a = alpha_of_body(s, b, alpha), len = reach_length(ctx->seg, s, j, a);
+        double reach = (r + len) * (1.0 + 1e-9);
         m->p = s->pos[s->surf_node[j]];
         m->t = ctx->seg[j].t;
         m->n = ctx->seg[j].n;
         m->inv_len2 = ctx->seg[j].inv_len2;
         m->reach2 = reach * reach;
-        m->body = s->surf_body[j];
+        m->alpha = a;
+        m->body = b;
         m->entry = j;
+        if (s->body_role[b] == NTS_ROLE_SLAVE) {
+            m->reach2 = -1.0;
+        } else if (long_len > 0.0 && len > long_len) {
+            ctx->long_hot[ctx->long_count++] = *m;
+            m->reach2 = -1.0;
+        }
     }
+}
+
+/* The k-th smallest of v[0..n) (v is reordered): quickselect with a
+ * median-of-three pivot, and a full sort of what is left if it has not
+ * converged after 2 log2(n) + 8 partitions, so the time is bounded by
+ * O(n log n) whatever the values. Deterministic. */
+static int cmp_double(const void* a, const void* b) {
+    double x = *(const double*)a, y = *(const double*)b;
+    return (x > y) - (x < y);
+}
+
+static double select_kth(double* v, int n, int k) {
+    int lo = 0, hi = n - 1, rounds = 8, m;
+    for (m = n; m > 1; m >>= 1) rounds += 2;
+    while (hi > lo) {
+        double a, b, c, pivot;
+        int i = lo, j = hi;
+        if (rounds-- == 0) {
+            qsort(v + lo, (size_t)(hi - lo + 1), sizeof(double), cmp_double);
+            break;
+        }
+        a = v[lo];
+        b = v[lo + (hi - lo) / 2];
+        c = v[hi];
+        pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
+        while (i <= j) { /* Hoare partition: every step moves i or j, so it ends */
+            while (v[i] < pivot) ++i;
+            while (v[j] > pivot) --j;
+            if (i <= j) {
+                double t = v[i];
+                v[i] = v[j];
+                v[j] = t;
+                ++i;
+                --j;
+            }
+        }
+        if (k <= j) hi = j;
+        else if (k >= i) lo = i;
+        else break; /* v[k] == pivot */
+    }
+    return v[k];
+}
+
+/* Cells of one axis that the interval [lo, hi] (in the grid's frame) overlaps:
+ * the first one and how many; periodic grids wrap, open ones clip. */
+static int cell_span(double lo, double hi, double h, int n, int periodic, int* first) {
+    double flo = floor(lo / h), fhi = floor(hi / h);
+    if (periodic) {
+        if (!(fhi - flo + 1.0 < (double)n)) {
+            *first = 0;
+            return n;
+        }
+        *first = (int)(flo - (double)n * floor(flo / (double)n));
+        return (int)(fhi - flo) + 1;
+    }
+    if (flo < 0.0) flo = 0.0;
+    if (fhi > (double)(n - 1)) fhi = (double)(n - 1);
+    if (fhi < flo) return 0;
+    *first = (int)flo;
+    return (int)(fhi - flo) + 1;
+}
+
+/* The reach box of long master m, as cells: the corner curve lies in the
+ * triangle Xa X_j Xb and the flat part on segment j, so every feature lies
+ * within r of bbox(X_j, X_j + t_j, X_j - alpha t_{j-1}); `pad` covers the
+ * round-off of binning. Returns the number of cells; *cx0, *ncx (*cy0, *ncy). */
+static long long long_box(const nts_cells* cl, const nts_scene* s, const seg_data* seg, const master_hot* m,
+                          double r, double pad, int* cx0, int* ncx, int* cy0, int* ncy) {
+    nts_vec2 tp = seg[s->surf_prev[m->entry]].t, t = m->t;
+    double x = m->p.x - cl->x0, y = m->p.y - cl->y0, R = r * (1.0 + 1e-9) + pad;
+    double xlo, xhi, ylo, yhi;
+    if (cl->periodic) { /* the frame nts_cells_build bins in */
+        x -= s->lx * floor(x / s->lx);
+        y -= s->ly * floor(y / s->ly);
+    }
+    xlo = fmin(fmin(0.0, t.x), -m->alpha * tp.x);
+    xhi = fmax(fmax(0.0, t.x), -m->alpha * tp.x);
+    ylo = fmin(fmin(0.0, t.y), -m->alpha * tp.y);
+    yhi = fmax(fmax(0.0, t.y), -m->alpha * tp.y);
+    *ncx = cell_span(x + xlo - R, x + xhi + R, cl->hx, cl->nx, cl->periodic, cx0);
+    *ncy = cell_span(y + ylo - R, y + yhi + R, cl->hy, cl->ny, cl->periodic, cy0);
+    return (long long)*ncx * (long long)*ncy;
+}
+
+/* List every long master in every cell its reach box overlaps (CSR by cell,
+ * masters in entry order within a cell). Returns NTS_OK, NTS_ENOMEM, or
+ * NTS_ELIMIT when the lists would exceed `budget` entries (the caller then
+ * coarsens the grid). */
+static int build_long_lists(nts_context* ctx, const nts_scene* s, double r, double pad, long long budget) {
+    const nts_cells* cl = &ctx->cells;
+    int ncell = cl->nx * cl->ny, i, rc;
+    long long total = 0;
+    if ((rc = nts_grow((void**)&ctx->long_start, &ctx->long_start_cap, ncell + 1, sizeof(int))) != NTS_OK) return rc;
+    memset(ctx->long_start, 0, sizeof(int) * (size_t)(ncell + 1));
+    for (i = 0; i < ctx->long_count; ++i) {
+        int cx0, ncx, cy0, ncy;
+        total += long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        if (total > budget) return NTS_ELIMIT;
+    }
+    if ((rc = nts_grow((void**)&ctx->long_items, &ctx->long_items_cap, (int)total, sizeof(int))) != NTS_OK) return rc;
+    for (i = 0; i < ctx->long_count; ++i) { /* counts */
+        int cx0, ncx, cy0, ncy, a, b;
+        long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        for (b = 0; b < ncy; ++b)
+            for (a = 0; a < ncx; ++a) ++ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx + 1];
+    }
+    for (i = 0; i < ncell; ++i) ctx->long_start[i + 1] += ctx->long_start[i];
+    for (i = 0; i < ctx->long_count; ++i) { /* fill, in entry order */
+        int cx0, ncx, cy0, ncy, a, b;
+        long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        for (b = 0; b < ncy; ++b)
+            for (a = 0; a < ncx; ++a) ctx->long_items[ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx]++] = i;
+    }
+    for (i = ncell; i > 0; --i) ctx->long_start[i] = ctx->long_start[i - 1];
+    ctx->long_start[0] = 0;
+    return NTS_OK;
 }
 
 static int eval_fail(nts_error* err, int code, int body, int node, const char* msg) {
@@ -658,10 +839,12 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         double l2;
         sd->t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], s->pos[s->surf_node[i]]);
         l2 = nts_length_sq(sd->t);
-        if (!(l2 > 0.0) || !isfinite(l2)) {
-            char msg[128];
-            snprintf(msg, sizeof msg, "body %d: segment from node %d has zero (or non-finite) length",
-                     s->surf_body[i], s->surf_local[i]);
+        /* The supported range (scene.c): nts_scene_set_positions does not check
+         * it, and 1/|t|^2 must not overflow. */
+        if (!(l2 >= 1e-200) || !(l2 <= 1e201)) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
+                     s->surf_body[i], s->surf_local[i], sqrt(l2));
             return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[i], s->surf_local[i], msg);
         }
         sd->len = sqrt(l2);
@@ -676,11 +859,23 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.s = s;
     env.seg = ctx->seg;
     env.alpha = opt->alpha;
-    env.r = opt->search_radius < 0.0 ? lmax : opt->search_radius;
     env.eps = opt->penalty;
+    env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
+    env.long_hot = NULL;
+    env.long_start = NULL;
+    env.long_items = NULL;
+    /* A typical segment, not the longest, sets the default search radius and
+     * the cell side, so that one long wall neither widens the search nor
+     * coarsens the grid (docs/model.md, "Global search"): the median segment,
+     * and the 95th percentile of the masters' reach lengths. */
+    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, s->surface_count, sizeof(double))) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    for (i = 0; i < s->surface_count; ++i) ctx->scratch[i] = ctx->seg[i].len;
+    env.r = opt->search_radius < 0.0 ? select_kth(ctx->scratch, s->surface_count, (s->surface_count - 1) / 2)
+                                     : opt->search_radius;
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
-    h = lmax + env.r; /* contact-model.md, "Global search": h >= L_max + r */
+    h = lmax + env.r; /* every feature lies within L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
         snprintf(msg, sizeof msg, "periodic box %.6g x %.6g must exceed twice the search reach %.6g", s->lx, s->ly, h);
@@ -700,18 +895,46 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.hot = ctx->hot;
     if (opt->search == NTS_SEARCH_CELLS) {
         const nts_cells* cl = &ctx->cells;
-        double scale;
-        if ((rc = nts_cells_build(&ctx->cells, s, h)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+        /* At most this many (long master, cell) pairs: a few per surface node. */
+        const long long budget = 4LL * s->surface_count + 4096;
+        double scale, pad, hc;
+        int round;
+        for (i = 0; i < s->surface_count; ++i)
+            ctx->scratch[i] = reach_length(ctx->seg, s, i, alpha_of_body(s, s->surf_body[i], env.alpha));
+        hc = select_kth(ctx->scratch, s->surface_count, (int)(0.95 * (double)(s->surface_count - 1))) + env.r;
+        if (hc > h) hc = h;
+        if ((rc = nts_grow((void**)&ctx->long_hot, &ctx->long_hot_cap, s->surface_count, sizeof(master_hot))) !=
+            NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        /* The cell side hc >= (typical reach) + r: masters that reach farther
+         * are listed in every cell their reach box overlaps. Too many such
+         * pairs: coarsen, at most until hc = L_max + r, where none is left. */
+        for (round = 0;; ++round) {
+            if ((rc = nts_cells_build(&ctx->cells, s, hc)) != NTS_OK)
+                return eval_fail(err, rc, -1, -1, "out of memory");
+            fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0);
+            scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
+            pad = 1e-12 * scale;
+            if (ctx->long_count == 0) break;
+            rc = build_long_lists(ctx, s, env.r, pad, budget);
+            if (rc == NTS_OK) break;
+            if (rc != NTS_ELIMIT) return eval_fail(err, rc, -1, -1, "out of memory");
+            assert(round < 64);
+            hc = 2.0 * hc < h ? 2.0 * hc : h;
+        }
         env.cells = cl;
-        fill_hot(ctx, s, cl->items, env.alpha, env.r);
+        if (ctx->long_count > 0) {
+            env.long_hot = ctx->long_hot;
+            env.long_start = ctx->long_start;
+            env.long_items = ctx->long_items;
+        }
         /* Whole-cell cull: exact when every stencil offset is a distinct image,
          * with an allowance for the round-off of binning (relative to the size of
          * the coordinates, not of the cells). */
         env.cell_cull = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
-        scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
-        env.cell_reach2 = (h * (1.0 + 1e-9) + 1e-12 * scale) * (h * (1.0 + 1e-9) + 1e-12 * scale);
+        env.cell_reach2 = (hc * (1.0 + 1e-9) + pad) * (hc * (1.0 + 1e-9) + pad);
     } else {
-        fill_hot(ctx, s, NULL, env.alpha, env.r);
+        fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0);
     }
 
     t1 = wall_time();
@@ -778,15 +1001,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                     ctx->contacts[ncontact] = *c;
                 }
                 ++ncontact;
-                overflow |= !isfinite(env.eps * c->gap) || !isfinite(c->virial.xx + c->virial.yy + c->virial.xy);
-                energy += 0.5 * env.eps * c->gap * c->gap;
+                overflow |= !isfinite(c->penalty * c->gap) || !isfinite(c->virial.xx + c->virial.yy + c->virial.xy);
+                energy += 0.5 * c->penalty * c->gap * c->gap;
                 if (-c->gap > maxpen) maxpen = -c->gap;
                 vir.xx += c->virial.xx;
                 vir.yy += c->virial.yy;
                 vir.xy += c->virial.xy;
                 if (want_forces) {
                     int sb = s->body_node_start[c->slave_body], mb = s->body_node_start[c->master_body], q;
-                    double eg = env.eps * c->gap;
+                    double eg = c->penalty * c->gap;
                     ctx->forces[sb + c->slave_node] = nts_add(ctx->forces[sb + c->slave_node], c->force);
                     for (q = 0; q < c->master_count; ++q) {
                         /* f_k = eps g N_k n */

@@ -33,6 +33,11 @@ struct nts_scene {
     int* body_tri_start;  /* body_count + 1 into tri/tri_sign; NULL when no body has triangles */
     int* tri;             /* 3 per triangle, body-local node indices */
     signed char* tri_sign;/* winding of each triangle at creation: +1 or -1 */
+    /* Per-body model options (nts_body_def) and the reference configuration: */
+    unsigned char* body_role;  /* nts_role */
+    unsigned char* body_mesh;  /* 1: loops from triangles, oriented by their windings */
+    double* body_alpha;        /* the body's own alpha, or -1: the options' */
+    double* surf_trib;         /* surface entry -> tributary length at creation */
 };
 
 /* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping

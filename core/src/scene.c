@@ -69,34 +69,69 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->surf_body);
     nts_free(s->loop_reversed);
     nts_free(s->body_outer);
+    nts_free(s->body_role);
+    nts_free(s->body_mesh);
+    nts_free(s->body_alpha);
+    nts_free(s->surf_trib);
     nts_free(s->body_tri_start);
     nts_free(s->tri);
     nts_free(s->tri_sign);
     nts_free(s);
 }
 
-/* Geometry checks of one loop: degenerate segments (relative to the scene's
- * extent), zero-angle spikes, zero area. `nodes` holds the loop as stored; when
- * `reversed` the input order is its reversal keeping the first node (input
- * place k is stored place (n - k) mod n), so that the checks, their error
- * messages and the signed area are always those of the caller's own order.
- * Positions come from `pos` (global order), so new positions can be checked
- * before they are taken (nts_scene_update_positions). */
+/* The supported range (docs/model.md, "Geometry"): squares of lengths and
+ * products of coordinates must stay well inside a double (1e-200 .. 1e200),
+ * so that no test of the search, no 1/|t|^2 and no area overflows or
+ * underflows into a silent wrong answer. */
+#define NTS_COORD_MAX 1e100
+#define NTS_LENGTH_MIN 1e-100
+
+static double max4(double a, double b, double c, double d) {
+    double m = a > b ? a : b, n = c > d ? c : d;
+    return m > n ? m : n;
+}
+
+/* A segment is degenerate when it is shorter than 1e-12 of its two neighbours
+ * together (a doubled node), or than what its own coordinates can resolve (a
+ * few ulps of the largest), or than NTS_LENGTH_MIN. Only the segment's own
+ * neighbourhood counts: no body elsewhere changes the verdict. */
+static double segment_tolerance(double l_prev, double l_next, nts_vec2 p, nts_vec2 q) {
+    double res = 16.0 * DBL_EPSILON * max4(fabs(p.x), fabs(p.y), fabs(q.x), fabs(q.y));
+    double nb = 1e-12 * (l_prev + l_next);
+    double tol = res > nb ? res : nb;
+    return tol > NTS_LENGTH_MIN ? tol : NTS_LENGTH_MIN;
+}
+
+/* Geometry checks of one loop: degenerate segments, zero-angle spikes, zero
+ * area. `nodes` holds the loop as stored; when `reversed` the input order is
+ * its reversal keeping the first node (input place k is stored place
+ * (n - k) mod n), so that the checks, their error messages and the signed area
+ * are always those of the caller's own order. Positions come from `pos`
+ * (global order), so new positions can be checked before they are taken
+ * (nts_scene_update_positions). */
 static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loop, const int* nodes, int n,
-                      int reversed, int node0, double len_tol, double* area2_out, nts_error* err) {
-    double perim = 0.0, a2;
+                      int reversed, int node0, double* area2_out, nts_error* err) {
+    double perim = 0.0, a2, l_first, l_prev, l_cur;
     int k;
 #define NODE_AT(k) nodes[reversed ? (n - (k)) % n : (k)]
+#define SEG_LEN(k) nts_length(nts_scene_diff(s, pos[node0 + NODE_AT(((k) + 1) % n)], pos[node0 + NODE_AT(k)]))
+    l_first = SEG_LEN(0);
+    l_prev = SEG_LEN(n - 1);
+    l_cur = l_first;
     for (k = 0; k < n; ++k) {
         int a = NODE_AT(k), c = NODE_AT((k + 1) % n);
-        nts_vec2 t = nts_scene_diff(s, pos[node0 + c], pos[node0 + a]);
-        double len = nts_length(t);
-        if (!(len > len_tol))
+        double l_next = k + 1 < n ? SEG_LEN(k + 1) : l_first;
+        double tol = segment_tolerance(l_prev, l_next, pos[node0 + a], pos[node0 + c]);
+        if (!(l_cur > tol))
             return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, a,
-                        "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g)",
-                        body, loop, a, c, len, len_tol);
-        perim += len;
+                        "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g: 1e-12 of its "
+                        "neighbours, the resolution of its coordinates, or 1e-100)",
+                        body, loop, a, c, l_cur, tol);
+        perim += l_cur;
+        l_prev = l_cur;
+        l_cur = l_next;
     }
+#undef SEG_LEN
     for (k = 0; k < n; ++k) {
         /* Zero-angle spike: both neighbours leave node k in the same direction,
          * so the corner tangent vanishes (contact-model.md, corner polynomial). */
@@ -122,18 +157,22 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
         }
     }
 #undef NODE_AT
+    /* perim^2 <= (n 2e100)^2: finite for any loop the limits allow. */
     if (!(fabs(a2) > 64.0 * DBL_EPSILON * perim * perim))
         return fail(err, NTS_EZERO_AREA, body, loop, -1, -1, "body %d loop %d encloses zero area", body, loop);
     *area2_out = a2;
     return NTS_OK;
 }
 
-/* Degenerate segments are judged against the scene's extent (the bounding box
- * diagonal, at most the periodic box), so the rule is the same at every scale. */
-static double length_tolerance(double xmin, double xmax, double ymin, double ymax, double lx, double ly) {
-    double ex = xmax - xmin, ey = ymax - ymin;
-    if (lx > 0.0) { if (ex > lx) ex = lx; if (ey > ly) ey = ly; }
-    return 1e-12 * sqrt(ex * ex + ey * ey);
+/* A coordinate inside the supported range (finite, |x| <= NTS_COORD_MAX). */
+static int check_node(nts_vec2 p, int body, int node, nts_error* err) {
+    if (!nts_is_valid_vec2(p))
+        return fail(err, NTS_ENONFINITE, body, -1, -1, node, "body %d node %d has a non-finite coordinate", body, node);
+    if (!(fabs(p.x) <= NTS_COORD_MAX && fabs(p.y) <= NTS_COORD_MAX))
+        return fail(err, NTS_EOUT_OF_RANGE, body, -1, -1, node,
+                    "body %d node %d: coordinate %.3g is beyond +-1e100, where squared lengths overflow (rescale "
+                    "the scene)", body, node, fabs(p.x) > fabs(p.y) ? p.x : p.y);
+    return NTS_OK;
 }
 
 nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
@@ -144,7 +183,6 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     double* area2 = NULL;
     long long total_nodes = 0, total_surf = 0, total_loops = 0, total_tris = 0;
     int b, max_body_nodes = 0, rc = NTS_OK;
-    double xmin = 0, xmax = 0, ymin = 0, ymax = 0, len_tol;
 
     if (err != NULL) *err = nts_error_none();
     if (def == NULL || def->bodies == NULL || def->body_count <= 0) {
@@ -154,6 +192,11 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     if (!(def->lx >= 0.0 && def->ly >= 0.0) || !nts_is_valid_double(def->lx) || !nts_is_valid_double(def->ly) ||
         ((def->lx > 0.0) != (def->ly > 0.0))) {
         fail(err, NTS_EINVALID_OPTION, -1, -1, -1, -1, "periodic box needs lx > 0 and ly > 0, finite");
+        if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
+        return NULL;
+    }
+    if (def->lx > NTS_COORD_MAX || def->ly > NTS_COORD_MAX) {
+        fail(err, NTS_EOUT_OF_RANGE, -1, -1, -1, -1, "periodic box beyond 1e100 (rescale the scene)");
         if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
         return NULL;
     }
@@ -175,6 +218,16 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             rc = fail(err, NTS_ENO_NODES, b, -1, -1, -1, "body %d has no nodes", b);
             goto fail;
         }
+        if (bd->role != NTS_ROLE_BOTH && bd->role != NTS_ROLE_MASTER && bd->role != NTS_ROLE_SLAVE) {
+            rc = fail(err, NTS_EINVALID_OPTION, b, -1, -1, -1, "body %d: role must be both, master or slave", b);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "role");
+            goto fail;
+        }
+        if (bd->has_alpha && !(bd->alpha >= 0.0 && bd->alpha <= 0.5)) {
+            rc = fail(err, NTS_EINVALID_OPTION, b, -1, -1, -1, "body %d: alpha must be in [0, 0.5]", b);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "alpha");
+            goto fail;
+        }
         if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body) {
             rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "body %d has %d nodes, more than the limit of %d nodes per body",
                       b, bd->node_count, def->limits.max_nodes_per_body);
@@ -192,18 +245,8 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than 2^30 nodes");
             goto fail;
         }
-        for (i = 0; i < bd->node_count; ++i) {
-            nts_vec2 p = bd->nodes[i];
-            if (!nts_is_valid_vec2(p)) {
-                rc = fail(err, NTS_ENONFINITE, b, -1, -1, i, "body %d node %d has a non-finite coordinate", b, i);
-                goto fail;
-            }
-            if (b == 0 && i == 0) { xmin = xmax = p.x; ymin = ymax = p.y; }
-            if (p.x < xmin) xmin = p.x;
-            if (p.x > xmax) xmax = p.x;
-            if (p.y < ymin) ymin = p.y;
-            if (p.y > ymax) ymax = p.y;
-        }
+        for (i = 0; i < bd->node_count; ++i)
+            if ((rc = check_node(bd->nodes[i], b, i, err)) != NTS_OK) goto fail;
         if (bd->node_count > max_body_nodes) max_body_nodes = bd->node_count;
         if (bd->triangles != NULL && bd->triangle_count > 0) {
             rc = nts_boundary_from_triangles(bd->nodes, bd->node_count, bd->triangles, bd->triangle_count,
@@ -252,6 +295,10 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     s->surf_body = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
     s->loop_reversed = (unsigned char*)nts_alloc((size_t)total_loops);
     s->body_outer = (int*)nts_alloc(sizeof(int) * (size_t)def->body_count);
+    s->body_role = (unsigned char*)nts_alloc((size_t)def->body_count);
+    s->body_mesh = (unsigned char*)nts_alloc((size_t)def->body_count);
+    s->body_alpha = (double*)nts_alloc(sizeof(double) * (size_t)def->body_count);
+    s->surf_trib = (double*)nts_alloc(sizeof(double) * (size_t)total_surf);
     if (total_tris > 0) {
         s->body_tri_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
         s->tri = (int*)nts_alloc(sizeof(int) * 3 * (size_t)total_tris);
@@ -266,12 +313,10 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     loop_tmp = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
         !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
-        !mark || !area2 || !loop_tmp) {
+        !s->body_role || !s->body_mesh || !s->body_alpha || !s->surf_trib || !mark || !area2 || !loop_tmp) {
         rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
         goto fail;
     }
-
-    len_tol = length_tolerance(xmin, xmax, ymin, ymax, s->lx, s->ly);
 
     /* Pass 2: copy, check topology and geometry, normalise orientation. */
     {
@@ -331,7 +376,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
                     mark[v] = 1;
                     loop_tmp[k] = v;
                 }
-                rc = check_loop(s, s->pos, b, l, loop_tmp, n, 0, node_off, len_tol, &area2[loop_i], err);
+                rc = check_loop(s, s->pos, b, l, loop_tmp, n, 0, node_off, &area2[loop_i], err);
                 if (rc != NTS_OK) {
                     if (implicit && err != NULL) err->loop = err->loop_pos = -1;
                     goto fail;
@@ -347,13 +392,18 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             }
             /* Orientation: the loop with the largest |area| is the outer one and
              * runs counter-clockwise; holes run clockwise. A loop the wrong way is
-             * reversed keeping its first node. */
+             * reversed keeping its first node. A triangle mesh's loops are
+             * oriented already, by the windings of its triangles: each piece of
+             * a mesh in several pieces keeps its own outer loop. */
             s->body_outer[b] = outer;
+            s->body_mesh[b] = (unsigned char)(bnd[b].loop_nodes != NULL);
+            s->body_role[b] = (unsigned char)bd->role;
+            s->body_alpha[b] = bd->has_alpha ? bd->alpha : -1.0;
             for (l = body_loop0; l < loop_i; ++l) {
                 int want_ccw = (l == outer);
                 int first = s->loop_start[l], n = surf - first, k;
                 if (l + 1 < loop_i) n = s->loop_start[l + 1] - first;
-                s->loop_reversed[l] = (unsigned char)((area2[l] > 0.0) != want_ccw);
+                s->loop_reversed[l] = (unsigned char)(!s->body_mesh[b] && (area2[l] > 0.0) != want_ccw);
                 if (s->loop_reversed[l]) {
                     for (k = 1; k < n - k; ++k) {
                         int t = s->surf_local[first + k];
@@ -375,6 +425,14 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         s->body_loop_start[def->body_count] = loop_i;
         s->loop_start[loop_i] = surf;
         assert(surf == s->surface_count && loop_i == s->loop_total);
+        /* Tributary lengths at creation (the reference configuration of
+         * NTS_PENALTY_PER_LENGTH): half of the two segments at each node. */
+        for (b = 0; b < s->surface_count; ++b) {
+            int p = s->surf_prev[b], q = s->surf_next[b];
+            double lp = nts_length(nts_scene_diff(s, s->pos[s->surf_node[b]], s->pos[s->surf_node[p]]));
+            double lq = nts_length(nts_scene_diff(s, s->pos[s->surf_node[q]], s->pos[s->surf_node[b]]));
+            s->surf_trib[b] = 0.5 * (lp + lq);
+        }
     }
     nts_free(mark);
     nts_free(area2);
@@ -411,23 +469,14 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
 }
 
 int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err) {
-    double xmin = 0.0, xmax = 0.0, ymin = 0.0, ymax = 0.0, len_tol;
-    int b, i;
+    int b, i, rc;
     if (err != NULL) *err = nts_error_none();
     if (s == NULL || pos == NULL) return fail(err, NTS_EINVALID_ARGUMENT, -1, -1, -1, -1, "null argument");
     /* The checks of nts_scene_create, in its order, on the new positions. */
     for (b = 0; b < s->body_count; ++b) {
         int off = s->body_node_start[b], n = s->body_node_start[b + 1] - off;
-        for (i = 0; i < n; ++i) {
-            nts_vec2 p = pos[off + i];
-            if (!nts_is_valid_vec2(p))
-                return fail(err, NTS_ENONFINITE, b, -1, -1, i, "body %d node %d has a non-finite coordinate", b, i);
-            if (off + i == 0) { xmin = xmax = p.x; ymin = ymax = p.y; }
-            if (p.x < xmin) xmin = p.x;
-            if (p.x > xmax) xmax = p.x;
-            if (p.y < ymin) ymin = p.y;
-            if (p.y > ymax) ymax = p.y;
-        }
+        for (i = 0; i < n; ++i)
+            if ((rc = check_node(pos[off + i], b, i, err)) != NTS_OK) return rc;
         if (s->body_tri_start != NULL) {
             /* The boundary of a mesh follows from its triangles' windings: it is
              * the same boundary while no triangle flips or collapses. */
@@ -449,15 +498,15 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
             }
         }
     }
-    len_tol = length_tolerance(xmin, xmax, ymin, ymax, s->lx, s->ly);
     for (b = 0; b < s->body_count; ++b) {
         int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1], l, outer = -1;
         double outer_abs = -1.0, a2;
         for (l = l0; l < l1; ++l) {
-            int first = s->loop_start[l], n = s->loop_start[l + 1] - first, rc;
+            int first = s->loop_start[l], n = s->loop_start[l + 1] - first;
             rc = check_loop(s, pos, b, l - l0, s->surf_local + first, n, s->loop_reversed[l], s->body_node_start[b],
-                            len_tol, &a2, err);
+                            &a2, err);
             if (rc != NTS_OK) return rc;
+            if (s->body_mesh[b]) continue; /* oriented by its triangles, checked above */
             if (fabs(a2) > outer_abs) { outer_abs = fabs(a2); outer = l; }
             /* nts_scene_create reverses a loop whose sign disagrees with its role
              * (the outer loop counter-clockwise, holes clockwise): the stored order
@@ -466,7 +515,7 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
                 return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
                             "body %d loop %d turned over; create the scene anew", b, l - l0);
         }
-        if (outer != s->body_outer[b])
+        if (!s->body_mesh[b] && outer != s->body_outer[b])
             return fail(err, NTS_ERESHAPED, b, -1, -1, -1,
                         "body %d: another loop became the outer one; create the scene anew", b);
     }
@@ -478,9 +527,10 @@ size_t nts_scene_memory_bytes(const nts_scene* s) {
     size_t tris;
     if (s == NULL) return 0;
     tris = s->body_tri_start != NULL ? (size_t)s->body_tri_start[s->body_count] : 0;
-    return sizeof *s + (size_t)s->node_count * sizeof(nts_vec2) + (size_t)s->surface_count * 5 * sizeof(int) +
+    return sizeof *s + (size_t)s->node_count * sizeof(nts_vec2) +
+           (size_t)s->surface_count * (5 * sizeof(int) + sizeof(double)) +
            (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total +
-           (size_t)(s->body_count + 1) * 3 * sizeof(int) + tris * (3 * sizeof(int) + 1);
+           (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + sizeof(double)) + tris * (3 * sizeof(int) + 1);
 }
 
 int nts_scene_body_count(const nts_scene* s) { return s->body_count; }

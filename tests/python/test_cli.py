@@ -323,10 +323,10 @@ def test_doubling_the_penalty_doubles_every_force_exactly():
 
 def test_integer_and_string_ids_echo_exactly():
     scene = two_disks(outputs=["forces", "contacts"])
-    scene["bodies"][0]["id"] = 2 ** 53
+    scene["bodies"][0]["id"] = 2 ** 53 - 1
     scene["bodies"][1]["id"] = "cellule-\u00e9t\u00e9 \"7\"/\\"
     out = evaluate(scene)
-    assert out["bodies"][0]["id"] == 2 ** 53 and isinstance(out["bodies"][0]["id"], int)
+    assert out["bodies"][0]["id"] == 2 ** 53 - 1 and isinstance(out["bodies"][0]["id"], int)
     assert out["bodies"][1]["id"] == scene["bodies"][1]["id"]
     assert {json.dumps(c["slave"]["body"]) for c in out["contacts"]} == {json.dumps(b["id"]) for b in scene["bodies"]}
     scene["bodies"][0]["id"] = -3

@@ -38,14 +38,15 @@ extern "C" {
     XX(LIMIT, -16, "limit_exceeded", "a configured limit was exceeded")                    \
     XX(NO_BOUNDARY, -17, "no_boundary", "triangle mesh has no boundary")                   \
     XX(INTERNAL, -18, "internal_error", "internal error")                                  \
-    XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")
+    XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")                 \
+    XX(OUT_OF_RANGE, -20, "out_of_range", "coordinate beyond the supported range (1e100)")
 
 typedef enum nts_status {
     NTS_OK = 0,
 #define NTS_XX_(e, v, name, msg) NTS_E##e = (v),
     NTS_ERRNO_MAP(NTS_XX_)
 #undef NTS_XX_
-    NTS_E_COUNT_ = 20
+    NTS_E_COUNT_ = 21
 } nts_status;
 
 /* Stable snake_case name of a status ("ok", "degenerate_segment", ...). */

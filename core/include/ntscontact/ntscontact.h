@@ -18,6 +18,15 @@ extern "C" {
 
 /* ---------------------------------------------------------------- scene */
 
+/* What a body takes part in (contact-model.md, "Selection"; docs/model.md,
+ * "Per-body options"). */
+typedef enum nts_role {
+    NTS_ROLE_BOTH = 0,   /* its nodes touch other bodies and it offers its surface (default) */
+    NTS_ROLE_MASTER = 1, /* an obstacle: offers its surface, its nodes are never slaves; two
+                            master bodies never interact; the reaction on its nodes is returned */
+    NTS_ROLE_SLAVE = 2   /* its nodes touch other bodies, it offers no surface */
+} nts_role;
+
 /* One body as the caller has it. Give either loops or triangles:
  * - loops: `loop_count` loops, loop l is loop_nodes[loop_start[l] .. loop_start[l+1]),
  *   `loop_start` has loop_count + 1 entries;
@@ -33,6 +42,10 @@ typedef struct nts_body_def {
     int loop_count;
     const int* triangles;
     int triangle_count;
+    /* Per-body model options; zero-initialised they change nothing. */
+    nts_role role;
+    int has_alpha;    /* 1: `alpha` shapes this body's surface instead of nts_options.alpha */
+    double alpha;     /* in [0, 0.5]; walls and containers want 0 (sharp inner corners) */
 } nts_body_def;
 
 typedef struct nts_limits {
@@ -96,6 +109,15 @@ enum nts_output_flags {
     NTS_OUT_ALL = 0x1fu
 };
 
+/* The penalty of a slave node (contact-model.md, "Forces"): eps itself, or
+ * eps times the node's tributary length (half of its two segments, measured at
+ * nts_scene_create), so that eps is a pressure stiffness and the contact
+ * pressure and the penetration converge under mesh refinement. */
+typedef enum nts_penalty_scaling {
+    NTS_PENALTY_PER_NODE = 0,
+    NTS_PENALTY_PER_LENGTH = 1
+} nts_penalty_scaling;
+
 typedef enum nts_search {
     NTS_SEARCH_CELLS = 0,      /* cell list (Verlet buckets), O(N) */
     NTS_SEARCH_BRUTE_FORCE = 1 /* every surface node against every other body: for tests */
@@ -104,11 +126,13 @@ typedef enum nts_search {
 typedef struct nts_options {
     double alpha;          /* smoothing fraction in [0, 0.5]; default 0.2 */
     double penalty;        /* epsilon > 0; default 1 */
-    double search_radius;  /* r >= 0; a negative value means "the longest segment" (default) */
+    double search_radius;  /* r >= 0; a negative value means "the median segment" (default): a
+                              typical segment, so that one long wall does not widen the search */
     nts_solver solver;     /* default NTS_SOLVER_CLOSED_FORM */
     unsigned outputs;      /* NTS_OUT_* flags; default forces | energy | virial */
     nts_search search;     /* default NTS_SEARCH_CELLS */
     int threads;           /* 0 = serial; results are bitwise identical for any value */
+    nts_penalty_scaling penalty_scaling; /* default NTS_PENALTY_PER_NODE */
 } nts_options;
 nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
@@ -130,6 +154,8 @@ typedef struct nts_contact {
     nts_vec2 point;               /* the PCA (in the master node's image) */
     nts_vec2 force;               /* force on the slave: -eps g n (zero when g >= 0) */
     nts_virial virial;            /* -sum f_i (X_i - Xs), = eps g^2 n n */
+    double penalty;               /* the eps of this contact: nts_options.penalty, times the slave's
+                                     tributary length with NTS_PENALTY_PER_LENGTH */
 } nts_contact;
 
 typedef struct nts_summary {
