@@ -205,13 +205,22 @@ nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver
             n = 1;
         }
     }
-    /* The root nearest to the slave; ties go to the smaller xi (determinism). */
+    /* The root nearest to the slave. Two roots equally near (a slave on the
+     * symmetry axis of a corner, beyond its evolute) are a tie up to round-off,
+     * which differs between solvers and platforms: distances within a few ulps
+     * of each other tie, and a tie goes to the smaller xi (docs/model.md,
+     * "Selection"), so every solver picks the same root. */
     for (i = 0; i < n; ++i) {
         double d2 = problem_dist_sq(&p, roots[i]);
-        if (best < 0 || d2 < best_d2 || (d2 == best_d2 && roots[i] < roots[best])) {
+        if (best < 0 || d2 < best_d2) {
             best = i;
             best_d2 = d2;
         }
+    }
+    {
+        const double tie = best_d2 * (1.0 + 64.0 * DBL_EPSILON);
+        for (i = 0; i < n; ++i)
+            if (roots[i] < roots[best] && problem_dist_sq(&p, roots[i]) <= tie) best = i;
     }
     s.roots = n;
     s.xi = roots[best];

@@ -14,6 +14,7 @@ int main(void) {
     register_search_suite();
     register_hard_cases_suite();
     register_update_suite();
+    register_scenes_suite();
     if (register_alloc_suite) register_alloc_suite();
     if (register_parallel_suite) register_parallel_suite();
     CU_basic_set_mode(CU_BRM_VERBOSE);
