@@ -89,6 +89,8 @@ class Body:
     nodes: FloatArray
     loops: Optional[List[IntArray]] = None
     triangles: Optional[IntArray] = None
+    alpha: Optional[float] = None
+    role: Optional[str] = None
 
     @property
     def node_count(self) -> int:
@@ -100,6 +102,10 @@ class Body:
             out["loops"] = [loop.tolist() for loop in self.loops]
         if self.triangles is not None:
             out["triangles"] = self.triangles.tolist()
+        if self.alpha is not None:
+            out["alpha"] = float(self.alpha)
+        if self.role is not None:
+            out["role"] = self.role
         return out
 
 
@@ -124,8 +130,13 @@ class Scene:
         periodic: Optional[Tuple[float, float]] = None,
         solver: Optional[str] = None,
         outputs: Optional[Sequence[str]] = None,
+        penalty_scaling: Optional[str] = None,
         extra_options: Optional[Mapping[str, Any]] = None,
     ) -> None:
+        if penalty_scaling not in (None, "node", "length"):
+            raise InvalidScene(f"penalty_scaling is 'node' or 'length', not {penalty_scaling!r}",
+                               code="invalid_value", pointer="/options/penalty_scaling")
+        self.penalty_scaling = penalty_scaling
         self.penalty = penalty
         self.alpha = alpha
         self.search_radius = search_radius
@@ -173,6 +184,8 @@ class Scene:
             opts["solver"] = self.solver
         if self.outputs is not None:
             opts["outputs"] = list(self.outputs)
+        if self.penalty_scaling is not None:
+            opts["penalty_scaling"] = self.penalty_scaling
         opts.update(self.extra_options)
         return opts
 
@@ -184,9 +197,15 @@ class Scene:
         loops: Optional[LoopsLike] = None,
         triangles: Optional[ArrayLike] = None,
         id: Optional[BodyId] = None,  # noqa: A002 - the JSON field's name
+        *,
+        alpha: Optional[float] = None,
+        role: Optional[str] = None,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
+        ``alpha`` is this body's own smoothing (walls want 0); ``role`` is
+        ``"both"`` (default), ``"master"`` (an obstacle: never a slave, two
+        masters never interact) or ``"slave"`` (offers no surface).
         Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
         naming the body and the node at fault.
         """
@@ -198,6 +217,16 @@ class Scene:
         if isinstance(id, bool) or not isinstance(id, (str, int)):
             raise InvalidScene(f"body id must be a string or an integer, got {type(id).__name__}",
                                code="invalid_type", pointer=f"/bodies/{index}/id", where=f"body index {index}")
+        if isinstance(id, int) and abs(id) >= 2 ** 53:
+            raise InvalidScene(f"integer body id {id} is not below 2^53 in magnitude: it would not survive a JSON "
+                               "number (use a string)", code="invalid_value", pointer=f"/bodies/{index}/id",
+                               where=f"body index {index}")
+        if alpha is not None and not (0.0 <= float(alpha) <= 0.5):
+            raise InvalidScene(f"body alpha {alpha!r} is not in [0, 0.5]", code="invalid_option",
+                               pointer=f"/bodies/{index}/alpha", where=f"body index {index}")
+        if role not in (None, "both", "master", "slave"):
+            raise InvalidScene(f"body role {role!r} is not both, master or slave", code="invalid_value",
+                               pointer=f"/bodies/{index}/role", where=f"body index {index}")
         key = (type(id), id)
         if key in self._index:
             raise InvalidScene(f"duplicate body id {id!r} (also body index {self._index[key]})",
@@ -251,7 +280,8 @@ class Scene:
         elif loops is None and n < 3:
             raise InvalidScene(f"a body without loops or triangles needs 3 nodes or more, got {n}",
                                code="loop_too_short", pointer=f"/bodies/{index}/nodes", where=where)
-        self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri))
+        self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
+                                 alpha=None if alpha is None else float(alpha), role=role))
         self._index[key] = index
         return id
 
@@ -264,6 +294,25 @@ class Scene:
             raise InvalidScene(f"new nodes have shape {arr.shape}, the body has {old.shape}", code="invalid_type",
                                pointer=f"/bodies/{index}/nodes", where=_where(index, id))
         self._bodies[index].nodes = arr
+
+    def positions(self) -> FloatArray:
+        """Every node of every body, ``(N, 2)`` in global order (bodies in order)."""
+        if not self._bodies:
+            return np.zeros((0, 2), dtype=np.float64)
+        return np.concatenate([b.nodes for b in self._bodies], axis=0)
+
+    def set_positions(self, positions: ArrayLike) -> None:
+        """Move every body at once: an ``(N, 2)`` array in global order (the layout
+        of :meth:`positions`, of ``Result.force_array()`` and of sessions)."""
+        arr = np.asarray(positions, dtype=np.float64)
+        n = sum(b.node_count for b in self._bodies)
+        if arr.shape != (n, 2):
+            raise InvalidScene(f"positions of shape {arr.shape}, expected ({n}, 2)", code="invalid_value",
+                               pointer="/positions")
+        k = 0
+        for b in self._bodies:
+            self.set_nodes(b.id, arr[k:k + b.node_count])
+            k += b.node_count
 
     def index_of(self, id: BodyId) -> int:  # noqa: A002
         try:
@@ -336,6 +385,7 @@ class Scene:
             periodic=(periodic["lx"], periodic["ly"]) if isinstance(periodic, Mapping) else periodic,
             solver=opts.pop("solver", None),
             outputs=opts.pop("outputs", None),
+            penalty_scaling=opts.pop("penalty_scaling", None),
             extra_options=opts,
         )
         bodies = doc.get("bodies")
@@ -344,7 +394,8 @@ class Scene:
         for i, b in enumerate(bodies):
             if not isinstance(b, Mapping) or "nodes" not in b:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
-            scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i))
+            scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
+                           alpha=b.get("alpha"), role=b.get("role"))
         return scene
 
     @classmethod
