@@ -194,7 +194,7 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
     }
     if (f[OPT_RADIUS]) {
         if (get_number(d, f[OPT_RADIUS], "/options/search_radius", &o->search_radius) != 0) return -1;
-        /* The core reads a negative radius as "the longest segment"; JSON says so by omitting it. */
+        /* The core reads a negative radius as "the median segment"; JSON says so by omitting it. */
         if (o->search_radius < 0.0) return fail(d, "invalid_option", "/options/search_radius", "search_radius must be >= 0");
     }
     if (f[OPT_PERIODIC] && decode_periodic(d, f[OPT_PERIODIC]) != 0) return -1;

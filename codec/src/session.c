@@ -260,7 +260,7 @@ static int set_number(double* dst, double v, const char* ptr, ntsj_fault* f) {
         ntsj_fault_set(f, "non_finite", ptr, "%s is not a finite number", name);
         return -1;
     }
-    /* The core reads a negative radius as "the longest segment"; a step says so
+    /* The core reads a negative radius as "the median segment"; a step says so
      * by not overriding it. */
     if (strcmp(name, "search_radius") == 0 && !(v >= 0.0)) {
         ntsj_fault_set(f, "invalid_option", ptr, "search_radius must be >= 0");

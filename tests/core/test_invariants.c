@@ -163,7 +163,7 @@ static void transformed_forces_match(xform_fn fn, double a, int kind) {
         for (b = 0; b < q.count; ++b)
             for (k = 0; k < q.bodies[b].node_count; ++k) q.bodies[b].nodes[k] = fn(q.bodies[b].nodes[k], a);
         r0 = run(p.bodies, p.count, 0, 0, &o);
-        if (kind == 2) o.search_radius = -1.0; /* longest segment scales too */
+        if (kind == 2) o.search_radius = -1.0; /* the median segment scales too */
         r1 = run(q.bodies, q.count, 0, 0, &o);
         ASSERT_INT_EQ(r1.contacts, r0.contacts);
         for (g = 0; g < r0.n; ++g) if (nts_length(r0.f[g]) > fmax) fmax = nts_length(r0.f[g]);

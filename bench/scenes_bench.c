@@ -1,0 +1,164 @@
+/* scenes_bench: scenes as users build them (issue 12).
+ *
+ *   scenes_bench [SIDE [REPEATS]]
+ *
+ * SIDE x SIDE pressed disks (32 nodes, radius 1) in a square container whose
+ * walls are either four long segments (the inner loop of the container body)
+ * or the same walls cut into disk-sized pieces (collinear nodes every ~2
+ * units). Both run with the container's own alpha = 0 (sharp inner corners)
+ * and with the scene's alpha = 0.2 everywhere, default search radius. Prints
+ * the median wall time of warm evaluations per variant, the cell side used,
+ * the contacts, and how far the forces on the disks differ between the long
+ * and the cut walls (relative to the largest force): the same answer up to
+ * round-off is the contract. Figures go to docs/benchmarks.md ("Long walls"). */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <ntscontact/ntscontact.h>
+
+static double now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int cmp_double(const void* a, const void* b) {
+    double x = *(const double*)a, y = *(const double*)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct built {
+    nts_scene* scene;
+    int disk_offset; /* first global node of the disks */
+} built;
+
+/* The container: an outer square and an inner (hole) square whose sides are
+ * cut into `pieces` collinear segments each. */
+static built build(int side, int pieces, int sharp) {
+    const double pi = 3.14159265358979323846, pitch = 1.98, w = 2.0;
+    const double hi = pitch * side - 0.01; /* every outer disk 0.01 into its walls */
+    int nb = side * side + 1, b, i, k, n_in = 4 * pieces;
+    nts_body_def* defs = calloc((size_t)nb, sizeof *defs);
+    nts_vec2* box = malloc(sizeof(nts_vec2) * (size_t)(4 + n_in));
+    int* loop = malloc(sizeof(int) * (size_t)(4 + n_in));
+    int start[3] = {0, 4, 4 + n_in};
+    nts_vec2** disks = malloc(sizeof(nts_vec2*) * (size_t)nb);
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    built out;
+    box[0] = nts_v2(-w, -w);
+    box[1] = nts_v2(hi + w, -w);
+    box[2] = nts_v2(hi + w, hi + w);
+    box[3] = nts_v2(-w, hi + w);
+    /* inner loop, clockwise: (0,0) -> (0,hi) -> (hi,hi) -> (hi,0) */
+    for (k = 0; k < 4; ++k)
+        for (i = 0; i < pieces; ++i) {
+            double f = (double)i / pieces * hi;
+            nts_vec2 p = k == 0 ? nts_v2(0.0, f) : k == 1 ? nts_v2(f, hi) : k == 2 ? nts_v2(hi, hi - f) : nts_v2(hi - f, 0.0);
+            box[4 + k * pieces + i] = p;
+        }
+    for (i = 0; i < 4 + n_in; ++i) loop[i] = i;
+    defs[0].nodes = box;
+    defs[0].node_count = 4 + n_in;
+    defs[0].loop_nodes = loop;
+    defs[0].loop_start = start;
+    defs[0].loop_count = 2;
+    defs[0].has_alpha = sharp;
+    defs[0].alpha = 0.0;
+    for (b = 1; b < nb; ++b) {
+        int ix = (b - 1) % side, iy = (b - 1) / side;
+        disks[b] = malloc(sizeof(nts_vec2) * 32);
+        for (i = 0; i < 32; ++i) {
+            double th = 2.0 * pi * (i + 0.37 * b) / 32.0;
+            disks[b][i] = nts_v2(0.99 + pitch * ix + cos(th), 0.99 + pitch * iy + sin(th));
+        }
+        defs[b].nodes = disks[b];
+        defs[b].node_count = 32;
+    }
+    def.bodies = defs;
+    def.body_count = nb;
+    out.scene = nts_scene_create(&def, &err);
+    if (out.scene == NULL) {
+        fprintf(stderr, "scenes_bench: %s: %s\n", nts_status_name(err.code), err.message);
+        exit(2);
+    }
+    out.disk_offset = 4 + n_in;
+    for (b = 1; b < nb; ++b) free(disks[b]);
+    free(disks);
+    free(box);
+    free(loop);
+    free(defs);
+    return out;
+}
+
+typedef struct timed {
+    double ms, cell;
+    int contacts;
+    nts_vec2* forces; /* the disks' (owned) */
+} timed;
+
+static timed run(const built* b, double alpha, int repeats) {
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    double* t = malloc(sizeof(double) * (size_t)repeats);
+    int k, n = nts_scene_node_count(b->scene) - b->disk_offset;
+    timed out;
+    o.alpha = alpha;
+    o.penalty = 100.0;
+    if (nts_evaluate(ctx, b->scene, &o, &r, &err) != 0) {
+        fprintf(stderr, "scenes_bench: %s\n", err.message);
+        exit(2);
+    }
+    for (k = 0; k < repeats; ++k) {
+        double t0 = now_s();
+        nts_evaluate(ctx, b->scene, &o, &r, &err);
+        t[k] = now_s() - t0;
+    }
+    qsort(t, (size_t)repeats, sizeof(double), cmp_double);
+    out.ms = 1e3 * t[repeats / 2];
+    out.cell = r.summary.cell_size;
+    out.contacts = r.summary.contacts;
+    out.forces = malloc(sizeof(nts_vec2) * (size_t)n);
+    memcpy(out.forces, r.forces + b->disk_offset, sizeof(nts_vec2) * (size_t)n);
+    free(t);
+    nts_context_destroy(ctx);
+    return out;
+}
+
+int main(int argc, char** argv) {
+    int side = argc > 1 ? atoi(argv[1]) : 30, repeats = argc > 2 ? atoi(argv[2]) : 9, sharp;
+    if (side < 2 || side > 1000 || repeats < 1 || repeats > 1000) {
+        fprintf(stderr, "usage: scenes_bench [SIDE [REPEATS]]\n");
+        return 2;
+    }
+    printf("| container walls | alpha | wall time | cell side | contacts | max force difference on the disks |\n");
+    printf("|---|---|---:|---:|---:|---:|\n");
+    for (sharp = 1; sharp >= 0; --sharp) {
+        built lw = build(side, 1, sharp), cw = build(side, side, sharp);
+        timed a = run(&lw, 0.2, repeats), c = run(&cw, 0.2, repeats);
+        int n = nts_scene_node_count(lw.scene) - lw.disk_offset, i;
+        double fbig = 0.0, dmax = 0.0;
+        for (i = 0; i < n; ++i) {
+            double f = fmax(fabs(c.forces[i].x), fabs(c.forces[i].y));
+            double d = fmax(fabs(a.forces[i].x - c.forces[i].x), fabs(a.forces[i].y - c.forces[i].y));
+            if (f > fbig) fbig = f;
+            if (d > dmax) dmax = d;
+        }
+        printf("| 4 long segments | %s | %.2f ms | %.3f | %d | %.2g |\n", sharp ? "walls 0, disks 0.2" : "0.2 everywhere",
+               a.ms, a.cell, a.contacts, dmax / fbig);
+        printf("| cut into %d pieces each | %s | %.2f ms | %.3f | %d | (reference) |\n", side,
+               sharp ? "walls 0, disks 0.2" : "0.2 everywhere", c.ms, c.cell, c.contacts);
+        printf("| ratio long / cut | | %.2f | | | |\n", a.ms / c.ms);
+        free(a.forces);
+        free(c.forces);
+        nts_scene_destroy(lw.scene);
+        nts_scene_destroy(cw.scene);
+    }
+    return 0;
+}
