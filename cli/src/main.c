@@ -29,7 +29,7 @@ static const char usage_text[] =
     "  --penalty EPS        penalty stiffness > 0\n"
     "  --search-radius R    search radius >= 0\n"
     "  --solver NAME        closed_form or newton\n"
-    "  --outputs LIST       comma-separated: forces,energy,virial,contacts,gaps\n"
+    "  --outputs LIST       comma-separated: forces,energy,virial,contacts,gaps,stiffness\n"
     "                       (empty: the summary only)\n"
     "  --validate           check the scene only; print a validation summary\n"
     "  --pretty             indent the output\n"
@@ -454,7 +454,7 @@ int main(int argc, char** argv) {
             cfg.overrides.has_solver = 1;
         } else if (strcmp(name, "--outputs") == 0) {
             if (parse_outputs(val, &cfg.overrides.outputs) != 0)
-                return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps, not '%s'", val);
+                return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps,stiffness, not '%s'", val);
             cfg.overrides.has_outputs = 1;
         } else if (strncmp(name, "--max-", 6) == 0) {
             long long n = 0;

@@ -80,7 +80,7 @@ static const struct {
     unsigned flag;
 } output_names[] = {
     {"forces", NTS_OUT_FORCES}, {"energy", NTS_OUT_ENERGY}, {"virial", NTS_OUT_VIRIAL},
-    {"contacts", NTS_OUT_CONTACTS}, {"gaps", NTS_OUT_GAPS},
+    {"contacts", NTS_OUT_CONTACTS}, {"gaps", NTS_OUT_GAPS}, {"stiffness", NTS_OUT_STIFFNESS},
 };
 
 unsigned ntsj_output_flag(const char* name, size_t n) {

@@ -167,7 +167,7 @@ static int decode_outputs(decoder* d, const cJSON* v, const char* ptr, unsigned*
         snprintf(p, sizeof p, "%.60s/%d", ptr, i++);
         if (!cJSON_IsString(e)) return fail_type(d, p, e, "an output name (a string)");
         f = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
-        if (!f) return fail(d, "invalid_value", p, "unknown output (expected forces, energy, virial, contacts or gaps)");
+        if (!f) return fail(d, "invalid_value", p, "unknown output (expected forces, energy, virial, contacts, gaps or stiffness)");
         if (flags & f) return fail(d, "invalid_value", p, "output listed twice");
         flags |= f;
     }

@@ -252,6 +252,29 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
         for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0);
         w_close(&w, ']');
     }
+    if (outputs & NTS_OUT_STIFFNESS) {
+        /* The tangent as triplets over dof = 2 node + component (global node
+         * order), duplicates to be summed (result.schema.json). */
+        const nts_triplets* t = &r->stiffness;
+        ntsj_buf_reserve(b, (size_t)t->count * 40u + 64u);
+        w_key(&w, "stiffness");
+        w_open(&w, '{', 0);
+        w_key(&w, "size");
+        w_int(&w, 2LL * nts_scene_node_count(scene));
+        w_key(&w, "rows");
+        w_open(&w, '[', 1);
+        for (i = 0; i < t->count; ++i) w_int(&w, t->rows[i]);
+        w_close(&w, ']');
+        w_key(&w, "cols");
+        w_open(&w, '[', 1);
+        for (i = 0; i < t->count; ++i) w_int(&w, t->cols[i]);
+        w_close(&w, ']');
+        w_key(&w, "values");
+        w_open(&w, '[', 1);
+        for (i = 0; i < t->count; ++i) w_double(&w, t->values[i]);
+        w_close(&w, ']');
+        w_close(&w, '}');
+    }
     w_close(&w, '}');
     w_finish(&w);
 }

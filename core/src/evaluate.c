@@ -101,6 +101,7 @@ struct nts_context {
     int long_start_cap;
     int* long_items;   /* into long_hot, by cell */
     int long_items_cap;
+    nts_kbuf stiffness; /* the tangent's triplets (NTS_OUT_STIFFNESS) */
 };
 
 /* Phase timings of the last evaluation (internal.h; used by bench/). */
@@ -118,7 +119,8 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
         (size_t)ctx->long_hot_cap * sizeof(master_hot) + (size_t)ctx->long_start_cap * sizeof(int) +
-        (size_t)ctx->long_items_cap * sizeof(int);
+        (size_t)ctx->long_items_cap * sizeof(int) +
+        (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
@@ -159,6 +161,7 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->long_hot);
     nts_free(ctx->long_start);
     nts_free(ctx->long_items);
+    nts_kbuf_free(&ctx->stiffness);
     nts_free(ctx);
 }
 
@@ -973,6 +976,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
         const int want_contacts = (opt->outputs & NTS_OUT_CONTACTS) != 0u;
         const int want_gaps = (opt->outputs & NTS_OUT_GAPS) != 0u;
+        const int want_stiffness = (opt->outputs & NTS_OUT_STIFFNESS) != 0u;
         int total = 0, ncontact = 0, ngap = 0, t;
         double energy = 0.0, maxpen = 0.0;
         int overflow = 0;
@@ -986,6 +990,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (want_gaps &&
             (rc = nts_grow((void**)&ctx->gaps, &ctx->gaps_cap, total, sizeof(nts_contact))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
+        ctx->stiffness.count = 0;
         for (t = 0; t < nthreads; ++t) {
             const worker* w = &ctx->workers[t];
             int k;
@@ -1007,6 +1012,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                 vir.xx += c->virial.xx;
                 vir.yy += c->virial.yy;
                 vir.xy += c->virial.xy;
+                if (want_stiffness &&
+                    (rc = nts_stiffness_add(&ctx->stiffness, s, c, alpha_of_body(s, c->master_body, env.alpha))) !=
+                        NTS_OK)
+                    return eval_fail(err, rc, -1, -1, "out of memory");
                 if (want_forces) {
                     int sb = s->body_node_start[c->slave_body], mb = s->body_node_start[c->master_body], q;
                     double eg = c->penalty * c->gap;
@@ -1046,6 +1055,19 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         out->contact_count = want_contacts ? ncontact : 0;
         out->gaps = want_gaps ? ctx->gaps : NULL;
         out->gap_count = want_gaps ? ngap : 0;
+        if (want_stiffness) {
+            for (i = 0; i < ctx->stiffness.count && !overflow; ++i) overflow = !isfinite(ctx->stiffness.values[i]);
+            if (overflow) {
+                rc = eval_fail(err, NTS_ENONFINITE, -1, -1, "the tangent overflows a double (penalty too large)");
+                if (err != NULL) snprintf(err->option, sizeof err->option, "penalty");
+                return rc;
+            }
+            out->stiffness.rows = ctx->stiffness.rows;
+            out->stiffness.cols = ctx->stiffness.cols;
+            out->stiffness.values = ctx->stiffness.values;
+            out->stiffness.count = ctx->stiffness.count;
+            out->stiffness.size = 2 * s->node_count;
+        }
     }
     ctx->phase[3] = wall_time() - t0;
     return NTS_OK;

@@ -75,6 +75,18 @@ void nts_cells_free(nts_cells* c);
 /* The distinct cells of the 3x3 stencil around cell `cell` (at most 9). */
 int nts_cells_stencil(const nts_cells* c, int cell, int out[9]);
 
+/* Growable triplet buffers of the tangent (stiffness.c). */
+typedef struct nts_kbuf {
+    int* rows;
+    int* cols;
+    double* values;
+    int count, cap;
+} nts_kbuf;
+/* Append the tangent of one active contact (its 2(m+1) x 2(m+1) dense block)
+ * with `alpha` the master body's. 0 or NTS_ENOMEM. */
+int nts_stiffness_add(nts_kbuf* k, const nts_scene* s, const nts_contact* c, double alpha);
+void nts_kbuf_free(nts_kbuf* k);
+
 /* Seconds spent by the last nts_evaluate on a context in each phase: segment
  * data, cell list, local search, scatter (evaluate.c; read by bench/). */
 void nts_context_phase_times(const nts_context* ctx, double out[4]);

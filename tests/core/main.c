@@ -15,6 +15,7 @@ int main(void) {
     register_hard_cases_suite();
     register_update_suite();
     register_scenes_suite();
+    register_stiffness_suite();
     if (register_alloc_suite) register_alloc_suite();
     if (register_parallel_suite) register_parallel_suite();
     CU_basic_set_mode(CU_BRM_VERBOSE);

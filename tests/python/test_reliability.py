@@ -179,7 +179,7 @@ def test_daemon_body_size_limit(daemon_factory):
 
 # ------------------------------------------------------------ regressions
 # Found while probing the number paths (docs/reliability.md, "Findings"): bodies
-# of radius 1e100 pressed together with penalty 1e200 overflow the energy and
+# of radius 1e90 (1e100 before the range was bounded) pressed together with penalty 1e200 overflow the energy and
 # the virial to infinity, which the encoder wrote as null in a 200 answer
 # (breaking result.schema.json). Now a 400 non_finite pointing at the penalty.
 # The same bytes are replayed by the fuzz driver (fuzz/regressions/).

@@ -106,7 +106,8 @@ enum nts_output_flags {
     NTS_OUT_VIRIAL = 1u << 2,
     NTS_OUT_CONTACTS = 1u << 3,
     NTS_OUT_GAPS = 1u << 4,
-    NTS_OUT_ALL = 0x1fu
+    NTS_OUT_STIFFNESS = 1u << 5, /* the tangent K = d2E/dx2 = -df/dx (nts_result.stiffness) */
+    NTS_OUT_ALL = 0x3fu
 };
 
 /* The penalty of a slave node (contact-model.md, "Forces"): eps itself, or
@@ -171,6 +172,33 @@ typedef struct nts_summary {
     double cell_size;      /* the bucket side used (0 for brute force) */
 } nts_summary;
 
+/* A sparse matrix as triplets (COO): entry k is (rows[k], cols[k], values[k]);
+ * an entry may appear several times, and the matrix is the SUM of its
+ * duplicates. size x size, size = 2 * node_count, degree of freedom
+ * 2 * node + component (component 0 = x, 1 = y; node in global order). */
+typedef struct nts_triplets {
+    const int* rows;
+    const int* cols;
+    const double* values;
+    int count;
+    int size;
+} nts_triplets;
+
+/* Compressed sparse rows: row r holds cols[row_start[r] .. row_start[r+1]) in
+ * increasing column order, each once. Arrays from nts_alloc: nts_csr_free. */
+typedef struct nts_csr {
+    int* row_start;  /* size + 1 */
+    int* cols;
+    double* values;
+    int nnz;
+    int size;
+} nts_csr;
+
+/* Sum duplicates of `t` into `out` (duplicates are added in triplet order, so
+ * the sums are deterministic). 0, NTS_ENOMEM or NTS_EINVALID_ARGUMENT. */
+int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err);
+void nts_csr_free(nts_csr* csr);
+
 typedef struct nts_result {
     nts_summary summary;
     const nts_vec2* forces;     /* global node order (see nts_scene_body_node_offset), or NULL if not asked */
@@ -178,6 +206,9 @@ typedef struct nts_result {
     int contact_count;
     const nts_contact* gaps;    /* all closest points within r; NULL unless NTS_OUT_GAPS */
     int gap_count;
+    /* The consistent tangent of the active contacts (docs/model.md, "Tangent
+     * stiffness"): symmetric, duplicates summed. Empty unless NTS_OUT_STIFFNESS. */
+    nts_triplets stiffness;
 } nts_result;
 
 /* ------------------------------------------------------------- context */
