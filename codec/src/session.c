@@ -383,10 +383,26 @@ static int rebuild(ntsj_session* ss, nts_error* err) {
     return NTS_OK;
 }
 
+static void put_le32(char* p, int v) {
+    unsigned u = (unsigned)v;
+    int i;
+    for (i = 0; i < 4; ++i) p[i] = (char)(unsigned char)(u >> (8 * i));
+}
+
+static void put_le64(char* p, double d) {
+    uint64_t u;
+    int i;
+    memcpy(&u, &d, sizeof u);
+    for (i = 0; i < 8; ++i) p[i] = (char)(unsigned char)(u >> (8 * i));
+}
+
+/* The forces (16 N bytes), then with the tangent its triplets: count int32
+ * rows, count int32 cols, count float64 values, all little-endian
+ * (docs/sessions.md, "Binary layout"). */
 static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result* r) {
     int n = nts_scene_node_count(scene), k;
-    size_t bytes = (size_t)n * 16u;
-    if (ntsj_buf_reserve(b, bytes + 1) != 0) return;
+    size_t bytes = (size_t)n * 16u, tb = (size_t)r->stiffness.count * 16u;
+    if (ntsj_buf_reserve(b, bytes + tb + 1) != 0) return;
     if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
         memcpy(b->data, r->forces, bytes);
     } else {
@@ -398,8 +414,13 @@ static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result*
             for (i = 0; i < 8; ++i) b->data[8 * (size_t)k + (size_t)i] = (char)(unsigned char)(u >> (8 * i));
         }
     }
-    b->len = bytes;
-    b->data[bytes] = '\0';
+    for (k = 0; k < r->stiffness.count; ++k) {
+        put_le32(b->data + bytes + 4 * (size_t)k, r->stiffness.rows[k]);
+        put_le32(b->data + bytes + 4 * ((size_t)r->stiffness.count + (size_t)k), r->stiffness.cols[k]);
+        put_le64(b->data + bytes + 8 * (size_t)r->stiffness.count + 8 * (size_t)k, r->stiffness.values[k]);
+    }
+    b->len = bytes + tb;
+    b->data[b->len] = '\0';
 }
 
 int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
@@ -491,6 +512,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
     if (rc == 0) {
         ss->steps++;
         out->binary = st->answer_binary;
+        out->triplets = st->answer_binary ? result.stiffness.count : 0;
         out->summary = result.summary;
         out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
     }

@@ -359,10 +359,11 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         /* The forces as raw bytes, the summary in headers that read back bitwise. */
         const nts_summary* sm = &r->resp.summary;
         char energy[32], virial[100], contacts[24], pen[32], ms[32], gaps[24], reversed[24], radius[32], cell[32];
+        char triplets[24];
         const char* extra[] = {"NTS-Energy", energy, "NTS-Virial", virial, "NTS-Contacts", contacts,
                                "NTS-Max-Penetration", pen, "NTS-Elapsed-Ms", ms, "NTS-Gaps", gaps,
                                "NTS-Loops-Reversed", reversed, "NTS-Search-Radius", radius, "NTS-Cell-Size", cell,
-                               NULL};
+                               "NTS-Stiffness-Triplets", triplets, NULL};
         size_t k;
         ntsj_format_double(energy, sm->energy);
         k = (size_t)ntsj_format_double(virial, sm->virial.xx);
@@ -374,6 +375,7 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         ntsj_format_double(pen, sm->max_penetration);
         ntsj_format_double(ms, r->resp.elapsed_ms);
         snprintf(gaps, sizeof gaps, "%d", sm->gaps);
+        snprintf(triplets, sizeof triplets, "%d", r->resp.triplets);
         snprintf(reversed, sizeof reversed, "%d", sm->loops_reversed);
         ntsj_format_double(radius, sm->search_radius);
         ntsj_format_double(cell, sm->cell_size);

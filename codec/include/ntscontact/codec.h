@@ -53,6 +53,8 @@ typedef struct ntsj_response {
     int binary;       /* ok and body holds 16 N bytes: little-endian float64 forces, x then y per node */
     nts_summary summary; /* of a successful evaluation (sessions: for the headers of a binary answer) */
     double elapsed_ms;   /* of the request, rounded to whole microseconds */
+    int triplets;        /* a binary answer with outputs stiffness: the triplets after the forces
+                          * (int32 rows, int32 cols, float64 values, little-endian), else 0 */
     char* vtk;           /* with ntsj_config.vtk, on success: the .vtu document (NUL-terminated) */
     size_t vtk_length;
 } ntsj_response;

@@ -158,6 +158,34 @@ class Result:
     raw: Dict[str, Any] = field(repr=False)
     #: A binary session answer's (N, 2) forces; ``forces`` holds views into it.
     _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
+    #: The tangent's triplets (rows, cols, values, size) of a binary answer.
+    _triplets: Optional[Tuple[Any, Any, Any, int]] = field(default=None, repr=False, compare=False)
+
+    def stiffness_triplets(self) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], FloatArray, int]:
+        """The tangent ``K = d2E/dx2 = -df/dx`` as triplets ``(rows, cols, values,
+        size)`` over dof ``2 node + component`` (global node order); duplicates
+        sum. Raises ``KeyError`` when ``outputs`` did not ask for stiffness."""
+        if self._triplets is not None:
+            rows, cols, values, size = self._triplets
+            return (np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64),
+                    np.asarray(values, dtype=np.float64), int(size))
+        k = self.raw.get("stiffness")
+        if not isinstance(k, Mapping):
+            raise KeyError("this result has no stiffness: ask for outputs=[..., 'stiffness']")
+        return (np.asarray(k["rows"], dtype=np.int64), np.asarray(k["cols"], dtype=np.int64),
+                np.asarray(k["values"], dtype=np.float64), int(k["size"]))
+
+    @property
+    def stiffness(self) -> Any:
+        """The tangent as a ``scipy.sparse.csr_matrix`` of shape (2N, 2N), the
+        duplicates summed (``pip install 'ntscontact[sparse]'``)."""
+        try:
+            import scipy.sparse  # type: ignore[import-untyped]
+        except ImportError as exc:  # pragma: no cover - depends on the install
+            raise ImportError("Result.stiffness needs scipy: pip install 'ntscontact[sparse]' (or use "
+                              "Result.stiffness_triplets())") from exc
+        rows, cols, values, size = self.stiffness_triplets()
+        return scipy.sparse.csr_matrix((values, (rows, cols)), shape=(size, size))
 
     @property
     def energy(self) -> float:

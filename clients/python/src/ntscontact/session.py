@@ -35,7 +35,7 @@ FloatArray = npt.NDArray[np.float64]
 PositionsLike = Union[npt.ArrayLike, Mapping[BodyId, npt.ArrayLike]]
 
 #: Outputs a binary answer carries (the forces, and the summary in headers).
-_BINARY_OUTPUTS = frozenset(("forces", "energy", "virial"))
+_BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness"))
 _OCTET = "application/octet-stream"
 
 
@@ -208,12 +208,20 @@ class Session:
         return Result.from_dict(doc)
 
     def _binary_result(self, resp: requests.Response) -> Result:
-        forces = np.frombuffer(resp.content, dtype="<f8")
-        if forces.size != 2 * self.nodes:
-            raise ServerError(f"a binary answer of {len(resp.content)} bytes, expected {16 * self.nodes}",
-                              code="bad_response", status=resp.status_code)
-        forces = forces.reshape(self.nodes, 2)
         h = resp.headers
+        body = resp.content
+        count = int(h.get("NTS-Stiffness-Triplets", 0) or 0)
+        if len(body) != 16 * self.nodes + 16 * count:
+            raise ServerError(f"a binary answer of {len(body)} bytes, expected {16 * self.nodes + 16 * count}",
+                              code="bad_response", status=resp.status_code)
+        forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
+        triplets = None
+        if count:
+            off = 16 * self.nodes
+            rows = np.frombuffer(body, dtype="<i4", count=count, offset=off)
+            cols = np.frombuffer(body, dtype="<i4", count=count, offset=off + 4 * count)
+            values = np.frombuffer(body, dtype="<f8", count=count, offset=off + 8 * count)
+            triplets = (rows, cols, values, 2 * self.nodes)
         try:
             virial = [float(v) for v in h["NTS-Virial"].split(",")]
             summary = Summary(
@@ -228,7 +236,8 @@ class Session:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
                               status=resp.status_code) from exc
         per_body = {i: forces[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
-        return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, _force_array=forces)
+        return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, _force_array=forces,
+                      _triplets=triplets)
 
     # ------------------------------------------------------------ HTTP
 
