@@ -184,6 +184,26 @@ int main(int argc, char** argv) {
         }
         printf("%-26s %12.3f %12.1f\n", "warm evaluate (median)", times[repeats / 2] * 1e3,
                times[repeats / 2] * 1e9 / (double)nodes);
+        {
+            /* The same with the tangent (NTS_OUT_STIFFNESS), for docs/benchmarks.md. */
+            double base = times[repeats / 2];
+            s.options.outputs |= NTS_OUT_STIFFNESS;
+            if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
+            for (k = 0; k < repeats; ++k) {
+                double te = now_s();
+                if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
+                times[k] = now_s() - te;
+            }
+            for (k = 1; k < repeats; ++k) {
+                double v = times[k];
+                int j = k - 1;
+                while (j >= 0 && times[j] > v) { times[j + 1] = times[j]; --j; }
+                times[j + 1] = v;
+            }
+            printf("%-26s %12.3f %12.1f %10.2f  (%d triplets)\n", "warm + stiffness (median)",
+                   times[repeats / 2] * 1e3, times[repeats / 2] * 1e9 / (double)nodes, times[repeats / 2] / base,
+                   res.stiffness.count);
+        }
         free(times);
         nts_context_destroy(ctx);
         nts_scene_destroy(scene);
