@@ -678,7 +678,7 @@ HARD_TEXT = {
         "Both: gaps divided by the scale agree with the unit scene to round-off; every number finite."),
     "test_random_corners_against_reference": (
         "A sweep of random corners (any angle, legs 0.5..1.5, alpha 0.05..0.5) with slaves in the corner's "
-        "candidate region (erratum 3).",
+        "candidate region (docs/model.md §12, correction 3).",
         "Both solvers against the long-double reference: where two roots are equally near (a symmetric evolute "
         "point) either is right, so the distance to the slave is compared too."),
 }
@@ -701,7 +701,7 @@ def hard_cases_doc(res, path):
              "hard case gets a test, a row in `section_hard` of `bench/nts_bench.c` and a paragraph in "
              "`HARD_TEXT` of `bench/report.py`." % (meta.get("commit", "?"), meta.get("date", "?")))
     L.append("")
-    L.append("Solvers (`options.solver`, contact-model.md \"Corner candidate\"):")
+    L.append("Solvers (`options.solver`, docs/model.md §4.3):")
     L.append("")
     L.append("- `closed_form` (default): the cubic F = 0 solved by GSL (`gsl_poly_solve_cubic`), or the "
              "quadratic when A.A <= 1e-6 B.B (nearly straight corner), every root in [-1, 1] polished by at most "

@@ -335,7 +335,7 @@ def table(runs: Sequence[Run], cfg: Config) -> str:
 
 def smoothed_outline(p: np.ndarray, alpha: float, samples: int = 9) -> np.ndarray:
     """The contact surface the service sees: each corner j replaced by its
-    polynomial X(xi) = N2 X2 + N3 X3 + N4 X4, xi in [-1, 1] (contact-model.md);
+    polynomial X(xi) = N2 X2 + N3 X3 + N4 X4, xi in [-1, 1] (docs/model.md §4.3, eq. (7));
     the polygon itself when alpha = 0."""
     if alpha <= 0.0:
         return p

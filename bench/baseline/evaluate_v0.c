@@ -1,5 +1,5 @@
 /* Evaluation: global search (cells or brute force), local search per slave node
- * (contact-model.md, "Closest point"), then forces, energy and virial ("Forces,
+ * (docs/model.md §4), then forces, energy and virial ("Forces,
  * energy, virial"). The local search writes per-slave records into per-worker
  * buffers; a serial pass scatters them in slave order, so the result is bitwise
  * the same for any number of threads. */
@@ -132,7 +132,7 @@ static inline int feature_node(const nts_contact* c) {
     return c->kind == NTS_KIND_CORNER ? c->master_nodes[1] : c->master_nodes[0];
 }
 
-/* Tie-break (contact-model.md, "Selection"): smaller |g|, then the smaller master
+/* Tie-break (docs/model.md §5): smaller |g|, then the smaller master
  * node index, then segment before corner/vertex at the same node. */
 static inline int better(const nts_contact* c, const nts_contact* b) {
     double gc = fabs(c->gap), gb = fabs(b->gap);
@@ -166,7 +166,7 @@ static void try_master(const search_env* env, worker* w, int i, nts_vec2 xs, int
     const nts_vec2 pj = s->pos[s->surf_node[j]];
     const double alpha = env->alpha, r = env->r;
     nts_vec2 d = nts_scene_diff(s, xs, pj); /* Xs - X0 (or Xs - X3): subtract first */
-    double sj_param = nts_dot(d, sj->t) * sj->inv_len2; /* erratum 2 */
+    double sj_param = nts_dot(d, sj->t) * sj->inv_len2; /* docs/model.md §12, correction 2 */
     double lo = alpha, hi = 1.0 - alpha;
     nts_contact c;
     (void)i;
@@ -198,7 +198,7 @@ static void try_master(const search_env* env, worker* w, int i, nts_vec2 xs, int
         nts_vec2 dp = nts_scene_diff(s, xs, pp);
         double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
         if (alpha > 0.0) {
-            /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (erratum 3). */
+            /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (docs/model.md §12, correction 3). */
             nts_vec2 a, cc;
             double reach;
             nts_corner k;
@@ -287,7 +287,7 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         c->slave_body = s->surf_body[i];
         c->slave_node = s->surf_local[i];
         if (c->gap < 0.0) {
-            /* f_s = -eps g n (contact-model.md, "Forces"). */
+            /* f_s = -eps g n (docs/model.md §6). */
             double eg = env->eps * c->gap;
             c->force = nts_scale(-eg, c->normal);
             if (env->want_virial) {
@@ -393,7 +393,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.eps = opt->penalty;
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
-    h = lmax + env.r; /* contact-model.md, "Global search": h >= L_max + r */
+    h = lmax + env.r; /* docs/model.md §9: h >= L_max + r */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
         snprintf(msg, sizeof msg, "periodic box %.6g x %.6g must exceed twice the search reach %.6g", s->lx, s->ly, h);
@@ -438,7 +438,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;
     t0 = t1;
-    /* Scatter in slave order (contact-model.md, "Forces, energy, virial"). */
+    /* Scatter in slave order (docs/model.md §6). */
     {
         const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
         const int want_contacts = (opt->outputs & NTS_OUT_CONTACTS) != 0u;

@@ -182,7 +182,7 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
             int m = nts_scene_body_loop(scene, body, l, &loop);
             for (k = 0; k < m; ++k) {
                 /* Outward: the interior is on the left of a normalised loop
-                 * (contact-model.md, "Geometry"). The minimum image keeps a
+                 * (docs/model.md §2). The minimum image keeps a
                  * segment across a periodic boundary short. */
                 nts_vec2 p = pos[off + loop[k]], q = pos[off + loop[(k + 1) % m]];
                 nts_vec2 t = nts_sub(q, p);

@@ -1,5 +1,5 @@
-/* Cell list (Verlet buckets) over the surface nodes (contact-model.md, "Global
- * search"): cells of side >= h, built in O(N) with a counting sort; buffers grow
+/* Cell list (Verlet buckets) over the surface nodes (docs/model.md
+ * §9): cells of side >= h, built in O(N) with a counting sort; buffers grow
  * only, so re-evaluating the same topology allocates nothing. */
 #include <string.h>
 

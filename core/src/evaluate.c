@@ -1,5 +1,5 @@
 /* Evaluation: global search (cells or brute force), local search per slave node
- * (contact-model.md, "Closest point"), then forces, energy and virial ("Forces,
+ * (docs/model.md §4), then forces, energy and virial ("Forces,
  * energy, virial"). The local search writes per-slave records into per-worker
  * buffers; a serial pass scatters them in slave order, so the result is bitwise
  * the same for any number of threads. */
@@ -213,8 +213,8 @@ typedef struct search_env {
 #define NTS_ALWAYS_INLINE
 #endif
 
-/* Xs - X exactly as nts_scene_diff computes it (contact-model.md, "Global
- * search": the minimum image), without its division and library call in the
+/* Xs - X exactly as nts_scene_diff computes it (docs/model.md
+ * §8: the minimum image), without its division and library call in the
  * common case: when |d.x| < lx/4 the image is 0 (nearbyint gives a signed zero,
  * and d.x - lx * (+-0) is d.x + 0.0, which also turns -0 into +0 as it does), so
  * only pairs across the box edge pay for the general formula. Bitwise equal. */
@@ -238,7 +238,7 @@ static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q
     return d;
 }
 
-/* Tie-break (contact-model.md, "Selection"): smaller |g|, then the smaller master
+/* Tie-break (docs/model.md §5): smaller |g|, then the smaller master
  * node index, then segment before corner/vertex at the same node. */
 static inline int better(const candidate* c, const candidate* b) {
     double gc = fabs(c->gap), gb = fabs(b->gap);
@@ -280,7 +280,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
      * |d| = |g|), so a farther master offers nothing (fill_hot). One branch
      * for both tests (no self-contact): they are hard to predict. */
     if (!((d2 <= m->reach2) & (m->body != slave_body))) return;
-    sj_param = nts_dot(d, m->t) * m->inv_len2; /* erratum 2 */
+    sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
     if (sj_param >= alpha && sj_param <= 1.0 - alpha) {
@@ -306,7 +306,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
         nts_vec2 dp = search_diff(env, xs, pp, periodic);
         double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
         if (alpha > 0.0) {
-            /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (erratum 3). */
+            /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (docs/model.md §12, correction 3). */
             const seg_data* sj = &env->seg[j];
             nts_vec2 a, cc;
             double reach;
@@ -377,7 +377,7 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     const nts_scene* s = env->s;
     int k, m, need = w->rec_count + w->best_count;
     nts_vec2 xs = s->pos[s->surf_node[i]];
-    /* The slave's penalty (contact-model.md, "Forces"): per node, or per unit of
+    /* The slave's penalty (docs/model.md §6): per node, or per unit of
      * the node's tributary length at creation (a pressure stiffness). */
     const double eps = env->per_length ? env->eps * s->surf_trib[i] : env->eps;
     if (w->best_count == 0) return;
@@ -435,7 +435,7 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         c->slave_node = s->surf_local[i];
         c->penalty = eps;
         if (c->gap < 0.0) {
-            /* f_s = -eps g n (contact-model.md, "Forces"). */
+            /* f_s = -eps g n (docs/model.md §6). */
             double eg = eps * c->gap;
             c->force = nts_scale(-eg, c->normal);
             if (env->want_virial) {
@@ -971,7 +971,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;
     t0 = t1;
-    /* Scatter in slave order (contact-model.md, "Forces, energy, virial"). */
+    /* Scatter in slave order (docs/model.md §6). */
     {
         const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
         const int want_contacts = (opt->outputs & NTS_OUT_CONTACTS) != 0u;

@@ -1,4 +1,4 @@
-/* Corner polynomial and closest-point solvers (contact-model.md, "Geometry" and
+/* Corner polynomial and closest-point solvers (docs/model.md §2 and
  * "Corner candidate"). Everything is in coordinates relative to the corner node
  * X3 and, inside the solvers, scaled by the corner's size, so tolerances are
  * relative to the geometry and the same code works at 1e-9 and 1e9 scale. */
@@ -9,7 +9,7 @@
 
 #include "internal.h"
 
-/* Eq. (1) corrected (erratum 1): N3 = 1 - alpha (1 + xi^2)/2, so sum N = 1. */
+/* Eq. (1) corrected (docs/model.md §12, correction 1): N3 = 1 - alpha (1 + xi^2)/2, so sum N = 1. */
 nts_shape3 nts_corner_shape(double alpha, double xi) {
     nts_shape3 s;
     double m = 1.0 - xi, p = 1.0 + xi;
@@ -144,7 +144,7 @@ static double polish(const corner_problem* p, double x, int* iters) {
 
 /* Below this ratio A.A / B.B the cubic term is dropped for the first guess: the
  * corner is nearly straight (A = 0 exactly when the neighbours are collinear) and
- * the monic cubic's huge coefficients would cost accuracy (contact-model.md,
+ * the monic cubic's huge coefficients would cost accuracy (docs/model.md,
  * "the cubic degenerates toward the linear equation"). The neglected term is at
  * most 2 A.A <= 2e-6 B.B inside [-1, 1]; Newton polishing removes it. */
 #define NTS_DEGENERATE_RATIO 1e-6

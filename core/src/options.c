@@ -7,7 +7,7 @@
 nts_options nts_default_options(void) {
     nts_options o;
     memset(&o, 0, sizeof o);
-    o.alpha = 0.2; /* as in Abaqus (contact-model.md, "Smoothing fraction") */
+    o.alpha = 0.2; /* as in Abaqus (docs/model.md §3) */
     o.penalty = 1.0;
     o.search_radius = -1.0; /* the median segment */
     o.solver = NTS_SOLVER_CLOSED_FORM;

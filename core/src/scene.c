@@ -1,4 +1,4 @@
-/* Scenes: copy, validate and normalise the caller's bodies (contact-model.md,
+/* Scenes: copy, validate and normalise the caller's bodies (docs/model.md,
  * "Geometry"). Every error names the body, loop and node at fault. */
 #include <float.h>
 #include <stdarg.h>
@@ -134,7 +134,7 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
 #undef SEG_LEN
     for (k = 0; k < n; ++k) {
         /* Zero-angle spike: both neighbours leave node k in the same direction,
-         * so the corner tangent vanishes (contact-model.md, corner polynomial). */
+         * so the corner tangent vanishes (docs/model.md §3). */
         nts_vec2 p = pos[node0 + NODE_AT(k)];
         nts_vec2 a = nts_scene_diff(s, pos[node0 + NODE_AT((k + n - 1) % n)], p);
         nts_vec2 c = nts_scene_diff(s, pos[node0 + NODE_AT((k + 1) % n)], p);

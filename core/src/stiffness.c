@@ -5,7 +5,7 @@
  * psi(x) = 1/2 |r(xi, x)|^2 at the closest point xi = xi(x), where
  * r = Xs - X(xi) = sum_k w_k(xi) x_k is linear in the nodes for fixed xi:
  * w = (1, -N_1, ..., -N_m) over (slave, master nodes). xi is a stationary
- * point of psi (psi_xi = -F = 0, contact-model.md, "Closest point"), so by the
+ * point of psi (psi_xi = -F = 0, docs/model.md §4), so by the
  * implicit function theorem dxi/dx = -psi_xix / psi_xixi and
  *   K = eps (psi_xx - psi_xxi psi_xix^T / psi_xixi),
  *   psi_xx  (block k, l) = w_k w_l I,
@@ -59,7 +59,7 @@ int nts_stiffness_add(nts_kbuf* kb, const nts_scene* s, const nts_contact* c, do
         w1[2] = -1.0;
         w2[1] = w2[2] = 0.0;
     } else if (c->kind == NTS_KIND_CORNER) {
-        /* N2 = a(1-x)^2/4, N3 = 1 - a(1+x^2)/2, N4 = a(1+x)^2/4 (erratum 1). */
+        /* N2 = a(1-x)^2/4, N3 = 1 - a(1+x^2)/2, N4 = a(1+x)^2/4 (docs/model.md §12, correction 1). */
         double x = c->param;
         w1[1] = alpha * (1.0 - x) / 2.0;
         w1[2] = alpha * x;

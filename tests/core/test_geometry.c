@@ -1,5 +1,5 @@
 /* Geometry suite: shape functions, the corner polynomial and its solvers on
- * hand-computed cases (contact-model.md, "Geometry", "Closest point"). */
+ * hand-computed cases (docs/model.md §2, "Closest point"). */
 #include "suites.h"
 #include "test_util.h"
 
@@ -18,7 +18,7 @@ static void test_shape_functions_sum_to_one(void) {
 
 static void test_corner_endpoints_and_tangents(void) {
     /* X(-1) = Xa = X3 + alpha (X2 - X3), X(1) = Xb = X3 + alpha (X4 - X3),
-     * dX/dxi(-1) = alpha (X3 - X2), dX/dxi(1) = alpha (X4 - X3) (erratum 4). */
+     * dX/dxi(-1) = alpha (X3 - X2), dX/dxi(1) = alpha (X4 - X3) (docs/model.md §12, correction 4). */
     nts_vec2 x2 = nts_v2(-1.3, 0.2), x3 = nts_v2(0.1, -0.05), x4 = nts_v2(0.4, 1.7);
     double alphas[] = {0.1, 0.2, 0.5};
     int i;
@@ -44,7 +44,7 @@ static void test_corner_endpoints_and_tangents(void) {
 }
 
 static void test_cubic_matches_product_form(void) {
-    /* F(xi) = (Xs - X(xi)).tau(xi) equals the cubic of contact-model.md. */
+    /* F(xi) = (Xs - X(xi)).tau(xi) equals the cubic (7) of docs/model.md §4.3. */
     nts_corner k = nts_corner_make(nts_v2(-1.0, 0.3), nts_v2(0.2, 1.1), 0.3);
     nts_vec2 d = nts_v2(0.4, -0.25);
     nts_cubic f = nts_corner_cubic(k, d);

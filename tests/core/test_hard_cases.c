@@ -1,4 +1,4 @@
-/* Hard cases (contact-model.md, "Closest point"; docs/hard-cases.md): both corner
+/* Hard cases (docs/model.md §4; docs/hard-cases.md): both corner
  * solvers against a long-double reference, and no NaN ever. The reference finds
  * every sign change of F on a fine grid of [-1, 1] and bisects it in long double,
  * then takes the root nearest to the slave. */
@@ -247,7 +247,7 @@ static void test_random_corners_against_reference(void) {
         nts_corner k;
         int sv;
         if (fabs(nts_cross(a, c)) < 1e-3 && nts_dot(a, c) > 0) continue; /* spike: rejected by validation */
-        /* Candidate region (erratum 3): s_{j-1} >= 1 - alpha and s_j <= alpha. */
+        /* Candidate region (docs/model.md §12, correction 3): s_{j-1} >= 1 - alpha and s_j <= alpha. */
         sp = nts_dot(nts_sub(d, a), nts_neg(a)) / nts_dot(a, a);
         sj = nts_dot(d, c) / nts_dot(c, c);
         if (!(sp >= 1.0 - al && sj <= al)) continue;

@@ -127,7 +127,7 @@ static void test_virial_identities(void) {
         for (i = 0; i < r.contact_count; ++i) {
             const nts_contact* c = &r.contacts[i];
             double e = o.penalty * c->gap * c->gap, scale = e + 1e-300;
-            /* -sum f (X - Xs) (computed by the core) = eps g^2 n n (contact-model.md). */
+            /* -sum f (X - Xs) (computed by the core) = eps g^2 n n (docs/model.md §4.3, eq. (7)). */
             ASSERT_NEAR(c->virial.xx, e * c->normal.x * c->normal.x, 1e-9 * scale);
             ASSERT_NEAR(c->virial.yy, e * c->normal.y * c->normal.y, 1e-9 * scale);
             ASSERT_NEAR(c->virial.xy, e * c->normal.x * c->normal.y, 1e-9 * scale);

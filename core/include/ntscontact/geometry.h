@@ -1,4 +1,4 @@
-/* ntscontact: stateless contact geometry (contact-model.md, "Geometry" and
+/* ntscontact: stateless contact geometry (docs/model.md §2 and
  * "Closest point"). Every function works in coordinates relative to a master
  * node, so callers subtract first and multiply after. Results come back as small
  * structs by value (as Box2D's b2SegmentDistanceResult). */
@@ -11,7 +11,7 @@
 extern "C" {
 #endif
 
-/* Which corner solver (contact-model.md, "Corner candidate"). */
+/* Which corner solver (docs/model.md §4.3). */
 typedef enum nts_solver {
     NTS_SOLVER_CLOSED_FORM = 0, /* GSL cubic + Newton polish, degenerate branch for near-collinear corners */
     NTS_SOLVER_NEWTON = 1       /* Newton safeguarded by bisection on monotone brackets of [-1, 1] */
@@ -24,7 +24,7 @@ typedef enum nts_kind {
     NTS_KIND_VERTEX = 2
 } nts_kind;
 
-/* Shape functions of the corner polynomial (contact-model.md, corrected eq. (1)):
+/* Shape functions of the corner polynomial (docs/model.md §3, eq. (3)):
  * N2 = a(1-xi)^2/4, N3 = 1 - a(1+xi^2)/2, N4 = a(1+xi)^2/4. They sum to one. */
 typedef struct nts_shape3 {
     double n2, n3, n4;
@@ -42,13 +42,13 @@ nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha);
 nts_vec2 nts_corner_point(nts_corner k, double xi);
 nts_vec2 nts_corner_tangent(nts_corner k, double xi);
 
-/* Normalised segment parameter s = (Xs - X0).(X1 - X0)/|X1 - X0|^2 (erratum 2),
+/* Normalised segment parameter s = (Xs - X0).(X1 - X0)/|X1 - X0|^2 (docs/model.md §12, correction 2),
  * given d = Xs - X0 and t = X1 - X0 with |t| > 0. */
 static inline double nts_segment_param(nts_vec2 d, nts_vec2 t) { return nts_dot(d, t) / nts_dot(t, t); }
 
 /* The closest point of a slave on a corner polynomial: the root of
  * F(xi) = (Xs - X(xi)).tau(xi) in [-1, 1] nearest to the slave. `d` = Xs - X3.
- * The caller guarantees F(-1) >= 0 >= F(1) (erratum 3); the solver still never
+ * The caller guarantees F(-1) >= 0 >= F(1) (docs/model.md §12, correction 3); the solver still never
  * loops without bound and never returns NaN for finite input. */
 typedef struct nts_corner_solution {
     double xi;       /* the PCA parameter, in [-1, 1] */
@@ -61,7 +61,7 @@ typedef struct nts_corner_solution {
 } nts_corner_solution;
 nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver);
 
-/* Coefficients of F(xi) = c3 xi^3 + c2 xi^2 + c1 xi + c0 (contact-model.md). */
+/* Coefficients of F(xi) = c3 xi^3 + c2 xi^2 + c1 xi + c0 (docs/model.md §4.3, eq. (7)). */
 typedef struct nts_cubic {
     double c3, c2, c1, c0;
 } nts_cubic;

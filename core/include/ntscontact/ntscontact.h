@@ -18,7 +18,7 @@ extern "C" {
 
 /* ---------------------------------------------------------------- scene */
 
-/* What a body takes part in (contact-model.md, "Selection"; docs/model.md,
+/* What a body takes part in (docs/model.md §5; docs/model.md,
  * "Per-body options"). */
 typedef enum nts_role {
     NTS_ROLE_BOTH = 0,   /* its nodes touch other bodies and it offers its surface (default) */
@@ -110,7 +110,7 @@ enum nts_output_flags {
     NTS_OUT_ALL = 0x3fu
 };
 
-/* The penalty of a slave node (contact-model.md, "Forces"): eps itself, or
+/* The penalty of a slave node (docs/model.md §6): eps itself, or
  * eps times the node's tributary length (half of its two segments, measured at
  * nts_scene_create), so that eps is a pressure stiffness and the contact
  * pressure and the penetration converge under mesh refinement. */
