@@ -253,8 +253,33 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     return fail_type(d, ptr, v, "a string or an integer");
 }
 
-static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role"};
-enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_COUNT };
+static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points"};
+enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_COUNT };
+
+/* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
+ * the caller: the core does not use it). Checked: one non-negative integer per node. */
+static int check_mesh_points(decoder* d, int b, const cJSON* v) {
+    char p[96];
+    const cJSON* e;
+    int k = 0, n = d->scene->defs[b].node_count;
+    snprintf(p, sizeof p, "/bodies/%d/mesh_points", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, p, v, "an array of mesh point indices, one per node");
+    cJSON_ArrayForEach(e, v) {
+        if (!cJSON_IsNumber(e) || !(e->valuedouble >= 0.0) || e->valuedouble != floor(e->valuedouble) ||
+            e->valuedouble > NTSJ_MAX_INDEX) {
+            snprintf(p, sizeof p, "/bodies/%d/mesh_points/%d", b, k);
+            return fail(d, cJSON_IsNumber(e) ? "invalid_value" : "invalid_type", p,
+                        "a mesh point index is a non-negative integer");
+        }
+        ++k;
+    }
+    if (k != n) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "%d mesh points for %d nodes (one per node)", k, n);
+        return fail(d, "invalid_value", p, msg);
+    }
+    return 0;
+}
 
 static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     char ptr[96];
@@ -419,6 +444,7 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         return fail(d, "missing_field", p, "a body needs \"nodes\"");
     }
     if (decode_nodes(d, b, f[BODY_NODES], total) != 0) return -1;
+    if (f[BODY_MESH_POINTS] && check_mesh_points(d, b, f[BODY_MESH_POINTS]) != 0) return -1;
     if (f[BODY_ALPHA]) {
         /* Per-body smoothing: this body's surface (docs/model.md, "Per-body options"). */
         char p[80];

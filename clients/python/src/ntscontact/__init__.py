@@ -22,12 +22,14 @@ from .errors import (  # noqa: E402
 from .result import Contact, Gap, Result, Summary  # noqa: E402
 from .scene import OUTPUTS, SOLVERS, Body, BodyId, Scene  # noqa: E402
 from .session import Session  # noqa: E402
+from .plot import plot  # noqa: E402
 from .client import DEFAULT_URL, USER_AGENT, Client  # noqa: E402
 
 __all__ = [
     "__version__",
     "Client",
     "Session",
+    "plot",
     "DEFAULT_URL",
     "USER_AGENT",
     "Scene",

@@ -106,7 +106,10 @@ class Client:
         if not isinstance(doc.get("summary"), dict):
             raise ServerError(f"POST {self.base_url}/v1/contact: the answer has no summary", code="bad_response",
                               status=200)
-        return Result.from_dict(doc)
+        result = Result.from_dict(doc)
+        if isinstance(scene, Scene):
+            result._scene = (scene, scene.positions())  # the topology, and the positions evaluated
+        return result
 
     def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Session:
         """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for

@@ -60,9 +60,12 @@ def orient_ccw(points: npt.ArrayLike, triangles: npt.ArrayLike) -> IntArray:
     p = np.asarray(points, dtype=np.float64)[:, :2]
     t = np.array(triangles, dtype=np.int64, copy=True).reshape(-1, 3)
     a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    # twice the signed area, relative to the first corner for precision
-    cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    zero = cross == 0.0
+    # twice the signed area, relative to the first corner for precision; zero
+    # area by the core's rule (core/src/triangles.c): |e1 x e2| <= 64 eps |e1| |e2|
+    e1, e2 = b - a, c - a
+    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    zero = ~(np.abs(cross) > 64.0 * np.finfo(np.float64).eps * np.hypot(e1[:, 0], e1[:, 1]) * np.hypot(e2[:, 0], e2[:, 1]))
+    zero |= (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
     if zero.any():
         k = int(np.flatnonzero(zero)[0])
         raise InvalidScene(f"triangle {k} = {t[k].tolist()} has zero area", code="degenerate_triangle",
@@ -289,11 +292,11 @@ def scene_from_mesh(
                   outputs=outputs)
     for b in bodies_from_mesh(mesh, tag=tag):
         if boundary == "triangles":
-            scene.add_body(b.nodes, triangles=b.triangles, id=b.id)
+            scene.add_body(b.nodes, triangles=b.triangles, id=b.id, mesh_points=b.point_index)
         else:
             loops = b.loops()
             on = np.unique(np.concatenate(loops))
             local = np.full(b.nodes.shape[0], -1, dtype=np.int64)
             local[on] = np.arange(on.size, dtype=np.int64)
-            scene.add_body(b.nodes[on], loops=[local[lp] for lp in loops], id=b.id)
+            scene.add_body(b.nodes[on], loops=[local[lp] for lp in loops], id=b.id, mesh_points=b.point_index[on])
     return scene

@@ -160,6 +160,9 @@ class Result:
     _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
     #: The tangent's triplets (rows, cols, values, size) of a binary answer.
     _triplets: Optional[Tuple[Any, Any, Any, int]] = field(default=None, repr=False, compare=False)
+    #: (scene, positions evaluated) when the client knows them (to_vtk, plot); the
+    #: scene may be a function that builds it.
+    _scene: Any = field(default=None, repr=False, compare=False)
 
     def stiffness_triplets(self) -> Tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], FloatArray, int]:
         """The tangent ``K = d2E/dx2 = -df/dx`` as triplets ``(rows, cols, values,
@@ -212,10 +215,33 @@ class Result:
         return np.concatenate([self.forces[i] for i in ids], axis=0)
 
     def contact_arrays(self) -> Dict[str, npt.NDArray[Any]]:
-        """Contacts as columns: ``slave_node``, ``gap`` (m,), ``normal``, ``point``,
-        ``force`` (m, 2), ``virial`` (m, 3) as (xx, yy, xy)."""
+        """Contacts as columns, for vectorised work over them: ``slave_body`` and
+        ``master_body`` (the ids, an object array), ``slave_body_index`` and
+        ``master_body_index`` (the bodies' places in the scene, -1 when the
+        result does not list the bodies), ``slave_node`` (m,), ``master_nodes``
+        and ``weights`` (m, 3; -1 and 0 where a feature has fewer nodes),
+        ``kind`` (m,) as 0 segment, 1 corner, 2 vertex, ``xi`` (m,), ``gap``
+        (m,), ``normal``, ``point``, ``force`` (m, 2), ``virial`` (m, 3) as
+        (xx, yy, xy)."""
         m = len(self.contacts)
+        order = {(type(i), i): k for k, i in enumerate(self.body_ids)}
+        kinds = {"segment": 0, "corner": 1, "vertex": 2}
+        nodes = np.full((m, 3), -1, dtype=np.int64)
+        weights = np.zeros((m, 3), dtype=np.float64)
+        for k, c in enumerate(self.contacts):
+            nodes[k, :len(c.master_nodes)] = c.master_nodes
+            weights[k, :len(c.weights)] = c.weights
         return {
+            "slave_body": np.array([c.slave_body for c in self.contacts], dtype=object),
+            "master_body": np.array([c.master_body for c in self.contacts], dtype=object),
+            "slave_body_index": np.array([order.get((type(c.slave_body), c.slave_body), -1) for c in self.contacts],
+                                         dtype=np.int64),
+            "master_body_index": np.array([order.get((type(c.master_body), c.master_body), -1)
+                                           for c in self.contacts], dtype=np.int64),
+            "master_nodes": nodes,
+            "weights": weights,
+            "kind": np.array([kinds.get(c.kind, -1) for c in self.contacts], dtype=np.int64),
+            "xi": np.array([c.xi for c in self.contacts], dtype=np.float64),
             "slave_node": np.array([c.slave_node for c in self.contacts], dtype=np.int64),
             "gap": np.array([c.gap for c in self.contacts], dtype=np.float64),
             "normal": np.array([c.normal for c in self.contacts], dtype=np.float64).reshape(m, 2),
@@ -223,6 +249,36 @@ class Result:
             "force": np.array([c.force for c in self.contacts], dtype=np.float64).reshape(m, 2),
             "virial": np.array([c.virial for c in self.contacts], dtype=np.float64).reshape(m, 3),
         }
+
+    def to_vtk(self, path: Any, scene: Any = None) -> None:
+        """Write a ParaView file (``.vtu``): surfaces, forces, contacts with
+        their gaps and normals (:mod:`ntscontact.vtk`). ``scene`` is the scene at
+        the evaluated positions; a result of ``Client.contact(scene)`` or of a
+        session step knows it already."""
+        from .vtk import write_vtu
+
+        positions = None
+        if scene is None and self._scene is not None:
+            scene, positions = self._scene
+            scene = scene() if callable(scene) else scene
+        if scene is None:
+            raise ValueError("to_vtk needs the scene the result belongs to: to_vtk(path, scene)")
+        write_vtu(path, scene, self, positions)
+
+    def forces_on_mesh(self, scene: Any, mesh_points: Optional[int] = None) -> FloatArray:
+        """The forces put back on the points of the mesh the scene was converted
+        from (each body's ``mesh_points``, which ``python -m ntscontact convert``
+        and ``scene_from_mesh`` keep): a (P, 2) array, P = ``mesh_points`` or the
+        largest index + 1; a point shared by two bodies gets the sum."""
+        maps = {b.id: b.mesh_points for b in scene}
+        missing = [i for i, m in maps.items() if m is None and i in self.forces]
+        if missing:
+            raise ValueError(f"body {missing[0]!r} has no mesh_points: it was not converted from a mesh")
+        size = mesh_points if mesh_points is not None else 1 + max(int(m.max()) for m in maps.values() if m is not None)
+        out = np.zeros((int(size), 2), dtype=np.float64)
+        for body_id, f in self.forces.items():
+            np.add.at(out, np.asarray(maps[body_id], dtype=np.int64), f)
+        return out
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> "Result":

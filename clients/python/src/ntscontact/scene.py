@@ -91,6 +91,7 @@ class Body:
     triangles: Optional[IntArray] = None
     alpha: Optional[float] = None
     role: Optional[str] = None
+    mesh_points: Optional[IntArray] = None
 
     @property
     def node_count(self) -> int:
@@ -106,6 +107,8 @@ class Body:
             out["alpha"] = float(self.alpha)
         if self.role is not None:
             out["role"] = self.role
+        if self.mesh_points is not None:
+            out["mesh_points"] = self.mesh_points.tolist()
         return out
 
 
@@ -200,6 +203,7 @@ class Scene:
         *,
         alpha: Optional[float] = None,
         role: Optional[str] = None,
+        mesh_points: Optional[ArrayLike] = None,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
@@ -280,8 +284,14 @@ class Scene:
         elif loops is None and n < 3:
             raise InvalidScene(f"a body without loops or triangles needs 3 nodes or more, got {n}",
                                code="loop_too_short", pointer=f"/bodies/{index}/nodes", where=where)
+        mp: Optional[IntArray] = None
+        if mesh_points is not None:
+            mp = _as_index_array(mesh_points, "mesh_points", index, id, f"/bodies/{index}/mesh_points")
+            if mp.shape != (n,) or (mp < 0).any():
+                raise InvalidScene(f"mesh_points needs one non-negative index per node ({n}), got shape {mp.shape}",
+                                   code="invalid_value", pointer=f"/bodies/{index}/mesh_points", where=where)
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
-                                 alpha=None if alpha is None else float(alpha), role=role))
+                                 alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp))
         self._index[key] = index
         return id
 
@@ -395,7 +405,7 @@ class Scene:
             if not isinstance(b, Mapping) or "nodes" not in b:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
             scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
-                           alpha=b.get("alpha"), role=b.get("role"))
+                           alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"))
         return scene
 
     @classmethod

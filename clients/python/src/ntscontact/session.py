@@ -203,9 +203,12 @@ class Session:
         if pos is not None:
             self._positions = pos.astype(np.float64, copy=True)
         self.steps += 1
-        if binary:
-            return self._binary_result(resp)
-        return Result.from_dict(doc)
+        result = self._binary_result(resp) if binary else Result.from_dict(doc)
+        result._scene = (self._scene_factory, self._positions.copy())
+        return result
+
+    def _scene_factory(self) -> Scene:
+        return Scene.from_json(self._body)
 
     def _binary_result(self, resp: requests.Response) -> Result:
         h = resp.headers
