@@ -153,3 +153,11 @@ def test_python_boundary_is_the_c_boundary(client):
                          [("triangle", np.array([[0, 1, 2], [0, 1, 3]]))])
     with pytest.raises(ntscontact.InvalidScene):
         ntscontact.mesh.scene_from_mesh(sliver, penalty=1.0)
+
+
+def test_one_version_number(paths):
+    """The Python package's version comes from one place and equals the C library's."""
+    import importlib.metadata
+    r = subprocess.run([str(CLI), "--version"], capture_output=True, text=True, timeout=10)
+    assert r.stdout.split()[-1] == ntscontact.__version__ == importlib.metadata.version("ntscontact")
+    assert "version =" not in (REPO / "clients/python/pyproject.toml").read_text().split("[tool.setuptools.dynamic]")[0]
