@@ -669,8 +669,8 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
     }
     n = snprintf(out, size, "/bodies/%d", err->body);
     if (n < 0 || (size_t)n >= size) return;
-    if (err->triangle >= 0 && err->loop_pos >= 0)
-        snprintf(out + n, size - (size_t)n, "/triangles/%d/%d", err->triangle, err->loop_pos);
+    if (err->triangle >= 0 && err->corner >= 0)
+        snprintf(out + n, size - (size_t)n, "/triangles/%d/%d", err->triangle, err->corner);
     else if (err->triangle >= 0)
         snprintf(out + n, size - (size_t)n, "/triangles/%d", err->triangle);
     else if (err->code == NTS_ENO_BOUNDARY && s->defs[err->body].triangle_count > 0)

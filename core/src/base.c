@@ -27,7 +27,7 @@ const char* nts_strerror(int status) {
 nts_error nts_error_none(void) {
     nts_error e;
     memset(&e, 0, sizeof e);
-    e.body = e.loop = e.loop_pos = e.node = e.triangle = -1;
+    e.body = e.loop = e.loop_pos = e.node = e.triangle = e.corner = -1;
     return e;
 }
 

@@ -28,7 +28,7 @@ static int tri_fail(nts_error* err, int code, int tri, int corner, int node, con
         *err = nts_error_none();
         err->code = code;
         err->triangle = tri;
-        err->loop_pos = corner;
+        err->corner = corner;
         err->node = node;
         snprintf(err->message, sizeof err->message, "%s", msg);
     }

@@ -16,8 +16,8 @@ int main(void) {
     register_update_suite();
     register_scenes_suite();
     register_stiffness_suite();
-    if (register_alloc_suite) register_alloc_suite();
-    if (register_parallel_suite) register_parallel_suite();
+    register_alloc_suite();
+    register_parallel_suite();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     CU_basic_run_tests();
     failed = CU_get_number_of_failures() + CU_get_number_of_tests_failed();

@@ -10,7 +10,6 @@ void register_hard_cases_suite(void);
 void register_update_suite(void);
 void register_scenes_suite(void);
 void register_stiffness_suite(void);
-/* Optional suites (files added by later work); weak so the runner links without them. */
-void register_alloc_suite(void) __attribute__((weak));
-void register_parallel_suite(void) __attribute__((weak));
+void register_alloc_suite(void);
+void register_parallel_suite(void);
 #endif

@@ -220,7 +220,8 @@ static void test_triangle_boundary(void) {
         CU_ASSERT(s == NULL);
         ASSERT_INT_EQ(err.code, NTS_EINDEX_RANGE);
         ASSERT_INT_EQ(err.triangle, 8);
-        ASSERT_INT_EQ(err.loop_pos, 2);
+        ASSERT_INT_EQ(err.corner, 2);
+        ASSERT_INT_EQ(err.loop_pos, -1);
     }
 }
 
@@ -290,6 +291,13 @@ static void test_options_validated(void) {
     o.penalty = NAN;
     ASSERT_INT_EQ(nts_options_validate(&o, &err), NTS_EINVALID_OPTION);
     CU_ASSERT(strcmp(nts_status_name(NTS_EDEGENERATE_SEGMENT), "degenerate_segment") == 0);
+    /* The count comes from the table: every status below it has a name. */
+    {
+        int k;
+        for (k = 0; k < NTS_E_COUNT_; ++k) CU_ASSERT(strcmp(nts_status_name(-k), "unknown_error") != 0);
+        CU_ASSERT(strcmp(nts_status_name(-NTS_E_COUNT_), "unknown_error") == 0);
+        ASSERT_INT_EQ(NTS_E_COUNT_, 1 - NTS_EOUT_OF_RANGE);
+    }
 }
 
 void register_scene_suite(void) {

@@ -46,7 +46,9 @@ typedef enum nts_status {
 #define NTS_XX_(e, v, name, msg) NTS_E##e = (v),
     NTS_ERRNO_MAP(NTS_XX_)
 #undef NTS_XX_
-    NTS_E_COUNT_ = 21
+#define NTS_XX_(e, v, name, msg) +1
+    NTS_E_COUNT_ = 1 NTS_ERRNO_MAP(NTS_XX_) /* the table's rows and "ok" */
+#undef NTS_XX_
 } nts_status;
 
 /* Stable snake_case name of a status ("ok", "degenerate_segment", ...). */
@@ -56,8 +58,9 @@ const char* nts_strerror(int status);
 
 /* Where an error is. Every index is -1 when it does not apply. `loop_pos` is the
  * position inside the loop's index list, `node` the body's node index,
- * `triangle` the triangle index of a body given by a mesh. `option` names the
- * option at fault ("alpha", "penalty", ...), or is empty. */
+ * `triangle` the triangle index of a body given by a mesh and `corner` the
+ * place (0, 1, 2) inside that triangle. `option` names the option at fault
+ * ("alpha", "penalty", ...), or is empty. */
 typedef struct nts_error {
     int code;
     int body;
@@ -65,6 +68,7 @@ typedef struct nts_error {
     int loop_pos;
     int node;
     int triangle;
+    int corner;
     char option[32];
     char message[192];
 } nts_error;
