@@ -1,6 +1,10 @@
 /* Status names, messages and the allocator hook (base.h). */
 #include <ntscontact/base.h>
 
+#include "internal.h"
+
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,6 +26,25 @@ const char* nts_strerror(int status) {
 #undef NTS_XX_
     default: return "unknown error";
     }
+}
+
+int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...) {
+    if (err != NULL) {
+        va_list ap;
+        *err = nts_error_none();
+        err->code = code;
+        err->body = at.body;
+        err->loop = at.loop;
+        err->loop_pos = at.loop_pos;
+        err->node = at.node;
+        err->triangle = at.triangle;
+        err->corner = at.corner;
+        snprintf(err->option, sizeof err->option, "%s", at.option ? at.option : "");
+        va_start(ap, fmt);
+        vsnprintf(err->message, sizeof err->message, fmt, ap);
+        va_end(ap);
+    }
+    return code;
 }
 
 nts_error nts_error_none(void) {

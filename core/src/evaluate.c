@@ -810,14 +810,7 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double r, doub
 }
 
 static int eval_fail(nts_error* err, int code, int body, int node, const char* msg) {
-    if (err != NULL) {
-        *err = nts_error_none();
-        err->code = code;
-        err->body = body;
-        err->node = node;
-        strncpy(err->message, msg, sizeof err->message - 1);
-    }
-    return code;
+    return nts_error_set(err, code, nts_at(body, -1, -1, node), "%s", msg);
 }
 
 int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {

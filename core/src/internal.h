@@ -40,6 +40,29 @@ struct nts_scene {
     double* surf_trib;         /* surface entry -> tributary length at creation */
 };
 
+/* Where an error is (nts_error's indices and option; -1 and "" when they do
+ * not apply) and the one function that fills an error record: code, place and
+ * a printf message. Returns `code`, so a caller writes `return nts_error_set(...)`. */
+typedef struct nts_where {
+    int body, loop, loop_pos, node, triangle, corner;
+    const char* option;
+} nts_where;
+static inline nts_where nts_at(int body, int loop, int loop_pos, int node) {
+    nts_where w;
+    w.body = body;
+    w.loop = loop;
+    w.loop_pos = loop_pos;
+    w.node = node;
+    w.triangle = w.corner = -1;
+    w.option = "";
+    return w;
+}
+int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+
 /* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping
  * the contents. Returns 0 or NTS_ENOMEM (the old block stays valid). */
 int nts_grow(void** ptr, int* cap, int need, size_t size);

@@ -1,5 +1,5 @@
 /* Options with defaults (ntscontact.h) and their validation at the boundary. */
-#include <ntscontact/ntscontact.h>
+#include "internal.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -18,13 +18,9 @@ nts_options nts_default_options(void) {
 }
 
 static int option_error(nts_error* err, const char* name, const char* what) {
-    if (err != NULL) {
-        *err = nts_error_none();
-        err->code = NTS_EINVALID_OPTION;
-        snprintf(err->option, sizeof err->option, "%s", name);
-        snprintf(err->message, sizeof err->message, "%s %s", name, what);
-    }
-    return NTS_EINVALID_OPTION;
+    nts_where at = nts_at(-1, -1, -1, -1);
+    at.option = name;
+    return nts_error_set(err, NTS_EINVALID_OPTION, at, "%s %s", name, what);
 }
 
 int nts_options_validate(const nts_options* o, nts_error* err) {

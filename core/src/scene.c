@@ -37,24 +37,8 @@ int nts_grow(void** ptr, int* cap, int need, size_t size) {
     return NTS_OK;
 }
 
-#if defined(__GNUC__)
-__attribute__((format(printf, 7, 8)))
-#endif
-static int fail(nts_error* err, int code, int body, int loop, int pos, int node, const char* fmt, ...) {
-    if (err != NULL) {
-        va_list ap;
-        *err = nts_error_none();
-        err->code = code;
-        err->body = body;
-        err->loop = loop;
-        err->loop_pos = pos;
-        err->node = node;
-        va_start(ap, fmt);
-        vsnprintf(err->message, sizeof err->message, fmt, ap);
-        va_end(ap);
-    }
-    return code;
-}
+/* An error at (body, loop, place in the loop, node): nts_error_set. */
+#define fail(err, code, body, loop, pos, node, ...) nts_error_set(err, code, nts_at(body, loop, pos, node), __VA_ARGS__)
 
 void nts_scene_destroy(nts_scene* s) {
     if (s == NULL) return;

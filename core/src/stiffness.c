@@ -118,21 +118,13 @@ int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err) {
     int i, r, nnz = 0;
     if (err != NULL) *err = nts_error_none();
     if (out == NULL || t == NULL || t->size < 0 || t->count < 0 || (t->count > 0 && (!t->rows || !t->cols || !t->values))) {
-        if (err != NULL) {
-            err->code = NTS_EINVALID_ARGUMENT;
-            strcpy(err->message, "invalid triplets");
-        }
-        return NTS_EINVALID_ARGUMENT;
+        return nts_error_set(err, NTS_EINVALID_ARGUMENT, nts_at(-1, -1, -1, -1), "invalid triplets");
     }
     memset(out, 0, sizeof *out);
     for (i = 0; i < t->count; ++i)
         if (t->rows[i] < 0 || t->rows[i] >= t->size || t->cols[i] < 0 || t->cols[i] >= t->size) {
-            if (err != NULL) {
-                err->code = NTS_EINVALID_ARGUMENT;
-                snprintf(err->message, sizeof err->message, "triplet %d is outside the %d x %d matrix", i, t->size,
-                         t->size);
-            }
-            return NTS_EINVALID_ARGUMENT;
+            return nts_error_set(err, NTS_EINVALID_ARGUMENT, nts_at(-1, -1, -1, -1),
+                                 "triplet %d is outside the %d x %d matrix", i, t->size, t->size);
         }
     start = (int*)nts_alloc(sizeof(int) * ((size_t)t->size + 1));
     order = (int*)nts_alloc(sizeof(int) * ((size_t)t->count + 1));
@@ -143,11 +135,7 @@ int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err) {
         nts_free(order);
         nts_free(cols);
         nts_free(vals);
-        if (err != NULL) {
-            err->code = NTS_ENOMEM;
-            strcpy(err->message, "out of memory");
-        }
-        return NTS_ENOMEM;
+        return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
     }
     /* Counting sort by row, stable: within a row the triplets keep their order. */
     memset(start, 0, sizeof(int) * ((size_t)t->size + 1));

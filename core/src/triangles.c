@@ -24,15 +24,10 @@ static int edge_cmp(const void* pa, const void* pb) {
 }
 
 static int tri_fail(nts_error* err, int code, int tri, int corner, int node, const char* msg) {
-    if (err != NULL) {
-        *err = nts_error_none();
-        err->code = code;
-        err->triangle = tri;
-        err->corner = corner;
-        err->node = node;
-        snprintf(err->message, sizeof err->message, "%s", msg);
-    }
-    return code;
+    nts_where at = nts_at(-1, -1, -1, node);
+    at.triangle = tri;
+    at.corner = corner;
+    return nts_error_set(err, code, at, "%s", msg);
 }
 
 void nts_boundary_free(nts_boundary* b) {
