@@ -6,35 +6,20 @@
 
 #include "codec_internal.h"
 
-/* XX(stable name, HTTP status) */
-#define NTSJ_CODE_MAP(XX)                  \
-    XX("invalid_json", 400)                \
-    XX("invalid_type", 400)                \
-    XX("missing_field", 400)               \
-    XX("unknown_field", 400)               \
-    XX("duplicate_key", 400)               \
-    XX("duplicate_id", 400)                \
-    XX("invalid_value", 400)               \
-    XX("too_deep", 400)                    \
-    XX("empty_body", 400)                  \
-    XX("payload_too_large", 413)           \
-    XX("not_found", 404)                   \
-    XX("method_not_allowed", 405)          \
-    XX("unsupported_media_type", 415)      \
-    XX("overloaded", 503)                  \
-    XX("timeout", 503)                     \
-    XX("unknown_scene", 404)
-
 typedef struct code_entry {
     const char* name;
     int http_status;
 } code_entry;
 
 static const code_entry codec_codes[] = {
-#define NTSJ_XX_(name, status) {name, status},
+#define NTSJ_XX_(e, name, status) {name, status},
     NTSJ_CODE_MAP(NTSJ_XX_)
 #undef NTSJ_XX_
 };
+
+const char* ntsj_code_name(ntsj_code code) {
+    return (int)code >= 0 && code < NTSJ_CODE_COUNT_ ? codec_codes[code].name : "internal_error";
+}
 
 /* The core's statuses: input faults are 400, the rest (out of memory, internal,
  * a bad argument that only a codec bug can pass) are 500. */

@@ -58,7 +58,7 @@ static const char* type_name(const cJSON* v) {
 }
 
 static int fail_type(decoder* d, const char* ptr, const cJSON* v, const char* expected) {
-    ntsj_fault_set(d->fault, "invalid_type", ptr, "expected %s, got %s", expected, type_name(v));
+    ntsj_fault_set(d->fault, ntsj_code_name(NTSJ_INVALID_TYPE), ptr, "expected %s, got %s", expected, type_name(v));
     return -1;
 }
 
@@ -79,7 +79,7 @@ static int take_fields(decoder* d, const cJSON* obj, const char* ptr, const char
             char p[256];
             snprintf(p, sizeof p, "%s", ptr);
             pointer_append_key(p, sizeof p, key);
-            ntsj_fault_set(d->fault, i == count ? "unknown_field" : "duplicate_key", p,
+            ntsj_fault_set(d->fault, i == count ? ntsj_code_name(NTSJ_UNKNOWN_FIELD) : ntsj_code_name(NTSJ_DUPLICATE_KEY), p,
                            i == count ? "unknown field \"%.64s\"" : "key \"%.64s\" appears more than once", key);
             return -1;
         }
@@ -90,7 +90,7 @@ static int take_fields(decoder* d, const cJSON* obj, const char* ptr, const char
 
 static int get_number(decoder* d, const cJSON* v, const char* ptr, double* out) {
     if (!cJSON_IsNumber(v)) return fail_type(d, ptr, v, "a number");
-    if (!isfinite(v->valuedouble)) return fail(d, "non_finite", ptr, "number is not finite (out of the double range)");
+    if (!isfinite(v->valuedouble)) return fail(d, nts_status_name(NTS_ENONFINITE), ptr, "number is not finite (out of the double range)");
     *out = v->valuedouble;
     return 0;
 }
@@ -108,14 +108,14 @@ static int get_index(decoder* d, const cJSON* v, int bound, int* out, int body, 
             return 0;
         }
         if (!isfinite(x) || x != floor(x)) {
-            code = "invalid_value";
+            code = ntsj_code_name(NTSJ_INVALID_VALUE);
             snprintf(msg, sizeof msg, "a node index must be an integer");
         } else {
-            code = "index_out_of_range";
+            code = nts_status_name(NTS_EINDEX_RANGE);
             snprintf(msg, sizeof msg, "node index %.17g is out of range [0, %d)", x, bound);
         }
     } else {
-        code = "invalid_type";
+        code = ntsj_code_name(NTSJ_INVALID_TYPE);
         snprintf(msg, sizeof msg, "expected an integer node index, got %s", type_name(v));
     }
     snprintf(ptr, sizeof ptr, "/bodies/%d/%s/%d/%d", body, list, item, k);
@@ -146,9 +146,9 @@ static int decode_periodic(decoder* d, const cJSON* v) {
     for (i = 0; i < 2; ++i) {
         char p[64];
         snprintf(p, sizeof p, "/options/periodic/%s", names[i]);
-        if (!f[i]) return fail(d, "missing_field", p, i ? "periodic box needs \"ly\"" : "periodic box needs \"lx\"");
+        if (!f[i]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), p, i ? "periodic box needs \"ly\"" : "periodic box needs \"lx\"");
         if (get_number(d, f[i], p, &side[i]) != 0) return -1;
-        if (!(side[i] > 0.0)) return fail(d, "invalid_option", p, "periodic box side must be > 0");
+        if (!(side[i] > 0.0)) return fail(d, nts_status_name(NTS_EINVALID_OPTION), p, "periodic box side must be > 0");
     }
     d->scene->lx = side[0];
     d->scene->ly = side[1];
@@ -167,8 +167,8 @@ static int decode_outputs(decoder* d, const cJSON* v, const char* ptr, unsigned*
         snprintf(p, sizeof p, "%.60s/%d", ptr, i++);
         if (!cJSON_IsString(e)) return fail_type(d, p, e, "an output name (a string)");
         f = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
-        if (!f) return fail(d, "invalid_value", p, "unknown output (expected forces, energy, virial, contacts, gaps or stiffness)");
-        if (flags & f) return fail(d, "invalid_value", p, "output listed twice");
+        if (!f) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown output (expected forces, energy, virial, contacts, gaps or stiffness)");
+        if (flags & f) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "output listed twice");
         flags |= f;
     }
     *out = flags;
@@ -195,13 +195,13 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
     if (f[OPT_RADIUS]) {
         if (get_number(d, f[OPT_RADIUS], "/options/search_radius", &o->search_radius) != 0) return -1;
         /* The core reads a negative radius as "the median segment"; JSON says so by omitting it. */
-        if (o->search_radius < 0.0) return fail(d, "invalid_option", "/options/search_radius", "search_radius must be >= 0");
+        if (o->search_radius < 0.0) return fail(d, nts_status_name(NTS_EINVALID_OPTION), "/options/search_radius", "search_radius must be >= 0");
     }
     if (f[OPT_PERIODIC] && decode_periodic(d, f[OPT_PERIODIC]) != 0) return -1;
     if (f[OPT_SOLVER]) {
         if (!cJSON_IsString(f[OPT_SOLVER])) return fail_type(d, "/options/solver", f[OPT_SOLVER], "a string");
         if (ntsj_solver_from_name(f[OPT_SOLVER]->valuestring, &o->solver) != 0)
-            return fail(d, "invalid_value", "/options/solver", "unknown solver (expected closed_form or newton)");
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/solver", "unknown solver (expected closed_form or newton)");
     }
     if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], "/options/outputs", &o->outputs) != 0) return -1;
     if (f[OPT_SCALING]) {
@@ -209,14 +209,14 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
         if (!cJSON_IsString(s)) return fail_type(d, "/options/penalty_scaling", s, "a string");
         if (strcmp(s->valuestring, "node") == 0) o->penalty_scaling = NTS_PENALTY_PER_NODE;
         else if (strcmp(s->valuestring, "length") == 0) o->penalty_scaling = NTS_PENALTY_PER_LENGTH;
-        else return fail(d, "invalid_value", "/options/penalty_scaling", "unknown penalty_scaling (expected node or length)");
+        else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/penalty_scaling", "unknown penalty_scaling (expected node or length)");
     }
     if (f[OPT_SEARCH]) {
         const cJSON* s = f[OPT_SEARCH];
         if (!cJSON_IsString(s)) return fail_type(d, "/options/search", s, "a string");
         if (strcmp(s->valuestring, "cells") == 0) o->search = NTS_SEARCH_CELLS;
         else if (strcmp(s->valuestring, "brute_force") == 0) o->search = NTS_SEARCH_BRUTE_FORCE;
-        else return fail(d, "invalid_value", "/options/search", "unknown search (expected cells or brute_force)");
+        else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/search", "unknown search (expected cells or brute_force)");
     }
     return 0;
 }
@@ -226,8 +226,8 @@ static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
 static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     if (cJSON_IsString(v)) {
         size_t n = strlen(v->valuestring);
-        if (n == 0) return fail(d, "invalid_value", ptr, "a body id must not be empty");
-        if (n > NTSJ_MAX_ID_BYTES) return fail(d, "invalid_value", ptr, "a body id is at most 256 bytes");
+        if (n == 0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "a body id must not be empty");
+        if (n > NTSJ_MAX_ID_BYTES) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "a body id is at most 256 bytes");
         id->sval = (char*)nts_alloc(n + 1);
         if (!id->sval) {
             d->oom = 1;
@@ -243,7 +243,7 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
          * |id| < 2^53, since 2^53 itself may be 2^53 + 1 rounded by the parser
          * (two different ids would then collide). */
         if (!isfinite(x) || x != floor(x) || fabs(x) >= 9007199254740992.0)
-            return fail(d, "invalid_value", ptr,
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr,
                         "a numeric body id must be an integer with |id| < 2^53 (9007199254740992); larger ids do "
                         "not survive a JSON number: send them as strings");
         id->is_int = 1;
@@ -268,7 +268,7 @@ static int check_mesh_points(decoder* d, int b, const cJSON* v) {
         if (!cJSON_IsNumber(e) || !(e->valuedouble >= 0.0) || e->valuedouble != floor(e->valuedouble) ||
             e->valuedouble > NTSJ_MAX_INDEX) {
             snprintf(p, sizeof p, "/bodies/%d/mesh_points/%d", b, k);
-            return fail(d, cJSON_IsNumber(e) ? "invalid_value" : "invalid_type", p,
+            return fail(d, cJSON_IsNumber(e) ? ntsj_code_name(NTSJ_INVALID_VALUE) : ntsj_code_name(NTSJ_INVALID_TYPE), p,
                         "a mesh point index is a non-negative integer");
         }
         ++k;
@@ -276,7 +276,7 @@ static int check_mesh_points(decoder* d, int b, const cJSON* v) {
     if (k != n) {
         char msg[96];
         snprintf(msg, sizeof msg, "%d mesh points for %d nodes (one per node)", k, n);
-        return fail(d, "invalid_value", p, msg);
+        return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, msg);
     }
     return 0;
 }
@@ -289,15 +289,15 @@ static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     snprintf(ptr, sizeof ptr, "/bodies/%d/nodes", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of [x, y] nodes");
     n = array_size(v);
-    if (n == 0) return fail(d, "no_nodes", ptr, "body has no nodes");
+    if (n == 0) return fail(d, nts_status_name(NTS_ENO_NODES), ptr, "body has no nodes");
     if (n > d->cfg->limits.max_nodes_per_body) {
-        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "body has %d nodes, more than max_nodes_per_body = %d", n,
+        ntsj_fault_set(d->fault, nts_status_name(NTS_ELIMIT), ptr, "body has %d nodes, more than max_nodes_per_body = %d", n,
                        d->cfg->limits.max_nodes_per_body);
         return -1;
     }
     *total += n;
     if (*total > d->cfg->limits.max_nodes) {
-        ntsj_fault_set(d->fault, "limit_exceeded", ptr, "scene has more nodes than max_nodes = %lld",
+        ntsj_fault_set(d->fault, nts_status_name(NTS_ELIMIT), ptr, "scene has more nodes than max_nodes = %lld",
                        d->cfg->limits.max_nodes);
         return -1;
     }
@@ -324,13 +324,13 @@ static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
                 continue;
             }
             snprintf(pc, sizeof pc, "/bodies/%d/nodes/%d/%d", b, i, k);
-            if (k >= 2) return fail(d, "invalid_value", pc, "a node has exactly two coordinates [x, y]");
+            if (k >= 2) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), pc, "a node has exactly two coordinates [x, y]");
             if (!cJSON_IsNumber(c)) return fail_type(d, pc, c, "a coordinate (a number)");
-            return fail(d, "non_finite", pc, "coordinate is not a finite number");
+            return fail(d, nts_status_name(NTS_ENONFINITE), pc, "coordinate is not a finite number");
         }
         if (k != 2) {
             snprintf(p, sizeof p, "/bodies/%d/nodes/%d", b, i);
-            return fail(d, "invalid_value", p, "a node has exactly two coordinates [x, y]");
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a node has exactly two coordinates [x, y]");
         }
         nodes[i++] = nts_v2(xy[0], xy[1]);
     }
@@ -345,15 +345,15 @@ static int decode_loops(decoder* d, int b, const cJSON* v) {
     snprintf(ptr, sizeof ptr, "/bodies/%d/loops", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of loops");
     loops = array_size(v);
-    if (loops == 0) return fail(d, "invalid_value", ptr, "loops must hold at least one loop (or be omitted)");
+    if (loops == 0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "loops must hold at least one loop (or be omitted)");
     cJSON_ArrayForEach(loop, v) {
         char p[112];
         int n = cJSON_IsArray(loop) ? array_size(loop) : -1;
         if (n < 3 || n > 2147483647 - 1 - loops - total) {
             snprintf(p, sizeof p, "%s/%d", ptr, l);
             if (n < 0) return fail_type(d, p, loop, "a loop (an array of node indices)");
-            if (n < 3) return fail(d, "loop_too_short", p, "loop has fewer than 3 nodes");
-            return fail(d, "limit_exceeded", p, "loops are too long");
+            if (n < 3) return fail(d, nts_status_name(NTS_ELOOP_TOO_SHORT), p, "loop has fewer than 3 nodes");
+            return fail(d, nts_status_name(NTS_ELIMIT), p, "loops are too long");
         }
         total += n;
         ++l;
@@ -391,8 +391,8 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
     snprintf(ptr, sizeof ptr, "/bodies/%d/triangles", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of triangles [i, j, k]");
     count = array_size(v);
-    if (count == 0) return fail(d, "invalid_value", ptr, "triangles must hold at least one triangle");
-    if (count > 2 * d->cfg->limits.max_nodes_per_body) return fail(d, "limit_exceeded", ptr, "more triangles than twice max_nodes_per_body");
+    if (count == 0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "triangles must hold at least one triangle");
+    if (count > 2 * d->cfg->limits.max_nodes_per_body) return fail(d, nts_status_name(NTS_ELIMIT), ptr, "more triangles than twice max_nodes_per_body");
     tri = (int*)nts_alloc((size_t)count * 3 * sizeof *tri);
     if (!tri) {
         d->oom = 1;
@@ -412,14 +412,14 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
         cJSON_ArrayForEach(e, t) {
             if (k >= 3) {
                 snprintf(p, sizeof p, "%s/%d/%d", ptr, i, k);
-                return fail(d, "invalid_value", p, "a triangle has exactly three node indices");
+                return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a triangle has exactly three node indices");
             }
             if (get_index(d, e, node_count, &tri[3 * i + k], b, "triangles", i, k) != 0) return -1;
             ++k;
         }
         if (k != 3) {
             snprintf(p, sizeof p, "%s/%d", ptr, i);
-            return fail(d, "invalid_value", p, "a triangle has exactly three node indices");
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a triangle has exactly three node indices");
         }
         ++i;
     }
@@ -435,13 +435,13 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
     {
         char p[80];
         snprintf(p, sizeof p, "%s/id", ptr);
-        if (!f[BODY_ID]) return fail(d, "missing_field", p, "a body needs an \"id\" (a string or an integer)");
+        if (!f[BODY_ID]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), p, "a body needs an \"id\" (a string or an integer)");
         if (decode_id(d, f[BODY_ID], p, &d->scene->ids[b]) != 0) return -1;
     }
     if (!f[BODY_NODES]) {
         char p[80];
         snprintf(p, sizeof p, "%s/nodes", ptr);
-        return fail(d, "missing_field", p, "a body needs \"nodes\"");
+        return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), p, "a body needs \"nodes\"");
     }
     if (decode_nodes(d, b, f[BODY_NODES], total) != 0) return -1;
     if (f[BODY_MESH_POINTS] && check_mesh_points(d, b, f[BODY_MESH_POINTS]) != 0) return -1;
@@ -451,7 +451,7 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         nts_body_def* bd = &d->scene->defs[b];
         snprintf(p, sizeof p, "%s/alpha", ptr);
         if (get_number(d, f[BODY_ALPHA], p, &bd->alpha) != 0) return -1;
-        if (!(bd->alpha >= 0.0 && bd->alpha <= 0.5)) return fail(d, "invalid_option", p, "alpha must be in [0, 0.5]");
+        if (!(bd->alpha >= 0.0 && bd->alpha <= 0.5)) return fail(d, nts_status_name(NTS_EINVALID_OPTION), p, "alpha must be in [0, 0.5]");
         bd->has_alpha = 1;
     }
     if (f[BODY_ROLE]) {
@@ -463,12 +463,12 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         if (strcmp(r->valuestring, "both") == 0) bd->role = NTS_ROLE_BOTH;
         else if (strcmp(r->valuestring, "master") == 0) bd->role = NTS_ROLE_MASTER;
         else if (strcmp(r->valuestring, "slave") == 0) bd->role = NTS_ROLE_SLAVE;
-        else return fail(d, "invalid_value", p, "unknown role (expected both, master or slave)");
+        else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown role (expected both, master or slave)");
     }
     if (f[BODY_LOOPS] && f[BODY_TRIANGLES]) {
         char p[80];
         snprintf(p, sizeof p, "%s/triangles", ptr);
-        return fail(d, "invalid_value", p, "give either \"loops\" or \"triangles\", not both");
+        return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "give either \"loops\" or \"triangles\", not both");
     }
     if (f[BODY_LOOPS]) {
         d->scene->has_loops[b] = 1;
@@ -531,7 +531,7 @@ static int check_unique_ids(decoder* d) {
     if (worst >= 0) {
         char p[64];
         snprintf(p, sizeof p, "/bodies/%d/id", worst);
-        ntsj_fault_set(d->fault, "duplicate_id", p, "body id already used by /bodies/%d", first);
+        ntsj_fault_set(d->fault, ntsj_code_name(NTSJ_DUPLICATE_ID), p, "body id already used by /bodies/%d", first);
         return -1;
     }
     return 0;
@@ -576,7 +576,7 @@ static int decode_root(decoder* d, const cJSON* root) {
     if (take_fields(d, root, "", root_fields, ROOT_COUNT, f) != 0) return -1;
     if (f[ROOT_VERSION]) {
         if (!cJSON_IsNumber(f[ROOT_VERSION])) return fail_type(d, "/version", f[ROOT_VERSION], "the integer 1");
-        if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, "invalid_value", "/version", "unsupported version (this codec reads version 1)");
+        if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/version", "unsupported version (this codec reads version 1)");
     }
     if (f[ROOT_SCHEMA] && !cJSON_IsString(f[ROOT_SCHEMA])) return fail_type(d, "/$schema", f[ROOT_SCHEMA], "a string");
 
@@ -589,18 +589,18 @@ static int decode_root(decoder* d, const cJSON* root) {
     if (ov->has_outputs) s->options.outputs = ov->outputs;
     s->options.threads = d->cfg->threads;
     if (!has_penalty && !ov->has_penalty)
-        return fail(d, "missing_field", f[ROOT_OPTIONS] ? "/options/penalty" : "/options",
+        return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), f[ROOT_OPTIONS] ? "/options/penalty" : "/options",
                     f[ROOT_OPTIONS] ? "options need \"penalty\" (the penalty stiffness)"
                                     : "a scene needs \"options\" with at least \"penalty\"");
     if (ov->has_search_radius && !(ov->search_radius >= 0.0))
-        return fail(d, "invalid_option", "/options/search_radius", "search_radius must be >= 0");
+        return fail(d, nts_status_name(NTS_EINVALID_OPTION), "/options/search_radius", "search_radius must be >= 0");
 
-    if (!f[ROOT_BODIES]) return fail(d, "missing_field", "/bodies", "a scene needs \"bodies\"");
+    if (!f[ROOT_BODIES]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), "/bodies", "a scene needs \"bodies\"");
     if (!cJSON_IsArray(f[ROOT_BODIES])) return fail_type(d, "/bodies", f[ROOT_BODIES], "an array of bodies");
     n = array_size(f[ROOT_BODIES]);
-    if (n == 0) return fail(d, "empty_scene", "/bodies", "scene has no bodies");
+    if (n == 0) return fail(d, nts_status_name(NTS_EEMPTY_SCENE), "/bodies", "scene has no bodies");
     if (n > d->cfg->limits.max_bodies) {
-        ntsj_fault_set(d->fault, "limit_exceeded", "/bodies", "scene has %d bodies, more than max_bodies = %d", n,
+        ntsj_fault_set(d->fault, nts_status_name(NTS_ELIMIT), "/bodies", "scene has %d bodies, more than max_bodies = %d", n,
                        d->cfg->limits.max_bodies);
         return -1;
     }
@@ -631,7 +631,7 @@ int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, n
     if (decode_root(&d, root) == 0) return 0;
     ntsj_scene_free(out);
     if (d.oom) {
-        ntsj_fault_set(fault, "out_of_memory", "", "out of memory while decoding the request");
+        ntsj_fault_set(fault, nts_status_name(NTS_ENOMEM), "", "out of memory while decoding the request");
         return NTS_ENOMEM;
     }
     return -1;

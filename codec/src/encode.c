@@ -311,7 +311,7 @@ void ntsj_encode_error(ntsj_buf* b, const char* code, const char* message, const
     w_key(&w, "error");
     w_open(&w, '{', 0);
     w_key(&w, "code");
-    w_string(&w, code ? code : "internal_error");
+    w_string(&w, code ? code : nts_status_name(NTS_EINTERNAL));
     w_key(&w, "message");
     w_string(&w, message ? message : "");
     w_key(&w, "pointer");

@@ -43,7 +43,7 @@ int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code) {
         ntsj_buf_free(b);
         out->ok = 0;
         out->http_status = 500;
-        out->code = "out_of_memory";
+        out->code = nts_status_name(NTS_ENOMEM);
         out->body = NULL;
         out->length = 0;
         nts_free(out->vtk); /* attached before the body failed */
@@ -68,14 +68,14 @@ int ntsj_respond_error(ntsj_response* out, const char* code, const char* message
 }
 
 int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
-    return ntsj_respond_error(out, f->code ? f->code : "internal_error", f->message, f->pointer, pretty);
+    return ntsj_respond_error(out, f->code ? f->code : nts_status_name(NTS_EINTERNAL), f->message, f->pointer, pretty);
 }
 
 int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty) {
     char ptr[256];
     int code = err->code ? err->code : status;
     const char* name = nts_status_name(code);
-    if (!name || !ntsj_code_known(name)) name = "internal_error";
+    if (!name || !ntsj_code_known(name)) name = nts_status_name(NTS_EINTERNAL);
     ntsj_pointer_of_error(s, err, ptr, sizeof ptr);
     return ntsj_respond_error(out, name, err->message[0] ? err->message : nts_strerror(code), ptr, pretty);
 }
@@ -91,7 +91,7 @@ int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, cons
     if (!(cfg->max_seconds > 0.0) || elapsed <= cfg->max_seconds * 1e3) return 0;
     snprintf(msg, sizeof msg, "the request took %.3f ms up to %s, more than max_seconds = %g s", elapsed, phase,
              cfg->max_seconds);
-    *rc = ntsj_respond_error(out, "limit_exceeded", msg, "", cfg->pretty);
+    *rc = ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", cfg->pretty);
     return 1;
 }
 
@@ -110,7 +110,7 @@ int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts
             int off = nts_scene_body_node_offset(scene, b), n = nts_scene_body_node_count(scene, b);
             for (k = 0; k < n; ++k) {
                 if (!vec_ok(r->forces[off + k])) {
-                    ntsj_fault_set(f, "non_finite", "/options/penalty",
+                    ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "/options/penalty",
                                    "the contact force on /bodies/%d/nodes/%d overflows a double (reduce the penalty "
                                    "or the coordinates)", b, k);
                     return 1;
@@ -122,7 +122,7 @@ int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts
         const nts_contact* c = &r->contacts[i];
         if (!vec_ok(c->force) || !virial_ok(c->virial) || !isfinite(c->gap) || !vec_ok(c->point) ||
             !vec_ok(c->normal) || !isfinite(c->param) || !isfinite(c->weights[0])) {
-            ntsj_fault_set(f, "non_finite", "/options/penalty",
+            ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "/options/penalty",
                            "the contact of /bodies/%d/nodes/%d overflows a double (reduce the penalty or the "
                            "coordinates)", c->slave_body, c->slave_node);
             return 1;
@@ -130,14 +130,14 @@ int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts
     }
     for (i = 0; r->gaps && i < r->gap_count; ++i) {
         if (!isfinite(r->gaps[i].gap)) {
-            ntsj_fault_set(f, "non_finite", "/options/penalty", "the gap of /bodies/%d/nodes/%d overflows a double",
+            ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "/options/penalty", "the gap of /bodies/%d/nodes/%d overflows a double",
                            r->gaps[i].slave_body, r->gaps[i].slave_node);
             return 1;
         }
     }
     if (!isfinite(sm->energy) || !virial_ok(sm->virial) || !isfinite(sm->max_penetration) ||
         !isfinite(sm->search_radius) || !isfinite(sm->cell_size)) {
-        ntsj_fault_set(f, "non_finite", "/options/penalty",
+        ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "/options/penalty",
                        "the energy or the virial overflows a double (reduce the penalty or the coordinates)");
         return 1;
     }
@@ -175,14 +175,14 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         char msg[128];
         /* A reader that stops at max_bytes + 1 (the CLI does) only knows "more". */
         snprintf(msg, sizeof msg, "request is more than max_bytes = %lu bytes", (unsigned long)cfg.max_bytes);
-        return ntsj_respond_error(out, "payload_too_large", msg, "", pretty);
+        return ntsj_respond_error(out, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), msg, "", pretty);
     }
-    if (!json || is_blank(json, length)) return ntsj_respond_error(out, "empty_body", "the request is empty", "", pretty);
+    if (!json || is_blank(json, length)) return ntsj_respond_error(out, ntsj_code_name(NTSJ_EMPTY_BODY), "the request is empty", "", pretty);
     if (ntsj_scan(json, length, cfg.max_depth, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
 
     root = cJSON_ParseWithLengthOpts(json, length, &parse_end, 0);
     if (!root) /* the scan accepted it, so this is cJSON running out of memory */
-        return ntsj_respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
+        return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory while parsing the request", "", pretty);
     rc = ntsj_decode(root, &cfg, &s, &fault);
     cJSON_Delete(root);
     if (rc != 0) return ntsj_respond_fault(out, &fault, pretty);
@@ -227,7 +227,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         if (!ctx) {
             nts_scene_destroy(scene);
             ntsj_scene_free(&s);
-            return ntsj_respond_error(out, "out_of_memory", "out of memory", "", pretty);
+            return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         }
         rc = nts_evaluate(ctx, scene, &opt, &result, &err);
         elapsed = ntsj_now_ms() - t0;

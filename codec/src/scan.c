@@ -109,11 +109,11 @@ static int scan_utf8(scanner* s) {
         len = 4;
         if (c == 0xF0) lo = 0x90;
         if (c == 0xF4) hi = 0x8F;
-    } else return scan_fail(s, "invalid_json", "invalid UTF-8 byte in string");
-    if (avail < len) return scan_fail(s, "invalid_json", "truncated UTF-8 sequence in string");
-    if (u[1] < lo || u[1] > hi) return scan_fail(s, "invalid_json", "invalid UTF-8 sequence in string");
+    } else return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "invalid UTF-8 byte in string");
+    if (avail < len) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "truncated UTF-8 sequence in string");
+    if (u[1] < lo || u[1] > hi) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "invalid UTF-8 sequence in string");
     for (i = 2; i < len; ++i)
-        if (u[i] < 0x80 || u[i] > 0xBF) return scan_fail(s, "invalid_json", "invalid UTF-8 sequence in string");
+        if (u[i] < 0x80 || u[i] > 0xBF) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "invalid UTF-8 sequence in string");
     s->p += len;
     return 0;
 }
@@ -127,7 +127,7 @@ static int scan_string(scanner* s) {
             ++s->p;
             return 0;
         }
-        if (c < 0x20) return scan_fail(s, "invalid_json", "unescaped control character in string");
+        if (c < 0x20) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unescaped control character in string");
         if (c == '\\') {
             if (s->end - s->p < 2) break;
             switch (s->p[1]) {
@@ -137,14 +137,14 @@ static int scan_string(scanner* s) {
             case 'u': {
                 unsigned cp, lo;
                 if (s->end - s->p < 6 || hex4(s->p + 2, &cp) != 0)
-                    return scan_fail(s, "invalid_json", "bad \\u escape in string");
-                if (cp == 0) return scan_fail(s, "invalid_json", "\\u0000 is not allowed in strings");
+                    return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "bad \\u escape in string");
+                if (cp == 0) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "\\u0000 is not allowed in strings");
                 if (cp >= 0xDC00 && cp <= 0xDFFF)
-                    return scan_fail(s, "invalid_json", "unpaired UTF-16 surrogate in string");
+                    return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unpaired UTF-16 surrogate in string");
                 if (cp >= 0xD800 && cp <= 0xDBFF) {
                     if (s->end - s->p < 12 || s->p[6] != '\\' || s->p[7] != 'u' || hex4(s->p + 8, &lo) != 0 ||
                         lo < 0xDC00 || lo > 0xDFFF)
-                        return scan_fail(s, "invalid_json", "unpaired UTF-16 surrogate in string");
+                        return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unpaired UTF-16 surrogate in string");
                     s->p += 12;
                 } else {
                     s->p += 6;
@@ -152,7 +152,7 @@ static int scan_string(scanner* s) {
                 break;
             }
             default:
-                return scan_fail(s, "invalid_json", "invalid escape in string");
+                return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "invalid escape in string");
             }
             continue;
         }
@@ -162,7 +162,7 @@ static int scan_string(scanner* s) {
         }
         ++s->p;
     }
-    return scan_fail(s, "invalid_json", "unterminated string");
+    return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unterminated string");
 }
 
 static int is_digit(char c) { return c >= '0' && c <= '9'; }
@@ -173,13 +173,13 @@ static int scan_number(scanner* s) {
     if (p < s->end && *p == '-') ++p;
     if (p >= s->end || !is_digit(*p)) {
         s->p = p;
-        return scan_fail(s, "invalid_json", "invalid number");
+        return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "invalid number");
     }
     if (*p == '0') {
         ++p;
         if (p < s->end && is_digit(*p)) {
             s->p = p;
-            return scan_fail(s, "invalid_json", "leading zero in number");
+            return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "leading zero in number");
         }
     } else {
         while (p < s->end && is_digit(*p)) ++p;
@@ -188,7 +188,7 @@ static int scan_number(scanner* s) {
         ++p;
         if (p >= s->end || !is_digit(*p)) {
             s->p = p;
-            return scan_fail(s, "invalid_json", "digit expected after decimal point");
+            return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "digit expected after decimal point");
         }
         while (p < s->end && is_digit(*p)) ++p;
     }
@@ -197,7 +197,7 @@ static int scan_number(scanner* s) {
         if (p < s->end && (*p == '+' || *p == '-')) ++p;
         if (p >= s->end || !is_digit(*p)) {
             s->p = p;
-            return scan_fail(s, "invalid_json", "digit expected in exponent");
+            return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "digit expected in exponent");
         }
         while (p < s->end && is_digit(*p)) ++p;
     }
@@ -208,7 +208,7 @@ static int scan_number(scanner* s) {
 static int scan_literal(scanner* s, const char* word) {
     size_t n = strlen(word);
     if ((size_t)(s->end - s->p) < n || memcmp(s->p, word, n) != 0)
-        return scan_fail(s, "invalid_json", "unexpected character");
+        return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unexpected character");
     s->p += n;
     return 0;
 }
@@ -222,7 +222,7 @@ static int scan_container(scanner* s) {
     if (s->depth >= s->max_depth) {
         char msg[80];
         snprintf(msg, sizeof msg, "nesting deeper than max_depth = %d levels", s->max_depth);
-        return scan_fail(s, "too_deep", msg);
+        return scan_fail(s, ntsj_code_name(NTSJ_TOO_DEEP), msg);
     }
     l = &s->path[s->depth++];
     l->is_array = is_array;
@@ -243,13 +243,13 @@ static int scan_container(scanner* s) {
             const char* k;
             l->key = NULL; /* a fault before the next key points at the object */
             skip_ws(s);
-            if (s->p >= s->end || *s->p != '"') return scan_fail(s, "invalid_json", "object key (a string) expected");
+            if (s->p >= s->end || *s->p != '"') return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "object key (a string) expected");
             k = s->p + 1;
             if (scan_string(s) != 0) return -1;
             l->key = k;
             l->key_len = (size_t)(s->p - 1 - k);
             skip_ws(s);
-            if (s->p >= s->end || *s->p != ':') return scan_fail(s, "invalid_json", "':' expected after object key");
+            if (s->p >= s->end || *s->p != ':') return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "':' expected after object key");
             ++s->p;
         }
         if (scan_value(s) != 0) return -1;
@@ -263,13 +263,13 @@ static int scan_container(scanner* s) {
             --s->depth;
             return 0;
         }
-        return scan_fail(s, "invalid_json", is_array ? "',' or ']' expected" : "',' or '}' expected");
+        return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), is_array ? "',' or ']' expected" : "',' or '}' expected");
     }
 }
 
 static int scan_value(scanner* s) {
     skip_ws(s);
-    if (s->p >= s->end) return scan_fail(s, "invalid_json", "value expected");
+    if (s->p >= s->end) return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "value expected");
     switch (*s->p) {
     case '{': case '[': return scan_container(s);
     case '"': return scan_string(s);
@@ -278,7 +278,7 @@ static int scan_value(scanner* s) {
     case 'n': return scan_literal(s, "null");
     default:
         if (*s->p == '-' || is_digit(*s->p)) return scan_number(s);
-        return scan_fail(s, "invalid_json", "unexpected character");
+        return scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unexpected character");
     }
 }
 
@@ -287,7 +287,7 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
     scanner* s = (scanner*)nts_alloc(sizeof *s);
     int rc;
     if (!s) {
-        ntsj_fault_set(fault, "out_of_memory", "", "out of memory");
+        ntsj_fault_set(fault, nts_status_name(NTS_ENOMEM), "", "out of memory");
         return -1;
     }
     s->begin = s->p = json;
@@ -299,7 +299,7 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
     rc = scan_value(s);
     if (rc == 0) {
         skip_ws(s);
-        if (s->p < s->end) rc = scan_fail(s, "invalid_json", "unexpected data after the JSON value");
+        if (s->p < s->end) rc = scan_fail(s, ntsj_code_name(NTSJ_INVALID_JSON), "unexpected data after the JSON value");
     }
     nts_free(s);
     return rc;

@@ -106,12 +106,12 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
         return ntsj_handle(json, length, &cfg, error);
     }
     ss = (ntsj_session*)nts_alloc(sizeof *ss);
-    if (ss == NULL) return ntsj_respond_error(error, "out_of_memory", "out of memory", "", cfg.pretty);
+    if (ss == NULL) return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
     memset(ss, 0, sizeof *ss);
     root = cJSON_ParseWithLengthOpts(json, length, NULL, 0);
     if (root == NULL) {
         nts_free(ss);
-        return ntsj_respond_error(error, "out_of_memory", "out of memory while parsing the request", "", cfg.pretty);
+        return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory while parsing the request", "", cfg.pretty);
     }
     rc = ntsj_decode(root, &cfg, &ss->js, &fault);
     cJSON_Delete(root);
@@ -136,7 +136,7 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
     if (ss->ctx == NULL || ss->next == NULL) {
         ntsj_session_destroy(ss);
-        return ntsj_respond_error(error, "out_of_memory", "out of memory", "", cfg.pretty);
+        return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
     }
     /* "Valid" means "evaluates": faults that depend on the options and the
      * whole scene (a periodic box too small for the search reach) show now. */
@@ -184,7 +184,7 @@ static double read_le_double(const unsigned char* p) {
 static int position_fault(const ntsj_session* ss, int k, const char* what, ntsj_fault* f) {
     int b, nb = nts_scene_body_count(ss->scene);
     for (b = nb - 1; b > 0 && nts_scene_body_node_offset(ss->scene, b) > k; --b) continue;
-    ntsj_fault_set(f, "non_finite", "", "position %d (/bodies/%d/nodes/%d) has a non-finite %s", k, b,
+    ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "", "position %d (/bodies/%d/nodes/%d) has a non-finite %s", k, b,
                    k - nts_scene_body_node_offset(ss->scene, b), what);
     snprintf(f->pointer, sizeof f->pointer, "/positions/%d", k);
     return -1;
@@ -194,7 +194,7 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, ntsj_f
     int n = nts_scene_node_count(ss->scene), k;
     size_t expected = (size_t)n * 16u;
     if (length != expected) {
-        ntsj_fault_set(f, "invalid_value", "",
+        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "",
                        "expected 16*N = 16 * %d = %lu bytes (little-endian float64, x then y for every node), got %lu",
                        n, (unsigned long)expected, (unsigned long)length);
         return -1;
@@ -216,12 +216,12 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
     int n = nts_scene_node_count(ss->scene), k = 0, m = 0;
     const cJSON* e;
     if (!cJSON_IsArray(v)) {
-        ntsj_fault_set(f, "invalid_type", "/positions", "expected an array of [x, y] pairs");
+        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_TYPE), "/positions", "expected an array of [x, y] pairs");
         return -1;
     }
     cJSON_ArrayForEach(e, v) { if (m < 2147483647) ++m; }
     if (m != n) {
-        ntsj_fault_set(f, "invalid_value", "/positions",
+        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "/positions",
                        "expected %d positions (every node, bodies in scene order, nodes in body order), got %d", n, m);
         return -1;
     }
@@ -229,7 +229,7 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
         const cJSON* x = cJSON_IsArray(e) ? e->child : NULL;
         const cJSON* y = x ? x->next : NULL;
         if (!x || !y || y->next || !cJSON_IsNumber(x) || !cJSON_IsNumber(y)) {
-            ntsj_fault_set(f, "invalid_type", "", "expected a pair of numbers [x, y]");
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_TYPE), "", "expected a pair of numbers [x, y]");
             snprintf(f->pointer, sizeof f->pointer, "/positions/%d", k);
             return -1;
         }
@@ -257,13 +257,13 @@ static int option_index(const char* name) {
 static int set_number(double* dst, double v, const char* ptr, ntsj_fault* f) {
     const char* name = ptr + 9;
     if (!isfinite(v)) {
-        ntsj_fault_set(f, "non_finite", ptr, "%s is not a finite number", name);
+        ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), ptr, "%s is not a finite number", name);
         return -1;
     }
     /* The core reads a negative radius as "the median segment"; a step says so
      * by not overriding it. */
     if (strcmp(name, "search_radius") == 0 && !(v >= 0.0)) {
-        ntsj_fault_set(f, "invalid_option", ptr, "search_radius must be >= 0");
+        ntsj_fault_set(f, nts_status_name(NTS_EINVALID_OPTION), ptr, "search_radius must be >= 0");
         return -1;
     }
     *dst = v;
@@ -274,7 +274,7 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
     const cJSON* m;
     unsigned seen = 0;
     if (!cJSON_IsObject(v)) {
-        ntsj_fault_set(f, "invalid_type", "/options", "expected an object of option overrides");
+        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_TYPE), "/options", "expected an object of option overrides");
         return -1;
     }
     cJSON_ArrayForEach(m, v) {
@@ -283,13 +283,13 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
         char ptr[96];
         snprintf(ptr, sizeof ptr, "/options/%.64s", key);
         if (i < 0) {
-            ntsj_fault_set(f, "unknown_field", ptr,
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr,
                            "unknown option \"%.64s\" (a step overrides penalty, alpha, search_radius, solver, outputs)",
                            key);
             return -1;
         }
         if (seen & (1u << i)) {
-            ntsj_fault_set(f, "duplicate_key", ptr, "key \"%.64s\" appears more than once", key);
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_DUPLICATE_KEY), ptr, "key \"%.64s\" appears more than once", key);
             return -1;
         }
         seen |= 1u << i;
@@ -297,14 +297,14 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
             if (ntsj_decode_outputs(m, ptr, &o->outputs, f) != 0) return -1;
         } else if (i == SO_SOLVER) {
             if (!cJSON_IsString(m) || ntsj_solver_from_name(m->valuestring, &o->solver) != 0) {
-                ntsj_fault_set(f, cJSON_IsString(m) ? "invalid_value" : "invalid_type", ptr,
+                ntsj_fault_set(f, cJSON_IsString(m) ? ntsj_code_name(NTSJ_INVALID_VALUE) : ntsj_code_name(NTSJ_INVALID_TYPE), ptr,
                                "expected a solver name (closed_form or newton)");
                 return -1;
             }
         } else {
             double* dst = i == SO_PENALTY ? &o->penalty : i == SO_ALPHA ? &o->alpha : &o->search_radius;
             if (!cJSON_IsNumber(m)) {
-                ntsj_fault_set(f, "invalid_type", ptr, "expected a number");
+                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_TYPE), ptr, "expected a number");
                 return -1;
             }
             if (set_number(dst, m->valuedouble, ptr, f) != 0) return -1;
@@ -323,7 +323,7 @@ static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
         char ptr[96];
         snprintf(ptr, sizeof ptr, "/options/%.64s", name);
         if (i < 0) {
-            ntsj_fault_set(f, "unknown_field", ptr,
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr,
                            "unknown query parameter \"%.64s\" (a step overrides penalty, alpha, search_radius, "
                            "solver, outputs)", name);
             return -1;
@@ -335,7 +335,7 @@ static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
                 size_t n = strcspn(p, ",");
                 unsigned fl = ntsj_output_flag(p, n);
                 if (!fl || (flags & fl)) {
-                    ntsj_fault_set(f, "invalid_value", ptr, "outputs=%.64s: %s \"%.*s\"", val,
+                    ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "outputs=%.64s: %s \"%.*s\"", val,
                                    fl ? "output listed twice:" : "unknown output", (int)(n > 32 ? 32 : n), p);
                     return -1;
                 }
@@ -346,7 +346,7 @@ static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
             o->outputs = flags;
         } else if (i == SO_SOLVER) {
             if (ntsj_solver_from_name(val, &o->solver) != 0) {
-                ntsj_fault_set(f, "invalid_value", ptr, "unknown solver \"%.32s\" (expected closed_form or newton)", val);
+                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "unknown solver \"%.32s\" (expected closed_form or newton)", val);
                 return -1;
             }
         } else {
@@ -354,7 +354,7 @@ static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
             char* end = NULL;
             double v = strtod(val, &end);
             if (*val == '\0' || end == NULL || *end != '\0') {
-                ntsj_fault_set(f, "invalid_value", ptr, "query parameter %.64s=%.32s is not a number", name, val);
+                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "query parameter %.64s=%.32s is not a number", name, val);
                 return -1;
             }
             if (set_number(dst, v, ptr, f) != 0) return -1;
@@ -435,7 +435,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
 
     memset(out, 0, sizeof *out);
     memset(&fault, 0, sizeof fault);
-    if (ss == NULL || st == NULL) return ntsj_respond_error(out, "internal_error", "no session", "", pretty);
+    if (ss == NULL || st == NULL) return ntsj_respond_error(out, nts_status_name(NTS_EINTERNAL), "no session", "", pretty);
     if (cfg.max_depth <= 0) cfg.max_depth = 32;
     opt = ss->js.options;
 
@@ -450,10 +450,10 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         if (ntsj_scan(st->body, st->length, cfg.max_depth, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
         root = cJSON_ParseWithLengthOpts(st->body, st->length, NULL, 0);
         if (root == NULL)
-            return ntsj_respond_error(out, "out_of_memory", "out of memory while parsing the request", "", pretty);
+            return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory while parsing the request", "", pretty);
         if (!cJSON_IsObject(root)) {
             cJSON_Delete(root);
-            return ntsj_respond_error(out, "invalid_type", "expected an object {\"positions\", \"options\"}", "",
+            return ntsj_respond_error(out, ntsj_code_name(NTSJ_INVALID_TYPE), "expected an object {\"positions\", \"options\"}", "",
                                       pretty);
         }
         rc = 0;
@@ -461,7 +461,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
             const char* key = m->string ? m->string : "";
             int i = strcmp(key, fields[0]) == 0 ? 0 : strcmp(key, fields[1]) == 0 ? 1 : -1;
             if (i < 0 || (seen & (1u << i))) {
-                ntsj_fault_set(&fault, i < 0 ? "unknown_field" : "duplicate_key", "",
+                ntsj_fault_set(&fault, i < 0 ? ntsj_code_name(NTSJ_UNKNOWN_FIELD) : ntsj_code_name(NTSJ_DUPLICATE_KEY), "",
                                i < 0 ? "unknown field \"%.64s\" (a step has \"positions\" and \"options\")"
                                      : "key \"%.64s\" appears more than once", key);
                 snprintf(fault.pointer, sizeof fault.pointer, "/%.64s", key);
@@ -483,7 +483,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
     if (have_positions) {
         rc = nts_scene_update_positions(ss->scene, ss->next, &err);
         if (rc != NTS_OK && (rc = rebuild(ss, &err)) != NTS_OK) {
-            if (rc == NTS_ENOMEM) return ntsj_respond_error(out, "out_of_memory", "out of memory", "", pretty);
+            if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
             return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
         }
     }

@@ -136,7 +136,7 @@ static enum MHD_Result reply_error(struct MHD_Connection* c, ntsd_request* r, co
                                    const char* message, const char* allow, int close) {
     char* doc = ntsj_error_document(code, message, "");
     if (doc == NULL)
-        return reply(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, "overloaded", (char*)fallback_error,
+        return reply(c, r, MHD_HTTP_SERVICE_UNAVAILABLE, ntsj_code_name(NTSJ_OVERLOADED), (char*)fallback_error,
                      sizeof fallback_error - 1, NULL, "application/json", NULL, 1);
     return reply(c, r, (unsigned)ntsj_code_http_status(code), code, doc, strlen(doc), nts_free,
                  "application/json", allow, close);
@@ -154,13 +154,13 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
     int n;
     if (strcmp(r->method, "DELETE") == 0) {
         if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id) != 0)
-            return reply_error(c, r, "unknown_scene", unknown_scene_message, NULL, 0);
+            return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
         return reply(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, "application/json", NULL, 0);
     }
     if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, &m) != 0)
-        return reply_error(c, r, "unknown_scene", unknown_scene_message, NULL, 0);
+        return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
     doc = malloc(512);
-    if (doc == NULL) return reply_error(c, r, "overloaded", "out of memory", NULL, 0);
+    if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
     n = snprintf(doc, 512,
                  "{\"id\":\"%s\",\"nodes\":%d,\"surface_nodes\":%d,\"bodies\":%d,\"expires_in_s\":%.3f,"
                  "\"steps\":%llu,\"memory_bytes\":%zu,\"age_s\":%.3f,\"idle_s\":%.3f}\n",
@@ -174,7 +174,7 @@ static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_HEALTH) {
         size_t n = 0;
         char* doc = ntsd_health_document(r->server, &n);
-        if (doc == NULL) return reply_error(c, r, "overloaded", "out of memory", NULL, 0);
+        if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
         return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
     } else {
         const ntsd_asset* a = &ntsd_assets[r->route.asset];
@@ -230,19 +230,19 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
         snprintf(msg, sizeof msg, "the session would hold %zu bytes, more than --session-memory = %zu",
                  info.memory_bytes, s->config.session_memory);
         ntsj_session_destroy(ss);
-        resp_error(r, "payload_too_large", msg);
+        resp_error(r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), msg);
         return;
     }
     if (rc != 0) {
         ntsj_session_destroy(ss);
-        resp_error(r, "overloaded", "every scene session is in use (--max-sessions, --session-memory); retry later");
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "every scene session is in use (--max-sessions, --session-memory); retry later");
         return;
     }
     memset(&r->resp, 0, sizeof r->resp);
     r->resp.body = nts_alloc(256);
     if (r->resp.body == NULL) {
         ntsd_sessions_remove(&s->sessions, id);
-        resp_error(r, "overloaded", "out of memory");
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory");
         return;
     }
     r->resp.length = (size_t)snprintf(r->resp.body, 256,
@@ -263,12 +263,12 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
     ntsj_step st;
     size_t memory;
     if (r->too_many_params) {
-        resp_error(r, "invalid_value", "too many query parameters");
+        resp_error(r, ntsj_code_name(NTSJ_INVALID_VALUE), "too many query parameters");
         return;
     }
     e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id) : NULL;
     if (e == NULL) {
-        resp_error(r, "unknown_scene", unknown_scene_message);
+        resp_error(r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message);
         return;
     }
     memset(&st, 0, sizeof st);
@@ -352,7 +352,7 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
     char* body = r->resp.body;
     if (r->rc != 0 || body == NULL) {
         ntsj_response_free(&r->resp);
-        return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
     }
     r->resp.body = NULL; /* to libmicrohttpd without a copy, freed by nts_free */
     if (r->resp.ok && r->resp.binary) {
@@ -458,11 +458,11 @@ static int accepts_octet_stream(const char* accept) {
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_NONE)
-        return reply_error(c, r, "not_found", "no such resource", NULL, 0);
+        return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
     if (!r->route.method_ok) {
         char msg[96];
         snprintf(msg, sizeof msg, "method not allowed; allowed: %s", r->route.allow);
-        return reply_error(c, r, "method_not_allowed", msg, r->route.allow, 0);
+        return reply_error(c, r, ntsj_code_name(NTSJ_METHOD_NOT_ALLOWED), msg, r->route.allow, 0);
     }
     return answer_get(c, r);
 }
@@ -483,9 +483,9 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     pthread_mutex_unlock(&s->lock);
 
     if (shutting)
-        return reply_error(c, r, "overloaded", "the server is shutting down", NULL, 1);
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "the server is shutting down", NULL, 1);
     if (open_connections > s->config.max_connections)
-        return reply_error(c, r, "overloaded",
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED),
                            "too many connections; retry later", NULL, 1);
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
 
@@ -496,18 +496,18 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         if (ct != NULL && ntsd_is_media_type(ct, "application/octet-stream"))
             r->binary_in = 1;
         else if (has_body && !ntsd_is_json_media_type(ct))
-            return reply_error(c, r, "unsupported_media_type",
+            return reply_error(c, r, ntsj_code_name(NTSJ_UNSUPPORTED_MEDIA_TYPE),
                                "a step's body must be application/json or application/octet-stream", NULL, 1);
     } else if (!ntsd_is_json_media_type(ct)) {
-        return reply_error(c, r, "unsupported_media_type",
+        return reply_error(c, r, ntsj_code_name(NTSJ_UNSUPPORTED_MEDIA_TYPE),
                            "the request body must be application/json", NULL, 1);
     }
     /* Answer before reading the body when its announced length is too large. */
     if (length > (unsigned long long)s->config.max_body)
-        return reply_error(c, r, "payload_too_large",
+        return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-body", NULL, 1);
     if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
-        return reply_error(c, r, "overloaded", "out of memory", NULL, 1);
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
     return MHD_YES;
 }
 
@@ -557,7 +557,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
             return MHD_YES;
         default:
             ntsd_body_free(&r->body);
-            copy_str(r->code, sizeof r->code, "out_of_memory");
+            copy_str(r->code, sizeof r->code, nts_status_name(NTS_ENOMEM));
             return MHD_NO;
         }
     }
@@ -566,7 +566,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     if (r->offloaded) return r->evaluated ? reply_evaluated(c, r) : MHD_YES; /* resumed by the worker */
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
-        return reply_error(c, r, "payload_too_large",
+        return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-body", NULL, 1);
     return answer_post(c, r);
 }
@@ -575,7 +575,7 @@ static const char* termination_name(enum MHD_RequestTerminationCode toe) {
     switch (toe) {
     case MHD_REQUEST_TERMINATED_COMPLETED_OK: return "completed";
     case MHD_REQUEST_TERMINATED_WITH_ERROR: return "error";
-    case MHD_REQUEST_TERMINATED_TIMEOUT_REACHED: return "timeout";
+    case MHD_REQUEST_TERMINATED_TIMEOUT_REACHED: return ntsj_code_name(NTSJ_TIMEOUT);
     case MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN: return "daemon_shutdown";
     case MHD_REQUEST_TERMINATED_READ_ERROR: return "read_error";
     case MHD_REQUEST_TERMINATED_CLIENT_ABORT: return "client_abort";

@@ -108,8 +108,8 @@ def test_error_codes_are_the_core_and_codec_tables(schemas):
     """error.schema.json lists exactly the core's NTS_ERRNO_MAP names plus the codec's NTSJ_CODE_MAP."""
     base_h = (REPO / "core" / "include" / "ntscontact" / "base.h").read_text()
     core = set(re.findall(r'XX\(\w+,\s*-\d+,\s*"([a-z_]+)"', base_h))
-    codes_c = (REPO / "codec" / "src" / "codes.c").read_text()
-    codec = set(re.findall(r'XX\("([a-z_]+)",\s*\d{3}\)', codes_c))
+    codec_h = (REPO / "codec" / "include" / "ntscontact" / "codec.h").read_text()
+    codec = set(re.findall(r'XX\([A-Z_]+,\s*"([a-z_]+)",\s*\d{3}\)', codec_h))
     assert len(core) >= 18 and len(codec) >= 15
     assert schema_codes(schemas["error"]) == core | codec
     # Every code the malformed catalogue expects is a stable code.

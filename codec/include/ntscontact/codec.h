@@ -80,6 +80,37 @@ int ntsj_code_http_status(const char* code);
 int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
                       size_t message_size);
 
+/* The stable error codes of the codec and the front ends, each spelled here
+ * once (the core's are NTS_ERRNO_MAP, base.h; a test checks both lists against
+ * schemas/error.schema.json). XX(enum suffix, stable name, HTTP status).
+ * Never rename, only append. */
+#define NTSJ_CODE_MAP(XX)                                       \
+    XX(INVALID_JSON, "invalid_json", 400)                   \
+    XX(INVALID_TYPE, "invalid_type", 400)                   \
+    XX(MISSING_FIELD, "missing_field", 400)                 \
+    XX(UNKNOWN_FIELD, "unknown_field", 400)                 \
+    XX(DUPLICATE_KEY, "duplicate_key", 400)                 \
+    XX(DUPLICATE_ID, "duplicate_id", 400)                   \
+    XX(INVALID_VALUE, "invalid_value", 400)                 \
+    XX(TOO_DEEP, "too_deep", 400)                           \
+    XX(EMPTY_BODY, "empty_body", 400)                       \
+    XX(PAYLOAD_TOO_LARGE, "payload_too_large", 413)         \
+    XX(NOT_FOUND, "not_found", 404)                         \
+    XX(METHOD_NOT_ALLOWED, "method_not_allowed", 405)       \
+    XX(UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", 415)\
+    XX(OVERLOADED, "overloaded", 503)                       \
+    XX(TIMEOUT, "timeout", 503)                             \
+    XX(UNKNOWN_SCENE, "unknown_scene", 404)                 
+
+typedef enum ntsj_code {
+#define NTSJ_XX_(e, name, status) NTSJ_##e,
+    NTSJ_CODE_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
+    NTSJ_CODE_COUNT_
+} ntsj_code;
+/* The stable name of a codec code ("invalid_json", ...). */
+const char* ntsj_code_name(ntsj_code code);
+
 /* ------------------------------------------------------------ sessions
  * A session holds one decoded scene (topology, options, positions), its core
  * scene and a warm evaluation context, so that a solver evaluates the same
