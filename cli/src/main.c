@@ -131,22 +131,12 @@ static int parse_double(const char* s, double* out) {
     return 0;
 }
 
-/* A count in [lo, hi], with an optional binary k/M/G suffix. */
+/* A count in [lo, hi], with an optional binary k/M/G suffix: the codec's
+ * parser, shared with the daemon. */
 static int parse_count(const char* s, long long lo, long long hi, long long* out) {
-    char* end;
-    long long v, mul = 1;
-    if (!s || !*s || *s == '-' || *s == '+') return -1;
-    errno = 0;
-    v = strtoll(s, &end, 10);
-    if (errno == ERANGE || end == s) return -1;
-    if (*end && !end[1]) {
-        if (*end == 'k' || *end == 'K') mul = 1LL << 10;
-        else if (*end == 'm' || *end == 'M') mul = 1LL << 20;
-        else if (*end == 'g' || *end == 'G') mul = 1LL << 30;
-        if (mul > 1) ++end;
-    }
-    if (*end || v > hi / mul || v * mul < lo) return -1;
-    *out = v * mul;
+    unsigned long long v;
+    if (ntsj_parse_count(s, 1, (unsigned long long)lo, (unsigned long long)hi, &v) != 0) return -1;
+    *out = (long long)v;
     return 0;
 }
 

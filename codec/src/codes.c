@@ -2,6 +2,9 @@
  * the HTTP status each maps to. The core's codes come from NTS_ERRNO_MAP
  * (base.h); the codec and the front ends add theirs here. Never rename, only
  * append (and add the name to the schema's enum: a test checks both lists). */
+#include <errno.h>
+#include <limits.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "codec_internal.h"
@@ -86,4 +89,27 @@ int ntsj_solver_from_name(const char* name, nts_solver* out) {
 
 const char* ntsj_solver_name(nts_solver solver) {
     return solver == NTS_SOLVER_NEWTON ? "newton" : "closed_form";
+}
+
+int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,
+                     unsigned long long* out) {
+    char* end = NULL;
+    unsigned long long v, mul = 1;
+    if (text == NULL || *text < '0' || *text > '9') return -1; /* no sign, no space */
+    errno = 0;
+    v = strtoull(text, &end, 10);
+    if (errno != 0 || end == text) return -1;
+    if (suffixes && *end != '\0' && end[1] == '\0') {
+        switch (*end) {
+        case 'k': case 'K': mul = 1ull << 10; ++end; break;
+        case 'm': case 'M': mul = 1ull << 20; ++end; break;
+        case 'g': case 'G': mul = 1ull << 30; ++end; break;
+        default: break;
+        }
+    }
+    if (*end != '\0' || v > ULLONG_MAX / mul) return -1;
+    v *= mul;
+    if (v < lo || v > hi) return -1;
+    *out = v;
+    return 0;
 }

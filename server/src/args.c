@@ -58,20 +58,13 @@ ntsd_config ntsd_default_config(void) {
     strcpy(c.host, "127.0.0.1");
     c.port = 8080;
     c.threads = cores > 0 ? (cores > 256 ? 256 : (int)cores) : 1;
-    c.max_body = (size_t)64 << 20;
+    c.codec = ntsj_default_config(); /* limits and budgets of every request */
+    c.codec.threads = 0;             /* concurrency comes from requests, not from inside one */
     c.timeout_s = 30;
     c.max_connections = 256;
     c.threading = NTSD_THREAD_PER_CONNECTION;
     c.inline_max = NTSD_INLINE_MAX_BYTES;
     c.quiet = 0;
-    {
-        nts_limits l = nts_default_limits();
-        c.max_depth = 32;
-        c.max_bodies = l.max_bodies;
-        c.max_nodes_per_body = l.max_nodes_per_body;
-        c.max_nodes = l.max_nodes;
-        c.max_seconds = 0.0;
-    }
     c.max_sessions = 64;
     c.session_ttl_s = 600;
     c.session_memory = (size_t)1 << 30;
@@ -82,30 +75,11 @@ const char* ntsd_threading_name(ntsd_threading t) {
     return t == NTSD_THREAD_POOL ? "pool" : "per-connection";
 }
 
-/* An unsigned integer in [lo, hi]; `suffixes` allows k/M/G (binary). */
+/* An unsigned integer in [lo, hi]; `suffixes` allows k/M/G (binary): the
+ * codec's parser, shared with the CLI. */
 static int parse_unsigned(const char* flag, const char* text, unsigned long long lo,
                           unsigned long long hi, int suffixes, unsigned long long* out) {
-    char* end = NULL;
-    unsigned long long v, mul = 1;
-    if (text == NULL || *text == '\0' || *text == '-' || *text == '+') goto fail;
-    errno = 0;
-    v = strtoull(text, &end, 10);
-    if (errno != 0 || end == text) goto fail;
-    if (suffixes && *end != '\0' && end[1] == '\0') {
-        switch (*end) {
-        case 'k': case 'K': mul = 1ull << 10; end++; break;
-        case 'm': case 'M': mul = 1ull << 20; end++; break;
-        case 'g': case 'G': mul = 1ull << 30; end++; break;
-        default: break;
-        }
-    }
-    if (*end != '\0') goto fail;
-    if (v > ULLONG_MAX / mul) goto fail;
-    v *= mul;
-    if (v < lo || v > hi) goto fail;
-    *out = v;
-    return 0;
-fail:
+    if (ntsj_parse_count(text, suffixes, lo, hi, out) == 0) return 0;
     fprintf(stderr, "ntscontactd: %s: expected an integer in [%llu, %llu], got '%s'\n", flag, lo, hi,
             text ? text : "");
     return -1;
@@ -147,7 +121,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             cfg->threads = (int)n;
         } else if (strcmp(a, "--max-body") == 0) {
             if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
-            cfg->max_body = (size_t)n;
+            cfg->codec.max_bytes = (size_t)n;
         } else if (strcmp(a, "--timeout") == 0) {
             if (parse_unsigned(a, v, 1, 86400, 0, &n)) return -1;
             cfg->timeout_s = (unsigned)n;
@@ -156,10 +130,10 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             cfg->max_connections = (unsigned)n;
         } else if (strcmp(a, "--max-depth") == 0) {
             if (parse_unsigned(a, v, 1, 100000, 0, &n)) return -1;
-            cfg->max_depth = (int)n;
+            cfg->codec.max_depth = (int)n;
         } else if (strcmp(a, "--max-bodies") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
-            cfg->max_bodies = (int)n;
+            cfg->codec.limits.max_bodies = (int)n;
         } else if (strcmp(a, "--max-sessions") == 0) {
             if (parse_unsigned(a, v, 1, 1000000, 1, &n)) return -1;
             cfg->max_sessions = (int)n;
@@ -171,10 +145,10 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             cfg->session_memory = (size_t)n;
         } else if (strcmp(a, "--max-nodes-per-body") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
-            cfg->max_nodes_per_body = (int)n;
+            cfg->codec.limits.max_nodes_per_body = (int)n;
         } else if (strcmp(a, "--max-nodes") == 0) {
             if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
-            cfg->max_nodes = (long long)n;
+            cfg->codec.limits.max_nodes = (long long)n;
         } else if (strcmp(a, "--max-seconds") == 0) {
             char* end = NULL;
             double sec;
@@ -184,7 +158,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 fprintf(stderr, "ntscontactd: --max-seconds: expected a number of seconds >= 0, got '%s'\n", v);
                 return -1;
             }
-            cfg->max_seconds = sec;
+            cfg->codec.max_seconds = sec;
         } else if (strcmp(a, "--inline-max") == 0) {
             if (parse_unsigned(a, v, 0, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
             cfg->inline_max = (size_t)n;

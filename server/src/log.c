@@ -89,3 +89,9 @@ void ntsd_log_request(const char* peer, const char* method, const char* path, in
     }
     write_line(line, n, sizeof line);
 }
+
+double ntsd_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}

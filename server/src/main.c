@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
         printf("ntscontactd listening on %s:%u\n", cfg.host, server.port);
     fflush(stdout);
     ntsd_log_info("threading=%s threads=%d max-body=%zu timeout=%us max-connections=%u",
-                         ntsd_threading_name(cfg.threading), cfg.threads, cfg.max_body, cfg.timeout_s,
+                         ntsd_threading_name(cfg.threading), cfg.threads, cfg.codec.max_bytes, cfg.timeout_s,
                          cfg.max_connections);
 
     /* Wait for a stop signal; every few seconds, drop the expired sessions so

@@ -1,12 +1,11 @@
 /* The URL space of ntscontactd: which path answers which methods, and the
- * documents the server writes itself (health). */
+ * media types. It knows nothing of the server's state. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
 #include "assets.h"
-#include <ntscontact/ntscontact.h>
 #include "server.h"
 
 #define ALLOW_POST "POST"
@@ -109,45 +108,3 @@ int ntsd_is_media_type(const char* ct, const char* type) {
     return n == m && strncasecmp(ct, type, m) == 0;
 }
 
-char* ntsd_health_document(ntsd_server* s, size_t* length) {
-    const ntsd_config* c = &s->config;
-    char* doc = malloc(2048);
-    int shutting, in_flight, evaluating, n;
-    unsigned connections;
-    unsigned long long served;
-    double receiving, handling, sending;
-    ntsd_sessions_stats ss = ntsd_sessions_get_stats(&s->sessions);
-    if (doc == NULL) return NULL;
-    pthread_mutex_lock(&s->lock);
-    shutting = s->shutting_down;
-    in_flight = s->in_flight;
-    evaluating = s->evaluating;
-    connections = s->connections;
-    served = s->served;
-    receiving = s->receiving_s;
-    handling = s->handling_s;
-    sending = s->sending_s;
-    pthread_mutex_unlock(&s->lock);
-    n = snprintf(doc, 2048,
-                 "{\"status\":\"%s\",\"version\":\"%s\","
-                 "\"build\":{\"type\":\"%s\",\"openmp\":%s,\"sanitize\":%s,\"libmicrohttpd\":\"%s\"},"
-                 "\"server\":{\"threading\":\"%s\",\"threads\":%d,\"max_body\":%zu,\"timeout_s\":%u,"
-                 "\"max_connections\":%u},"
-                 "\"uptime_s\":%.3f,\"requests_served\":%llu,\"requests_in_flight\":%d,"
-                 "\"evaluations_running\":%d,\"connections_open\":%u,"
-                 "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f},"
-                 "\"sessions\":{\"held\":%d,\"memory_bytes\":%zu,\"max\":%d,\"ttl_s\":%u,\"memory_max\":%zu,"
-                 "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu}}\n",
-                 shutting ? "shutting_down" : "ok", NTS_VERSION_STRING, NTSD_BUILD_TYPE,
-                 NTSD_OPENMP ? "true" : "false", NTSD_SANITIZE ? "true" : "false", MHD_get_version(),
-                 ntsd_threading_name(c->threading), c->threads, c->max_body, c->timeout_s,
-                 c->max_connections, ntsd_now() - s->started, served, in_flight, evaluating,
-                 connections, receiving, handling, sending, ss.held, ss.memory, c->max_sessions, c->session_ttl_s,
-                 c->session_memory, ss.created, ss.evicted, ss.expired, ss.deleted);
-    if (n < 0 || n >= 2048) {
-        free(doc);
-        return NULL;
-    }
-    *length = (size_t)n;
-    return doc;
-}

@@ -59,11 +59,6 @@ typedef struct ntsd_request {
     char location[16 + NTSD_SESSION_ID_LEN];
 } ntsd_request;
 
-double ntsd_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void copy_str(char* dst, size_t cap, const char* src) {
     size_t n = src ? strlen(src) : 0;
@@ -173,7 +168,9 @@ static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_SCENE) return answer_scene(c, r);
     if (r->route.kind == NTSD_ROUTE_HEALTH) {
         size_t n = 0;
-        char* doc = ntsd_health_document(r->server, &n);
+        ntsd_stats st = ntsd_server_stats(r->server);
+        ntsd_sessions_stats ss = ntsd_sessions_get_stats(&r->server->sessions);
+        char* doc = ntsd_health_document(&r->server->config, &st, &ss, &n);
         if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
         return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
     } else {
@@ -305,17 +302,10 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
  * caller is a worker, or a polling thread with a small body; never block. */
 static void evaluate(ntsd_request* r) {
     ntsd_server* s = r->server;
-    ntsj_config jc = ntsj_default_config();
+    ntsj_config jc = s->config.codec;
     int gated = s->config.threading == NTSD_THREAD_PER_CONNECTION;
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
     jc.pretty = r->pretty;
-    jc.max_bytes = s->config.max_body;
-    jc.max_depth = s->config.max_depth;
-    jc.limits.max_bodies = s->config.max_bodies;
-    jc.limits.max_nodes_per_body = s->config.max_nodes_per_body;
-    jc.limits.max_nodes = s->config.max_nodes;
-    jc.max_seconds = s->config.max_seconds;
-    jc.threads = 0; /* concurrency comes from requests, not from inside one */
     memset(&r->resp, 0, sizeof r->resp);
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
         /* Wait for the session before taking an evaluation slot: a step queued
@@ -503,7 +493,7 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
                            "the request body must be application/json", NULL, 1);
     }
     /* Answer before reading the body when its announced length is too large. */
-    if (length > (unsigned long long)s->config.max_body)
+    if (length > (unsigned long long)s->config.codec.max_bytes)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-body", NULL, 1);
     if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
@@ -524,7 +514,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         r->server = s;
         r->t0 = ntsd_now();
         r->deadline = r->t0 + (double)s->config.timeout_s;
-        ntsd_body_init(&r->body, s->config.max_body);
+        ntsd_body_init(&r->body, s->config.codec.max_bytes);
         copy_str(r->method, sizeof r->method, method);
         copy_str(r->path, sizeof r->path, url);
         peer_name(c, r->peer, sizeof r->peer);
@@ -700,6 +690,22 @@ void ntsd_server_quiesce(ntsd_server* s) {
     pthread_mutex_unlock(&s->lock);
     fd = MHD_quiesce_daemon(s->daemon);
     if (fd != MHD_INVALID_SOCKET) close(fd);
+}
+
+ntsd_stats ntsd_server_stats(ntsd_server* s) {
+    ntsd_stats st;
+    pthread_mutex_lock(&s->lock);
+    st.shutting_down = s->shutting_down;
+    st.in_flight = s->in_flight;
+    st.evaluating = s->evaluating;
+    st.connections = s->connections;
+    st.served = s->served;
+    st.receiving_s = s->receiving_s;
+    st.handling_s = s->handling_s;
+    st.sending_s = s->sending_s;
+    pthread_mutex_unlock(&s->lock);
+    st.uptime_s = ntsd_now() - s->started;
+    return st;
 }
 
 int ntsd_server_in_flight(ntsd_server* s) {

@@ -1,10 +1,12 @@
 /* ntscontactd internals: the configuration from the command line, the daemon's
  * shared state and one request's state. One file per concept:
- *   args.c   command line            log.c     one line per request
- *   body.c   capped body buffer      routes.c  URL + method -> answer
- *   server.c libmicrohttpd callbacks, counters, start/stop
- *   workers.c evaluation threads of the pool model
- *   main.c   signals and lifetime
+ *   args.c     command line          log.c     one line per request, the clock
+ *   body.c     capped body buffer    routes.c  URL + method -> route (no state)
+ *   health.c   GET /v1/health from a snapshot of the counters
+ *   sessions.c the scene-session store (ids, LRU, TTL, memory budget)
+ *   server.c   libmicrohttpd callbacks, counters, start/stop
+ *   workers.c  evaluation threads of the pool model
+ *   main.c     signals and lifetime
  * The threading models and why per-connection is the default: docs/benchmarks.md, "Server". */
 #ifndef NTSD_SERVER_H
 #define NTSD_SERVER_H
@@ -29,19 +31,16 @@ typedef struct ntsd_config {
     char host[64];           /* numeric IPv4 or IPv6 address */
     unsigned port;           /* 0: any free port (printed on stdout) */
     int threads;             /* evaluations at once (and pool size); default: online cores */
-    size_t max_body;         /* bytes; default 64 MiB */
+
     unsigned timeout_s;      /* idle connection timeout and body upload budget; default 30 */
     unsigned max_connections;/* default 256 */
     ntsd_threading threading;
     size_t inline_max;       /* pool model: bodies up to this size are evaluated by the polling
                                 thread itself; default 64 KiB (NTSD_INLINE_MAX_BYTES) */
     int quiet;
-    /* Limits handed to the codec for every request (issue 7). */
-    int max_depth;           /* JSON nesting; default 32 */
-    int max_bodies;          /* bodies in a scene; default 1,000,000 */
-    int max_nodes_per_body;  /* default 10,000,000 */
-    long long max_nodes;     /* all nodes of a scene; default 50,000,000 */
-    double max_seconds;      /* wall-clock budget of one request's codec work, 0 = none */
+    /* What every request hands to the codec: max_bytes (--max-body, also the
+     * cap of a body in flight), max_depth, limits, max_seconds. */
+    ntsj_config codec;
     /* Scene sessions (sessions.c). */
     int max_sessions;        /* default 64 */
     unsigned session_ttl_s;  /* since last use; default 600 */
@@ -84,6 +83,8 @@ void ntsd_log_info(const char* fmt, ...) NTSD_PRINTF_LIKE;
 /* One line per request: method, path, status, code, bytes in/out, milliseconds. */
 void ntsd_log_request(const char* peer, const char* method, const char* path, int status,
                       const char* code, size_t bytes_in, size_t bytes_out, double ms);
+/* Monotonic seconds, for timings and deadlines. */
+double ntsd_now(void);
 /* libmicrohttpd's own diagnostics (MHD_OPTION_EXTERNAL_LOGGER). */
 void ntsd_log_mhd(void* cls, const char* fmt, va_list ap);
 
@@ -209,7 +210,6 @@ void ntsd_server_quiesce(ntsd_server* s);
 int ntsd_server_in_flight(ntsd_server* s);
 /* Close every connection and join the threads. */
 void ntsd_server_stop(ntsd_server* s);
-double ntsd_now(void);
 
 /* ---------------------------------------------------------------- routes */
 
@@ -238,7 +238,18 @@ ntsd_route ntsd_route_find(const char* path, const char* method);
 int ntsd_is_json_media_type(const char* content_type);
 /* 1 when a Content-Type header value is `type` (parameters aside, any case). */
 int ntsd_is_media_type(const char* content_type, const char* type);
-/* The /v1/health document (malloc'ed, ends with '\n'), or NULL. */
-char* ntsd_health_document(ntsd_server* s, size_t* length);
+/* -------------------------------------------------------------- health */
+
+/* A snapshot of the server's counters. */
+typedef struct ntsd_stats {
+    int shutting_down, in_flight, evaluating;
+    unsigned connections;
+    unsigned long long served;
+    double uptime_s, receiving_s, handling_s, sending_s;
+} ntsd_stats;
+ntsd_stats ntsd_server_stats(ntsd_server* s);
+/* The /v1/health document (malloc'ed, ends with '\n'), or NULL (health.c). */
+char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const ntsd_sessions_stats* ss,
+                           size_t* length);
 
 #endif

@@ -169,6 +169,11 @@ const char* ntsj_solver_name(nts_solver solver);
  * strtod (always with a '.' or an exponent), into out (>= 32 bytes); returns
  * its length. For the summary headers of a binary session answer. */
 int ntsj_format_double(char* out, double v);
+/* A count in [lo, hi] written in decimal, with an optional binary k, M or G
+ * suffix when `suffixes` (1k = 1024): the command lines of ntscontact and
+ * ntscontactd read their limits with it. 0, or -1 when `text` is not one. */
+int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,
+                     unsigned long long* out);
 
 #ifdef __cplusplus
 }
