@@ -13,7 +13,7 @@
 
 #include <stddef.h>
 
-#include "codec.h"
+#include <ntscontact/codec.h>
 
 /* ------------------------------------------------------------ errors */
 

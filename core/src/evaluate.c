@@ -9,14 +9,14 @@
 
 #include "internal.h"
 
-#if defined(NTS_HAVE_OPENMP)
+#if NTS_CONFIG_OPENMP
 #include <omp.h>
 #endif
 #include <time.h>
 
 /* Wall clock for the phase timings (nts_context_phase_times). */
 static double wall_time(void) {
-#if defined(NTS_HAVE_OPENMP)
+#if NTS_CONFIG_OPENMP
     return omp_get_wtime();
 #else
     return (double)clock() / (double)CLOCKS_PER_SEC;
@@ -936,7 +936,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     t1 = wall_time();
     ctx->phase[1] = t1 - t0;
     t0 = t1;
-#if defined(NTS_HAVE_OPENMP)
+#if NTS_CONFIG_OPENMP
     if (opt->threads > 1) nthreads = opt->threads;
     if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
 #endif
@@ -945,7 +945,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
 
     /* Local search. Worker t handles the contiguous slave range t; the ranges are
      * concatenated in order below, which is the serial order. */
-#if defined(NTS_HAVE_OPENMP)
+#if NTS_CONFIG_OPENMP
     if (nthreads > 1) {
         int t;
 #pragma omp parallel for num_threads(nthreads) schedule(static, 1)

@@ -4,6 +4,7 @@
 
 #include <assert.h>
 
+#include <ntscontact/config.h>
 #include <ntscontact/ntscontact.h>
 
 /* The scene: topology (normalised loops) and positions, flat arrays in global

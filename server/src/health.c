@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include <ntscontact/config.h> /* what GET /v1/health reports of the build */
 #include <ntscontact/ntscontact.h>
 #include "server.h"
 
@@ -21,8 +22,8 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f},"
                  "\"sessions\":{\"held\":%d,\"memory_bytes\":%zu,\"max\":%d,\"ttl_s\":%u,\"memory_max\":%zu,"
                  "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu}}\n",
-                 st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTSD_BUILD_TYPE,
-                 NTSD_OPENMP ? "true" : "false", NTSD_SANITIZE ? "true" : "false", MHD_get_version(),
+                 st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTS_CONFIG_BUILD_TYPE,
+                 NTS_CONFIG_OPENMP ? "true" : "false", NTS_CONFIG_SANITIZE ? "true" : "false", MHD_get_version(),
                  ntsd_threading_name(c->threading), c->threads, c->codec.max_bytes, c->timeout_s,
                  c->max_connections, st->uptime_s, st->served, st->in_flight, st->evaluating, st->connections,
                  st->receiving_s, st->handling_s, st->sending_s, ss->held, ss->memory, c->max_sessions,

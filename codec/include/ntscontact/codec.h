@@ -41,7 +41,7 @@ typedef struct ntsj_config {
     int vtk;                /* also write the result as a VTK XML unstructured grid (ntsj_response.vtk):
                              * surfaces, forces, contacts with their gaps and normals (codec/src/vtk.c) */
 } ntsj_config;
-ntsj_config ntsj_default_config(void);
+NTS_API ntsj_config ntsj_default_config(void);
 
 typedef struct ntsj_response {
     int ok;           /* 1 when body is a result (or a validation report) */
@@ -62,22 +62,22 @@ typedef struct ntsj_response {
 /* Decode, validate, evaluate and encode. Never crashes on any input bytes;
  * returns 0 (the response is filled either way, with an error document when
  * !ok) or NTS_ENOMEM when even the error document could not be built. */
-int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj_response* out);
-void ntsj_response_free(ntsj_response* response);
+NTS_API int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj_response* out);
+NTS_API void ntsj_response_free(ntsj_response* response);
 
 /* An error document {"error": {"code", "message", "pointer"}} for front ends
  * (the server's 404/405/413/415/503). Returned buffer is freed with nts_free. */
-char* ntsj_error_document(const char* code, const char* message, const char* pointer);
+NTS_API char* ntsj_error_document(const char* code, const char* message, const char* pointer);
 
 /* The HTTP status of a stable code (schemas/error.schema.json): 200 for "ok",
  * 400 for input faults, 404/405/413/415/503 for the front ends' own codes, 500
  * for internal ones and for a name it does not know. */
-int ntsj_code_http_status(const char* code);
+NTS_API int ntsj_code_http_status(const char* code);
 
 /* Read the pointer and message back from an error document (the body of a
  * response with !ok), for one-line diagnostics. Copies NUL-terminated,
  * truncated strings; returns 0, or -1 when `body` is not an error document. */
-int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
+NTS_API int ntsj_error_fields(const char* body, size_t length, char* pointer, size_t pointer_size, char* message,
                       size_t message_size);
 
 /* The stable error codes of the codec and the front ends, each spelled here
@@ -109,7 +109,7 @@ typedef enum ntsj_code {
     NTSJ_CODE_COUNT_
 } ntsj_code;
 /* The stable name of a codec code ("invalid_json", ...). */
-const char* ntsj_code_name(ntsj_code code);
+NTS_API const char* ntsj_code_name(ntsj_code code);
 
 /* ------------------------------------------------------------ sessions
  * A session holds one decoded scene (topology, options, positions), its core
@@ -149,30 +149,30 @@ typedef struct ntsj_step {
  * report shows now and the context is warm. Returns 0 with *out set, or fills
  * *error with the error document (the same as ntsj_handle's) and sets *out to
  * NULL; NTS_ENOMEM when even that failed. */
-int ntsj_session_create(const char* json, size_t length, const ntsj_config* config, ntsj_session** out,
+NTS_API int ntsj_session_create(const char* json, size_t length, const ntsj_config* config, ntsj_session** out,
                         ntsj_response* error);
-void ntsj_session_destroy(ntsj_session* session);
-ntsj_session_info ntsj_session_get_info(const ntsj_session* session);
+NTS_API void ntsj_session_destroy(ntsj_session* session);
+NTS_API ntsj_session_info ntsj_session_get_info(const ntsj_session* session);
 /* Evaluate at new positions (which become the stored ones once they pass the
  * scene's checks). Fills *out like ntsj_handle; errors name their place:
  * /positions/17 for a bad position, /options/alpha for a bad option. */
-int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
+NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
 
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
  * "forces", "energy", "virial", "contacts", "gaps" (n bytes of name) to its
  * NTS_OUT_* flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
  * "newton", returning 0 or -1. */
-unsigned ntsj_output_flag(const char* name, size_t n);
-int ntsj_solver_from_name(const char* name, nts_solver* out);
-const char* ntsj_solver_name(nts_solver solver);
+NTS_API unsigned ntsj_output_flag(const char* name, size_t n);
+NTS_API int ntsj_solver_from_name(const char* name, nts_solver* out);
+NTS_API const char* ntsj_solver_name(nts_solver solver);
 /* The shortest text of a finite double that reads back bitwise equal with
  * strtod (always with a '.' or an exponent), into out (>= 32 bytes); returns
  * its length. For the summary headers of a binary session answer. */
-int ntsj_format_double(char* out, double v);
+NTS_API int ntsj_format_double(char* out, double v);
 /* A count in [lo, hi] written in decimal, with an optional binary k, M or G
  * suffix when `suffixes` (1k = 1024): the command lines of ntscontact and
  * ntscontactd read their limits with it. 0, or -1 when `text` is not one. */
-int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,
+NTS_API int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,
                      unsigned long long* out);
 
 #ifdef __cplusplus

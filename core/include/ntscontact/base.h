@@ -11,6 +11,15 @@
 extern "C" {
 #endif
 
+/* The library's exported functions: every public function carries NTS_API,
+ * and the library is built with hidden visibility, so a shared build exports
+ * exactly the API (as libuv's UV_EXTERN). */
+#if defined(__GNUC__) && __GNUC__ >= 4
+#define NTS_API __attribute__((visibility("default")))
+#else
+#define NTS_API
+#endif
+
 #define NTS_VERSION_MAJOR 0
 #define NTS_VERSION_MINOR 1
 #define NTS_VERSION_PATCH 0
@@ -52,9 +61,9 @@ typedef enum nts_status {
 } nts_status;
 
 /* Stable snake_case name of a status ("ok", "degenerate_segment", ...). */
-const char* nts_status_name(int status);
+NTS_API const char* nts_status_name(int status);
 /* Short human message of a status. */
-const char* nts_strerror(int status);
+NTS_API const char* nts_strerror(int status);
 
 /* Where an error is. Every index is -1 when it does not apply. `loop_pos` is the
  * position inside the loop's index list, `node` the body's node index,
@@ -74,7 +83,7 @@ typedef struct nts_error {
 } nts_error;
 
 /* An error record with no fault (code 0, every index -1). */
-nts_error nts_error_none(void);
+NTS_API nts_error nts_error_none(void);
 
 /* Allocator hook (all library allocations go through it; NULL restores malloc).
  * The hook must be thread-safe: with nts_options.threads > 1 the worker threads
@@ -82,9 +91,9 @@ nts_error nts_error_none(void);
  * change the hook while evaluations run. */
 typedef void* nts_alloc_fn(size_t size, void* user);
 typedef void nts_free_fn(void* ptr, void* user);
-void nts_set_allocator(nts_alloc_fn* alloc_fn, nts_free_fn* free_fn, void* user);
-void* nts_alloc(size_t size);
-void nts_free(void* ptr);
+NTS_API void nts_set_allocator(nts_alloc_fn* alloc_fn, nts_free_fn* free_fn, void* user);
+NTS_API void* nts_alloc(size_t size);
+NTS_API void nts_free(void* ptr);
 
 #ifdef __cplusplus
 }

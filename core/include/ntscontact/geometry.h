@@ -5,6 +5,7 @@
 #ifndef NTSCONTACT_GEOMETRY_H
 #define NTSCONTACT_GEOMETRY_H
 
+#include "base.h"
 #include "math_functions.h"
 
 #ifdef __cplusplus
@@ -29,7 +30,7 @@ typedef enum nts_kind {
 typedef struct nts_shape3 {
     double n2, n3, n4;
 } nts_shape3;
-nts_shape3 nts_corner_shape(double alpha, double xi);
+NTS_API nts_shape3 nts_corner_shape(double alpha, double xi);
 
 /* Local coefficients of the corner polynomial at X3 with a = X2 - X3,
  * c = X4 - X3: X(xi) - X3 = A xi^2 + B xi + C, A = C = alpha (a + c)/4,
@@ -37,10 +38,10 @@ nts_shape3 nts_corner_shape(double alpha, double xi);
 typedef struct nts_corner {
     nts_vec2 A, B, C;
 } nts_corner;
-nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha);
+NTS_API nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha);
 /* X(xi) - X3 and the tangent dX/dxi = 2 A xi + B. */
-nts_vec2 nts_corner_point(nts_corner k, double xi);
-nts_vec2 nts_corner_tangent(nts_corner k, double xi);
+NTS_API nts_vec2 nts_corner_point(nts_corner k, double xi);
+NTS_API nts_vec2 nts_corner_tangent(nts_corner k, double xi);
 
 /* Normalised segment parameter s = (Xs - X0).(X1 - X0)/|X1 - X0|^2 (docs/model.md §12, correction 2),
  * given d = Xs - X0 and t = X1 - X0 with |t| > 0. */
@@ -59,13 +60,13 @@ typedef struct nts_corner_solution {
     int iterations;  /* Newton/bisection steps taken (diagnostics) */
     int ok;          /* 0 when the tangent vanished (a zero-angle spike): no candidate */
 } nts_corner_solution;
-nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver);
+NTS_API nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver);
 
 /* Coefficients of F(xi) = c3 xi^3 + c2 xi^2 + c1 xi + c0 (docs/model.md §4.3, eq. (7)). */
 typedef struct nts_cubic {
     double c3, c2, c1, c0;
 } nts_cubic;
-nts_cubic nts_corner_cubic(nts_corner k, nts_vec2 d);
+NTS_API nts_cubic nts_corner_cubic(nts_corner k, nts_vec2 d);
 
 #ifdef __cplusplus
 }

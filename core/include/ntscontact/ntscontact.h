@@ -53,7 +53,7 @@ typedef struct nts_limits {
     int max_nodes_per_body;  /* default 10,000,000 */
     long long max_nodes;     /* all nodes of a scene; default 50,000,000 */
 } nts_limits;
-nts_limits nts_default_limits(void);
+NTS_API nts_limits nts_default_limits(void);
 
 typedef struct nts_scene_def {
     const nts_body_def* bodies;
@@ -61,18 +61,18 @@ typedef struct nts_scene_def {
     double lx, ly;     /* periodic box [0,lx) x [0,ly); both 0 for an open scene */
     nts_limits limits;
 } nts_scene_def;
-nts_scene_def nts_default_scene_def(void);
+NTS_API nts_scene_def nts_default_scene_def(void);
 
 typedef struct nts_scene nts_scene;
 
 /* Copy, validate and normalise (outer loop counter-clockwise, holes clockwise).
  * Returns NULL and fills *err (when not NULL) on failure. */
-nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err);
-void nts_scene_destroy(nts_scene* scene);
+NTS_API nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err);
+NTS_API void nts_scene_destroy(nts_scene* scene);
 
 /* New positions for body `body` (node_count entries, same order as created).
  * Checks finiteness; allocates nothing. */
-int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
+NTS_API int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
 
 /* New positions for every node (node_count entries, global order: bodies in
  * order, nodes in body order), for a solver that evaluates the same topology at
@@ -83,20 +83,20 @@ int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, n
  * over. Otherwise returns the error of the failed check, or NTS_ERESHAPED when
  * the positions are valid but the scene must be created anew from them; the
  * scene is then unchanged. Allocates nothing; O(nodes + triangles). */
-int nts_scene_update_positions(nts_scene* scene, const nts_vec2* positions, nts_error* err);
+NTS_API int nts_scene_update_positions(nts_scene* scene, const nts_vec2* positions, nts_error* err);
 /* Bytes held by the scene (its arrays), for budgets. */
-size_t nts_scene_memory_bytes(const nts_scene* scene);
+NTS_API size_t nts_scene_memory_bytes(const nts_scene* scene);
 
-int nts_scene_body_count(const nts_scene* scene);
-int nts_scene_node_count(const nts_scene* scene);          /* all nodes of all bodies */
-int nts_scene_surface_node_count(const nts_scene* scene);  /* nodes on loops */
-int nts_scene_body_node_offset(const nts_scene* scene, int body); /* first global node of a body */
-int nts_scene_body_node_count(const nts_scene* scene, int body);
-int nts_scene_body_loop_count(const nts_scene* scene, int body);
+NTS_API int nts_scene_body_count(const nts_scene* scene);
+NTS_API int nts_scene_node_count(const nts_scene* scene);          /* all nodes of all bodies */
+NTS_API int nts_scene_surface_node_count(const nts_scene* scene);  /* nodes on loops */
+NTS_API int nts_scene_body_node_offset(const nts_scene* scene, int body); /* first global node of a body */
+NTS_API int nts_scene_body_node_count(const nts_scene* scene, int body);
+NTS_API int nts_scene_body_loop_count(const nts_scene* scene, int body);
 /* The normalised loop (node indices of the body), its length returned; `out` may be NULL. */
-int nts_scene_body_loop(const nts_scene* scene, int body, int loop, const int** out);
-int nts_scene_loops_reversed(const nts_scene* scene);
-const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all nodes, global order */
+NTS_API int nts_scene_body_loop(const nts_scene* scene, int body, int loop, const int** out);
+NTS_API int nts_scene_loops_reversed(const nts_scene* scene);
+NTS_API const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all nodes, global order */
 
 /* -------------------------------------------------------------- options */
 
@@ -135,9 +135,9 @@ typedef struct nts_options {
     int threads;           /* 0 = serial; results are bitwise identical for any value */
     nts_penalty_scaling penalty_scaling; /* default NTS_PENALTY_PER_NODE */
 } nts_options;
-nts_options nts_default_options(void);
+NTS_API nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
-int nts_options_validate(const nts_options* opt, nts_error* err);
+NTS_API int nts_options_validate(const nts_options* opt, nts_error* err);
 
 /* --------------------------------------------------------------- result */
 
@@ -196,8 +196,8 @@ typedef struct nts_csr {
 
 /* Sum duplicates of `t` into `out` (duplicates are added in triplet order, so
  * the sums are deterministic). 0, NTS_ENOMEM or NTS_EINVALID_ARGUMENT. */
-int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err);
-void nts_csr_free(nts_csr* csr);
+NTS_API int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err);
+NTS_API void nts_csr_free(nts_csr* csr);
 
 typedef struct nts_result {
     nts_summary summary;
@@ -214,15 +214,15 @@ typedef struct nts_result {
 /* ------------------------------------------------------------- context */
 
 typedef struct nts_context nts_context;
-nts_context* nts_context_create(void);
-void nts_context_destroy(nts_context* ctx);
+NTS_API nts_context* nts_context_create(void);
+NTS_API void nts_context_destroy(nts_context* ctx);
 /* Bytes held by the context's buffers (they only grow), for budgets. */
-size_t nts_context_memory_bytes(const nts_context* ctx);
+NTS_API size_t nts_context_memory_bytes(const nts_context* ctx);
 
 /* Evaluate contact. Returns 0 or a negative status (with *err filled when not
  * NULL); on success fills *out. Reusing a context on the same scene allocates
  * nothing once its buffers have grown to the scene's needs. */
-int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
+NTS_API int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
                  nts_result* out, nts_error* err);
 
 #ifdef __cplusplus
