@@ -38,21 +38,12 @@ import numpy as np
 REPO = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
+sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
+from common import replace_section, start_daemon  # noqa: E402
 
 NODES_PER_DISK = 64
 SECTION = "## Sessions over HTTP"
-
-
-def start_daemon():
-    proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
-                             "--max-body", "256M", "--session-memory", "8G"],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
-    line = proc.stdout.readline().decode()
-    if not line.startswith("ntscontactd listening on "):
-        proc.kill()
-        raise SystemExit(f"ntscontactd did not start: {line!r}")
-    return proc, int(line.rsplit(":", 1)[1])
 
 
 def request(conn, method, path, body=None, headers=None):
@@ -159,14 +150,6 @@ def markdown(rows, repeats):
     return "\n".join(lines)
 
 
-def replace_section(doc, section):
-    start = doc.find(SECTION + "\n")
-    if start < 0:
-        return doc.rstrip("\n") + "\n\n" + section
-    end = doc.find("\n## ", start + len(SECTION))
-    return doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="4,12,40,125", help="disks per side (x64 nodes each)")
@@ -188,9 +171,8 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    out = pathlib.Path(a.out)
-    out.write_text(replace_section(out.read_text() if out.exists() else "", markdown(rows, a.repeats)))
-    print(f"wrote {results} and {out}")
+    replace_section(a.out, SECTION, markdown(rows, a.repeats))
+    print(f"wrote {results} and {a.out}")
 
 
 if __name__ == "__main__":

@@ -128,22 +128,4 @@ int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts
 /* Decode "outputs" (an array of names) at pointer `ptr`; 0 or -1 with *fault. */
 int ntsj_decode_outputs(const struct cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault);
 
-/* ------------------------------------------------------------ handle */
-
-/* Shared by ntsj_handle and the sessions (session.c). */
-double ntsj_now_ms(void);                 /* monotonic milliseconds */
-double ntsj_round_us(double ms);          /* rounded to whole microseconds */
-/* Hand the buffer over as the response (status from the code's table). */
-int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code);
-int ntsj_respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer, int pretty);
-int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty);
-/* A core error, with the JSON pointer of its place in the scene document. */
-int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty);
-/* 1 (with *rc and *out set to limit_exceeded) when the request is over max_seconds. */
-int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc);
-/* 1 (with *f set to non_finite) when a finite input gave a result a double cannot hold. */
-int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f);
-/* Decode "outputs" (an array of names) at pointer `ptr`; 0 or -1 with *fault. */
-int ntsj_decode_outputs(const struct cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault);
-
 #endif

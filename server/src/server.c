@@ -195,6 +195,28 @@ static void gate_leave(ntsd_server* s) {
     pthread_mutex_unlock(&s->lock);
 }
 
+/* An evaluation starts and ends: counted for health, and gated to --threads at
+ * once in the per-connection model (the pool model's workers are the gate). */
+static void evaluation_begin(ntsd_server* s, int gated) {
+    if (gated) {
+        gate_enter(s);
+        return;
+    }
+    pthread_mutex_lock(&s->lock);
+    s->evaluating++;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void evaluation_end(ntsd_server* s, int gated) {
+    if (gated) {
+        gate_leave(s);
+        return;
+    }
+    pthread_mutex_lock(&s->lock);
+    s->evaluating--;
+    pthread_mutex_unlock(&s->lock);
+}
+
 static int query_flag(struct MHD_Connection* c, const char* name) {
     const char* v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
     if (v == NULL) return 0;
@@ -277,22 +299,10 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
     st.param_names = r->param_names;
     st.param_values = r->param_values;
     pthread_mutex_lock(&e->step_lock);
-    if (gated) {
-        gate_enter(s);
-    } else {
-        pthread_mutex_lock(&s->lock);
-        s->evaluating++;
-        pthread_mutex_unlock(&s->lock);
-    }
+    evaluation_begin(s, gated);
     r->rc = ntsj_session_step(e->session, &st, jc, &r->resp);
     memory = r->resp.ok ? ntsj_session_get_info(e->session).memory_bytes : 0;
-    if (gated) {
-        gate_leave(s);
-    } else {
-        pthread_mutex_lock(&s->lock);
-        s->evaluating--;
-        pthread_mutex_unlock(&s->lock);
-    }
+    evaluation_end(s, gated);
     pthread_mutex_unlock(&e->step_lock);
     ntsd_sessions_release(&s->sessions, e, memory);
 }
@@ -315,24 +325,12 @@ static void evaluate(ntsd_request* r) {
         r->evaluated = 1;
         return;
     }
-    if (gated) {
-        gate_enter(s);
-    } else {
-        pthread_mutex_lock(&s->lock);
-        s->evaluating++;
-        pthread_mutex_unlock(&s->lock);
-    }
+    evaluation_begin(s, gated);
     if (r->route.kind == NTSD_ROUTE_SCENES)
         evaluate_create(r, &jc);
     else
         r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
-    if (gated) {
-        gate_leave(s);
-    } else {
-        pthread_mutex_lock(&s->lock);
-        s->evaluating--;
-        pthread_mutex_unlock(&s->lock);
-    }
+    evaluation_end(s, gated);
     ntsd_body_free(&r->body);
     r->evaluated = 1;
 }

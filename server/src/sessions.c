@@ -72,6 +72,21 @@ static void expire_locked(ntsd_sessions* st, double now) {
     }
 }
 
+/* Evict idle sessions other than `keep`, least recently used first, until
+ * `slots` more sessions and `extra` more bytes fit. The caller holds st->lock. */
+static void evict_locked(ntsd_sessions* st, const ntsd_session_entry* keep, int slots, size_t extra) {
+    ntsd_session_entry* v = st->tail;
+    while (v != NULL && (st->count + slots > st->max || st->memory + extra > st->memory_max)) {
+        ntsd_session_entry* prev = v->prev;
+        if (v->users == 0 && v != keep) {
+            unlink_entry(st, v);
+            retire(v);
+            st->evicted++;
+        }
+        v = prev;
+    }
+}
+
 void ntsd_sessions_sweep(ntsd_sessions* st) {
     pthread_mutex_lock(&st->lock);
     expire_locked(st, ntsd_now());
@@ -139,19 +154,7 @@ int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD
         }
     }
     expire_locked(st, now);
-    /* Make room: the least recently used idle sessions go first. */
-    {
-        ntsd_session_entry* v = st->tail;
-        while (v != NULL && (st->count >= st->max || st->memory + memory > st->memory_max)) {
-            ntsd_session_entry* prev = v->prev;
-            if (v->users == 0) {
-                unlink_entry(st, v);
-                retire(v);
-                st->evicted++;
-            }
-            v = prev;
-        }
-    }
+    evict_locked(st, NULL, 1, memory); /* make room: the least recently used idle ones first */
     if (st->count >= st->max || st->memory + memory > st->memory_max) {
         pthread_mutex_unlock(&st->lock);
         free(e);
@@ -205,19 +208,7 @@ void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, size_t step
         st->memory = st->memory - e->memory + memory;
         e->memory = memory;
         e->steps++;
-        /* Grown past the budget: the least recently used idle sessions go. */
-        {
-            ntsd_session_entry* v = st->tail;
-            while (v != NULL && st->memory > st->memory_max) {
-                ntsd_session_entry* prev = v->prev;
-                if (v->users == 0 && v != e) {
-                    unlink_entry(st, v);
-                    retire(v);
-                    st->evicted++;
-                }
-                v = prev;
-            }
-        }
+        evict_locked(st, e, 0, 0); /* grown past the budget: the least recently used idle ones go */
     }
     e->last_used = ntsd_now();
     e->users--;

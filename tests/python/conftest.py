@@ -114,3 +114,27 @@ def daemon_factory(paths, tmp_path):
     yield start
     for d in started:
         d.stop()
+
+
+# ------------------------------------------------------------ scene helpers
+# Positions in global order (bodies in scene order, nodes in body order), and a
+# scene document moved to new positions: what every session test compares.
+import copy  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+
+def positions_of(scene):
+    """(N, 2) float64: every node of a scene document, in global order."""
+    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
+
+
+def with_positions(scene, pos):
+    """A copy of a scene document with its nodes at `pos` (global order)."""
+    out = copy.deepcopy(scene)
+    k = 0
+    for b in out["bodies"]:
+        n = len(b["nodes"])
+        b["nodes"] = np.asarray(pos[k:k + n]).tolist()
+        k += n
+    return out

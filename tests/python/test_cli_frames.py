@@ -1,7 +1,6 @@
 """`ntscontact --frames FRAMES.bin SCENE.json`: the scene parsed once, one
 result line per frame of raw float64 positions, each equal to the one-shot
 CLI on the full scene at those positions (elapsed_ms aside)."""
-import copy
 import json
 import os
 import pathlib
@@ -9,6 +8,8 @@ import subprocess
 
 import numpy as np
 import pytest
+
+from conftest import positions_of, with_positions
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
@@ -19,18 +20,6 @@ def run(*args, stdin=None):
     return subprocess.run([str(CLI), *map(str, args)], input=stdin, capture_output=True, timeout=120)
 
 
-def positions_of(scene):
-    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
-
-
-def with_positions(scene, pos):
-    out = copy.deepcopy(scene)
-    k = 0
-    for b in out["bodies"]:
-        n = len(b["nodes"])
-        b["nodes"] = pos[k:k + n].tolist()
-        k += n
-    return out
 
 
 def without_elapsed(doc):
@@ -92,7 +81,7 @@ def test_bad_frames_name_the_frame(tmp_path):
     path.write_bytes(frames[0].astype("<f8").tobytes() + b"\0" * 40)
     r = run("--frames", path, scene_path)
     assert r.returncode == 3
-    assert f"frame 1: invalid_value" in r.stderr.decode() and f"16 * {n}" in r.stderr.decode()
+    assert "frame 1: invalid_value" in r.stderr.decode() and f"16 * {n}" in r.stderr.decode()
     # An invalid scene fails before any frame.
     bad = tmp_path / "bad.json"
     bad.write_text('{"options": {"penalty": 1}, "bodies": []}')

@@ -1,7 +1,6 @@
 """`cmake --install` then `find_package(ntscontact)` from the install prefix:
 a user's project (tests/cmake/consumer) configures, builds against the core
 and the codec, and runs."""
-import os
 import pathlib
 import shutil
 import subprocess

@@ -10,7 +10,6 @@ import subprocess
 import jsonschema
 import numpy as np
 import pytest
-import requests
 
 ntscontact = pytest.importorskip("ntscontact")
 

@@ -2,11 +2,12 @@
 real daemon: binary and JSON steps equal full-scene calls bit for bit, positions
 as one array or per body, the stored positions, the transparent re-creation
 after a 404, and the checks made before anything is sent."""
-import copy
 import json
 
 import numpy as np
 import pytest
+
+from conftest import positions_of, with_positions
 import requests
 
 ntscontact = pytest.importorskip("ntscontact")
@@ -19,18 +20,6 @@ def load(paths, name):
     return json.loads((paths.examples / f"{name}.json").read_text())
 
 
-def positions_of(scene):
-    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
-
-
-def with_positions(scene, pos):
-    out = copy.deepcopy(scene)
-    k = 0
-    for b in out["bodies"]:
-        n = len(b["nodes"])
-        b["nodes"] = pos[k:k + n].tolist()
-        k += n
-    return out
 
 
 def same_summary(a, b):

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import requests
 
-from conftest import start_daemon
+from conftest import positions_of, start_daemon, with_positions
 
 EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
 OCTET = {"Content-Type": "application/octet-stream"}
@@ -45,18 +45,6 @@ def load(paths, name):
     return json.loads((paths.examples / f"{name}.json").read_text())
 
 
-def positions_of(scene):
-    return np.concatenate([np.asarray(b["nodes"], dtype=float).reshape(-1, 2) for b in scene["bodies"]])
-
-
-def with_positions(scene, pos):
-    out = copy.deepcopy(scene)
-    k = 0
-    for b in out["bodies"]:
-        n = len(b["nodes"])
-        b["nodes"] = pos[k:k + n].tolist()
-        k += n
-    return out
 
 
 def without_elapsed(doc):

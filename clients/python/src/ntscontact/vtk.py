@@ -15,7 +15,7 @@ doubles in their shortest round-trip form.
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Sequence, Tuple, Union
+from typing import Any, List, Tuple, Union
 
 import numpy as np
 

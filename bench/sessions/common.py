@@ -1,0 +1,34 @@
+"""What the session benchmarks share: a daemon of their own, and a section of
+docs/benchmarks.md replaced in place."""
+import os
+import pathlib
+import subprocess
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
+
+
+def start_daemon(max_body="512M"):
+    """ntscontactd on a free loopback port, one evaluation thread: (process, port)."""
+    proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
+                             "--max-body", max_body, "--session-memory", "8G"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    line = proc.stdout.readline().decode()
+    if not line.startswith("ntscontactd listening on "):
+        proc.kill()
+        raise SystemExit(f"ntscontactd did not start: {line!r}")
+    return proc, int(line.rsplit(":", 1)[1])
+
+
+def replace_section(path, title, section):
+    """Put `section` (starting with `title`) in the markdown file at `path`, in
+    place of the section of that title, or at the end."""
+    path = pathlib.Path(path)
+    doc = path.read_text() if path.exists() else ""
+    start = doc.find(title + "\n")
+    if start < 0:
+        doc = doc.rstrip("\n") + "\n\n" + section
+    else:
+        end = doc.find("\n## ", start + len(title))
+        doc = doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
+    path.write_text(doc)
