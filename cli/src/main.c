@@ -51,7 +51,11 @@ static const char usage_text[] =
     "  --max-bodies N       bodies in a scene (default 1000000)\n"
     "  --max-nodes N        nodes in a scene, all bodies (default 50000000)\n"
     "  --max-nodes-per-body N  nodes in one body (default 10000000)\n"
-    "  --max-seconds S      wall-clock budget of the request, 0 = none (default 0)\n"
+    "  --max-seconds S      wall-clock budget of the request, 0 = none (default 0);\n"
+    "                       the evaluation itself is stopped when it passes\n"
+    "  --max-candidates N   closest points within the search radius kept (default\n"
+    "                       64 per surface node + 1000000): bounds the memory of\n"
+    "                       bodies piled on one spot\n"
     "  -h, --help           print this help and exit\n"
     "  -V, --version        print the version and exit\n"
     "\n"
@@ -454,9 +458,11 @@ int main(int argc, char** argv) {
                 if (parse_double(val, &sec) != 0 || sec < 0.0)
                     return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
                 cfg.max_seconds = sec;
-            } else if (parse_count(val, 1, strcmp(lim, "nodes") == 0 ? (1LL << 40) : 0x7fffffffLL, &n) != 0) {
+            } else if (parse_count(val, 1, strcmp(lim, "nodes") == 0 || strcmp(lim, "candidates") == 0 ? (1LL << 40)
+                                                                                                     : 0x7fffffffLL,
+                                   &n) != 0) {
                 if (strcmp(lim, "bytes") && strcmp(lim, "depth") && strcmp(lim, "bodies") && strcmp(lim, "nodes") &&
-                    strcmp(lim, "nodes-per-body"))
+                    strcmp(lim, "nodes-per-body") && strcmp(lim, "candidates"))
                     return usage_error("unknown option '%s'", name);
                 return usage_error("this limit needs a positive count, not '%s'", val);
             } else if (strcmp(lim, "bytes") == 0) {
@@ -469,6 +475,8 @@ int main(int argc, char** argv) {
                 cfg.limits.max_nodes = n;
             } else if (strcmp(lim, "nodes-per-body") == 0) {
                 cfg.limits.max_nodes_per_body = (int)n;
+            } else if (strcmp(lim, "candidates") == 0) {
+                cfg.max_candidates = n;
             } else {
                 return usage_error("unknown option '%s'", name);
             }

@@ -28,6 +28,7 @@ const char* ntsj_code_name(ntsj_code code) {
  * a bad argument that only a codec bug can pass) are 500. */
 static int core_status_http(int status) {
     switch (status) {
+    case NTS_ECANCELLED: return 503; /* the service stopped it (its deadline, a client that left) */
     case NTS_ENOMEM:
     case NTS_EINTERNAL:
     case NTS_EINVALID_ARGUMENT: return 500;

@@ -646,6 +646,7 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
         snprintf(out, size, "/options/periodic");
         return;
     }
+    if (err->code == NTS_ELIMIT && strcmp(err->option, "max_candidates") == 0) return; /* the whole request */
     if (err->option[0] && err->body >= 0 && s && err->body < s->body_count) {
         /* A body's own option (alpha, role). */
         snprintf(out, size, "/bodies/%d", err->body);

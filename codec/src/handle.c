@@ -71,6 +71,18 @@ int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
     return ntsj_respond_error(out, f->code ? f->code : nts_status_name(NTS_EINTERNAL), f->message, f->pointer, pretty);
 }
 
+static int deadline_passed(void* user) {
+    return ntsj_now_ms() > ((const ntsj_deadline*)user)->until_ms;
+}
+
+void ntsj_arm_deadline(nts_options* opt, ntsj_deadline* d, const ntsj_config* cfg, double t0) {
+    opt->max_candidates = cfg->max_candidates;
+    if (!(cfg->max_seconds > 0.0)) return;
+    d->until_ms = t0 + cfg->max_seconds * 1e3;
+    opt->cancel = deadline_passed;
+    opt->cancel_user = d;
+}
+
 int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty) {
     char ptr[256];
     int code = err->code ? err->code : status;
@@ -217,12 +229,14 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     ntsj_buf_init(&b);
     {
         nts_options opt = s.options;
+        ntsj_deadline deadline;
         /* The summary is always complete: energy and virial are always computed.
          * Validation evaluates too (with no arrays): faults that depend on the
          * options and the whole scene (a periodic box too small for the search
          * reach) only show there, and "valid" must mean "evaluates". */
         opt.outputs = cfg.mode == NTSJ_VALIDATE ? 0u : (opt.outputs | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
         if (cfg.vtk && cfg.mode != NTSJ_VALIDATE) opt.outputs |= NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+        ntsj_arm_deadline(&opt, &deadline, &cfg, t0);
         ctx = nts_context_create();
         if (!ctx) {
             nts_scene_destroy(scene);
@@ -231,7 +245,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         }
         rc = nts_evaluate(ctx, scene, &opt, &result, &err);
         elapsed = ntsj_now_ms() - t0;
-        if (rc == 0 && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) {
+        if ((rc == 0 || rc == NTS_ECANCELLED) && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) {
             done = 1;
         } else if (rc != 0) {
             rc = ntsj_respond_core(out, &s, &err, rc, pretty);

@@ -491,8 +491,11 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
 
     {
         nts_options eo = eval_options(opt, st->answer_binary, cfg.vtk);
+        ntsj_deadline deadline;
+        ntsj_arm_deadline(&eo, &deadline, &cfg, t0);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
+    if (rc == NTS_ECANCELLED && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (rc != 0) return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
     if (ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (ntsj_result_overflows(&ss->js, ss->scene, &result, &fault)) return ntsj_respond_fault(out, &fault, pretty);

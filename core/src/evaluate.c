@@ -199,6 +199,9 @@ typedef struct search_env {
     const int* long_start;
     const int* long_items;
     double alpha, r, eps;    /* alpha: the options' (a body may have its own: master_hot.alpha) */
+    long long max_records;   /* the candidate budget (nts_options.max_candidates) */
+    int (*cancel)(void* user);
+    void* cancel_user;
     int per_length;          /* NTS_PENALTY_PER_LENGTH */
     double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
     double cell_reach2;      /* the same for a whole cell, with a round-off allowance */
@@ -381,7 +384,11 @@ static void flush_slave(const search_env* env, worker* w, int i) {
      * the node's tributary length at creation (a pressure stiffness). */
     const double eps = env->per_length ? env->eps * s->surf_trib[i] : env->eps;
     if (w->best_count == 0) return;
-    if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(nts_contact)) != NTS_OK) {
+    if ((long long)need > env->max_records) {
+        /* Over the budget in this worker alone, so the total is too (the caller
+         * checks the sum as well: the verdict does not depend on threads). */
+        w->status = NTS_ELIMIT;
+    } else if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(nts_contact)) != NTS_OK) {
         w->status = NTS_ENOMEM;
     }
     /* Insertion sort by master body (a handful of entries). */
@@ -549,6 +556,10 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = s->surf_body[i], cell = cl->entry_cell[i];
+        if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
+            w->status = NTS_ECANCELLED;
+            break;
+        }
         const nts_vec2 xs = s->pos[s->surf_node[i]];
         int q;
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
@@ -640,6 +651,10 @@ static void search_range(const search_env* env, worker* w, int begin, int end) {
             const int bi = s->surf_body[i];
             const nts_vec2 xs = s->pos[s->surf_node[i]];
             int j;
+            if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
+                w->status = NTS_ECANCELLED;
+                break;
+            }
             if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
             for (j = 0; j < s->surface_count; ++j)
                 try_master(env, w, xs, bi, &hot[j], 1);
@@ -857,6 +872,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.alpha = opt->alpha;
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
+    env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;
+    env.cancel = opt->cancel;
+    env.cancel_user = opt->cancel_user;
     env.long_hot = NULL;
     env.long_start = NULL;
     env.long_items = NULL;
@@ -958,8 +976,27 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     {
         search_range(&env, &ctx->workers[0], 0, s->surface_count);
     }
-    for (i = 0; i < nthreads; ++i)
-        if (ctx->workers[i].status != NTS_OK) return eval_fail(err, ctx->workers[i].status, -1, -1, "out of memory");
+    {
+        long long records = 0;
+        int limited = 0, status = NTS_OK;
+        for (i = 0; i < nthreads; ++i) {
+            records += ctx->workers[i].rec_count;
+            if (ctx->workers[i].status == NTS_ELIMIT) limited = 1;
+            else if (ctx->workers[i].status != NTS_OK && status == NTS_OK) status = ctx->workers[i].status;
+        }
+        if (status == NTS_ECANCELLED || (status == NTS_OK && env.cancel != NULL && env.cancel(env.cancel_user)))
+            return eval_fail(err, NTS_ECANCELLED, -1, -1, "the evaluation was cancelled (a deadline passed, or the "
+                                                          "caller asked)");
+        if (limited || records > env.max_records) {
+            char msg[192];
+            snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius: "
+                     "the bodies overlap far more than contact does (or raise the limit)", env.max_records);
+            rc = eval_fail(err, NTS_ELIMIT, -1, -1, msg);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "max_candidates");
+            return rc;
+        }
+        if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
+    }
 
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;

@@ -36,6 +36,7 @@ int nts_options_validate(const nts_options* o, nts_error* err) {
     if (o->search != NTS_SEARCH_CELLS && o->search != NTS_SEARCH_BRUTE_FORCE)
         return option_error(err, "search", "must be cells or brute_force");
     if (o->threads < 0 || o->threads > 1024) return option_error(err, "threads", "must be in [0, 1024]");
+    if (o->max_candidates < 0) return option_error(err, "max_candidates", "must be >= 0 (0: the default)");
     if (o->penalty_scaling != NTS_PENALTY_PER_NODE && o->penalty_scaling != NTS_PENALTY_PER_LENGTH)
         return option_error(err, "penalty_scaling", "must be node or length");
     return NTS_OK;

@@ -41,6 +41,8 @@ static const char usage[] =
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
     "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
     "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
+    "  --max-candidates N   closest points kept per evaluation (default 64 per\n"
+    "                       surface node + 1000000); more -> 400 limit_exceeded\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
     "                       0 = none (default 0); over -> 400 limit_exceeded\n"
     "  --max-sessions N     scene sessions held at once (default 64); when full, the\n"
@@ -146,6 +148,9 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--max-nodes-per-body") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
             cfg->codec.limits.max_nodes_per_body = (int)n;
+        } else if (strcmp(a, "--max-candidates") == 0) {
+            if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
+            cfg->codec.max_candidates = (long long)n;
         } else if (strcmp(a, "--max-nodes") == 0) {
             if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
             cfg->codec.limits.max_nodes = (long long)n;

@@ -488,6 +488,79 @@ static void test_equal_roots_tie_to_the_smaller_xi(void) {
     CU_ASSERT(a.xi < -0.5);
 }
 
+/* Bodies piled on one spot: every slave sees every other body within the
+ * radius. The candidate budget turns that into a clear error, whatever the
+ * thread count, instead of gigabytes of records. */
+static void test_candidate_budget(void) {
+    enum { N = 200 };
+    test_body* b = (test_body*)calloc(N, sizeof(test_body));
+    nts_body_def defs[N];
+    nts_scene* s;
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    int i, th;
+    for (i = 0; i < N; ++i) {
+        memset(&b[i], 0, sizeof b[i]);
+        b[i].nodes[0] = nts_v2(0.0, 0.0);
+        b[i].nodes[1] = nts_v2(1.0, 0.0);
+        b[i].nodes[2] = nts_v2(0.0, 1.0);
+        b[i].node_count = 3;
+        defs[i] = def_of(&b[i]);
+    }
+    s = scene_of(defs, N, 0.0, 0.0, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_GAPS;
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0); /* 600 x 199 within the default */
+    CU_ASSERT(r.gap_count >= 3 * N * (N - 1) / 2);
+    o.max_candidates = 5000;
+    for (th = 0; th <= 3; ++th) {
+        o.threads = th;
+        ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), NTS_ELIMIT);
+        CU_ASSERT(strcmp(err.option, "max_candidates") == 0);
+    }
+    o.max_candidates = -1;
+    ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), NTS_EINVALID_OPTION);
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+    free(b);
+}
+
+static int g_cancel_calls;
+static int cancel_after_one(void* user) {
+    (void)user;
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    ++g_cancel_calls;
+    return 1;
+}
+
+/* The cancel hook stops an evaluation within 1024 slaves, for any thread count. */
+static void test_cancel_hook(void) {
+    test_packing p = make_packing(100, 40, 1.0, 1.93, 1, 5);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    int th;
+    CU_ASSERT_FATAL(s != NULL);
+    o.cancel = cancel_after_one;
+    for (th = 0; th <= 2; ++th) {
+        g_cancel_calls = 0;
+        o.threads = th;
+        ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), NTS_ECANCELLED);
+        CU_ASSERT(g_cancel_calls >= 1 && g_cancel_calls <= 4);
+    }
+    o.cancel = NULL;
+    CU_ASSERT(nts_evaluate(c, s, &o, &r, &err) == 0); /* and the context still works */
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 void register_scenes_suite(void) {
     CU_pSuite s = CU_add_suite("scenes", NULL, NULL);
     ADD_TEST(s, test_long_walls_equal_brute_force);
@@ -500,4 +573,6 @@ void register_scenes_suite(void) {
     ADD_TEST(s, test_scales);
     ADD_TEST(s, test_two_piece_mesh);
     ADD_TEST(s, test_equal_roots_tie_to_the_smaller_xi);
+    ADD_TEST(s, test_candidate_budget);
+    ADD_TEST(s, test_cancel_hook);
 }

@@ -38,6 +38,7 @@ typedef struct ntsj_config {
     double max_seconds;     /* wall-clock budget of one request, 0 = none: checked after decoding,
                              * building the scene and evaluating; over it -> limit_exceeded (400) */
     int threads;            /* passed to nts_options.threads */
+    long long max_candidates; /* passed to nts_options.max_candidates (0: the core's default) */
     int vtk;                /* also write the result as a VTK XML unstructured grid (ntsj_response.vtk):
                              * surfaces, forces, contacts with their gaps and normals (codec/src/vtk.c) */
 } ntsj_config;

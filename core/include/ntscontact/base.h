@@ -48,7 +48,8 @@ extern "C" {
     XX(NO_BOUNDARY, -17, "no_boundary", "triangle mesh has no boundary")                   \
     XX(INTERNAL, -18, "internal_error", "internal error")                                  \
     XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")                 \
-    XX(OUT_OF_RANGE, -20, "out_of_range", "coordinate beyond the supported range (1e100)")
+    XX(OUT_OF_RANGE, -20, "out_of_range", "coordinate beyond the supported range (1e100)")      \
+    XX(CANCELLED, -21, "cancelled", "the evaluation was cancelled (deadline or caller)")
 
 typedef enum nts_status {
     NTS_OK = 0,

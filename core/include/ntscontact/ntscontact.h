@@ -134,6 +134,18 @@ typedef struct nts_options {
     nts_search search;     /* default NTS_SEARCH_CELLS */
     int threads;           /* 0 = serial; results are bitwise identical for any value */
     nts_penalty_scaling penalty_scaling; /* default NTS_PENALTY_PER_NODE */
+    /* Bounds on one evaluation (docs/model.md §11), so that no input that fits
+     * in memory costs unbounded memory or time:
+     * - max_candidates: closest points within the search radius kept (each
+     *   ~150 bytes); more is an NTS_ELIMIT error naming "max_candidates".
+     *   0 means the default, 64 per surface node plus 1,000,000.
+     * - cancel: asked every 1024 slave nodes and between the phases; a
+     *   non-zero answer stops the evaluation with NTS_ECANCELLED (a deadline,
+     *   a client that left). NULL: never. It may be called from the worker
+     *   threads at once: it must be thread-safe. */
+    long long max_candidates;
+    int (*cancel)(void* user);
+    void* cancel_user;
 } nts_options;
 NTS_API nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
