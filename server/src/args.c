@@ -17,6 +17,8 @@ static const char usage[] =
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
+    "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
+    "                   [--max-candidates N]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -41,6 +43,11 @@ static const char usage[] =
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
     "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
     "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
+    "  --drain-seconds S    on SIGTERM, SIGINT, SIGQUIT, SIGUSR1, SIGUSR2 or SIGALRM:\n"
+    "                       stop accepting, finish the requests in flight for at\n"
+    "                       most S seconds (default 30), exit 0 (1 if abandoned)\n"
+    "  --max-per-client N   connections from one address at once (default 64)\n"
+    "  --log-file PATH      the log lines go to PATH (append); SIGHUP reopens it\n"
     "  --max-candidates N   closest points kept per evaluation (default 64 per\n"
     "                       surface node + 1000000); more -> 400 limit_exceeded\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
@@ -67,6 +74,8 @@ ntsd_config ntsd_default_config(void) {
     c.threading = NTSD_THREAD_PER_CONNECTION;
     c.inline_max = NTSD_INLINE_MAX_BYTES;
     c.quiet = 0;
+    c.drain_seconds = 30;
+    c.max_per_client = 64;
     c.max_sessions = 64;
     c.session_ttl_s = 600;
     c.session_memory = (size_t)1 << 30;
@@ -148,6 +157,18 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--max-nodes-per-body") == 0) {
             if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
             cfg->codec.limits.max_nodes_per_body = (int)n;
+        } else if (strcmp(a, "--drain-seconds") == 0) {
+            if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
+            cfg->drain_seconds = (unsigned)n;
+        } else if (strcmp(a, "--max-per-client") == 0) {
+            if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
+            cfg->max_per_client = (unsigned)n;
+        } else if (strcmp(a, "--log-file") == 0) {
+            if (strlen(v) >= sizeof cfg->log_file) {
+                fprintf(stderr, "ntscontactd: --log-file: path too long\n");
+                return -1;
+            }
+            strcpy(cfg->log_file, v);
         } else if (strcmp(a, "--max-candidates") == 0) {
             if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
             cfg->codec.max_candidates = (long long)n;

@@ -95,3 +95,14 @@ double ntsd_now(void) {
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
+
+int ntsd_log_reopen(const char* path) {
+    /* Every log line goes to stderr: point it at the file (a rotated file is
+     * closed and the path opened anew). */
+    if (freopen(path, "a", stderr) == NULL) {
+        fprintf(stdout, "ntscontactd: cannot open --log-file %s\n", path);
+        return -1;
+    }
+    setvbuf(stderr, NULL, _IOLBF, 0);
+    return 0;
+}

@@ -1,8 +1,10 @@
 /* ntscontactd: node-to-segment contact over HTTP.
- * Lifetime: parse the flags, ignore SIGPIPE, block SIGTERM and SIGINT in every
- * thread (libmicrohttpd's threads inherit the mask), start, print the bound
- * address, wait for a signal, stop accepting, let the requests in flight finish,
- * stop, exit 0. A second signal while waiting abandons them: exit 1 at once. */
+ * Lifetime: parse the flags, ignore SIGPIPE, block the signals we handle in
+ * every thread (libmicrohttpd's threads inherit the mask), start, print the
+ * bound address, wait. SIGHUP reopens --log-file. Every terminating signal
+ * (TERM, INT, QUIT, USR1, USR2, ALRM) drains: stop accepting, let the requests
+ * in flight finish for at most --drain-seconds, stop, exit 0; past the deadline,
+ * or at a second signal, the requests left are abandoned: exit 1. */
 #include <errno.h>
 #include <signal.h>
 #include <stdio.h>
@@ -11,6 +13,18 @@
 #include <unistd.h>
 
 #include "server.h"
+
+static const char* signal_name(int sig) {
+    switch (sig) {
+    case SIGTERM: return "SIGTERM";
+    case SIGINT: return "SIGINT";
+    case SIGQUIT: return "SIGQUIT";
+    case SIGUSR1: return "SIGUSR1";
+    case SIGUSR2: return "SIGUSR2";
+    case SIGALRM: return "SIGALRM";
+    default: return "signal";
+    }
+}
 
 int main(int argc, char** argv) {
     ntsd_config cfg = ntsd_default_config();
@@ -32,7 +46,13 @@ int main(int argc, char** argv) {
     sigemptyset(&stop_signals);
     sigaddset(&stop_signals, SIGTERM);
     sigaddset(&stop_signals, SIGINT);
+    sigaddset(&stop_signals, SIGQUIT);
+    sigaddset(&stop_signals, SIGUSR1);
+    sigaddset(&stop_signals, SIGUSR2);
+    sigaddset(&stop_signals, SIGALRM);
+    sigaddset(&stop_signals, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &stop_signals, NULL);
+    if (cfg.log_file[0] != '\0' && ntsd_log_reopen(cfg.log_file) != 0) return 1;
 
     if (ntsd_server_start(&server, &cfg) != 0) return 1;
     if (strchr(cfg.host, ':') != NULL)
@@ -49,6 +69,11 @@ int main(int argc, char** argv) {
     for (;;) {
         struct timespec tick = {5, 0};
         rc = sigtimedwait(&stop_signals, NULL, &tick);
+        if (rc == SIGHUP) { /* log rotation: write to the file anew */
+            if (cfg.log_file[0] != '\0') ntsd_log_reopen(cfg.log_file);
+            ntsd_log_info("SIGHUP: log reopened");
+            continue;
+        }
         if (rc > 0) {
             sig = rc;
             break;
@@ -56,16 +81,21 @@ int main(int argc, char** argv) {
         ntsd_sessions_sweep(&server.sessions);
     }
 
-    ntsd_log_info("%s: stopping, %d request(s) in flight", sig == SIGINT ? "SIGINT" : "SIGTERM",
-                     ntsd_server_in_flight(&server));
+    ntsd_log_info("%s: stopping, %d request(s) in flight (drained for at most %u s)", signal_name(sig),
+                  ntsd_server_in_flight(&server), cfg.drain_seconds);
     ntsd_server_quiesce(&server);
-    while (ntsd_server_in_flight(&server) > 0) {
-        struct timespec tick = {0, 50 * 1000 * 1000};
-        if (sigtimedwait(&stop_signals, NULL, &tick) > 0) {
-            /* Evaluations cannot be interrupted and libmicrohttpd would wait
-             * for them (and for suspended connections): leave at once. */
-            ntsd_log_message("second signal: abandoning %d request(s) in flight", ntsd_server_in_flight(&server));
-            _exit(1);
+    {
+        double deadline = ntsd_now() + (double)cfg.drain_seconds;
+        while (ntsd_server_in_flight(&server) > 0) {
+            struct timespec tick = {0, 50 * 1000 * 1000};
+            int again = sigtimedwait(&stop_signals, NULL, &tick);
+            if ((again > 0 && again != SIGHUP) || ntsd_now() > deadline) {
+                /* libmicrohttpd would wait for the evaluations (and for suspended
+                 * connections): leave at once. */
+                ntsd_log_message("%s: abandoning %d request(s) in flight",
+                                 again > 0 ? "second signal" : "--drain-seconds passed", ntsd_server_in_flight(&server));
+                _exit(1);
+            }
         }
     }
     ntsd_server_stop(&server);

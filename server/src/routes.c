@@ -90,7 +90,7 @@ ntsd_route ntsd_route_find(const char* path, const char* method) {
 
 int ntsd_is_json_media_type(const char* ct) {
     size_t n;
-    if (ct == NULL) return 1; /* no Content-Type: take the body as JSON */
+    if (ct == NULL) return 0; /* no Content-Type is not JSON (a browser form post has none to match) */
     while (*ct == ' ' || *ct == '\t') ct++;
     n = strcspn(ct, "; \t");
     if (n == 16 && strncasecmp(ct, "application/json", 16) == 0) return 1;

@@ -486,9 +486,11 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         else if (has_body && !ntsd_is_json_media_type(ct))
             return reply_error(c, r, ntsj_code_name(NTSJ_UNSUPPORTED_MEDIA_TYPE),
                                "a step's body must be application/json or application/octet-stream", NULL, 1);
-    } else if (!ntsd_is_json_media_type(ct)) {
+    } else if (ct == NULL || !ntsd_is_json_media_type(ct)) {
+        /* No Content-Type is not JSON: a browser's plain form post must not
+         * reach the service (docs/reliability.md). */
         return reply_error(c, r, ntsj_code_name(NTSJ_UNSUPPORTED_MEDIA_TYPE),
-                           "the request body must be application/json", NULL, 1);
+                           "the request body must be Content-Type: application/json", NULL, 1);
     }
     /* Answer before reading the body when its announced length is too large. */
     if (length > (unsigned long long)s->config.codec.max_bytes)
@@ -659,6 +661,9 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_SOCK_ADDR, (struct sockaddr*)&addr,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->timeout_s,
         MHD_OPTION_CONNECTION_LIMIT, hard_limit,
+        /* One client cannot hold every connection (a slowloris trickling its
+         * headers is cut by the idle timeout only: docs/reliability.md). */
+        MHD_OPTION_PER_IP_CONNECTION_LIMIT, cfg->max_per_client,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
         MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,

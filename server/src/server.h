@@ -38,6 +38,9 @@ typedef struct ntsd_config {
     size_t inline_max;       /* pool model: bodies up to this size are evaluated by the polling
                                 thread itself; default 64 KiB (NTSD_INLINE_MAX_BYTES) */
     int quiet;
+    unsigned drain_seconds;  /* a terminating signal waits at most this long for the requests in flight */
+    unsigned max_per_client; /* connections from one address at once; beyond -> refused */
+    char log_file[512];      /* "" = standard error; SIGHUP reopens it */
     /* What every request hands to the codec: max_bytes (--max-body, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */
     ntsj_config codec;
@@ -76,6 +79,8 @@ void ntsd_log_set_quiet(int quiet);
 #else
 #define NTSD_PRINTF_LIKE
 #endif
+/* Send the log lines to `path` (append), again after a rotation. 0 or -1. */
+int ntsd_log_reopen(const char* path);
 /* A line "ntscontactd: ..." for a fault: printed even when quiet. */
 void ntsd_log_message(const char* fmt, ...) NTSD_PRINTF_LIKE;
 /* A line "ntscontactd: ..." about the daemon's life: silent when quiet. */
@@ -234,7 +239,7 @@ typedef struct ntsd_route {
 
 /* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
 ntsd_route ntsd_route_find(const char* path, const char* method);
-/* 1 when a Content-Type header value names JSON (application/json, *+json). */
+/* 1 when a Content-Type header value names JSON (application/json, *+json); 0 for none. */
 int ntsd_is_json_media_type(const char* content_type);
 /* 1 when a Content-Type header value is `type` (parameters aside, any case). */
 int ntsd_is_media_type(const char* content_type, const char* type);
