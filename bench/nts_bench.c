@@ -22,9 +22,20 @@
 #define NTS_BENCH_VARIANT "after"
 #endif
 
-/* Internal hook of the core (core/src/internal.h): seconds per phase of the last
- * evaluation: segment data, cell list, local search, scatter. */
+/* Seconds per phase of the last evaluation (segment data, cell list, local
+ * search, scatter): the public profile, or the first core's private hook when
+ * this program is built against an older release (bench/report.py --before). */
+#ifdef NTS_BENCH_OLD_PROFILE
 void nts_context_phase_times(const nts_context* ctx, double out[4]);
+#else
+static void nts_context_phase_times(const nts_context* ctx, double out[4]) {
+    nts_profile p = nts_context_profile(ctx);
+    out[0] = p.segments;
+    out[1] = p.cells;
+    out[2] = p.search;
+    out[3] = p.scatter;
+}
+#endif
 
 static const double PI = 3.14159265358979323846;
 

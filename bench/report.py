@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Run the benchmarks and write docs/benchmarks.md (issue 6).
 
-    python3 bench/report.py [--quick] [--build DIR] [--no-run] [--results DIR]
+    python3 bench/report.py [--quick] [--build DIR] [--no-run] [--results DIR] [--before REV]
 
-Runs, in one go: nts_bench_before (the first core's search, bench/baseline/)
-and nts_bench (the current core) on the same scenes, the bitwise digests of
+Runs, in one go: nts_bench of the previous release (REV, default the last
+commit before this release's core work, built from git in a worktree under
+BUILD/prev) and nts_bench of this tree on the same scenes, the bitwise digests of
 both, the Shapely (GEOS) peer, and the CLI (decode + evaluate + encode); then
 writes the CSVs into bench/results/, the plots into docs/img/ and the tables
 into docs/benchmarks.md between the `nts_bench` markers (every other section
@@ -20,6 +21,7 @@ import os
 import platform
 import resource
 import statistics
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -64,6 +66,31 @@ def table(header, rows):
 
 # ---------------------------------------------------------------- running
 
+def build_previous(args, log):
+    """nts_bench of the previous release: a git worktree at args.before, built
+    into BUILD/prev (only the core and the bench). Returns the binary's path."""
+    src = os.path.join(args.build, "prev-src")
+    out = os.path.join(args.build, "prev")
+    t0 = time.time()
+    rev = sh("git rev-parse --verify %s^{commit}" % args.before)
+    if not rev:
+        raise SystemExit("--before %s: not a commit of this repository" % args.before)
+    if os.path.isdir(src) and sh("git -C %s rev-parse HEAD" % src) != rev:
+        subprocess.run(["git", "worktree", "remove", "--force", src], cwd=ROOT, capture_output=True)
+    if not os.path.isdir(src):
+        p = subprocess.run(["git", "worktree", "add", "--detach", src, rev], cwd=ROOT, capture_output=True, text=True)
+        if p.returncode != 0:
+            raise SystemExit("git worktree add failed: " + p.stderr)
+    for cmd in (["cmake", "-S", src, "-B", out, "-DCMAKE_BUILD_TYPE=RelWithDebInfo", "-DNTS_BUILD_TESTS=OFF",
+                 "-DNTS_COMPONENTS=bench"],
+                ["cmake", "--build", out, "-j", "2", "--target", "nts_bench"]):
+        p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        if p.returncode != 0:
+            raise SystemExit("building the previous release failed: %s\n%s" % (" ".join(cmd), p.stdout[-2000:]))
+    log.append("previous release %s built: %.1f s" % (rev[:7], time.time() - t0))
+    return os.path.join(out, "bin", "nts_bench")
+
+
 def run_benchmarks(args):
     res = args.results
     os.makedirs(res, exist_ok=True)
@@ -80,9 +107,15 @@ def run_benchmarks(args):
         if p.returncode != 0:
             raise SystemExit("failed: %s" % " ".join(cmd))
 
-    # "before" first, then "after", on the same scenes in the same run.
-    run([os.path.join(binb, "nts_bench_before"), "--out", res, "--sections",
-         "digest,disks,packing,scaling" + ("" if args.quick else ",threads")] + quick)
+    # "before" first, then "after", on the same scenes in the same run. The
+    # previous release's program writes after_*.csv: they become before_*.csv.
+    prev = build_previous(args, log)
+    tmp = tempfile.mkdtemp(prefix="nts-before-")
+    run([prev, "--out", tmp, "--sections", "digest,disks,packing,scaling" + ("" if args.quick else ",threads")] + quick)
+    for name in os.listdir(tmp):
+        if name.startswith("after_") and name.endswith(".csv"):
+            shutil.move(os.path.join(tmp, name), os.path.join(res, "before_" + name[len("after_"):]))
+    shutil.rmtree(tmp, ignore_errors=True)
     run([os.path.join(binb, "nts_bench"), "--out", res] + quick)
     # The peer.
     sys.path.insert(0, os.path.join(ROOT, "bench"))
@@ -320,7 +353,7 @@ def report(res, made):
     L.append("Times are nanoseconds per surface node, medians of repeated evaluations on a warm context "
              "(3 to 25 repeats). *cells*: building the cell list, including the cell-ordered copy of the "
              "masters; *search*: the local search; *eval*: the whole `nts_evaluate` (wall); *eval CPU*: the "
-             "same in CPU time. \"before\" is `nts_bench_before`: the same program linked with the first "
+             "same in CPU time. \"before\" is the previous release's `nts_bench`, built from git (`--before`): the same program against the previous "
              "core's search and evaluation (`bench/baseline/`, frozen from commit 6027dec), run in the same "
              "session on the same scenes.")
     L.append("")
@@ -817,12 +850,14 @@ def main():
     ap.add_argument("--img", default=os.path.join(ROOT, "docs", "img"))
     ap.add_argument("--docs", default=os.path.join(ROOT, "docs"),
                     help="where benchmarks.md and hard-cases.md go (default docs/)")
+    ap.add_argument("--before", default="2dc1205",
+                    help="the previous release to compare with, a git revision (default 2dc1205: main before the "
+                         "sessions, scenes and tangent work)")
     args = ap.parse_args()
     t0 = time.time()
     if not args.no_run:
-        for b in ("nts_bench", "nts_bench_before"):
-            if not os.path.exists(os.path.join(args.build, "bin", b)):
-                raise SystemExit("%s/bin/%s missing: build with -DNTS_COMPONENTS including bench" % (args.build, b))
+        if not os.path.exists(os.path.join(args.build, "bin", "nts_bench")):
+            raise SystemExit("%s/bin/nts_bench missing: build with -DNTS_COMPONENTS including bench" % args.build)
         run_benchmarks(args)
     made = plots(args.results, args.img)
     os.makedirs(args.docs, exist_ok=True)

@@ -95,25 +95,55 @@ int nts_cells_build(nts_cells* c, const nts_scene* s, double h) {
     return NTS_OK;
 }
 
-int nts_cells_stencil(const nts_cells* c, int cell, int out[9]) {
-    int cx = cell % c->nx, cy = cell / c->nx;
-    int xs[3], ys[3], nxs = 0, nys = 0, d, i, j, n = 0;
-    for (d = -1; d <= 1; ++d) {
-        int x = cx + d, y = cy + d, k, dup;
-        if (c->periodic) {
-            x = ((x % c->nx) + c->nx) % c->nx;
-            y = ((y % c->ny) + c->ny) % c->ny;
+void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {
+    int cx = cell % c->nx, cy = cell / c->nx, dx, dy;
+    st->n = 0;
+    if (!c->periodic || (c->nx >= 3 && c->ny >= 3)) {
+        /* No repeats: wrap (periodic) or clip (open) each neighbour once. */
+        for (dy = -1; dy <= 1; ++dy) {
+            int y = cy + dy;
+            if (y < 0 || y >= c->ny) {
+                if (!c->periodic) continue;
+                y += y < 0 ? c->ny : -c->ny;
+            }
+            for (dx = -1; dx <= 1; ++dx) {
+                int x = cx + dx;
+                if (x < 0 || x >= c->nx) {
+                    if (!c->periodic) continue;
+                    x += x < 0 ? c->nx : -c->nx;
+                }
+                st->cell[st->n] = y * c->nx + x;
+                st->ox[st->n] = dx;
+                st->oy[st->n] = dy;
+                ++st->n;
+            }
         }
-        if (x >= 0 && x < c->nx) {
-            for (dup = 0, k = 0; k < nxs; ++k) dup |= (xs[k] == x);
-            if (!dup) xs[nxs++] = x;
+        return;
+    }
+    for (dy = -1; dy <= 1; ++dy) {
+        int y = cy + dy, dup, k;
+        if (c->periodic) y = ((y % c->ny) + c->ny) % c->ny;
+        if (y < 0 || y >= c->ny) continue;
+        for (dup = 0, k = -1; k < dy; ++k) {
+            int yk = cy + k;
+            if (c->periodic) yk = ((yk % c->ny) + c->ny) % c->ny;
+            dup |= (yk == y);
         }
-        if (y >= 0 && y < c->ny) {
-            for (dup = 0, k = 0; k < nys; ++k) dup |= (ys[k] == y);
-            if (!dup) ys[nys++] = y;
+        if (dup) continue;
+        for (dx = -1; dx <= 1; ++dx) {
+            int x = cx + dx, dupx = 0, q;
+            if (c->periodic) x = ((x % c->nx) + c->nx) % c->nx;
+            if (x < 0 || x >= c->nx) continue;
+            for (q = -1; q < dx; ++q) {
+                int xq = cx + q;
+                if (c->periodic) xq = ((xq % c->nx) + c->nx) % c->nx;
+                dupx |= (xq == x);
+            }
+            if (dupx) continue;
+            st->cell[st->n] = y * c->nx + x;
+            st->ox[st->n] = dx;
+            st->oy[st->n] = dy;
+            ++st->n;
         }
     }
-    for (j = 0; j < nys; ++j)
-        for (i = 0; i < nxs; ++i) out[n++] = ys[j] * c->nx + xs[i];
-    return n;
 }

@@ -96,8 +96,15 @@ typedef struct nts_cells {
 } nts_cells;
 int nts_cells_build(nts_cells* c, const nts_scene* s, double h);
 void nts_cells_free(nts_cells* c);
-/* The distinct cells of the 3x3 stencil around cell `cell` (at most 9). */
-int nts_cells_stencil(const nts_cells* c, int cell, int out[9]);
+/* The cells of the 3x3 stencil around a cell, each with its offset (ox, oy)
+ * in cells. In a periodic grid narrower than 3 cells the wrapped neighbours
+ * repeat: each is visited once. */
+typedef struct nts_stencil {
+    int n;
+    int cell[9];
+    int ox[9], oy[9];
+} nts_stencil;
+void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st);
 
 /* Growable triplet buffers of the tangent (stiffness.c). */
 typedef struct nts_kbuf {
@@ -111,9 +118,7 @@ typedef struct nts_kbuf {
 int nts_stiffness_add(nts_kbuf* k, const nts_scene* s, const nts_contact* c, double alpha);
 void nts_kbuf_free(nts_kbuf* k);
 
-/* Seconds spent by the last nts_evaluate on a context in each phase: segment
- * data, cell list, local search, scatter (evaluate.c; read by bench/). */
-void nts_context_phase_times(const nts_context* ctx, double out[4]);
+
 
 static inline nts_vec2 nts_scene_diff(const nts_scene* s, nts_vec2 p, nts_vec2 q) {
     return nts_min_image(nts_sub(p, q), s->lx, s->ly);

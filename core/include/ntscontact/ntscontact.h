@@ -228,6 +228,13 @@ typedef struct nts_result {
 typedef struct nts_context nts_context;
 NTS_API nts_context* nts_context_create(void);
 NTS_API void nts_context_destroy(nts_context* ctx);
+/* Where the last evaluation on a context spent its time, in seconds, phase by
+ * phase (as Box2D's b2World_GetProfile): segment data, cell list and masters,
+ * local search, scatter. Wall clock; zero before the first evaluation. */
+typedef struct nts_profile {
+    double segments, cells, search, scatter;
+} nts_profile;
+NTS_API nts_profile nts_context_profile(const nts_context* ctx);
 /* Bytes held by the context's buffers (they only grow), for budgets. */
 NTS_API size_t nts_context_memory_bytes(const nts_context* ctx);
 

@@ -1,0 +1,95 @@
+/* The evaluation context: its buffers (they only grow, so a warm context
+ * allocates nothing), its per-thread workers, and the phase profile. */
+#include <stdlib.h>
+
+#include "stages.h"
+
+nts_profile nts_context_profile(const nts_context* ctx) {
+    nts_profile p;
+    memset(&p, 0, sizeof p);
+    if (ctx == NULL) return p;
+    p.segments = ctx->phase[0];
+    p.cells = ctx->phase[1];
+    p.search = ctx->phase[2];
+    p.scatter = ctx->phase[3];
+    return p;
+}
+
+size_t nts_context_memory_bytes(const nts_context* ctx) {
+    size_t n;
+    int i;
+    if (ctx == NULL) return 0;
+    n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) + (size_t)ctx->hot_cap * sizeof(master_hot) +
+        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
+        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
+        2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
+        (size_t)ctx->long_hot_cap * sizeof(master_hot) + (size_t)ctx->long_start_cap * sizeof(int) +
+        (size_t)ctx->long_items_cap * sizeof(int) +
+        (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
+    for (i = 0; i < ctx->worker_count; ++i) {
+        const worker* w = &ctx->workers[i];
+        n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
+             (size_t)w->rec_cap * sizeof(nts_contact);
+    }
+    return n;
+}
+
+nts_context* nts_context_create(void) {
+    nts_context* ctx = (nts_context*)nts_alloc(sizeof *ctx);
+    if (ctx != NULL) memset(ctx, 0, sizeof *ctx);
+    return ctx;
+}
+
+static void workers_free(nts_context* ctx) {
+    int i;
+    for (i = 0; i < ctx->worker_count; ++i) {
+        nts_free(ctx->workers[i].slot);
+        nts_free(ctx->workers[i].best);
+        nts_free(ctx->workers[i].recs);
+    }
+    nts_free(ctx->workers);
+    ctx->workers = NULL;
+    ctx->worker_count = 0;
+    ctx->slot_cap = 0;
+}
+
+void nts_context_destroy(nts_context* ctx) {
+    if (ctx == NULL) return;
+    nts_free(ctx->seg);
+    nts_cells_free(&ctx->cells);
+    nts_free(ctx->hot);
+    workers_free(ctx);
+    nts_free(ctx->forces);
+    nts_free(ctx->contacts);
+    nts_free(ctx->gaps);
+    nts_free(ctx->scratch);
+    nts_free(ctx->long_hot);
+    nts_free(ctx->long_start);
+    nts_free(ctx->long_items);
+    nts_kbuf_free(&ctx->stiffness);
+    nts_free(ctx);
+}
+
+int nts_workers_prepare(nts_context* ctx, int count, int body_count) {
+    int i, j;
+    if (ctx->worker_count != count || ctx->slot_cap < body_count) {
+        workers_free(ctx);
+        ctx->workers = (worker*)nts_alloc(sizeof(worker) * (size_t)count);
+        if (ctx->workers == NULL) return NTS_ENOMEM;
+        memset(ctx->workers, 0, sizeof(worker) * (size_t)count);
+        ctx->worker_count = count;
+        for (i = 0; i < count; ++i) {
+            ctx->workers[i].slot = (int*)nts_alloc(sizeof(int) * (size_t)body_count);
+            if (ctx->workers[i].slot == NULL) return NTS_ENOMEM;
+            for (j = 0; j < body_count; ++j) ctx->workers[i].slot[j] = -1;
+        }
+        ctx->slot_cap = body_count;
+    }
+    for (i = 0; i < count; ++i) {
+        ctx->workers[i].rec_count = 0;
+        ctx->workers[i].best_count = 0;
+        ctx->workers[i].status = NTS_OK;
+    }
+    return NTS_OK;
+}
+
