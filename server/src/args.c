@@ -18,7 +18,8 @@ static const char usage[] =
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
     "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
-    "                   [--max-candidates N]\n"
+    "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
+    "                   [--tls-cert PATH --tls-key PATH]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -48,6 +49,12 @@ static const char usage[] =
     "                       most S seconds (default 30), exit 0 (1 if abandoned)\n"
     "  --max-per-client N   connections from one address at once (default 64)\n"
     "  --log-file PATH      the log lines go to PATH (append); SIGHUP reopens it\n"
+    "  --token-file PATH    bearer tokens, one a line: every request needs\n"
+    "                       'Authorization: Bearer TOKEN' (401 otherwise); health\n"
+    "                       without a token says only its status\n"
+    "  --allow-origin URL   a browser Origin that may call the service (repeatable);\n"
+    "                       a request with any other Origin header gets 403\n"
+    "  --tls-cert PATH, --tls-key PATH  serve HTTPS (PEM files, GnuTLS)\n"
     "  --max-candidates N   closest points kept per evaluation (default 64 per\n"
     "                       surface node + 1000000); more -> 400 limit_exceeded\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
@@ -163,6 +170,19 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--max-per-client") == 0) {
             if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
             cfg->max_per_client = (unsigned)n;
+        } else if (strcmp(a, "--token-file") == 0 || strcmp(a, "--tls-cert") == 0 || strcmp(a, "--tls-key") == 0) {
+            char* dst = a[2] == 't' && a[3] == 'o' ? cfg->token_file : a[6] == 'c' ? cfg->tls_cert : cfg->tls_key;
+            if (strlen(v) >= sizeof cfg->token_file) {
+                fprintf(stderr, "ntscontactd: %s: path too long\n", a);
+                return -1;
+            }
+            strcpy(dst, v);
+        } else if (strcmp(a, "--allow-origin") == 0) {
+            if (cfg->allow_origin_count == 8 || strlen(v) >= sizeof cfg->allow_origin[0]) {
+                fprintf(stderr, "ntscontactd: --allow-origin: at most 8, each under 256 bytes\n");
+                return -1;
+            }
+            strcpy(cfg->allow_origin[cfg->allow_origin_count++], v);
         } else if (strcmp(a, "--log-file") == 0) {
             if (strlen(v) >= sizeof cfg->log_file) {
                 fprintf(stderr, "ntscontactd: --log-file: path too long\n");
@@ -203,5 +223,9 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         }
         i++;
     }
-    return 0;
+    if ((cfg->tls_cert[0] == '\0') != (cfg->tls_key[0] == '\0')) {
+        fprintf(stderr, "ntscontactd: --tls-cert and --tls-key go together\n");
+        return -1;
+    }
+    return ntsd_load_tokens(cfg) == 0 ? 0 : -1;
 }

@@ -8,10 +8,15 @@
 #include "server.h"
 
 char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const ntsd_sessions_stats* ss,
-                           size_t* length) {
+                           int details, size_t* length) {
     char* doc = malloc(2048);
     int n;
     if (doc == NULL) return NULL;
+    if (!details) { /* no token: only whether it is up, no build or configuration details */
+        n = snprintf(doc, 2048, "{\"status\":\"%s\"}\n", st->shutting_down ? "shutting_down" : "ok");
+        *length = (size_t)n;
+        return doc;
+    }
     n = snprintf(doc, 2048,
                  "{\"status\":\"%s\",\"version\":\"%s\","
                  "\"build\":{\"type\":\"%s\",\"openmp\":%s,\"sanitize\":%s,\"libmicrohttpd\":\"%s\"},"

@@ -99,6 +99,7 @@ int main(int argc, char** argv) {
         }
     }
     ntsd_server_stop(&server);
+    ntsd_free_tokens(&cfg);
     ntsd_log_info("stopped after %llu request(s)", server.served);
     return 0;
 }

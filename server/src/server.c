@@ -50,6 +50,7 @@ typedef struct ntsd_request {
     ntsj_response resp;
     /* Sessions: a step's body kind and answer, its query options, the Location
      * of a new session. */
+    int authorized;            /* a valid bearer token (or none is configured) */
     int binary_in;             /* Content-Type: application/octet-stream */
     int answer_binary;         /* Accept: application/octet-stream */
     int param_count;
@@ -170,7 +171,7 @@ static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
         size_t n = 0;
         ntsd_stats st = ntsd_server_stats(r->server);
         ntsd_sessions_stats ss = ntsd_sessions_get_stats(&r->server->sessions);
-        char* doc = ntsd_health_document(&r->server->config, &st, &ss, &n);
+        char* doc = ntsd_health_document(&r->server->config, &st, &ss, r->authorized, &n);
         if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
         return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
     } else {
@@ -441,10 +442,21 @@ static int accepts_octet_stream(const char* accept) {
     return 0;
 }
 
+/* 401 with the scheme the client must use (RFC 6750). */
+static enum MHD_Result reply_unauthorized(struct MHD_Connection* c, ntsd_request* r, int close) {
+    static const char msg[] = "this service needs Authorization: Bearer <token> (--token-file)";
+    const char* extra[] = {MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"ntscontactd\"", NULL};
+    char* doc = ntsj_error_document(ntsj_code_name(NTSJ_UNAUTHORIZED), msg, "");
+    if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
+    return reply_headers(c, r, MHD_HTTP_UNAUTHORIZED, ntsj_code_name(NTSJ_UNAUTHORIZED), doc, strlen(doc), nts_free,
+                         "application/json", NULL, close, extra);
+}
+
 /* The answers that need no body. Sent from the first call only when the request
  * carries a body (libmicrohttpd then closes the connection rather than read
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
+    if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH) return reply_unauthorized(c, r, 0);
     if (r->route.kind == NTSD_ROUTE_NONE)
         return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
     if (!r->route.method_ok) {
@@ -475,6 +487,20 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     if (open_connections > s->config.max_connections)
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED),
                            "too many connections; retry later", NULL, 1);
+    {
+        /* A web page in a browser sends its Origin: refused unless named. */
+        const char* origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
+        int i, allowed = origin == NULL;
+        for (i = 0; !allowed && i < s->config.allow_origin_count; ++i)
+            allowed = strcmp(origin, s->config.allow_origin[i]) == 0;
+        if (!allowed)
+            return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
+                               "requests from a web page of this Origin are refused (--allow-origin)", NULL, 1);
+        r->authorized = ntsd_authorized(&s->config,
+                                        MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION));
+        if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH && (has_body || is_post_route(r)))
+            return reply_unauthorized(c, r, 1);
+    }
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
 
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
@@ -613,7 +639,27 @@ static void on_connection(void* cls, struct MHD_Connection* c, void** socket_con
 
 /* ------------------------------------------------------------ start/stop */
 
+/* A whole (PEM) file as a NUL-terminated string, or NULL. */
+static char* read_file(const char* path) {
+    FILE* f = fopen(path, "rb");
+    char* buf = NULL;
+    long n;
+    if (f == NULL) return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) >= 0 && n < (1L << 20) && fseek(f, 0, SEEK_SET) == 0 &&
+        (buf = malloc((size_t)n + 1)) != NULL) {
+        if (fread(buf, 1, (size_t)n, f) != (size_t)n) {
+            free(buf);
+            buf = NULL;
+        } else {
+            buf[n] = '\0';
+        }
+    }
+    fclose(f);
+    return buf;
+}
+
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
+    struct MHD_OptionItem tls[3] = {{MHD_OPTION_END, 0, NULL}, {MHD_OPTION_END, 0, NULL}, {MHD_OPTION_END, 0, NULL}};
     struct sockaddr_storage addr;
     const union MHD_DaemonInfo* info;
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ITC | MHD_USE_ERROR_LOG;
@@ -655,6 +701,26 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         return -1;
     }
     s->started = ntsd_now();
+    if (cfg->tls_cert[0] != '\0') {
+        s->tls_cert = read_file(cfg->tls_cert);
+        s->tls_key = read_file(cfg->tls_key);
+        if (s->tls_cert == NULL || s->tls_key == NULL) {
+            ntsd_log_message("cannot read --tls-cert %s or --tls-key %s", cfg->tls_cert, cfg->tls_key);
+            free(s->tls_cert);
+            free(s->tls_key);
+            s->tls_cert = s->tls_key = NULL;
+            ntsd_workers_stop(&s->workers);
+            ntsd_sessions_free(&s->sessions);
+            pthread_cond_destroy(&s->changed);
+            pthread_mutex_destroy(&s->lock);
+            return -1;
+        }
+        flags |= MHD_USE_TLS;
+        tls[0].option = MHD_OPTION_HTTPS_MEM_KEY;
+        tls[0].ptr_value = s->tls_key;
+        tls[1].option = MHD_OPTION_HTTPS_MEM_CERT;
+        tls[1].ptr_value = s->tls_cert;
+    }
     s->daemon = MHD_start_daemon(
         flags, (uint16_t)cfg->port, NULL, NULL, on_request, s,
         MHD_OPTION_EXTERNAL_LOGGER, ntsd_log_mhd, NULL,
@@ -667,11 +733,16 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
         MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
+        /* HTTPS through libmicrohttpd's GnuTLS (a key and a certificate, or nothing) */
+        MHD_OPTION_ARRAY, tls,
         /* the pool size last: per-connection mode ends the list here */
         pool && cfg->threads > 1 ? MHD_OPTION_THREAD_POOL_SIZE : MHD_OPTION_END, (unsigned int)cfg->threads,
         MHD_OPTION_END);
     if (s->daemon == NULL) {
         ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);
+        free(s->tls_key);
+        free(s->tls_cert);
+        s->tls_key = s->tls_cert = NULL;
         ntsd_workers_stop(&s->workers);
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
@@ -722,6 +793,9 @@ int ntsd_server_in_flight(ntsd_server* s) {
 void ntsd_server_stop(ntsd_server* s) {
     MHD_stop_daemon(s->daemon);
     s->daemon = NULL;
+    free(s->tls_key);
+    free(s->tls_cert);
+    s->tls_key = s->tls_cert = NULL;
     ntsd_workers_stop(&s->workers);
     ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);

@@ -41,6 +41,14 @@ typedef struct ntsd_config {
     unsigned drain_seconds;  /* a terminating signal waits at most this long for the requests in flight */
     unsigned max_per_client; /* connections from one address at once; beyond -> refused */
     char log_file[512];      /* "" = standard error; SIGHUP reopens it */
+    /* Access control (args.c loads them): bearer tokens from --token-file (none:
+     * no authentication), the Origins a browser may post from, TLS files. */
+    char token_file[512];
+    char** tokens;
+    int token_count;
+    char allow_origin[8][256];
+    int allow_origin_count;
+    char tls_cert[512], tls_key[512];
     /* What every request hands to the codec: max_bytes (--max-body, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */
     ntsj_config codec;
@@ -193,6 +201,8 @@ typedef struct ntsd_server {
     ntsd_sessions sessions;
     unsigned port;             /* the bound port */
     double started;            /* monotonic seconds */
+    char* tls_key;             /* PEM text, kept while the daemon runs (HTTPS) */
+    char* tls_cert;
 
     pthread_mutex_t lock;      /* guards everything below */
     pthread_cond_t changed;    /* an evaluation slot was freed */
@@ -206,6 +216,14 @@ typedef struct ntsd_server {
      * response to its last byte (sending). GET /v1/health reports them. */
     double receiving_s, handling_s, sending_s;
 } ntsd_server;
+
+/* Read --token-file: one token a line (blank lines and # comments skipped).
+ * 0, or -1 with a message printed. */
+int ntsd_load_tokens(ntsd_config* cfg);
+void ntsd_free_tokens(ntsd_config* cfg);
+/* 1 when `authorization` (the header's value, may be NULL) carries one of the
+ * tokens, compared in constant time; 1 as well when no token is configured. */
+int ntsd_authorized(const ntsd_config* cfg, const char* authorization);
 
 /* Start listening. 0, or -1 with a message printed. */
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg);
@@ -255,6 +273,6 @@ typedef struct ntsd_stats {
 ntsd_stats ntsd_server_stats(ntsd_server* s);
 /* The /v1/health document (malloc'ed, ends with '\n'), or NULL (health.c). */
 char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const ntsd_sessions_stats* ss,
-                           size_t* length);
+                           int details, size_t* length);
 
 #endif

@@ -101,7 +101,9 @@ NTS_API int ntsj_error_fields(const char* body, size_t length, char* pointer, si
     XX(UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type", 415)\
     XX(OVERLOADED, "overloaded", 503)                       \
     XX(TIMEOUT, "timeout", 503)                             \
-    XX(UNKNOWN_SCENE, "unknown_scene", 404)                 
+    XX(UNKNOWN_SCENE, "unknown_scene", 404)                   \
+    XX(UNAUTHORIZED, "unauthorized", 401)                     \
+    XX(FORBIDDEN, "forbidden", 403)                 
 
 typedef enum ntsj_code {
 #define NTSJ_XX_(e, name, status) NTSJ_##e,

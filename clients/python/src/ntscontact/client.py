@@ -33,6 +33,9 @@ class Client:
     never reached the service, so even a POST is safe to repeat. Nothing else is
     retried: not read timeouts, not 5xx, not 503.
 
+    ``token`` is a bearer token of the daemon's ``--token-file``; ``verify`` is
+    what requests checks an https daemon's certificate against (a CA file).
+
     ``trust_env`` (default False) lets requests read proxies and ``.netrc`` from
     the environment; the service normally runs next to the solver, and that
     lookup costs about a millisecond per call, as much as a small evaluation.
@@ -52,6 +55,8 @@ class Client:
         backoff: float = 0.1,
         trust_env: bool = False,
         http: Optional[requests.Session] = None,
+        token: Optional[str] = None,
+        verify: Union[bool, str] = True,
     ) -> None:
         self.base_url = base_url.rstrip("/")
         self.timeout = timeout
@@ -74,6 +79,9 @@ class Client:
         self.http.mount("http://", adapter)
         self.http.mount("https://", adapter)
         self.http.headers.update({"User-Agent": USER_AGENT, "Accept": "application/json"})
+        if token is not None:  # the daemon's --token-file
+            self.http.headers["Authorization"] = f"Bearer {token}"
+        self.http.verify = verify  # for https: True, or the path of a CA bundle / the daemon's certificate
 
     # ------------------------------------------------------------ lifecycle
 
