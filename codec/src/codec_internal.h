@@ -123,10 +123,13 @@ int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty);
 int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty);
 /* 1 (with *rc and *out set to limit_exceeded) when the request is over max_seconds. */
 int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc);
-/* The request's deadline (max_seconds) as the core's cancel hook: `t0` in
- * ntsj_now_ms, armed only when max_seconds > 0. */
+/* The request's deadline (max_seconds) and the front end's cancel hook
+ * (ntsj_config.cancel) as the core's cancel hook: `t0` in ntsj_now_ms; armed
+ * only when there is one or the other. */
 typedef struct ntsj_deadline {
-    double until_ms;
+    double until_ms; /* HUGE_VAL: none */
+    int (*cancel)(void* user);
+    void* cancel_user;
 } ntsj_deadline;
 void ntsj_arm_deadline(nts_options* opt, ntsj_deadline* d, const ntsj_config* cfg, double t0);
 /* 1 (with *f set to non_finite) when a finite input gave a result a double cannot hold. */

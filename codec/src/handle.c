@@ -72,13 +72,16 @@ int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty) {
 }
 
 static int deadline_passed(void* user) {
-    return ntsj_now_ms() > ((const ntsj_deadline*)user)->until_ms;
+    const ntsj_deadline* d = user;
+    return ntsj_now_ms() > d->until_ms || (d->cancel != NULL && d->cancel(d->cancel_user));
 }
 
 void ntsj_arm_deadline(nts_options* opt, ntsj_deadline* d, const ntsj_config* cfg, double t0) {
     opt->max_candidates = cfg->max_candidates;
-    if (!(cfg->max_seconds > 0.0)) return;
-    d->until_ms = t0 + cfg->max_seconds * 1e3;
+    if (!(cfg->max_seconds > 0.0) && cfg->cancel == NULL) return;
+    d->until_ms = cfg->max_seconds > 0.0 ? t0 + cfg->max_seconds * 1e3 : HUGE_VAL;
+    d->cancel = cfg->cancel;
+    d->cancel_user = cfg->cancel_user;
     opt->cancel = deadline_passed;
     opt->cancel_user = d;
 }
@@ -93,10 +96,10 @@ int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* 
 }
 
 /* The request-time limit (ntsj_config.max_seconds), checked between the
- * phases: after decoding, after building the scene and after evaluating. The
- * core's evaluation itself is not interrupted (it is linear in the nodes, and
- * the byte limit bounds the nodes); a request over budget gets a
- * limit_exceeded error (400) naming the limit, never a late result. */
+ * phases: after decoding, after building the scene and after evaluating (the
+ * core asks it during the evaluation too, through ntsj_arm_deadline); a
+ * request over budget gets a limit_exceeded error (400) naming the limit,
+ * never a late result. */
 int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc) {
     double elapsed = ntsj_now_ms() - t0;
     char msg[160];

@@ -19,7 +19,7 @@ static const char usage[] =
     "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
     "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
     "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
-    "                   [--tls-cert PATH --tls-key PATH]\n"
+    "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -44,10 +44,16 @@ static const char usage[] =
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
     "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
     "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
+    ;
+/* The service's own options (C99 guarantees string literals of 4095 bytes only). */
+static const char usage_service[] =
     "  --drain-seconds S    on SIGTERM, SIGINT, SIGQUIT, SIGUSR1, SIGUSR2 or SIGALRM:\n"
     "                       stop accepting, finish the requests in flight for at\n"
     "                       most S seconds (default 30), exit 0 (1 if abandoned)\n"
     "  --max-per-client N   connections from one address at once (default 64)\n"
+    "  --header-seconds S   a connection has S seconds, from its opening or its\n"
+    "                       previous request, to send a request's headers, however\n"
+    "                       slowly it sends them (default 10, 0 = no limit)\n"
     "  --log-file PATH      the log lines go to PATH (append); SIGHUP reopens it\n"
     "  --token-file PATH    bearer tokens, one a line: every request needs\n"
     "                       'Authorization: Bearer TOKEN' (401 otherwise); health\n"
@@ -83,6 +89,7 @@ ntsd_config ntsd_default_config(void) {
     c.quiet = 0;
     c.drain_seconds = 30;
     c.max_per_client = 64;
+    c.header_seconds = 10;
     c.max_sessions = 64;
     c.session_ttl_s = 600;
     c.session_memory = (size_t)1 << 30;
@@ -111,6 +118,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         unsigned long long n = 0;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             fputs(usage, stdout);
+            fputs(usage_service, stdout);
             return 1;
         }
         if (strcmp(a, "--version") == 0) {
@@ -122,7 +130,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             continue;
         }
         if (v == NULL) {
-            fprintf(stderr, "ntscontactd: unknown option or missing value: %s\n%s", a, usage);
+            fprintf(stderr, "ntscontactd: unknown option or missing value: %s\n%s%s", a, usage, usage_service);
             return -1;
         }
         if (strcmp(a, "--host") == 0) {
@@ -167,6 +175,9 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--drain-seconds") == 0) {
             if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
             cfg->drain_seconds = (unsigned)n;
+        } else if (strcmp(a, "--header-seconds") == 0) {
+            if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
+            cfg->header_seconds = (unsigned)n;
         } else if (strcmp(a, "--max-per-client") == 0) {
             if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
             cfg->max_per_client = (unsigned)n;
@@ -218,7 +229,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 return -1;
             }
         } else {
-            fprintf(stderr, "ntscontactd: unknown option: %s\n%s", a, usage);
+            fprintf(stderr, "ntscontactd: unknown option: %s\n%s%s", a, usage, usage_service);
             return -1;
         }
         i++;

@@ -43,6 +43,7 @@ typedef struct ntsd_request {
      * suspended (MHD_suspend_connection), then answered when resumed. */
     ntsd_job job;
     struct MHD_Connection* conn;
+    ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     int offloaded;             /* handed to a worker */
     int evaluated;             /* `resp` and `rc` are filled */
     int pretty;
@@ -317,6 +318,10 @@ static void evaluate(ntsd_request* r) {
     int gated = s->config.threading == NTSD_THREAD_PER_CONNECTION;
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
     jc.pretty = r->pretty;
+    if (r->link != NULL) { /* the work stops when its client leaves */
+        jc.cancel = ntsd_conn_client_left;
+        jc.cancel_user = r->link;
+    }
     memset(&r->resp, 0, sizeof r->resp);
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
         /* Wait for the session before taking an evaluation slot: a step queued
@@ -545,6 +550,11 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         copy_str(r->path, sizeof r->path, url);
         peer_name(c, r->peer, sizeof r->peer);
         r->route = ntsd_route_find(url, method);
+        {
+            const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+            r->link = ci != NULL ? ci->socket_context : NULL;
+            ntsd_conn_busy(s, r->link, 1);
+        }
         *con_cls = r;
         pthread_mutex_lock(&s->lock);
         s->in_flight++;
@@ -606,6 +616,14 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     double t_end = ntsd_now();
     (void)c;
     if (r == NULL) return;
+    ntsd_conn_busy(s, r->link, 0);
+    if (r->resp.code != NULL && strcmp(r->resp.code, nts_status_name(NTS_ECANCELLED)) == 0 && r->link != NULL &&
+        ntsd_conn_client_left(r->link)) {
+        copy_str(r->code, sizeof r->code, "client_left");
+        pthread_mutex_lock(&s->lock);
+        s->client_left++;
+        pthread_mutex_unlock(&s->lock);
+    }
     ntsd_log_request(r->peer, r->method, r->path, ok ? r->status : 0,
                      ok || r->code[0] ? r->code : termination_name(toe), r->received,
                      ok ? r->bytes_out : 0, 1e3 * (t_end - r->t0));
@@ -627,8 +645,13 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
 static void on_connection(void* cls, struct MHD_Connection* c, void** socket_context,
                           enum MHD_ConnectionNotificationCode toe) {
     ntsd_server* s = cls;
-    (void)c;
-    (void)socket_context;
+    if (toe == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        *socket_context = ci != NULL ? ntsd_conn_open(s, ci->connect_fd) : NULL;
+    } else {
+        ntsd_conn_close(s, *socket_context);
+        *socket_context = NULL;
+    }
     pthread_mutex_lock(&s->lock);
     if (toe == MHD_CONNECTION_NOTIFY_STARTED)
         s->connections++;
@@ -656,6 +679,18 @@ static char* read_file(const char* path) {
     }
     fclose(f);
     return buf;
+}
+
+/* Everything ntsd_server_start made, once libmicrohttpd is stopped (or never started). */
+static void release(ntsd_server* s) {
+    free(s->tls_key);
+    free(s->tls_cert);
+    s->tls_key = s->tls_cert = NULL;
+    ntsd_watch_stop(s);
+    ntsd_workers_stop(&s->workers);
+    ntsd_sessions_free(&s->sessions);
+    pthread_cond_destroy(&s->changed);
+    pthread_mutex_destroy(&s->lock);
 }
 
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
@@ -693,11 +728,16 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
-    if (pool && ntsd_workers_start(&s->workers, cfg->threads) != 0) {
-        ntsd_log_message("cannot start %d evaluation threads", cfg->threads);
+    if (ntsd_watch_start(s) != 0) {
+        ntsd_log_message("cannot start the connection watcher");
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
+        return -1;
+    }
+    if (pool && ntsd_workers_start(&s->workers, cfg->threads) != 0) {
+        ntsd_log_message("cannot start %d evaluation threads", cfg->threads);
+        release(s);
         return -1;
     }
     s->started = ntsd_now();
@@ -706,13 +746,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         s->tls_key = read_file(cfg->tls_key);
         if (s->tls_cert == NULL || s->tls_key == NULL) {
             ntsd_log_message("cannot read --tls-cert %s or --tls-key %s", cfg->tls_cert, cfg->tls_key);
-            free(s->tls_cert);
-            free(s->tls_key);
-            s->tls_cert = s->tls_key = NULL;
-            ntsd_workers_stop(&s->workers);
-            ntsd_sessions_free(&s->sessions);
-            pthread_cond_destroy(&s->changed);
-            pthread_mutex_destroy(&s->lock);
+            release(s);
             return -1;
         }
         flags |= MHD_USE_TLS;
@@ -727,8 +761,8 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_SOCK_ADDR, (struct sockaddr*)&addr,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->timeout_s,
         MHD_OPTION_CONNECTION_LIMIT, hard_limit,
-        /* One client cannot hold every connection (a slowloris trickling its
-         * headers is cut by the idle timeout only: docs/reliability.md). */
+        /* One client cannot hold every connection (one trickling its headers
+         * is cut by --header-seconds: watch.c). */
         MHD_OPTION_PER_IP_CONNECTION_LIMIT, cfg->max_per_client,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
@@ -740,13 +774,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_END);
     if (s->daemon == NULL) {
         ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);
-        free(s->tls_key);
-        free(s->tls_cert);
-        s->tls_key = s->tls_cert = NULL;
-        ntsd_workers_stop(&s->workers);
-        ntsd_sessions_free(&s->sessions);
-        pthread_cond_destroy(&s->changed);
-        pthread_mutex_destroy(&s->lock);
+        release(s);
         return -1;
     }
     info = MHD_get_daemon_info(s->daemon, MHD_DAEMON_INFO_BIND_PORT);
@@ -793,11 +821,5 @@ int ntsd_server_in_flight(ntsd_server* s) {
 void ntsd_server_stop(ntsd_server* s) {
     MHD_stop_daemon(s->daemon);
     s->daemon = NULL;
-    free(s->tls_key);
-    free(s->tls_cert);
-    s->tls_key = s->tls_cert = NULL;
-    ntsd_workers_stop(&s->workers);
-    ntsd_sessions_free(&s->sessions);
-    pthread_cond_destroy(&s->changed);
-    pthread_mutex_destroy(&s->lock);
+    release(s);
 }

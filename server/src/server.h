@@ -40,6 +40,7 @@ typedef struct ntsd_config {
     int quiet;
     unsigned drain_seconds;  /* a terminating signal waits at most this long for the requests in flight */
     unsigned max_per_client; /* connections from one address at once; beyond -> refused */
+    unsigned header_seconds; /* to send a request's headers, however slowly; 0 = no limit; default 10 */
     char log_file[512];      /* "" = standard error; SIGHUP reopens it */
     /* Access control (args.c loads them): bearer tokens from --token-file (none:
      * no authentication), the Origins a browser may post from, TLS files. */
@@ -194,6 +195,15 @@ int ntsd_sessions_describe(ntsd_sessions* st, const char* id, ntsd_session_meta*
  * ones go to the evaluation threads. */
 #define NTSD_INLINE_MAX_BYTES ((size_t)64 * 1024)
 
+/* An open connection, as the watcher sees it (watch.c). */
+typedef struct ntsd_conn {
+    struct ntsd_conn *prev, *next;
+    int fd;
+    double since;  /* monotonic: opened, or its previous request ended */
+    int busy;      /* a request's headers are in (its body and work have their own budgets) */
+    int cut;       /* shut down by the watcher */
+} ntsd_conn;
+
 typedef struct ntsd_server {
     ntsd_config config;
     struct MHD_Daemon* daemon;
@@ -215,7 +225,26 @@ typedef struct ntsd_server {
      * body (receiving), in the codec and the core (handling), from the queued
      * response to its last byte (sending). GET /v1/health reports them. */
     double receiving_s, handling_s, sending_s;
+    /* The watcher (watch.c): the open connections and the header deadline. */
+    ntsd_conn* conns;
+    pthread_t watcher;
+    pthread_cond_t watch_wake;
+    int watching, watch_stop;
+    unsigned long long header_timeouts; /* connections cut by --header-seconds */
+    unsigned long long client_left;     /* evaluations stopped because their client left */
 } ntsd_server;
+
+/* The watcher thread (--header-seconds > 0). 0 or -1. */
+int ntsd_watch_start(ntsd_server* s);
+void ntsd_watch_stop(ntsd_server* s);
+/* A connection opens and closes (libmicrohttpd's connection notifications). */
+ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd);
+void ntsd_conn_close(ntsd_server* s, ntsd_conn* k);
+/* A request's headers are in (busy), or it ended (not busy: the next request's
+ * header deadline starts). */
+void ntsd_conn_busy(ntsd_server* s, ntsd_conn* k, int busy);
+/* 1 when the client of this connection has gone (for ntsj_config.cancel). */
+int ntsd_conn_client_left(void* user);
 
 /* Read --token-file: one token a line (blank lines and # comments skipped).
  * 0, or -1 with a message printed. */

@@ -39,6 +39,11 @@ typedef struct ntsj_config {
                              * building the scene and evaluating; over it -> limit_exceeded (400) */
     int threads;            /* passed to nts_options.threads */
     long long max_candidates; /* passed to nts_options.max_candidates (0: the core's default) */
+    /* A front end's own reason to stop, asked with the deadline while the core
+     * evaluates (every 1024 slave nodes): non-zero ends the evaluation with
+     * "cancelled" (503). The daemon stops the work of a client that left. */
+    int (*cancel)(void* user);
+    void* cancel_user;
     int vtk;                /* also write the result as a VTK XML unstructured grid (ntsj_response.vtk):
                              * surfaces, forces, contacts with their gaps and normals (codec/src/vtk.c) */
 } ntsj_config;
