@@ -24,12 +24,13 @@ const char* ntsj_code_name(ntsj_code code) {
     return (int)code >= 0 && code < NTSJ_CODE_COUNT_ ? codec_codes[code].name : "internal_error";
 }
 
-/* The core's statuses: input faults are 400, the rest (out of memory, internal,
- * a bad argument that only a codec bug can pass) are 500. */
+/* The core's statuses: input faults are 400; the service's passing states are
+ * 503 (retry later: memory ran short, or the service stopped the work); a bug
+ * (internal, a bad argument that only a codec bug can pass) is 500. */
 static int core_status_http(int status) {
     switch (status) {
     case NTS_ECANCELLED: return 503; /* the service stopped it (its deadline, a client that left) */
-    case NTS_ENOMEM:
+    case NTS_ENOMEM: return 503;     /* nothing wrong with the request: memory ran short now */
     case NTS_EINTERNAL:
     case NTS_EINVALID_ARGUMENT: return 500;
     default: return 400;

@@ -6,6 +6,7 @@
  * with a line/column and the JSON pointer of the container at fault, and bounds
  * the nesting depth before any tree is built. Recursion depth is bounded by
  * max_depth (at most NTSJ_SCAN_MAX_DEPTH). */
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -303,4 +304,16 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
     }
     nts_free(s);
     return rc;
+}
+
+size_t ntsj_memory_estimate(const char* json, size_t length) {
+    /* Every value but the first follows a ',', a ':' or an opening bracket;
+     * counting those (in strings too) can only over-count. */
+    size_t i, values = 1;
+    for (i = 0; i < length; ++i) {
+        char c = json[i];
+        values += c == ',' || c == ':' || c == '[' || c == '{';
+    }
+    if (values > (SIZE_MAX - length) / NTSJ_BYTES_PER_VALUE) return SIZE_MAX;
+    return length + values * NTSJ_BYTES_PER_VALUE;
 }

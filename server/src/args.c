@@ -20,6 +20,7 @@ static const char usage[] =
     "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
     "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
     "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
+    "                   [--max-memory BYTES]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -51,6 +52,10 @@ static const char usage_service[] =
     "                       stop accepting, finish the requests in flight for at\n"
     "                       most S seconds (default 30), exit 0 (1 if abandoned)\n"
     "  --max-per-client N   connections from one address at once (default 64)\n"
+    "  --max-memory BYTES   bodies in flight and the estimated peak of their work\n"
+    "                       together (default half the machine's memory); beyond\n"
+    "                       -> 503 with Retry-After, a request that alone needs\n"
+    "                       more -> 413\n"
     "  --header-seconds S   a connection has S seconds, from its opening or its\n"
     "                       previous request, to send a request's headers, however\n"
     "                       slowly it sends them (default 10, 0 = no limit)\n"
@@ -73,6 +78,22 @@ static const char usage_service[] =
     "                       sessions are evicted\n"
     "  --help, --version\n";
 
+/* Half the memory this process may use: the machine's, or its cgroup's
+ * (a container) when that is smaller. */
+size_t ntsd_default_max_memory(void) {
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    unsigned long long total = pages > 0 && page > 0 ? (unsigned long long)pages * (unsigned long long)page
+                                                     : (unsigned long long)4 << 30;
+    FILE* f = fopen("/sys/fs/cgroup/memory.max", "r");
+    if (f != NULL) {
+        unsigned long long limit;
+        if (fscanf(f, "%llu", &limit) == 1 && limit > 0 && limit < total) total = limit; /* "max": none */
+        fclose(f);
+    }
+    if (total / 2 > (unsigned long long)SIZE_MAX) return SIZE_MAX;
+    return (size_t)(total / 2);
+}
+
 ntsd_config ntsd_default_config(void) {
     ntsd_config c;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
@@ -90,6 +111,7 @@ ntsd_config ntsd_default_config(void) {
     c.drain_seconds = 30;
     c.max_per_client = 64;
     c.header_seconds = 10;
+    c.max_memory = ntsd_default_max_memory();
     c.max_sessions = 64;
     c.session_ttl_s = 600;
     c.session_memory = (size_t)1 << 30;
@@ -175,6 +197,9 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--drain-seconds") == 0) {
             if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
             cfg->drain_seconds = (unsigned)n;
+        } else if (strcmp(a, "--max-memory") == 0) {
+            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+            cfg->max_memory = (size_t)n;
         } else if (strcmp(a, "--header-seconds") == 0) {
             if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
             cfg->header_seconds = (unsigned)n;

@@ -44,6 +44,8 @@ typedef struct ntsd_request {
     ntsd_job job;
     struct MHD_Connection* conn;
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
+    size_t reserved;           /* bytes held against --max-memory, given back at completion */
+    int over_budget;           /* a chunked body outgrew the budget: answer 503 */
     int offloaded;             /* handed to a worker */
     int evaluated;             /* `resp` and `rc` are filled */
     int pretty;
@@ -394,6 +396,55 @@ static void run_offloaded(void* arg) {
     MHD_resume_connection(c);
 }
 
+/* ------------------------------------------------------- memory budget */
+
+/* Raise this request's reservation against --max-memory to `total` bytes:
+ * 1, or 0 when the budget has no room now (the reservation is unchanged). */
+static int budget_reserve(ntsd_server* s, ntsd_request* r, size_t total) {
+    int ok = 1;
+    if (total <= r->reserved) return 1;
+    pthread_mutex_lock(&s->lock);
+    if (total - r->reserved > s->config.max_memory - s->memory_in_use) {
+        ok = 0;
+        s->memory_refused++;
+    } else {
+        s->memory_in_use += total - r->reserved;
+        r->reserved = total;
+    }
+    pthread_mutex_unlock(&s->lock);
+    return ok;
+}
+
+static void budget_release(ntsd_server* s, ntsd_request* r) {
+    if (r->reserved == 0) return;
+    pthread_mutex_lock(&s->lock);
+    s->memory_in_use -= r->reserved;
+    pthread_mutex_unlock(&s->lock);
+    r->reserved = 0;
+}
+
+/* 413 when the request alone needs more than the budget (it never fits),
+ * 503 with Retry-After when others hold the room now. */
+static enum MHD_Result reply_over_budget(struct MHD_Connection* c, ntsd_request* r, size_t need, int close) {
+    char msg[200];
+    if (need > r->server->config.max_memory) {
+        snprintf(msg, sizeof msg, "this request would need about %zu bytes at its peak, more than --max-memory = %zu",
+                 need, r->server->config.max_memory);
+        return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), msg, NULL, close);
+    }
+    snprintf(msg, sizeof msg, "the memory budget (--max-memory = %zu) is in use by other requests; retry later",
+             r->server->config.max_memory);
+    return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), msg, NULL, close);
+}
+
+/* The peak a request's work may need: the JSON tree and the scene, or a
+ * binary step's positions (a copy), plus the body. */
+static size_t work_estimate(const ntsd_request* r) {
+    if (r->body.length == 0) return 0;
+    if (r->binary_in) return 2 * r->body.length;
+    return ntsj_memory_estimate(r->body.data, r->body.length);
+}
+
 /* POST /v1/contact and /v1/validate: the whole body is here. */
 static enum MHD_Result collect_param(void* cls, enum MHD_ValueKind kind, const char* key, const char* value) {
     ntsd_request* r = cls;
@@ -411,6 +462,11 @@ static enum MHD_Result collect_param(void* cls, enum MHD_ValueKind kind, const c
 
 static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_server* s = r->server;
+    size_t need = work_estimate(r);
+    if (!budget_reserve(s, r, need)) {
+        ntsd_body_free(&r->body);
+        return reply_over_budget(c, r, need, 0);
+    }
     r->pretty = query_flag(c, "pretty");
     r->t_body = ntsd_now();
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT)
@@ -527,6 +583,8 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     if (length > (unsigned long long)s->config.codec.max_bytes)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-body", NULL, 1);
+    /* The body in flight counts against --max-memory from its first byte. */
+    if (!budget_reserve(s, r, (size_t)length)) return reply_over_budget(c, r, (size_t)length, 1);
     if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
     return MHD_YES;
@@ -574,8 +632,13 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
             return MHD_NO;
         }
         if (r->too_large || !is_post_route(r)) return MHD_YES;
+        if (r->over_budget) return MHD_YES;
         switch (ntsd_body_append(&r->body, upload_data, n)) {
         case 0:
+            if (!budget_reserve(s, r, r->body.length)) { /* a chunked body, growing */
+                r->over_budget = 1;
+                ntsd_body_free(&r->body);
+            }
             return MHD_YES;
         case 1: /* chunked or unannounced: the cap is found while reading */
             r->too_large = 1;
@@ -594,6 +657,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     if (r->too_large)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-body", NULL, 1);
+    if (r->over_budget) return reply_over_budget(c, r, r->received, 1);
     return answer_post(c, r);
 }
 
@@ -638,6 +702,7 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     pthread_mutex_unlock(&s->lock);
     ntsd_body_free(&r->body);
     ntsj_response_free(&r->resp); /* evaluated, but the client left before the answer */
+    budget_release(s, r);
     free(r);
     *con_cls = NULL;
 }
@@ -802,6 +867,10 @@ ntsd_stats ntsd_server_stats(ntsd_server* s) {
     st.evaluating = s->evaluating;
     st.connections = s->connections;
     st.served = s->served;
+    st.memory_in_use = s->memory_in_use;
+    st.memory_refused = s->memory_refused;
+    st.header_timeouts = s->header_timeouts;
+    st.client_left = s->client_left;
     st.receiving_s = s->receiving_s;
     st.handling_s = s->handling_s;
     st.sending_s = s->sending_s;

@@ -41,6 +41,8 @@ typedef struct ntsd_config {
     unsigned drain_seconds;  /* a terminating signal waits at most this long for the requests in flight */
     unsigned max_per_client; /* connections from one address at once; beyond -> refused */
     unsigned header_seconds; /* to send a request's headers, however slowly; 0 = no limit; default 10 */
+    size_t max_memory;       /* bodies in flight plus the estimated peak of the work they start
+                                (ntsj_memory_estimate); default half the machine's (or cgroup's) memory */
     char log_file[512];      /* "" = standard error; SIGHUP reopens it */
     /* Access control (args.c loads them): bearer tokens from --token-file (none:
      * no authentication), the Origins a browser may post from, TLS files. */
@@ -60,6 +62,7 @@ typedef struct ntsd_config {
 } ntsd_config;
 
 ntsd_config ntsd_default_config(void);
+size_t ntsd_default_max_memory(void);
 /* 0 on success, 1 when the program should exit 0 (--help, --version), -1 on a
  * usage error (message printed). */
 int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg);
@@ -232,6 +235,8 @@ typedef struct ntsd_server {
     int watching, watch_stop;
     unsigned long long header_timeouts; /* connections cut by --header-seconds */
     unsigned long long client_left;     /* evaluations stopped because their client left */
+    size_t memory_in_use;               /* reserved against --max-memory */
+    unsigned long long memory_refused;  /* requests refused for the budget (503) */
 } ntsd_server;
 
 /* The watcher thread (--header-seconds > 0). 0 or -1. */
@@ -297,6 +302,8 @@ typedef struct ntsd_stats {
     int shutting_down, in_flight, evaluating;
     unsigned connections;
     unsigned long long served;
+    size_t memory_in_use;
+    unsigned long long memory_refused, header_timeouts, client_left;
     double uptime_s, receiving_s, handling_s, sending_s;
 } ntsd_stats;
 ntsd_stats ntsd_server_stats(ntsd_server* s);

@@ -134,7 +134,7 @@ static long sweep(const char* name, const char* json, size_t len, const ntsj_con
             if (r.body != NULL && r.code != NULL) {
                 if (strcmp(r.code, "out_of_memory") == 0) {
                     EXPECT(g_fa.failed > 0, "%s N=%ld: out_of_memory without a refusal", name, n);
-                    EXPECT(r.http_status == 500 && !r.ok, "%s N=%ld: out_of_memory as HTTP %d", name, n,
+                    EXPECT(r.http_status == 503 && !r.ok, "%s N=%ld: out_of_memory as HTTP %d", name, n,
                            r.http_status);
                     EXPECT(strstr(r.body, "\"out_of_memory\"") != NULL, "%s N=%ld: body %s", name, n, r.body);
                 } else {

@@ -70,6 +70,14 @@ typedef struct ntsj_response {
  * !ok) or NTS_ENOMEM when even the error document could not be built. */
 NTS_API int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj_response* out);
 NTS_API void ntsj_response_free(ntsj_response* response);
+/* An upper estimate of the memory, in bytes, that handling a JSON request of
+ * these bytes may need at its peak (the body itself included): cJSON's tree
+ * dominates, one item per value, then the core's scene and context. One pass
+ * over the bytes, counting values (NTSJ_BYTES_PER_VALUE each); measured in
+ * docs/reliability.md ("Memory budget"). A front end reserves it before the
+ * work starts. */
+#define NTSJ_BYTES_PER_VALUE 112
+NTS_API size_t ntsj_memory_estimate(const char* json, size_t length);
 
 /* An error document {"error": {"code", "message", "pointer"}} for front ends
  * (the server's 404/405/413/415/503). Returned buffer is freed with nts_free. */

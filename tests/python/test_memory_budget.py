@@ -1,0 +1,117 @@
+"""--max-memory: one budget for the bodies in flight and the estimated peak of
+the work they start. Past it: 503 with Retry-After (others hold the room), or
+413 when a request alone needs more than the budget; never a 500."""
+import json
+import socket
+import time
+
+import requests
+
+from conftest import start_daemon
+
+HEAD = "POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+
+
+def _health(d):
+    return requests.get(d.url("/v1/health"), timeout=10).json()
+
+
+def _zeros(n):
+    """A scene-shaped document whose JSON tree is as large as it gets per byte."""
+    return ('{"bodies":[{"id":0,"nodes":[' + ",".join(["[0,0]"] * n) + "]}]}").encode()
+
+
+def test_a_request_that_alone_needs_more_is_413(paths, tmp_path):
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--max-memory", "16M")
+    try:
+        body = _zeros(50_000)  # 300 kB of JSON, about 17 MB of tree
+        r = requests.post(d.url("/v1/contact"), data=body, headers={"Content-Type": "application/json"}, timeout=10)
+        assert r.status_code == 413, r.text
+        assert r.json()["error"]["code"] == "payload_too_large"
+        assert "--max-memory" in r.json()["error"]["message"]
+        # An announced body past the budget is refused before it is read.
+        s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+        s.sendall((HEAD + f"Content-Length: {20 << 20}\r\n\r\n").encode())
+        assert s.recv(4096).startswith(b"HTTP/1.1 413")
+        s.close()
+        # A small scene still fits, and the budget is given back afterwards.
+        ok = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
+                           headers={"Content-Type": "application/json"}, timeout=10)
+        assert ok.status_code == 200
+        h = _health(d)
+        assert h["memory"]["budget_bytes"] == 16 << 20
+        assert h["memory"]["in_use_bytes"] == 0
+    finally:
+        assert d.stop() == 0
+
+
+def test_bodies_in_flight_share_the_budget(paths, tmp_path):
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--max-memory", "40M", "--timeout", "30")
+    held = []
+    try:
+        for _ in range(2):  # two uploads of 15 MiB announced, started, not finished
+            s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+            s.sendall((HEAD + f"Content-Length: {15 << 20}\r\n\r\n").encode() + b'{"bodies": [' + b" " * 1000)
+            held.append(s)
+        deadline = time.monotonic() + 5
+        while _health(d)["memory"]["in_use_bytes"] < 30 << 20 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert _health(d)["memory"]["in_use_bytes"] == 30 << 20
+        # The third finds no room: 503, retry later.
+        s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+        s.sendall((HEAD + f"Content-Length: {15 << 20}\r\n\r\n").encode())
+        head = s.recv(4096)
+        s.close()
+        assert head.startswith(b"HTTP/1.1 503"), head[:100]
+        assert b"Retry-After: 1" in head
+        assert b'"overloaded"' in head or b"overloaded" in head
+        # So does a chunked body that outgrows the room left.
+        s = socket.create_connection(("127.0.0.1", d.port), timeout=10)
+        s.sendall((HEAD + "Transfer-Encoding: chunked\r\n\r\n").encode())
+        chunk = b" " * (1 << 20)
+        try:
+            for _ in range(16):
+                s.sendall(b"%x\r\n" % len(chunk) + chunk + b"\r\n")
+            s.sendall(b"0\r\n\r\n")
+            head = s.recv(4096)
+        except OSError:
+            head = b""
+        s.close()
+        assert head.startswith(b"HTTP/1.1 503"), head[:200]
+        assert _health(d)["memory"]["refused"] >= 2
+    finally:
+        for s in held:
+            s.close()
+    try:
+        deadline = time.monotonic() + 5
+        while _health(d)["memory"]["in_use_bytes"] != 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert _health(d)["memory"]["in_use_bytes"] == 0  # given back by the uploads that were abandoned
+        r = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
+                          headers={"Content-Type": "application/json"}, timeout=10)
+        assert r.status_code == 200
+    finally:
+        assert d.stop() == 0
+
+
+def _estimate(body: bytes) -> int:
+    """ntsj_memory_estimate: the body plus NTSJ_BYTES_PER_VALUE (112) per value."""
+    values = 1 + sum(body.count(c) for c in (b",", b":", b"[", b"{"))
+    return len(body) + 112 * values
+
+
+def test_a_request_reserves_its_estimate(paths, tmp_path):
+    """A budget of exactly the estimate serves the request; one byte less is 413."""
+    body = (paths.examples / "two_disks.json").read_bytes()
+    need = _estimate(body)
+    for budget, status in ((need, 200), (need - 1, 413)):
+        d = start_daemon(paths.bin / "ntscontactd", tmp_path / f"d{budget}.log", "--max-memory", str(budget))
+        try:
+            r = requests.post(d.url("/v1/contact"), data=body, headers={"Content-Type": "application/json"},
+                              timeout=60)
+            assert r.status_code == status, (budget, r.text[:200])
+            if status == 413:
+                assert f"about {need} bytes" in r.json()["error"]["message"]
+            assert _health(d)["memory"]["in_use_bytes"] == 0
+        finally:
+            assert d.stop() == 0
