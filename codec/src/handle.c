@@ -42,8 +42,8 @@ int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code) {
     if (b->oom || !b->data) {
         ntsj_buf_free(b);
         out->ok = 0;
-        out->http_status = 500;
         out->code = nts_status_name(NTS_ENOMEM);
+        out->http_status = ntsj_code_http_status(out->code);
         out->body = NULL;
         out->length = 0;
         nts_free(out->vtk); /* attached before the body failed */
@@ -179,9 +179,11 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     ntsj_buf b;
     const char* parse_end = NULL;
     double t0 = ntsj_now_ms(), elapsed;
+    nts_summary summary;
     int rc, done = 0, pretty = cfg.pretty;
 
     memset(out, 0, sizeof *out);
+    memset(&summary, 0, sizeof summary);
     memset(&fault, 0, sizeof fault);
     if (cfg.max_depth <= 0) cfg.max_depth = NTSJ_DEFAULT_MAX_DEPTH;
     if (cfg.max_bytes == 0) cfg.max_bytes = NTSJ_DEFAULT_MAX_BYTES;
@@ -260,6 +262,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             ntsj_encode_validation(&b, scene, ntsj_round_us(elapsed), pretty);
         } else {
             ntsj_encode_result(&b, &s, scene, &result, ntsj_round_us(elapsed), pretty);
+            summary = result.summary;
             if (cfg.vtk && ntsj_attach_vtk(out, &s, scene, &result) != 0) b.oom = 1;
         }
         nts_context_destroy(ctx);
@@ -272,7 +275,9 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     }
     nts_scene_destroy(scene);
     ntsj_scene_free(&s);
-    return ntsj_finish(out, &b, "ok");
+    rc = ntsj_finish(out, &b, "ok");
+    if (rc == 0) out->summary = summary; /* for the front end's counters */
+    return rc;
 }
 
 void ntsj_response_free(ntsj_response* response) {

@@ -20,7 +20,7 @@ static const char usage[] =
     "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
     "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
     "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
-    "                   [--max-memory BYTES]\n"
+    "                   [--max-memory BYTES] [--log-format text|json]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -52,6 +52,8 @@ static const char usage_service[] =
     "                       stop accepting, finish the requests in flight for at\n"
     "                       most S seconds (default 30), exit 0 (1 if abandoned)\n"
     "  --max-per-client N   connections from one address at once (default 64)\n"
+    "  --log-format FORMAT  text (default) or json: one object a line, {\"time\",\n"
+    "                       \"level\", \"event\": \"request\"|\"message\", ...}\n"
     "  --max-memory BYTES   bodies in flight and the estimated peak of their work\n"
     "                       together (default half the machine's memory); beyond\n"
     "                       -> 503 with Retry-After, a request that alone needs\n"
@@ -197,6 +199,12 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         } else if (strcmp(a, "--drain-seconds") == 0) {
             if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
             cfg->drain_seconds = (unsigned)n;
+        } else if (strcmp(a, "--log-format") == 0) {
+            if (strcmp(v, "json") != 0 && strcmp(v, "text") != 0) {
+                fprintf(stderr, "ntscontactd: --log-format: text or json, not %s\n", v);
+                return -1;
+            }
+            cfg->log_json = strcmp(v, "json") == 0;
         } else if (strcmp(a, "--max-memory") == 0) {
             if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
             cfg->max_memory = (size_t)n;

@@ -1,5 +1,7 @@
 /* Logging to standard error: one line per request, written with one write(2)
- * so lines from concurrent threads never interleave. */
+ * so lines from concurrent threads never interleave. Two formats: text for a
+ * terminal, or (--log-format json) one JSON object a line for a log pipeline:
+ * {"time", "level", "event": "request" | "message", ...}. */
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -8,8 +10,49 @@
 #include "server.h"
 
 static int log_quiet;
+static int log_json;
 
 void ntsd_log_set_quiet(int quiet) { log_quiet = quiet; }
+void ntsd_log_set_json(int json) { log_json = json; }
+
+/* `src` as a JSON string, quotes included, cut to fit `cap`. Control
+ * characters and bytes over 0x7f are escaped (\u00XX): the line is valid JSON
+ * whatever a client sent. */
+static void json_string(char* dst, size_t cap, const char* src) {
+    static const char hex[] = "0123456789abcdef";
+    size_t i = 0;
+    if (src == NULL) src = "";
+    dst[i++] = '"';
+    for (; *src != '\0' && i + 8 < cap; src++) {
+        unsigned char ch = (unsigned char)*src;
+        if (ch == '"' || ch == '\\') {
+            dst[i++] = '\\';
+            dst[i++] = (char)ch;
+        } else if (ch < 0x20 || ch >= 0x7f) {
+            dst[i++] = '\\';
+            dst[i++] = 'u';
+            dst[i++] = '0';
+            dst[i++] = '0';
+            dst[i++] = hex[ch >> 4];
+            dst[i++] = hex[ch & 15];
+        } else {
+            dst[i++] = (char)ch;
+        }
+    }
+    dst[i++] = '"';
+    dst[i] = '\0';
+}
+
+/* The UTC time of now, ISO 8601 with milliseconds. */
+static void now_stamp(char* out, size_t cap) {
+    struct timespec ts;
+    struct tm tm;
+    size_t n;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    gmtime_r(&ts.tv_sec, &tm);
+    n = strftime(out, cap, "%Y-%m-%dT%H:%M:%S", &tm);
+    if (n + 6 <= cap) snprintf(out + n, cap - n, ".%03dZ", (int)(ts.tv_nsec / 1000000L) % 1000);
+}
 
 static void write_line(char* line, int n, size_t cap) {
     size_t len;
@@ -25,17 +68,27 @@ static void write_line(char* line, int n, size_t cap) {
     }
 }
 
-static void log_line(const char* fmt, va_list ap) {
-    char line[1024];
-    int n = snprintf(line, sizeof line, "ntscontactd: ");
-    n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+static void log_line(const char* level, const char* source, const char* fmt, va_list ap) {
+    char line[1280];
+    int n;
+    if (log_json) {
+        char text[768], quoted[1024], stamp[40];
+        vsnprintf(text, sizeof text, fmt, ap);
+        json_string(quoted, sizeof quoted, text);
+        now_stamp(stamp, sizeof stamp);
+        n = snprintf(line, sizeof line, "{\"time\":\"%s\",\"level\":\"%s\",\"event\":\"message\",\"source\":\"%s\","
+                     "\"message\":%s}", stamp, level, source, quoted);
+    } else {
+        n = snprintf(line, sizeof line, "ntscontactd: %s", strcmp(source, "libmicrohttpd") == 0 ? "libmicrohttpd: " : "");
+        n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+    }
     write_line(line, n, sizeof line);
 }
 
 void ntsd_log_message(const char* fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
-    log_line(fmt, ap);
+    log_line("error", "ntscontactd", fmt, ap);
     va_end(ap);
 }
 
@@ -43,18 +96,14 @@ void ntsd_log_info(const char* fmt, ...) {
     va_list ap;
     if (log_quiet) return;
     va_start(ap, fmt);
-    log_line(fmt, ap);
+    log_line("info", "ntscontactd", fmt, ap);
     va_end(ap);
 }
 
 void ntsd_log_mhd(void* cls, const char* fmt, va_list ap) {
-    char line[1024];
-    int n;
     (void)cls;
     if (log_quiet) return;
-    n = snprintf(line, sizeof line, "ntscontactd: libmicrohttpd: ");
-    n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
-    write_line(line, n, sizeof line);
+    log_line("warning", "libmicrohttpd", fmt, ap);
 }
 
 /* Printable copy of a client-given string: no control characters in the log. */
@@ -70,22 +119,29 @@ static void sanitize(char* dst, size_t cap, const char* src) {
 
 void ntsd_log_request(const char* peer, const char* method, const char* path, int status,
                       const char* code, size_t bytes_in, size_t bytes_out, double ms) {
-    char line[1024], m[24], p[512], stamp[32];
-    struct timespec ts;
-    struct tm tm;
+    char line[1536], m[64], p[1024], stamp[40];
     int n;
     if (log_quiet) return;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    gmtime_r(&ts.tv_sec, &tm);
-    strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", &tm);
-    sanitize(m, sizeof m, method);
-    sanitize(p, sizeof p, path);
-    if (status > 0) {
-        n = snprintf(line, sizeof line, "%s.%03ldZ %s %s %s %d %s in=%zu out=%zu %.3fms", stamp,
-                     ts.tv_nsec / 1000000L, peer, m, p, status, code ? code : "-", bytes_in, bytes_out, ms);
+    now_stamp(stamp, sizeof stamp);
+    if (log_json) {
+        char q_peer[160], q_code[128];
+        json_string(m, sizeof m, method);
+        json_string(p, sizeof p, path);
+        json_string(q_peer, sizeof q_peer, peer);
+        json_string(q_code, sizeof q_code, code ? code : status > 0 ? "-" : "aborted");
+        n = snprintf(line, sizeof line,
+                     "{\"time\":\"%s\",\"level\":\"info\",\"event\":\"request\",\"peer\":%s,\"method\":%s,"
+                     "\"path\":%s,\"status\":%d,\"code\":%s,\"bytes_in\":%zu,\"bytes_out\":%zu,\"ms\":%.3f}",
+                     stamp, q_peer, m, p, status, q_code, bytes_in, status > 0 ? bytes_out : 0, ms);
     } else {
-        n = snprintf(line, sizeof line, "%s.%03ldZ %s %s %s - %s in=%zu out=0 %.3fms", stamp,
-                     ts.tv_nsec / 1000000L, peer, m, p, code ? code : "aborted", bytes_in, ms);
+        sanitize(m, sizeof m, method);
+        sanitize(p, 512, path);
+        if (status > 0)
+            n = snprintf(line, sizeof line, "%s %s %s %s %d %s in=%zu out=%zu %.3fms", stamp, peer, m, p, status,
+                         code ? code : "-", bytes_in, bytes_out, ms);
+        else
+            n = snprintf(line, sizeof line, "%s %s %s %s - %s in=%zu out=0 %.3fms", stamp, peer, m, p,
+                         code ? code : "aborted", bytes_in, ms);
     }
     write_line(line, n, sizeof line);
 }

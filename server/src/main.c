@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
     rc = ntsd_parse_args(argc, argv, &cfg);
     if (rc != 0) return rc > 0 ? 0 : 2;
     ntsd_log_set_quiet(cfg.quiet);
+    ntsd_log_set_json(cfg.log_json);
 
     /* A client that goes away mid-response must not kill the process. */
     memset(&ignore, 0, sizeof ignore);

@@ -70,6 +70,9 @@ ntsd_route ntsd_route_find(const char* path, const char* method) {
             r.allow = ALLOW_POST;
             take_scene_id(id, n, &r);
         }
+    } else if (strcmp(path, "/metrics") == 0) {
+        r.kind = NTSD_ROUTE_METRICS;
+        r.allow = ALLOW_GET;
     } else if (strcmp(path, "/v1/health") == 0) {
         r.kind = NTSD_ROUTE_HEALTH;
         r.allow = ALLOW_GET;

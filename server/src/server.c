@@ -46,6 +46,7 @@ typedef struct ntsd_request {
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
     int over_budget;           /* a chunked body outgrew the budget: answer 503 */
+    const char* refusal;       /* why the service refused it (the metrics' reason), or NULL */
     int offloaded;             /* handed to a worker */
     int evaluated;             /* `resp` and `rc` are filled */
     int pretty;
@@ -168,8 +169,28 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
     return reply(c, r, MHD_HTTP_OK, "ok", doc, (size_t)n, free, "application/json", NULL, 0);
 }
 
+/* GET /metrics: a snapshot of the counters, formatted outside the lock. */
+static enum MHD_Result answer_metrics(struct MHD_Connection* c, ntsd_request* r) {
+    ntsd_server* s = r->server;
+    ntsd_metrics* m = malloc(sizeof *m);
+    ntsd_stats st = ntsd_server_stats(s);
+    ntsd_sessions_stats ss = ntsd_sessions_get_stats(&s->sessions);
+    size_t n = 0;
+    char* doc = NULL;
+    if (m != NULL) {
+        pthread_mutex_lock(&s->lock);
+        *m = s->metrics;
+        pthread_mutex_unlock(&s->lock);
+        doc = ntsd_metrics_document(m, &st, &ss, &s->config, &n);
+        free(m);
+    }
+    if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
+    return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "text/plain; version=0.0.4; charset=utf-8", NULL, 0);
+}
+
 static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_SCENE) return answer_scene(c, r);
+    if (r->route.kind == NTSD_ROUTE_METRICS) return answer_metrics(c, r);
     if (r->route.kind == NTSD_ROUTE_HEALTH) {
         size_t n = 0;
         ntsd_stats st = ntsd_server_stats(r->server);
@@ -427,6 +448,7 @@ static void budget_release(ntsd_server* s, ntsd_request* r) {
  * 503 with Retry-After when others hold the room now. */
 static enum MHD_Result reply_over_budget(struct MHD_Connection* c, ntsd_request* r, size_t need, int close) {
     char msg[200];
+    r->refusal = "max_memory";
     if (need > r->server->config.max_memory) {
         snprintf(msg, sizeof msg, "this request would need about %zu bytes at its peak, more than --max-memory = %zu",
                  need, r->server->config.max_memory);
@@ -543,11 +565,14 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     open_connections = s->connections;
     pthread_mutex_unlock(&s->lock);
 
-    if (shutting)
+    if (shutting) {
+        r->refusal = "shutting_down";
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "the server is shutting down", NULL, 1);
-    if (open_connections > s->config.max_connections)
-        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED),
-                           "too many connections; retry later", NULL, 1);
+    }
+    if (open_connections > s->config.max_connections) {
+        r->refusal = "max_connections";
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "too many connections; retry later", NULL, 1);
+    }
     {
         /* A web page in a browser sends its Origin: refused unless named. */
         const char* origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
@@ -673,6 +698,22 @@ static const char* termination_name(enum MHD_RequestTerminationCode toe) {
     }
 }
 
+/* The reason a request counts as refused by the service (not a fault of its
+ * scene): the limits, access control, the budgets; NULL otherwise. */
+static const char* refusal_of(const ntsd_request* r, int ok) {
+    if (!ok) return strcmp(r->code, "upload_timeout") == 0 || strcmp(r->code, "client_left") == 0 ? r->code : NULL;
+    if (r->refusal != NULL) return r->refusal;
+    switch (r->status) {
+    case MHD_HTTP_UNAUTHORIZED:
+    case MHD_HTTP_FORBIDDEN:
+    case MHD_HTTP_CONTENT_TOO_LARGE:
+    case MHD_HTTP_UNSUPPORTED_MEDIA_TYPE:
+    case MHD_HTTP_SERVICE_UNAVAILABLE: return r->code;
+    case MHD_HTTP_BAD_REQUEST: return strcmp(r->code, "limit_exceeded") == 0 || strcmp(r->code, "too_deep") == 0 ? r->code : NULL;
+    default: return NULL;
+    }
+}
+
 static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, enum MHD_RequestTerminationCode toe) {
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
@@ -693,6 +734,12 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
                      ok ? r->bytes_out : 0, 1e3 * (t_end - r->t0));
     pthread_mutex_lock(&s->lock);
     s->in_flight--;
+    ntsd_metrics_request(&s->metrics, r->route.kind, ok ? r->status : 0, t_end - r->t0, refusal_of(r, ok));
+    if (ok && r->resp.ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_SCENE_CONTACT)) {
+        s->metrics.evaluations++;
+        s->metrics.surface_nodes += (unsigned long long)r->resp.summary.surface_nodes;
+        s->metrics.contacts += (unsigned long long)r->resp.summary.contacts;
+    }
     if (ok) {
         s->served++;
         s->receiving_s += r->t_body - r->t0;

@@ -44,6 +44,7 @@ typedef struct ntsd_config {
     size_t max_memory;       /* bodies in flight plus the estimated peak of the work they start
                                 (ntsj_memory_estimate); default half the machine's (or cgroup's) memory */
     char log_file[512];      /* "" = standard error; SIGHUP reopens it */
+    int log_json;            /* --log-format json: one JSON object a line */
     /* Access control (args.c loads them): bearer tokens from --token-file (none:
      * no authentication), the Origins a browser may post from, TLS files. */
     char token_file[512];
@@ -86,6 +87,8 @@ void ntsd_body_free(ntsd_body* b);
 /* ------------------------------------------------------------------- log */
 
 void ntsd_log_set_quiet(int quiet);
+/* One JSON object a line (--log-format json) instead of text. */
+void ntsd_log_set_json(int json);
 #if defined(__GNUC__)
 #define NTSD_PRINTF_LIKE __attribute__((format(printf, 1, 2)))
 #else
@@ -191,12 +194,38 @@ typedef struct ntsd_session_meta {
 /* What GET /v1/scenes/{id} shows, without counting as a use: 0 or -1 (none). */
 int ntsd_sessions_describe(ntsd_sessions* st, const char* id, ntsd_session_meta* out);
 
+typedef enum ntsd_route_kind {
+    NTSD_ROUTE_NONE = 0,
+    NTSD_ROUTE_CONTACT,
+    NTSD_ROUTE_VALIDATE,
+    NTSD_ROUTE_HEALTH,
+    NTSD_ROUTE_ASSET,
+    NTSD_ROUTE_SCENES,        /* POST /v1/scenes */
+    NTSD_ROUTE_SCENE,         /* GET, HEAD, DELETE /v1/scenes/{id} */
+    NTSD_ROUTE_SCENE_CONTACT, /* POST /v1/scenes/{id}/contact */
+    NTSD_ROUTE_METRICS,       /* GET /metrics */
+    NTSD_ROUTE_KINDS
+} ntsd_route_kind;
+
 /* ---------------------------------------------------------------- server */
 
 /* Default of --inline-max: in the pool model, bodies up to this size are
  * evaluated by the polling thread itself (well under a millisecond); larger
  * ones go to the evaluation threads. */
 #define NTSD_INLINE_MAX_BYTES ((size_t)64 * 1024)
+
+/* The counters behind GET /metrics (metrics.c), guarded by the server's lock. */
+#define NTSD_LATENCY_BUCKETS 14
+#define NTSD_REFUSAL_KINDS 32
+typedef struct ntsd_metrics {
+    unsigned long long requests[NTSD_ROUTE_KINDS][500]; /* [route][status - 100] */
+    unsigned long long latency[NTSD_ROUTE_KINDS][NTSD_LATENCY_BUCKETS + 1]; /* per bucket, not cumulative */
+    double latency_sum[NTSD_ROUTE_KINDS];
+    unsigned long long evaluations, surface_nodes, contacts;
+    char refusal_names[NTSD_REFUSAL_KINDS][32];
+    unsigned long long refusals[NTSD_REFUSAL_KINDS];
+    int refusal_count;
+} ntsd_metrics;
 
 /* An open connection, as the watcher sees it (watch.c). */
 typedef struct ntsd_conn {
@@ -235,6 +264,7 @@ typedef struct ntsd_server {
     int watching, watch_stop;
     unsigned long long header_timeouts; /* connections cut by --header-seconds */
     unsigned long long client_left;     /* evaluations stopped because their client left */
+    ntsd_metrics metrics;
     size_t memory_in_use;               /* reserved against --max-memory */
     unsigned long long memory_refused;  /* requests refused for the budget (503) */
 } ntsd_server;
@@ -270,16 +300,6 @@ void ntsd_server_stop(ntsd_server* s);
 
 /* ---------------------------------------------------------------- routes */
 
-typedef enum ntsd_route_kind {
-    NTSD_ROUTE_NONE = 0,
-    NTSD_ROUTE_CONTACT,
-    NTSD_ROUTE_VALIDATE,
-    NTSD_ROUTE_HEALTH,
-    NTSD_ROUTE_ASSET,
-    NTSD_ROUTE_SCENES,        /* POST /v1/scenes */
-    NTSD_ROUTE_SCENE,         /* GET, HEAD, DELETE /v1/scenes/{id} */
-    NTSD_ROUTE_SCENE_CONTACT  /* POST /v1/scenes/{id}/contact */
-} ntsd_route_kind;
 
 typedef struct ntsd_route {
     ntsd_route_kind kind;
@@ -310,5 +330,16 @@ ntsd_stats ntsd_server_stats(ntsd_server* s);
 /* The /v1/health document (malloc'ed, ends with '\n'), or NULL (health.c). */
 char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const ntsd_sessions_stats* ss,
                            int details, size_t* length);
+
+/* ---------------------------------------------------------------- metrics */
+
+/* The Prometheus label of a route: its path template. */
+const char* ntsd_route_label(ntsd_route_kind kind);
+/* A request ended (status 0: no answer was sent); `refusal`: why it was refused, or NULL. */
+void ntsd_metrics_request(ntsd_metrics* m, ntsd_route_kind kind, int status, double seconds, const char* refusal);
+void ntsd_metrics_refusal(ntsd_metrics* m, const char* reason);
+/* The /metrics document (malloc'ed), or NULL. */
+char* ntsd_metrics_document(const ntsd_metrics* m, const ntsd_stats* st, const ntsd_sessions_stats* ss,
+                            const ntsd_config* c, size_t* length);
 
 #endif

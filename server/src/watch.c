@@ -35,6 +35,7 @@ static void* watch_main(void* arg) {
             shutdown(k->fd, SHUT_RDWR);
             k->cut = 1;
             s->header_timeouts++;
+            ntsd_metrics_refusal(&s->metrics, "header_timeout");
             ntsd_log_info("a connection sent no complete request headers within --header-seconds %u: closed",
                           s->config.header_seconds);
         }

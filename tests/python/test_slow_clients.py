@@ -69,6 +69,7 @@ def test_trickled_headers_are_cut_by_the_header_deadline(paths, tmp_path):
         r = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
                           headers={"Content-Type": "application/json"}, timeout=10)
         assert r.status_code == 200
+        assert requests.get(d.url("/v1/health"), timeout=10).json()["header_timeouts"] >= 10
         stop.set()
         for t in threads:
             t.join(10)
