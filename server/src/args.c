@@ -20,7 +20,7 @@ static const char usage[] =
     "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
     "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
     "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
-    "                   [--max-memory BYTES] [--log-format text|json]\n"
+    "                   [--max-memory BYTES] [--log-format text|json] [--allow-host NAME]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -67,6 +67,8 @@ static const char usage_service[] =
     "                       without a token says only its status\n"
     "  --allow-origin URL   a browser Origin that may call the service (repeatable);\n"
     "                       a request with any other Origin header gets 403\n"
+    "  --allow-host NAME    a name the Host header may give (repeatable; port aside);\n"
+    "                       any other Host gets 403 (default: any)\n"
     "  --tls-cert PATH, --tls-key PATH  serve HTTPS (PEM files, GnuTLS)\n"
     "  --max-candidates N   closest points kept per evaluation (default 64 per\n"
     "                       surface node + 1000000); more -> 400 limit_exceeded\n"
@@ -227,6 +229,12 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 return -1;
             }
             strcpy(cfg->allow_origin[cfg->allow_origin_count++], v);
+        } else if (strcmp(a, "--allow-host") == 0) {
+            if (cfg->allow_host_count == 8 || strlen(v) >= sizeof cfg->allow_host[0]) {
+                fprintf(stderr, "ntscontactd: --allow-host: at most 8, each under 256 bytes\n");
+                return -1;
+            }
+            strcpy(cfg->allow_host[cfg->allow_host_count++], v);
         } else if (strcmp(a, "--log-file") == 0) {
             if (strlen(v) >= sizeof cfg->log_file) {
                 fprintf(stderr, "ntscontactd: --log-file: path too long\n");

@@ -550,6 +550,18 @@ static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r
     return answer_get(c, r);
 }
 
+/* The Host header names one of --allow-host (the port aside): a page whose
+ * name was rebound to this machine's address (DNS rebinding) names its own. */
+static int host_allowed(const ntsd_config* cfg, const char* host) {
+    size_t n;
+    int i;
+    if (host == NULL) return 0;
+    n = host[0] == '[' ? strcspn(host, "]") + 1 : strcspn(host, ":");
+    for (i = 0; i < cfg->allow_host_count; ++i)
+        if (strlen(cfg->allow_host[i]) == n && strncasecmp(host, cfg->allow_host[i], n) == 0) return 1;
+    return 0;
+}
+
 static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd_request* r) {
     const char* ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     const char* cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -572,6 +584,18 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     if (open_connections > s->config.max_connections) {
         r->refusal = "max_connections";
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "too many connections; retry later", NULL, 1);
+    }
+    /* Framing that two parsers may read two ways (request smuggling, RFC 9112
+     * 6.1): libmicrohttpd 0.9.75 takes the chunks; we refuse the request. */
+    if (cl != NULL && te != NULL) {
+        r->refusal = "bad_framing";
+        return reply_error(c, r, ntsj_code_name(NTSJ_BAD_REQUEST),
+                           "Content-Length and Transfer-Encoding together: ambiguous framing", NULL, 1);
+    }
+    if (s->config.allow_host_count > 0 && !host_allowed(&s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST))) {
+        r->refusal = "forbidden";
+        return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
+                           "this Host is not one of the service's names (--allow-host)", NULL, 1);
     }
     {
         /* A web page in a browser sends its Origin: refused unless named. */

@@ -52,6 +52,8 @@ typedef struct ntsd_config {
     int token_count;
     char allow_origin[8][256];
     int allow_origin_count;
+    char allow_host[8][256];  /* --allow-host: the names a request's Host may give (none: any) */
+    int allow_host_count;
     char tls_cert[512], tls_key[512];
     /* What every request hands to the codec: max_bytes (--max-body, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */

@@ -116,7 +116,8 @@ NTS_API int ntsj_error_fields(const char* body, size_t length, char* pointer, si
     XX(TIMEOUT, "timeout", 503)                             \
     XX(UNKNOWN_SCENE, "unknown_scene", 404)                   \
     XX(UNAUTHORIZED, "unauthorized", 401)                     \
-    XX(FORBIDDEN, "forbidden", 403)                 
+    XX(FORBIDDEN, "forbidden", 403)                           \
+    XX(BAD_REQUEST, "bad_request", 400)
 
 typedef enum ntsj_code {
 #define NTSJ_XX_(e, name, status) NTSJ_##e,
