@@ -7,9 +7,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 # valgrind, clang and its sanitizer/fuzzer runtime serve the reliability checks
-# of scripts/test.sh (memcheck of the CLI and daemon, the bounded libFuzzer run).
+# of scripts/test.sh (memcheck of the CLI and daemon, the bounded libFuzzer run);
+# nginx serves the scale-out test (deploy/), openssl makes the HTTPS test's certificate.
 pkgs=(build-essential cmake pkg-config libgsl-dev libcjson-dev libmicrohttpd-dev libcunit1-dev
-      curl python3 python3-venv valgrind clang libclang-rt-14-dev)
+      curl python3 python3-venv valgrind clang libclang-rt-14-dev nginx openssl)
 [ -n "${NTS_EXTRA_PKGS:-}" ] && read -r -a extra <<<"$NTS_EXTRA_PKGS" && pkgs+=("${extra[@]}")
 missing=()
 for p in "${pkgs[@]}"; do

@@ -21,6 +21,7 @@ static const char usage[] =
     "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
     "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
     "                   [--max-memory BYTES] [--log-format text|json] [--allow-host NAME]\n"
+    "                   [--session-id-header NAME]\n"
     "\n"
     "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
     "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
@@ -74,6 +75,10 @@ static const char usage_service[] =
     "                       surface node + 1000000); more -> 400 limit_exceeded\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
     "                       0 = none (default 0); over -> 400 limit_exceeded\n"
+    "  --session-id-header NAME  behind a proxy that routes sessions by id: a new\n"
+    "                       session takes the id this header gives (32-64 URL-safe\n"
+    "                       characters; deploy/nginx.conf sends nginx's $request_id).\n"
+    "                       Only behind a proxy that always sets it\n"
     "  --max-sessions N     scene sessions held at once (default 64); when full, the\n"
     "                       least recently used idle one is evicted\n"
     "  --session-ttl S      a session unused for S seconds is dropped (default 600)\n"
@@ -229,6 +234,12 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 return -1;
             }
             strcpy(cfg->allow_origin[cfg->allow_origin_count++], v);
+        } else if (strcmp(a, "--session-id-header") == 0) {
+            if (strlen(v) == 0 || strlen(v) >= sizeof cfg->session_id_header) {
+                fprintf(stderr, "ntscontactd: --session-id-header: a header name under 64 bytes\n");
+                return -1;
+            }
+            strcpy(cfg->session_id_header, v);
         } else if (strcmp(a, "--allow-host") == 0) {
             if (cfg->allow_host_count == 8 || strlen(v) >= sizeof cfg->allow_host[0]) {
                 fprintf(stderr, "ntscontactd: --allow-host: at most 8, each under 256 bytes\n");

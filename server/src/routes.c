@@ -18,17 +18,22 @@ static int method_in(const char* method, const char* allow) {
     return strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
 }
 
-/* The {id} of /v1/scenes/{id}[/contact]: `n` bytes of base64url of the length
- * the store hands out; anything else names no session. */
-static void take_scene_id(const char* id, size_t n, ntsd_route* r) {
+/* The {id} of /v1/scenes/{id}[/contact]: 32 to 64 URL-safe characters (the
+ * store's own ids, or a proxy's); anything else names no session. */
+int ntsd_is_session_id(const char* id, size_t n) {
     size_t i;
-    r->scene_id[0] = '\0';
-    if (n != NTSD_SESSION_ID_LEN) return;
+    if (n < NTSD_SESSION_ID_MIN || n > NTSD_SESSION_ID_MAX) return 0;
     for (i = 0; i < n; ++i) {
         char c = id[i];
         if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '_'))
-            return;
+            return 0;
     }
+    return 1;
+}
+
+static void take_scene_id(const char* id, size_t n, ntsd_route* r) {
+    r->scene_id[0] = '\0';
+    if (!ntsd_is_session_id(id, n)) return;
     memcpy(r->scene_id, id, n);
     r->scene_id[n] = '\0';
 }

@@ -61,7 +61,8 @@ typedef struct ntsd_request {
     const char* param_names[NTSD_MAX_QUERY_PARAMS];
     const char* param_values[NTSD_MAX_QUERY_PARAMS];
     int too_many_params;
-    char location[16 + NTSD_SESSION_ID_LEN];
+    char location[16 + NTSD_SESSION_ID_MAX];
+    char given_id[NTSD_SESSION_ID_MAX + 1]; /* the proxy's id for a new session (--session-id-header) */
 } ntsd_request;
 
 
@@ -262,13 +263,13 @@ static void resp_error(ntsd_request* r, const char* code, const char* message) {
 static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
     ntsd_server* s = r->server;
     ntsj_session* ss = NULL;
-    char id[NTSD_SESSION_ID_LEN + 1];
+    char id[NTSD_SESSION_ID_MAX + 1];
     ntsj_session_info info;
     int rc;
     r->rc = ntsj_session_create(r->body.data ? r->body.data : "", r->body.length, jc, &ss, &r->resp);
     if (ss == NULL) return;
     info = ntsj_session_get_info(ss);
-    rc = ntsd_sessions_add(&s->sessions, ss, id);
+    rc = ntsd_sessions_add(&s->sessions, ss, r->given_id[0] ? r->given_id : NULL, id);
     if (rc == NTSD_SESSIONS_TOO_LARGE) {
         char msg[160];
         snprintf(msg, sizeof msg, "the session would hold %zu bytes, more than --session-memory = %zu",
@@ -613,6 +614,12 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     }
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
 
+    if (r->route.kind == NTSD_ROUTE_SCENES && s->config.session_id_header[0] != '\0') {
+        /* Behind a proxy that routes sessions by id (deploy/nginx.conf): the
+         * proxy names the new session, so that its steps hash where it lives. */
+        const char* given = MHD_lookup_connection_value(c, MHD_HEADER_KIND, s->config.session_id_header);
+        if (given != NULL && ntsd_is_session_id(given, strlen(given))) copy_str(r->given_id, sizeof r->given_id, given);
+    }
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
         /* A step: JSON positions, raw float64 positions, or nothing at all. */
         const char* accept = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);

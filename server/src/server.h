@@ -54,6 +54,7 @@ typedef struct ntsd_config {
     int allow_origin_count;
     char allow_host[8][256];  /* --allow-host: the names a request's Host may give (none: any) */
     int allow_host_count;
+    char session_id_header[64]; /* --session-id-header: a proxy's id for a new session ("" none) */
     char tls_cert[512], tls_key[512];
     /* What every request hands to the codec: max_bytes (--max-body, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */
@@ -136,10 +137,14 @@ void ntsd_workers_stop(ntsd_workers* w);
 
 /* -------------------------------------------------------------- sessions */
 
-#define NTSD_SESSION_ID_LEN 43 /* 256 random bits in base64url */
+#define NTSD_SESSION_ID_LEN 43 /* the ids it makes: 256 random bits in base64url */
+/* An id given by a proxy in --session-id-header (nginx's $request_id: 128
+ * random bits in hex) may be 32 to 64 URL-safe characters. */
+#define NTSD_SESSION_ID_MIN 32
+#define NTSD_SESSION_ID_MAX 64
 
 typedef struct ntsd_session_entry {
-    char id[NTSD_SESSION_ID_LEN + 1];
+    char id[NTSD_SESSION_ID_MAX + 1];
     ntsj_session* session;
     pthread_mutex_t step_lock; /* one step at a time */
     int users;                 /* requests holding it: never evicted or freed meanwhile */
@@ -174,10 +179,12 @@ enum { NTSD_SESSIONS_FULL = -1, NTSD_SESSIONS_TOO_LARGE = -2 };
 
 int ntsd_sessions_init(ntsd_sessions* st, int max, unsigned ttl_s, size_t memory_max);
 void ntsd_sessions_free(ntsd_sessions* st);
-/* Take ownership of `session` under a new id: 0, NTSD_SESSIONS_FULL (every
+/* Take ownership of `session` under `given_id` (a proxy's, already checked;
+ * NULL, or taken: a new random id): 0, NTSD_SESSIONS_FULL (every
  * session is in use; the caller keeps `session`) or NTSD_SESSIONS_TOO_LARGE
  * (it alone exceeds --session-memory). Evicts idle sessions, LRU first. */
-int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD_SESSION_ID_LEN + 1]);
+int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* given_id,
+                      char id_out[NTSD_SESSION_ID_MAX + 1]);
 /* The session of `id`, held until ntsd_sessions_release, or NULL. */
 ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id);
 /* `stepped_memory`: after a successful step, what the session holds now
@@ -308,9 +315,11 @@ typedef struct ntsd_route {
     const char* allow;   /* the Allow header of the path ("POST", "GET, HEAD") */
     int method_ok;       /* the method is one of `allow` */
     int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
-    char scene_id[NTSD_SESSION_ID_LEN + 1]; /* the {id} of a scene route ("" when malformed: 404) */
+    char scene_id[NTSD_SESSION_ID_MAX + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 
+/* 32 to 64 URL-safe characters: what a session id may be. */
+int ntsd_is_session_id(const char* id, size_t n);
 /* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
 ntsd_route ntsd_route_find(const char* path, const char* method);
 /* 1 when a Content-Type header value names JSON (application/json, *+json); 0 for none. */

@@ -132,7 +132,8 @@ static int new_id(char out[NTSD_SESSION_ID_LEN + 1]) {
     return 0;
 }
 
-int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD_SESSION_ID_LEN + 1]) {
+int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* given_id,
+                      char id_out[NTSD_SESSION_ID_MAX + 1]) {
     ntsd_session_entry* e;
     size_t memory = ntsj_session_get_info(session).memory_bytes + sizeof *e;
     double now = ntsd_now();
@@ -142,6 +143,12 @@ int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD
     if (e == NULL) return NTSD_SESSIONS_FULL;
     {
         int tries, locked = 0;
+        if (given_id != NULL && strlen(given_id) <= NTSD_SESSION_ID_MAX) {
+            strcpy(e->id, given_id);
+            pthread_mutex_lock(&st->lock);
+            if (find_locked(st, e->id) == NULL) locked = 1; /* taken: a new random id below */
+            else pthread_mutex_unlock(&st->lock);
+        }
         for (tries = 0; tries < 4 && !locked; ++tries) {
             if (new_id(e->id) != 0) break;
             pthread_mutex_lock(&st->lock);
@@ -180,7 +187,7 @@ int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, char id_out[NTSD
     st->count++;
     st->memory += memory;
     st->created++;
-    memcpy(id_out, e->id, NTSD_SESSION_ID_LEN + 1);
+    memcpy(id_out, e->id, sizeof e->id);
     pthread_mutex_unlock(&st->lock);
     return 0;
 }

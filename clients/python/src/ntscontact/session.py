@@ -185,7 +185,10 @@ class Session:
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
-        for attempt in (0, 1):
+        # A lost session is created again and the step repeated; twice at most,
+        # for a session re-created while its daemon was away (behind a proxy
+        # that routes by id) can be lost again when that daemon returns.
+        for attempt in range(3):
             # After a re-creation the new session holds the scene's first
             # positions: send ours explicitly.
             send = pos if pos is not None else (self._positions if attempt else None)
@@ -195,7 +198,7 @@ class Session:
                                           params=params, timeout=timeout, expect_json=not binary)
                 break
             except NtsError as exc:
-                if attempt == 0 and exc.status == 404 and exc.code == "unknown_scene":
+                if attempt < 2 and exc.status == 404 and exc.code == "unknown_scene":
                     self._create()
                     self.recreated += 1
                     continue

@@ -1,0 +1,33 @@
+-- wrk script: session steps, cycling over sessions created beforehand.
+--   wrk -t2 -c8 -d10s -s bench/load/steps.lua http://HOST:PORT -- PATHS.txt POSITIONS.bin
+-- PATHS.txt: one /v1/scenes/{id}/contact a line; POSITIONS.bin: the binary body
+-- (16 N bytes, the sessions' node count). The answer is asked for in binary.
+local paths = {}
+local body
+local counter = 0
+
+function init(args)
+   for line in io.lines(args[1]) do
+      if #line > 0 then paths[#paths + 1] = line end
+   end
+   local f = assert(io.open(args[2], "rb"))
+   body = f:read("*a")
+   f:close()
+end
+
+function request()
+   counter = counter + 1
+   local path = paths[(counter % #paths) + 1]
+   return wrk.format("POST", path, {["Content-Type"] = "application/octet-stream",
+                                    ["Accept"] = "application/octet-stream"}, body)
+end
+
+function done(summary, latency, requests)
+   local seconds = summary.duration / 1e6
+   local errors = summary.errors
+   io.write(string.format(
+      "BENCH requests=%d seconds=%.2f rps=%.1f mean_ms=%.3f p50_ms=%.3f p90_ms=%.3f p99_ms=%.3f max_ms=%.3f non2xx=%d socket_errors=%d\n",
+      summary.requests, seconds, summary.requests / seconds, latency.mean / 1e3,
+      latency:percentile(50) / 1e3, latency:percentile(90) / 1e3, latency:percentile(99) / 1e3,
+      latency.max / 1e3, errors.status, errors.connect + errors.read + errors.write + errors.timeout))
+end
