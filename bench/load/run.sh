@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Bounded load test of ntscontactd on 127.0.0.1 (wrk, fixed duration per run).
 #
-#   bench/load/run.sh [--threading per-connection|pool] [--daemon-args "FLAGS"] [--duration S] [--quick]
+#   bench/load/run.sh [--daemon-args "FLAGS"] [--duration S] [--quick]
 #
 # Starts build/bin/ntscontactd (or $NTS_BUILD_DIR/bin) on a free port, then runs,
 # each for S seconds (default 10):
@@ -13,16 +13,14 @@
 # and prints one BENCH/STALL line per run. Needs wrk (Debian: apt-get install wrk).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-threading=per-connection
 daemon_args=""
 duration=10
 while [ $# -gt 0 ]; do
   case "$1" in
-    --threading) threading=$2; shift 2 ;;
     --daemon-args) daemon_args=$2; shift 2 ;;
     --duration) duration=$2; shift 2 ;;
     --quick) duration=3; shift ;;
-    *) echo "usage: $0 [--threading per-connection|pool] [--daemon-args FLAGS] [--duration S] [--quick]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--daemon-args FLAGS] [--duration S] [--quick]" >&2; exit 2 ;;
   esac
 done
 build=${NTS_BUILD_DIR:-build}
@@ -39,13 +37,13 @@ python3 bench/load/make_scene.py --side 2 --nodes 32 >"$work/small.json"
 python3 bench/load/make_scene.py --side 30 --nodes 64 >"$work/large.json"
 
 # shellcheck disable=SC2086 # daemon_args is a list of flags
-"$daemon" --port 0 --quiet --threading "$threading" $daemon_args >"$work/out" 2>"$work/err" &
+"$daemon" --port 0 --quiet $daemon_args >"$work/out" 2>"$work/err" &
 pid=$!
 for _ in $(seq 50); do grep -q listening "$work/out" 2>/dev/null && break; sleep 0.1; done
 port=$(sed -n 's/.*:\([0-9]*\)$/\1/p' "$work/out")
 [ -n "$port" ] || { echo "run.sh: the daemon did not start" >&2; cat "$work/err" >&2; exit 1; }
 url="http://127.0.0.1:$port"
-echo "# ntscontactd --threading $threading $daemon_args on $url, $(nproc) cores, ${duration}s per run"
+echo "# ntscontactd $daemon_args on $url, $(nproc) cores, ${duration}s per run"
 echo "# load average before: $(cut -d" " -f1-3 /proc/loadavg)"
 echo "# small: $(wc -c <"$work/small.json") bytes, large: $(wc -c <"$work/large.json") bytes"
 

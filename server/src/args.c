@@ -13,7 +13,7 @@
 static const char usage[] =
     "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
     "                   [--timeout S] [--max-connections N]\n"
-    "                   [--threading per-connection|pool] [--inline-max BYTES] [--quiet]\n"
+    "                   [--quiet]\n"
     "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
     "                   [--max-nodes-per-body N] [--max-seconds S]\n"
     "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
@@ -30,17 +30,11 @@ static const char usage[] =
     "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
     "  --port N             TCP port, 0 for any free one (default 8080); the bound\n"
     "                       address is printed on stdout: 'ntscontactd listening on HOST:PORT'\n"
-    "  --threads N          evaluations at once; in the pool model also the polling\n"
-    "                       threads (default: online cores)\n"
+    "  --threads N          evaluations at once, each on its connection's thread\n"
+    "                       (default: online cores)\n"
     "  --max-body BYTES     largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
     "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
     "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
-    "  --threading MODEL    per-connection (default): a thread per connection, at most\n"
-    "                       --threads evaluations at once; pool: epoll polling threads,\n"
-    "                       bodies over --inline-max evaluated by --threads evaluation\n"
-    "                       threads while their connection waits (docs/benchmarks.md)\n"
-    "  --inline-max BYTES   pool model: bodies up to this size are evaluated by the\n"
-    "                       polling thread itself (default 64k)\n"
     "  --quiet              no per-request log lines on stderr\n"
     "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
@@ -114,8 +108,6 @@ ntsd_config ntsd_default_config(void) {
     c.codec.threads = 0;             /* concurrency comes from requests, not from inside one */
     c.timeout_s = 30;
     c.max_connections = 256;
-    c.threading = NTSD_THREAD_PER_CONNECTION;
-    c.inline_max = NTSD_INLINE_MAX_BYTES;
     c.quiet = 0;
     c.drain_seconds = 30;
     c.max_per_client = 64;
@@ -125,10 +117,6 @@ ntsd_config ntsd_default_config(void) {
     c.session_ttl_s = 600;
     c.session_memory = (size_t)1 << 30;
     return c;
-}
-
-const char* ntsd_threading_name(ntsd_threading t) {
-    return t == NTSD_THREAD_POOL ? "pool" : "per-connection";
 }
 
 /* An unsigned integer in [lo, hi]; `suffixes` allows k/M/G (binary): the
@@ -268,18 +256,6 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
                 return -1;
             }
             cfg->codec.max_seconds = sec;
-        } else if (strcmp(a, "--inline-max") == 0) {
-            if (parse_unsigned(a, v, 0, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
-            cfg->inline_max = (size_t)n;
-        } else if (strcmp(a, "--threading") == 0) {
-            if (strcmp(v, "pool") == 0) {
-                cfg->threading = NTSD_THREAD_POOL;
-            } else if (strcmp(v, "per-connection") == 0) {
-                cfg->threading = NTSD_THREAD_PER_CONNECTION;
-            } else {
-                fprintf(stderr, "ntscontactd: --threading: expected per-connection or pool, got '%s'\n", v);
-                return -1;
-            }
         } else {
             fprintf(stderr, "ntscontactd: unknown option: %s\n%s%s", a, usage, usage_service);
             return -1;

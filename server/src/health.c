@@ -31,7 +31,7 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  "\"header_timeouts\":%llu,\"client_left\":%llu}\n",
                  st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTS_CONFIG_BUILD_TYPE,
                  NTS_CONFIG_OPENMP ? "true" : "false", NTS_CONFIG_SANITIZE ? "true" : "false", MHD_get_version(),
-                 ntsd_threading_name(c->threading), c->threads, c->codec.max_bytes, c->timeout_s,
+                 "per-connection", c->threads, c->codec.max_bytes, c->timeout_s,
                  c->max_connections, st->uptime_s, st->served, st->in_flight, st->evaluating, st->connections,
                  st->receiving_s, st->handling_s, st->sending_s, ss->held, ss->memory, c->max_sessions,
                  c->session_ttl_s, c->session_memory, ss->created, ss->evicted, ss->expired, ss->deleted,

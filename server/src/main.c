@@ -61,9 +61,8 @@ int main(int argc, char** argv) {
     else
         printf("ntscontactd listening on %s:%u\n", cfg.host, server.port);
     fflush(stdout);
-    ntsd_log_info("threading=%s threads=%d max-body=%zu timeout=%us max-connections=%u",
-                         ntsd_threading_name(cfg.threading), cfg.threads, cfg.codec.max_bytes, cfg.timeout_s,
-                         cfg.max_connections);
+    ntsd_log_info("threads=%d max-body=%zu timeout=%us max-connections=%u max-memory=%zu", cfg.threads,
+                  cfg.codec.max_bytes, cfg.timeout_s, cfg.max_connections, cfg.max_memory);
 
     /* Wait for a stop signal; every few seconds, drop the expired sessions so
      * that their memory does not wait for the next request. */
@@ -91,8 +90,7 @@ int main(int argc, char** argv) {
             struct timespec tick = {0, 50 * 1000 * 1000};
             int again = sigtimedwait(&stop_signals, NULL, &tick);
             if ((again > 0 && again != SIGHUP) || ntsd_now() > deadline) {
-                /* libmicrohttpd would wait for the evaluations (and for suspended
-                 * connections): leave at once. */
+                /* libmicrohttpd would wait for the evaluations: leave at once. */
                 ntsd_log_message("%s: abandoning %d request(s) in flight",
                                  again > 0 ? "second signal" : "--drain-seconds passed", ntsd_server_in_flight(&server));
                 _exit(1);

@@ -39,16 +39,10 @@ typedef struct ntsd_request {
     char method[16];
     char path[256];
     char peer[64];
-    /* Pool model, large bodies: evaluated by a worker while the connection is
-     * suspended (MHD_suspend_connection), then answered when resumed. */
-    ntsd_job job;
-    struct MHD_Connection* conn;
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
     int over_budget;           /* a chunked body outgrew the budget: answer 503 */
     const char* refusal;       /* why the service refused it (the metrics' reason), or NULL */
-    int offloaded;             /* handed to a worker */
-    int evaluated;             /* `resp` and `rc` are filled */
     int pretty;
     int rc;
     ntsj_response resp;
@@ -221,27 +215,6 @@ static void gate_leave(ntsd_server* s) {
     pthread_mutex_unlock(&s->lock);
 }
 
-/* An evaluation starts and ends: counted for health, and gated to --threads at
- * once in the per-connection model (the pool model's workers are the gate). */
-static void evaluation_begin(ntsd_server* s, int gated) {
-    if (gated) {
-        gate_enter(s);
-        return;
-    }
-    pthread_mutex_lock(&s->lock);
-    s->evaluating++;
-    pthread_mutex_unlock(&s->lock);
-}
-
-static void evaluation_end(ntsd_server* s, int gated) {
-    if (gated) {
-        gate_leave(s);
-        return;
-    }
-    pthread_mutex_lock(&s->lock);
-    s->evaluating--;
-    pthread_mutex_unlock(&s->lock);
-}
 
 static int query_flag(struct MHD_Connection* c, const char* name) {
     const char* v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
@@ -302,7 +275,7 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
 }
 
 /* POST /v1/scenes/{id}/contact: one step, serialised per session. */
-static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
+static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     ntsd_server* s = r->server;
     ntsd_session_entry* e;
     ntsj_step st;
@@ -325,21 +298,19 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc, int gated) {
     st.param_names = r->param_names;
     st.param_values = r->param_values;
     pthread_mutex_lock(&e->step_lock);
-    evaluation_begin(s, gated);
+    gate_enter(s);
     r->rc = ntsj_session_step(e->session, &st, jc, &r->resp);
     memory = r->resp.ok ? ntsj_session_get_info(e->session).memory_bytes : 0;
-    evaluation_end(s, gated);
+    gate_leave(s);
     pthread_mutex_unlock(&e->step_lock);
     ntsd_sessions_release(&s->sessions, e, memory);
 }
 
-/* Run the codec on the whole body: fills r->resp and r->rc, frees the body.
- * Per-connection model: at most --threads at once (the gate). Pool model: the
- * caller is a worker, or a polling thread with a small body; never block. */
+/* Run the codec on the whole body, on the connection's own thread: fills
+ * r->resp and r->rc, frees the body. At most --threads at once (the gate). */
 static void evaluate(ntsd_request* r) {
     ntsd_server* s = r->server;
     ntsj_config jc = s->config.codec;
-    int gated = s->config.threading == NTSD_THREAD_PER_CONNECTION;
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
     jc.pretty = r->pretty;
     if (r->link != NULL) { /* the work stops when its client leaves */
@@ -350,19 +321,17 @@ static void evaluate(ntsd_request* r) {
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
         /* Wait for the session before taking an evaluation slot: a step queued
          * behind another on the same session must not hold one. */
-        evaluate_step(r, &jc, gated);
+        evaluate_step(r, &jc);
         ntsd_body_free(&r->body);
-        r->evaluated = 1;
         return;
     }
-    evaluation_begin(s, gated);
+    gate_enter(s);
     if (r->route.kind == NTSD_ROUTE_SCENES)
         evaluate_create(r, &jc);
     else
         r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
-    evaluation_end(s, gated);
+    gate_leave(s);
     ntsd_body_free(&r->body);
-    r->evaluated = 1;
 }
 
 /* Queue the codec's answer. */
@@ -407,15 +376,6 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
     }
     return reply(c, r, (unsigned)r->resp.http_status, r->resp.code ? r->resp.code : "-", body, r->resp.length,
                  nts_free, "application/json", NULL, 0);
-}
-
-/* A worker's job: evaluate, then wake the suspended connection, whose next
- * callback answers. `r` is not touched after the resume. */
-static void run_offloaded(void* arg) {
-    ntsd_request* r = arg;
-    struct MHD_Connection* c = r->conn;
-    evaluate(r);
-    MHD_resume_connection(c);
 }
 
 /* ------------------------------------------------------- memory budget */
@@ -494,18 +454,6 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     r->t_body = ntsd_now();
     if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT)
         MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, collect_param, r);
-    /* Pool model: a step may wait for another on its session, so it never runs
-     * on a polling thread. */
-    if (s->config.threading == NTSD_THREAD_POOL &&
-        (r->body.length > s->config.inline_max || r->route.kind == NTSD_ROUTE_SCENE_CONTACT)) {
-        r->conn = c;
-        r->offloaded = 1;
-        r->job.run = run_offloaded;
-        r->job.arg = r;
-        MHD_suspend_connection(c);
-        ntsd_workers_push(&s->workers, &r->job);
-        return MHD_YES;
-    }
     evaluate(r);
     return reply_evaluated(c, r);
 }
@@ -708,7 +656,6 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     }
 
     if (r->queued) return MHD_YES;
-    if (r->offloaded) return r->evaluated ? reply_evaluated(c, r) : MHD_YES; /* resumed by the worker */
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
@@ -830,7 +777,6 @@ static void release(ntsd_server* s) {
     free(s->tls_cert);
     s->tls_key = s->tls_cert = NULL;
     ntsd_watch_stop(s);
-    ntsd_workers_stop(&s->workers);
     ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);
     pthread_mutex_destroy(&s->lock);
@@ -842,7 +788,6 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     const union MHD_DaemonInfo* info;
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_ITC | MHD_USE_ERROR_LOG;
     unsigned hard_limit;
-    int pool = cfg->threading == NTSD_THREAD_POOL;
 
     memset(s, 0, sizeof *s);
     s->config = *cfg;
@@ -859,7 +804,10 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         a4->sin_port = htons((unsigned short)cfg->port);
         if (inet_pton(AF_INET, cfg->host, &a4->sin_addr) != 1) goto bad_host;
     }
-    flags |= pool ? (MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME) : (MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL);
+    /* A thread per connection, evaluations gated to --threads: measured against
+     * libmicrohttpd's thread pool, which let a large evaluation stall the other
+     * connections (docs/benchmarks.md, "Server"). */
+    flags |= MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL;
 
     /* Room above --max-connections so that the extra clients get a 503 instead
      * of a closed socket. */
@@ -876,11 +824,6 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
-        return -1;
-    }
-    if (pool && ntsd_workers_start(&s->workers, cfg->threads) != 0) {
-        ntsd_log_message("cannot start %d evaluation threads", cfg->threads);
-        release(s);
         return -1;
     }
     s->started = ntsd_now();
@@ -912,8 +855,6 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
         /* HTTPS through libmicrohttpd's GnuTLS (a key and a certificate, or nothing) */
         MHD_OPTION_ARRAY, tls,
-        /* the pool size last: per-connection mode ends the list here */
-        pool && cfg->threads > 1 ? MHD_OPTION_THREAD_POOL_SIZE : MHD_OPTION_END, (unsigned int)cfg->threads,
         MHD_OPTION_END);
     if (s->daemon == NULL) {
         ntsd_log_message("cannot listen on %s port %u", cfg->host, cfg->port);

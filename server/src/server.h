@@ -5,9 +5,12 @@
  *   health.c   GET /v1/health from a snapshot of the counters
  *   sessions.c the scene-session store (ids, LRU, TTL, memory budget)
  *   server.c   libmicrohttpd callbacks, counters, start/stop
- *   workers.c  evaluation threads of the pool model
+ *   watch.c    open connections: the header deadline, clients that left
+ *   metrics.c  GET /metrics (Prometheus text format)
+ *   auth.c     bearer tokens
  *   main.c     signals and lifetime
- * The threading models and why per-connection is the default: docs/benchmarks.md, "Server". */
+ * A thread per connection, evaluations gated to --threads; why (against
+ * libmicrohttpd's thread pool, removed in 0.2): docs/benchmarks.md, "Server". */
 #ifndef NTSD_SERVER_H
 #define NTSD_SERVER_H
 
@@ -21,22 +24,13 @@
 
 /* ------------------------------------------------------------------ args */
 
-typedef enum ntsd_threading {
-    NTSD_THREAD_PER_CONNECTION = 0, /* default: one thread per connection, evaluations gated to --threads */
-    NTSD_THREAD_POOL = 1            /* --threads epoll polling threads; evaluations of large bodies
-                                       on --threads workers (suspend/resume), small ones inline */
-} ntsd_threading;
-
 typedef struct ntsd_config {
     char host[64];           /* numeric IPv4 or IPv6 address */
     unsigned port;           /* 0: any free port (printed on stdout) */
-    int threads;             /* evaluations at once (and pool size); default: online cores */
+    int threads;             /* evaluations at once; default: online cores */
 
     unsigned timeout_s;      /* idle connection timeout and body upload budget; default 30 */
     unsigned max_connections;/* default 256 */
-    ntsd_threading threading;
-    size_t inline_max;       /* pool model: bodies up to this size are evaluated by the polling
-                                thread itself; default 64 KiB (NTSD_INLINE_MAX_BYTES) */
     int quiet;
     unsigned drain_seconds;  /* a terminating signal waits at most this long for the requests in flight */
     unsigned max_per_client; /* connections from one address at once; beyond -> refused */
@@ -70,7 +64,6 @@ size_t ntsd_default_max_memory(void);
 /* 0 on success, 1 when the program should exit 0 (--help, --version), -1 on a
  * usage error (message printed). */
 int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg);
-const char* ntsd_threading_name(ntsd_threading t);
 
 /* ------------------------------------------------------------------ body */
 
@@ -110,30 +103,6 @@ void ntsd_log_request(const char* peer, const char* method, const char* path, in
 double ntsd_now(void);
 /* libmicrohttpd's own diagnostics (MHD_OPTION_EXTERNAL_LOGGER). */
 void ntsd_log_mhd(void* cls, const char* fmt, va_list ap);
-
-/* --------------------------------------------------------------- workers */
-
-/* A job for the evaluation threads; `next` belongs to the queue. */
-typedef struct ntsd_job {
-    void (*run)(void* arg);
-    void* arg;
-    struct ntsd_job* next;
-} ntsd_job;
-
-typedef struct ntsd_workers {
-    pthread_t* threads;
-    int count;
-    pthread_mutex_t lock;
-    pthread_cond_t ready;
-    ntsd_job *head, *tail;
-    int queued, stopping;
-} ntsd_workers;
-
-/* Start `count` threads. 0 or -1. */
-int ntsd_workers_start(ntsd_workers* w, int count);
-void ntsd_workers_push(ntsd_workers* w, ntsd_job* job);
-/* Run what is queued, then join the threads. */
-void ntsd_workers_stop(ntsd_workers* w);
 
 /* -------------------------------------------------------------- sessions */
 
@@ -218,11 +187,6 @@ typedef enum ntsd_route_kind {
 
 /* ---------------------------------------------------------------- server */
 
-/* Default of --inline-max: in the pool model, bodies up to this size are
- * evaluated by the polling thread itself (well under a millisecond); larger
- * ones go to the evaluation threads. */
-#define NTSD_INLINE_MAX_BYTES ((size_t)64 * 1024)
-
 /* The counters behind GET /metrics (metrics.c), guarded by the server's lock. */
 #define NTSD_LATENCY_BUCKETS 14
 #define NTSD_REFUSAL_KINDS 32
@@ -248,7 +212,6 @@ typedef struct ntsd_conn {
 typedef struct ntsd_server {
     ntsd_config config;
     struct MHD_Daemon* daemon;
-    ntsd_workers workers;      /* pool model: the evaluation threads */
     ntsd_sessions sessions;
     unsigned port;             /* the bound port */
     double started;            /* monotonic seconds */

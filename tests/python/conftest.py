@@ -74,7 +74,7 @@ def start_daemon(binary, log_path, *args, timeout=20):
     if not pathlib.Path(binary).exists():
         pytest.fail(f"{binary} is not built (NTS_BUILD_DIR={BUILD})")
     log = open(log_path, "wb")
-    # NTS_DAEMON_ARGS: extra flags for every daemon of the tests (e.g. "--threading pool").
+    # NTS_DAEMON_ARGS: extra flags for every daemon of the tests (e.g. "--threads 1").
     extra = os.environ.get("NTS_DAEMON_ARGS", "").split()
     proc = subprocess.Popen([str(binary), "--port", "0", *extra, *map(str, args)],
                             stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)

@@ -1,6 +1,5 @@
 """Reliability of the daemon under load and faults (issue 7), a short version
-of bench/soak/soak.py, for each threading model of the daemon
-(per-connection, pool): 16 keep-alive clients post valid and invalid scenes for
+of bench/soak/soak.py: 16 keep-alive clients post valid and invalid scenes for
 12 s while fault clients disconnect mid-upload, send garbage, trickle a body,
 announce huge bodies, send oversized headers or nothing; then SIGTERM with the
 load still running and requests held in flight. Every answer is compared with
@@ -23,15 +22,15 @@ def _soak():
     return mod
 
 
-@pytest.fixture(scope="module", params=["per-connection", "pool"])
-def soak_result(request, paths, tmp_path_factory):
+@pytest.fixture(scope="module")
+def soak_result(paths, tmp_path_factory):
     for b in (paths.cli, paths.bin / "ntscontactd"):
         if not b.exists():
             pytest.fail(f"{b} is not built (NTS_BUILD_DIR={paths.build})")
     soak = _soak()
     log = tmp_path_factory.mktemp("soak") / "daemon.log"
     result = soak.run(paths.build, duration=12.0, connections=16, faults=True, sigterm=True, seed=11,
-                      daemon_flags=("--quiet", "--timeout", "2", "--threading", request.param),
+                      daemon_flags=("--quiet", "--timeout", "2"),
                       log=lambda *a: None, log_path=log,
                       variants=2, held=4)
     result["_failures"] = soak.failures(result)

@@ -541,9 +541,7 @@ def in_flight(d):
 
 
 def test_mid_upload_disconnect(daemon_factory, cli_answers, example_bodies):
-    # --timeout 5: in the pool model (epoll, edge-triggered), libmicrohttpd
-    # 0.9.75 may miss a FIN that arrives with the data, and only the idle
-    # timeout then closes the connection (docs/benchmarks.md, "Server").
+    # --timeout 5: the idle timeout bounds any connection the FIN of which is missed.
     d = daemon_factory("--timeout", "5")
     body = example_bodies["jittered_packing"]
     for i in range(20):
@@ -654,16 +652,17 @@ def test_quiet_logs_nothing(daemon_factory, example_bodies):
 
 
 def test_flags_shown_by_health(daemon_factory):
-    for model in ("per-connection", "pool"):
-        d = daemon_factory("--threads", "3", "--max-body", "1M", "--timeout", "7", "--max-connections", "9",
-                           "--threading", model)
-        doc = requests.get(d.url("/v1/health"), timeout=10).json()
-        assert doc["server"] == {"threading": model, "threads": 3, "max_body": 1 << 20, "timeout_s": 7,
-                                 "max_connections": 9}
+    d = daemon_factory("--threads", "3", "--max-body", "1M", "--timeout", "7", "--max-connections", "9",
+                       "--max-memory", "100M")
+    doc = requests.get(d.url("/v1/health"), timeout=10).json()
+    assert doc["server"] == {"threading": "per-connection", "threads": 3, "max_body": 1 << 20, "timeout_s": 7,
+                             "max_connections": 9}
+    assert doc["memory"]["budget_bytes"] == 100 << 20
 
 
 @pytest.mark.parametrize("args", [["--port", "70000"], ["--port", "-1"], ["--threads", "0"], ["--max-body", "12x"],
-                                  ["--timeout", "0"], ["--threading", "fibers"], ["--host", "localhost"],
+                                  ["--timeout", "0"], ["--threading", "pool"], ["--host", "localhost"],
+                                  ["--max-memory", "0"], ["--log-format", "xml"], ["--session-id-header", ""],
                                   ["--bogus"], ["--port"]])
 def test_bad_flags_exit_nonzero(paths, args):
     p = subprocess.run([str(paths.bin / "ntscontactd"), *args], capture_output=True, text=True, timeout=30)

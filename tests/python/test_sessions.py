@@ -2,7 +2,7 @@
 DELETE /v1/scenes/{id}): a step's answer equals, bit for bit, POST /v1/contact
 on the full scene at the same positions and options (summary.elapsed_ms aside),
 in JSON and in binary; bad input gets a 4xx naming its place; the store keeps
-to its bounds. Every test runs against both threading models."""
+to its bounds."""
 import copy
 import json
 import threading
@@ -20,10 +20,9 @@ OCTET = {"Content-Type": "application/octet-stream"}
 BINARY = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
 
 
-@pytest.fixture(scope="module", params=["per-connection", "pool"])
-def daemon(request, paths, tmp_path_factory):
-    d = start_daemon(paths.bin / "ntscontactd", tmp_path_factory.mktemp("sessions") / "daemon.log",
-                     "--threading", request.param, "--threads", "2")
+@pytest.fixture(scope="module")
+def daemon(paths, tmp_path_factory):
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path_factory.mktemp("sessions") / "daemon.log", "--threads", "2")
     yield d
     assert d.stop() == 0, d.log()[-2000:]
 
