@@ -17,6 +17,7 @@
 #include <time.h>
 
 #include <ntscontact/ntscontact.h>
+#include "nts_support.h"
 
 #ifndef NTS_BENCH_VARIANT
 #define NTS_BENCH_VARIANT "after"
@@ -52,15 +53,6 @@ static double cpu_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static uint64_t rng_state = 0x9E3779B97F4A7C15ull;
-static double urand(void) { /* splitmix64, uniform in [0, 1) */
-    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
 }
 
 static int cmp_double(const void* a, const void* b) {
@@ -133,104 +125,24 @@ static long maxrss_kb(void) {
 /* --------------------------------------------------------------- scenes */
 
 /* Bodies as flat node arrays, one loop through all nodes (counter-clockwise). */
-typedef struct scene_buf {
-    int nb;
-    int* count;      /* nodes per body */
-    nts_vec2** nodes;
-    double *cx, *cy, *R; /* the circle each body approximates */
-    double lx, ly;
-    int total;
-} scene_buf;
-
-static void buf_init(scene_buf* b, int nb) {
-    b->nb = nb;
-    b->count = (int*)xmalloc(sizeof(int) * (size_t)nb);
-    b->nodes = (nts_vec2**)xmalloc(sizeof(nts_vec2*) * (size_t)nb);
-    b->cx = (double*)xmalloc(sizeof(double) * (size_t)nb);
-    b->cy = (double*)xmalloc(sizeof(double) * (size_t)nb);
-    b->R = (double*)xmalloc(sizeof(double) * (size_t)nb);
-    b->lx = b->ly = 0.0;
-    b->total = 0;
-}
-static void buf_free(scene_buf* b) {
-    int i;
-    for (i = 0; i < b->nb; ++i) free(b->nodes[i]);
-    free(b->count);
-    free(b->nodes);
-    free(b->cx);
-    free(b->cy);
-    free(b->R);
-}
+/* The scenes (support/nts_support.h, shared with the tests). */
+typedef ntsx_scene scene_buf;
+static void buf_free(scene_buf* b) { ntsx_scene_free(b); }
 
 /* Scene (a): two disks of radius 1 pressed together by `overlap`, n nodes each;
  * the second disk's nodes are offset by half a step (no node-on-node contact). */
 static double g_disk_phase = 0.5; /* offset of the second disk's nodes, in steps */
-static void make_two_disks(scene_buf* b, int n, double overlap) {
-    int k, i;
-    buf_init(b, 2);
-    for (k = 0; k < 2; ++k) {
-        b->count[k] = n;
-        b->nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * (size_t)n);
-        b->cx[k] = k == 0 ? 0.0 : 2.0 - overlap;
-        b->cy[k] = 0.0;
-        b->R[k] = 1.0;
-        for (i = 0; i < n; ++i) {
-            double th = 2.0 * PI * (i + (k == 0 ? 0.0 : g_disk_phase)) / n;
-            b->nodes[k][i] = nts_v2(b->cx[k] + cos(th), b->cy[k] + sin(th));
-        }
-        b->total += n;
-    }
-}
+static void make_two_disks(scene_buf* b, int n, double overlap) { ntsx_two_disks(b, n, overlap, g_disk_phase); }
 
-/* Scene (b): a jittered packing of deformable disks. Particles on a square
- * lattice of spacing 2, centres jittered by +-0.05, radii 1.02 +- 0.03 (so
- * neighbours overlap), 32..64 nodes each at jittered angles and radii (+-0.5%):
- * the disks are slightly deformed polygons. Periodic: the box is the lattice. */
+/* Scene (b): the jittered packing of deformable disks (ntsx_default_packing). */
 static void make_packing(scene_buf* b, int particles, int periodic, uint64_t seed) {
-    int side = (int)ceil(sqrt((double)particles)), p, i;
-    rng_state = seed;
-    buf_init(b, particles);
-    if (periodic) {
-        b->lx = 2.0 * side;
-        b->ly = 2.0 * ((particles + side - 1) / side);
-    }
-    for (p = 0; p < particles; ++p) {
-        int m = 32 + (int)(urand() * 33.0);
-        double cx = 2.0 * (p % side) + 1.0 + 0.1 * (urand() - 0.5);
-        double cy = 2.0 * (p / side) + 1.0 + 0.1 * (urand() - 0.5);
-        double R = 1.02 + 0.06 * (urand() - 0.5), phase = 2.0 * PI * urand();
-        if (m > 64) m = 64;
-        b->count[p] = m;
-        b->nodes[p] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * (size_t)m);
-        b->cx[p] = cx;
-        b->cy[p] = cy;
-        b->R[p] = R;
-        for (i = 0; i < m; ++i) {
-            double th = phase + 2.0 * PI * (i + 0.3 * (urand() - 0.5)) / m;
-            double r = R * (1.0 + 0.01 * (urand() - 0.5));
-            b->nodes[p][i] = nts_v2(cx + r * cos(th), cy + r * sin(th));
-        }
-        b->total += m;
-    }
+    ntsx_packing_def d = ntsx_default_packing(particles, periodic, seed);
+    ntsx_packing(b, &d);
 }
 
 static nts_scene* scene_from(const scene_buf* b) {
-    nts_body_def* defs = (nts_body_def*)xmalloc(sizeof(nts_body_def) * (size_t)b->nb);
-    nts_scene_def def = nts_default_scene_def();
     nts_error err;
-    nts_scene* s;
-    int i;
-    memset(defs, 0, sizeof(nts_body_def) * (size_t)b->nb);
-    for (i = 0; i < b->nb; ++i) {
-        defs[i].nodes = b->nodes[i];
-        defs[i].node_count = b->count[i];
-    }
-    def.bodies = defs;
-    def.body_count = b->nb;
-    def.lx = b->lx;
-    def.ly = b->ly;
-    s = nts_scene_create(&def, &err);
-    free(defs);
+    nts_scene* s = ntsx_scene_create(b, &err);
     if (s == NULL) {
         fprintf(stderr, "nts_bench: scene: %s: %s\n", nts_status_name(err.code), err.message);
         exit(2);
@@ -382,10 +294,11 @@ static void section_packing(const char* dir) {
 
 /* ------------------------------------------------- long-double reference */
 
-typedef long double ld;
-typedef struct lvec {
-    ld x, y;
-} lvec;
+/* The corner's roots come from support/reference.c (shared with the hard-case
+ * tests); the rest of a contact's reference (segments, vertices, the periodic
+ * image) is here. */
+typedef ntsx_ld ld;
+typedef ntsx_lvec lvec;
 static lvec lv(ld x, ld y) { lvec v; v.x = x; v.y = y; return v; }
 static lvec lsub(lvec a, lvec b) { return lv(a.x - b.x, a.y - b.y); }
 static lvec ladd(lvec a, lvec b) { return lv(a.x + b.x, a.y + b.y); }
@@ -399,66 +312,12 @@ static lvec lmin_image(lvec d, double lx, double ly) {
 }
 
 /* The reference of one closest point: same feature, long double, roots of F
- * bracketed on the monotone pieces of [-1, 1] and bisected to the last bit. */
+ * bracketed on the monotone pieces of [-1, 1] and bisected to the last bit
+ * (ntsx_corner_roots). */
 typedef struct ref_point {
     ld param, gap;
     lvec normal;
 } ref_point;
-
-static ld corner_F(lvec A, lvec B, lvec e, ld xi) {
-    lvec r = lsub(e, lscale(xi, ladd(B, lscale(xi, A))));
-    lvec tau = ladd(B, lscale(2 * xi, A));
-    return ldot(r, tau);
-}
-
-/* Every root of F in [-1, 1] in long double: [-1, 1] cut at the critical points
- * of F (roots of F' = -6 A.A xi^2 - 6 A.B xi + 2 e.A - B.B) into monotone pieces,
- * every sign change bisected to the last bit; with no sign change, the better
- * endpoint. Returns how many (1 to 3). */
-static int ref_corner_roots(lvec A, lvec B, lvec e, ld roots[3]) {
-    ld cuts[4];
-    ld qa = -6 * ldot(A, A), qb = -6 * ldot(A, B), qc = 2 * ldot(e, A) - ldot(B, B);
-    int nc = 0, nr = 0, i;
-    cuts[nc++] = -1;
-    if (qa != 0) {
-        ld disc = qb * qb - 4 * qa * qc;
-        if (disc > 0) {
-            ld r1 = (-qb - sqrtl(disc)) / (2 * qa), r2 = (-qb + sqrtl(disc)) / (2 * qa);
-            if (r1 > r2) { ld t = r1; r1 = r2; r2 = t; }
-            if (r1 > -1 && r1 < 1) cuts[nc++] = r1;
-            if (r2 > -1 && r2 < 1) cuts[nc++] = r2;
-        }
-    }
-    cuts[nc++] = 1;
-    for (i = 0; i + 1 < nc; ++i) {
-        ld lo = cuts[i], hi = cuts[i + 1], flo = corner_F(A, B, e, lo), fhi = corner_F(A, B, e, hi);
-        int it;
-        if (flo == 0) { roots[nr++] = lo; continue; }
-        if (fhi == 0) { if (i + 2 == nc) roots[nr++] = hi; continue; }
-        if ((flo > 0) == (fhi > 0)) continue;
-        for (it = 0; it < 200; ++it) {
-            ld mid = 0.5L * (lo + hi), fm;
-            if (!(mid > lo && mid < hi)) break;
-            fm = corner_F(A, B, e, mid);
-            if ((fm > 0) == (flo > 0)) { lo = mid; flo = fm; } else hi = mid;
-        }
-        roots[nr++] = 0.5L * (lo + hi);
-    }
-    if (nr == 0) roots[nr++] = fabsl(corner_F(A, B, e, -1)) <= fabsl(corner_F(A, B, e, 1)) ? -1 : 1;
-    return nr;
-}
-
-/* The root nearest to the slave (the first of equals). */
-static ld ref_nearest_root(lvec A, lvec B, lvec e, const ld* roots, int nr) {
-    ld best = roots[0], bestd = -1;
-    int i;
-    for (i = 0; i < nr; ++i) {
-        lvec r = lsub(e, lscale(roots[i], ladd(B, lscale(roots[i], A))));
-        ld d2 = ldot(r, r);
-        if (bestd < 0 || d2 < bestd) { bestd = d2; best = roots[i]; }
-    }
-    return best;
-}
 
 static double g_lx = 0.0, g_ly = 0.0; /* the periodic box of the scene under test */
 
@@ -487,10 +346,15 @@ static ref_point reference(const nts_scene* s, const nts_contact* c, double alph
         lvec a = lmin_image(lsub(x2, x3), g_lx, g_ly), cc = lmin_image(lsub(x4, x3), g_lx, g_ly);
         lvec d = lmin_image(lsub(xs, x3), g_lx, g_ly);
         ld al = (ld)alpha;
-        lvec A = lscale(al / 4, ladd(a, cc)), B = lscale(al / 2, lsub(cc, a)), e = lsub(d, A);
-        ld roots[3];
-        int nr = ref_corner_roots(A, B, e, roots);
-        ld xi = ref_nearest_root(A, B, e, roots, nr);
+        lvec A = lscale(al / 4, ladd(a, cc)), B = lscale(al / 2, lsub(cc, a));
+        ntsx_corner k;
+        ld roots[3], xi;
+        int nr;
+        k.A = A;
+        k.B = B;
+        k.e = lsub(d, A);
+        nr = ntsx_corner_roots(&k, roots);
+        xi = ntsx_corner_nearest(&k, roots, nr);
         {
             lvec tau = ladd(B, lscale(2 * xi, A)), pt = ladd(A, lscale(xi, ladd(B, lscale(xi, A))));
             ld tl = sqrtl(ldot(tau, tau));
@@ -813,7 +677,7 @@ static void section_threads(const char* dir, int max_threads) {
                 t.eval_cpu = median(tu[th - 1], reps);
                 t.gaps = r1.summary.gaps;
                 t.contacts = r1.summary.contacts;
-                write_timing(f, "packing", 1, b.nb, b.total, sv, o.alpha, th, &t);
+                write_timing(f, "packing", 1, b.body_count, b.total, sv, o.alpha, th, &t);
                 fseek(f, -1, SEEK_CUR);
                 fprintf(f, ",%.3f,%.3f,%d,%.2f\n", median(te[0], reps) / t.eval, best[0] / best[th - 1], same[th - 1],
                         cores);
@@ -856,11 +720,11 @@ static void section_peer(const char* dir) {
         /* header: bodies, search radius, ns per node with the gaps output (wall,
          * median), with the default outputs (wall), surface nodes, ns per node
          * with the gaps output (CPU time, median) */
-        fprintf(f, "%d %.17g %.3f %.3f %d %.3f\n", b.nb, r.summary.search_radius, tg.eval, t.eval, b.total,
+        fprintf(f, "%d %.17g %.3f %.3f %d %.3f\n", b.body_count, r.summary.search_radius, tg.eval, t.eval, b.total,
                 tg.eval_cpu);
-        for (k = 0; k < b.nb; ++k) {
-            fprintf(f, "%d\n", b.count[k]);
-            for (i = 0; i < b.count[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);
+        for (k = 0; k < b.body_count; ++k) {
+            fprintf(f, "%d\n", b.counts[k]);
+            for (i = 0; i < b.counts[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);
         }
         fclose(f);
         snprintf(path, sizeof path, "%s/peer_gaps_%d.csv", dir, sizes[si]);
@@ -879,23 +743,6 @@ static void section_peer(const char* dir) {
 
 /* ------------------------------------------------------------ hard cases */
 
-/* The long-double closest point on one corner (a = X2 - X3, c = X4 - X3, d =
- * Xs - X3), built from the same double inputs as nts_corner_make. */
-static ld ref_corner_xi(nts_vec2 a, nts_vec2 c, double alpha, nts_vec2 d, int* nroots) {
-    nts_contact k;
-    (void)k;
-    {
-        lvec A = lv(0.25L * alpha * ((ld)a.x + c.x), 0.25L * alpha * ((ld)a.y + c.y));
-        lvec B = lv(0.5L * alpha * ((ld)c.x - a.x), 0.5L * alpha * ((ld)c.y - a.y));
-        lvec e = lsub(lpos(d), A);
-        ld roots[3];
-        int nr = ref_corner_roots(A, B, e, roots);
-        ld best = ref_nearest_root(A, B, e, roots, nr);
-        *nroots = nr;
-        return best;
-    }
-}
-
 typedef struct hard_case {
     const char* test; /* the CUnit test that covers it (tests/core/test_hard_cases.c) */
     const char* name;
@@ -907,7 +754,7 @@ typedef struct hard_case {
  * reference, roots and iterations, and the CPU time of one solve. */
 static void hard_row(FILE* f, const hard_case* h) {
     int sv, nref = 0;
-    ld xr = ref_corner_xi(h->a, h->c, h->alpha, h->d, &nref);
+    ld xr = ntsx_corner_xi(h->a, h->c, h->alpha, h->d, &nref);
     nts_corner k = nts_corner_make(h->a, h->c, h->alpha);
     for (sv = 0; sv < 2; ++sv) {
         nts_corner_solution s = nts_corner_solve(k, h->d, (nts_solver)sv);
@@ -973,12 +820,12 @@ static void section_hard(const char* dir) {
         int m = 0, itmax = 0, bad = 0, rep;
         double itsum = 0.0, t0, dt;
         volatile double sink = 0.0;
-        rng_state = 12345u;
+        uint64_t rng = 12345u;
         while (m < (g_quick ? 500 : MAXC)) {
-            double th1 = 2 * PI * urand(), th2 = 2 * PI * urand(), al = 0.05 + 0.45 * urand();
-            nts_vec2 a = nts_scale(0.5 + urand(), nts_v2(cos(th1), sin(th1)));
-            nts_vec2 c = nts_scale(0.5 + urand(), nts_v2(cos(th2), sin(th2)));
-            nts_vec2 d = nts_v2(0.6 * (urand() - 0.5), 0.6 * (urand() - 0.5));
+            double th1 = 2 * PI * ntsx_urand(&rng), th2 = 2 * PI * ntsx_urand(&rng), al = 0.05 + 0.45 * ntsx_urand(&rng);
+            nts_vec2 a = nts_scale(0.5 + ntsx_urand(&rng), nts_v2(cos(th1), sin(th1)));
+            nts_vec2 c = nts_scale(0.5 + ntsx_urand(&rng), nts_v2(cos(th2), sin(th2)));
+            nts_vec2 d = nts_v2(0.6 * (ntsx_urand(&rng) - 0.5), 0.6 * (ntsx_urand(&rng) - 0.5));
             double sp, sj;
             if (fabs(nts_cross(a, c)) < 1e-3 && nts_dot(a, c) > 0) continue;
             sp = nts_dot(nts_sub(d, a), nts_neg(a)) / nts_dot(a, a);
@@ -989,7 +836,7 @@ static void section_hard(const char* dir) {
         }
         for (i = 0; i < m; ++i) {
             int nr;
-            ld xr = ref_corner_xi(A_[i], C_[i], AL_[i], D_[i], &nr);
+            ld xr = ntsx_corner_xi(A_[i], C_[i], AL_[i], D_[i], &nr);
             nts_corner k = nts_corner_make(A_[i], C_[i], AL_[i]);
             nts_corner_solution s = nts_corner_solve(k, D_[i], (nts_solver)sv);
             nts_vec2 ps = nts_corner_point(k, s.xi);
@@ -1031,10 +878,10 @@ static void section_hard(const char* dir) {
         o.outputs = NTS_OUT_ALL;
         o.penalty = 1e4;
         for (si = 0; si < 2; ++si) {
-            buf_init(&b0, 2);
-            buf_init(&b1, 2);
+            ntsx_scene_init(&b0, 2);
+            ntsx_scene_init(&b1, 2);
             for (k = 0; k < 2; ++k) {
-                b0.count[k] = b1.count[k] = 64;
+                b0.counts[k] = b1.counts[k] = 64;
                 b0.nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * 64);
                 b1.nodes[k] = (nts_vec2*)xmalloc(sizeof(nts_vec2) * 64);
                 for (j = 0; j < 64; ++j) {
@@ -1120,7 +967,7 @@ static void section_digest(const char* dir) {
                         h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
                         h = fnv(h, r.contacts, sizeof(nts_contact) * (size_t)r.contact_count);
                         h = fnv(h, r.gaps, sizeof(nts_contact) * (size_t)r.gap_count);
-                        fprintf(f, "%s,%d,%d,%d,%s,%.2f,%s,%d,%d,%016llx\n", name, per, b.nb, b.total,
+                        fprintf(f, "%s,%d,%d,%d,%s,%.2f,%s,%d,%d,%016llx\n", name, per, b.body_count, b.total,
                                 SOLVER_NAMES[sv], o.alpha, se ? "brute_force" : "cells", th, r.gap_count,
                                 (unsigned long long)h);
                     }

@@ -19,6 +19,7 @@
 #include <time.h>
 
 #include <ntscontact/ntscontact.h>
+#include "nts_support.h"
 
 static double now_s(void) {
     struct timespec ts;
@@ -36,62 +37,21 @@ typedef struct built {
     int disk_offset; /* first global node of the disks */
 } built;
 
-/* The container: an outer square and an inner (hole) square whose sides are
- * cut into `pieces` collinear segments each. */
+/* The container (support/scenes.c, shared with tests/core/test_scenes.c):
+ * side x side disks of 32 nodes in an outer square and an inner (hole) square
+ * whose sides are cut into `pieces` collinear segments each. */
 static built build(int side, int pieces, int sharp) {
-    const double pi = 3.14159265358979323846, pitch = 1.98, w = 2.0;
-    const double hi = pitch * side - 0.01; /* every outer disk 0.01 into its walls */
-    int nb = side * side + 1, b, i, k, n_in = 4 * pieces;
-    nts_body_def* defs = calloc((size_t)nb, sizeof *defs);
-    nts_vec2* box = malloc(sizeof(nts_vec2) * (size_t)(4 + n_in));
-    int* loop = malloc(sizeof(int) * (size_t)(4 + n_in));
-    int start[3] = {0, 4, 4 + n_in};
-    nts_vec2** disks = malloc(sizeof(nts_vec2*) * (size_t)nb);
-    nts_scene_def def = nts_default_scene_def();
+    ntsx_scene b;
     nts_error err;
     built out;
-    box[0] = nts_v2(-w, -w);
-    box[1] = nts_v2(hi + w, -w);
-    box[2] = nts_v2(hi + w, hi + w);
-    box[3] = nts_v2(-w, hi + w);
-    /* inner loop, clockwise: (0,0) -> (0,hi) -> (hi,hi) -> (hi,0) */
-    for (k = 0; k < 4; ++k)
-        for (i = 0; i < pieces; ++i) {
-            double f = (double)i / pieces * hi;
-            nts_vec2 p = k == 0 ? nts_v2(0.0, f) : k == 1 ? nts_v2(f, hi) : k == 2 ? nts_v2(hi, hi - f) : nts_v2(hi - f, 0.0);
-            box[4 + k * pieces + i] = p;
-        }
-    for (i = 0; i < 4 + n_in; ++i) loop[i] = i;
-    defs[0].nodes = box;
-    defs[0].node_count = 4 + n_in;
-    defs[0].loop_nodes = loop;
-    defs[0].loop_start = start;
-    defs[0].loop_count = 2;
-    defs[0].has_alpha = sharp;
-    defs[0].alpha = 0.0;
-    for (b = 1; b < nb; ++b) {
-        int ix = (b - 1) % side, iy = (b - 1) / side;
-        disks[b] = malloc(sizeof(nts_vec2) * 32);
-        for (i = 0; i < 32; ++i) {
-            double th = 2.0 * pi * (i + 0.37 * b) / 32.0;
-            disks[b][i] = nts_v2(0.99 + pitch * ix + cos(th), 0.99 + pitch * iy + sin(th));
-        }
-        defs[b].nodes = disks[b];
-        defs[b].node_count = 32;
-    }
-    def.bodies = defs;
-    def.body_count = nb;
-    out.scene = nts_scene_create(&def, &err);
+    ntsx_container(&b, side, pieces, 32, sharp);
+    out.scene = ntsx_scene_create(&b, &err);
+    out.disk_offset = b.counts[0];
+    ntsx_scene_free(&b);
     if (out.scene == NULL) {
         fprintf(stderr, "scenes_bench: %s: %s\n", nts_status_name(err.code), err.message);
         exit(2);
     }
-    out.disk_offset = 4 + n_in;
-    for (b = 1; b < nb; ++b) free(disks[b]);
-    free(disks);
-    free(box);
-    free(loop);
-    free(defs);
     return out;
 }
 

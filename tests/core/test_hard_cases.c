@@ -1,11 +1,12 @@
 /* Hard cases (docs/model.md §4; docs/hard-cases.md): both corner
- * solvers against a long-double reference, and no NaN ever. The reference finds
- * every sign change of F on a fine grid of [-1, 1] and bisects it in long double,
- * then takes the root nearest to the slave. */
+ * solvers against a long-double reference, and no NaN ever. The reference cuts
+ * [-1, 1] at the critical points of F, bisects every sign change in long
+ * double, then takes the root nearest to the slave (support/reference.c). */
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "nts_support.h"
 #include "suites.h"
 #include "test_util.h"
 
@@ -14,50 +15,12 @@ typedef struct ref_solution {
     int roots;
 } ref_solution;
 
-static long double ref_f(const long double A[2], const long double B[2], const long double e[2], long double xi) {
-    long double rx = e[0] - xi * (B[0] + A[0] * xi), ry = e[1] - xi * (B[1] + A[1] * xi);
-    long double tx = B[0] + 2 * A[0] * xi, ty = B[1] + 2 * A[1] * xi;
-    return rx * tx + ry * ty;
-}
-
+/* The long-double reference (support/reference.c, shared with nts_bench): every
+ * root of F on the monotone pieces of [-1, 1], bisected to the last bit, the
+ * nearest one taken. */
 static ref_solution reference(nts_vec2 a, nts_vec2 c, double alpha, nts_vec2 d) {
-    /* Same corner as nts_corner_make, in long double from the same inputs. */
-    long double A[2], B[2], e[2], best_d2 = -1, roots[16];
-    ref_solution out = {0, 0};
-    int nroot = 0, i, k;
-    const int grid = 4000;
-    A[0] = 0.25L * alpha * ((long double)a.x + c.x);
-    A[1] = 0.25L * alpha * ((long double)a.y + c.y);
-    B[0] = 0.5L * alpha * ((long double)c.x - a.x);
-    B[1] = 0.5L * alpha * ((long double)c.y - a.y);
-    e[0] = (long double)d.x - A[0];
-    e[1] = (long double)d.y - A[1];
-    for (i = 0; i < grid && nroot < 16; ++i) {
-        long double u = -1.0L + 2.0L * i / grid, v = -1.0L + 2.0L * (i + 1) / grid;
-        long double fu = ref_f(A, B, e, u), fv = ref_f(A, B, e, v);
-        if (fu == 0) { roots[nroot++] = u; continue; }
-        if (i == grid - 1 && fv == 0) { roots[nroot++] = v; continue; }
-        if ((fu > 0) != (fv > 0)) {
-            for (k = 0; k < 200; ++k) {
-                long double m = 0.5L * (u + v), fm = ref_f(A, B, e, m);
-                if ((fm > 0) == (fu > 0)) { u = m; fu = fm; } else v = m;
-            }
-            roots[nroot++] = 0.5L * (u + v);
-        }
-    }
-    if (nroot == 0) {
-        /* Touching root without a sign change (endpoint or double root): take the
-         * grid minimum of |F| refined by golden section is overkill here; use the
-         * endpoint with the smaller |F|. */
-        roots[nroot++] = fabsl(ref_f(A, B, e, -1)) <= fabsl(ref_f(A, B, e, 1)) ? -1.0L : 1.0L;
-    }
-    for (i = 0; i < nroot; ++i) {
-        long double xi = roots[i];
-        long double rx = e[0] - xi * (B[0] + A[0] * xi), ry = e[1] - xi * (B[1] + A[1] * xi);
-        long double d2 = rx * rx + ry * ry;
-        if (best_d2 < 0 || d2 < best_d2) { best_d2 = d2; out.xi = xi; }
-    }
-    out.roots = nroot;
+    ref_solution out;
+    out.xi = ntsx_corner_xi(a, c, alpha, d, &out.roots);
     return out;
 }
 

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "suites.h"
+#include "nts_support.h"
 #include "test_util.h"
 
 /* A body definition over a test body, with loops when it has them. */
@@ -60,24 +61,17 @@ static int same_result(const nts_scene* s, const nts_result* a, const nts_result
  * every cell their reach box overlaps) gives brute force's result, bitwise. */
 static void check_container(double alpha, double radius, int threads) {
     enum { SIDE = 6 };
-    test_body* b = (test_body*)calloc(SIDE * SIDE + 1, sizeof(test_body));
-    nts_body_def defs[SIDE * SIDE + 1];
+    ntsx_scene b;
     nts_scene* s;
     nts_context *cc = nts_context_create(), *cb = nts_context_create();
     nts_options o = nts_default_options();
     nts_result rc, rb;
     nts_error err;
-    int i, j, n = 0;
-    make_container(&b[n], 0.0, 1.98 * SIDE - 0.01, 1.0); /* every outer disk 0.01 into its walls */
-    defs[n] = def_of(&b[n]);
-    ++n;
-    for (j = 0; j < SIDE; ++j)
-        for (i = 0; i < SIDE; ++i) {
-            make_polygon(&b[n], 24, 1.0, nts_v2(0.99 + 1.98 * i, 0.99 + 1.98 * j), 0.1 * n);
-            defs[n] = def_of(&b[n]);
-            ++n;
-        }
-    s = scene_of(defs, n, 0.0, 0.0, &err);
+    int i;
+    /* The scene of scenes_bench (support/scenes.c): every outer disk 0.01 into its walls. */
+    ntsx_container(&b, SIDE, 1, 24, 0);
+    s = ntsx_scene_create(&b, &err);
+    ntsx_scene_free(&b);
     CU_ASSERT_FATAL(s != NULL);
     o.alpha = alpha;
     o.search_radius = radius;
@@ -100,7 +94,6 @@ static void check_container(double alpha, double radius, int threads) {
     nts_context_destroy(cc);
     nts_context_destroy(cb);
     nts_scene_destroy(s);
-    free(b);
 }
 
 static void test_long_walls_equal_brute_force(void) {

@@ -1,3 +1,6 @@
+#include <stdint.h>
+
+#include "nts_support.h"
 #include "test_util.h"
 
 #include <stdlib.h>
@@ -50,26 +53,29 @@ nts_scene* make_scene(const test_body* bodies, int count, double lx, double ly) 
 }
 
 test_packing make_packing(int count, int nodes, double radius, double spacing, int periodic, unsigned long long seed) {
+    /* The benchmarks' generator (support/scenes.c) with the tests' spread:
+     * centres +- 5% of the spacing, radii +- 4%, node radii +- 2%, no angle jitter. */
+    ntsx_packing_def d = ntsx_default_packing(count, periodic, (uint64_t)seed);
+    ntsx_scene x;
     test_packing p;
-    test_rng rng = {seed * 0x9E3779B97F4A7C15ULL + 1ULL};
-    int side = (int)ceil(sqrt((double)count)), i;
+    int i, k;
+    d.nodes_min = d.nodes_max = nodes;
+    d.spacing = spacing;
+    d.radius = radius;
+    d.centre_jitter = 0.1 * spacing;
+    d.radius_jitter = 0.08 * radius;
+    d.angle_jitter = 0.0;
+    d.node_jitter = 0.04;
+    ntsx_packing(&x, &d);
     p.bodies = (test_body*)calloc((size_t)count, sizeof(test_body));
     p.count = count;
-    p.lx = periodic ? side * spacing : 0.0;
-    p.ly = periodic ? side * spacing : 0.0;
+    p.lx = x.lx;
+    p.ly = x.ly;
     for (i = 0; i < count; ++i) {
-        int gx = i % side, gy = i / side, k;
-        nts_vec2 c = nts_v2((gx + 0.5) * spacing + 0.1 * spacing * (rng_uniform(&rng) - 0.5),
-                            (gy + 0.5) * spacing + 0.1 * spacing * (rng_uniform(&rng) - 0.5));
-        double r = radius * (1.0 + 0.08 * (rng_uniform(&rng) - 0.5));
-        make_polygon(&p.bodies[i], nodes, r, c, 6.283185307179586 * rng_uniform(&rng));
-        /* Deform: jitter the radius of every node a little. */
-        for (k = 0; k < nodes; ++k) {
-            nts_vec2 d = nts_sub(p.bodies[i].nodes[k], c);
-            double f = 1.0 + 0.04 * (rng_uniform(&rng) - 0.5);
-            p.bodies[i].nodes[k] = nts_add(c, nts_scale(f, d));
-        }
+        p.bodies[i].node_count = x.counts[i];
+        for (k = 0; k < x.counts[i]; ++k) p.bodies[i].nodes[k] = x.nodes[i][k];
     }
+    ntsx_scene_free(&x);
     return p;
 }
 
