@@ -20,6 +20,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     int i;
     if (ctx == NULL) return 0;
     n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) + (size_t)ctx->hot_cap * sizeof(master_hot) +
+        (size_t)ctx->keys_cap * sizeof(master_key) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
@@ -58,6 +59,7 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->seg);
     nts_cells_free(&ctx->cells);
     nts_free(ctx->hot);
+    nts_free(ctx->keys);
     workers_free(ctx);
     nts_free(ctx->forces);
     nts_free(ctx->contacts);

@@ -98,6 +98,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.cell_reach2 = 0.0;
     env.cell_cull = 0;
     env.cells = NULL;
+    if ((rc = nts_grow((void**)&ctx->keys, &ctx->keys_cap, s->surface_count, sizeof(master_key))) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    env.keys = ctx->keys;
     if ((rc = nts_grow((void**)&ctx->hot, &ctx->hot_cap, s->surface_count, sizeof(master_hot))) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
     env.hot = ctx->hot;

@@ -35,6 +35,10 @@ void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double
             ctx->long_hot[ctx->long_count++] = *m;
             m->reach2 = -1.0;
         }
+        ctx->keys[e].p = m->p;
+        ctx->keys[e].reach2 = m->reach2;
+        ctx->keys[e].body = b;
+        ctx->keys[e].unused = 0;
     }
 }
 

@@ -154,6 +154,32 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     }
 }
 
+/* The masters e0..e1 (cell order) offered to a slave in two passes: first the
+ * cheap reject over the compact keys, the survivors appended without a branch
+ * (most masters a slave visits are its own body's or out of reach, and their
+ * verdict is hard to predict); then the features of the few survivors.
+ * try_master repeats the same reject with the same arithmetic, so the
+ * survivors and every result are those of a single pass, bitwise. */
+static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w, nts_vec2 xs, int slave_body,
+                                               int e0, int e1, const int periodic) {
+    enum { CHUNK = 128 };
+    const master_key* keys = env->keys;
+    int kept[CHUNK];
+    while (e0 < e1) {
+        const int stop = e1 - e0 > CHUNK ? e0 + CHUNK : e1;
+        int e, n = 0;
+        for (e = e0; e < stop; ++e) {
+            const master_key* k = &keys[e];
+            nts_vec2 d = search_diff(env, xs, k->p, periodic);
+            double d2 = d.x * d.x + d.y * d.y;
+            kept[n] = e;
+            n += (d2 <= k->reach2) & (k->body != slave_body);
+        }
+        for (e = 0; e < n; ++e) try_master(env, w, xs, slave_body, &env->hot[kept[e]], periodic);
+        e0 = stop;
+    }
+}
+
 /* flush_slave writes every field of a record instead of clearing it first: that
  * gives the same bytes only while nts_contact has no padding (compile-time check). */
 typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
@@ -274,7 +300,6 @@ static inline double cell_gap(double f, int o, double h) {
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
                                                   const int periodic) {
     const nts_scene* s = env->s;
-    const master_hot* hot = env->hot;
     const nts_cells* cl = env->cells;
     const int nx = cl->nx, ny = cl->ny;
     const double reach2 = env->cell_reach2;
@@ -347,15 +372,10 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     re[nr++] = cl->cell_start[row + hi + 1];
                 }
             }
-            for (q = 0; q < nr; ++q) {
-                int e;
-                for (e = rb[q]; e < re[q]; ++e) try_master(env, w, xs, bi, &hot[e], periodic);
-            }
+            for (q = 0; q < nr; ++q) try_range(env, w, xs, bi, rb[q], re[q], periodic);
         } else {
-            for (q = 0; q < st.n; ++q) {
-                int e, e0 = cl->cell_start[st.cell[q]], e1 = cl->cell_start[st.cell[q] + 1];
-                for (e = e0; e < e1; ++e) try_master(env, w, xs, bi, &hot[e], periodic);
-            }
+            for (q = 0; q < st.n; ++q)
+                try_range(env, w, xs, bi, cl->cell_start[st.cell[q]], cl->cell_start[st.cell[q] + 1], periodic);
         }
         if (env->long_start != NULL) {
             /* The long masters whose reach box overlaps the slave's own cell. */

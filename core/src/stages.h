@@ -45,6 +45,17 @@ typedef struct master_hot {
     int entry;       /* surface entry j */
 } master_hot;
 
+/* What the first pass of the search reads of a master (32 bytes, in the
+ * order of master_hot): the cheap reject alone, so that the masters a slave
+ * visits and drops (most of them: its own body's, and those out of reach)
+ * cost two loads and no branch (search.c). */
+typedef struct master_key {
+    nts_vec2 p;      /* X_j, as in master_hot */
+    double reach2;   /* as in master_hot */
+    int body;
+    int unused;
+} master_key;
+
 /* The best candidate so far of one (slave, master body) pair. Only what the
  * selection needs; the full nts_contact is made once, when the slave is done. */
 typedef struct candidate {
@@ -78,6 +89,8 @@ struct nts_context {
     nts_cells cells;
     master_hot* hot;   /* masters in cell order (or entry order for brute force) */
     int hot_cap;
+    master_key* keys;  /* their cheap rejects, same order */
+    int keys_cap;
     worker* workers;
     int worker_count, slot_cap;
     nts_vec2* forces;
@@ -106,6 +119,7 @@ typedef struct search_env {
     const seg_data* seg;
     const nts_cells* cells;  /* NULL: brute force */
     const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
+    const master_key* keys;  /* hot's rejects, same order */
     const master_hot* long_hot; /* the long entries, listed per cell by long_start/long_items */
     const int* long_start;
     const int* long_items;
