@@ -19,12 +19,13 @@ static inline int clamp_index(double v, int n) {
     return (int)v;
 }
 
-int nts_cells_build(nts_cells* c, const nts_scene* s, double h) {
+int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads) {
     const int n = s->surface_count;
     /* The grid never has more than about 4 cells per surface node, whatever the
      * spread of the bodies: h only grows, which the search allows (h >= L_max + r). */
     const double cap = 4.0 * (double)n + 16.0;
     int i, ncell, rc;
+    (void)threads; /* without OpenMP */
     assert(h > 0.0);
     c->periodic = s->lx > 0.0;
     if (c->periodic) {
@@ -73,6 +74,8 @@ int nts_cells_build(nts_cells* c, const nts_scene* s, double h) {
         c->cap_items = cap_items;
     }
     memset(c->cell_start, 0, sizeof(int) * (size_t)(ncell + 1));
+    /* The cell of each entry (in parallel: each is its own), then the counts. */
+    NTS_PARALLEL_FOR(threads)
     for (i = 0; i < n; ++i) {
         nts_vec2 p = s->pos[s->surf_node[i]];
         double x = p.x - c->x0, y = p.y - c->y0;
@@ -84,8 +87,8 @@ int nts_cells_build(nts_cells* c, const nts_scene* s, double h) {
         cx = clamp_index(x / c->hx, c->nx);
         cy = clamp_index(y / c->hy, c->ny);
         c->entry_cell[i] = cy * c->nx + cx;
-        ++c->cell_start[c->entry_cell[i] + 1];
     }
+    for (i = 0; i < n; ++i) ++c->cell_start[c->entry_cell[i] + 1];
     /* Counting sort: prefix sums, then place entries in increasing order, so each
      * cell lists its entries in ascending order (determinism). */
     for (i = 0; i < ncell; ++i) c->cell_start[i + 1] += c->cell_start[i];

@@ -34,28 +34,49 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
     if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
     memset(out, 0, sizeof *out);
+#if NTS_CONFIG_OPENMP
+    if (opt->threads > 1) nthreads = opt->threads;
+    if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
+#endif
 
     /* Segment data; a zero-length segment (possible after new positions) is an
      * error, never a division by zero. */
     if ((rc = nts_grow((void**)&ctx->seg, &ctx->seg_cap, s->surface_count, sizeof(seg_data))) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
-    for (i = 0; i < s->surface_count; ++i) {
-        seg_data* sd = &ctx->seg[i];
-        double l2;
-        sd->t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], s->pos[s->surf_node[i]]);
-        l2 = nts_length_sq(sd->t);
-        /* The supported range (scene.c): nts_scene_set_positions does not check
-         * it, and 1/|t|^2 must not overflow. */
-        if (!(l2 >= 1e-200) || !(l2 <= 1e201)) {
-            char msg[160];
-            snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
-                     s->surf_body[i], s->surf_local[i], sqrt(l2));
-            return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[i], s->surf_local[i], msg);
+    {
+        /* Each segment is its own (in parallel); the first bad one in entry
+         * order is the error, whatever the threads. */
+        int bad = s->surface_count;
+        NTS_PARALLEL_FOR(nthreads)
+        for (i = 0; i < s->surface_count; ++i) {
+            seg_data* sd = &ctx->seg[i];
+            double l2;
+            sd->t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], s->pos[s->surf_node[i]]);
+            l2 = nts_length_sq(sd->t);
+            /* The supported range (scene.c): nts_scene_set_positions does not check
+             * it, and 1/|t|^2 must not overflow. */
+            if (!(l2 >= 1e-200) || !(l2 <= 1e201)) {
+                sd->len = -1.0;
+                continue;
+            }
+            sd->len = sqrt(l2);
+            sd->inv_len2 = 1.0 / l2;
+            sd->n = nts_v2(sd->t.y / sd->len, -sd->t.x / sd->len);
         }
-        sd->len = sqrt(l2);
-        sd->inv_len2 = 1.0 / l2;
-        sd->n = nts_v2(sd->t.y / sd->len, -sd->t.x / sd->len);
-        if (sd->len > lmax) lmax = sd->len;
+        for (i = 0; i < s->surface_count; ++i) { /* serial: the first bad one, and the longest */
+            if (!(ctx->seg[i].len > 0.0)) {
+                bad = i;
+                break;
+            }
+            if (ctx->seg[i].len > lmax) lmax = ctx->seg[i].len;
+        }
+        if (bad < s->surface_count) {
+            char msg[160];
+            double l2 = nts_length_sq(ctx->seg[bad].t);
+            snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
+                     s->surf_body[bad], s->surf_local[bad], sqrt(l2));
+            return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[bad], s->surf_local[bad], msg);
+        }
     }
 
     t1 = wall_time();
@@ -78,6 +99,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
      * and the 95th percentile of the masters' reach lengths. */
     if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, s->surface_count, sizeof(double))) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
+    NTS_PARALLEL_FOR(nthreads)
     for (i = 0; i < s->surface_count; ++i) ctx->scratch[i] = ctx->seg[i].len;
     env.r = opt->search_radius < 0.0 ? nts_select_kth(ctx->scratch, s->surface_count, (s->surface_count - 1) / 2)
                                      : opt->search_radius;
@@ -110,6 +132,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         const long long budget = 4LL * s->surface_count + 4096;
         double scale, pad, hc;
         int round;
+        NTS_PARALLEL_FOR(nthreads)
         for (i = 0; i < s->surface_count; ++i)
             ctx->scratch[i] = reach_length(ctx->seg, s, i, alpha_of_body(s, s->surf_body[i], env.alpha));
         hc = nts_select_kth(ctx->scratch, s->surface_count, (int)(0.95 * (double)(s->surface_count - 1))) + env.r;
@@ -121,9 +144,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
          * are listed in every cell their reach box overlaps. Too many such
          * pairs: coarsen, at most until hc = L_max + r, where none is left. */
         for (round = 0;; ++round) {
-            if ((rc = nts_cells_build(&ctx->cells, s, hc)) != NTS_OK)
+            if ((rc = nts_cells_build(&ctx->cells, s, hc, nthreads)) != NTS_OK)
                 return eval_fail(err, rc, -1, -1, "out of memory");
-            nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0);
+            nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, nthreads);
             scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
             pad = 1e-12 * scale;
             if (ctx->long_count == 0) break;
@@ -145,16 +168,12 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.cell_cull = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
         env.cell_reach2 = (hc * (1.0 + 1e-9) + pad) * (hc * (1.0 + 1e-9) + pad);
     } else {
-        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0);
+        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, nthreads);
     }
 
     t1 = wall_time();
     ctx->phase[1] = t1 - t0;
     t0 = t1;
-#if NTS_CONFIG_OPENMP
-    if (opt->threads > 1) nthreads = opt->threads;
-    if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
-#endif
     if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count)) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
 

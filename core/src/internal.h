@@ -85,6 +85,15 @@ int nts_triangle_winding(const nts_vec2* nodes, const int v[3], double lx, doubl
 
 /* Cell list (cell_list.c): square-ish buckets of side >= h over the surface nodes,
  * built with a counting sort. Buffers grow only. */
+/* A loop whose iterations touch only their own elements, run on `n` threads
+ * when there are several (OpenMP); its result never depends on `n`. */
+#if NTS_CONFIG_OPENMP
+#define NTS_PRAGMA_(x) _Pragma(#x)
+#define NTS_PARALLEL_FOR(n) NTS_PRAGMA_(omp parallel for num_threads(n) if ((n) > 1) schedule(static))
+#else
+#define NTS_PARALLEL_FOR(n)
+#endif
+
 typedef struct nts_cells {
     double x0, y0, hx, hy;
     int nx, ny;
@@ -94,7 +103,8 @@ typedef struct nts_cells {
     int* entry_cell; /* surface entry -> cell */
     int cap_cells, cap_items;
 } nts_cells;
-int nts_cells_build(nts_cells* c, const nts_scene* s, double h);
+/* `threads`: for the binning of the entries (the result does not depend on it). */
+int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads);
 void nts_cells_free(nts_cells* c);
 /* The cells of the 3x3 stencil around a cell, each with its offset (ox, oy)
  * in cells. In a periodic grid narrower than 3 cells the wrapped neighbours

@@ -13,9 +13,13 @@
  * record here offers nothing, and a copy with its real reach goes to
  * ctx->long_hot. A body with role "slave" offers nothing at all. */
 void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
-                     double long_len) {
+                     double long_len, int threads) {
     int e;
+    (void)threads; /* without OpenMP */
     ctx->long_count = 0;
+    /* Every record is its own (in parallel); the long ones are then copied out
+     * in entry order, by one thread (the long lists' order is the result's). */
+    NTS_PARALLEL_FOR(threads)
     for (e = 0; e < s->surface_count; ++e) {
         int j = order != NULL ? order[e] : e, b = s->surf_body[j];
         master_hot* m = &ctx->hot[e];
@@ -29,17 +33,18 @@ void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double
         m->alpha = a;
         m->body = b;
         m->entry = j;
-        if (s->body_role[b] == NTS_ROLE_SLAVE) {
-            m->reach2 = -1.0;
-        } else if (long_len > 0.0 && len > long_len) {
-            ctx->long_hot[ctx->long_count++] = *m;
-            m->reach2 = -1.0;
-        }
+        if (s->body_role[b] == NTS_ROLE_SLAVE) m->reach2 = -1.0;
         ctx->keys[e].p = m->p;
         ctx->keys[e].reach2 = m->reach2;
         ctx->keys[e].body = b;
-        ctx->keys[e].unused = 0;
+        ctx->keys[e].is_long = s->body_role[b] != NTS_ROLE_SLAVE && long_len > 0.0 && len > long_len;
     }
+    if (long_len > 0.0)
+        for (e = 0; e < s->surface_count; ++e)
+            if (ctx->keys[e].is_long) {
+                ctx->long_hot[ctx->long_count++] = ctx->hot[e];
+                ctx->hot[e].reach2 = ctx->keys[e].reach2 = -1.0;
+            }
 }
 
 /* The k-th smallest of v[0..n) (v is reordered): quickselect with a
