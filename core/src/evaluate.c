@@ -137,16 +137,14 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             ctx->scratch[i] = reach_length(ctx->seg, s, i, alpha_of_body(s, s->surf_body[i], env.alpha));
         hc = nts_select_kth(ctx->scratch, s->surface_count, (int)(0.95 * (double)(s->surface_count - 1))) + env.r;
         if (hc > h) hc = h;
-        if ((rc = nts_grow((void**)&ctx->long_hot, &ctx->long_hot_cap, s->surface_count, sizeof(master_hot))) !=
-            NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
         /* The cell side hc >= (typical reach) + r: masters that reach farther
          * are listed in every cell their reach box overlaps. Too many such
          * pairs: coarsen, at most until hc = L_max + r, where none is left. */
         for (round = 0;; ++round) {
             if ((rc = nts_cells_build(&ctx->cells, s, hc, nthreads)) != NTS_OK)
                 return eval_fail(err, rc, -1, -1, "out of memory");
-            nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, nthreads);
+            if ((rc = nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, nthreads)) != NTS_OK)
+                return eval_fail(err, rc, -1, -1, "out of memory");
             scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
             pad = 1e-12 * scale;
             if (ctx->long_count == 0) break;
@@ -168,7 +166,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.cell_cull = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
         env.cell_reach2 = (hc * (1.0 + 1e-9) + pad) * (hc * (1.0 + 1e-9) + pad);
     } else {
-        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, nthreads);
+        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, nthreads); /* no long lists: cannot fail */
     }
 
     t1 = wall_time();

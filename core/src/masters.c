@@ -12,9 +12,9 @@
  * (the cell side minus r) is searched through the long lists instead: its
  * record here offers nothing, and a copy with its real reach goes to
  * ctx->long_hot. A body with role "slave" offers nothing at all. */
-void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
-                     double long_len, int threads) {
-    int e;
+int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
+                 double long_len, int threads) {
+    int e, count = 0, rc;
     (void)threads; /* without OpenMP */
     ctx->long_count = 0;
     /* Every record is its own (in parallel); the long ones are then copied out
@@ -39,12 +39,17 @@ void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double
         ctx->keys[e].body = b;
         ctx->keys[e].is_long = s->body_role[b] != NTS_ROLE_SLAVE && long_len > 0.0 && len > long_len;
     }
-    if (long_len > 0.0)
-        for (e = 0; e < s->surface_count; ++e)
-            if (ctx->keys[e].is_long) {
-                ctx->long_hot[ctx->long_count++] = ctx->hot[e];
-                ctx->hot[e].reach2 = ctx->keys[e].reach2 = -1.0;
-            }
+    if (!(long_len > 0.0)) return NTS_OK;
+    for (e = 0; e < s->surface_count; ++e) count += ctx->keys[e].is_long;
+    /* Sized to the long masters, usually a few walls, not to every entry. */
+    if (count > 0 && (rc = nts_grow((void**)&ctx->long_hot, &ctx->long_hot_cap, count, sizeof(master_hot))) != NTS_OK)
+        return rc;
+    for (e = 0; e < s->surface_count; ++e)
+        if (ctx->keys[e].is_long) {
+            ctx->long_hot[ctx->long_count++] = ctx->hot[e];
+            ctx->hot[e].reach2 = ctx->keys[e].reach2 = -1.0;
+        }
+    return NTS_OK;
 }
 
 /* The k-th smallest of v[0..n) (v is reordered): quickselect with a

@@ -158,8 +158,9 @@ static inline double alpha_of_body(const nts_scene* s, int b, double alpha) {
 /* context.c: `count` workers with a body slot map of at least body_count entries. */
 int nts_workers_prepare(nts_context* ctx, int count, int body_count);
 /* masters.c */
-void nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r, double long_len,
-                  int threads);
+/* NTS_OK, or NTS_ENOMEM (the long masters' copies). */
+int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r, double long_len,
+                 int threads);
 double nts_select_kth(double* v, int n, int k);
 int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double r, double pad, long long budget);
 /* search.c: the local search of slaves [begin, end) into worker w. */
