@@ -628,7 +628,11 @@ def report(res, made):
     L.append("Release 0.2: the search's first pass reads compact master keys (position, reach, body; 32 bytes "
              "in cell order) and appends the survivors without a branch, then tries the survivors' features "
              "(search.c, `try_range`): 11 to 17% less search time on the scaling packings, bitwise the same "
-             "results. The target of the core issue, 3x faster (150 ns per node at 1e6), is not reached: "
+             "results. With threads, the segments, the binning of the cell list, the reach lengths and the "
+             "masters' records are now computed in parallel too (2-thread speed-up 1.60x to 1.75x at 1e6 in "
+             "the development runs), and the long masters' copies are sized to the long masters (443 to 364 "
+             "bytes per node at 1e6). The target of the core issue, 3x faster (150 ns per node at 1e6), 1.8x "
+             "on 2 cores and 200 bytes per node, is not reached: "
              "`perf` puts 59% of the time in the search, 7% in the corner solver (GSL's cubic with pow, "
              "acos and cos), 5% in writing records, 4% in the two order statistics of the defaults (median "
              "segment, 95th percentile reach); what is left to try is below the table of 0.1's steps.")
