@@ -29,5 +29,5 @@ def test_find_package_from_an_install_prefix(paths, tmp_path):
     assert r.returncode == 0, r.stdout + r.stderr
     out = subprocess.run([str(build / "consumer")], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stdout + out.stderr
-    assert "version 0.1.0" in out.stdout and "contacts " in out.stdout and "codec has energy" in out.stdout
+    assert "version 0.2.0" in out.stdout and "contacts " in out.stdout and "codec has energy" in out.stdout
     assert int(out.stdout.split("contacts ")[1].split()[0]) > 0

@@ -21,9 +21,9 @@ extern "C" {
 #endif
 
 #define NTS_VERSION_MAJOR 0
-#define NTS_VERSION_MINOR 1
+#define NTS_VERSION_MINOR 2
 #define NTS_VERSION_PATCH 0
-#define NTS_VERSION_STRING "0.1.0"
+#define NTS_VERSION_STRING "0.2.0"
 
 /* XX(enum suffix, value, stable name, message). Values are negative as in libuv;
  * 0 is success. The names are part of the public JSON contract: never renumber

@@ -8,7 +8,7 @@
 ...     result.forces["a"]                                               # (4, 2) float64
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 from .errors import (  # noqa: E402
     InvalidScene,
