@@ -42,11 +42,6 @@ static const double PI = 3.14159265358979323846;
 
 /* ------------------------------------------------------------ utilities */
 
-static double now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 /* CPU time of the process (all threads): on a shared machine it excludes the
  * time the benchmark waited for a core. */
 static double cpu_now(void) {
@@ -55,15 +50,6 @@ static double cpu_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int cmp_double(const void* a, const void* b) {
-    double x = *(const double*)a, y = *(const double*)b;
-    return (x > y) - (x < y);
-}
-static double median(double* v, int n) {
-    if (n <= 0) return 0.0;
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 static double vmax(const double* v, int n) {
     double m = 0.0;
     int i;
@@ -183,29 +169,29 @@ static timing time_eval(const nts_scene* s, const nts_options* o, double budget)
     memset(&t, 0, sizeof t);
     eval_or_die(ctx, s, o, &r); /* warm-up: buffers grow once */
     a0 = g_alloc.count;
-    start = now();
+    start = ntsx_now();
     for (k = 0; k < 25; ++k) {
-        double u0 = cpu_now(), t0 = now(), t1;
+        double u0 = cpu_now(), t0 = ntsx_now(), t1;
         eval_or_die(ctx, s, o, &r);
-        t1 = now();
+        t1 = ntsx_now();
         tu[k] = 1e9 * (cpu_now() - u0) / n;
         nts_context_phase_times(ctx, ph);
         tc[k] = 1e9 * ph[1] / n;
         ts[k] = 1e9 * ph[2] / n;
         te[k] = 1e9 * (t1 - t0) / n;
-        if (k >= 2 && now() - start > budget) { ++k; break; }
+        if (k >= 2 && ntsx_now() - start > budget) { ++k; break; }
     }
     t.reps = k;
     t.allocs_after_warmup = g_alloc.count - a0;
     t.gaps = r.summary.gaps;
     t.contacts = r.summary.contacts;
-    t.cells = median(tc, k);
-    t.search = median(ts, k);
+    t.cells = ntsx_median(tc, k);
+    t.search = ntsx_median(ts, k);
     t.eval_min = te[0];
     for (n = 1; n < k; ++n)
         if (te[n] < t.eval_min) t.eval_min = te[n];
-    t.eval = median(te, k);
-    t.eval_cpu = median(tu, k);
+    t.eval = ntsx_median(te, k);
+    t.eval_cpu = ntsx_median(tu, k);
     nts_context_destroy(ctx);
     return t;
 }
@@ -396,9 +382,9 @@ static err_stats solver_errors(const nts_scene* s, const nts_result* r, double a
     st.xi_max = vmax(ex, n);
     st.gap_max = vmax(eg, n);
     st.f_max = vmax(ef, n);
-    st.xi_med = median(ex, n);
-    st.gap_med = median(eg, n);
-    st.f_med = median(ef, n);
+    st.xi_med = ntsx_median(ex, n);
+    st.gap_med = ntsx_median(eg, n);
+    st.f_med = ntsx_median(ef, n);
     free(ex);
     free(eg);
     free(ef);
@@ -454,7 +440,7 @@ static void section_errors(const char* dir) {
                     ++m;
                 }
                 fprintf(g, "%d,%s,%.2f,%d,%.3e,%.3e,%.3e,%.3e\n", sizes[si], SOLVER_NAMES[sv], o.alpha, m,
-                        vmax(ge, m), median(ge, m), vmax(ne, m), median(ne, m));
+                        vmax(ge, m), ntsx_median(ge, m), vmax(ne, m), ntsx_median(ne, m));
                 free(ge);
                 free(ne);
             }
@@ -602,12 +588,12 @@ static void section_scaling(const char* dir) {
  * speed-ups, which cannot exceed it. */
 static double cores_available(void) {
 #ifdef _OPENMP
-    double x = 0.0, t0 = now(), u0 = cpu_now();
+    double x = 0.0, t0 = ntsx_now(), u0 = cpu_now();
     long i;
 #pragma omp parallel for num_threads(2) reduction(+ : x) schedule(static)
     for (i = 0; i < 60000000L; ++i) x += 1e-9 * (double)i;
     if (!(x > 0.0)) return 0.0;
-    return (cpu_now() - u0) / (now() - t0);
+    return (cpu_now() - u0) / (ntsx_now() - t0);
 #else
     return 1.0;
 #endif
@@ -655,10 +641,10 @@ static void section_threads(const char* dir, int max_threads) {
              * burst of load from other processes hits every count alike. */
             for (k = 0; k < reps; ++k)
                 for (th = 1; th <= max_threads; ++th) {
-                    double u0 = cpu_now(), t0 = now();
+                    double u0 = cpu_now(), t0 = ntsx_now();
                     o.threads = th;
                     eval_or_die(ct[th - 1], s, &o, &r1);
-                    te[th - 1][k] = 1e9 * (now() - t0) / n;
+                    te[th - 1][k] = 1e9 * (ntsx_now() - t0) / n;
                     tu[th - 1][k] = 1e9 * (cpu_now() - u0) / n;
                 }
             for (th = 1; th <= max_threads; ++th) {
@@ -673,13 +659,13 @@ static void section_threads(const char* dir, int max_threads) {
                 for (k = 1; k < reps; ++k)
                     if (te[th - 1][k] < best[th - 1]) best[th - 1] = te[th - 1][k];
                 t.eval_min = best[th - 1];
-                t.eval = median(te[th - 1], reps);
-                t.eval_cpu = median(tu[th - 1], reps);
+                t.eval = ntsx_median(te[th - 1], reps);
+                t.eval_cpu = ntsx_median(tu[th - 1], reps);
                 t.gaps = r1.summary.gaps;
                 t.contacts = r1.summary.contacts;
                 write_timing(f, "packing", 1, b.body_count, b.total, sv, o.alpha, th, &t);
                 fseek(f, -1, SEEK_CUR);
-                fprintf(f, ",%.3f,%.3f,%d,%.2f\n", median(te[0], reps) / t.eval, best[0] / best[th - 1], same[th - 1],
+                fprintf(f, ",%.3f,%.3f,%d,%.2f\n", ntsx_median(te[0], reps) / t.eval, best[0] / best[th - 1], same[th - 1],
                         cores);
                 fflush(f);
             }
@@ -859,7 +845,7 @@ static void section_hard(const char* dir) {
             }
         dt = (cpu_now() - t0) / ((g_quick ? 20 : 100) * (double)m);
         (void)sink;
-        fprintf(g, "%s,%d,%.3e,%.3e,%.3e,%.2f,%d,%.1f,%d\n", SOLVER_NAMES[sv], m, vmax(ex, m), median(ex, m),
+        fprintf(g, "%s,%d,%.3e,%.3e,%.3e,%.2f,%d,%.1f,%d\n", SOLVER_NAMES[sv], m, vmax(ex, m), ntsx_median(ex, m),
                 vmax(ed, m), itsum / m, itmax, 1e9 * dt, bad);
     }
     fclose(g);
@@ -1011,7 +997,7 @@ int main(int argc, char** argv) {
     const char* dir = "bench/results";
     const char* sections = NULL;
     int i, max_threads = 4;
-    double t0 = now();
+    double t0 = ntsx_now();
     for (i = 1; i < argc; ++i) {
         if (strcmp(argv[i], "--quick") == 0) g_quick = 1;
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) dir = argv[++i];
@@ -1026,10 +1012,10 @@ int main(int argc, char** argv) {
     nts_set_allocator(count_alloc, count_free, NULL);
 #define RUN(name, call)                                                                  \
     if (has_section(sections, name)) {                                                   \
-        double ts = now();                                                               \
+        double ts = ntsx_now();                                                               \
         call;                                                                            \
         fprintf(stderr, "[%s] %s: %.1f s, core bytes still allocated %lld\n", NTS_BENCH_VARIANT, name, \
-                now() - ts, (long long)g_alloc.live);                                    \
+                ntsx_now() - ts, (long long)g_alloc.live);                                    \
     }
     if (sections != NULL && has_section(sections, "profile")) section_profile(1);
     if (sections != NULL && has_section(sections, "profile_open")) section_profile(0);
@@ -1043,6 +1029,6 @@ int main(int argc, char** argv) {
     RUN("peer", section_peer(dir));
     RUN("hard", section_hard(dir));
 #undef RUN
-    fprintf(stderr, "[%s] total %.1f s\n", NTS_BENCH_VARIANT, now() - t0);
+    fprintf(stderr, "[%s] total %.1f s\n", NTS_BENCH_VARIANT, ntsx_now() - t0);
     return 0;
 }

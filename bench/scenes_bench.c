@@ -16,21 +16,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include <ntscontact/ntscontact.h>
 #include "nts_support.h"
-
-static double now_s(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp_double(const void* a, const void* b) {
-    double x = *(const double*)a, y = *(const double*)b;
-    return (x > y) - (x < y);
-}
 
 typedef struct built {
     nts_scene* scene;
@@ -76,12 +64,11 @@ static timed run(const built* b, double alpha, int repeats) {
         exit(2);
     }
     for (k = 0; k < repeats; ++k) {
-        double t0 = now_s();
+        double t0 = ntsx_now();
         nts_evaluate(ctx, b->scene, &o, &r, &err);
-        t[k] = now_s() - t0;
+        t[k] = ntsx_now() - t0;
     }
-    qsort(t, (size_t)repeats, sizeof(double), cmp_double);
-    out.ms = 1e3 * t[repeats / 2];
+    out.ms = 1e3 * ntsx_median(t, repeats);
     out.cell = r.summary.cell_size;
     out.contacts = r.summary.contacts;
     out.forces = malloc(sizeof(nts_vec2) * (size_t)n);

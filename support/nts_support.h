@@ -10,6 +10,13 @@
 
 #include <ntscontact/ntscontact.h>
 
+/* ------------------------------------------------------------- timing */
+
+/* Monotonic wall clock, seconds. */
+double ntsx_now(void);
+/* The median of v[0..n) (v is sorted; the mean of the middle two when n is even; 0 when empty). */
+double ntsx_median(double* v, int n);
+
 /* ------------------------------------------------------------- scenes */
 
 /* splitmix64, uniform in [0, 1): the same sequence on every platform. */
