@@ -19,10 +19,13 @@ import math
 import os
 import pathlib
 import subprocess
+import sys
 
 import numpy as np
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "bench" / "sessions"))
+from common import replace_section  # noqa: E402
 CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
 SECTION = "## Penalty scaling under refinement"
 EPS, LOAD = 100.0, 1.0
@@ -83,17 +86,8 @@ def main():
     lines += ["", "With `penalty_scaling: \"node\"` the contact stiffness per unit length grows with the number of",
               "nodes: the penetration falls like 1/n and the pressure keeps changing with the mesh. With",
               "`\"length\"` the penalty is a pressure stiffness (per unit length of the slave surface): the",
-              "penetration and the pressure converge as the mesh is refined.", ""]
-    out = pathlib.Path(a.out)
-    doc = out.read_text() if out.exists() else ""
-    start = doc.find(SECTION + "\n")
-    section = "\n".join(lines)
-    if start < 0:
-        doc = doc.rstrip("\n") + "\n\n" + section
-    else:
-        end = doc.find("\n## ", start + len(SECTION))
-        doc = doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
-    out.write_text(doc)
+              "penetration and the pressure converge as the mesh is refined.", "", ""]
+    replace_section(a.out, SECTION, "\n".join(lines))
 
 
 if __name__ == "__main__":
