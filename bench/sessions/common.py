@@ -1,5 +1,6 @@
 """What the session benchmarks share: a daemon of their own, and a section of
 docs/benchmarks.md replaced in place."""
+import csv
 import os
 import pathlib
 import subprocess
@@ -32,3 +33,14 @@ def replace_section(path, title, section):
         end = doc.find("\n## ", start + len(title))
         doc = doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
     path.write_text(doc)
+
+
+def write_results(rows, csv_name, out, title, section):
+    """The rows to bench/results/CSV_NAME, the section into the markdown file `out`."""
+    results = REPO / "bench" / "results" / csv_name
+    with open(results, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    replace_section(out, title, section)
+    print(f"wrote {results} and {out}")

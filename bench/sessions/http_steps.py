@@ -22,7 +22,6 @@ Writes bench/results/sessions_http.csv and replaces the section "Sessions over
 HTTP" of docs/benchmarks.md. Standard library plus numpy.
 """
 import argparse
-import csv
 import http.client
 import json
 import os
@@ -40,7 +39,7 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import replace_section, start_daemon  # noqa: E402
+from common import start_daemon, write_results  # noqa: E402
 
 NODES_PER_DISK = 64
 SECTION = "## Sessions over HTTP"
@@ -166,13 +165,7 @@ def main():
     finally:
         proc.terminate()
         proc.wait(timeout=60)
-    results = REPO / "bench" / "results" / "sessions_http.csv"
-    with open(results, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    replace_section(a.out, SECTION, markdown(rows, a.repeats))
-    print(f"wrote {results} and {a.out}")
+    write_results(rows, "sessions_http.csv", a.out, SECTION, markdown(rows, a.repeats))
 
 
 if __name__ == "__main__":

@@ -22,7 +22,6 @@ Writes bench/results/sessions_python.csv and replaces the section "Sessions
 through the Python client" of docs/benchmarks.md.
 """
 import argparse
-import csv
 import json
 import math
 import os
@@ -38,7 +37,7 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import replace_section, start_daemon  # noqa: E402
+from common import start_daemon, write_results  # noqa: E402
 
 import ntscontact  # noqa: E402
 
@@ -167,13 +166,7 @@ def main():
     finally:
         proc.terminate()
         proc.wait(timeout=60)
-    results = REPO / "bench" / "results" / "sessions_python.csv"
-    with open(results, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    replace_section(a.out, SECTION, markdown(rows, a.repeats))
-    print(f"wrote {results} and {a.out}")
+    write_results(rows, "sessions_python.csv", a.out, SECTION, markdown(rows, a.repeats))
 
 
 if __name__ == "__main__":
