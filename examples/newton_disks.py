@@ -39,35 +39,10 @@ import scipy.sparse.linalg as spla
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "clients" / "python" / "src"))
 import ntscontact  # noqa: E402
+from ntscontact.mesh import disk_mesh  # noqa: E402
 
 
 # ------------------------------------------------------------- the bodies
-
-
-def disk_mesh(radius: float, rings: int, cx: float, cy: float) -> Tuple[np.ndarray, np.ndarray]:
-    """A disk of linear triangles: a centre node and `rings` rings of 6k nodes
-    (node 0 the centre; node 1 + 3 k (k - 1) starts ring k, at angle 0)."""
-    pts = [(cx, cy)]
-    start = [0]
-    for k in range(1, rings + 1):
-        start.append(len(pts))
-        for j in range(6 * k):
-            a = 2 * math.pi * j / (6 * k)
-            pts.append((cx + radius * k / rings * math.cos(a), cy + radius * k / rings * math.sin(a)))
-    tris = []
-    for k in range(1, rings + 1):
-        n_in, n_out = 6 * (k - 1), 6 * k
-        for j in range(n_out):
-            o0, o1 = start[k] + j, start[k] + (j + 1) % n_out
-            if k == 1:
-                tris.append((0, o0, o1))
-                continue
-            ji = (j * n_in) // n_out
-            i0 = start[k - 1] + ji % n_in
-            tris.append((i0, o0, o1))
-            if ((j + 1) * n_in) // n_out != ji or j == n_out - 1:
-                tris.append((i0, o1, start[k - 1] + (ji + 1) % n_in))
-    return np.array(pts), np.array(tris, dtype=np.int64)
 
 
 def elastic_stiffness(nodes: np.ndarray, tris: np.ndarray, E: float, nu: float) -> sp.csr_matrix:

@@ -40,36 +40,9 @@ from make_scene import scene as make_scene  # noqa: E402
 from common import start_daemon, write_results  # noqa: E402
 
 import ntscontact  # noqa: E402
+from ntscontact.mesh import disk_mesh  # noqa: E402
 
 SECTION = "## Sessions through the Python client"
-
-
-def polar_disk_mesh(radius, rings, cx, cy):
-    """A disk of linear triangles: a centre node, `rings` rings of 6k nodes."""
-    pts = [(cx, cy)]
-    tris = []
-    start = [0]
-    for k in range(1, rings + 1):
-        start.append(len(pts))
-        n = 6 * k
-        for j in range(n):
-            a = 2 * math.pi * j / n
-            pts.append((cx + radius * k / rings * math.cos(a), cy + radius * k / rings * math.sin(a)))
-    for k in range(1, rings + 1):
-        n_in, n_out = 6 * (k - 1), 6 * k
-        for j in range(n_out):
-            o0, o1 = start[k] + j, start[k] + (j + 1) % n_out
-            if k == 1:
-                tris.append((0, o0, o1))
-                continue
-            # inner node under this outer edge, and the next one
-            ji = (j * n_in) // n_out
-            i0 = start[k - 1] + ji % n_in
-            tris.append((i0, o0, o1))
-            if ((j + 1) * n_in) // n_out != ji or j == n_out - 1:
-                i1 = start[k - 1] + (ji + 1) % n_in
-                tris.append((i0, o1, i1))
-    return np.array(pts), np.array(tris, dtype=np.int64)
 
 
 def fem_scene(total_nodes=66000):
@@ -78,7 +51,7 @@ def fem_scene(total_nodes=66000):
     rings = math.ceil((-3 + math.sqrt(9 + 12 * (per - 1))) / 6)
     scene = ntscontact.Scene(penalty=100.0, alpha=0.2, search_radius=0.01, outputs=["forces", "energy", "virial"])
     for i, (cx, cy) in enumerate([(0, 0), (1.995, 0), (0, 1.995), (1.995, 1.995)]):
-        nodes, tri = polar_disk_mesh(1.0, rings, cx, cy)
+        nodes, tri = disk_mesh(1.0, rings, cx, cy)
         scene.add_body(nodes, triangles=tri, id=f"disk-{i}")
     return scene
 

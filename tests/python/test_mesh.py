@@ -225,3 +225,22 @@ def test_components_without_tags_and_mesh_object(two_disks):
     assert scene.body_ids == [0, 1] and scene.penalty == 5.0
     assert all(b.triangles is not None for b in scene)
     assert sum(b.node_count for b in scene) == len(two_disks["points"])
+
+
+def test_disk_mesh():
+    """The examples' and benchmarks' disk: 1 + 3 r (r + 1) nodes, 6 r^2
+    counter-clockwise triangles covering the 6 r-gon, one boundary loop."""
+    from ntscontact.mesh import boundary_loops, disk_mesh, loop_area
+    for rings in (1, 2, 5):
+        pts, tris = disk_mesh(2.0, rings, 1.0, -3.0)
+        assert pts.shape == (1 + 3 * rings * (rings + 1), 2) and tris.shape == (6 * rings * rings, 3)
+        a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+        areas = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+        assert (areas > 0).all()
+        loops = boundary_loops(tris)
+        assert len(loops) == 1 and len(loops[0]) == 6 * rings
+        assert abs(areas.sum() - loop_area(pts, loops[0])) < 1e-12 * areas.sum()
+        if rings == 1:  # the regular hexagon of radius 2
+            assert abs(areas.sum() - 1.5 * 3 ** 0.5 * 4.0) < 1e-12
+    with pytest.raises(ValueError):
+        disk_mesh(1.0, 0)

@@ -8,6 +8,7 @@ counter-clockwise, so boundaries come out counter-clockwise (holes clockwise).
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
@@ -26,6 +27,7 @@ __all__ = [
     "boundary_loops",
     "connected_components",
     "loop_area",
+    "disk_mesh",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -37,6 +39,36 @@ _QUAD_CORNERS = {"quad": 4, "quad8": 4, "quad9": 4}
 #: cell_data fields tried, in this order, when no tag is named.
 _TAG_NAMES = ("gmsh:physical", "medit:ref", "CellEntityIds", "cell_tags", "tag", "tags", "body", "bodies",
               "region", "material", "gmsh:geometrical")
+
+
+def disk_mesh(radius: float, rings: int, cx: float = 0.0, cy: float = 0.0) -> Tuple[FloatArray, IntArray]:
+    """A disk of linear triangles for examples and benchmarks: a centre node and
+    ``rings`` rings of 6k nodes (node 0 the centre; node 1 + 3 k (k - 1) starts
+    ring k, at angle 0), triangles counter-clockwise. Returns (points, triangles)."""
+    if rings < 1 or not radius > 0.0:
+        raise ValueError("disk_mesh needs rings >= 1 and radius > 0")
+    pts = [(cx, cy)]
+    start = [0]
+    for k in range(1, rings + 1):
+        start.append(len(pts))
+        for j in range(6 * k):
+            a = 2 * math.pi * j / (6 * k)
+            pts.append((cx + radius * k / rings * math.cos(a), cy + radius * k / rings * math.sin(a)))
+    tris = []
+    for k in range(1, rings + 1):
+        n_in, n_out = 6 * (k - 1), 6 * k
+        for j in range(n_out):
+            o0, o1 = start[k] + j, start[k] + (j + 1) % n_out
+            if k == 1:
+                tris.append((0, o0, o1))
+                continue
+            # the inner node under this outer edge, and the next one
+            ji = (j * n_in) // n_out
+            i0 = start[k - 1] + ji % n_in
+            tris.append((i0, o0, o1))
+            if ((j + 1) * n_in) // n_out != ji or j == n_out - 1:
+                tris.append((i0, o1, start[k - 1] + (ji + 1) % n_in))
+    return np.array(pts, dtype=np.float64), np.array(tris, dtype=np.int64)
 
 
 @dataclass
