@@ -93,6 +93,38 @@ def start_daemon(binary, log_path, *args, timeout=20):
     return Daemon(proc, int(text.rsplit(":", 1)[1]), pathlib.Path(log_path))
 
 
+import socket  # noqa: E402
+
+
+def recv_all(sock, limit=1 << 22):
+    """Read until the peer closes (or `limit` bytes). Connection resets count as close."""
+    out = b""
+    try:
+        while len(out) < limit:
+            chunk = sock.recv(65536)
+            if not chunk:
+                break
+            out += chunk
+    except (ConnectionResetError, BrokenPipeError):
+        pass
+    return out
+
+
+def raw_response(port, data, timeout=20):
+    """Send raw bytes, read until close, return (status, headers, body)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=timeout) as s:
+        s.sendall(data)
+        out = recv_all(s)
+    head, _, body = out.partition(b"\r\n\r\n")
+    lines = head.split(b"\r\n")
+    status = int(lines[0].split()[1]) if lines and lines[0].startswith(b"HTTP/1.") else 0
+    headers = {}
+    for line in lines[1:]:
+        k, _, v = line.partition(b":")
+        headers[k.strip().lower().decode()] = v.strip().decode()
+    return status, headers, body
+
+
 @pytest.fixture(scope="module")
 def daemon(paths, tmp_path_factory):
     """One ntscontactd for a test module (default flags, 127.0.0.1, free port)."""

@@ -1,7 +1,6 @@
 """Access control of ntscontactd: bearer tokens (401 with WWW-Authenticate, a
 constant-time compare), health without build details unless authenticated,
 browser Origins refused unless allowed (403), and HTTPS through GnuTLS."""
-import json
 import shutil
 import subprocess
 

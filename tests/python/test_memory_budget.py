@@ -1,7 +1,6 @@
 """--max-memory: one budget for the bodies in flight and the estimated peak of
 the work they start. Past it: 503 with Retry-After (others hold the room), or
 413 when a request alone needs more than the budget; never a 500."""
-import json
 import socket
 import time
 

@@ -17,6 +17,7 @@ import requests
 ntscontact = pytest.importorskip("ntscontact")
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "deploy"))
 import cluster  # noqa: E402
+from conftest import raw_response  # noqa: E402
 
 pytestmark = pytest.mark.skipif(cluster.find_nginx() is None,
                                 reason="nginx is not installed (scripts/install-deps.sh installs it)")
@@ -138,25 +139,14 @@ def test_nginx_three_daemons_kill_and_restart(paths, tmp_path):
 
 
 def test_nginx_refuses_bad_framing_in_the_error_schema(paths, tmp_path, schemas):
-    import socket
-
     import jsonschema
     with cluster.Cluster(paths.bin / "ntscontactd", tmp_path / "cluster", 1, ["--quiet"]) as c:
         for raw in (b"POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
                     b"Content-Length: 1x\r\n\r\n{}",
                     b"POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 5\r\n"
                     b"Transfer-Encoding: chunked\r\n\r\n2\r\n{}\r\n0\r\n\r\n"):
-            s = socket.create_connection(("127.0.0.1", c.port), timeout=10)
-            s.sendall(raw)
-            out = b""
-            while True:
-                chunk = s.recv(65536)
-                if not chunk:
-                    break
-                out += chunk
-            s.close()
-            head, _, body = out.partition(b"\r\n\r\n")
-            assert head.startswith(b"HTTP/1.1 400"), out[:200]
+            status, _, body = raw_response(c.port, raw)
+            assert status == 400, body[:200]
             doc = json.loads(body)
             jsonschema.validate(doc, schemas["error"])
             assert doc["error"]["code"] == "bad_request"

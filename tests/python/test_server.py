@@ -19,6 +19,8 @@ import jsonschema
 import pytest
 import requests
 
+from conftest import raw_response, recv_all
+
 JSON = {"Content-Type": "application/json"}
 ELAPSED = re.compile(rb'"elapsed_ms":\s*[-+0-9.eE]+')
 EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
@@ -39,35 +41,6 @@ def wait_until(predicate, seconds=20.0, step=0.05):
         time.sleep(step)
         value = predicate()
     return value
-
-
-def recv_all(sock, limit=1 << 22):
-    """Read until the peer closes (or `limit` bytes). Connection resets count as close."""
-    out = b""
-    try:
-        while len(out) < limit:
-            chunk = sock.recv(65536)
-            if not chunk:
-                break
-            out += chunk
-    except (ConnectionResetError, BrokenPipeError):
-        pass
-    return out
-
-
-def raw_response(port, data, timeout=20):
-    """Send raw bytes, read until close, return (status, headers, body)."""
-    with socket.create_connection(("127.0.0.1", port), timeout=timeout) as s:
-        s.sendall(data)
-        out = recv_all(s)
-    head, _, body = out.partition(b"\r\n\r\n")
-    lines = head.split(b"\r\n")
-    status = int(lines[0].split()[1]) if lines and lines[0].startswith(b"HTTP/1.") else 0
-    headers = {}
-    for line in lines[1:]:
-        k, _, v = line.partition(b":")
-        headers[k.strip().lower().decode()] = v.strip().decode()
-    return status, headers, body
 
 
 def disks_scene(nx, ny, nodes, pitch=1.95):
