@@ -97,6 +97,17 @@ size_t ntsd_default_max_memory(void) {
     return (size_t)(total / 2);
 }
 
+/* One more name for an allow-list flag (--allow-origin, --allow-host): 0, or
+ * -1 with a message when the list is full or the name too long. */
+static int add_name(const char* flag, const char* v, char list[NTSD_ALLOW_MAX][256], int* count) {
+    if (*count == NTSD_ALLOW_MAX || strlen(v) >= 256) {
+        fprintf(stderr, "ntscontactd: %s: at most %d, each under 256 bytes\n", flag, NTSD_ALLOW_MAX);
+        return -1;
+    }
+    strcpy(list[(*count)++], v);
+    return 0;
+}
+
 ntsd_config ntsd_default_config(void) {
     ntsd_config c;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
@@ -217,11 +228,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             }
             strcpy(dst, v);
         } else if (strcmp(a, "--allow-origin") == 0) {
-            if (cfg->allow_origin_count == 8 || strlen(v) >= sizeof cfg->allow_origin[0]) {
-                fprintf(stderr, "ntscontactd: --allow-origin: at most 8, each under 256 bytes\n");
-                return -1;
-            }
-            strcpy(cfg->allow_origin[cfg->allow_origin_count++], v);
+            if (add_name(a, v, cfg->allow_origin, &cfg->allow_origin_count)) return -1;
         } else if (strcmp(a, "--session-id-header") == 0) {
             if (strlen(v) == 0 || strlen(v) >= sizeof cfg->session_id_header) {
                 fprintf(stderr, "ntscontactd: --session-id-header: a header name under 64 bytes\n");
@@ -229,11 +236,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
             }
             strcpy(cfg->session_id_header, v);
         } else if (strcmp(a, "--allow-host") == 0) {
-            if (cfg->allow_host_count == 8 || strlen(v) >= sizeof cfg->allow_host[0]) {
-                fprintf(stderr, "ntscontactd: --allow-host: at most 8, each under 256 bytes\n");
-                return -1;
-            }
-            strcpy(cfg->allow_host[cfg->allow_host_count++], v);
+            if (add_name(a, v, cfg->allow_host, &cfg->allow_host_count)) return -1;
         } else if (strcmp(a, "--log-file") == 0) {
             if (strlen(v) >= sizeof cfg->log_file) {
                 fprintf(stderr, "ntscontactd: --log-file: path too long\n");

@@ -24,6 +24,8 @@
 
 /* ------------------------------------------------------------------ args */
 
+#define NTSD_ALLOW_MAX 8 /* names in each allow-list (--allow-origin, --allow-host) */
+
 typedef struct ntsd_config {
     char host[64];           /* numeric IPv4 or IPv6 address */
     unsigned port;           /* 0: any free port (printed on stdout) */
@@ -44,9 +46,9 @@ typedef struct ntsd_config {
     char token_file[512];
     char** tokens;
     int token_count;
-    char allow_origin[8][256];
+    char allow_origin[NTSD_ALLOW_MAX][256];
     int allow_origin_count;
-    char allow_host[8][256];  /* --allow-host: the names a request's Host may give (none: any) */
+    char allow_host[NTSD_ALLOW_MAX][256]; /* --allow-host: the names a request's Host may give (none: any) */
     int allow_host_count;
     char session_id_header[64]; /* --session-id-header: a proxy's id for a new session ("" none) */
     char tls_cert[512], tls_key[512];
