@@ -912,10 +912,11 @@ static void section_hard(const char* dir) {
     fclose(g);
 }
 
-/* Digest: an FNV-1a hash of every output byte (summary, forces, contacts, gaps)
- * for a set of scenes, solvers, alphas, searches and thread counts. The "before"
- * and "after" binaries must print the same digests: the faster core changes no
- * bit of any result. */
+/* Digest: an FNV-1a hash of every output byte (summary, forces, contacts, gaps;
+ * then the summary and forces with the default outputs) for a set of scenes,
+ * solvers, alphas, searches and thread counts. The "before" and "after"
+ * binaries must print the same digests: the faster core changes no bit of any
+ * result. */
 static uint64_t fnv(uint64_t h, const void* p, size_t n) {
     const unsigned char* b = (const unsigned char*)p;
     size_t i;
@@ -926,14 +927,15 @@ static uint64_t fnv(uint64_t h, const void* p, size_t n) {
 static void section_digest(const char* dir) {
     FILE* f = open_csv(dir, "digest", "scene,periodic,bodies,surface_nodes,solver,alpha,search,threads,gaps,digest");
     int sc, sv, a, se, th;
-    for (sc = 0; sc < 7; ++sc) {
+    for (sc = 0; sc < 9; ++sc) {
         scene_buf b;
         nts_scene* s;
         nts_context* ctx = nts_context_create();
-        const char* name = sc < 3 ? "disks" : "packing";
-        int per = sc >= 5;
+        const char* name = sc < 3 ? "disks" : (sc < 7 ? "packing" : "container");
+        int per = sc >= 5 && sc < 7;
         if (sc < 3) make_two_disks(&b, sc == 0 ? 16 : (sc == 1 ? 100 : 1000), 0.05 + 0.1 * sc);
-        else make_packing(&b, sc % 2 ? 30 : 200, per, 31u + (uint64_t)sc);
+        else if (sc < 7) make_packing(&b, sc % 2 ? 30 : 200, per, 31u + (uint64_t)sc);
+        else ntsx_container(&b, 12, sc == 7 ? 4 : 1, 24, 0); /* long walls (long lists), or cut short */
         s = scene_from(&b);
         for (sv = 0; sv < 2; ++sv)
             for (a = 0; a < 4; ++a)
@@ -948,13 +950,23 @@ static void section_digest(const char* dir) {
                         o.search = (nts_search)se;
                         o.threads = th;
                         o.outputs = NTS_OUT_ALL;
+                        int gap_count;
                         eval_or_die(ctx, s, &o, &r);
+                        r.summary.cell_size = 0.0; /* how the search ran, not a result */
                         h = fnv(h, &r.summary, sizeof r.summary);
                         h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
                         h = fnv(h, r.contacts, sizeof(nts_contact) * (size_t)r.contact_count);
                         h = fnv(h, r.gaps, sizeof(nts_contact) * (size_t)r.gap_count);
+                        gap_count = r.gap_count;
+                        /* The default outputs too: the core keeps no per-candidate
+                         * records for them, and must give the same bits. */
+                        o.outputs = nts_default_options().outputs;
+                        eval_or_die(ctx, s, &o, &r);
+                        r.summary.cell_size = 0.0;
+                        h = fnv(h, &r.summary, sizeof r.summary);
+                        h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
                         fprintf(f, "%s,%d,%d,%d,%s,%.2f,%s,%d,%d,%016llx\n", name, per, b.body_count, b.total,
-                                SOLVER_NAMES[sv], o.alpha, se ? "brute_force" : "cells", th, r.gap_count,
+                                SOLVER_NAMES[sv], o.alpha, se ? "brute_force" : "cells", th, gap_count,
                                 (unsigned long long)h);
                     }
         nts_context_destroy(ctx);
