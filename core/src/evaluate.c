@@ -136,7 +136,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         for (i = 0; i < s->surface_count; ++i)
             ctx->scratch[i] = reach_length(ctx->seg, s, i, alpha_of_body(s, s->surf_body[i], env.alpha));
         hc = nts_select_kth(ctx->scratch, s->surface_count, (int)(0.95 * (double)(s->surface_count - 1))) + env.r;
-        if (hc > h) hc = h;
+        /* Long lists pay for a few masters that reach far beyond the rest
+         * (walls); when the longest reach is within half again the typical,
+         * it sets the side itself (a polydisperse packing: no long lists). */
+        if (hc > h || h <= 1.5 * hc) hc = h;
         /* The cell side hc >= (typical reach) + r: masters that reach farther
          * are listed in every cell their reach box overlaps. Too many such
          * pairs: coarsen, at most until hc = L_max + r, where none is left. */
