@@ -3,6 +3,7 @@
  * energy, virial"). The local search writes per-slave records into per-worker
  * buffers; a serial pass scatters them in slave order, so the result is bitwise
  * the same for any number of threads. */
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -88,6 +89,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
     env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;
+    if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
     env.long_hot = NULL;
@@ -105,6 +107,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                                      : opt->search_radius;
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
+    env.keep_all = (opt->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS)) != 0u;
     h = lmax + env.r; /* every feature lies within L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
@@ -197,7 +200,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         long long records = 0;
         int limited = 0, status = NTS_OK;
         for (i = 0; i < nthreads; ++i) {
-            records += ctx->workers[i].rec_count;
+            records += ctx->workers[i].gaps;
             if (ctx->workers[i].status == NTS_ELIMIT) limited = 1;
             else if (ctx->workers[i].status != NTS_OK && status == NTS_OK) status = ctx->workers[i].status;
         }

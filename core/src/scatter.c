@@ -5,6 +5,79 @@
 
 #include "stages.h"
 
+/* make_contact writes every field of a record instead of clearing it first:
+ * that gives the same bytes only while nts_contact has no padding. */
+typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
+
+/* The full record of candidate b (a record of the search): master nodes and
+ * their weights, the slave's penalty, force and virial. */
+static nts_contact make_contact(const search_env* env, const candidate* b) {
+    const nts_scene* s = env->s;
+    const int i = b->slave, j = b->entry;
+    const nts_vec2 xs = s->pos[s->surf_node[i]];
+    /* The slave's penalty (docs/model.md §6): per node, or per unit of
+     * the node's tributary length at creation (a pressure stiffness). */
+    const double eps = env->per_length ? env->eps * s->surf_trib[i] : env->eps;
+    nts_contact c;
+    c.weights[1] = c.weights[2] = 0.0;
+    c.force = nts_v2(0.0, 0.0);
+    c.virial.xx = c.virial.yy = c.virial.xy = 0.0;
+    c.master_body = b->body;
+    c.kind = (nts_kind)b->kind;
+    if (b->kind == NTS_KIND_SEGMENT) {
+        c.master_count = 2;
+        c.master_nodes[0] = s->surf_local[j];
+        c.master_nodes[1] = s->surf_local[s->surf_next[j]];
+        c.master_nodes[2] = -1;
+        c.weights[0] = 1.0 - b->param;
+        c.weights[1] = b->param;
+    } else if (b->kind == NTS_KIND_CORNER) {
+        nts_shape3 N = nts_corner_shape(alpha_of_body(s, b->body, env->alpha), b->param);
+        c.master_count = 3;
+        c.master_nodes[0] = s->surf_local[s->surf_prev[j]];
+        c.master_nodes[1] = s->surf_local[j];
+        c.master_nodes[2] = s->surf_local[s->surf_next[j]];
+        c.weights[0] = N.n2;
+        c.weights[1] = N.n3;
+        c.weights[2] = N.n4;
+    } else {
+        c.master_count = 1;
+        c.master_nodes[0] = s->surf_local[j];
+        c.master_nodes[1] = c.master_nodes[2] = -1;
+        c.weights[0] = 1.0;
+    }
+    c.param = b->param;
+    c.gap = b->gap;
+    c.normal = b->normal;
+    c.point = b->point;
+    c.slave_body = s->surf_body[i];
+    c.slave_node = s->surf_local[i];
+    c.penalty = eps;
+    if (c.gap < 0.0) {
+        /* f_s = -eps g n (docs/model.md §6). */
+        double eg = eps * c.gap;
+        c.force = nts_scale(-eg, c.normal);
+        if (env->want_virial) {
+            /* W_ab = -sum_k f_ka (X_k - Xs)_b over the master nodes, f_k = eps g N_k n
+             * (the slave's own term vanishes); equals eps g^2 n_a n_b at the PCA. */
+            int base = s->body_node_start[c.master_body], q;
+            double wxx = 0.0, wyy = 0.0, wxy = 0.0, wyx = 0.0;
+            for (q = 0; q < c.master_count; ++q) {
+                nts_vec2 rel = nts_scene_diff(s, s->pos[base + c.master_nodes[q]], xs);
+                nts_vec2 f = nts_scale(eg * c.weights[q], c.normal);
+                wxx -= f.x * rel.x;
+                wyy -= f.y * rel.y;
+                wxy -= f.x * rel.y;
+                wyx -= f.y * rel.x;
+            }
+            c.virial.xx = wxx;
+            c.virial.yy = wyy;
+            c.virial.xy = 0.5 * (wxy + wyx);
+        }
+    }
+    return c;
+}
+
 int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,
                 nts_result* out, nts_error* err) {
     nts_summary* sum;
@@ -19,7 +92,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         double energy = 0.0, maxpen = 0.0;
         int overflow = 0;
         nts_virial vir = {0.0, 0.0, 0.0};
-        for (t = 0; t < nthreads; ++t) total += ctx->workers[t].rec_count;
+        for (t = 0; t < nthreads; ++t) total += (int)ctx->workers[t].gaps;
         if (want_forces) {
             if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
                 return eval_fail(err, rc, -1, -1, "out of memory");
@@ -33,7 +106,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             const worker* w = &ctx->workers[t];
             int k;
             for (k = 0; k < w->rec_count; ++k) {
-                const nts_contact* c = &w->recs[k];
+                const nts_contact cc = make_contact(env, &w->recs[k]), *c = &cc;
                 if (want_gaps) ctx->gaps[ngap++] = *c;
                 if (!(c->gap < 0.0)) continue;
                 if (want_contacts) {

@@ -7,17 +7,9 @@
 #include "stages.h"
 
 
-/* Xs - X exactly as nts_scene_diff computes it (docs/model.md
- * §8: the minimum image), without its division and library call in the
- * common case: when |d.x| < lx/4 the image is 0 (nearbyint gives a signed zero,
- * and d.x - lx * (+-0) is d.x + 0.0, which also turns -0 into +0 as it does), so
- * only pairs across the box edge pay for the general formula. Bitwise equal. */
-static inline double min_image_1(double d, double l, double quarter) {
-    if (!(l > 0.0)) return d;
-    if (fabs(d) < quarter) return d + 0.0;
-    return d - l * nearbyint(d / l);
-}
-/* `periodic` is a compile-time constant at every call (the search loop is
+/* Xs - X exactly as nts_scene_diff computes it (docs/model.md §8: the
+ * minimum image, nts_min_image_1), the near-pair test done once for both axes.
+ * `periodic` is a compile-time constant at every call (the search loop is
  * instantiated twice), so an open scene pays nothing for the box. */
 static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
     nts_vec2 d = nts_sub(p, q);
@@ -27,21 +19,24 @@ static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q
         d.y += 0.0;
         return d;
     }
-    d.x = min_image_1(d.x, env->lx, env->qx);
-    d.y = min_image_1(d.y, env->ly, env->qy);
+    d.x = nts_min_image_1(d.x, env->lx);
+    d.y = nts_min_image_1(d.y, env->ly);
     return d;
 }
 
 /* Tie-break (docs/model.md §5): smaller |g|, then the smaller master
  * node index, then segment before corner/vertex at the same node. */
-static inline int better(const candidate* c, const candidate* b) {
+static inline int better(const nts_scene* s, const candidate* c, const candidate* b) {
     double gc = fabs(c->gap), gb = fabs(b->gap);
+    int kc, kb;
     if (gc != gb) return gc < gb;
-    if (c->key != b->key) return c->key < b->key;
+    kc = s->surf_local[c->entry];
+    kb = s->surf_local[b->entry];
+    if (kc != kb) return kc < kb;
     return c->kind < b->kind;
 }
 
-static inline void offer(worker* w, const candidate* c) {
+static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     int k = w->slot[c->body];
     if (k < 0) {
         if (w->best_count == w->best_cap &&
@@ -52,7 +47,7 @@ static inline void offer(worker* w, const candidate* c) {
         k = w->best_count++;
         w->slot[c->body] = k;
         w->best[k] = *c;
-    } else if (better(c, &w->best[k])) {
+    } else if (better(s, c, &w->best[k])) {
         w->best[k] = *c;
     }
 }
@@ -86,9 +81,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.point = nts_mul_add(pj, sj_param, m->t);
             c.body = m->body;
             c.entry = m->entry;
-            c.key = env->s->surf_local[m->entry];
             c.kind = NTS_KIND_SEGMENT;
-            offer(w, &c);
+            offer(env->s, w, &c);
         }
     }
     if (sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
@@ -122,9 +116,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.point = nts_add(pj, sol.point);
             c.body = m->body;
             c.entry = j;
-            c.key = s->surf_local[j];
             c.kind = NTS_KIND_CORNER;
-            offer(w, &c);
+            offer(s, w, &c);
         } else {
             /* Vertex candidate (alpha = 0): s_{j-1} >= 1 and s_j <= 0; the sign
              * comes from the pseudo-normal n_{j-1} + n_j. */
@@ -147,9 +140,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.point = pj;
             c.body = m->body;
             c.entry = j;
-            c.key = s->surf_local[j];
             c.kind = NTS_KIND_VERTEX;
-            offer(w, &c);
+            offer(s, w, &c);
         }
     }
 }
@@ -180,31 +172,20 @@ static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w,
     }
 }
 
-/* flush_slave writes every field of a record instead of clearing it first: that
- * gives the same bytes only while nts_contact has no padding (compile-time check). */
-typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
-
-/* The alpha that shapes body b's surface (its own, or the options'). */
-static inline double body_alpha(const search_env* env, int b) {
-    return alpha_of_body(env->s, b, env->alpha);
-}
-
-/* Move the current slave's best candidates to the worker's records, filling the
- * slave fields, forces and virial; reset the slot map. Candidates are emitted in
- * increasing master body order (determinism independent of visiting order). */
+/* Move the current slave's best candidates to the worker's records (all of
+ * them, or the active ones: search_env.keep_all) and reset the slot map.
+ * Candidates are kept in increasing master body order (determinism
+ * independent of visiting order). */
 static void flush_slave(const search_env* env, worker* w, int i) {
-    const nts_scene* s = env->s;
-    int k, m, need = w->rec_count + w->best_count;
-    nts_vec2 xs = s->pos[s->surf_node[i]];
-    /* The slave's penalty (docs/model.md §6): per node, or per unit of
-     * the node's tributary length at creation (a pressure stiffness). */
-    const double eps = env->per_length ? env->eps * s->surf_trib[i] : env->eps;
+    int k, m, need;
     if (w->best_count == 0) return;
-    if ((long long)need > env->max_records) {
+    w->gaps += w->best_count;
+    need = w->rec_count + w->best_count;
+    if (w->gaps > env->max_records) {
         /* Over the budget in this worker alone, so the total is too (the caller
          * checks the sum as well: the verdict does not depend on threads). */
         w->status = NTS_ELIMIT;
-    } else if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(nts_contact)) != NTS_OK) {
+    } else if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
         w->status = NTS_ENOMEM;
     }
     /* Insertion sort by master body (a handful of entries). */
@@ -216,69 +197,10 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     }
     for (k = 0; k < w->best_count; ++k) {
         const candidate* b = &w->best[k];
-        nts_contact* c;
-        const int j = b->entry;
         w->slot[b->body] = -1;
-        if (w->status != NTS_OK) continue;
-        c = &w->recs[w->rec_count++];
-        /* Every field is written below (nts_contact has no padding: 8 ints, then
-         * doubles), zeros where the first core's memset left them. */
-        c->weights[1] = c->weights[2] = 0.0;
-        c->force = nts_v2(0.0, 0.0);
-        c->virial.xx = c->virial.yy = c->virial.xy = 0.0;
-        c->master_body = b->body;
-        c->kind = (nts_kind)b->kind;
-        if (b->kind == NTS_KIND_SEGMENT) {
-            c->master_count = 2;
-            c->master_nodes[0] = s->surf_local[j];
-            c->master_nodes[1] = s->surf_local[s->surf_next[j]];
-            c->master_nodes[2] = -1;
-            c->weights[0] = 1.0 - b->param;
-            c->weights[1] = b->param;
-        } else if (b->kind == NTS_KIND_CORNER) {
-            nts_shape3 N = nts_corner_shape(body_alpha(env, b->body), b->param);
-            c->master_count = 3;
-            c->master_nodes[0] = s->surf_local[s->surf_prev[j]];
-            c->master_nodes[1] = s->surf_local[j];
-            c->master_nodes[2] = s->surf_local[s->surf_next[j]];
-            c->weights[0] = N.n2;
-            c->weights[1] = N.n3;
-            c->weights[2] = N.n4;
-        } else {
-            c->master_count = 1;
-            c->master_nodes[0] = s->surf_local[j];
-            c->master_nodes[1] = c->master_nodes[2] = -1;
-            c->weights[0] = 1.0;
-        }
-        c->param = b->param;
-        c->gap = b->gap;
-        c->normal = b->normal;
-        c->point = b->point;
-        c->slave_body = s->surf_body[i];
-        c->slave_node = s->surf_local[i];
-        c->penalty = eps;
-        if (c->gap < 0.0) {
-            /* f_s = -eps g n (docs/model.md §6). */
-            double eg = eps * c->gap;
-            c->force = nts_scale(-eg, c->normal);
-            if (env->want_virial) {
-                /* W_ab = -sum_k f_ka (X_k - Xs)_b over the master nodes, f_k = eps g N_k n
-                 * (the slave's own term vanishes); equals eps g^2 n_a n_b at the PCA. */
-                int base = s->body_node_start[c->master_body], q;
-                double wxx = 0.0, wyy = 0.0, wxy = 0.0, wyx = 0.0;
-                for (q = 0; q < c->master_count; ++q) {
-                    nts_vec2 rel = nts_scene_diff(s, s->pos[base + c->master_nodes[q]], xs);
-                    nts_vec2 f = nts_scale(eg * c->weights[q], c->normal);
-                    wxx -= f.x * rel.x;
-                    wyy -= f.y * rel.y;
-                    wxy -= f.x * rel.y;
-                    wyx -= f.y * rel.x;
-                }
-                c->virial.xx = wxx;
-                c->virial.yy = wyy;
-                c->virial.xy = 0.5 * (wxy + wyx);
-            }
-        }
+        if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
+        w->recs[w->rec_count] = *b;
+        w->recs[w->rec_count++].slave = i;
     }
     w->best_count = 0;
 }

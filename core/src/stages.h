@@ -56,8 +56,9 @@ typedef struct master_key {
     int is_long;     /* searched through the long lists (nts_fill_hot) */
 } master_key;
 
-/* The best candidate so far of one (slave, master body) pair. Only what the
- * selection needs; the full nts_contact is made once, when the slave is done. */
+/* The best candidate so far of one (slave, master body) pair, and the record
+ * it becomes (64 bytes): only what the selection needs. The full nts_contact
+ * (152 bytes) is made by the scatter, and only for what is asked. */
 typedef struct candidate {
     double gap;
     double param;    /* s (segment), xi (corner), 0 (vertex) */
@@ -65,18 +66,21 @@ typedef struct candidate {
     nts_vec2 point;
     int body;        /* master body */
     int entry;       /* surface entry j of the feature's master node */
-    int key;         /* the master node index inside its body (tie-break) */
+    int slave;       /* surface entry of the slave (set when the slave is done) */
     int kind;
 } candidate;
 
 /* One worker's scratch: the per-slave best candidate of each master body, and
- * the records (nts_contact) of the slaves it handled, in slave order. */
+ * the records of the slaves it handled, in slave order: every closest point
+ * within r when contacts, gaps or the tangent are asked for, else only the
+ * active contacts (g < 0), the only ones that forces, energy and virial need. */
 typedef struct worker {
     int* slot;         /* body -> index into best, -1 if none (all -1 between slaves) */
     candidate* best;   /* candidates of the current slave */
     int best_count, best_cap;
-    nts_contact* recs;
+    candidate* recs;
     int rec_count, rec_cap;
+    long long gaps;    /* closest points within r found (kept or not) */
     int status;
     /* Workers sit side by side in one array and update their counts all the
      * time: keep each on its own cache lines (no false sharing between threads). */
@@ -133,6 +137,7 @@ typedef struct search_env {
     int cell_cull;           /* 1 when the stencil offsets are exact images (cull whole cells) */
     nts_solver solver;
     int want_virial;
+    int keep_all;            /* records for every closest point (contacts, gaps or tangent asked) */
 } search_env;
 
 

@@ -43,9 +43,17 @@ static inline int nts_is_valid_vec2(nts_vec2 a) { return isfinite(a.x) && isfini
 
 /* Minimum-image difference in a periodic box of sides lx, ly (0 means not periodic
  * along that axis). Used for every difference vector in a periodic scene. */
+static inline double nts_min_image_1(double d, double l) {
+    /* Within a quarter box the image is 0: nearbyint gives a signed zero and
+     * d - l * (+-0) is d + 0.0 (which also turns -0 into +0), so near pairs skip
+     * the division and the library call, with the same bits. */
+    if (!(l > 0.0)) return d;
+    if (fabs(d) < 0.25 * l) return d + 0.0;
+    return d - l * nearbyint(d / l);
+}
 static inline nts_vec2 nts_min_image(nts_vec2 d, double lx, double ly) {
-    if (lx > 0.0) d.x -= lx * nearbyint(d.x / lx);
-    if (ly > 0.0) d.y -= ly * nearbyint(d.y / ly);
+    d.x = nts_min_image_1(d.x, lx);
+    d.y = nts_min_image_1(d.y, ly);
     return d;
 }
 
