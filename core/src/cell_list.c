@@ -8,15 +8,8 @@
 void nts_cells_free(nts_cells* c) {
     nts_free(c->cell_start);
     nts_free(c->items);
-    nts_free(c->entry_cell);
+    nts_free(c->rank);
     memset(c, 0, sizeof *c);
-}
-
-static inline int clamp_index(double v, int n) {
-    /* Compare in double before converting: (int) of a huge double is undefined. */
-    if (!(v >= 0.0)) return 0;
-    if (v >= (double)(n - 1)) return n - 1;
-    return (int)v;
 }
 
 int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads) {
@@ -70,29 +63,23 @@ int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads) {
         int cap_items = c->cap_items;
         if ((rc = nts_grow((void**)&c->items, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
         cap_items = c->cap_items;
-        if ((rc = nts_grow((void**)&c->entry_cell, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
+        if ((rc = nts_grow((void**)&c->rank, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
         c->cap_items = cap_items;
     }
     memset(c->cell_start, 0, sizeof(int) * (size_t)(ncell + 1));
     /* The cell of each entry (in parallel: each is its own), then the counts. */
     NTS_PARALLEL_FOR(threads)
-    for (i = 0; i < n; ++i) {
-        nts_vec2 p = s->pos[s->surf_node[i]];
-        double x = p.x - c->x0, y = p.y - c->y0;
-        int cx, cy;
-        if (c->periodic) {
-            x -= s->lx * floor(x / s->lx);
-            y -= s->ly * floor(y / s->ly);
-        }
-        cx = clamp_index(x / c->hx, c->nx);
-        cy = clamp_index(y / c->hy, c->ny);
-        c->entry_cell[i] = cy * c->nx + cx;
-    }
-    for (i = 0; i < n; ++i) ++c->cell_start[c->entry_cell[i] + 1];
+    for (i = 0; i < n; ++i) c->rank[i] = nts_cells_place(c, s, s->pos[s->surf_node[i]]).cell;
+    for (i = 0; i < n; ++i) ++c->cell_start[c->rank[i] + 1];
     /* Counting sort: prefix sums, then place entries in increasing order, so each
-     * cell lists its entries in ascending order (determinism). */
+     * cell lists its entries in ascending order (determinism); each entry's
+     * cell is replaced by its place. */
     for (i = 0; i < ncell; ++i) c->cell_start[i + 1] += c->cell_start[i];
-    for (i = 0; i < n; ++i) c->items[c->cell_start[c->entry_cell[i]]++] = i;
+    for (i = 0; i < n; ++i) {
+        const int at = c->cell_start[c->rank[i]]++;
+        c->items[at] = i;
+        c->rank[i] = at;
+    }
     for (i = ncell; i > 0; --i) c->cell_start[i] = c->cell_start[i - 1];
     c->cell_start[0] = 0;
     return NTS_OK;

@@ -24,7 +24,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
-        (size_t)ctx->long_hot_cap * sizeof(master_hot) + (size_t)ctx->long_start_cap * sizeof(int) +
+        (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
         (size_t)ctx->long_items_cap * sizeof(int) +
         (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
     for (i = 0; i < ctx->worker_count; ++i) {
@@ -65,7 +65,7 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
     nts_free(ctx->scratch);
-    nts_free(ctx->long_hot);
+    nts_free(ctx->long_m);
     nts_free(ctx->long_start);
     nts_free(ctx->long_items);
     nts_kbuf_free(&ctx->stiffness);

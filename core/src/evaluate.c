@@ -62,7 +62,6 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             }
             sd->len = sqrt(l2);
             sd->inv_len2 = 1.0 / l2;
-            sd->n = nts_v2(sd->t.y / sd->len, -sd->t.x / sd->len);
         }
         for (i = 0; i < s->surface_count; ++i) { /* serial: the first bad one, and the longest */
             if (!(ctx->seg[i].len > 0.0)) {
@@ -92,7 +91,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
-    env.long_hot = NULL;
+    env.long_m = NULL;
     env.long_start = NULL;
     env.long_items = NULL;
     /* A typical segment, not the longest, sets the default search radius and
@@ -120,8 +119,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.ly = s->ly;
     env.qx = 0.25 * s->lx;
     env.qy = 0.25 * s->ly;
-    env.cell_reach2 = 0.0;
-    env.cell_cull = 0;
+    env.cell_shift = 0;
     env.cells = NULL;
     if ((rc = nts_grow((void**)&ctx->keys, &ctx->keys_cap, s->surface_count, sizeof(master_key))) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
@@ -149,12 +147,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         for (round = 0;; ++round) {
             if ((rc = nts_cells_build(&ctx->cells, s, hc, nthreads)) != NTS_OK)
                 return eval_fail(err, rc, -1, -1, "out of memory");
-            if ((rc = nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, nthreads)) != NTS_OK)
-                return eval_fail(err, rc, -1, -1, "out of memory");
+            /* The round-off of binning and of the cell frame, relative to the
+             * size of the coordinates (not of the cells). */
             scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
             pad = 1e-12 * scale;
+            if ((rc = nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, pad, nthreads)) !=
+                NTS_OK)
+                return eval_fail(err, rc, -1, -1, "out of memory");
             if (ctx->long_count == 0) break;
-            rc = nts_build_long_lists(ctx, s, env.r, pad, budget);
+            rc = nts_build_long_lists(ctx, s, env.alpha, env.r, pad, budget);
             if (rc == NTS_OK) break;
             if (rc != NTS_ELIMIT) return eval_fail(err, rc, -1, -1, "out of memory");
             assert(round < 64);
@@ -162,17 +163,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         }
         env.cells = cl;
         if (ctx->long_count > 0) {
-            env.long_hot = ctx->long_hot;
+            env.long_m = ctx->long_m;
             env.long_start = ctx->long_start;
             env.long_items = ctx->long_items;
         }
-        /* Whole-cell cull: exact when every stencil offset is a distinct image,
-         * with an allowance for the round-off of binning (relative to the size of
-         * the coordinates, not of the cells). */
-        env.cell_cull = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
-        env.cell_reach2 = (hc * (1.0 + 1e-9) + pad) * (hc * (1.0 + 1e-9) + pad);
+        /* One image shift per stencil range: when every stencil offset is a
+         * distinct image (then each master within reach is the nearest image). */
+        env.cell_shift = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
     } else {
-        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, nthreads); /* no long lists: cannot fail */
+        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, 0.0, nthreads); /* no long lists: cannot fail */
     }
 
     t1 = wall_time();

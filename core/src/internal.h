@@ -100,9 +100,34 @@ typedef struct nts_cells {
     int periodic;
     int* cell_start; /* nx*ny + 1 */
     int* items;      /* surface entries sorted by cell */
-    int* entry_cell; /* surface entry -> cell */
+    int* rank;       /* surface entry -> its place in items */
     int cap_cells, cap_items;
 } nts_cells;
+
+/* Where the cell list puts a point: its coordinates in the grid's frame
+ * (wrapped into the box when periodic) and its cell. One formula for the
+ * binning and for the masters' keys, so that both agree to the bit. */
+typedef struct nts_cell_place {
+    double x, y; /* p - (x0, y0), wrapped */
+    int cell;
+} nts_cell_place;
+static inline int nts_cells_clamp(double v, int n) {
+    /* Compare in double before converting: (int) of a huge double is undefined. */
+    if (!(v >= 0.0)) return 0;
+    if (v >= (double)(n - 1)) return n - 1;
+    return (int)v;
+}
+static inline nts_cell_place nts_cells_place(const nts_cells* c, const nts_scene* s, nts_vec2 p) {
+    nts_cell_place q;
+    q.x = p.x - c->x0;
+    q.y = p.y - c->y0;
+    if (c->periodic) {
+        q.x -= s->lx * floor(q.x / s->lx);
+        q.y -= s->ly * floor(q.y / s->ly);
+    }
+    q.cell = nts_cells_clamp(q.y / c->hy, c->ny) * c->nx + nts_cells_clamp(q.x / c->hx, c->nx);
+    return q;
+}
 /* `threads`: for the binning of the entries (the result does not depend on it). */
 int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads);
 void nts_cells_free(nts_cells* c);

@@ -6,49 +6,66 @@
 
 #include "stages.h"
 
-/* The masters' hot records in the order the search reads them; the factor
- * 1 + 1e-9 on the reach covers the round-off of the tests it replaces. With a
- * cell list (`long_len` > 0), a master whose reach length exceeds `long_len`
- * (the cell side minus r) is searched through the long lists instead: its
- * record here offers nothing, and a copy with its real reach goes to
- * ctx->long_hot. A body with role "slave" offers nothing at all. */
+/* The masters' hot records and keys in the order the search reads them. The
+ * factor 1 + 1e-9 on the reach covers the round-off of the feature tests it
+ * stands for, and `pad` that of the cell frame. With a cell list (`long_len` >
+ * 0), a master whose reach length exceeds `long_len` (the cell side minus r)
+ * is searched through the long lists instead: its key offers nothing, and
+ * ctx->long_m keeps its real reach. A body with role "slave" offers nothing
+ * at all. */
 int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
-                 double long_len, int threads) {
+                 double long_len, double pad, int threads) {
+    const nts_cells* cl = order != NULL ? &ctx->cells : NULL;
     int e, count = 0, rc;
     (void)threads; /* without OpenMP */
     ctx->long_count = 0;
-    /* Every record is its own (in parallel); the long ones are then copied out
-     * in entry order, by one thread (the long lists' order is the result's). */
+    /* Every record is its own (in parallel); the long ones are then listed in
+     * entry order, by one thread (the long lists' order is the result's). */
     NTS_PARALLEL_FOR(threads)
     for (e = 0; e < s->surface_count; ++e) {
         int j = order != NULL ? order[e] : e, b = s->surf_body[j];
         master_hot* m = &ctx->hot[e];
+        master_key* k = &ctx->keys[e];
         double a = alpha_of_body(s, b, alpha), len = reach_length(ctx->seg, s, j, a);
-        double reach = (r + len) * (1.0 + 1e-9);
+        double reach = (r + len) * (1.0 + 1e-9) + pad;
         m->p = s->pos[s->surf_node[j]];
         m->t = ctx->seg[j].t;
-        m->n = ctx->seg[j].n;
         m->inv_len2 = ctx->seg[j].inv_len2;
-        m->reach2 = reach * reach;
-        m->alpha = a;
-        m->body = b;
+        m->len = ctx->seg[j].len;
         m->entry = j;
-        if (s->body_role[b] == NTS_ROLE_SLAVE) m->reach2 = -1.0;
-        ctx->keys[e].p = m->p;
-        ctx->keys[e].reach2 = m->reach2;
-        ctx->keys[e].body = b;
-        ctx->keys[e].is_long = s->body_role[b] != NTS_ROLE_SLAVE && long_len > 0.0 && len > long_len;
+        m->body = b;
+        if (cl != NULL) {
+            nts_cell_place q = nts_cells_place(cl, s, m->p);
+            k->x = q.x;
+            k->y = q.y;
+            k->cell = q.cell;
+        } else {
+            k->x = m->p.x;
+            k->y = m->p.y;
+            k->cell = 0;
+        }
+        k->reach2 = reach * reach;
+        k->body = b;
+        /* A "slave" body, or a long master (listed below): nothing from the stencil. */
+        if (s->body_role[b] == NTS_ROLE_SLAVE || (long_len > 0.0 && len > long_len)) k->reach2 = -1.0;
     }
     if (!(long_len > 0.0)) return NTS_OK;
-    for (e = 0; e < s->surface_count; ++e) count += ctx->keys[e].is_long;
-    /* Sized to the long masters, usually a few walls, not to every entry. */
-    if (count > 0 && (rc = nts_grow((void**)&ctx->long_hot, &ctx->long_hot_cap, count, sizeof(master_hot))) != NTS_OK)
-        return rc;
     for (e = 0; e < s->surface_count; ++e)
-        if (ctx->keys[e].is_long) {
-            ctx->long_hot[ctx->long_count++] = ctx->hot[e];
-            ctx->hot[e].reach2 = ctx->keys[e].reach2 = -1.0;
+        count += ctx->keys[e].reach2 == -1.0 && s->body_role[ctx->hot[e].body] != NTS_ROLE_SLAVE;
+    /* Sized to the long masters, usually a few walls, not to every entry. */
+    if (count > 0 && (rc = nts_grow((void**)&ctx->long_m, &ctx->long_m_cap, count, sizeof(long_master))) != NTS_OK)
+        return rc;
+    for (e = 0; e < s->surface_count; ++e) {
+        const master_hot* m = &ctx->hot[e];
+        if (ctx->keys[e].reach2 == -1.0 && s->body_role[m->body] != NTS_ROLE_SLAVE) {
+            long_master* lm = &ctx->long_m[ctx->long_count++];
+            double reach = (r + reach_length(ctx->seg, s, m->entry, alpha_of_body(s, m->body, alpha))) *
+                           (1.0 + 1e-9) + pad; /* as above */
+            lm->reach2 = reach * reach;
+            lm->hot = e;
+            lm->pad = 0;
         }
+    }
     return NTS_OK;
 }
 
@@ -116,19 +133,18 @@ static int cell_span(double lo, double hi, double h, int n, int periodic, int* f
  * triangle Xa X_j Xb and the flat part on segment j, so every feature lies
  * within r of bbox(X_j, X_j + t_j, X_j - alpha t_{j-1}); `pad` covers the
  * round-off of binning. Returns the number of cells; *cx0, *ncx (*cy0, *ncy). */
-static long long long_box(const nts_cells* cl, const nts_scene* s, const seg_data* seg, const master_hot* m,
-                          double r, double pad, int* cx0, int* ncx, int* cy0, int* ncy) {
-    nts_vec2 tp = seg[s->surf_prev[m->entry]].t, t = m->t;
-    double x = m->p.x - cl->x0, y = m->p.y - cl->y0, R = r * (1.0 + 1e-9) + pad;
-    double xlo, xhi, ylo, yhi;
-    if (cl->periodic) { /* the frame nts_cells_build bins in */
-        x -= s->lx * floor(x / s->lx);
-        y -= s->ly * floor(y / s->ly);
-    }
-    xlo = fmin(fmin(0.0, t.x), -m->alpha * tp.x);
-    xhi = fmax(fmax(0.0, t.x), -m->alpha * tp.x);
-    ylo = fmin(fmin(0.0, t.y), -m->alpha * tp.y);
-    yhi = fmax(fmax(0.0, t.y), -m->alpha * tp.y);
+static long long long_box(const nts_context* ctx, const nts_scene* s, const long_master* lm, double alpha, double r,
+                          double pad, int* cx0, int* ncx, int* cy0, int* ncy) {
+    const nts_cells* cl = &ctx->cells;
+    const master_hot* m = &ctx->hot[lm->hot];
+    const master_key* k = &ctx->keys[lm->hot];
+    nts_vec2 tp = ctx->seg[s->surf_prev[m->entry]].t, t = m->t;
+    double x = k->x, y = k->y, R = r * (1.0 + 1e-9) + pad; /* the frame nts_cells_build bins in */
+    double xlo, xhi, ylo, yhi, a = alpha_of_body(s, m->body, alpha);
+    xlo = fmin(fmin(0.0, t.x), -a * tp.x);
+    xhi = fmax(fmax(0.0, t.x), -a * tp.x);
+    ylo = fmin(fmin(0.0, t.y), -a * tp.y);
+    yhi = fmax(fmax(0.0, t.y), -a * tp.y);
     *ncx = cell_span(x + xlo - R, x + xhi + R, cl->hx, cl->nx, cl->periodic, cx0);
     *ncy = cell_span(y + ylo - R, y + yhi + R, cl->hy, cl->ny, cl->periodic, cy0);
     return (long long)*ncx * (long long)*ncy;
@@ -138,7 +154,7 @@ static long long long_box(const nts_cells* cl, const nts_scene* s, const seg_dat
  * masters in entry order within a cell). Returns NTS_OK, NTS_ENOMEM, or
  * NTS_ELIMIT when the lists would exceed `budget` entries (the caller then
  * coarsens the grid). */
-int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double r, double pad, long long budget) {
+int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double r, double pad, long long budget) {
     const nts_cells* cl = &ctx->cells;
     int ncell = cl->nx * cl->ny, i, rc;
     long long total = 0;
@@ -146,20 +162,20 @@ int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double r, double 
     memset(ctx->long_start, 0, sizeof(int) * (size_t)(ncell + 1));
     for (i = 0; i < ctx->long_count; ++i) {
         int cx0, ncx, cy0, ncy;
-        total += long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        total += long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
         if (total > budget) return NTS_ELIMIT;
     }
     if ((rc = nts_grow((void**)&ctx->long_items, &ctx->long_items_cap, (int)total, sizeof(int))) != NTS_OK) return rc;
     for (i = 0; i < ctx->long_count; ++i) { /* counts */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
             for (a = 0; a < ncx; ++a) ++ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx + 1];
     }
     for (i = 0; i < ncell; ++i) ctx->long_start[i + 1] += ctx->long_start[i];
     for (i = 0; i < ctx->long_count; ++i) { /* fill, in entry order */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(cl, s, ctx->seg, &ctx->long_hot[i], r, pad, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
             for (a = 0; a < ncx; ++a) ctx->long_items[ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx]++] = i;
     }

@@ -54,30 +54,27 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
 
 /* Try the features that master m (surface entry j) offers to a slave at xs: the
  * flat part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0)
- * at j. The arithmetic of every accepted candidate is the first core's, operation
- * for operation, so results are bitwise unchanged. */
-static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int slave_body,
-                                                const master_hot* m, const int periodic) {
-    const double alpha = m->alpha, r = env->r; /* the master's alpha shapes the master's surface */
+ * at j. The caller has culled by reach (every feature of the master lies
+ * within its reach of X_j, fill_hot), so only masters that may offer
+ * something get here; each feature test below is exact on its own, so the
+ * cull decides nothing but the time. */
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, const master_hot* m,
+                                                const int periodic) {
+    const double alpha = alpha_of_body(env->s, m->body, env->alpha), r = env->r; /* the master's alpha */
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
     double d2 = d.x * d.x + d.y * d.y, sj_param;
     candidate c;
 
-    /* Cheap reject: every feature of this master lies within its reach of X_j
-     * (segment: |d| <= |t| + |g|; corner: |d| <= r + alpha max(|a|, |c|); vertex:
-     * |d| = |g|), so a farther master offers nothing (fill_hot). One branch
-     * for both tests (no self-contact): they are hard to predict. */
-    if (!((d2 <= m->reach2) & (m->body != slave_body))) return;
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
     if (sj_param >= alpha && sj_param <= 1.0 - alpha) {
-        double g = nts_dot(d, m->n);
+        double g = nts_dot(d, seg_normal(m->t, m->len));
         if (fabs(g) <= r) {
             c.gap = g;
             c.param = sj_param;
-            c.normal = m->n;
+            c.normal = seg_normal(m->t, m->len);
             c.point = nts_mul_add(pj, sj_param, m->t);
             c.body = m->body;
             c.entry = m->entry;
@@ -95,7 +92,6 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
         double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
         if (alpha > 0.0) {
             /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (docs/model.md §12, correction 3). */
-            const seg_data* sj = &env->seg[j];
             nts_vec2 a, cc;
             double reach;
             nts_corner k;
@@ -105,7 +101,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             cc = m->t;          /* X4 - X3 */
             /* Cheap reject: the curve lies in the triangle Xa X3 Xb, within
              * alpha max(|a|, |c|) of X3, so |g| >= |d| - that reach. */
-            reach = alpha * (sp->len > sj->len ? sp->len : sj->len);
+            reach = alpha * (sp->len > m->len ? sp->len : m->len);
             if (sqrt(d2) > (r + reach) * (1.0 + 1e-12)) return;
             k = nts_corner_make(a, cc, alpha);
             sol = nts_corner_solve(k, d, env->solver);
@@ -126,7 +122,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             if (sp_param < 1.0) return;
             dist = sqrt(d2);
             if (!(dist <= r)) return;
-            pseudo = nts_add(sp->n, m->n);
+            pseudo = nts_add(seg_normal(sp->t, sp->len), seg_normal(m->t, m->len));
             side = nts_dot(d, pseudo) >= 0.0 ? 1.0 : -1.0;
             if (dist > 0.0) {
                 c.normal = nts_scale(side / dist, d);
@@ -149,11 +145,13 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
 /* The masters e0..e1 (cell order) offered to a slave in two passes: first the
  * cheap reject over the compact keys, the survivors appended without a branch
  * (most masters a slave visits are its own body's or out of reach, and their
- * verdict is hard to predict); then the features of the few survivors.
- * try_master repeats the same reject with the same arithmetic, so the
- * survivors and every result are those of a single pass, bitwise. */
-static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w, nts_vec2 xs, int slave_body,
-                                               int e0, int e1, const int periodic) {
+ * verdict is hard to predict); then the features of the few survivors. The
+ * first pass works in the cell frame, (sx, sy) being the slave there minus
+ * the image shift of the range, so it needs no minimum image per master; its
+ * reach carries the frame's round-off (fill_hot), so it keeps every master
+ * that the exact arithmetic of try_master could accept. */
+static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w, nts_vec2 xs, double sx, double sy,
+                                               int slave_body, int e0, int e1, const int periodic) {
     enum { CHUNK = 128 };
     const master_key* keys = env->keys;
     int kept[CHUNK];
@@ -162,13 +160,24 @@ static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w,
         int e, n = 0;
         for (e = e0; e < stop; ++e) {
             const master_key* k = &keys[e];
-            nts_vec2 d = search_diff(env, xs, k->p, periodic);
-            double d2 = d.x * d.x + d.y * d.y;
+            const double dx = sx - k->x, dy = sy - k->y;
             kept[n] = e;
-            n += (d2 <= k->reach2) & (k->body != slave_body);
+            n += (dx * dx + dy * dy <= k->reach2) & (k->body != slave_body);
         }
-        for (e = 0; e < n; ++e) try_master(env, w, xs, slave_body, &env->hot[kept[e]], periodic);
+        for (e = 0; e < n; ++e) try_master(env, w, xs, &env->hot[kept[e]], periodic);
         e0 = stop;
+    }
+}
+
+/* The same for a grid whose stencil repeats images (a periodic box of fewer
+ * than 4 cells a side): the minimum image per master. */
+static void try_range_wrapped(const search_env* env, worker* w, nts_vec2 xs, double sx, double sy, int slave_body,
+                              int e0, int e1) {
+    int e;
+    for (e = e0; e < e1; ++e) {
+        const master_key* k = &env->keys[e];
+        nts_vec2 d = nts_scene_diff(env->s, nts_v2(sx, sy), nts_v2(k->x, k->y));
+        if (d.x * d.x + d.y * d.y <= k->reach2 && k->body != slave_body) try_master(env, w, xs, &env->hot[e], 1);
     }
 }
 
@@ -205,104 +214,100 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     w->best_count = 0;
 }
 
-static inline double max2(double a, double b) { return a > b ? a : b; }
+/* The key ranges of a cell's 3 x 3 stencil: in each row the three cells are
+ * consecutive in cell order, so one range, or two where the row wraps around
+ * the periodic box; each with the image shift (kx lx, ky ly) that brings its
+ * masters next to the slave. Open grids clip at the edges. */
+typedef struct stencil_ranges {
+    int n;
+    int begin[6], end[6];
+    double shift_x[6], shift_y[6];
+} stencil_ranges;
 
-/* Distance from fx (the slave's place in its cell, from the cell's low edge) to
- * the neighbour cell at offset o of side h, branch-free. */
-static inline double cell_gap(double f, int o, double h) {
-    double lo = o * h;
-    return max2(0.0, max2(lo - f, f - (lo + h)));
+static void stencil_ranges_of(const search_env* env, int cell, stencil_ranges* st) {
+    const nts_cells* cl = env->cells;
+    const int nx = cl->nx, ny = cl->ny, cx = cell % nx, cy = cell / nx;
+    int dy;
+    st->n = 0;
+    for (dy = -1; dy <= 1; ++dy) {
+        int yy = cy + dy, lo = cx - 1, hi = cx + 1, row;
+        double sy = 0.0;
+        if (yy < 0 || yy >= ny) {
+            if (!cl->periodic) continue;
+            sy = yy < 0 ? -env->ly : env->ly;
+            yy += yy < 0 ? ny : -ny;
+        }
+        row = yy * nx;
+        if (!cl->periodic) {
+            if (lo < 0) lo = 0;
+            if (hi > nx - 1) hi = nx - 1;
+        } else if (lo < 0) { /* column nx - 1, one box to the left */
+            st->begin[st->n] = cl->cell_start[row + nx - 1];
+            st->end[st->n] = cl->cell_start[row + nx];
+            st->shift_x[st->n] = -env->lx;
+            st->shift_y[st->n++] = sy;
+            lo = 0;
+        } else if (hi > nx - 1) { /* column 0, one box to the right */
+            st->begin[st->n] = cl->cell_start[row];
+            st->end[st->n] = cl->cell_start[row + 1];
+            st->shift_x[st->n] = env->lx;
+            st->shift_y[st->n++] = sy;
+            hi = nx - 1;
+        }
+        st->begin[st->n] = cl->cell_start[row + lo];
+        st->end[st->n] = cl->cell_start[row + hi + 1];
+        st->shift_x[st->n] = 0.0;
+        st->shift_y[st->n++] = sy;
+    }
 }
 
-/* The local search of slaves [begin, end) with the cell list. With the
- * whole-cell cull, the stencil cells that survive it form, in each row, one run
- * of consecutive cells (the distance is convex along the row), whose masters
- * are contiguous in cell order: one range per row (two where the row wraps
- * around the periodic box), so the inner loop runs long and branches little. */
+/* The local search of slaves [begin, end) with the cell list, in slave order.
+ * The stencil's ranges are worked out once per cell (consecutive slaves of a
+ * loop mostly share theirs); the slave's own key gives its place in the cell
+ * frame. */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
                                                   const int periodic) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
-    const int nx = cl->nx, ny = cl->ny;
-    const double reach2 = env->cell_reach2;
-    nts_stencil st;
-    int last_cell = -1, i, cx = 0, cy = 0;
-    double cell_x0 = 0.0, cell_y0 = 0.0;
+    stencil_ranges st;
+    nts_stencil wide;
+    int last_cell = -1, i, q;
     st.n = 0;
+    wide.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = s->surf_body[i], cell = cl->entry_cell[i];
+        const int bi = s->surf_body[i];
+        const master_key* me;
+        nts_vec2 xs;
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
         }
-        const nts_vec2 xs = s->pos[s->surf_node[i]];
-        int q;
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
-        if (cell != last_cell) {
-            last_cell = cell;
-            cx = cell % nx;
-            cy = cell / nx;
-            cell_x0 = cx * cl->hx;
-            cell_y0 = cy * cl->hy;
-            if (!env->cell_cull) nts_cells_stencil(cl, cell, &st);
+        me = &env->keys[cl->rank[i]];
+        xs = s->pos[s->surf_node[i]];
+        if (me->cell != last_cell) {
+            last_cell = me->cell;
+            if (env->cell_shift) stencil_ranges_of(env, last_cell, &st);
+            else nts_cells_stencil(cl, last_cell, &wide);
         }
-        if (env->cell_cull) {
-            /* The slave's place inside its cell, as nts_cells_build binned it. */
-            double x = xs.x - cl->x0, y = xs.y - cl->y0, fx, fy, ex[3];
-            int rb[6], re[6], nr = 0, dy, k;
-            if (periodic) {
-                x -= s->lx * floor(x / s->lx);
-                y -= s->ly * floor(y / s->ly);
-            }
-            fx = x - cell_x0;
-            fy = y - cell_y0;
-            for (k = 0; k < 3; ++k) ex[k] = cell_gap(fx, k - 1, cl->hx);
-            for (dy = -1; dy <= 1; ++dy) {
-                double ey = cell_gap(fy, dy, cl->hy), ey2 = ey * ey;
-                int yy = cy + dy, lo = 2, hi = -1, row;
-                if (yy < 0 || yy >= ny) {
-                    if (!periodic) continue;
-                    yy += yy < 0 ? ny : -ny;
-                }
-                for (k = 0; k < 3; ++k)
-                    if (ex[k] * ex[k] + ey2 <= reach2) {
-                        if (k < lo) lo = k;
-                        hi = k;
-                    }
-                if (hi < 0) continue;
-                row = yy * nx;
-                lo += cx - 1;
-                hi += cx - 1;
-                if (!periodic) {
-                    if (lo < 0) lo = 0;
-                    if (hi > nx - 1) hi = nx - 1;
-                    if (lo > hi) continue;
-                    rb[nr] = cl->cell_start[row + lo];
-                    re[nr++] = cl->cell_start[row + hi + 1];
-                } else if (lo < 0) {
-                    rb[nr] = cl->cell_start[row + lo + nx];
-                    re[nr++] = cl->cell_start[row + nx];
-                    rb[nr] = cl->cell_start[row];
-                    re[nr++] = cl->cell_start[row + hi + 1];
-                } else if (hi > nx - 1) {
-                    rb[nr] = cl->cell_start[row + lo];
-                    re[nr++] = cl->cell_start[row + nx];
-                    rb[nr] = cl->cell_start[row];
-                    re[nr++] = cl->cell_start[row + hi - nx + 1];
-                } else {
-                    rb[nr] = cl->cell_start[row + lo];
-                    re[nr++] = cl->cell_start[row + hi + 1];
-                }
-            }
-            for (q = 0; q < nr; ++q) try_range(env, w, xs, bi, rb[q], re[q], periodic);
-        } else {
+        if (env->cell_shift) {
             for (q = 0; q < st.n; ++q)
-                try_range(env, w, xs, bi, cl->cell_start[st.cell[q]], cl->cell_start[st.cell[q] + 1], periodic);
+                try_range(env, w, xs, me->x - st.shift_x[q], me->y - st.shift_y[q], bi, st.begin[q], st.end[q],
+                          periodic);
+        } else {
+            for (q = 0; q < wide.n; ++q)
+                try_range_wrapped(env, w, xs, me->x, me->y, bi, cl->cell_start[wide.cell[q]],
+                                  cl->cell_start[wide.cell[q] + 1]);
         }
         if (env->long_start != NULL) {
             /* The long masters whose reach box overlaps the slave's own cell. */
-            int e, e0 = env->long_start[cell], e1 = env->long_start[cell + 1];
-            for (e = e0; e < e1; ++e) try_master(env, w, xs, bi, &env->long_hot[env->long_items[e]], periodic);
+            int e, e0 = env->long_start[last_cell], e1 = env->long_start[last_cell + 1];
+            for (e = e0; e < e1; ++e) {
+                const long_master* lm = &env->long_m[env->long_items[e]];
+                const master_hot* m = &env->hot[lm->hot];
+                nts_vec2 d = search_diff(env, xs, m->p, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && m->body != bi) try_master(env, w, xs, m, periodic);
+            }
         }
         flush_slave(env, w, i);
     }
@@ -326,8 +331,12 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end) {
                 break;
             }
             if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
-            for (j = 0; j < s->surface_count; ++j)
-                try_master(env, w, xs, bi, &hot[j], 1);
+            for (j = 0; j < s->surface_count; ++j) {
+                /* The keys hold the positions themselves here: the exact reach. */
+                const master_key* k = &env->keys[j];
+                nts_vec2 d = nts_scene_diff(s, xs, hot[j].p);
+                if (d.x * d.x + d.y * d.y <= k->reach2 && k->body != bi) try_master(env, w, xs, &hot[j], 1);
+            }
             flush_slave(env, w, i);
         }
     }

@@ -20,41 +20,50 @@
 #endif
 
 /* Per-surface-entry segment data, recomputed each evaluation from the positions:
- * the segment that starts at the entry. */
+ * the segment that starts at the entry (32 bytes; its normal is seg_normal). */
 typedef struct seg_data {
     nts_vec2 t;      /* X1 - X0 (minimum image) */
-    nts_vec2 n;      /* outward unit normal (t_y, -t_x)/|t| */
     double inv_len2; /* 1/|t|^2, |t| > 0 checked */
     double len;
 } seg_data;
 
-/* A master surface entry as the local search reads it, copied in cell order
- * (nodes sorted by cell) so the 3x3 stencil walks contiguous memory (72
- * bytes). Everything else of the entry (its previous segment, its node
- * indices) is read only for the few entries that pass the cheap rejects. */
+/* The outward unit normal of a segment (t_y, -t_x)/|t|, computed where it is
+ * needed (the same bits every time). */
+static inline nts_vec2 seg_normal(nts_vec2 t, double len) { return nts_v2(t.y / len, -t.x / len); }
+
+/* A master surface entry as the local search reads it once it passed the
+ * cheap reject (master_key), copied in cell order next to its key (56 bytes).
+ * Its previous segment and node indices are read from the scene's arrays. */
 typedef struct master_hot {
     nts_vec2 p;      /* X_j */
     nts_vec2 t;      /* segment j: X_{j+1} - X_j (minimum image) */
-    nts_vec2 n;      /* its outward unit normal */
     double inv_len2; /* 1/|t|^2 */
-    double reach2;   /* no feature of this master counts for a slave farther than sqrt(reach2);
-                        -1 when it offers nothing from here (a "slave" body, or a long entry
-                        of the cell list, searched through its own list) */
-    double alpha;    /* the smoothing of this master's body (per-body options) */
-    int body;
+    double len;      /* |t| */
     int entry;       /* surface entry j */
+    int body;
 } master_hot;
 
-/* What the first pass of the search reads of a master (32 bytes, in the
- * order of master_hot): the cheap reject alone, so that the masters a slave
- * visits and drops (most of them: its own body's, and those out of reach)
- * cost two loads and no branch (search.c). */
+/* What the first pass of the search reads of a master (32 bytes, cell order):
+ * the cheap reject alone, so that the masters a slave visits and drops (most
+ * of them: its own body's, and those out of reach) cost two loads and no
+ * branch (search.c). The position is in the cell list's frame (wrapped into a
+ * periodic box, nts_cells_place), where a stencil row is one shift away from
+ * the slave; `reach2` is the master's reach squared, widened by the round-off
+ * of that frame, or -1 when it offers nothing from here (a "slave" body, or a
+ * long master, searched through its own list). */
 typedef struct master_key {
-    nts_vec2 p;      /* X_j, as in master_hot */
-    double reach2;   /* as in master_hot */
+    double x, y;
+    double reach2;
     int body;
-    int is_long;     /* searched through the long lists (nts_fill_hot) */
+    int cell;        /* the cell it is binned in */
 } master_key;
+
+/* A master searched through the long lists (its key's reach2 is -1). */
+typedef struct long_master {
+    double reach2;   /* its real reach, squared (with the round-off allowance) */
+    int hot;         /* its record in ctx->hot */
+    int pad;
+} long_master;
 
 /* The best candidate so far of one (slave, master body) pair, and the record
  * it becomes (64 bytes): only what the selection needs. The full nts_contact
@@ -107,9 +116,9 @@ struct nts_context {
     double* scratch;   /* surface_count: segment lengths for the median and the percentile */
     int scratch_cap;
     /* Long entries of the cell list (reach longer than the cell side allows):
-     * each is listed in every cell its reach box overlaps (cell_list.c). */
-    master_hot* long_hot;
-    int long_hot_cap, long_count;
+     * each is listed in every cell its reach box overlaps (masters.c). */
+    long_master* long_m;
+    int long_m_cap, long_count;
     int* long_start;   /* cells + 1 */
     int long_start_cap;
     int* long_items;   /* into long_hot, by cell */
@@ -124,7 +133,7 @@ typedef struct search_env {
     const nts_cells* cells;  /* NULL: brute force */
     const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
     const master_key* keys;  /* hot's rejects, same order */
-    const master_hot* long_hot; /* the long entries, listed per cell by long_start/long_items */
+    const long_master* long_m; /* the long entries, listed per cell by long_start/long_items */
     const int* long_start;
     const int* long_items;
     double alpha, r, eps;    /* alpha: the options' (a body may have its own: master_hot.alpha) */
@@ -133,8 +142,7 @@ typedef struct search_env {
     void* cancel_user;
     int per_length;          /* NTS_PENALTY_PER_LENGTH */
     double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
-    double cell_reach2;      /* the same for a whole cell, with a round-off allowance */
-    int cell_cull;           /* 1 when the stencil offsets are exact images (cull whole cells) */
+    int cell_shift;          /* 1 when the stencil's cells are distinct images (search.c, try_range) */
     nts_solver solver;
     int want_virial;
     int keep_all;            /* records for every closest point (contacts, gaps or tangent asked) */
@@ -164,10 +172,11 @@ static inline double alpha_of_body(const nts_scene* s, int b, double alpha) {
 int nts_workers_prepare(nts_context* ctx, int count, int body_count);
 /* masters.c */
 /* NTS_OK, or NTS_ENOMEM (the long masters' copies). */
+/* `pad`: the round-off allowance of the cell frame (0 for brute force). */
 int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r, double long_len,
-                 int threads);
+                 double pad, int threads);
 double nts_select_kth(double* v, int n, int k);
-int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double r, double pad, long long budget);
+int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double r, double pad, long long budget);
 /* search.c: the local search of slaves [begin, end) into worker w. */
 void nts_search_range(const search_env* env, worker* w, int begin, int end);
 /* scatter.c: the records of the workers, in slave order, into *out. */
