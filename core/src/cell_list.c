@@ -1,26 +1,29 @@
-/* Cell list (Verlet buckets) over the surface nodes (docs/model.md
- * §9): cells of side >= h, built in O(N) with a counting sort; buffers grow
- * only, so re-evaluating the same topology allocates nothing. */
+/* Cell list (Verlet buckets, docs/model.md §9): the grid, a counting sort of
+ * entries by cell, and the 3 x 3 stencil of a cell. Buffers grow only, so
+ * re-evaluating the same topology allocates nothing. */
+#include <math.h>
 #include <string.h>
 
-#include "internal.h"
+#include "stages.h"
+
+#if NTS_CONFIG_OPENMP
+#include <omp.h>
+#endif
 
 void nts_cells_free(nts_cells* c) {
     nts_free(c->cell_start);
-    nts_free(c->items);
-    nts_free(c->rank);
     memset(c, 0, sizeof *c);
 }
 
-int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads) {
-    const int n = s->surface_count;
-    /* The grid never has more than about 4 cells per surface node, whatever the
-     * spread of the bodies: h only grows, which the search allows (h >= L_max + r). */
-    const double cap = 4.0 * (double)n + 16.0;
-    int i, ncell, rc;
-    (void)threads; /* without OpenMP */
+/* The grid's dimensions and sides for side h (no allocation). */
+static void cells_dims(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h) {
+    /* The grid never has more than about 4 cells per surface entry, whatever
+     * the spread of the bodies: h only grows, which the search allows. */
+    const double cap = 4.0 * (double)s->surface_count + 16.0;
     assert(h > 0.0);
     c->periodic = s->lx > 0.0;
+    c->lx = s->lx;
+    c->ly = s->ly;
     if (c->periodic) {
         double fx = floor(s->lx / h), fy = floor(s->ly / h);
         int nx = fx < 1.0 ? 1 : (fx > cap ? (int)cap : (int)fx);
@@ -35,104 +38,127 @@ int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads) {
         c->hx = s->lx / nx;
         c->hy = s->ly / ny;
     } else {
-        double xmin, xmax, ymin, ymax, wx, wy, hh = h;
-        nts_vec2 p = s->pos[s->surf_node[0]];
-        xmin = xmax = p.x;
-        ymin = ymax = p.y;
-        for (i = 1; i < n; ++i) {
-            p = s->pos[s->surf_node[i]];
-            if (p.x < xmin) xmin = p.x;
-            if (p.x > xmax) xmax = p.x;
-            if (p.y < ymin) ymin = p.y;
-            if (p.y > ymax) ymax = p.y;
-        }
-        wx = xmax - xmin;
-        wy = ymax - ymin;
+        double wx = sum->xmax - sum->xmin, wy = sum->ymax - sum->ymin, hh = h;
         if (hh < sqrt(wx * wy / cap)) hh = sqrt(wx * wy / cap);
         if (hh < wx / cap) hh = wx / cap;
         if (hh < wy / cap) hh = wy / cap;
         c->nx = (int)floor(wx / hh) + 1;
         c->ny = (int)floor(wy / hh) + 1;
-        c->x0 = xmin;
-        c->y0 = ymin;
+        c->x0 = sum->xmin;
+        c->y0 = sum->ymin;
         c->hx = c->hy = hh;
     }
-    ncell = c->nx * c->ny;
-    if ((rc = nts_grow((void**)&c->cell_start, &c->cap_cells, ncell + 1, sizeof(int))) != NTS_OK) return rc;
-    if (n > c->cap_items) {
-        int cap_items = c->cap_items;
-        if ((rc = nts_grow((void**)&c->items, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
-        cap_items = c->cap_items;
-        if ((rc = nts_grow((void**)&c->rank, &cap_items, n, sizeof(int))) != NTS_OK) return rc;
-        c->cap_items = cap_items;
-    }
-    memset(c->cell_start, 0, sizeof(int) * (size_t)(ncell + 1));
-    /* The cell of each entry (in parallel: each is its own), then the counts. */
-    NTS_PARALLEL_FOR(threads)
-    for (i = 0; i < n; ++i) c->rank[i] = nts_cells_place(c, s, s->pos[s->surf_node[i]]).cell;
-    for (i = 0; i < n; ++i) ++c->cell_start[c->rank[i] + 1];
-    /* Counting sort: prefix sums, then place entries in increasing order, so each
-     * cell lists its entries in ascending order (determinism); each entry's
-     * cell is replaced by its place. */
-    for (i = 0; i < ncell; ++i) c->cell_start[i + 1] += c->cell_start[i];
-    for (i = 0; i < n; ++i) {
-        const int at = c->cell_start[c->rank[i]]++;
-        c->items[at] = i;
-        c->rank[i] = at;
-    }
-    for (i = ncell; i > 0; --i) c->cell_start[i] = c->cell_start[i - 1];
-    c->cell_start[0] = 0;
-    return NTS_OK;
 }
 
-void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {
-    int cx = cell % c->nx, cy = cell / c->nx, dx, dy;
-    st->n = 0;
-    if (!c->periodic || (c->nx >= 3 && c->ny >= 3)) {
-        /* No repeats: wrap (periodic) or clip (open) each neighbour once. */
-        for (dy = -1; dy <= 1; ++dy) {
-            int y = cy + dy;
-            if (y < 0 || y >= c->ny) {
-                if (!c->periodic) continue;
-                y += y < 0 ? c->ny : -c->ny;
-            }
-            for (dx = -1; dx <= 1; ++dx) {
-                int x = cx + dx;
-                if (x < 0 || x >= c->nx) {
-                    if (!c->periodic) continue;
-                    x += x < 0 ? c->nx : -c->nx;
+int nts_cells_count(const nts_scene* s, const seg_summary* sum, double h) {
+    nts_cells c;
+    cells_dims(&c, s, sum, h);
+    return c.nx * c.ny;
+}
+
+int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h, int min_cells) {
+    double extent;
+    int e, need;
+    cells_dims(c, s, sum, h);
+    extent = c->periodic ? (s->lx > s->ly ? s->lx : s->ly) : (c->nx > c->ny ? c->nx : c->ny) * c->hx;
+    c->inv_hx = 1.0 / c->hx;
+    c->inv_hy = 1.0 / c->hy;
+    /* The keys' frame: a power of two, so scaling is exact. */
+    (void)frexp(extent, &e);
+    c->scale = ldexp(1.0, -e);
+    need = c->nx * c->ny > min_cells ? c->nx * c->ny : min_cells;
+    return nts_grow((void**)&c->cell_start, &c->cap_cells, need + 1, sizeof(int));
+}
+
+/* A counting sort. With threads, each sorts its own slice of the entries
+ * into its own counts, and the slices are laid out cell by cell in slice
+ * order: within a cell the entries stay in increasing order, exactly as the
+ * serial sort puts them. */
+void nts_cells_sort(nts_cells* c, const int* cell_of, int n, int* items, int* hist, int threads) {
+    const int ncell = c->nx * c->ny;
+    int* start = c->cell_start;
+    int i;
+#if NTS_CONFIG_OPENMP
+    if (threads > 1) {
+#pragma omp parallel num_threads(threads)
+        {
+            const int nt = omp_get_num_threads(), t = omp_get_thread_num();
+            const int b = (int)((long long)n * t / nt), e = (int)((long long)n * (t + 1) / nt);
+            int* h = hist + (size_t)t * (size_t)ncell;
+            int j;
+            memset(h, 0, sizeof(int) * (size_t)ncell);
+            for (j = b; j < e; ++j)
+                if (cell_of[j] >= 0) ++h[cell_of[j]];
+#pragma omp barrier
+#pragma omp single
+            {
+                /* Each (cell, slice) its first place: cells in order, slices in order within. */
+                int cell, u, at = 0;
+                for (cell = 0; cell < ncell; ++cell) {
+                    start[cell] = at;
+                    for (u = 0; u < nt; ++u) {
+                        int* hu = hist + (size_t)u * (size_t)ncell + cell;
+                        const int k = *hu;
+                        *hu = at;
+                        at += k;
+                    }
                 }
-                st->cell[st->n] = y * c->nx + x;
-                st->ox[st->n] = dx;
-                st->oy[st->n] = dy;
-                ++st->n;
+                start[ncell] = at;
             }
+            for (j = b; j < e; ++j)
+                if (cell_of[j] >= 0) items[h[cell_of[j]]++] = j;
         }
         return;
     }
+#else
+    (void)hist;
+    (void)threads;
+#endif
+    memset(start, 0, sizeof(int) * (size_t)(ncell + 1));
+    for (i = 0; i < n; ++i)
+        if (cell_of[i] >= 0) ++start[cell_of[i] + 1];
+    for (i = 0; i < ncell; ++i) start[i + 1] += start[i];
+    /* Place entries in increasing order, each at its cell's next free place
+     * (counted in start[c], which then holds the cell's end). */
+    for (i = 0; i < n; ++i)
+        if (cell_of[i] >= 0) items[start[cell_of[i]]++] = i;
+    for (i = ncell; i > 0; --i) start[i] = start[i - 1];
+    start[0] = 0;
+}
+
+void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {
+    const int nx = c->nx, ny = c->ny, cx = cell % nx, cy = cell / nx;
+    const double sx = c->lx * c->scale, sy = c->ly * c->scale;
+    int dy, dx;
+    st->n = 0;
     for (dy = -1; dy <= 1; ++dy) {
-        int y = cy + dy, dup, k;
-        if (c->periodic) y = ((y % c->ny) + c->ny) % c->ny;
-        if (y < 0 || y >= c->ny) continue;
-        for (dup = 0, k = -1; k < dy; ++k) {
-            int yk = cy + k;
-            if (c->periodic) yk = ((yk % c->ny) + c->ny) % c->ny;
-            dup |= (yk == y);
+        int yy = cy + dy, first = st->n;
+        double shy = 0.0;
+        if (yy < 0 || yy >= ny) {
+            if (!c->periodic) continue;
+            shy = yy < 0 ? -sy : sy;
+            yy += yy < 0 ? ny : -ny;
         }
-        if (dup) continue;
         for (dx = -1; dx <= 1; ++dx) {
-            int x = cx + dx, dupx = 0, q;
-            if (c->periodic) x = ((x % c->nx) + c->nx) % c->nx;
-            if (x < 0 || x >= c->nx) continue;
-            for (q = -1; q < dx; ++q) {
-                int xq = cx + q;
-                if (c->periodic) xq = ((xq % c->nx) + c->nx) % c->nx;
-                dupx |= (xq == x);
+            int xx = cx + dx, b, e;
+            double shx = 0.0;
+            if (xx < 0 || xx >= nx) {
+                if (!c->periodic) continue;
+                shx = xx < 0 ? -sx : sx;
+                xx += xx < 0 ? nx : -nx;
             }
-            if (dupx) continue;
-            st->cell[st->n] = y * c->nx + x;
-            st->ox[st->n] = dx;
-            st->oy[st->n] = dy;
+            b = c->cell_start[yy * nx + xx];
+            e = c->cell_start[yy * nx + xx + 1];
+            if (b == e) continue;
+            /* The next cell of the row with the same shift extends the range. */
+            if (st->n > first && st->end[st->n - 1] == b && st->shift_x[st->n - 1] == shx) {
+                st->end[st->n - 1] = e;
+                continue;
+            }
+            st->begin[st->n] = b;
+            st->end[st->n] = e;
+            st->shift_x[st->n] = shx;
+            st->shift_y[st->n] = shy;
             ++st->n;
         }
     }

@@ -1,5 +1,6 @@
 /* The evaluation context: its buffers (they only grow, so a warm context
- * allocates nothing), its per-thread workers, and the phase profile. */
+ * allocates nothing), its per-thread workers and chunks, and the phase
+ * profile. */
 #include <stdlib.h>
 
 #include "stages.h"
@@ -19,14 +20,13 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     size_t n;
     int i;
     if (ctx == NULL) return 0;
-    n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) + (size_t)ctx->hot_cap * sizeof(master_hot) +
-        (size_t)ctx->keys_cap * sizeof(master_key) +
-        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
-        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->cells.cap_cells * sizeof(int) +
-        2 * (size_t)ctx->cells.cap_items * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(double) +
+    n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) +
+        (size_t)ctx->keys.cap * (3 * sizeof(float) + 2 * sizeof(int)) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
-        (size_t)ctx->long_items_cap * sizeof(int) +
-        (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
+        (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) +
+        (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
+        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
+        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
@@ -58,22 +58,26 @@ void nts_context_destroy(nts_context* ctx) {
     if (ctx == NULL) return;
     nts_free(ctx->seg);
     nts_cells_free(&ctx->cells);
-    nts_free(ctx->hot);
-    nts_free(ctx->keys);
-    workers_free(ctx);
-    nts_free(ctx->forces);
-    nts_free(ctx->contacts);
-    nts_free(ctx->gaps);
-    nts_free(ctx->scratch);
+    nts_free(ctx->keys.block);
     nts_free(ctx->long_m);
     nts_free(ctx->long_start);
     nts_free(ctx->long_items);
+    nts_free(ctx->scratch);
+    nts_free(ctx->hist);
+    workers_free(ctx);
+    nts_free(ctx->chunks);
+    nts_free(ctx->forces);
+    nts_free(ctx->contacts);
+    nts_free(ctx->gaps);
     nts_kbuf_free(&ctx->stiffness);
     nts_free(ctx);
 }
 
-int nts_workers_prepare(nts_context* ctx, int count, int body_count) {
-    int i, j;
+int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks) {
+    int i, j, rc;
+    if ((rc = nts_grow((void**)&ctx->chunks, &ctx->chunk_cap, chunks, sizeof(chunk_info))) != NTS_OK) return rc;
+    memset(ctx->chunks, 0, sizeof(chunk_info) * (size_t)chunks);
+    ctx->chunk_count = chunks;
     if (ctx->worker_count != count || ctx->slot_cap < body_count) {
         workers_free(ctx);
         ctx->workers = (worker*)nts_alloc(sizeof(worker) * (size_t)count);
@@ -95,4 +99,3 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count) {
     }
     return NTS_OK;
 }
-

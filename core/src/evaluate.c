@@ -1,8 +1,8 @@
-/* Evaluation: global search (cells or brute force), local search per slave node
- * (docs/model.md §4), then forces, energy and virial ("Forces,
- * energy, virial"). The local search writes per-slave records into per-worker
- * buffers; a serial pass scatters them in slave order, so the result is bitwise
- * the same for any number of threads. */
+/* nts_evaluate: segment data -> cells and masters -> local search ->
+ * scatter -> summary. Each stage is its own file (stages.h); this one sizes
+ * the search (radius, cell side) and runs the stages in order, timing each
+ * for nts_context_profile. */
+#include <float.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -24,10 +24,73 @@ static double wall_time(void) {
 #endif
 }
 
+/* The cell side that suits most masters: the 95th percentile of their reach
+ * (around the middle of their segment, with the allowances), from a sample
+ * of masters at a fixed stride. It only sets the cell side, never a result,
+ * so a sample is as good as all. 0 when no body offers a surface. */
+static double typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double r, double pad,
+                            double* scratch) {
+    const int n = s->surface_count, m = n < NTS_SAMPLE ? n : NTS_SAMPLE;
+    int i, count = 0;
+    for (i = 0; i < m; ++i) {
+        const int e = (int)((long long)i * n / m), b = s->surf_body[e];
+        if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
+        scratch[count++] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)) + r) * (1.0 + 1e-9) + pad;
+    }
+    return count > 0 ? nts_select_kth(scratch, count, (int)(0.95 * (double)(count - 1))) : 0.0;
+}
+
+/* The largest alpha that shapes a surface: the options' and the bodies' own. */
+static double largest_alpha(const nts_scene* s, double alpha) {
+    double a = alpha;
+    int b;
+    for (b = 0; b < s->body_count; ++b)
+        if (s->body_alpha[b] > a) a = s->body_alpha[b];
+    return a;
+}
+
+/* Cells and masters (docs/model.md §9). The cell side is the typical reach;
+ * the masters that reach farther are listed in every cell their reach box
+ * overlaps. When the longest reach is within half again the typical, it sets
+ * the side itself and there are no long lists; when the long lists would be
+ * too many, the side doubles, at most up to the longest reach. */
+static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
+                       int nthreads) {
+    /* At most this many (long master, cell) pairs: a few per surface node. */
+    const long long budget = 4LL * s->surface_count + 4096;
+    /* Every reach around the middle is at most (1/2 + alpha) L_max. */
+    const double rough_max = ((0.5 + largest_alpha(s, env->alpha)) * ss->lmax + env->r) * (1.0 + 1e-9);
+    /* The round-off of the grid's frame, relative to the size of the
+     * coordinates (not of the cells): it widens every reach. */
+    const double pad = 1e-12 * (ss->coord_max + (ss->xmax - ss->xmin) + (ss->ymax - ss->ymin) + s->lx + s->ly);
+    const double hmax = (rough_max + pad) * (1.0 + 1e-11);
+    double hc = 0.0;
+    int round, rc, min_cells = 0;
+    for (round = 0;; ++round) {
+        if (round == 0) {
+            const double typical = typical_reach(ctx, s, env->alpha, env->r, pad, (double*)(void*)ctx->scratch);
+            /* The cells are smaller with a smaller alpha (the corners reach
+             * less): room for the grid of alpha = 0, so that a warm context
+             * allocates nothing when only the options' alpha changes. */
+            const double finest = typical_reach(ctx, s, 0.0, env->r, pad, (double*)(void*)ctx->scratch);
+            if (finest > 0.0) min_cells = nts_cells_count(s, ss, finest);
+            hc = hmax <= 1.5 * typical || !(typical > 0.0) ? hmax : typical;
+        } else {
+            hc = 2.0 * hc < hmax ? 2.0 * hc : hmax;
+        }
+        if ((rc = nts_cells_shape(&ctx->cells, s, ss, hc, min_cells)) != NTS_OK) return rc;
+        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc, pad, budget, min_cells, nthreads);
+        if (rc != NTS_ELIMIT) return rc;
+        /* Every master fits at hmax: no long lists, no NTS_ELIMIT. */
+        assert(hc < hmax && round < 64);
+    }
+}
+
 int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
     search_env env;
-    double lmax = 0.0, h;
-    int i, rc, nthreads = 1;
+    seg_summary ss;
+    double h;
+    int i, rc, nthreads = 1, nchunk;
     double t0 = wall_time(), t1;
 
     if (err != NULL) *err = nts_error_none();
@@ -40,48 +103,25 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
 #endif
 
-    /* Segment data; a zero-length segment (possible after new positions) is an
-     * error, never a division by zero. */
-    if ((rc = nts_grow((void**)&ctx->seg, &ctx->seg_cap, s->surface_count, sizeof(seg_data))) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
-    {
-        /* Each segment is its own (in parallel); the first bad one in entry
-         * order is the error, whatever the threads. */
-        int bad = s->surface_count;
-        NTS_PARALLEL_FOR(nthreads)
-        for (i = 0; i < s->surface_count; ++i) {
-            seg_data* sd = &ctx->seg[i];
-            double l2;
-            sd->t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], s->pos[s->surf_node[i]]);
-            l2 = nts_length_sq(sd->t);
-            /* The supported range (scene.c): nts_scene_set_positions does not check
-             * it, and 1/|t|^2 must not overflow. */
-            if (!(l2 >= 1e-200) || !(l2 <= 1e201)) {
-                sd->len = -1.0;
-                continue;
-            }
-            sd->len = sqrt(l2);
-            sd->inv_len2 = 1.0 / l2;
-        }
-        for (i = 0; i < s->surface_count; ++i) { /* serial: the first bad one, and the longest */
-            if (!(ctx->seg[i].len > 0.0)) {
-                bad = i;
-                break;
-            }
-            if (ctx->seg[i].len > lmax) lmax = ctx->seg[i].len;
-        }
-        if (bad < s->surface_count) {
-            char msg[160];
-            double l2 = nts_length_sq(ctx->seg[bad].t);
-            snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
-                     s->surf_body[bad], s->surf_local[bad], sqrt(l2));
-            return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[bad], s->surf_local[bad], msg);
-        }
+    /* 1. Segments. */
+    if ((rc = nts_segments_compute(ctx, s, nthreads, &ss)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    if (ss.bad < s->surface_count) {
+        const int bad = ss.bad;
+        char msg[160];
+        const double l2 = nts_length_sq(ctx->seg[bad].t);
+        snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
+                 s->surf_body[bad], s->surf_local[bad], sqrt(l2));
+        return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[bad], s->surf_local[bad], msg);
     }
-
     t1 = wall_time();
     ctx->phase[0] = t1 - t0;
     t0 = t1;
+
+    /* 2. The search radius, the cells and the masters. */
+    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
+        NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    memset(&env, 0, sizeof env);
     env.s = s;
     env.seg = ctx->seg;
     env.alpha = opt->alpha;
@@ -91,23 +131,16 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
-    env.long_m = NULL;
-    env.long_start = NULL;
-    env.long_items = NULL;
-    /* A typical segment, not the longest, sets the default search radius and
-     * the cell side, so that one long wall neither widens the search nor
-     * coarsens the grid (docs/model.md, "Global search"): the median segment,
-     * and the 95th percentile of the masters' reach lengths. */
-    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, s->surface_count, sizeof(double))) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
-    NTS_PARALLEL_FOR(nthreads)
-    for (i = 0; i < s->surface_count; ++i) ctx->scratch[i] = ctx->seg[i].len;
-    env.r = opt->search_radius < 0.0 ? nts_select_kth(ctx->scratch, s->surface_count, (s->surface_count - 1) / 2)
-                                     : opt->search_radius;
+    /* A typical segment, not the longest, sets the default search radius, so
+     * that one long wall does not widen the search (docs/model.md §9): the
+     * median segment, exactly. */
+    if (opt->search_radius >= 0.0) env.r = opt->search_radius;
+    else if (s->surface_count > 0)
+        env.r = nts_kth_length(ctx, s, (s->surface_count - 1) / 2, (double*)(void*)ctx->scratch, nthreads);
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
     env.keep_all = (opt->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS)) != 0u;
-    h = lmax + env.r; /* every feature lies within L_max + r of its master node */
+    h = ss.lmax + env.r; /* every feature lies within L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
         snprintf(msg, sizeof msg, "periodic box %.6g x %.6g must exceed twice the search reach %.6g", s->lx, s->ly, h);
@@ -119,81 +152,46 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.ly = s->ly;
     env.qx = 0.25 * s->lx;
     env.qy = 0.25 * s->ly;
-    env.cell_shift = 0;
-    env.cells = NULL;
-    if ((rc = nts_grow((void**)&ctx->keys, &ctx->keys_cap, s->surface_count, sizeof(master_key))) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
-    env.keys = ctx->keys;
-    if ((rc = nts_grow((void**)&ctx->hot, &ctx->hot_cap, s->surface_count, sizeof(master_hot))) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
-    env.hot = ctx->hot;
-    if (opt->search == NTS_SEARCH_CELLS) {
-        const nts_cells* cl = &ctx->cells;
-        /* At most this many (long master, cell) pairs: a few per surface node. */
-        const long long budget = 4LL * s->surface_count + 4096;
-        double scale, pad, hc;
-        int round;
-        NTS_PARALLEL_FOR(nthreads)
-        for (i = 0; i < s->surface_count; ++i)
-            ctx->scratch[i] = reach_length(ctx->seg, s, i, alpha_of_body(s, s->surf_body[i], env.alpha));
-        hc = nts_select_kth(ctx->scratch, s->surface_count, (int)(0.95 * (double)(s->surface_count - 1))) + env.r;
-        /* Long lists pay for a few masters that reach far beyond the rest
-         * (walls); when the longest reach is within half again the typical,
-         * it sets the side itself (a polydisperse packing: no long lists). */
-        if (hc > h || h <= 1.5 * hc) hc = h;
-        /* The cell side hc >= (typical reach) + r: masters that reach farther
-         * are listed in every cell their reach box overlaps. Too many such
-         * pairs: coarsen, at most until hc = L_max + r, where none is left. */
-        for (round = 0;; ++round) {
-            if ((rc = nts_cells_build(&ctx->cells, s, hc, nthreads)) != NTS_OK)
-                return eval_fail(err, rc, -1, -1, "out of memory");
-            /* The round-off of binning and of the cell frame, relative to the
-             * size of the coordinates (not of the cells). */
-            scale = fabs(cl->x0) + fabs(cl->y0) + cl->nx * cl->hx + cl->ny * cl->hy + s->lx + s->ly;
-            pad = 1e-12 * scale;
-            if ((rc = nts_fill_hot(ctx, s, cl->items, env.alpha, env.r, hc < h ? hc - env.r : 0.0, pad, nthreads)) !=
-                NTS_OK)
-                return eval_fail(err, rc, -1, -1, "out of memory");
-            if (ctx->long_count == 0) break;
-            rc = nts_build_long_lists(ctx, s, env.alpha, env.r, pad, budget);
-            if (rc == NTS_OK) break;
-            if (rc != NTS_ELIMIT) return eval_fail(err, rc, -1, -1, "out of memory");
-            assert(round < 64);
-            hc = 2.0 * hc < h ? 2.0 * hc : h;
-        }
-        env.cells = cl;
+    if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
+        if ((rc = build_cells(ctx, s, &env, &ss, nthreads)) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        env.cells = &ctx->cells;
+        env.keys = &ctx->keys;
         if (ctx->long_count > 0) {
             env.long_m = ctx->long_m;
             env.long_start = ctx->long_start;
             env.long_items = ctx->long_items;
         }
-        /* One image shift per stencil range: when every stencil offset is a
-         * distinct image (then each master within reach is the nearest image). */
-        env.cell_shift = !cl->periodic || (cl->nx >= 4 && cl->ny >= 4);
     } else {
-        nts_fill_hot(ctx, s, NULL, env.alpha, env.r, 0.0, 0.0, nthreads); /* no long lists: cannot fail */
+        /* The minimum image's round-off, for brute force's reach test. */
+        env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);
     }
-
     t1 = wall_time();
     ctx->phase[1] = t1 - t0;
     t0 = t1;
-    if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count)) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
 
-    /* Local search. Worker t handles the contiguous slave range t; the ranges are
-     * concatenated in order below, which is the serial order. */
+    /* 3. Local search, chunk by chunk, each chunk's records kept by the
+     * worker that ran it (any worker: the scatter reads them in chunk order). */
+    nchunk = (s->surface_count + CHUNK_SLAVES - 1) / CHUNK_SLAVES;
+    if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count, nchunk)) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
 #if NTS_CONFIG_OPENMP
-    if (nthreads > 1) {
-        int t;
-#pragma omp parallel for num_threads(nthreads) schedule(static, 1)
-        for (t = 0; t < nthreads; ++t) {
-            long long n = s->surface_count;
-            nts_search_range(&env, &ctx->workers[t], (int)(n * t / nthreads), (int)(n * (t + 1) / nthreads));
-        }
-    } else
+#pragma omp parallel for num_threads(nthreads) if (nthreads > 1) schedule(static, 1)
 #endif
-    {
-        nts_search_range(&env, &ctx->workers[0], 0, s->surface_count);
+    for (i = 0; i < nchunk; ++i) {
+#if NTS_CONFIG_OPENMP
+        const int t = omp_get_thread_num();
+#else
+        const int t = 0;
+#endif
+        worker* w = &ctx->workers[t];
+        chunk_info* ch = &ctx->chunks[i];
+        const int begin = i * CHUNK_SLAVES, end = begin + CHUNK_SLAVES < s->surface_count ? begin + CHUNK_SLAVES
+                                                                                           : s->surface_count;
+        ch->worker = t;
+        ch->first = w->rec_count;
+        if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
+        ch->count = w->rec_count - ch->first;
     }
     {
         long long records = 0;
@@ -216,11 +214,11 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
     }
-
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;
     t0 = t1;
-    /* Scatter in slave order (scatter.c). */
+
+    /* 4. Scatter and summary (scatter.c). */
     if ((rc = nts_scatter(ctx, s, opt, &env, nthreads, out, err)) != NTS_OK) return rc;
     ctx->phase[3] = wall_time() - t0;
     return NTS_OK;

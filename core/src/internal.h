@@ -83,63 +83,20 @@ void nts_boundary_free(nts_boundary* b);
  * rule of nts_boundary_from_triangles, shared by nts_scene_update_positions). */
 int nts_triangle_winding(const nts_vec2* nodes, const int v[3], double lx, double ly);
 
-/* Cell list (cell_list.c): square-ish buckets of side >= h over the surface nodes,
- * built with a counting sort. Buffers grow only. */
 /* A loop whose iterations touch only their own elements, run on `n` threads
  * when there are several (OpenMP); its result never depends on `n`. */
 #if NTS_CONFIG_OPENMP
 #define NTS_PRAGMA_(x) _Pragma(#x)
 #define NTS_PARALLEL_FOR(n) NTS_PRAGMA_(omp parallel for num_threads(n) if ((n) > 1) schedule(static))
+/* The same with a reduction clause (sums of integers, minima, maxima: exact,
+ * so the result does not depend on `n` either). */
+#define NTS_PARALLEL_FOR_REDUCE(n, clause) \
+    NTS_PRAGMA_(omp parallel for num_threads(n) if ((n) > 1) schedule(static) clause)
 #else
+#define NTS_PRAGMA_(x)
 #define NTS_PARALLEL_FOR(n)
+#define NTS_PARALLEL_FOR_REDUCE(n, clause)
 #endif
-
-typedef struct nts_cells {
-    double x0, y0, hx, hy;
-    int nx, ny;
-    int periodic;
-    int* cell_start; /* nx*ny + 1 */
-    int* items;      /* surface entries sorted by cell */
-    int* rank;       /* surface entry -> its place in items */
-    int cap_cells, cap_items;
-} nts_cells;
-
-/* Where the cell list puts a point: its coordinates in the grid's frame
- * (wrapped into the box when periodic) and its cell. One formula for the
- * binning and for the masters' keys, so that both agree to the bit. */
-typedef struct nts_cell_place {
-    double x, y; /* p - (x0, y0), wrapped */
-    int cell;
-} nts_cell_place;
-static inline int nts_cells_clamp(double v, int n) {
-    /* Compare in double before converting: (int) of a huge double is undefined. */
-    if (!(v >= 0.0)) return 0;
-    if (v >= (double)(n - 1)) return n - 1;
-    return (int)v;
-}
-static inline nts_cell_place nts_cells_place(const nts_cells* c, const nts_scene* s, nts_vec2 p) {
-    nts_cell_place q;
-    q.x = p.x - c->x0;
-    q.y = p.y - c->y0;
-    if (c->periodic) {
-        q.x -= s->lx * floor(q.x / s->lx);
-        q.y -= s->ly * floor(q.y / s->ly);
-    }
-    q.cell = nts_cells_clamp(q.y / c->hy, c->ny) * c->nx + nts_cells_clamp(q.x / c->hx, c->nx);
-    return q;
-}
-/* `threads`: for the binning of the entries (the result does not depend on it). */
-int nts_cells_build(nts_cells* c, const nts_scene* s, double h, int threads);
-void nts_cells_free(nts_cells* c);
-/* The cells of the 3x3 stencil around a cell, each with its offset (ox, oy)
- * in cells. In a periodic grid narrower than 3 cells the wrapped neighbours
- * repeat: each is visited once. */
-typedef struct nts_stencil {
-    int n;
-    int cell[9];
-    int ox[9], oy[9];
-} nts_stencil;
-void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st);
 
 /* Growable triplet buffers of the tangent (stiffness.c). */
 typedef struct nts_kbuf {

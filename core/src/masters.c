@@ -1,119 +1,42 @@
-/* What the local search reads of the masters: their hot records in cell
- * order, and the long masters listed in every cell their reach box overlaps
- * (docs/model.md §9); the order statistics that size the cells. */
+/* What the local search reads of the masters (docs/model.md §9): the keys
+ * of the masters binned by the middle of their segment, in cell order, and
+ * the long masters listed in every cell their reach box overlaps. */
 #include <math.h>
 #include <stdlib.h>
 
 #include "stages.h"
 
-/* The masters' hot records and keys in the order the search reads them. The
- * factor 1 + 1e-9 on the reach covers the round-off of the feature tests it
- * stands for, and `pad` that of the cell frame. With a cell list (`long_len` >
- * 0), a master whose reach length exceeds `long_len` (the cell side minus r)
- * is searched through the long lists instead: its key offers nothing, and
- * ctx->long_m keeps its real reach. A body with role "slave" offers nothing
- * at all. */
-int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r,
-                 double long_len, double pad, int threads) {
-    const nts_cells* cl = order != NULL ? &ctx->cells : NULL;
-    int e, count = 0, rc;
-    (void)threads; /* without OpenMP */
-    ctx->long_count = 0;
-    /* Every record is its own (in parallel); the long ones are then listed in
-     * entry order, by one thread (the long lists' order is the result's). */
-    NTS_PARALLEL_FOR(threads)
-    for (e = 0; e < s->surface_count; ++e) {
-        int j = order != NULL ? order[e] : e, b = s->surf_body[j];
-        master_hot* m = &ctx->hot[e];
-        master_key* k = &ctx->keys[e];
-        double a = alpha_of_body(s, b, alpha), len = reach_length(ctx->seg, s, j, a);
-        double reach = (r + len) * (1.0 + 1e-9) + pad;
-        m->p = s->pos[s->surf_node[j]];
-        m->t = ctx->seg[j].t;
-        m->inv_len2 = ctx->seg[j].inv_len2;
-        m->len = ctx->seg[j].len;
-        m->entry = j;
-        m->body = b;
-        if (cl != NULL) {
-            nts_cell_place q = nts_cells_place(cl, s, m->p);
-            k->x = q.x;
-            k->y = q.y;
-            k->cell = q.cell;
-        } else {
-            k->x = m->p.x;
-            k->y = m->p.y;
-            k->cell = 0;
-        }
-        k->reach2 = reach * reach;
-        k->body = b;
-        /* A "slave" body, or a long master (listed below): nothing from the stencil. */
-        if (s->body_role[b] == NTS_ROLE_SLAVE || (long_len > 0.0 && len > long_len)) k->reach2 = -1.0;
-    }
-    if (!(long_len > 0.0)) return NTS_OK;
-    for (e = 0; e < s->surface_count; ++e)
-        count += ctx->keys[e].reach2 == -1.0 && s->body_role[ctx->hot[e].body] != NTS_ROLE_SLAVE;
-    /* Sized to the long masters, usually a few walls, not to every entry. */
-    if (count > 0 && (rc = nts_grow((void**)&ctx->long_m, &ctx->long_m_cap, count, sizeof(long_master))) != NTS_OK)
-        return rc;
-    for (e = 0; e < s->surface_count; ++e) {
-        const master_hot* m = &ctx->hot[e];
-        if (ctx->keys[e].reach2 == -1.0 && s->body_role[m->body] != NTS_ROLE_SLAVE) {
-            long_master* lm = &ctx->long_m[ctx->long_count++];
-            double reach = (r + reach_length(ctx->seg, s, m->entry, alpha_of_body(s, m->body, alpha))) *
-                           (1.0 + 1e-9) + pad; /* as above */
-            lm->reach2 = reach * reach;
-            lm->hot = e;
-            lm->pad = 0;
-        }
-    }
+/* The float keys' own round-off, in the scaled frame (coordinates in [0, 1],
+ * a slave shifted by at most one box, so |values| <= 2): converting the
+ * slave and the master to float and subtracting costs at most 2^-21 per
+ * axis, so at most 2^-20 on the distance; the squares and their sum in float
+ * lose at most 3 * 2^-24 relative, which the factor 1 + 2^-20 on the reach
+ * squared covers with room to spare. */
+#define KEY_SLACK 9.5367431640625e-07 /* 2^-20 */
+
+static int keys_reserve(master_keys* k, int count) {
+    const int need = count + KEY_PAD;
+    char* p;
+    if (need <= k->cap) return NTS_OK;
+    p = (char*)nts_alloc((size_t)need * (3 * sizeof(float) + 2 * sizeof(int)));
+    if (p == NULL) return NTS_ENOMEM;
+    nts_free(k->block);
+    k->block = p;
+    k->x = (float*)(void*)p;
+    k->y = k->x + need;
+    k->reach2 = k->y + need;
+    k->body = (int*)(void*)(k->reach2 + need);
+    k->entry = k->body + need;
+    k->cap = need;
     return NTS_OK;
 }
 
-/* The k-th smallest of v[0..n) (v is reordered): quickselect with a
- * median-of-three pivot, and a full sort of what is left if it has not
- * converged after 2 log2(n) + 8 partitions, so the time is bounded by
- * O(n log n) whatever the values. Deterministic. */
-static int cmp_double(const void* a, const void* b) {
-    double x = *(const double*)a, y = *(const double*)b;
-    return (x > y) - (x < y);
-}
-
-double nts_select_kth(double* v, int n, int k) {
-    int lo = 0, hi = n - 1, rounds = 8, m;
-    for (m = n; m > 1; m >>= 1) rounds += 2;
-    while (hi > lo) {
-        double a, b, c, pivot;
-        int i = lo, j = hi;
-        if (rounds-- == 0) {
-            qsort(v + lo, (size_t)(hi - lo + 1), sizeof(double), cmp_double);
-            break;
-        }
-        a = v[lo];
-        b = v[lo + (hi - lo) / 2];
-        c = v[hi];
-        pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
-        while (i <= j) { /* Hoare partition: every step moves i or j, so it ends */
-            while (v[i] < pivot) ++i;
-            while (v[j] > pivot) --j;
-            if (i <= j) {
-                double t = v[i];
-                v[i] = v[j];
-                v[j] = t;
-                ++i;
-                --j;
-            }
-        }
-        if (k <= j) hi = j;
-        else if (k >= i) lo = i;
-        else break; /* v[k] == pivot */
-    }
-    return v[k];
-}
-
-/* Cells of one axis that the interval [lo, hi] (in the grid's frame) overlaps:
- * the first one and how many; periodic grids wrap, open ones clip. */
-static int cell_span(double lo, double hi, double h, int n, int periodic, int* first) {
-    double flo = floor(lo / h), fhi = floor(hi / h);
+/* The reach box of long master j, as cells: the corner curve lies in the
+ * triangle Xa X_j Xb and the flat part on segment j, so every feature lies
+ * within r of bbox(X_j, X_j + t_j, X_j - alpha t_{j-1}); `R` is r with the
+ * round-off allowances. Returns the number of cells; *cx0, *ncx (*cy0, *ncy). */
+static int cell_span(double lo, double hi, double inv_h, int n, int periodic, int* first) {
+    double flo = floor(lo * inv_h), fhi = floor(hi * inv_h);
     if (periodic) {
         if (!(fhi - flo + 1.0 < (double)n)) {
             *first = 0;
@@ -129,58 +52,125 @@ static int cell_span(double lo, double hi, double h, int n, int periodic, int* f
     return (int)(fhi - flo) + 1;
 }
 
-/* The reach box of long master m, as cells: the corner curve lies in the
- * triangle Xa X_j Xb and the flat part on segment j, so every feature lies
- * within r of bbox(X_j, X_j + t_j, X_j - alpha t_{j-1}); `pad` covers the
- * round-off of binning. Returns the number of cells; *cx0, *ncx (*cy0, *ncy). */
-static long long long_box(const nts_context* ctx, const nts_scene* s, const long_master* lm, double alpha, double r,
-                          double pad, int* cx0, int* ncx, int* cy0, int* ncy) {
+static long long long_box(const nts_context* ctx, const nts_scene* s, int j, double alpha, double R, int* cx0,
+                          int* ncx, int* cy0, int* ncy) {
     const nts_cells* cl = &ctx->cells;
-    const master_hot* m = &ctx->hot[lm->hot];
-    const master_key* k = &ctx->keys[lm->hot];
-    nts_vec2 tp = ctx->seg[s->surf_prev[m->entry]].t, t = m->t;
-    double x = k->x, y = k->y, R = r * (1.0 + 1e-9) + pad; /* the frame nts_cells_build bins in */
-    double xlo, xhi, ylo, yhi, a = alpha_of_body(s, m->body, alpha);
-    xlo = fmin(fmin(0.0, t.x), -a * tp.x);
-    xhi = fmax(fmax(0.0, t.x), -a * tp.x);
-    ylo = fmin(fmin(0.0, t.y), -a * tp.y);
-    yhi = fmax(fmax(0.0, t.y), -a * tp.y);
-    *ncx = cell_span(x + xlo - R, x + xhi + R, cl->hx, cl->nx, cl->periodic, cx0);
-    *ncy = cell_span(y + ylo - R, y + yhi + R, cl->hy, cl->ny, cl->periodic, cy0);
+    const seg_data* m = &ctx->seg[j];
+    const nts_vec2 tp = ctx->seg[s->surf_prev[j]].t, t = m->t;
+    const nts_cell_place q = nts_cells_place(cl, m->p);
+    const double a = alpha_of_body(s, s->surf_body[j], alpha);
+    const double xlo = fmin(fmin(0.0, t.x), -a * tp.x), xhi = fmax(fmax(0.0, t.x), -a * tp.x);
+    const double ylo = fmin(fmin(0.0, t.y), -a * tp.y), yhi = fmax(fmax(0.0, t.y), -a * tp.y);
+    *ncx = cell_span(q.x + xlo - R, q.x + xhi + R, cl->inv_hx, cl->nx, cl->periodic, cx0);
+    *ncy = cell_span(q.y + ylo - R, q.y + yhi + R, cl->inv_hy, cl->ny, cl->periodic, cy0);
     return (long long)*ncx * (long long)*ncy;
 }
 
 /* List every long master in every cell its reach box overlaps (CSR by cell,
- * masters in entry order within a cell). Returns NTS_OK, NTS_ENOMEM, or
- * NTS_ELIMIT when the lists would exceed `budget` entries (the caller then
- * coarsens the grid). */
-int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double r, double pad, long long budget) {
+ * masters in entry order within a cell). */
+static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double R, long long budget) {
     const nts_cells* cl = &ctx->cells;
-    int ncell = cl->nx * cl->ny, i, rc;
+    const int ncell = cl->nx * cl->ny;
     long long total = 0;
-    if ((rc = nts_grow((void**)&ctx->long_start, &ctx->long_start_cap, ncell + 1, sizeof(int))) != NTS_OK) return rc;
+    int i, rc;
+    if ((rc = nts_grow((void**)&ctx->long_start, &ctx->long_start_cap, ncell + 1, sizeof(int))) != NTS_OK)
+        return rc;
     memset(ctx->long_start, 0, sizeof(int) * (size_t)(ncell + 1));
     for (i = 0; i < ctx->long_count; ++i) {
         int cx0, ncx, cy0, ncy;
-        total += long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
+        total += long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
         if (total > budget) return NTS_ELIMIT;
     }
     if ((rc = nts_grow((void**)&ctx->long_items, &ctx->long_items_cap, (int)total, sizeof(int))) != NTS_OK) return rc;
     for (i = 0; i < ctx->long_count; ++i) { /* counts */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
             for (a = 0; a < ncx; ++a) ++ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx + 1];
     }
     for (i = 0; i < ncell; ++i) ctx->long_start[i + 1] += ctx->long_start[i];
     for (i = 0; i < ctx->long_count; ++i) { /* fill, in entry order */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(ctx, s, &ctx->long_m[i], alpha, r, pad, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
-            for (a = 0; a < ncx; ++a) ctx->long_items[ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx]++] = i;
+            for (a = 0; a < ncx; ++a)
+                ctx->long_items[ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx]++] = i;
     }
     for (i = ncell; i > 0; --i) ctx->long_start[i] = ctx->long_start[i - 1];
     ctx->long_start[0] = 0;
     return NTS_OK;
 }
 
+/* The reach with its allowances: the factor 1 + 1e-9 covers the round-off of
+ * the feature tests it stands for, `pad` that of the grid's frame. */
+static inline double reach_allowed(double reach, double r, double pad) { return (reach + r) * (1.0 + 1e-9) + pad; }
+
+int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
+                      long long budget, int min_cells, int threads) {
+    const nts_cells* cl = &ctx->cells;
+    const int n = s->surface_count, ncell = cl->nx * cl->ny;
+    /* A master is binned when its reach fits a cell with room for the
+     * round-off of binning (a cell's side is at least hcell). */
+    const double fits = hcell * (1.0 - 1e-12), scale = cl->scale;
+    int* cell_of = ctx->scratch;
+    int* items = ctx->scratch + n;
+    int e, nlong = 0, count, rc;
+    master_keys* k = &ctx->keys;
+    NTS_PARALLEL_FOR_REDUCE(threads, reduction(+ : nlong))
+    for (e = 0; e < n; ++e) {
+        const int b = s->surf_body[e];
+        const seg_data* m = &ctx->seg[e];
+        double R;
+        if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
+            cell_of[e] = -1;
+            continue;
+        }
+        R = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad);
+        if (!(R <= fits)) {
+            cell_of[e] = -2;
+            ++nlong;
+            continue;
+        }
+        cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
+    }
+    if (threads > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
+                                      threads * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
+        return rc;
+    nts_cells_sort(&ctx->cells, cell_of, n, items, ctx->hist, threads);
+    count = cl->cell_start[ncell];
+    if ((rc = keys_reserve(k, count)) != NTS_OK) return rc;
+    k->count = count;
+    NTS_PARALLEL_FOR(threads)
+    for (e = 0; e < count; ++e) {
+        const int j = items[e], b = s->surf_body[j];
+        const seg_data* m = &ctx->seg[j];
+        const nts_cell_place q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
+        const double R = reach_allowed(reach_at_middle(ctx->seg, s, j, alpha_of_body(s, b, alpha)), r, pad);
+        const double Rs = R * scale + KEY_SLACK;
+        k->x[e] = (float)(q.x * scale);
+        k->y[e] = (float)(q.y * scale);
+        k->reach2[e] = (float)(Rs * Rs * (1.0 + KEY_SLACK));
+        k->body[e] = b;
+        k->entry[e] = j;
+    }
+    for (e = count; e < count + KEY_PAD; ++e) { /* read 4 at a time, never kept */
+        k->x[e] = k->y[e] = 0.0f;
+        k->reach2[e] = -1.0f;
+        k->body[e] = -1;
+        k->entry[e] = -1;
+    }
+    ctx->long_count = 0;
+    if (nlong == 0) return NTS_OK;
+    if ((rc = nts_grow((void**)&ctx->long_m, &ctx->long_m_cap, nlong, sizeof(long_master))) != NTS_OK) return rc;
+    for (e = 0; e < n; ++e) {
+        if (cell_of[e] == -2) {
+            long_master* lm = &ctx->long_m[ctx->long_count++];
+            const double R =
+                reach_allowed(reach_at_node(ctx->seg, s, e, alpha_of_body(s, s->surf_body[e], alpha)), r, pad);
+            lm->reach2 = R * R;
+            lm->entry = e;
+            lm->pad = 0;
+        }
+    }
+    return build_long_lists(ctx, s, alpha, r * (1.0 + 1e-9) + pad, budget);
+}

@@ -1,15 +1,26 @@
 /* The local search (docs/model.md §4, §5): for each slave node, the masters
- * of its cell's 3 x 3 stencil (and the long masters listed in its cell) offer
- * their features; the best candidate per master body is kept and written as
- * the slave's records, in master body order. */
+ * binned in its cell's 3 x 3 stencil (and the long masters listed in its
+ * cell) offer their features; the best candidate per master body is kept and
+ * written as the slave's records, in master body order.
+ *
+ * Two passes per slave. The first reads the masters' float keys four at a
+ * time and keeps, without a branch, those near enough to offer something
+ * (most masters a slave visits are its own body's, or out of reach, and
+ * which ones is hard to predict). The second runs the exact tests in double
+ * on the few kept. The first pass only saves time: its reach is wide enough
+ * (masters.c) that it keeps every master the second could accept, so the
+ * result is that of trying every master, bit for bit. */
 #include <math.h>
 
 #include "stages.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 /* Xs - X exactly as nts_scene_diff computes it (docs/model.md §8: the
- * minimum image, nts_min_image_1), the near-pair test done once for both axes.
- * `periodic` is a compile-time constant at every call (the search loop is
+ * minimum image, nts_min_image_1), the near-pair test done once for both
+ * axes. `periodic` is a compile-time constant at every call (the search is
  * instantiated twice), so an open scene pays nothing for the box. */
 static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
     nts_vec2 d = nts_sub(p, q);
@@ -52,18 +63,17 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     }
 }
 
-/* Try the features that master m (surface entry j) offers to a slave at xs: the
- * flat part of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0)
- * at j. The caller has culled by reach (every feature of the master lies
- * within its reach of X_j, fill_hot), so only masters that may offer
- * something get here; each feature test below is exact on its own, so the
- * cull decides nothing but the time. */
-static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, const master_hot* m,
+/* Try the features that master j (a surface entry of body `body`) offers to a
+ * slave at xs: the flat part of segment (j, j+1), and the corner (alpha > 0)
+ * or vertex (alpha = 0) at j. Each test is exact on its own: which masters
+ * get here decides nothing but the time. */
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, int body,
                                                 const int periodic) {
-    const double alpha = alpha_of_body(env->s, m->body, env->alpha), r = env->r; /* the master's alpha */
+    const double alpha = alpha_of_body(env->s, body, env->alpha), r = env->r; /* the master's alpha */
+    const seg_data* m = &env->seg[j];
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
-    double d2 = d.x * d.x + d.y * d.y, sj_param;
+    double sj_param;
     candidate c;
 
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
@@ -76,8 +86,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.param = sj_param;
             c.normal = seg_normal(m->t, m->len);
             c.point = nts_mul_add(pj, sj_param, m->t);
-            c.body = m->body;
-            c.entry = m->entry;
+            c.body = body;
+            c.entry = j;
             c.kind = NTS_KIND_SEGMENT;
             offer(env->s, w, &c);
         }
@@ -85,32 +95,28 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     if (sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
     {
         const nts_scene* s = env->s;
-        const int j = m->entry, jp = s->surf_prev[j];
+        const int jp = s->surf_prev[j];
         const seg_data* sp = &env->seg[jp];
-        nts_vec2 pp = s->pos[s->surf_node[jp]];
-        nts_vec2 dp = search_diff(env, xs, pp, periodic);
-        double sp_param = nts_dot(dp, sp->t) * sp->inv_len2;
+        const nts_vec2 dp = search_diff(env, xs, sp->p, periodic);
+        const double sp_param = nts_dot(dp, sp->t) * sp->inv_len2, d2 = d.x * d.x + d.y * d.y;
         if (alpha > 0.0) {
             /* Corner candidate: s_{j-1} >= 1 - alpha and s_j <= alpha (docs/model.md §12, correction 3). */
-            nts_vec2 a, cc;
             double reach;
             nts_corner k;
             nts_corner_solution sol;
             if (sp_param < 1.0 - alpha) return;
-            a = nts_neg(sp->t); /* X2 - X3 */
-            cc = m->t;          /* X4 - X3 */
             /* Cheap reject: the curve lies in the triangle Xa X3 Xb, within
              * alpha max(|a|, |c|) of X3, so |g| >= |d| - that reach. */
             reach = alpha * (sp->len > m->len ? sp->len : m->len);
             if (sqrt(d2) > (r + reach) * (1.0 + 1e-12)) return;
-            k = nts_corner_make(a, cc, alpha);
+            k = nts_corner_make(nts_neg(sp->t), m->t, alpha); /* a = X2 - X3, c = X4 - X3 */
             sol = nts_corner_solve(k, d, env->solver);
             if (!sol.ok || !(fabs(sol.gap) <= r)) return;
             c.gap = sol.gap;
             c.param = sol.xi;
             c.normal = sol.normal;
             c.point = nts_add(pj, sol.point);
-            c.body = m->body;
+            c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_CORNER;
             offer(s, w, &c);
@@ -134,7 +140,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             }
             c.param = 0.0;
             c.point = pj;
-            c.body = m->body;
+            c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_VERTEX;
             offer(s, w, &c);
@@ -142,44 +148,51 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     }
 }
 
-/* The masters e0..e1 (cell order) offered to a slave in two passes: first the
- * cheap reject over the compact keys, the survivors appended without a branch
- * (most masters a slave visits are its own body's or out of reach, and their
- * verdict is hard to predict); then the features of the few survivors. The
- * first pass works in the cell frame, (sx, sy) being the slave there minus
- * the image shift of the range, so it needs no minimum image per master; its
- * reach carries the frame's round-off (fill_hot), so it keeps every master
- * that the exact arithmetic of try_master could accept. */
-static inline NTS_ALWAYS_INLINE void try_range(const search_env* env, worker* w, nts_vec2 xs, double sx, double sy,
-                                               int slave_body, int e0, int e1, const int periodic) {
-    enum { CHUNK = 128 };
-    const master_key* keys = env->keys;
-    int kept[CHUNK];
-    while (e0 < e1) {
-        const int stop = e1 - e0 > CHUNK ? e0 + CHUNK : e1;
-        int e, n = 0;
-        for (e = e0; e < stop; ++e) {
-            const master_key* k = &keys[e];
-            const double dx = sx - k->x, dy = sy - k->y;
-            kept[n] = e;
-            n += (dx * dx + dy * dy <= k->reach2) & (k->body != slave_body);
-        }
-        for (e = 0; e < n; ++e) try_master(env, w, xs, &env->hot[kept[e]], periodic);
-        e0 = stop;
-    }
-}
+/* The first pass over keys [e0, e1): the indices of those within reach of a
+ * slave at (sx, sy) (the keys' frame, the range's shift applied) and of
+ * another body, appended to kept[]. kept needs e1 - e0 + 4 places. The keys
+ * are read 4 at a time, past e1 into the next range or the padding; the
+ * index test drops those. */
+#if defined(__SSE2__)
+/* For each 4-bit mask, the lanes it keeps, packed to the front. */
+static const int KEEP_LANES[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0},
+                                      {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0}, {0, 1, 2, 0},
+                                      {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0},
+                                      {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
+static const int KEEP_COUNT[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 
-/* The same for a grid whose stencil repeats images (a periodic box of fewer
- * than 4 cells a side): the minimum image per master. */
-static void try_range_wrapped(const search_env* env, worker* w, nts_vec2 xs, double sx, double sy, int slave_body,
-                              int e0, int e1) {
-    int e;
-    for (e = e0; e < e1; ++e) {
-        const master_key* k = &env->keys[e];
-        nts_vec2 d = nts_scene_diff(env->s, nts_v2(sx, sy), nts_v2(k->x, k->y));
-        if (d.x * d.x + d.y * d.y <= k->reach2 && k->body != slave_body) try_master(env, w, xs, &env->hot[e], 1);
+static inline NTS_ALWAYS_INLINE int near_keys(const master_keys* k, float sx, float sy, int body, int e0, int e1,
+                                              int* kept) {
+    const __m128 vx = _mm_set1_ps(sx), vy = _mm_set1_ps(sy);
+    const __m128i vb = _mm_set1_epi32(body), vend = _mm_set1_epi32(e1), lane = _mm_setr_epi32(0, 1, 2, 3);
+    int e, n = 0;
+    for (e = e0; e < e1; e += 4) {
+        const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
+        const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
+        const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), lane);
+        const __m128i other = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i*)(const void*)(k->body + e)), vb);
+        const __m128i in = _mm_andnot_si128(other, _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(d2, _mm_loadu_ps(
+                                                                     k->reach2 + e))),
+                                                                 _mm_cmplt_epi32(at, vend)));
+        const int mask = _mm_movemask_ps(_mm_castsi128_ps(in));
+        _mm_storeu_si128((__m128i*)(void*)(kept + n),
+                         _mm_add_epi32(_mm_set1_epi32(e),
+                                       _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mask])));
+        n += KEEP_COUNT[mask];
     }
+    return n;
 }
+#else
+static inline int near_keys(const master_keys* k, float sx, float sy, int body, int e0, int e1, int* kept) {
+    int e, n = 0;
+    for (e = e0; e < e1; ++e) {
+        const float dx = sx - k->x[e], dy = sy - k->y[e];
+        kept[n] = e;
+        n += (dx * dx + dy * dy <= k->reach2[e]) & (k->body[e] != body);
+    }
+    return n;
+}
+#endif
 
 /* Move the current slave's best candidates to the worker's records (all of
  * them, or the active ones: search_env.keep_all) and reset the slot map.
@@ -214,131 +227,101 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     w->best_count = 0;
 }
 
-/* The key ranges of a cell's 3 x 3 stencil: in each row the three cells are
- * consecutive in cell order, so one range, or two where the row wraps around
- * the periodic box; each with the image shift (kx lx, ky ly) that brings its
- * masters next to the slave. Open grids clip at the edges. */
-typedef struct stencil_ranges {
-    int n;
-    int begin[6], end[6];
-    double shift_x[6], shift_y[6];
-} stencil_ranges;
-
-static void stencil_ranges_of(const search_env* env, int cell, stencil_ranges* st) {
-    const nts_cells* cl = env->cells;
-    const int nx = cl->nx, ny = cl->ny, cx = cell % nx, cy = cell / nx;
-    int dy;
-    st->n = 0;
-    for (dy = -1; dy <= 1; ++dy) {
-        int yy = cy + dy, lo = cx - 1, hi = cx + 1, row;
-        double sy = 0.0;
-        if (yy < 0 || yy >= ny) {
-            if (!cl->periodic) continue;
-            sy = yy < 0 ? -env->ly : env->ly;
-            yy += yy < 0 ? ny : -ny;
-        }
-        row = yy * nx;
-        if (!cl->periodic) {
-            if (lo < 0) lo = 0;
-            if (hi > nx - 1) hi = nx - 1;
-        } else if (lo < 0) { /* column nx - 1, one box to the left */
-            st->begin[st->n] = cl->cell_start[row + nx - 1];
-            st->end[st->n] = cl->cell_start[row + nx];
-            st->shift_x[st->n] = -env->lx;
-            st->shift_y[st->n++] = sy;
-            lo = 0;
-        } else if (hi > nx - 1) { /* column 0, one box to the right */
-            st->begin[st->n] = cl->cell_start[row];
-            st->end[st->n] = cl->cell_start[row + 1];
-            st->shift_x[st->n] = env->lx;
-            st->shift_y[st->n++] = sy;
-            hi = nx - 1;
-        }
-        st->begin[st->n] = cl->cell_start[row + lo];
-        st->end[st->n] = cl->cell_start[row + hi + 1];
-        st->shift_x[st->n] = 0.0;
-        st->shift_y[st->n++] = sy;
-    }
-}
+/* Keys per first-pass batch: kept[] holds a batch and the 4 lanes past it. */
+enum { BATCH = 256 };
 
 /* The local search of slaves [begin, end) with the cell list, in slave order.
- * The stencil's ranges are worked out once per cell (consecutive slaves of a
- * loop mostly share theirs); the slave's own key gives its place in the cell
- * frame. */
+ * The stencil is worked out once per cell (consecutive slaves of a loop
+ * mostly share it). */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
                                                   const int periodic) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
-    stencil_ranges st;
-    nts_stencil wide;
+    const master_keys* keys = env->keys;
+    const double scale = cl->scale;
+    int kept[BATCH + 4];
+    nts_stencil st;
     int last_cell = -1, i, q;
     st.n = 0;
-    wide.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = s->surf_body[i];
-        const master_key* me;
         nts_vec2 xs;
+        nts_cell_place at;
+        double sx, sy;
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
         }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
-        me = &env->keys[cl->rank[i]];
-        xs = s->pos[s->surf_node[i]];
-        if (me->cell != last_cell) {
-            last_cell = me->cell;
-            if (env->cell_shift) stencil_ranges_of(env, last_cell, &st);
-            else nts_cells_stencil(cl, last_cell, &wide);
+        xs = env->seg[i].p;
+        at = nts_cells_place(cl, xs);
+        if (at.cell != last_cell) {
+            last_cell = at.cell;
+            nts_cells_stencil(cl, last_cell, &st);
         }
-        if (env->cell_shift) {
-            for (q = 0; q < st.n; ++q)
-                try_range(env, w, xs, me->x - st.shift_x[q], me->y - st.shift_y[q], bi, st.begin[q], st.end[q],
-                          periodic);
-        } else {
-            for (q = 0; q < wide.n; ++q)
-                try_range_wrapped(env, w, xs, me->x, me->y, bi, cl->cell_start[wide.cell[q]],
-                                  cl->cell_start[wide.cell[q] + 1]);
+        sx = at.x * scale;
+        sy = at.y * scale;
+        for (q = 0; q < st.n; ++q) {
+            const float fx = (float)(sx - st.shift_x[q]), fy = (float)(sy - st.shift_y[q]);
+            int e0 = st.begin[q];
+            while (e0 < st.end[q]) {
+                const int e1 = st.end[q] - e0 > BATCH ? e0 + BATCH : st.end[q];
+                const int n = near_keys(keys, fx, fy, bi, e0, e1, kept);
+                int k;
+                for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
+                e0 = e1;
+            }
         }
         if (env->long_start != NULL) {
             /* The long masters whose reach box overlaps the slave's own cell. */
             int e, e0 = env->long_start[last_cell], e1 = env->long_start[last_cell + 1];
             for (e = e0; e < e1; ++e) {
                 const long_master* lm = &env->long_m[env->long_items[e]];
-                const master_hot* m = &env->hot[lm->hot];
-                nts_vec2 d = search_diff(env, xs, m->p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && m->body != bi) try_master(env, w, xs, m, periodic);
+                const int j = lm->entry, b = s->surf_body[j];
+                const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, b, periodic);
             }
         }
         flush_slave(env, w, i);
     }
 }
 
-void nts_search_range(const search_env* env, worker* w, int begin, int end) {
+/* Brute force (for tests): every master of every other body, culled only by
+ * an exact reach test in double around X_j (with the round-off allowance of
+ * the minimum image, env->brute_pad). */
+static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker* w, int begin, int end,
+                                                  const int periodic) {
     const nts_scene* s = env->s;
-    const master_hot* hot = env->hot;
+    int i, j;
+    for (i = begin; i < end && w->status == NTS_OK; ++i) {
+        const int bi = s->surf_body[i];
+        const nts_vec2 xs = env->seg[i].p;
+        if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
+            w->status = NTS_ECANCELLED;
+            break;
+        }
+        if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
+        for (j = 0; j < s->surface_count; ++j) {
+            const int b = s->surf_body[j];
+            nts_vec2 d;
+            double R;
+            if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE) continue;
+            d = search_diff(env, xs, env->seg[j].p, periodic);
+            R = (env->r + reach_at_node(env->seg, s, j, alpha_of_body(s, b, env->alpha))) * (1.0 + 1e-9) +
+                env->brute_pad;
+            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, b, periodic);
+        }
+        flush_slave(env, w, i);
+    }
+}
+
+void nts_search_range(const search_env* env, worker* w, int begin, int end) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
-    int i;
     if (env->cells != NULL) {
         if (periodic) search_cells(env, w, begin, end, 1);
         else search_cells(env, w, begin, end, 0);
     } else {
-        for (i = begin; i < end && w->status == NTS_OK; ++i) {
-            const int bi = s->surf_body[i];
-            const nts_vec2 xs = s->pos[s->surf_node[i]];
-            int j;
-            if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
-                w->status = NTS_ECANCELLED;
-                break;
-            }
-            if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
-            for (j = 0; j < s->surface_count; ++j) {
-                /* The keys hold the positions themselves here: the exact reach. */
-                const master_key* k = &env->keys[j];
-                nts_vec2 d = nts_scene_diff(s, xs, hot[j].p);
-                if (d.x * d.x + d.y * d.y <= k->reach2 && k->body != bi) try_master(env, w, xs, &hot[j], 1);
-            }
-            flush_slave(env, w, i);
-        }
+        if (periodic) search_brute(env, w, begin, end, 1);
+        else search_brute(env, w, begin, end, 0);
     }
 }
-

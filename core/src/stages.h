@@ -1,10 +1,11 @@
 /* The stages of an evaluation and the state they share (private to the core):
- *   context.c  the context and its workers          (buffers that only grow)
- *   masters.c  the masters' hot records, long lists  (what the search reads)
- *   search.c   the local search per slave, records   (docs/model.md §4, §5)
- *   scatter.c  forces, energy, virial, tangent       (docs/model.md §6, §7)
- *   evaluate.c nts_evaluate: segments -> cells -> search -> scatter -> summary
- * The cell list itself (and its stencil) is cell_list.c. */
+ *   segments.c  segment data of every surface entry; order statistics
+ *   cell_list.c the grid, its counting sort and the stencil of a cell
+ *   masters.c   the masters' keys in cell order, the long masters' lists
+ *   search.c    the local search per slave, and its records   (docs/model.md §4, §5)
+ *   scatter.c   forces, energy, virial, contacts, tangent    (docs/model.md §6, §7)
+ *   context.c   the context, its workers and chunks          (buffers that only grow)
+ *   evaluate.c  nts_evaluate: segments -> cells -> search -> scatter -> summary */
 #ifndef NTSCONTACT_STAGES_H
 #define NTSCONTACT_STAGES_H
 
@@ -19,51 +20,130 @@
 #define NTS_ALWAYS_INLINE
 #endif
 
-/* Per-surface-entry segment data, recomputed each evaluation from the positions:
- * the segment that starts at the entry (32 bytes; its normal is seg_normal). */
+/* ------------------------------------------------------------ segments */
+
+/* Segment data of surface entry j, recomputed each evaluation from the
+ * positions (entry order, 48 bytes): its node X_j and the segment j that
+ * starts there (its normal is seg_normal). Everything the local search reads
+ * of a master is here or in the entry before it. */
 typedef struct seg_data {
-    nts_vec2 t;      /* X1 - X0 (minimum image) */
+    nts_vec2 p;      /* X_j */
+    nts_vec2 t;      /* X_{j+1} - X_j (minimum image) */
     double inv_len2; /* 1/|t|^2, |t| > 0 checked */
-    double len;
+    double len;      /* |t| */
 } seg_data;
+
+/* What the segment pass finds besides the data: the first bad segment in
+ * entry order (or surface_count), the longest segment, the largest
+ * coordinate (for round-off allowances) and the bounding box of the nodes. */
+typedef struct seg_summary {
+    int bad;
+    double lmax;
+    double coord_max;
+    double xmin, xmax, ymin, ymax;
+} seg_summary;
 
 /* The outward unit normal of a segment (t_y, -t_x)/|t|, computed where it is
  * needed (the same bits every time). */
 static inline nts_vec2 seg_normal(nts_vec2 t, double len) { return nts_v2(t.y / len, -t.x / len); }
 
-/* A master surface entry as the local search reads it once it passed the
- * cheap reject (master_key), copied in cell order next to its key (56 bytes).
- * Its previous segment and node indices are read from the scene's arrays. */
-typedef struct master_hot {
-    nts_vec2 p;      /* X_j */
-    nts_vec2 t;      /* segment j: X_{j+1} - X_j (minimum image) */
-    double inv_len2; /* 1/|t|^2 */
-    double len;      /* |t| */
-    int entry;       /* surface entry j */
-    int body;
-} master_hot;
+/* ------------------------------------------------------------ the grid */
 
-/* What the first pass of the search reads of a master (32 bytes, cell order):
- * the cheap reject alone, so that the masters a slave visits and drops (most
- * of them: its own body's, and those out of reach) cost two loads and no
- * branch (search.c). The position is in the cell list's frame (wrapped into a
- * periodic box, nts_cells_place), where a stencil row is one shift away from
- * the slave; `reach2` is the master's reach squared, widened by the round-off
- * of that frame, or -1 when it offers nothing from here (a "slave" body, or a
- * long master, searched through its own list). */
-typedef struct master_key {
+/* Square-ish cells over the plane (docs/model.md §9). The frame is the grid's
+ * own: coordinates relative to (x0, y0), wrapped into the box when periodic.
+ * `scale` is a power of two with scale * (frame coordinate) in [0, 1], the
+ * frame of the masters' float keys. */
+typedef struct nts_cells {
+    double x0, y0, hx, hy, inv_hx, inv_hy;
+    double lx, ly;   /* the periodic box, 0 when open */
+    double scale;
+    int nx, ny;
+    int periodic;
+    int* cell_start; /* nx*ny + 1: the keys of cell c are [cell_start[c], cell_start[c+1]) */
+    int cap_cells;
+} nts_cells;
+
+/* Where the grid puts a point: its frame coordinates and its cell. One
+ * function for the masters' keys and for the slaves, so that both agree to
+ * the bit. Points inside the box (the usual case) skip the wrap. */
+typedef struct nts_cell_place {
     double x, y;
-    double reach2;
-    int body;
-    int cell;        /* the cell it is binned in */
-} master_key;
+    int cell;
+} nts_cell_place;
+static inline int nts_cells_clamp(double v, int n) {
+    /* Compare in double before converting: (int) of a huge double is undefined. */
+    if (!(v >= 0.0)) return 0;
+    if (v >= (double)(n - 1)) return n - 1;
+    return (int)v;
+}
+static inline nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
+    nts_cell_place q;
+    q.x = p.x - c->x0;
+    q.y = p.y - c->y0;
+    if (c->periodic) {
+        if (!(q.x >= 0.0 && q.x < c->lx)) q.x -= c->lx * floor(q.x / c->lx);
+        if (!(q.y >= 0.0 && q.y < c->ly)) q.y -= c->ly * floor(q.y / c->ly);
+    }
+    q.cell = nts_cells_clamp(q.y * c->inv_hy, c->ny) * c->nx + nts_cells_clamp(q.x * c->inv_hx, c->nx);
+    return q;
+}
+/* Shape the grid: cells of side >= h over the box (periodic) or over the
+ * bounding box of the summary (open); at most about 4 cells per surface entry
+ * (h grows if needed, which the search allows). Room for at least
+ * `min_cells` cells. NTS_OK or NTS_ENOMEM. */
+int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h, int min_cells);
+/* How many cells nts_cells_shape would make for side h. */
+int nts_cells_count(const nts_scene* s, const seg_summary* sum, double h);
+/* Sort entries by cell: items[0 .. count) gets every e in [0, n) with
+ * cell_of[e] >= 0, by cell and in increasing e within a cell, and
+ * cell_start the cells' bounds. `hist`: threads * (cells + 1) ints when
+ * threads > 1. The result never depends on the threads. */
+void nts_cells_sort(nts_cells* c, const int* cell_of, int n, int* items, int* hist, int threads);
+void nts_cells_free(nts_cells* c);
 
-/* A master searched through the long lists (its key's reach2 is -1). */
+/* The masters a slave in one cell visits: the key ranges of the 3 x 3 cells
+ * around it, each with the image shift (in the keys' scaled frame) that brings
+ * its masters next to the slave. The three cells of a row are consecutive in
+ * cell order, so a row is one range unless it wraps around the box. In a
+ * periodic grid of fewer than 3 cells a side the same cell comes back with
+ * another shift: a master may then be tried twice, which changes nothing
+ * (the better of two equal candidates is the first). */
+typedef struct nts_stencil {
+    int n;
+    int begin[9], end[9];
+    double shift_x[9], shift_y[9];
+} nts_stencil;
+void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st);
+
+/* ------------------------------------------------------------- masters */
+
+/* The masters that the stencil offers, in cell order, as the first pass of
+ * the search reads them: float positions in the scaled frame and the reach
+ * squared, widened to cover every round-off on the way (masters.c), so that
+ * the float test never drops a master that the exact test could keep. Struct
+ * of arrays, KEY_PAD elements past the end that no range reaches, so that
+ * the last range of the arrays can be read 4 at a time. 20 bytes a master. */
+enum { KEY_PAD = 4 };
+typedef struct master_keys {
+    float* x;
+    float* y;
+    float* reach2;
+    int* body;
+    int* entry;
+    int count, cap;
+    void* block;
+} master_keys;
+
+/* A master that reaches farther than the cell side allows (a long wall),
+ * searched through the long lists of the cells its reach box overlaps: the
+ * exact test is in double, around X_j. */
 typedef struct long_master {
-    double reach2;   /* its real reach, squared (with the round-off allowance) */
-    int hot;         /* its record in ctx->hot */
+    double reach2;
+    int entry;
     int pad;
 } long_master;
+
+/* ---------------------------------------------------- search, records */
 
 /* The best candidate so far of one (slave, master body) pair, and the record
  * it becomes (64 bytes): only what the selection needs. The full nts_contact
@@ -80,9 +160,10 @@ typedef struct candidate {
 } candidate;
 
 /* One worker's scratch: the per-slave best candidate of each master body, and
- * the records of the slaves it handled, in slave order: every closest point
- * within r when contacts, gaps or the tangent are asked for, else only the
- * active contacts (g < 0), the only ones that forces, energy and virial need. */
+ * the records of the chunks it ran, each chunk's in slave order: every
+ * closest point within r when contacts, gaps or the tangent are asked for,
+ * else only the active contacts (g < 0), all that forces, energy and virial
+ * need. */
 typedef struct worker {
     int* slot;         /* body -> index into best, -1 if none (all -1 between slaves) */
     candidate* best;   /* candidates of the current slave */
@@ -96,34 +177,50 @@ typedef struct worker {
     char pad[64];
 } worker;
 
+/* The slaves are searched in chunks of CHUNK_SLAVES entries, dealt to the
+ * threads in turn (chunk c to thread c mod threads: a warm context finds each
+ * worker's buffers the size they were); a chunk's records sit in the worker
+ * that ran it, and the scatter reads the chunks in order: slave order,
+ * whoever ran them. The scatter also leaves each chunk's partial sums here, added in
+ * chunk order: the same bits for any number of threads. */
+enum { CHUNK_SLAVES = 1024 };
+typedef struct chunk_info {
+    int worker, first, count; /* records workers[worker].recs[first .. first + count) */
+    int active;               /* of which g < 0 */
+    int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
+    int overflow;
+    double energy, vxx, vyy, vxy, maxpen;
+} chunk_info;
+
 struct nts_context {
     seg_data* seg;
     int seg_cap;
     nts_cells cells;
-    master_hot* hot;   /* masters in cell order (or entry order for brute force) */
-    int hot_cap;
-    master_key* keys;  /* their cheap rejects, same order */
-    int keys_cap;
+    master_keys keys;
+    long_master* long_m;
+    int long_m_cap, long_count;
+    int* long_start;   /* cells + 1 */
+    int long_start_cap;
+    int* long_items;   /* into long_m, by cell */
+    int long_items_cap;
+    /* Two ints per surface entry, lent to one phase at a time: the order
+     * statistics' values, then the cells of the masters and their order. */
+    int* scratch;
+    int scratch_cap;
+    int* hist;         /* per-thread cell counts of the parallel counting sort */
+    int hist_cap;
     worker* workers;
     int worker_count, slot_cap;
+    chunk_info* chunks;
+    int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
     nts_contact* contacts;
     int contacts_cap;
     nts_contact* gaps;
     int gaps_cap;
-    double phase[4]; /* seconds of the last evaluation: segments, cells, local search, scatter */
-    double* scratch;   /* surface_count: segment lengths for the median and the percentile */
-    int scratch_cap;
-    /* Long entries of the cell list (reach longer than the cell side allows):
-     * each is listed in every cell its reach box overlaps (masters.c). */
-    long_master* long_m;
-    int long_m_cap, long_count;
-    int* long_start;   /* cells + 1 */
-    int long_start_cap;
-    int* long_items;   /* into long_hot, by cell */
-    int long_items_cap;
     nts_kbuf stiffness; /* the tangent's triplets (NTS_OUT_STIFFNESS) */
+    double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
 };
 
 /* Everything the local search reads, copied once (hot loop locals). */
@@ -131,36 +228,25 @@ typedef struct search_env {
     const nts_scene* s;
     const seg_data* seg;
     const nts_cells* cells;  /* NULL: brute force */
-    const master_hot* hot;   /* cells: in cell order (cells->items); brute force: entry order */
-    const master_key* keys;  /* hot's rejects, same order */
-    const long_master* long_m; /* the long entries, listed per cell by long_start/long_items */
+    const master_keys* keys;
+    const long_master* long_m; /* the long masters, listed per cell by long_start/long_items */
     const int* long_start;
     const int* long_items;
-    double alpha, r, eps;    /* alpha: the options' (a body may have its own: master_hot.alpha) */
+    double alpha, r, eps;    /* alpha: the options' (a body may have its own) */
+    double brute_pad;        /* brute force: the round-off allowance of its reach test */
     long long max_records;   /* the candidate budget (nts_options.max_candidates) */
     int (*cancel)(void* user);
     void* cancel_user;
     int per_length;          /* NTS_PENALTY_PER_LENGTH */
     double lx, ly, qx, qy;   /* the periodic box and its quarters (0 when open) */
-    int cell_shift;          /* 1 when the stencil's cells are distinct images (search.c, try_range) */
     nts_solver solver;
     int want_virial;
     int keep_all;            /* records for every closest point (contacts, gaps or tangent asked) */
 } search_env;
 
-
 /* A failed evaluation: the error record filled, the status returned. */
 static inline int eval_fail(nts_error* err, int code, int body, int node, const char* msg) {
     return nts_error_set(err, code, nts_at(body, -1, -1, node), "%s", msg);
-}
-
-/* The reach length of master j: its features lie within r + max(|t_j|,
- * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
- * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
- * alpha the master body's. */
-static inline double reach_length(const seg_data* seg, const nts_scene* s, int j, double alpha) {
-    double lp = alpha * seg[s->surf_prev[j]].len, lj = seg[j].len;
-    return lj > lp ? lj : lp;
 }
 
 /* The alpha that shapes body b's surface: its own, or the options' (docs/model.md §10). */
@@ -168,18 +254,52 @@ static inline double alpha_of_body(const nts_scene* s, int b, double alpha) {
     return s->body_alpha[b] >= 0.0 ? s->body_alpha[b] : alpha;
 }
 
-/* context.c: `count` workers with a body slot map of at least body_count entries. */
-int nts_workers_prepare(nts_context* ctx, int count, int body_count);
-/* masters.c */
-/* NTS_OK, or NTS_ENOMEM (the long masters' copies). */
-/* `pad`: the round-off allowance of the cell frame (0 for brute force). */
-int nts_fill_hot(nts_context* ctx, const nts_scene* s, const int* order, double alpha, double r, double long_len,
-                 double pad, int threads);
+/* The reach of master j around X_j: its features lie within r + max(|t_j|,
+ * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
+ * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
+ * alpha the master body's. */
+static inline double reach_at_node(const seg_data* seg, const nts_scene* s, int j, double alpha) {
+    double lp = alpha * seg[s->surf_prev[j]].len, lj = seg[j].len;
+    return lj > lp ? lj : lp;
+}
+
+/* The reach of master j around the middle M_j = X_j + t_j / 2 of its segment,
+ * which the cells bin: the flat part lies within |t_j| / 2 of M_j, and the
+ * corner in the triangle X_j, X_j + alpha t_j, X_j - alpha t_{j-1}, within
+ * |t_j| / 2 + alpha |t_{j-1}|; so every feature within r of a slave puts the
+ * slave within r + this of M_j. Smaller than the reach around X_j, so the
+ * cells are smaller and fewer masters pass the first test. */
+static inline double reach_at_middle(const seg_data* seg, const nts_scene* s, int j, double alpha) {
+    return 0.5 * seg[j].len + alpha * seg[s->surf_prev[j]].len;
+}
+
+/* segments.c */
+/* The order statistics' samples: this many entries at a fixed stride. */
+enum { NTS_SAMPLE = 4096 };
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int threads, seg_summary* out);
+/* The k-th smallest segment length (0-based), exactly: a sample brackets it,
+ * one pass counts and keeps what falls in the bracket; `scratch` holds
+ * surface_count + NTS_SAMPLE doubles. */
+double nts_kth_length(const nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads);
+/* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
-int nts_build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double r, double pad, long long budget);
+
+/* masters.c: bin the masters that reach at most `hcell` (with their round-off
+ * allowance `pad`) and fill their keys in cell order; list the others in the
+ * long lists of the cells they reach. `min_cells`: the room to keep for the
+ * cells' buffers. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT when
+ * the long lists would exceed `budget` entries (the caller coarsens). */
+int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
+                      long long budget, int min_cells, int threads);
+
+/* context.c: `count` workers with a body slot map of at least body_count
+ * entries, and room for `chunks` chunks. */
+int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks);
+
 /* search.c: the local search of slaves [begin, end) into worker w. */
 void nts_search_range(const search_env* env, worker* w, int begin, int end);
-/* scatter.c: the records of the workers, in slave order, into *out. */
+
+/* scatter.c: the chunks' records, in slave order, into *out. */
 int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,
                 nts_result* out, nts_error* err);
 
