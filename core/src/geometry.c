@@ -7,7 +7,7 @@
 #include <float.h>
 #include <gsl/gsl_poly.h>
 
-#include "internal.h"
+#include "corner.h"
 
 /* Eq. (1) corrected (docs/model.md §12, correction 1): N3 = 1 - alpha (1 + xi^2)/2, so sum N = 1. */
 nts_shape3 nts_corner_shape(double alpha, double xi) {
@@ -19,14 +19,7 @@ nts_shape3 nts_corner_shape(double alpha, double xi) {
     return s;
 }
 
-/* X(xi) - X3 = A xi^2 + B xi + C with A = C = alpha (a + c)/4, B = alpha (c - a)/2. */
-nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha) {
-    nts_corner k;
-    k.A = nts_scale(0.25 * alpha, nts_add(a, c));
-    k.B = nts_scale(0.5 * alpha, nts_sub(c, a));
-    k.C = k.A;
-    return k;
-}
+nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha) { return corner_make(a, c, alpha); }
 
 nts_vec2 nts_corner_point(nts_corner k, double xi) {
     /* C + xi (B + A xi): Horner form. */
@@ -46,35 +39,19 @@ nts_cubic nts_corner_cubic(nts_corner k, nts_vec2 d) {
     return f;
 }
 
-/* The scaled problem: A, B, e divided by the corner size L, so F is O(1). */
-typedef struct corner_problem {
-    nts_vec2 A, B, e;
-} corner_problem;
-
-/* F and F' in product form: r = e - xi (B + A xi) is Xs - X(xi), tau = B + 2 A xi;
- * F = r.tau, F' = 2 r.A - tau.tau. The product form has no cancellation in
- * forming coefficients, so residuals near a root are accurate. */
-static inline double problem_f(const corner_problem* p, double xi, double* df) {
-    nts_vec2 r = nts_sub(p->e, nts_scale(xi, nts_mul_add(p->B, xi, p->A)));
-    nts_vec2 tau = nts_mul_add(p->B, 2.0 * xi, p->A);
-    if (df != NULL) *df = 2.0 * nts_dot(r, p->A) - nts_dot(tau, tau);
-    return nts_dot(r, tau);
-}
-
 static inline double problem_dist_sq(const corner_problem* p, double xi) {
     return nts_length_sq(nts_sub(p->e, nts_scale(xi, nts_mul_add(p->B, xi, p->A))));
 }
 
 static inline double clamp_unit(double x) { return x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x); }
 
-enum { NTS_ROOT_MAX_ITER = 100, NTS_POLISH_MAX_ITER = 8 };
+enum { NTS_POLISH_MAX_ITER = 8 };
 
 /* Newton safeguarded by bisection (Numerical Recipes' rtsafe) on [lo, hi] with a
  * sign change of F. The bracket shrinks every step, so it ends within
  * NTS_ROOT_MAX_ITER steps even when Newton misbehaves. */
-static double bracketed_root(const corner_problem* p, double lo, double hi, double flo, int* iters) {
+static double bracketed_root(const corner_problem* p, double lo, double hi, double flo, double x, int* iters) {
     const double tol = 2.0 * DBL_EPSILON;
-    double x = 0.5 * (lo + hi);
     int it;
     for (it = 0; it < NTS_ROOT_MAX_ITER; ++it) {
         double df, f = problem_f(p, x, &df), xn;
@@ -120,7 +97,7 @@ static int roots_newton(const corner_problem* p, double* roots, int* iters) {
         } else if (fv == 0.0) {
             roots[n++] = v;
         } else if ((fu > 0.0) != (fv > 0.0)) {
-            roots[n++] = bracketed_root(p, u, v, fu, iters);
+            roots[n++] = bracketed_root(p, u, v, fu, 0.5 * (u + v), iters);
         }
         if (n >= 3) break;
     }
@@ -173,34 +150,16 @@ static int roots_closed_form(const corner_problem* p, double* roots, int* iters)
     return n;
 }
 
-nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver) {
-    nts_corner_solution s;
-    corner_problem p;
+double nts_corner_root_general(const corner_problem* p, nts_solver solver, int* nroots, int* iters) {
     double roots[3], best_d2 = 0.0;
     int n, i, best = -1;
-    /* Corner size: |A| + |B| is zero only if a = c = 0 (impossible after
-     * validation); never divide by it unless it is positive. */
-    double L = nts_length(k.A) + nts_length(k.B), inv;
-    s.xi = 0.0;
-    s.point = s.normal = nts_v2(0.0, 0.0);
-    s.gap = 0.0;
-    s.roots = 0;
-    s.iterations = 0;
-    s.ok = 0;
-    if (!(L > 0.0) || !isfinite(L)) return s;
-    inv = 1.0 / L;
-    p.A = nts_scale(inv, k.A);
-    p.B = nts_scale(inv, k.B);
-    p.e = nts_scale(inv, nts_sub(d, k.C));
-
-    n = (solver == NTS_SOLVER_NEWTON) ? roots_newton(&p, roots, &s.iterations)
-                                      : roots_closed_form(&p, roots, &s.iterations);
+    n = solver == NTS_SOLVER_NEWTON ? roots_newton(p, roots, iters) : roots_closed_form(p, roots, iters);
     if (n == 0) {
         /* Rounding can hide a root the bracket guarantees (F(-1) >= 0 >= F(1)):
          * fall back to the bracketed solver, then to the better endpoint. */
-        n = roots_newton(&p, roots, &s.iterations);
+        n = roots_newton(p, roots, iters);
         if (n == 0) {
-            double fl = fabs(problem_f(&p, -1.0, NULL)), fr = fabs(problem_f(&p, 1.0, NULL));
+            double fl = fabs(problem_f(p, -1.0, NULL)), fr = fabs(problem_f(p, 1.0, NULL));
             roots[0] = (fl <= fr) ? -1.0 : 1.0;
             n = 1;
         }
@@ -211,7 +170,7 @@ nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver
      * of each other tie, and a tie goes to the smaller xi (docs/model.md,
      * "Selection"), so every solver picks the same root. */
     for (i = 0; i < n; ++i) {
-        double d2 = problem_dist_sq(&p, roots[i]);
+        double d2 = problem_dist_sq(p, roots[i]);
         if (best < 0 || d2 < best_d2) {
             best = i;
             best_d2 = d2;
@@ -220,18 +179,10 @@ nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver
     {
         const double tie = best_d2 * (1.0 + 64.0 * DBL_EPSILON);
         for (i = 0; i < n; ++i)
-            if (roots[i] < roots[best] && problem_dist_sq(&p, roots[i]) <= tie) best = i;
+            if (roots[i] < roots[best] && problem_dist_sq(p, roots[i]) <= tie) best = i;
     }
-    s.roots = n;
-    s.xi = roots[best];
-    {
-        nts_vec2 tau = nts_corner_tangent(k, s.xi);
-        double tl = nts_length(tau);
-        if (!(tl > 0.0) || !isfinite(tl)) return s; /* tangent vanished: zero-angle spike */
-        s.point = nts_corner_point(k, s.xi);
-        s.normal = nts_v2(tau.y / tl, -tau.x / tl);
-        s.gap = nts_dot(nts_sub(d, s.point), s.normal);
-        s.ok = 1;
-    }
-    return s;
+    *nroots = n;
+    return roots[best];
 }
+
+nts_corner_solution nts_corner_solve(nts_corner k, nts_vec2 d, nts_solver solver) { return corner_solve(&k, d, solver); }

@@ -12,6 +12,7 @@
  * result is that of trying every master, bit for bit. */
 #include <math.h>
 
+#include "corner.h"
 #include "stages.h"
 
 #if defined(__SSE2__)
@@ -109,8 +110,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
              * alpha max(|a|, |c|) of X3, so |g| >= |d| - that reach. */
             reach = alpha * (sp->len > m->len ? sp->len : m->len);
             if (sqrt(d2) > (r + reach) * (1.0 + 1e-12)) return;
-            k = nts_corner_make(nts_neg(sp->t), m->t, alpha); /* a = X2 - X3, c = X4 - X3 */
-            sol = nts_corner_solve(k, d, env->solver);
+            k = corner_make(nts_neg(sp->t), m->t, alpha); /* a = X2 - X3, c = X4 - X3 */
+            sol = corner_solve(&k, d, env->solver);
             if (!sol.ok || !(fabs(sol.gap) <= r)) return;
             c.gap = sol.gap;
             c.param = sol.xi;
@@ -256,8 +257,25 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
         xs = env->seg[i].p;
         at = nts_cells_place(cl, xs);
         if (at.cell != last_cell) {
+            const int cx = at.cell % cl->nx, cy = at.cell / cl->nx;
             last_cell = at.cell;
-            nts_cells_stencil(cl, last_cell, &st);
+            if (cx >= 1 && cx + 1 < cl->nx && cy >= 1 && cy + 1 < cl->ny) {
+                /* Inside the grid: three rows of three cells, no shift. */
+                const int* cs = cl->cell_start + (at.cell - cl->nx - 1);
+                st.n = 3;
+                st.begin[0] = cs[0];
+                st.end[0] = cs[3];
+                cs += cl->nx;
+                st.begin[1] = cs[0];
+                st.end[1] = cs[3];
+                cs += cl->nx;
+                st.begin[2] = cs[0];
+                st.end[2] = cs[3];
+                st.shift_x[0] = st.shift_x[1] = st.shift_x[2] = 0.0;
+                st.shift_y[0] = st.shift_y[1] = st.shift_y[2] = 0.0;
+            } else {
+                nts_cells_stencil(cl, last_cell, &st);
+            }
         }
         sx = at.x * scale;
         sy = at.y * scale;
