@@ -102,6 +102,17 @@ static inline nts_corner corner_make(nts_vec2 a, nts_vec2 c, double alpha) {
     return k;
 }
 
+/* The shape functions (docs/model.md §3, eq. (3), with §12 correction 1):
+ * N3 = 1 - alpha (1 + xi^2) / 2, so that they sum to one. */
+static inline nts_shape3 corner_shape(double alpha, double xi) {
+    nts_shape3 s;
+    const double m = 1.0 - xi, q = 1.0 + xi;
+    s.n2 = 0.25 * alpha * m * m;
+    s.n3 = 1.0 - 0.5 * alpha * (1.0 + xi * xi);
+    s.n4 = 0.25 * alpha * q * q;
+    return s;
+}
+
 /* The closest point of a slave at d = Xs - X3 on corner k (nts_corner_solve). */
 static inline nts_corner_solution corner_solve(const nts_corner* k, nts_vec2 d, nts_solver solver) {
     nts_corner_solution s;

@@ -175,6 +175,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     nchunk = (s->surface_count + CHUNK_SLAVES - 1) / CHUNK_SLAVES;
     if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count, nchunk)) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
+    /* One thread and no records asked for: no records at all, the search
+     * sums and scatters each slave's contacts itself (search_env.direct). */
+    env.direct = nthreads == 1 && !env.keep_all;
+    if (env.direct && (opt->outputs & NTS_OUT_FORCES) != 0u) {
+        if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        memset(ctx->forces, 0, sizeof(nts_vec2) * (size_t)s->node_count);
+        env.forces = ctx->forces;
+    }
 #if NTS_CONFIG_OPENMP
 #pragma omp parallel for num_threads(nthreads) if (nthreads > 1) schedule(static, 1)
 #endif
@@ -190,6 +199,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
                                                                                            : s->surface_count;
         ch->worker = t;
         ch->first = w->rec_count;
+        w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
         ch->count = w->rec_count - ch->first;
     }

@@ -9,15 +9,7 @@
 
 #include "corner.h"
 
-/* Eq. (1) corrected (docs/model.md §12, correction 1): N3 = 1 - alpha (1 + xi^2)/2, so sum N = 1. */
-nts_shape3 nts_corner_shape(double alpha, double xi) {
-    nts_shape3 s;
-    double m = 1.0 - xi, p = 1.0 + xi;
-    s.n2 = 0.25 * alpha * m * m;
-    s.n3 = 1.0 - 0.5 * alpha * (1.0 + xi * xi);
-    s.n4 = 0.25 * alpha * p * p;
-    return s;
-}
+nts_shape3 nts_corner_shape(double alpha, double xi) { return corner_shape(alpha, xi); }
 
 nts_corner nts_corner_make(nts_vec2 a, nts_vec2 c, double alpha) { return corner_make(a, c, alpha); }
 

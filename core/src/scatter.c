@@ -12,64 +12,6 @@
  * that gives the same bytes only while nts_contact has no padding. */
 typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
 
-/* The master nodes of record b, as surface entries, and their weights
- * (docs/model.md §4): the segment's two ends, the corner's three nodes
- * (X2, X3, X4) with the shape functions (3), or the vertex. */
-static inline int record_masters(const search_env* env, const candidate* b, int entry[3], double w[3]) {
-    const nts_scene* s = env->s;
-    const int j = b->entry;
-    if (b->kind == NTS_KIND_SEGMENT) {
-        entry[0] = j;
-        entry[1] = s->surf_next[j];
-        w[0] = 1.0 - b->param;
-        w[1] = b->param;
-        return 2;
-    }
-    if (b->kind == NTS_KIND_CORNER) {
-        const nts_shape3 N = nts_corner_shape(alpha_of_body(s, b->body, env->alpha), b->param);
-        entry[0] = s->surf_prev[j];
-        entry[1] = j;
-        entry[2] = s->surf_next[j];
-        w[0] = N.n2;
-        w[1] = N.n3;
-        w[2] = N.n4;
-        return 3;
-    }
-    entry[0] = j;
-    w[0] = 1.0;
-    return 1;
-}
-
-/* The slave's penalty (docs/model.md §6): per node, or per unit of the node's
- * tributary length at creation (a pressure stiffness). */
-static inline double record_penalty(const search_env* env, const candidate* b) {
-    return env->per_length ? env->eps * env->s->surf_trib[b->slave] : env->eps;
-}
-
-/* The virial of an active record: W_ab = -sum_k f_ka (X_k - Xs)_b over the
- * master nodes, f_k = eps g N_k n (the slave's own term vanishes); equals
- * eps g^2 n_a n_b at the PCA. */
-static inline nts_virial record_virial(const search_env* env, const candidate* b, double eg) {
-    const nts_scene* s = env->s;
-    const nts_vec2 xs = env->seg[b->slave].p;
-    int entry[3], q, m;
-    double w[3], wxx = 0.0, wyy = 0.0, wxy = 0.0, wyx = 0.0;
-    nts_virial v;
-    m = record_masters(env, b, entry, w);
-    for (q = 0; q < m; ++q) {
-        const nts_vec2 rel = nts_scene_diff(s, env->seg[entry[q]].p, xs);
-        const nts_vec2 f = nts_scale(eg * w[q], b->normal);
-        wxx -= f.x * rel.x;
-        wyy -= f.y * rel.y;
-        wxy -= f.x * rel.y;
-        wyx -= f.y * rel.x;
-    }
-    v.xx = wxx;
-    v.yy = wyy;
-    v.xy = 0.5 * (wxy + wyx);
-    return v;
-}
-
 /* The full record of candidate b: master nodes and their weights, the
  * slave's penalty, force and virial. */
 static nts_contact make_contact(const search_env* env, const candidate* b) {
@@ -97,9 +39,16 @@ static nts_contact make_contact(const search_env* env, const candidate* b) {
     if (c.gap < 0.0) {
         const double eg = c.penalty * c.gap;
         c.force = nts_scale(-eg, c.normal); /* f_s = -eps g n (docs/model.md §6) */
-        if (env->want_virial) c.virial = record_virial(env, b, eg);
+        if (env->want_virial) c.virial = record_virial(eg, c.gap, c.normal);
     }
     return c;
+}
+
+static int forces_finite(const nts_vec2* F, int n0, int n1) {
+    int i;
+    for (i = n0; i < n1; ++i)
+        if (!nts_is_valid_vec2(F[i])) return 0;
+    return 1;
 }
 
 static inline const candidate* chunk_recs(const nts_context* ctx, const chunk_info* ch) {
@@ -109,63 +58,25 @@ static inline const candidate* chunk_recs(const nts_context* ctx, const chunk_in
 /* A chunk's active contacts and their sums. */
 static void chunk_sums(const nts_context* ctx, const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ctx, ch);
-    double energy = 0.0, maxpen = 0.0, vxx = 0.0, vyy = 0.0, vxy = 0.0;
-    int k, active = 0, overflow = 0;
-    for (k = 0; k < ch->count; ++k) {
-        const candidate* b = &rec[k];
-        double pen;
-        if (!(b->gap < 0.0)) continue;
-        ++active;
-        pen = record_penalty(env, b);
-        energy += 0.5 * pen * b->gap * b->gap; /* (9) */
-        if (-b->gap > maxpen) maxpen = -b->gap;
-        overflow |= !isfinite(pen * b->gap);
-        if (env->want_virial) {
-            const nts_virial v = record_virial(env, b, pen * b->gap);
-            overflow |= !isfinite(v.xx + v.yy + v.xy);
-            vxx += v.xx;
-            vyy += v.yy;
-            vxy += v.xy;
-        }
-    }
-    ch->active = active;
-    ch->energy = energy;
-    ch->maxpen = maxpen;
-    ch->vxx = vxx;
-    ch->vyy = vyy;
-    ch->vxy = vxy;
-    ch->overflow = overflow;
+    int k;
+    memset(&ch->sums, 0, sizeof ch->sums);
+    for (k = 0; k < ch->count; ++k)
+        if (rec[k].gap < 0.0) contact_sum(env, &rec[k], &ch->sums);
 }
 
 /* The forces on nodes [n0, n1): every active record's share of them, in
- * record order (docs/model.md §6: f_s = -eps g n, f_k = eps g N_k n).
- * Returns 1 when one of them overflowed. */
+ * record order. Returns 1 when one of them overflowed. */
 static int forces_range(nts_context* ctx, const search_env* env, int n0, int n1) {
-    const nts_scene* s = env->s;
     nts_vec2* F = ctx->forces;
-    int c, k, i;
+    int c, k;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
     for (c = 0; c < ctx->chunk_count; ++c) {
         const chunk_info* ch = &ctx->chunks[c];
         const candidate* rec = chunk_recs(ctx, ch);
-        for (k = 0; k < ch->count; ++k) {
-            const candidate* b = &rec[k];
-            int entry[3], q, m, ns;
-            double w[3], eg;
-            if (!(b->gap < 0.0)) continue;
-            eg = record_penalty(env, b) * b->gap;
-            ns = s->surf_node[b->slave];
-            if (ns >= n0 && ns < n1) F[ns] = nts_add(F[ns], nts_scale(-eg, b->normal));
-            m = record_masters(env, b, entry, w);
-            for (q = 0; q < m; ++q) {
-                const int nm = s->surf_node[entry[q]];
-                if (nm >= n0 && nm < n1) F[nm] = nts_mul_add(F[nm], eg * w[q], b->normal);
-            }
-        }
+        for (k = 0; k < ch->count; ++k)
+            if (rec[k].gap < 0.0) contact_forces(env, &rec[k], F, n0, n1);
     }
-    for (i = n0; i < n1; ++i)
-        if (!nts_is_valid_vec2(F[i])) return 1;
-    return 0;
+    return forces_finite(F, n0, n1) ? 0 : 1;
 }
 
 static int overflow_error(nts_error* err, const char* msg) {
@@ -187,21 +98,25 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     double energy = 0.0, maxpen = 0.0;
     nts_virial vir = {0.0, 0.0, 0.0};
 
-    NTS_PARALLEL_FOR(nthreads)
-    for (c = 0; c < nchunk; ++c) chunk_sums(ctx, env, &ctx->chunks[c]);
+    if (!env->direct) {
+        NTS_PARALLEL_FOR(nthreads)
+        for (c = 0; c < nchunk; ++c) chunk_sums(ctx, env, &ctx->chunks[c]);
+    }
     for (c = 0; c < nchunk; ++c) { /* in chunk order */
-        const chunk_info* ch = &ctx->chunks[c];
-        ncontact += ch->active;
-        energy += ch->energy;
-        vir.xx += ch->vxx;
-        vir.yy += ch->vyy;
-        vir.xy += ch->vxy;
-        if (ch->maxpen > maxpen) maxpen = ch->maxpen;
-        overflow |= ch->overflow;
+        const contact_sums* cs = &ctx->chunks[c].sums;
+        ncontact += cs->active;
+        energy += cs->energy;
+        vir.xx += cs->vxx;
+        vir.yy += cs->vyy;
+        vir.xy += cs->vxy;
+        if (cs->maxpen > maxpen) maxpen = cs->maxpen;
+        overflow |= cs->overflow;
     }
     for (c = 0; c < nthreads; ++c) total += ctx->workers[c].gaps;
 
-    if (want_forces) {
+    if (want_forces && env->direct) {
+        overflow |= !forces_finite(ctx->forces, 0, s->node_count);
+    } else if (want_forces) {
         int part, bad = 0;
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
@@ -230,7 +145,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             ch->contact_at = contact_at;
             ch->gap_at = gap_at;
             gap_at += ch->count;
-            contact_at += ch->active;
+            contact_at += ch->sums.active;
         }
         NTS_PARALLEL_FOR(nthreads)
         for (c = 0; c < nchunk; ++c) {

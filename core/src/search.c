@@ -208,7 +208,8 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         /* Over the budget in this worker alone, so the total is too (the caller
          * checks the sum as well: the verdict does not depend on threads). */
         w->status = NTS_ELIMIT;
-    } else if (need > w->rec_cap && nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
+    } else if (!env->direct && need > w->rec_cap &&
+               nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
         w->status = NTS_ENOMEM;
     }
     /* Insertion sort by master body (a handful of entries). */
@@ -219,11 +220,17 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         w->best[m + 1] = t;
     }
     for (k = 0; k < w->best_count; ++k) {
-        const candidate* b = &w->best[k];
+        candidate* b = &w->best[k];
         w->slot[b->body] = -1;
         if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
-        w->recs[w->rec_count] = *b;
-        w->recs[w->rec_count++].slave = i;
+        b->slave = i;
+        if (env->direct) {
+            /* What the scatter would do with the record, in the same order. */
+            contact_sum(env, b, w->sums);
+            if (env->forces != NULL) contact_forces(env, b, env->forces, 0, env->s->node_count);
+        } else {
+            w->recs[w->rec_count++] = *b;
+        }
     }
     w->best_count = 0;
 }

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "corner.h"
 #include "internal.h"
 
 #if defined(__GNUC__)
@@ -159,6 +160,13 @@ typedef struct candidate {
     int kind;
 } candidate;
 
+/* What active contacts add up to: their count, energy (9), virial (11) and
+ * largest penetration, and whether one overflowed a double. */
+typedef struct contact_sums {
+    double energy, vxx, vyy, vxy, maxpen;
+    int active, overflow;
+} contact_sums;
+
 /* One worker's scratch: the per-slave best candidate of each master body, and
  * the records of the chunks it ran, each chunk's in slave order: every
  * closest point within r when contacts, gaps or the tangent are asked for,
@@ -171,6 +179,7 @@ typedef struct worker {
     candidate* recs;
     int rec_count, rec_cap;
     long long gaps;    /* closest points within r found (kept or not) */
+    contact_sums* sums;/* the current chunk's, when the search sums as it goes (search_env.direct) */
     int status;
     /* Workers sit side by side in one array and update their counts all the
      * time: keep each on its own cache lines (no false sharing between threads). */
@@ -184,12 +193,12 @@ typedef struct worker {
  * whoever ran them. The scatter also leaves each chunk's partial sums here, added in
  * chunk order: the same bits for any number of threads. */
 enum { CHUNK_SLAVES = 1024 };
+
 typedef struct chunk_info {
     int worker, first, count; /* records workers[worker].recs[first .. first + count) */
-    int active;               /* of which g < 0 */
     int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
-    int overflow;
-    double energy, vxx, vyy, vxy, maxpen;
+    int pad;
+    contact_sums sums;        /* of its active contacts */
 } chunk_info;
 
 struct nts_context {
@@ -242,6 +251,11 @@ typedef struct search_env {
     nts_solver solver;
     int want_virial;
     int keep_all;            /* records for every closest point (contacts, gaps or tangent asked) */
+    /* One thread and no records asked for: the search adds each slave's
+     * active contacts to its chunk's sums and to the forces (when asked, into
+     * `forces`) itself, in the order the scatter would, and keeps no records. */
+    int direct;
+    nts_vec2* forces;
 } search_env;
 
 /* A failed evaluation: the error record filled, the status returned. */
@@ -271,6 +285,86 @@ static inline double reach_at_node(const seg_data* seg, const nts_scene* s, int 
  * cells are smaller and fewer masters pass the first test. */
 static inline double reach_at_middle(const seg_data* seg, const nts_scene* s, int j, double alpha) {
     return 0.5 * seg[j].len + alpha * seg[s->surf_prev[j]].len;
+}
+
+/* ------------------------------------------------------------ contacts */
+
+/* The master nodes of record b, as surface entries, and their weights
+ * (docs/model.md §4): the segment's two ends, the corner's three nodes
+ * (X2, X3, X4) with the shape functions (3), or the vertex. */
+static inline int record_masters(const search_env* env, const candidate* b, int entry[3], double w[3]) {
+    const nts_scene* s = env->s;
+    const int j = b->entry;
+    if (b->kind == NTS_KIND_SEGMENT) {
+        entry[0] = j;
+        entry[1] = s->surf_next[j];
+        w[0] = 1.0 - b->param;
+        w[1] = b->param;
+        return 2;
+    }
+    if (b->kind == NTS_KIND_CORNER) {
+        const nts_shape3 N = corner_shape(alpha_of_body(s, b->body, env->alpha), b->param);
+        entry[0] = s->surf_prev[j];
+        entry[1] = j;
+        entry[2] = s->surf_next[j];
+        w[0] = N.n2;
+        w[1] = N.n3;
+        w[2] = N.n4;
+        return 3;
+    }
+    entry[0] = j;
+    w[0] = 1.0;
+    return 1;
+}
+
+/* The slave's penalty (docs/model.md §6): per node, or per unit of the node's
+ * tributary length at creation (a pressure stiffness). */
+static inline double record_penalty(const search_env* env, const candidate* b) {
+    return env->per_length ? env->eps * env->s->surf_trib[b->slave] : env->eps;
+}
+
+/* The virial of an active contact (11): -sum_k f_k (X_k - Xs) over its nodes
+ * is -eps g n (X - Xs) with X the closest point, and Xs - X = g n there, so
+ * it is eps g^2 n n: no node positions needed. `eg` = eps g. */
+static inline nts_virial record_virial(double eg, double g, nts_vec2 n) {
+    const double e2 = eg * g;
+    nts_virial v;
+    v.xx = e2 * n.x * n.x;
+    v.yy = e2 * n.y * n.y;
+    v.xy = e2 * n.x * n.y;
+    return v;
+}
+
+/* Add an active record to the sums. */
+static inline void contact_sum(const search_env* env, const candidate* b, contact_sums* cs) {
+    const double pen = record_penalty(env, b);
+    ++cs->active;
+    cs->energy += 0.5 * pen * b->gap * b->gap; /* (9) */
+    if (-b->gap > cs->maxpen) cs->maxpen = -b->gap;
+    cs->overflow |= !isfinite(pen * b->gap);
+    if (env->want_virial) {
+        const nts_virial v = record_virial(pen * b->gap, b->gap, b->normal);
+        cs->overflow |= !isfinite(v.xx + v.yy + v.xy);
+        cs->vxx += v.xx;
+        cs->vyy += v.yy;
+        cs->vxy += v.xy;
+    }
+}
+
+/* Add an active record's forces (10) on nodes [n0, n1) into F: f_s = -eps g n
+ * on the slave, f_k = eps g N_k n on master node k. */
+static inline void contact_forces(const search_env* env, const candidate* b, nts_vec2* F, int n0, int n1) {
+    const nts_scene* s = env->s;
+    const double eg = record_penalty(env, b) * b->gap;
+    const int ns = s->surf_node[b->slave];
+    int entry[3], q, m;
+    double w[3];
+    if (ns >= n0 && ns < n1) F[ns] = nts_add(F[ns], nts_scale(-eg, b->normal));
+    m = record_masters(env, b, entry, w);
+    for (q = 0; q < m; ++q) {
+        const int nm = s->surf_node[entry[q]];
+        if (nm >= n0 && nm < n1) F[nm] = nts_mul_add(F[nm], eg * w[q], b->normal);
+    }
 }
 
 /* segments.c */
