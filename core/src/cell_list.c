@@ -6,9 +6,6 @@
 
 #include "stages.h"
 
-#if NTS_CONFIG_OPENMP
-#include <omp.h>
-#endif
 
 void nts_cells_free(nts_cells* c) {
     nts_free(c->cell_start);
@@ -70,60 +67,43 @@ int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, do
     return nts_grow((void**)&c->cell_start, &c->cap_cells, need + 1, sizeof(int));
 }
 
-/* A counting sort. With threads, each sorts its own slice of the entries
- * into its own counts, and the slices are laid out cell by cell in slice
- * order: within a cell the entries stay in increasing order, exactly as the
- * serial sort puts them. */
-void nts_cells_sort(nts_cells* c, const int* cell_of, int n, int* items, int* hist, int threads) {
+/* A counting sort's first half. Each slice of the entries counts its own
+ * entries per cell (the slices in parallel); then the slices are laid out
+ * cell by cell, in slice order within a cell, so that placing each slice's
+ * entries in increasing order puts every cell's entries in increasing order,
+ * exactly as one slice would. */
+void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, int threads) {
     const int ncell = c->nx * c->ny;
-    int* start = c->cell_start;
-    int i;
-#if NTS_CONFIG_OPENMP
-    if (threads > 1) {
-#pragma omp parallel num_threads(threads)
-        {
-            const int nt = omp_get_num_threads(), t = omp_get_thread_num();
-            const int b = (int)((long long)n * t / nt), e = (int)((long long)n * (t + 1) / nt);
-            int* h = hist + (size_t)t * (size_t)ncell;
-            int j;
-            memset(h, 0, sizeof(int) * (size_t)ncell);
-            for (j = b; j < e; ++j)
-                if (cell_of[j] >= 0) ++h[cell_of[j]];
-#pragma omp barrier
-#pragma omp single
-            {
-                /* Each (cell, slice) its first place: cells in order, slices in order within. */
-                int cell, u, at = 0;
-                for (cell = 0; cell < ncell; ++cell) {
-                    start[cell] = at;
-                    for (u = 0; u < nt; ++u) {
-                        int* hu = hist + (size_t)u * (size_t)ncell + cell;
-                        const int k = *hu;
-                        *hu = at;
-                        at += k;
-                    }
-                }
-                start[ncell] = at;
-            }
-            for (j = b; j < e; ++j)
-                if (cell_of[j] >= 0) items[h[cell_of[j]]++] = j;
-        }
+    int u, cell, at = 0;
+    (void)threads; /* without OpenMP */
+    if (slices == 1) { /* one slice: its places are the cells' starts, counted in cell_start + 1 */
+        int* h = c->cell_start + 1;
+        int j;
+        memset(c->cell_start, 0, sizeof(int) * (size_t)(ncell + 1));
+        for (j = 0; j < n; ++j)
+            if (cell_of[j] >= 0) ++h[cell_of[j]];
+        for (cell = 0; cell < ncell; ++cell) c->cell_start[cell + 1] += c->cell_start[cell];
         return;
     }
-#else
-    (void)hist;
-    (void)threads;
-#endif
-    memset(start, 0, sizeof(int) * (size_t)(ncell + 1));
-    for (i = 0; i < n; ++i)
-        if (cell_of[i] >= 0) ++start[cell_of[i] + 1];
-    for (i = 0; i < ncell; ++i) start[i + 1] += start[i];
-    /* Place entries in increasing order, each at its cell's next free place
-     * (counted in start[c], which then holds the cell's end). */
-    for (i = 0; i < n; ++i)
-        if (cell_of[i] >= 0) items[start[cell_of[i]]++] = i;
-    for (i = ncell; i > 0; --i) start[i] = start[i - 1];
-    start[0] = 0;
+    NTS_PARALLEL_FOR(threads)
+    for (u = 0; u < slices; ++u) {
+        const int b = nts_slice_begin(n, slices, u), e = nts_slice_begin(n, slices, u + 1);
+        int* h = hist + (size_t)u * (size_t)ncell;
+        int j;
+        memset(h, 0, sizeof(int) * (size_t)ncell);
+        for (j = b; j < e; ++j)
+            if (cell_of[j] >= 0) ++h[cell_of[j]];
+    }
+    for (cell = 0; cell < ncell; ++cell) {
+        c->cell_start[cell] = at;
+        for (u = 0; u < slices; ++u) {
+            int* h = hist + (size_t)u * (size_t)ncell + cell;
+            const int k = *h;
+            *h = at;
+            at += k;
+        }
+    }
+    c->cell_start[ncell] = at;
 }
 
 void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {

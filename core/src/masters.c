@@ -113,8 +113,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
      * round-off of binning (a cell's side is at least hcell). */
     const double fits = hcell * (1.0 - 1e-12), scale = cl->scale;
     int* cell_of = ctx->scratch;
-    int* items = ctx->scratch + n;
-    int e, nlong = 0, count, rc;
+    int e, u, nlong = 0, count, rc;
     master_keys* k = &ctx->keys;
     NTS_PARALLEL_FOR_REDUCE(threads, reduction(+ : nlong))
     for (e = 0; e < n; ++e) {
@@ -133,25 +132,42 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
         }
         cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
     }
+    /* Sorted by cell: each slice places its masters' keys, computed from
+     * the entries in entry order (a sequential read, scattered writes). */
     if (threads > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
                                       threads * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
         return rc;
-    nts_cells_sort(&ctx->cells, cell_of, n, items, ctx->hist, threads);
+    nts_cells_offsets(&ctx->cells, cell_of, n, ctx->hist, threads, threads);
     count = cl->cell_start[ncell];
     if ((rc = keys_reserve(k, count)) != NTS_OK) return rc;
     k->count = count;
     NTS_PARALLEL_FOR(threads)
-    for (e = 0; e < count; ++e) {
-        const int j = items[e], b = s->surf_body[j];
-        const seg_data* m = &ctx->seg[j];
-        const nts_cell_place q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-        const double R = reach_allowed(reach_at_middle(ctx->seg, s, j, alpha_of_body(s, b, alpha)), r, pad);
-        const double Rs = R * scale + KEY_SLACK;
-        k->x[e] = (float)(q.x * scale);
-        k->y[e] = (float)(q.y * scale);
-        k->reach2[e] = (float)(Rs * Rs * (1.0 + KEY_SLACK));
-        k->body[e] = b;
-        k->entry[e] = j;
+    for (u = 0; u < threads; ++u) {
+        int* next = threads > 1 ? ctx->hist + (size_t)u * (size_t)ncell : cl->cell_start;
+        const int end = nts_slice_begin(n, threads, u + 1);
+        int j;
+        for (j = nts_slice_begin(n, threads, u); j < end; ++j) {
+            const int cell = cell_of[j];
+            const seg_data* m = &ctx->seg[j];
+            nts_cell_place q;
+            double R, Rs;
+            int b, at;
+            if (cell < 0) continue;
+            b = s->surf_body[j];
+            at = next[cell]++;
+            q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
+            R = reach_allowed(reach_at_middle(ctx->seg, s, j, alpha_of_body(s, b, alpha)), r, pad);
+            Rs = R * scale + KEY_SLACK;
+            k->x[at] = (float)(q.x * scale);
+            k->y[at] = (float)(q.y * scale);
+            k->reach2[at] = (float)(Rs * Rs * (1.0 + KEY_SLACK));
+            k->body[at] = b;
+            k->entry[at] = j;
+        }
+    }
+    if (threads == 1) { /* the starts were moved to the ends: back one cell */
+        for (e = ncell; e > 0; --e) cl->cell_start[e] = cl->cell_start[e - 1];
+        cl->cell_start[0] = 0;
     }
     for (e = count; e < count + KEY_PAD; ++e) { /* read 4 at a time, never kept */
         k->x[e] = k->y[e] = 0.0f;

@@ -95,11 +95,15 @@ static inline nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
 int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h, int min_cells);
 /* How many cells nts_cells_shape would make for side h. */
 int nts_cells_count(const nts_scene* s, const seg_summary* sum, double h);
-/* Sort entries by cell: items[0 .. count) gets every e in [0, n) with
- * cell_of[e] >= 0, by cell and in increasing e within a cell, and
- * cell_start the cells' bounds. `hist`: threads * (cells + 1) ints when
- * threads > 1. The result never depends on the threads. */
-void nts_cells_sort(nts_cells* c, const int* cell_of, int n, int* items, int* hist, int threads);
+/* The first slice entry of slice u of `slices` equal slices of [0, n). */
+static inline int nts_slice_begin(int n, int slices, int u) { return (int)((long long)n * u / slices); }
+/* Sort entries by cell, first half: cell_start gets the cells' bounds and
+ * hist (slices * cells ints) the first place of each slice's entries in each
+ * cell, for the caller to place the entries e with cell_of[e] >= 0, each
+ * slice in increasing e (in parallel): then every cell lists its entries in
+ * increasing e, whatever the slices. With one slice hist is not used: the
+ * first places are the cells' starts. */
+void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, int threads);
 void nts_cells_free(nts_cells* c);
 
 /* The masters a slave in one cell visits: the key ranges of the 3 x 3 cells
@@ -213,10 +217,10 @@ struct nts_context {
     int* long_items;   /* into long_m, by cell */
     int long_items_cap;
     /* Two ints per surface entry, lent to one phase at a time: the order
-     * statistics' values, then the cells of the masters and their order. */
+     * statistics' values, then the cells of the masters. */
     int* scratch;
     int scratch_cap;
-    int* hist;         /* per-thread cell counts of the parallel counting sort */
+    int* hist;         /* per-slice cell counts of the counting sort */
     int hist_cap;
     worker* workers;
     int worker_count, slot_cap;
