@@ -111,6 +111,7 @@ void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {
     const double sx = c->lx * c->scale, sy = c->ly * c->scale;
     int dy, dx;
     st->n = 0;
+    st->keys = 0;
     for (dy = -1; dy <= 1; ++dy) {
         int yy = cy + dy, first = st->n;
         double shy = 0.0;
@@ -130,6 +131,7 @@ void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st) {
             b = c->cell_start[yy * nx + xx];
             e = c->cell_start[yy * nx + xx + 1];
             if (b == e) continue;
+            st->keys += e - b;
             /* The next cell of the row with the same shift extends the range. */
             if (st->n > first && st->end[st->n - 1] == b && st->shift_x[st->n - 1] == shx) {
                 st->end[st->n - 1] = e;

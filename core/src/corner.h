@@ -67,20 +67,24 @@ static inline int root_monotone(const corner_problem* p, double* root, int* iter
         const nts_vec2 tau = nts_mul_add(p->B, 2.0 * x, p->A);
         const nts_vec2 r = nts_sub(p->e, nts_scale(x, nts_mul_add(p->B, x, p->A)));
         const double f = nts_dot(r, tau), df = 2.0 * nts_dot(r, p->A) - nts_dot(tau, tau);
-        const double d2f = -6.0 * nts_dot(p->A, tau);
-        double step, xn, k;
+        const double w = 1.0 / df, u = f * w, v = -6.0 * nts_dot(p->A, tau) * w; /* F/F', F''/F' */
+        const double step = u / (1.0 - 0.5 * u * v), k = 0.25 * v * v + 2.0 * aa * fabs(w);
+        const double xn = x - step;
         if (f == 0.0) break;
         if (f > 0.0) lo = x; else hi = x;
-        step = 2.0 * f * df / (2.0 * df * df - f * d2f);
-        xn = x - step;
+        /* Converged: the step is taken, onto the bracket's edge at most (a
+         * step below the last bit may land on it; it must not count as
+         * leaving the bracket, or the iteration would bisect away). */
+        if (k * step * step * fabs(step) <= 0.5 * DBL_EPSILON * DBL_EPSILON) {
+            x = xn < lo ? lo : (xn > hi ? hi : xn);
+            break;
+        }
         if (!(xn > lo && xn < hi)) { /* left the bracket (or not finite): bisect */
             x = 0.5 * (lo + hi);
             if (hi - lo <= 2.0 * DBL_EPSILON) break;
             continue;
         }
-        k = 0.25 * (d2f / df) * (d2f / df) + 2.0 * aa / fabs(df);
         x = xn;
-        if (k * step * step * fabs(step) <= 0.5 * DBL_EPSILON * DBL_EPSILON) break;
     }
     *iters += it + 1;
     *root = x;

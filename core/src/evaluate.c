@@ -125,6 +125,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.s = s;
     env.seg = ctx->seg;
     env.alpha = opt->alpha;
+    for (i = 0; i < s->body_count && !env.body_alphas; ++i) env.body_alphas = s->body_alpha[i] >= 0.0;
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
     env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;

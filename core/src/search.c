@@ -70,7 +70,8 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
  * get here decides nothing but the time. */
 static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, int body,
                                                 const int periodic) {
-    const double alpha = alpha_of_body(env->s, body, env->alpha), r = env->r; /* the master's alpha */
+    const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
+    const double r = env->r;
     const seg_data* m = &env->seg[j];
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
@@ -235,8 +236,9 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     w->best_count = 0;
 }
 
-/* Keys per first-pass batch: kept[] holds a batch and the 4 lanes past it. */
-enum { BATCH = 256 };
+/* The masters the first pass keeps: every key of the stencil's ranges and 4
+ * lanes past each, or a batch of keys of one range and 4 past it. */
+enum { KEPT = 512 };
 
 /* The local search of slaves [begin, end) with the cell list, in slave order.
  * The stencil is worked out once per cell (consecutive slaves of a loop
@@ -247,7 +249,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     const nts_cells* cl = env->cells;
     const master_keys* keys = env->keys;
     const double scale = cl->scale;
-    int kept[BATCH + 4];
+    int kept[KEPT];
     nts_stencil st;
     int last_cell = -1, i, q;
     st.n = 0;
@@ -280,21 +282,34 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 st.end[2] = cs[3];
                 st.shift_x[0] = st.shift_x[1] = st.shift_x[2] = 0.0;
                 st.shift_y[0] = st.shift_y[1] = st.shift_y[2] = 0.0;
+                st.keys = (st.end[0] - st.begin[0]) + (st.end[1] - st.begin[1]) + (st.end[2] - st.begin[2]);
             } else {
                 nts_cells_stencil(cl, last_cell, &st);
             }
         }
         sx = at.x * scale;
         sy = at.y * scale;
-        for (q = 0; q < st.n; ++q) {
-            const float fx = (float)(sx - st.shift_x[q]), fy = (float)(sy - st.shift_y[q]);
-            int e0 = st.begin[q];
-            while (e0 < st.end[q]) {
-                const int e1 = st.end[q] - e0 > BATCH ? e0 + BATCH : st.end[q];
-                const int n = near_keys(keys, fx, fy, bi, e0, e1, kept);
-                int k;
-                for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
-                e0 = e1;
+        if (st.keys + 4 * st.n <= KEPT) {
+            /* Usually: the first pass over every range, then the second over
+             * every master kept. */
+            int n = 0, k;
+            for (q = 0; q < st.n; ++q)
+                n += near_keys(keys, (float)(sx - st.shift_x[q]), (float)(sy - st.shift_y[q]), bi, st.begin[q],
+                               st.end[q], kept + n);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
+        } else {
+            /* A crowded stencil: a batch of keys at a time. */
+            for (q = 0; q < st.n; ++q) {
+                const float fx = (float)(sx - st.shift_x[q]), fy = (float)(sy - st.shift_y[q]);
+                int e0 = st.begin[q];
+                while (e0 < st.end[q]) {
+                    const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
+                    const int n = near_keys(keys, fx, fy, bi, e0, e1, kept);
+                    int k;
+                    for (k = 0; k < n; ++k)
+                        try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
+                    e0 = e1;
+                }
             }
         }
         if (env->long_start != NULL) {

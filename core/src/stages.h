@@ -115,6 +115,7 @@ void nts_cells_free(nts_cells* c);
  * (the better of two equal candidates is the first). */
 typedef struct nts_stencil {
     int n;
+    int keys; /* in all the ranges */
     int begin[9], end[9];
     double shift_x[9], shift_y[9];
 } nts_stencil;
@@ -246,6 +247,7 @@ typedef struct search_env {
     const int* long_start;
     const int* long_items;
     double alpha, r, eps;    /* alpha: the options' (a body may have its own) */
+    int body_alphas;         /* some body has its own alpha */
     double brute_pad;        /* brute force: the round-off allowance of its reach test */
     long long max_records;   /* the candidate budget (nts_options.max_candidates) */
     int (*cancel)(void* user);
