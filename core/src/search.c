@@ -236,6 +236,12 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     w->best_count = 0;
 }
 
+#if defined(__GNUC__)
+#define NTS_PREFETCH(p) __builtin_prefetch(p)
+#else
+#define NTS_PREFETCH(p) ((void)0)
+#endif
+
 /* The masters the first pass keeps: every key of the stencil's ranges and 4
  * lanes past each, or a batch of keys of one range and 4 past it. */
 enum { KEPT = 512 };
@@ -296,7 +302,13 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
             for (q = 0; q < st.n; ++q)
                 n += near_keys(keys, (float)(sx - st.shift_x[q]), (float)(sy - st.shift_y[q]), bi, st.begin[q],
                                st.end[q], kept + n);
-            for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
+            /* Their segment data are scattered over memory (other bodies'
+             * entries): ask for all before the first is needed. */
+            for (k = 0; k < n; ++k) {
+                kept[k] = keys->entry[kept[k]];
+                NTS_PREFETCH(&env->seg[kept[k]]);
+            }
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], s->surf_body[kept[k]], periodic);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
