@@ -26,18 +26,26 @@ static double wall_time(void) {
 
 /* The cell side that suits most masters: the 95th percentile of their reach
  * (around the middle of their segment, with the allowances), from a sample
- * of masters at a fixed stride. It only sets the cell side, never a result,
- * so a sample is as good as all. 0 when no body offers a surface. */
-static double typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double r, double pad,
-                            double* scratch) {
-    const int n = s->surface_count, m = n < NTS_SAMPLE ? n : NTS_SAMPLE;
+ * of REACH_SAMPLE masters at a fixed stride, for the options' alpha and for
+ * alpha = 0 (the finest grid the options could ask for). It only sets the
+ * cell side, never a result, so a sample is as good as all. 0 when no body
+ * offers a surface. `scratch`: 2 REACH_SAMPLE doubles. */
+enum { REACH_SAMPLE = 1024 };
+static void typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double r, double pad,
+                          double* scratch, double* typical, double* finest) {
+    const int n = s->surface_count, m = n < REACH_SAMPLE ? n : REACH_SAMPLE;
+    double* sharp = scratch + REACH_SAMPLE;
     int i, count = 0;
     for (i = 0; i < m; ++i) {
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
         if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
-        scratch[count++] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)) + r) * (1.0 + 1e-9) + pad;
+        scratch[count] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)) + r) * (1.0 + 1e-9) + pad;
+        sharp[count++] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, 0.0)) + r) * (1.0 + 1e-9) + pad;
     }
-    return count > 0 ? nts_select_kth(scratch, count, (int)(0.95 * (double)(count - 1))) : 0.0;
+    *typical = *finest = 0.0;
+    if (count == 0) return;
+    *typical = nts_select_kth(scratch, count, (int)(0.95 * (double)(count - 1)));
+    *finest = nts_select_kth(sharp, count, (int)(0.95 * (double)(count - 1)));
 }
 
 /* The largest alpha that shapes a surface: the options' and the bodies' own. */
@@ -68,18 +76,19 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
     int round, rc, min_cells = 0;
     for (round = 0;; ++round) {
         if (round == 0) {
-            const double typical = typical_reach(ctx, s, env->alpha, env->r, pad, (double*)(void*)ctx->scratch);
+            double typical, finest;
+            typical_reach(ctx, s, env->alpha, env->r, pad, (double*)(void*)ctx->scratch, &typical, &finest);
             /* The cells are smaller with a smaller alpha (the corners reach
              * less): room for the grid of alpha = 0, so that a warm context
              * allocates nothing when only the options' alpha changes. */
-            const double finest = typical_reach(ctx, s, 0.0, env->r, pad, (double*)(void*)ctx->scratch);
             if (finest > 0.0) min_cells = nts_cells_count(s, ss, finest);
             hc = hmax <= 1.5 * typical || !(typical > 0.0) ? hmax : typical;
         } else {
             hc = 2.0 * hc < hmax ? 2.0 * hc : hmax;
         }
         if ((rc = nts_cells_shape(&ctx->cells, s, ss, hc, min_cells)) != NTS_OK) return rc;
-        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc, pad, budget, min_cells, nthreads);
+        /* At hmax every master fits (hmax bounds every reach). */
+        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc < hmax ? hc : 0.0, pad, budget, min_cells, nthreads);
         if (rc != NTS_ELIMIT) return rc;
         /* Every master fits at hmax: no long lists, no NTS_ELIMIT. */
         assert(hc < hmax && round < 64);

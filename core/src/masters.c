@@ -110,7 +110,8 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     const nts_cells* cl = &ctx->cells;
     const int n = s->surface_count, ncell = cl->nx * cl->ny;
     /* A master is binned when its reach fits a cell with room for the
-     * round-off of binning (a cell's side is at least hcell). */
+     * round-off of binning (a cell's side is at least hcell); hcell = 0: all
+     * fit, the caller knows. */
     const double fits = hcell * (1.0 - 1e-12), scale = cl->scale;
     int* cell_of = ctx->scratch;
     int e, u, nlong = 0, count, rc;
@@ -119,13 +120,11 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     for (e = 0; e < n; ++e) {
         const int b = s->surf_body[e];
         const seg_data* m = &ctx->seg[e];
-        double R;
         if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
             cell_of[e] = -1;
             continue;
         }
-        R = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad);
-        if (!(R <= fits)) {
+        if (hcell > 0.0 && !(reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
             cell_of[e] = -2;
             ++nlong;
             continue;

@@ -385,7 +385,7 @@ double nts_kth_length(const nts_context* ctx, const nts_scene* s, int k, double*
 double nts_select_kth(double* v, int n, int k);
 
 /* masters.c: bin the masters that reach at most `hcell` (with their round-off
- * allowance `pad`) and fill their keys in cell order; list the others in the
+ * allowance `pad`; every master when hcell = 0) and fill their keys in cell order; list the others in the
  * long lists of the cells they reach. `min_cells`: the room to keep for the
  * cells' buffers. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT when
  * the long lists would exceed `budget` entries (the caller coarsens). */
