@@ -81,8 +81,12 @@ nts_scene* ntsx_scene_create(const ntsx_scene* s, nts_error* err) {
         defs[i].loop_nodes = s->loop_nodes[i];
         defs[i].loop_start = s->loop_start[i];
         defs[i].loop_count = s->loop_count[i];
+#if NTS_VERSION_MAJOR > 0 || NTS_VERSION_MINOR >= 2
+        /* Per-body alpha came with 0.2: built against 0.1 (bench/cross.c),
+         * every body takes the options' alpha. */
         defs[i].has_alpha = s->has_alpha[i];
         defs[i].alpha = s->alpha[i];
+#endif
     }
     def.bodies = defs;
     def.body_count = s->body_count;

@@ -1,0 +1,207 @@
+/* nts_cross: the same scenes through the public API of any release, so that
+ * one program measures and compares two releases side by side. It uses only
+ * what every release has (scenes of loops, options alpha, search_radius,
+ * solver, outputs and threads, forces and contacts), and the scene builders of
+ * support/ (this tree's, built against either release's headers).
+ * bench/report.py builds it against the previous release from git and
+ * against this tree, and runs both.
+ *
+ *   nts_cross time FILE.csv [--quick]
+ *       Periodic packings of about 1e4, 1e5 and 1e6 surface nodes (the
+ *       scaling section's scenes), default options with alpha 0 and 0.2,
+ *       one thread: median CPU and wall time per surface node of a warm
+ *       evaluation.
+ *   nts_cross dump DIR
+ *       For a fixed set of scenes and options, with the search radius given
+ *       (the median segment, computed here, so that releases whose default
+ *       radius differs search alike): every node's force and every active
+ *       contact, one binary file per case (cross_dump.py reads them). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <ntscontact/ntscontact.h>
+#include "nts_support.h"
+
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void die(const char* what, const nts_error* err) {
+    fprintf(stderr, "nts_cross: %s: %s\n", what, err != NULL ? err->message : "");
+    exit(1);
+}
+
+static nts_scene* scene_of(const ntsx_scene* b) {
+    nts_error err;
+    nts_scene* s = ntsx_scene_create(b, &err);
+    if (s == NULL) die("scene", &err);
+    return s;
+}
+
+static void evaluate(nts_context* ctx, const nts_scene* s, const nts_options* o, nts_result* r) {
+    nts_error err;
+    if (nts_evaluate(ctx, s, o, r, &err) != 0) die("evaluate", &err);
+}
+
+static int cmp_double(const void* a, const void* b) {
+    double x = *(const double*)a, y = *(const double*)b;
+    return (x > y) - (x < y);
+}
+
+/* ------------------------------------------------------------------ time */
+
+static int run_time(const char* path, int quick) {
+    static const int particles[] = {208, 2083, 20833}; /* about 48 surface nodes each */
+    static const double alphas[] = {0.0, 0.2};
+    FILE* f = fopen(path, "w");
+    int i, a;
+    if (f == NULL) {
+        fprintf(stderr, "nts_cross: cannot write %s\n", path);
+        return 1;
+    }
+    fprintf(f, "surface_nodes,alpha,reps,eval_ns,eval_cpu_ns,contacts\n");
+    for (i = 0; i < 3; ++i) {
+        ntsx_scene b;
+        ntsx_packing_def def = ntsx_default_packing(particles[i], 1, 779u + 2u * (unsigned)i);
+        nts_scene* s;
+        ntsx_packing(&b, &def);
+        s = scene_of(&b);
+        for (a = 0; a < 2; ++a) {
+            nts_context* ctx = nts_context_create();
+            nts_options o = nts_default_options();
+            nts_result r;
+            double wall[25], cpu[25], t0;
+            const double n = (double)nts_scene_surface_node_count(s), budget = quick ? 0.05 : 0.5;
+            int k;
+            o.alpha = alphas[a];
+            evaluate(ctx, s, &o, &r); /* warm-up: the buffers grow once */
+            t0 = ntsx_now();
+            for (k = 0; k < 25; ++k) {
+                const double w0 = ntsx_now(), c0 = cpu_now();
+                evaluate(ctx, s, &o, &r);
+                cpu[k] = 1e9 * (cpu_now() - c0) / n;
+                wall[k] = 1e9 * (ntsx_now() - w0) / n;
+                if (k >= 2 && ntsx_now() - t0 > budget) {
+                    ++k;
+                    break;
+                }
+            }
+            qsort(cpu, (size_t)k, sizeof(double), cmp_double);
+            fprintf(f, "%d,%.2f,%d,%.3f,%.3f,%d\n", (int)n, o.alpha, k, ntsx_median(wall, k), cpu[k / 2],
+                    r.summary.contacts);
+            fflush(f);
+            nts_context_destroy(ctx);
+        }
+        nts_scene_destroy(s);
+        ntsx_scene_free(&b);
+    }
+    fclose(f);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ dump */
+
+/* The median segment length of the scene's loops (with the periodic box's
+ * minimum image): the radius both releases are given. */
+static double median_segment(const nts_scene* s, double lx, double ly) {
+    const nts_vec2* pos = nts_scene_positions(s);
+    int b, l, k, count = 0, cap = nts_scene_node_count(s) + 16;
+    double* len = (double*)malloc(sizeof(double) * (size_t)cap), m;
+    for (b = 0; b < nts_scene_body_count(s); ++b) {
+        const int off = nts_scene_body_node_offset(s, b);
+        for (l = 0; l < nts_scene_body_loop_count(s, b); ++l) {
+            const int* loop;
+            const int n = nts_scene_body_loop(s, b, l, &loop);
+            for (k = 0; k < n; ++k) {
+                nts_vec2 d = nts_sub(pos[off + loop[(k + 1) % n]], pos[off + loop[k]]);
+                if (lx > 0.0) d.x -= lx * nearbyint(d.x / lx);
+                if (ly > 0.0) d.y -= ly * nearbyint(d.y / ly);
+                if (count == cap) {
+                    cap *= 2;
+                    len = (double*)realloc(len, sizeof(double) * (size_t)cap);
+                }
+                len[count++] = sqrt(d.x * d.x + d.y * d.y);
+            }
+        }
+    }
+    qsort(len, (size_t)count, sizeof(double), cmp_double);
+    m = len[(count - 1) / 2];
+    free(len);
+    return m;
+}
+
+static void dump_case(const char* dir, const char* name, const nts_scene* s, double lx, double ly) {
+    static const double alphas[] = {0.0, 0.1, 0.2, 0.5};
+    static const char* solvers[] = {"closed_form", "newton"};
+    const double r = median_segment(s, lx, ly);
+    nts_context* ctx = nts_context_create();
+    int a, sv;
+    for (sv = 0; sv < 2; ++sv)
+        for (a = 0; a < 4; ++a) {
+            nts_options o = nts_default_options();
+            nts_result res;
+            char path[512];
+            FILE* f;
+            int n = nts_scene_node_count(s), c;
+            o.alpha = alphas[a];
+            o.solver = (nts_solver)sv;
+            o.search_radius = r;
+            o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+            evaluate(ctx, s, &o, &res);
+            snprintf(path, sizeof path, "%s/%s_%s_%.1f.bin", dir, name, solvers[sv], o.alpha);
+            if ((f = fopen(path, "wb")) == NULL) {
+                fprintf(stderr, "nts_cross: cannot write %s\n", path);
+                exit(1);
+            }
+            fwrite(&n, sizeof n, 1, f);
+            fwrite(res.forces, sizeof(nts_vec2), (size_t)n, f);
+            fwrite(&res.contact_count, sizeof(int), 1, f);
+            for (c = 0; c < res.contact_count; ++c) {
+                const nts_contact* k = &res.contacts[c];
+                const int key[4] = {k->slave_body, k->slave_node, k->master_body, (int)k->kind};
+                fwrite(key, sizeof key, 1, f);
+                fwrite(&k->gap, sizeof(double), 1, f);
+            }
+            fclose(f);
+        }
+    nts_context_destroy(ctx);
+}
+
+static int run_dump(const char* dir) {
+    int i;
+    for (i = 0; i < 7; ++i) {
+        ntsx_scene b;
+        nts_scene* s;
+        char name[64];
+        if (i < 3) {
+            const int n = i == 0 ? 16 : (i == 1 ? 100 : 1000);
+            ntsx_two_disks(&b, n, 0.05 + 0.1 * i, 0.5);
+            snprintf(name, sizeof name, "disks%d", n);
+        } else if (i < 6) {
+            const int parts = i == 5 ? 2000 : 200, periodic = i != 3;
+            ntsx_packing_def def = ntsx_default_packing(parts, periodic, 31u + (unsigned)i);
+            ntsx_packing(&b, &def);
+            snprintf(name, sizeof name, "packing%d%s", parts, periodic ? "_periodic" : "");
+        } else {
+            ntsx_container(&b, 12, 4, 24, 0);
+            snprintf(name, sizeof name, "container");
+        }
+        s = scene_of(&b);
+        dump_case(dir, name, s, b.lx, b.ly);
+        nts_scene_destroy(s);
+        ntsx_scene_free(&b);
+    }
+    return 0;
+}
+
+int main(int argc, char** argv) {
+    if (argc >= 3 && strcmp(argv[1], "time") == 0) return run_time(argv[2], argc > 3 && strcmp(argv[3], "--quick") == 0);
+    if (argc == 3 && strcmp(argv[1], "dump") == 0) return run_dump(argv[2]);
+    fprintf(stderr, "usage: %s time FILE.csv [--quick] | dump DIR\n", argv[0]);
+    return 2;
+}
