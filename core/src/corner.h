@@ -29,27 +29,30 @@ enum { NTS_ROOT_MAX_ITER = 100 };
 
 /* The usual case, for both solvers: F strictly decreasing on [-1, 1], so one
  * root. F' = qa xi^2 + qb xi + qc is a parabola opening downwards (qa =
- * -6 A.A <= 0); its largest value on [-1, 1] is at its vertex when the vertex
- * lies inside, else at an end. When that largest value is negative beyond
- * its round-off, F has one root in [-1, 1] (F(-1) >= 0 >= F(1), docs/model.md
- * §12, correction 3). Halley's method from the secant's root finds it, kept in
+ * -6 A.A <= 0); its largest value on [-1, 1] is at its vertex
+ * xi = -ab / (2 aa) when that lies inside, where it is qc + 1.5 ab^2 / aa,
+ * else at an end. When that largest value is below minus its round-off, F
+ * has one root in [-1, 1] (F(-1) >= 0 >= F(1), docs/model.md §12,
+ * correction 3). Halley's method from the secant's root finds it, kept in
  * the bracket (a step that leaves it bisects instead): the second derivative
- * F2 = -6 A.tau and the third F3 = -12 A.A are at hand, and the error after a
- * step is about K |step|^3 with K = (F2 / 2F')^2 + |F3 / 6F'|, so the
- * iteration stops as soon as that is below the last bit of xi, without a step
- * to confirm it. Returns 0 when F may have several roots: the caller's solver
- * then cuts [-1, 1] into monotone pieces or solves the cubic. */
+ * F2 = -6 A.tau and the third F3 = -12 A.A are at hand, and the error after
+ * a step is about K |step|^3 with K = (F2 / 2F')^2 + |F3 / 6F'|, so the
+ * iteration stops as soon as that is below half an ulp of 1 (xi is in
+ * [-1, 1]; the bracketed Newton of the general case stops at the same
+ * absolute accuracy), without a step to confirm it. Every test is written without a division (the problem
+ * is scaled to O(1), so the products stay in range): a solve is a chain of
+ * dependent operations, and divisions are the slow links. Returns 0 when F
+ * may have several roots: the caller's solver then cuts [-1, 1] into
+ * monotone pieces or solves the cubic. */
 static inline int root_monotone(const corner_problem* p, double* root, int* iters) {
     const double aa = nts_dot(p->A, p->A), ab = nts_dot(p->A, p->B);
     const double qa = -6.0 * aa, qb = -6.0 * ab, qc = 2.0 * nts_dot(p->e, p->A) - nts_dot(p->B, p->B);
-    const double lo_slope = qa - qb + qc, hi_slope = qa + qb + qc;
-    double top = lo_slope > hi_slope ? lo_slope : hi_slope, flo, fhi, lo = -1.0, hi = 1.0, x;
+    const double tol = 64.0 * DBL_EPSILON * (fabs(qa) + fabs(qb) + fabs(qc));
+    double flo, fhi, lo = -1.0, hi = 1.0, x;
     int it;
-    if (fabs(ab) < 2.0 * aa) { /* the vertex, xi = -qb / (2 qa) = -ab / (2 aa), inside */
-        const double v = qc - qb * qb / (4.0 * qa);
-        if (v > top) top = v;
-    }
-    if (!(top < -64.0 * DBL_EPSILON * (fabs(qa) + fabs(qb) + fabs(qc)))) return 0;
+    if (!(qa - qb + qc < -tol && qa + qb + qc < -tol)) return 0;
+    /* The vertex inside (|ab| < 2 aa, so aa > 0): qc + 1.5 ab^2 / aa < -tol. */
+    if (fabs(ab) < 2.0 * aa && !((qc + tol) * aa + 1.5 * ab * ab < 0.0)) return 0;
     flo = problem_f(p, -1.0, NULL);
     fhi = problem_f(p, 1.0, NULL);
     /* An end that is a root, or, when round-off breaks the bracket, the end
@@ -62,20 +65,31 @@ static inline int root_monotone(const corner_problem* p, double* root, int* iter
         *root = 1.0;
         return 1;
     }
-    x = -1.0 + 2.0 * flo / (flo - fhi);
+    /* The first guess: the root of F's linear part, c1 xi + c0 (F'(0) = c1 =
+     * qc < 0 here), refined once by the fixed point xi = -(c0 + c2 xi^2 +
+     * c3 xi^3) / c1; its error is of order (A/B)^2 on a gentle corner, where
+     * the secant's is of order A/B, so two Halley steps do. A guess outside
+     * the bracket (a sharp corner) gives way to the secant's root. */
+    {
+        const double c0 = nts_dot(p->e, p->B), c2 = -3.0 * ab, c3 = -2.0 * aa, inv_c1 = 1.0 / qc;
+        const double x0 = -c0 * inv_c1;
+        x = x0 - x0 * x0 * (c2 + c3 * x0) * inv_c1;
+        if (!(x > -1.0 && x < 1.0)) x = -1.0 + 2.0 * flo / (flo - fhi);
+    }
     for (it = 0; it < NTS_ROOT_MAX_ITER; ++it) {
         const nts_vec2 tau = nts_mul_add(p->B, 2.0 * x, p->A);
         const nts_vec2 r = nts_sub(p->e, nts_scale(x, nts_mul_add(p->B, x, p->A)));
         const double f = nts_dot(r, tau), df = 2.0 * nts_dot(r, p->A) - nts_dot(tau, tau);
-        const double w = 1.0 / df, u = f * w, v = -6.0 * nts_dot(p->A, tau) * w; /* F/F', F''/F' */
-        const double step = u / (1.0 - 0.5 * u * v), k = 0.25 * v * v + 2.0 * aa * fabs(w);
+        const double d2f = -6.0 * nts_dot(p->A, tau);
+        const double step = 2.0 * f * df / (2.0 * df * df - f * d2f), as = fabs(step);
         const double xn = x - step;
         if (f == 0.0) break;
         if (f > 0.0) lo = x; else hi = x;
-        /* Converged: the step is taken, onto the bracket's edge at most (a
-         * step below the last bit may land on it; it must not count as
-         * leaving the bracket, or the iteration would bisect away). */
-        if (k * step * step * fabs(step) <= 0.5 * DBL_EPSILON * DBL_EPSILON) {
+        /* Converged (K |step|^3 <= eps^2 / 2, times F'^2): the step is taken,
+         * onto the bracket's edge at most (a step below the last bit may land
+         * on it; it must not count as leaving the bracket, or the iteration
+         * would bisect away). */
+        if ((0.25 * d2f * d2f + 2.0 * aa * fabs(df)) * as * as * as <= 0.5 * DBL_EPSILON * df * df) {
             x = xn < lo ? lo : (xn > hi ? hi : xn);
             break;
         }
