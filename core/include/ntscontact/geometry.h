@@ -12,7 +12,9 @@
 extern "C" {
 #endif
 
-/* Which corner solver (docs/model.md §4.3). */
+/* Which corner solver (docs/model.md §4.3). Both take the one root of a
+ * monotone F by bracketed Halley steps; they differ where F may have several
+ * roots in [-1, 1]. */
 typedef enum nts_solver {
     NTS_SOLVER_CLOSED_FORM = 0, /* GSL cubic + Newton polish, degenerate branch for near-collinear corners */
     NTS_SOLVER_NEWTON = 1       /* Newton safeguarded by bisection on monotone brackets of [-1, 1] */

@@ -136,8 +136,9 @@ typedef struct nts_options {
     nts_penalty_scaling penalty_scaling; /* default NTS_PENALTY_PER_NODE */
     /* Bounds on one evaluation (docs/model.md §11), so that no input that fits
      * in memory costs unbounded memory or time:
-     * - max_candidates: closest points within the search radius kept (each
-     *   ~150 bytes); more is an NTS_ELIMIT error naming "max_candidates".
+     * - max_candidates: closest points within the search radius found (a
+     *   64-byte record each while contacts, gaps or the tangent are asked
+     *   for); more is an NTS_ELIMIT error naming "max_candidates".
      *   0 means the default, 64 per surface node plus 1,000,000.
      * - cancel: asked every 1024 slave nodes and between the phases; a
      *   non-zero answer stops the evaluation with NTS_ECANCELLED (a deadline,
