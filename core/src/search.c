@@ -163,25 +163,32 @@ static const int KEEP_LANES[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, 
                                       {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
 static const int KEEP_COUNT[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 
+/* Four keys from e on: append those kept to kept[n], return the new n. */
+static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m128 vy, __m128i vb, __m128i vend,
+                                          int e, int* kept, int n) {
+    const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
+    const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
+    const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
+    const __m128i other = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i*)(const void*)(k->body + e)), vb);
+    const __m128i near = _mm_castps_si128(_mm_cmple_ps(d2, _mm_loadu_ps(k->reach2 + e)));
+    const __m128i in = _mm_andnot_si128(other, _mm_and_si128(near, _mm_cmplt_epi32(at, vend)));
+    const int mask = _mm_movemask_ps(_mm_castsi128_ps(in));
+    _mm_storeu_si128((__m128i*)(void*)(kept + n),
+                     _mm_add_epi32(_mm_set1_epi32(e), _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mask])));
+    return n + KEEP_COUNT[mask];
+}
+
+/* Most ranges hold at most 8 keys (a stencil row of three small cells): two
+ * groups of 4 whatever the count, so that the loop's end is not a branch to
+ * mispredict (the index test drops the keys past e1); longer ranges loop. */
 static inline NTS_ALWAYS_INLINE int near_keys(const master_keys* k, float sx, float sy, int body, int e0, int e1,
                                               int* kept) {
     const __m128 vx = _mm_set1_ps(sx), vy = _mm_set1_ps(sy);
-    const __m128i vb = _mm_set1_epi32(body), vend = _mm_set1_epi32(e1), lane = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128i vb = _mm_set1_epi32(body), vend = _mm_set1_epi32(e1);
     int e, n = 0;
-    for (e = e0; e < e1; e += 4) {
-        const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
-        const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
-        const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), lane);
-        const __m128i other = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i*)(const void*)(k->body + e)), vb);
-        const __m128i in = _mm_andnot_si128(other, _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(d2, _mm_loadu_ps(
-                                                                     k->reach2 + e))),
-                                                                 _mm_cmplt_epi32(at, vend)));
-        const int mask = _mm_movemask_ps(_mm_castsi128_ps(in));
-        _mm_storeu_si128((__m128i*)(void*)(kept + n),
-                         _mm_add_epi32(_mm_set1_epi32(e),
-                                       _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mask])));
-        n += KEEP_COUNT[mask];
-    }
+    n = near4(k, vx, vy, vb, vend, e0, kept, n);
+    n = near4(k, vx, vy, vb, vend, e0 + 4, kept, n);
+    for (e = e0 + 8; e < e1; e += 4) n = near4(k, vx, vy, vb, vend, e, kept, n);
     return n;
 }
 #else
