@@ -278,27 +278,27 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
         xs = env->seg[i].p;
         at = nts_cells_place(cl, xs);
-        if (at.cell != last_cell) {
-            const int cx = at.cell % cl->nx, cy = at.cell / cl->nx;
+        if (at.cx >= 1 && at.cx + 1 < cl->nx && at.cy >= 1 && at.cy + 1 < cl->ny) {
+            /* Inside the grid: three rows of three cells, no shift. Cheaper
+             * to read again than to ask whether the cell changed (a branch
+             * that consecutive slaves take at random). */
+            const int* cs = cl->cell_start + (at.cell - cl->nx - 1);
             last_cell = at.cell;
-            if (cx >= 1 && cx + 1 < cl->nx && cy >= 1 && cy + 1 < cl->ny) {
-                /* Inside the grid: three rows of three cells, no shift. */
-                const int* cs = cl->cell_start + (at.cell - cl->nx - 1);
-                st.n = 3;
-                st.begin[0] = cs[0];
-                st.end[0] = cs[3];
-                cs += cl->nx;
-                st.begin[1] = cs[0];
-                st.end[1] = cs[3];
-                cs += cl->nx;
-                st.begin[2] = cs[0];
-                st.end[2] = cs[3];
-                st.shift_x[0] = st.shift_x[1] = st.shift_x[2] = 0.0;
-                st.shift_y[0] = st.shift_y[1] = st.shift_y[2] = 0.0;
-                st.keys = (st.end[0] - st.begin[0]) + (st.end[1] - st.begin[1]) + (st.end[2] - st.begin[2]);
-            } else {
-                nts_cells_stencil(cl, last_cell, &st);
-            }
+            st.n = 3;
+            st.begin[0] = cs[0];
+            st.end[0] = cs[3];
+            cs += cl->nx;
+            st.begin[1] = cs[0];
+            st.end[1] = cs[3];
+            cs += cl->nx;
+            st.begin[2] = cs[0];
+            st.end[2] = cs[3];
+            st.shift_x[0] = st.shift_x[1] = st.shift_x[2] = 0.0;
+            st.shift_y[0] = st.shift_y[1] = st.shift_y[2] = 0.0;
+            st.keys = (st.end[0] - st.begin[0]) + (st.end[1] - st.begin[1]) + (st.end[2] - st.begin[2]);
+        } else if (at.cell != last_cell) {
+            last_cell = at.cell;
+            nts_cells_stencil(cl, last_cell, &st);
         }
         sx = at.x * scale;
         sy = at.y * scale;

@@ -69,7 +69,7 @@ typedef struct nts_cells {
  * the bit. Points inside the box (the usual case) skip the wrap. */
 typedef struct nts_cell_place {
     double x, y;
-    int cell;
+    int cx, cy, cell; /* column, row, and cy nx + cx */
 } nts_cell_place;
 static inline int nts_cells_clamp(double v, int n) {
     /* Compare in double before converting: (int) of a huge double is undefined. */
@@ -85,7 +85,9 @@ static inline nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
         if (!(q.x >= 0.0 && q.x < c->lx)) q.x -= c->lx * floor(q.x / c->lx);
         if (!(q.y >= 0.0 && q.y < c->ly)) q.y -= c->ly * floor(q.y / c->ly);
     }
-    q.cell = nts_cells_clamp(q.y * c->inv_hy, c->ny) * c->nx + nts_cells_clamp(q.x * c->inv_hx, c->nx);
+    q.cx = nts_cells_clamp(q.x * c->inv_hx, c->nx);
+    q.cy = nts_cells_clamp(q.y * c->inv_hy, c->ny);
+    q.cell = q.cy * c->nx + q.cx;
     return q;
 }
 /* Shape the grid: cells of side >= h over the box (periodic) or over the
