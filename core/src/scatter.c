@@ -51,8 +51,9 @@ static int forces_finite(const nts_vec2* F, int n0, int n1) {
     return 1;
 }
 
+/* A chunk's records (none, and maybe no buffer, when it found nothing). */
 static inline const candidate* chunk_recs(const nts_context* ctx, const chunk_info* ch) {
-    return ctx->workers[ch->worker].recs + ch->first;
+    return ch->count > 0 ? ctx->workers[ch->worker].recs + ch->first : NULL;
 }
 
 /* A chunk's active contacts and their sums. */
