@@ -201,7 +201,7 @@ def run_benchmarks(args):
     meta = {
         "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "commit": sh("git rev-parse --short HEAD"),
-        "dirty": bool(sh("git status --porcelain core bench")),
+        "dirty": bool(sh("git status --porcelain core bench support -- ':!bench/results'")),
         "nproc": sh("nproc"),
         "lscpu": sh("lscpu | grep -E 'Model name|^CPU\\(s\\)|Thread|Core|Socket|L1d|L2|L3|MHz|Hypervisor'"),
         "compiler": sh("cc --version | head -1"),
