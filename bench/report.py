@@ -789,10 +789,12 @@ def report(res, made):
              "(one 64-byte line each, with the previous segment: the search no faster, the cells phase 15 ns "
              "slower); software prefetch of the stencil's keys 8 to 16 slaves ahead; keys as 16-byte structs "
              "(1 to 2% faster at 1e6, 5 to 8% slower at 1e4); the two passes of consecutive slaves pipelined; "
-             "transparent huge pages. Left to try: a screen that applies the flat and corner conditions in "
-             "single precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, for 20 more "
-             "bytes per key), and visiting the slaves in cell order, which turns the first touches into streams "
-             "but needs the records sorted back to slave order for the bits the brute force gives.")
+             "the slaves visited in cell order instead of slave order (no faster at 1e6, slower at 1e4, and the "
+             "records would need sorting back for the brute force's bits); transparent huge pages. None of these "
+             "moved the 1e6 figure, so the penalty there is spread over every structure the search touches "
+             "rather than one. Left to try: a screen that applies the flat and corner conditions in single "
+             "precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, at 20 more bytes per "
+             "key), which attacks both the mispredicted branches and the masters' loads.")
     L.append("")
     if dig_a:
         L.append("### Bitwise equality before/after")
