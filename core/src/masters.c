@@ -101,6 +101,8 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, 
     return NTS_OK;
 }
 
+enum { SORT_SLICES = 4 };
+
 /* The reach with its allowances: the factor 1 + 1e-9 covers the round-off of
  * the feature tests it stands for, `pad` that of the grid's frame. */
 static inline double reach_allowed(double reach, double r, double pad) { return (reach + r) * (1.0 + 1e-9) + pad; }
@@ -114,7 +116,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
      * fit, the caller knows. */
     const double fits = hcell * (1.0 - 1e-12), scale = cl->scale;
     int* cell_of = ctx->scratch;
-    int e, u, nlong = 0, count, rc;
+    int e, u, nlong = 0, count, rc, slices;
     master_keys* k = &ctx->keys;
     NTS_PARALLEL_FOR_REDUCE(threads, reduction(+ : nlong))
     for (e = 0; e < n; ++e) {
@@ -133,19 +135,22 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     }
     /* Sorted by cell: each slice places its masters' keys, computed from
      * the entries in entry order (a sequential read, scattered writes). */
-    if (threads > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
-                                      threads * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
+    /* Slices of the counting sort: one per thread, at most SORT_SLICES (each
+     * costs a count per cell; the sort is a small part of the work). */
+    slices = threads < SORT_SLICES ? threads : SORT_SLICES;
+    if (slices > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
+                                     slices * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
         return rc;
-    nts_cells_offsets(&ctx->cells, cell_of, n, ctx->hist, threads, threads);
+    nts_cells_offsets(&ctx->cells, cell_of, n, ctx->hist, slices, threads);
     count = cl->cell_start[ncell];
     if ((rc = keys_reserve(k, count)) != NTS_OK) return rc;
     k->count = count;
     NTS_PARALLEL_FOR(threads)
-    for (u = 0; u < threads; ++u) {
-        int* next = threads > 1 ? ctx->hist + (size_t)u * (size_t)ncell : cl->cell_start;
-        const int end = nts_slice_begin(n, threads, u + 1);
+    for (u = 0; u < slices; ++u) {
+        int* next = slices > 1 ? ctx->hist + (size_t)u * (size_t)ncell : cl->cell_start;
+        const int end = nts_slice_begin(n, slices, u + 1);
         int j;
-        for (j = nts_slice_begin(n, threads, u); j < end; ++j) {
+        for (j = nts_slice_begin(n, slices, u); j < end; ++j) {
             const int cell = cell_of[j];
             const seg_data* m = &ctx->seg[j];
             nts_cell_place q;
@@ -164,7 +169,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             k->entry[at] = j;
         }
     }
-    if (threads == 1) { /* the starts were moved to the ends: back one cell */
+    if (slices == 1) { /* the starts were moved to the ends: back one cell */
         for (e = ncell; e > 0; --e) cl->cell_start[e] = cl->cell_start[e - 1];
         cl->cell_start[0] = 0;
     }
