@@ -39,8 +39,8 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     for (i = 0; i < m; ++i) {
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
         if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
-        scratch[count] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)) + r) * (1.0 + 1e-9) + pad;
-        sharp[count++] = (reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, 0.0)) + r) * (1.0 + 1e-9) + pad;
+        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad);
+        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, 0.0)), r, pad);
     }
     *typical = *finest = 0.0;
     if (count == 0) return;
@@ -66,12 +66,12 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
                        int nthreads) {
     /* At most this many (long master, cell) pairs: a few per surface node. */
     const long long budget = 4LL * s->surface_count + 4096;
-    /* Every reach around the middle is at most (1/2 + alpha) L_max. */
-    const double rough_max = ((0.5 + largest_alpha(s, env->alpha)) * ss->lmax + env->r) * (1.0 + 1e-9);
     /* The round-off of the grid's frame, relative to the size of the
      * coordinates (not of the cells): it widens every reach. */
     const double pad = 1e-12 * (ss->coord_max + (ss->xmax - ss->xmin) + (ss->ymax - ss->ymin) + s->lx + s->ly);
-    const double hmax = (rough_max + pad) * (1.0 + 1e-11);
+    /* Every reach around the middle is at most (1/2 + alpha) L_max. */
+    const double hmax =
+        reach_allowed((0.5 + largest_alpha(s, env->alpha)) * ss->lmax, env->r, pad) * (1.0 + 1e-11);
     double hc = 0.0;
     int round, rc, min_cells = 0;
     for (round = 0;; ++round) {

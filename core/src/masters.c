@@ -103,9 +103,6 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, 
 
 enum { SORT_SLICES = 4 };
 
-/* The reach with its allowances: the factor 1 + 1e-9 covers the round-off of
- * the feature tests it stands for, `pad` that of the grid's frame. */
-static inline double reach_allowed(double reach, double r, double pad) { return (reach + r) * (1.0 + 1e-9) + pad; }
 
 int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
                       long long budget, int min_cells, int threads) {
@@ -192,5 +189,5 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             lm->pad = 0;
         }
     }
-    return build_long_lists(ctx, s, alpha, r * (1.0 + 1e-9) + pad, budget);
+    return build_long_lists(ctx, s, alpha, reach_allowed(0.0, r, pad), budget);
 }

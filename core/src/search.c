@@ -254,7 +254,8 @@ static void flush_slave(const search_env* env, worker* w, int i) {
 enum { KEPT = 512 };
 
 /* The local search of slaves [begin, end) with the cell list, in slave order.
- * The stencil is worked out once per cell (consecutive slaves of a loop
+ * An inner cell's stencil is read for every slave; a border cell's, with its
+ * wraps and clips, only when the cell changes (consecutive slaves of a loop
  * mostly share it). */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
                                                   const int periodic) {
@@ -366,8 +367,8 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             double R;
             if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE) continue;
             d = search_diff(env, xs, env->seg[j].p, periodic);
-            R = (env->r + reach_at_node(env->seg, s, j, alpha_of_body(s, b, env->alpha))) * (1.0 + 1e-9) +
-                env->brute_pad;
+            R = reach_allowed(reach_at_node(env->seg, s, j, alpha_of_body(s, b, env->alpha)), env->r,
+                              env->brute_pad);
             if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, b, periodic);
         }
         flush_slave(env, w, i);

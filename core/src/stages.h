@@ -276,6 +276,11 @@ static inline double alpha_of_body(const nts_scene* s, int b, double alpha) {
     return s->body_alpha[b] >= 0.0 ? s->body_alpha[b] : alpha;
 }
 
+/* A reach length plus the search radius, with the allowances of every test
+ * that stands for the exact ones: the factor 1 + 1e-9 covers the round-off of
+ * the feature tests, `pad` that of the frame the distance is taken in. */
+static inline double reach_allowed(double reach, double r, double pad) { return (reach + r) * (1.0 + 1e-9) + pad; }
+
 /* The reach of master j around X_j: its features lie within r + max(|t_j|,
  * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
  * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
