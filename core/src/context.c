@@ -20,7 +20,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     size_t n;
     int i;
     if (ctx == NULL) return 0;
-    n = sizeof *ctx + (size_t)ctx->seg_cap * sizeof(seg_data) +
+    n = sizeof *ctx + (ctx->seg_block != NULL ? (size_t)ctx->seg_cap * sizeof(seg_data) + NTS_SEG_ALIGN : 0) +
         (size_t)ctx->keys.cap * (3 * sizeof(float) + 2 * sizeof(int)) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
         (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) +
@@ -56,7 +56,7 @@ static void workers_free(nts_context* ctx) {
 
 void nts_context_destroy(nts_context* ctx) {
     if (ctx == NULL) return;
-    nts_free(ctx->seg);
+    nts_free(ctx->seg_block);
     nts_cells_free(&ctx->cells);
     nts_free(ctx->keys.block);
     nts_free(ctx->long_m);

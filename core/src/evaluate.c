@@ -39,8 +39,8 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     for (i = 0; i < m; ++i) {
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
         if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
-        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad);
-        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, 0.0)), r, pad);
+        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha)), r, pad);
+        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0)), r, pad);
     }
     *typical = *finest = 0.0;
     if (count == 0) return;

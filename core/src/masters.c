@@ -123,7 +123,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             cell_of[e] = -1;
             continue;
         }
-        if (hcell > 0.0 && !(reach_allowed(reach_at_middle(ctx->seg, s, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
+        if (hcell > 0.0 && !(reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
             cell_of[e] = -2;
             ++nlong;
             continue;
@@ -157,7 +157,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             b = s->surf_body[j];
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-            R = reach_allowed(reach_at_middle(ctx->seg, s, j, alpha_of_body(s, b, alpha)), r, pad);
+            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, b, alpha)), r, pad);
             Rs = R * scale + KEY_SLACK;
             k->x[at] = (float)(q.x * scale);
             k->y[at] = (float)(q.y * scale);
@@ -183,7 +183,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
         if (cell_of[e] == -2) {
             long_master* lm = &ctx->long_m[ctx->long_count++];
             const double R =
-                reach_allowed(reach_at_node(ctx->seg, s, e, alpha_of_body(s, s->surf_body[e], alpha)), r, pad);
+                reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, s->surf_body[e], alpha)), r, pad);
             lm->reach2 = R * R;
             lm->entry = e;
             lm->pad = 0;

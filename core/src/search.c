@@ -97,7 +97,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     if (sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
     {
         const nts_scene* s = env->s;
-        const int jp = s->surf_prev[j];
+        const int jp = m->prev;
         const seg_data* sp = &env->seg[jp];
         const nts_vec2 dp = search_diff(env, xs, sp->p, periodic);
         const double sp_param = nts_dot(dp, sp->t) * sp->inv_len2, d2 = d.x * d.x + d.y * d.y;
@@ -268,7 +268,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     int last_cell = -1, i, q;
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = s->surf_body[i];
+        const int bi = env->seg[i].body;
         nts_vec2 xs;
         nts_cell_place at;
         double sx, sy;
@@ -316,7 +316,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 kept[k] = keys->entry[kept[k]];
                 NTS_PREFETCH(&env->seg[kept[k]]);
             }
-            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], s->surf_body[kept[k]], periodic);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->seg[kept[k]].body, periodic);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
@@ -337,7 +337,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
             int e, e0 = env->long_start[last_cell], e1 = env->long_start[last_cell + 1];
             for (e = e0; e < e1; ++e) {
                 const long_master* lm = &env->long_m[env->long_items[e]];
-                const int j = lm->entry, b = s->surf_body[j];
+                const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
                 if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, b, periodic);
             }
@@ -367,7 +367,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             double R;
             if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE) continue;
             d = search_diff(env, xs, env->seg[j].p, periodic);
-            R = reach_allowed(reach_at_node(env->seg, s, j, alpha_of_body(s, b, env->alpha)), env->r,
+            R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
                               env->brute_pad);
             if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, b, periodic);
         }

@@ -2,10 +2,31 @@
  * statistics of the segment lengths that set the default search radius (the
  * median segment, docs/model.md §9). */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 #include "stages.h"
 
+
+/* Room for n records, aligned to NTS_SEG_ALIGN whatever the allocator's
+ * alignment (nts_set_allocator): the block has one alignment more. The
+ * records are recomputed each evaluation, so a larger buffer copies nothing. */
+static int seg_reserve(nts_context* ctx, int n) {
+    void* block;
+    int cap;
+    uintptr_t at;
+    if (n <= ctx->seg_cap && ctx->seg_block != NULL) return NTS_OK;
+    cap = ctx->seg_cap > 16 ? ctx->seg_cap : 16;
+    while (cap < n) cap = cap > (1 << 29) ? n : 2 * cap;
+    block = nts_alloc((size_t)cap * sizeof(seg_data) + NTS_SEG_ALIGN);
+    if (block == NULL) return NTS_ENOMEM;
+    nts_free(ctx->seg_block);
+    ctx->seg_block = block;
+    at = ((uintptr_t)block + (NTS_SEG_ALIGN - 1)) & ~(uintptr_t)(NTS_SEG_ALIGN - 1);
+    ctx->seg = (seg_data*)(void*)((char*)block + (at - (uintptr_t)block));
+    ctx->seg_cap = cap;
+    return NTS_OK;
+}
 
 /* Each segment is its own, so the loop runs in parallel; the reductions are
  * a minimum and maxima, exact whatever the threads. A segment of zero length
@@ -15,17 +36,22 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int threads, seg_
     int i, rc, bad = n;
     double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
     (void)threads; /* without OpenMP */
-    if ((rc = nts_grow((void**)&ctx->seg, &ctx->seg_cap, n, sizeof(seg_data))) != NTS_OK) return rc;
+    if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
 #if NTS_CONFIG_OPENMP
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static) reduction(min : bad, xmin, ymin) \
     reduction(max : lmax, amax, xmax, ymax)
 #endif
     for (i = 0; i < n; ++i) {
         seg_data* sd = &ctx->seg[i];
+        const int next = s->surf_next[i];
         const nts_vec2 p = s->pos[s->surf_node[i]];
         double l2, a;
         sd->p = p;
-        sd->t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], p);
+        sd->t = nts_scene_diff(s, s->pos[s->surf_node[next]], p);
+        sd->prev = s->surf_prev[i];
+        sd->next = next;
+        sd->node = s->surf_node[i];
+        sd->body = s->surf_body[i];
         l2 = nts_length_sq(sd->t);
         /* The supported range (scene.c): nts_scene_set_positions does not
          * check it, and 1/|t|^2 must not overflow. */

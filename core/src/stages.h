@@ -24,15 +24,23 @@
 /* ------------------------------------------------------------ segments */
 
 /* Segment data of surface entry j, recomputed each evaluation from the
- * positions (entry order, 48 bytes): its node X_j and the segment j that
- * starts there (its normal is seg_normal). Everything the local search reads
- * of a master is here or in the entry before it. */
+ * positions (entry order): its node X_j and the segment j that starts there
+ * (its normal is seg_normal), with the scene's topology of the entry. One
+ * record is one 64-byte cache line (the buffer is aligned): everything the
+ * local search and the forces read of a master is in its line or in the line
+ * of the entry before it, so a master costs one prefetch, not one per array. */
 typedef struct seg_data {
     nts_vec2 p;      /* X_j */
     nts_vec2 t;      /* X_{j+1} - X_j (minimum image) */
     double inv_len2; /* 1/|t|^2, |t| > 0 checked */
     double len;      /* |t| */
+    int prev, next;  /* the entries before and after j in its loop */
+    int node, body;  /* the node of X_j and its body */
 } seg_data;
+
+/* The buffer's alignment: a record never straddles two cache lines. */
+enum { NTS_SEG_ALIGN = 64 };
+typedef char nts_seg_data_is_one_line[sizeof(seg_data) == NTS_SEG_ALIGN ? 1 : -1];
 
 /* What the segment pass finds besides the data: the first bad segment in
  * entry order (or surface_count), the longest segment, the largest
@@ -209,7 +217,8 @@ typedef struct chunk_info {
 } chunk_info;
 
 struct nts_context {
-    seg_data* seg;
+    seg_data* seg;    /* aligned to NTS_SEG_ALIGN inside seg_block */
+    void* seg_block;
     int seg_cap;
     nts_cells cells;
     master_keys keys;
@@ -285,8 +294,8 @@ static inline double reach_allowed(double reach, double r, double pad) { return 
  * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
  * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
  * alpha the master body's. */
-static inline double reach_at_node(const seg_data* seg, const nts_scene* s, int j, double alpha) {
-    double lp = alpha * seg[s->surf_prev[j]].len, lj = seg[j].len;
+static inline double reach_at_node(const seg_data* seg, int j, double alpha) {
+    double lp = alpha * seg[seg[j].prev].len, lj = seg[j].len;
     return lj > lp ? lj : lp;
 }
 
@@ -296,8 +305,8 @@ static inline double reach_at_node(const seg_data* seg, const nts_scene* s, int 
  * |t_j| / 2 + alpha |t_{j-1}|; so every feature within r of a slave puts the
  * slave within r + this of M_j. Smaller than the reach around X_j, so the
  * cells are smaller and fewer masters pass the first test. */
-static inline double reach_at_middle(const seg_data* seg, const nts_scene* s, int j, double alpha) {
-    return 0.5 * seg[j].len + alpha * seg[s->surf_prev[j]].len;
+static inline double reach_at_middle(const seg_data* seg, int j, double alpha) {
+    return 0.5 * seg[j].len + alpha * seg[seg[j].prev].len;
 }
 
 /* ------------------------------------------------------------ contacts */
@@ -310,16 +319,16 @@ static inline int record_masters(const search_env* env, const candidate* b, int 
     const int j = b->entry;
     if (b->kind == NTS_KIND_SEGMENT) {
         entry[0] = j;
-        entry[1] = s->surf_next[j];
+        entry[1] = env->seg[j].next;
         w[0] = 1.0 - b->param;
         w[1] = b->param;
         return 2;
     }
     if (b->kind == NTS_KIND_CORNER) {
         const nts_shape3 N = corner_shape(alpha_of_body(s, b->body, env->alpha), b->param);
-        entry[0] = s->surf_prev[j];
+        entry[0] = env->seg[j].prev;
         entry[1] = j;
-        entry[2] = s->surf_next[j];
+        entry[2] = env->seg[j].next;
         w[0] = N.n2;
         w[1] = N.n3;
         w[2] = N.n4;
@@ -367,15 +376,14 @@ static inline void contact_sum(const search_env* env, const candidate* b, contac
 /* Add an active record's forces (10) on nodes [n0, n1) into F: f_s = -eps g n
  * on the slave, f_k = eps g N_k n on master node k. */
 static inline void contact_forces(const search_env* env, const candidate* b, nts_vec2* F, int n0, int n1) {
-    const nts_scene* s = env->s;
     const double eg = record_penalty(env, b) * b->gap;
-    const int ns = s->surf_node[b->slave];
+    const int ns = env->seg[b->slave].node;
     int entry[3], q, m;
     double w[3];
     if (ns >= n0 && ns < n1) F[ns] = nts_add(F[ns], nts_scale(-eg, b->normal));
     m = record_masters(env, b, entry, w);
     for (q = 0; q < m; ++q) {
-        const int nm = s->surf_node[entry[q]];
+        const int nm = env->seg[entry[q]].node;
         if (nm >= n0 && nm < n1) F[nm] = nts_mul_add(F[nm], eg * w[q], b->normal);
     }
 }
