@@ -112,8 +112,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
 #endif
 
-    /* 1. Segments. */
-    if ((rc = nts_segments_compute(ctx, s, nthreads, &ss)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    /* 1. Segments, and the median segment: a typical segment, not the
+     * longest, sets the default search radius, so that one long wall does
+     * not widen the search (docs/model.md §9). */
+    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
+        NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
+                              (double*)(void*)ctx->scratch, nthreads, &ss);
+    if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count) {
         const int bad = ss.bad;
         char msg[160];
@@ -127,9 +134,6 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     t0 = t1;
 
     /* 2. The search radius, the cells and the masters. */
-    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
-        NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
     memset(&env, 0, sizeof env);
     env.s = s;
     env.seg = ctx->seg;
@@ -141,12 +145,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
-    /* A typical segment, not the longest, sets the default search radius, so
-     * that one long wall does not widen the search (docs/model.md §9): the
-     * median segment, exactly. */
     if (opt->search_radius >= 0.0) env.r = opt->search_radius;
-    else if (s->surface_count > 0)
-        env.r = nts_kth_length(ctx, s, (s->surface_count - 1) / 2, (double*)(void*)ctx->scratch, nthreads);
+    else if (s->surface_count > 0) env.r = ss.kth; /* the median segment, exactly */
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
     env.keep_all = (opt->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS)) != 0u;

@@ -1,12 +1,13 @@
 /* The segment data of every surface entry (docs/model.md §2), and the order
  * statistics of the segment lengths that set the default search radius (the
  * median segment, docs/model.md §9). */
+#include <assert.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "stages.h"
-
 
 /* Room for n records, aligned to NTS_SEG_ALIGN whatever the allocator's
  * alignment (nts_set_allocator): the block has one alignment more. The
@@ -28,48 +29,126 @@ static int seg_reserve(nts_context* ctx, int n) {
     return NTS_OK;
 }
 
+/* The length of segment i, as the segment pass computes it (the same bits),
+ * or -1 outside the supported range (scene.c: nts_scene_set_positions does
+ * not check it, and 1/|t|^2 must not overflow). */
+static inline double segment_length(const nts_scene* s, int i, nts_vec2 p, nts_vec2* t) {
+    double l2;
+    *t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], p);
+    l2 = nts_length_sq(*t);
+    return l2 >= 1e-200 && l2 <= 1e201 ? sqrt(l2) : -1.0;
+}
+
+/* The order statistic of the lengths that the segment pass brackets (below). */
+typedef struct kth_plan {
+    int k;         /* -1: none asked for */
+    int bracket;   /* 1: keep the lengths in [lo, hi] while the segments are computed */
+    double lo, hi;
+} kth_plan;
+
+/* The k-th smallest length, exactly, without another pass over the segments
+ * when the scene is large: a sample of NTS_SAMPLE lengths (a fixed stride, so
+ * the same scene gives the same sample, computed from the positions as the
+ * segment pass will) brackets it between two of its order statistics, about
+ * 4 standard deviations of the sample's rank on either side. The segment pass
+ * then counts the lengths below the bracket and keeps those inside, and the
+ * k-th is selected among the kept. Should the bracket miss (adversarial
+ * lengths), every length is copied and selected: the answer is the same, only
+ * slower. `sample`: NTS_SAMPLE doubles. */
+static kth_plan kth_prepare(const nts_scene* s, int k, double* sample) {
+    const int n = s->surface_count;
+    kth_plan plan;
+    int i, rlo, rhi;
+    plan.k = k;
+    plan.bracket = k >= 0 && n > 4 * NTS_SAMPLE;
+    plan.lo = plan.hi = 0.0;
+    if (!plan.bracket) return plan;
+    for (i = 0; i < NTS_SAMPLE; ++i) {
+        const int e = (int)((long long)i * n / NTS_SAMPLE);
+        nts_vec2 t;
+        sample[i] = segment_length(s, e, s->pos[s->surf_node[e]], &t);
+    }
+    /* The sample rank of the k-th, +- 256 (4 sqrt(NTS_SAMPLE)). */
+    rlo = (int)((double)k / (double)(n - 1) * (NTS_SAMPLE - 1)) - 256;
+    rhi = rlo + 512;
+    if (rlo < 0) rlo = 0;
+    if (rhi > NTS_SAMPLE - 1) rhi = NTS_SAMPLE - 1;
+    plan.lo = nts_select_kth(sample, NTS_SAMPLE, rlo);
+    plan.hi = nts_select_kth(sample, NTS_SAMPLE, rhi);
+    return plan;
+}
+
+/* The pass runs over SHARES fixed slices of the entries (in parallel), each
+ * keeping the lengths in the bracket from its own first entry on in
+ * `scratch`; the value selected does not depend on their order anyway. */
+enum { SHARES = 64 };
+
 /* Each segment is its own, so the loop runs in parallel; the reductions are
  * a minimum and maxima, exact whatever the threads. A segment of zero length
  * (possible after new positions) is reported, never divided by. */
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int threads, seg_summary* out) {
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads,
+                         seg_summary* out) {
     const int n = s->surface_count;
-    int i, rc, bad = n;
+    kth_plan plan;
+    int cnt_below[SHARES], cnt_in[SHARES];
+    int q, rc, bad = n;
+    long long below = 0, inside = 0;
     double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
     (void)threads; /* without OpenMP */
+    assert(k < n);
     if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
+    plan = kth_prepare(s, k, scratch + n);
 #if NTS_CONFIG_OPENMP
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static) reduction(min : bad, xmin, ymin) \
     reduction(max : lmax, amax, xmax, ymax)
 #endif
-    for (i = 0; i < n; ++i) {
-        seg_data* sd = &ctx->seg[i];
-        const int next = s->surf_next[i];
-        const nts_vec2 p = s->pos[s->surf_node[i]];
-        double l2, a;
-        sd->p = p;
-        sd->t = nts_scene_diff(s, s->pos[s->surf_node[next]], p);
-        sd->prev = s->surf_prev[i];
-        sd->next = next;
-        sd->node = s->surf_node[i];
-        sd->body = s->surf_body[i];
-        l2 = nts_length_sq(sd->t);
-        /* The supported range (scene.c): nts_scene_set_positions does not
-         * check it, and 1/|t|^2 must not overflow. */
-        if (!(l2 >= 1e-200) || !(l2 <= 1e201)) {
-            sd->len = -1.0;
-            sd->inv_len2 = 0.0;
-            if (i < bad) bad = i;
-            continue;
+    for (q = 0; q < SHARES; ++q) {
+        /* The share's own accumulators, in registers. */
+        const int b = (int)((long long)n * q / SHARES), e = (int)((long long)n * (q + 1) / SHARES);
+        const int keep = plan.bracket;
+        const double lo = plan.lo, hi = plan.hi;
+        double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL;
+        int i, cb = 0, ci = 0, first_bad = n;
+        for (i = b; i < e; ++i) {
+            seg_data* sd = &ctx->seg[i];
+            const nts_vec2 p = s->pos[s->surf_node[i]];
+            double len, a;
+            sd->p = p;
+            len = segment_length(s, i, p, &sd->t);
+            sd->prev = s->surf_prev[i];
+            sd->next = s->surf_next[i];
+            sd->node = s->surf_node[i];
+            sd->body = s->surf_body[i];
+            if (len < 0.0) {
+                sd->len = -1.0;
+                sd->inv_len2 = 0.0;
+                if (i < first_bad) first_bad = i;
+                continue;
+            }
+            sd->len = len;
+            sd->inv_len2 = 1.0 / nts_length_sq(sd->t);
+            if (keep) { /* without a branch: 1 in 8 is kept, at random */
+                scratch[b + ci] = len;
+                cb += len < lo;
+                ci += (len >= lo) & (len <= hi);
+            }
+            lm = len > lm ? len : lm;
+            a = fabs(p.x) > fabs(p.y) ? fabs(p.x) : fabs(p.y);
+            am = a > am ? a : am;
+            x0 = p.x < x0 ? p.x : x0;
+            x1 = p.x > x1 ? p.x : x1;
+            y0 = p.y < y0 ? p.y : y0;
+            y1 = p.y > y1 ? p.y : y1;
         }
-        sd->len = sqrt(l2);
-        sd->inv_len2 = 1.0 / l2;
-        if (sd->len > lmax) lmax = sd->len;
-        a = fabs(p.x) > fabs(p.y) ? fabs(p.x) : fabs(p.y);
-        if (a > amax) amax = a;
-        if (p.x < xmin) xmin = p.x;
-        if (p.x > xmax) xmax = p.x;
-        if (p.y < ymin) ymin = p.y;
-        if (p.y > ymax) ymax = p.y;
+        cnt_below[q] = cb;
+        cnt_in[q] = ci;
+        if (first_bad < bad) bad = first_bad;
+        if (lm > lmax) lmax = lm;
+        if (am > amax) amax = am;
+        if (x0 < xmin) xmin = x0;
+        if (x1 > xmax) xmax = x1;
+        if (y0 < ymin) ymin = y0;
+        if (y1 > ymax) ymax = y1;
     }
     out->bad = bad;
     out->lmax = lmax;
@@ -78,6 +157,28 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int threads, seg_
     out->xmax = xmax;
     out->ymin = ymin;
     out->ymax = ymax;
+    out->kth = 0.0;
+    if (bad < n || k < 0) return NTS_OK;
+    if (plan.bracket) {
+        for (q = 0; q < SHARES; ++q) {
+            below += cnt_below[q];
+            inside += cnt_in[q];
+        }
+        if (below <= k && k < below + inside) {
+            /* Gather the shares' kept lengths to the front (each share's
+             * start is at or past where its lengths go). */
+            long long at = 0;
+            for (q = 0; q < SHARES; ++q) {
+                const int b = (int)((long long)n * q / SHARES);
+                if (at != b) memmove(scratch + at, scratch + b, sizeof(double) * (size_t)cnt_in[q]);
+                at += cnt_in[q];
+            }
+            out->kth = nts_select_kth(scratch, (int)inside, k - (int)below);
+            return NTS_OK;
+        }
+    }
+    for (q = 0; q < n; ++q) scratch[q] = ctx->seg[q].len;
+    out->kth = nts_select_kth(scratch, n, k);
     return NTS_OK;
 }
 
@@ -121,72 +222,4 @@ double nts_select_kth(double* v, int n, int k) {
         else break; /* v[k] == pivot */
     }
     return v[k];
-}
-
-/* Exact, in one pass over the lengths plus a small selection: a sample of
- * NTS_SAMPLE lengths (a fixed stride, so the same scene gives the same sample)
- * brackets the k-th length between two of its order statistics, about
- * 4 standard deviations of the sample's rank on either side; one pass counts
- * the lengths below the bracket and inside it, a second keeps those inside,
- * and the k-th is selected among the kept. Should the bracket miss
- * (adversarial lengths), every length is copied and selected: the answer is
- * the same, only slower. Both passes run over SHARES fixed slices of the
- * entries (in parallel), each keeping its lengths at its own offset; the
- * value selected does not depend on their order anyway. */
-enum { SHARES = 64 };
-double nts_kth_length(const nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads) {
-    const int n = s->surface_count;
-    const seg_data* seg = ctx->seg;
-    double* sample = scratch + n; /* past the kept lengths */
-    double lo, hi;
-    long long below = 0, inside = 0;
-    int cnt_below[SHARES], cnt_in[SHARES], at[SHARES + 1];
-    int i, rlo, rhi;
-    (void)threads;
-    assert(n > 0 && k >= 0 && k < n);
-    if (n <= 4 * NTS_SAMPLE) {
-        for (i = 0; i < n; ++i) scratch[i] = seg[i].len;
-        return nts_select_kth(scratch, n, k);
-    }
-    for (i = 0; i < NTS_SAMPLE; ++i) sample[i] = seg[(int)((long long)i * n / NTS_SAMPLE)].len;
-    /* The sample rank of the k-th, +- 256 (4 sqrt(NTS_SAMPLE)). */
-    rlo = (int)((double)k / (double)(n - 1) * (NTS_SAMPLE - 1)) - 256;
-    rhi = rlo + 512;
-    if (rlo < 0) rlo = 0;
-    if (rhi > NTS_SAMPLE - 1) rhi = NTS_SAMPLE - 1;
-    lo = nts_select_kth(sample, NTS_SAMPLE, rlo);
-    hi = nts_select_kth(sample, NTS_SAMPLE, rhi);
-    NTS_PARALLEL_FOR(threads)
-    for (i = 0; i < SHARES; ++i) {
-        const int b = (int)((long long)n * i / SHARES), e = (int)((long long)n * (i + 1) / SHARES);
-        int j, cb = 0, ci = 0;
-        for (j = b; j < e; ++j) {
-            const double v = seg[j].len;
-            cb += v < lo;
-            ci += v >= lo && v <= hi;
-        }
-        cnt_below[i] = cb;
-        cnt_in[i] = ci;
-    }
-    at[0] = 0;
-    for (i = 0; i < SHARES; ++i) {
-        below += cnt_below[i];
-        inside += cnt_in[i];
-        at[i + 1] = at[i] + cnt_in[i];
-    }
-    if (below <= k && k < below + inside) {
-        if (lo == hi) return lo; /* every length in the bracket is the k-th */
-        NTS_PARALLEL_FOR(threads)
-        for (i = 0; i < SHARES; ++i) {
-            const int b = (int)((long long)n * i / SHARES), e = (int)((long long)n * (i + 1) / SHARES);
-            int j, o = at[i];
-            for (j = b; j < e; ++j) {
-                const double v = seg[j].len;
-                if (v >= lo && v <= hi) scratch[o++] = v;
-            }
-        }
-        return nts_select_kth(scratch, (int)inside, k - (int)below);
-    }
-    for (i = 0; i < n; ++i) scratch[i] = seg[i].len;
-    return nts_select_kth(scratch, n, k);
 }

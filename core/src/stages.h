@@ -44,12 +44,14 @@ typedef char nts_seg_data_is_one_line[sizeof(seg_data) == NTS_SEG_ALIGN ? 1 : -1
 
 /* What the segment pass finds besides the data: the first bad segment in
  * entry order (or surface_count), the longest segment, the largest
- * coordinate (for round-off allowances) and the bounding box of the nodes. */
+ * coordinate (for round-off allowances), the bounding box of the nodes, and
+ * the k-th smallest length when asked for (and no segment is bad). */
 typedef struct seg_summary {
     int bad;
     double lmax;
     double coord_max;
     double xmin, xmax, ymin, ymax;
+    double kth;
 } seg_summary;
 
 /* The outward unit normal of a segment (t_y, -t_x)/|t|, computed where it is
@@ -389,13 +391,13 @@ static inline void contact_forces(const search_env* env, const candidate* b, nts
 }
 
 /* segments.c */
-/* The order statistics' samples: this many entries at a fixed stride. */
+/* The order statistic's sample: this many entries at a fixed stride. */
 enum { NTS_SAMPLE = 4096 };
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int threads, seg_summary* out);
-/* The k-th smallest segment length (0-based), exactly: a sample brackets it,
- * one pass counts and keeps what falls in the bracket; `scratch` holds
+/* The segment data, the summary, and the k-th smallest segment length
+ * (0-based, exactly; k < 0: none) found in the same pass. `scratch` holds
  * surface_count + NTS_SAMPLE doubles. */
-double nts_kth_length(const nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads);
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads,
+                         seg_summary* out);
 /* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
 

@@ -170,6 +170,64 @@ static void test_default_radius_is_the_median_segment(void) {
     nts_scene_destroy(s);
 }
 
+/* On a scene large enough that the median is bracketed by a sample of the
+ * lengths (more than 4 x 4096 segments), the default radius is still the
+ * median exactly: with lengths spread at random (the bracket holds it) and
+ * with the sampled entries' segments three times the others' (the bracket
+ * misses, and every length is selected). */
+static int cmp_double(const void* a, const void* b) {
+    const double x = *(const double*)a, y = *(const double*)b;
+    return (x > y) - (x < y);
+}
+
+static void test_default_radius_is_the_median_of_many(void) {
+    enum { BODIES = 6, NODES = 3000, N = BODIES * NODES, SAMPLE = 4096 };
+    const double pi = 3.14159265358979323846;
+    static test_body b[BODIES];
+    static double len[N];
+    static unsigned char sampled[N];
+    nts_body_def defs[BODIES];
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    test_rng rng = {12345u};
+    int pass, i, k;
+    for (i = 0; i < SAMPLE; ++i) sampled[(long long)i * N / SAMPLE] = 1; /* the library's stride */
+    for (pass = 0; pass < 2; ++pass) {
+        nts_scene* s;
+        nts_result r;
+        nts_error err;
+        for (i = 0; i < BODIES; ++i) {
+            /* Angles from cumulative weights: a segment's length grows with its weight. */
+            double w[NODES], total = 0.0, th = 0.0;
+            const nts_vec2 centre = nts_v2(300.0 * i, 0.0);
+            memset(&b[i], 0, sizeof b[i]);
+            for (k = 0; k < NODES; ++k) {
+                w[k] = pass == 0 ? 0.5 + rng_uniform(&rng) : (sampled[i * NODES + k] ? 3.0 : 1.0);
+                total += w[k];
+            }
+            for (k = 0; k < NODES; ++k) {
+                b[i].nodes[k] = nts_v2(centre.x + 100.0 * cos(th), centre.y + 100.0 * sin(th));
+                th += 2.0 * pi * w[k] / total;
+            }
+            b[i].node_count = NODES;
+            defs[i] = def_of(&b[i]);
+            for (k = 0; k < NODES; ++k) { /* as the library computes it: X_{k+1} - X_k */
+                const nts_vec2 d = nts_sub(b[i].nodes[(k + 1) % NODES], b[i].nodes[k]);
+                len[i * NODES + k] = sqrt(d.x * d.x + d.y * d.y);
+            }
+        }
+        s = scene_of(defs, BODIES, 0.0, 0.0, &err);
+        CU_ASSERT_FATAL(s != NULL);
+        ASSERT_INT_EQ(nts_scene_surface_node_count(s), N);
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+        qsort(len, N, sizeof(double), cmp_double);
+        ASSERT_NEAR(r.summary.search_radius, len[(N - 1) / 2], 0.0);
+        if (pass == 1) CU_ASSERT(len[(N - 1) / 2] < 0.5 * len[N - 1]); /* the short ones, not the sampled */
+        nts_scene_destroy(s);
+    }
+    nts_context_destroy(c);
+}
+
 /* A disk resting in a container's corner, 0.02 into both walls. With the
  * scene's alpha = 0.2 the 12-unit walls' inner corner is rounded over 2.4
  * units: a spurious deep contact. The container's own alpha = 0 keeps its
@@ -559,6 +617,7 @@ void register_scenes_suite(void) {
     ADD_TEST(s, test_long_walls_equal_brute_force);
     ADD_TEST(s, test_long_bar_periodic_equals_brute_force);
     ADD_TEST(s, test_default_radius_is_the_median_segment);
+    ADD_TEST(s, test_default_radius_is_the_median_of_many);
     ADD_TEST(s, test_body_alpha_keeps_a_container_sharp);
     ADD_TEST(s, test_roles);
     ADD_TEST(s, test_penalty_per_length);
