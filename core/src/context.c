@@ -21,7 +21,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     int i;
     if (ctx == NULL) return 0;
     n = sizeof *ctx + (ctx->seg_block != NULL ? (size_t)ctx->seg_cap * sizeof(seg_data) + NTS_SEG_ALIGN : 0) +
-        (size_t)ctx->keys.cap * (3 * sizeof(float) + 2 * sizeof(int)) + (size_t)ctx->cells.cap_cells * sizeof(int) +
+        (size_t)ctx->keys.cap * (3 * sizeof(float) + sizeof(int)) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
         (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) +
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +

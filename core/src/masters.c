@@ -18,15 +18,14 @@ static int keys_reserve(master_keys* k, int count) {
     const int need = count + KEY_PAD;
     char* p;
     if (need <= k->cap) return NTS_OK;
-    p = (char*)nts_alloc((size_t)need * (3 * sizeof(float) + 2 * sizeof(int)));
+    p = (char*)nts_alloc((size_t)need * (3 * sizeof(float) + sizeof(int)));
     if (p == NULL) return NTS_ENOMEM;
     nts_free(k->block);
     k->block = p;
     k->x = (float*)(void*)p;
     k->y = k->x + need;
     k->reach2 = k->y + need;
-    k->body = (int*)(void*)(k->reach2 + need);
-    k->entry = k->body + need;
+    k->entry = (int*)(void*)(k->reach2 + need);
     k->cap = need;
     return NTS_OK;
 }
@@ -152,17 +151,15 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             const seg_data* m = &ctx->seg[j];
             nts_cell_place q;
             double R, Rs;
-            int b, at;
+            int at;
             if (cell < 0) continue;
-            b = s->surf_body[j];
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, b, alpha)), r, pad);
+            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, alpha)), r, pad);
             Rs = R * scale + KEY_SLACK;
             k->x[at] = (float)(q.x * scale);
             k->y[at] = (float)(q.y * scale);
             k->reach2[at] = (float)(Rs * Rs * (1.0 + KEY_SLACK));
-            k->body[at] = b;
             k->entry[at] = j;
         }
     }
@@ -173,7 +170,6 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     for (e = count; e < count + KEY_PAD; ++e) { /* read 4 at a time, never kept */
         k->x[e] = k->y[e] = 0.0f;
         k->reach2[e] = -1.0f;
-        k->body[e] = -1;
         k->entry[e] = -1;
     }
     ctx->long_count = 0;

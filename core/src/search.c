@@ -152,9 +152,9 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
 
 /* The first pass over keys [e0, e1): the indices of those within reach of a
  * slave at (sx, sy) (the keys' frame, the range's shift applied) and of
- * another body, appended to kept[]. kept needs e1 - e0 + 4 places. The keys
- * are read 4 at a time, past e1 into the next range or the padding; the
- * index test drops those. */
+ * another body (an entry outside the slave's body's [own0, own1)), appended
+ * to kept[]. kept needs e1 - e0 + 4 places. The keys are read 4 at a time,
+ * past e1 into the next range or the padding; the index test drops those. */
 #if defined(__SSE2__)
 /* For each 4-bit mask, the lanes it keeps, packed to the front. */
 static const int KEEP_LANES[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0},
@@ -163,15 +163,22 @@ static const int KEEP_LANES[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, 
                                       {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
 static const int KEEP_COUNT[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 
+/* The slave's own body as entries [lo, hi) (vlo = lo - 1, vhi = hi), and the
+ * end of the range of keys. */
+typedef struct own_range {
+    __m128i vlo, vhi, vend;
+} own_range;
+
 /* Four keys from e on: append those kept to kept[n], return the new n. */
-static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m128 vy, __m128i vb, __m128i vend,
-                                          int e, int* kept, int n) {
+static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m128 vy, const own_range* o, int e,
+                                          int* kept, int n) {
     const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
     const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
     const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
-    const __m128i other = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i*)(const void*)(k->body + e)), vb);
+    const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
+    const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
     const __m128i near = _mm_castps_si128(_mm_cmple_ps(d2, _mm_loadu_ps(k->reach2 + e)));
-    const __m128i in = _mm_andnot_si128(other, _mm_and_si128(near, _mm_cmplt_epi32(at, vend)));
+    const __m128i in = _mm_andnot_si128(own, _mm_and_si128(near, _mm_cmplt_epi32(at, o->vend)));
     const int mask = _mm_movemask_ps(_mm_castsi128_ps(in));
     _mm_storeu_si128((__m128i*)(void*)(kept + n),
                      _mm_add_epi32(_mm_set1_epi32(e), _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mask])));
@@ -181,23 +188,27 @@ static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m12
 /* Most ranges hold at most 8 keys (a stencil row of three small cells): two
  * groups of 4 whatever the count, so that the loop's end is not a branch to
  * mispredict (the index test drops the keys past e1); longer ranges loop. */
-static inline NTS_ALWAYS_INLINE int near_keys(const master_keys* k, float sx, float sy, int body, int e0, int e1,
-                                              int* kept) {
+static inline NTS_ALWAYS_INLINE int near_keys(const master_keys* k, float sx, float sy, int own0, int own1, int e0,
+                                              int e1, int* kept) {
     const __m128 vx = _mm_set1_ps(sx), vy = _mm_set1_ps(sy);
-    const __m128i vb = _mm_set1_epi32(body), vend = _mm_set1_epi32(e1);
+    own_range o;
     int e, n = 0;
-    n = near4(k, vx, vy, vb, vend, e0, kept, n);
-    n = near4(k, vx, vy, vb, vend, e0 + 4, kept, n);
-    for (e = e0 + 8; e < e1; e += 4) n = near4(k, vx, vy, vb, vend, e, kept, n);
+    o.vlo = _mm_set1_epi32(own0 - 1);
+    o.vhi = _mm_set1_epi32(own1);
+    o.vend = _mm_set1_epi32(e1);
+    n = near4(k, vx, vy, &o, e0, kept, n);
+    n = near4(k, vx, vy, &o, e0 + 4, kept, n);
+    for (e = e0 + 8; e < e1; e += 4) n = near4(k, vx, vy, &o, e, kept, n);
     return n;
 }
 #else
-static inline int near_keys(const master_keys* k, float sx, float sy, int body, int e0, int e1, int* kept) {
+static inline int near_keys(const master_keys* k, float sx, float sy, int own0, int own1, int e0, int e1,
+                            int* kept) {
     int e, n = 0;
     for (e = e0; e < e1; ++e) {
         const float dx = sx - k->x[e], dy = sy - k->y[e];
         kept[n] = e;
-        n += (dx * dx + dy * dy <= k->reach2[e]) & (k->body[e] != body);
+        n += (dx * dx + dy * dy <= k->reach2[e]) & (k->entry[e] < own0 || k->entry[e] >= own1);
     }
     return n;
 }
@@ -269,6 +280,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = env->seg[i].body;
+        const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
         nts_vec2 xs;
         nts_cell_place at;
         double sx, sy;
@@ -308,8 +320,8 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
              * every master kept. */
             int n = 0, k;
             for (q = 0; q < st.n; ++q)
-                n += near_keys(keys, (float)(sx - st.shift_x[q]), (float)(sy - st.shift_y[q]), bi, st.begin[q],
-                               st.end[q], kept + n);
+                n += near_keys(keys, (float)(sx - st.shift_x[q]), (float)(sy - st.shift_y[q]), own0, own1,
+                               st.begin[q], st.end[q], kept + n);
             /* Their segment data are scattered over memory (other bodies'
              * entries): ask for all before the first is needed. */
             for (k = 0; k < n; ++k) {
@@ -324,10 +336,12 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 int e0 = st.begin[q];
                 while (e0 < st.end[q]) {
                     const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
-                    const int n = near_keys(keys, fx, fy, bi, e0, e1, kept);
+                    const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                     int k;
-                    for (k = 0; k < n; ++k)
-                        try_master(env, w, xs, keys->entry[kept[k]], keys->body[kept[k]], periodic);
+                    for (k = 0; k < n; ++k) {
+                        const int j = keys->entry[kept[k]];
+                        try_master(env, w, xs, j, env->seg[j].body, periodic);
+                    }
                     e0 = e1;
                 }
             }

@@ -140,14 +140,13 @@ void nts_cells_stencil(const nts_cells* c, int cell, nts_stencil* st);
  * squared, widened to cover every round-off on the way (masters.c), so that
  * the float test never drops a master that the exact test could keep. Struct
  * of arrays, KEY_PAD elements past the end that no range reaches, so that
- * the last range of the arrays can be read 8 at a time. 20 bytes a master. */
+ * the last range of the arrays can be read 8 at a time. 16 bytes a master. */
 enum { KEY_PAD = 8 };
 typedef struct master_keys {
     float* x;
     float* y;
     float* reach2;
-    int* body;
-    int* entry;
+    int* entry; /* a body's entries are consecutive: its range tells own from other */
     int count, cap;
     void* block;
 } master_keys;
