@@ -323,10 +323,14 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 n += near_keys(keys, (float)(sx - st.shift_x[q]), (float)(sy - st.shift_y[q]), own0, own1,
                                st.begin[q], st.end[q], kept + n);
             /* Their segment data are scattered over memory (other bodies'
-             * entries): ask for all before the first is needed. */
+             * entries): ask for all before the first is needed, with the
+             * entry before each (its previous segment, for the corner or
+             * vertex tests, except at the start of a loop). */
             for (k = 0; k < n; ++k) {
-                kept[k] = keys->entry[kept[k]];
-                NTS_PREFETCH(&env->seg[kept[k]]);
+                const int j = keys->entry[kept[k]];
+                kept[k] = j;
+                NTS_PREFETCH(&env->seg[j]);
+                NTS_PREFETCH(&env->seg[j - (j > 0)]);
             }
             for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->seg[kept[k]].body, periodic);
         } else {
