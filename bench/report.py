@@ -770,10 +770,21 @@ def report(res, made):
         ["the kept masters' segment data prefetched (1e5: 152 to 142)", "165"],
         ["Halley from the linear part's root refined once (2.0 steps a solve instead of 2.9; 208 to 164 cycles "
          "a solve)", "160"],
+        ["a segment's record is one aligned 64-byte line with its entry's topology (previous, next, node, "
+         "body): a kept master costs one prefetched line, not misses on four scene arrays (A/B: 158 to 148; "
+         "alpha 0: 134 to 124)", "148"],
+        ["the median segment found in the segment pass (a sample of the positions brackets it first) instead "
+         "of two more passes over the segments (segments + cells: 31 to 27 ns)", "145"],
+        ["16-byte keys: a body's entries are consecutive, so the screen tells the slave's own body by its "
+         "entry range; one scattered store less per master in the counting sort (A/B: 141 to 137)", "137"],
+        ["each kept master's previous segment line prefetched with its own (the corner and vertex tests read "
+         "it at once; A/B: 141 to 136)", "136"],
     ]))
     L.append("")
-    L.append("Bytes per node at 1e6 went from 267 to 149 (no records with one thread, no cell-ordered copy of the "
-             "masters, 20-byte keys). Every phase runs in parallel: segments, the order statistics' passes, "
+    mem_1e6 = float(sa[-1]["bytes_per_node"]) if sa else None
+    L.append("Bytes per node at 1e6 went from 267 to " + (f"{mem_1e6:.0f}" if mem_1e6 else "(not run)") +
+             " (no records with one thread, no cell-ordered copy of the masters, 16-byte keys, 64-byte segment "
+             "records). Every phase runs in parallel: segments, the order statistics' passes, "
              "the binning, the keys, the search (chunks dealt to the threads in turn) and the scatter (each chunk "
              "its own sums, added in chunk order; each thread a range of nodes, adding every record's share in "
              "record order), with the same bits for any number of threads.")
@@ -781,20 +792,27 @@ def report(res, made):
     L.append("Where the time goes now. At 1e4 nodes the evaluation is bound by instructions and branches: about "
              "1,100 instructions per node (callgrind) and 4 mispredicted branches per slave (cachegrind's "
              "simulator), half of them in the exact tests of masters that the float screen kept but that offer "
-             "nothing (1.94 tries per slave, 0.52 offers). At 1e6 the same work costs about 40 ns more per node: "
-             "`perf` puts the growth on the loads of the keys and of the kept masters' positions, first touches "
-             "of memory that the previous particles did not bring into cache. Measured and dropped: the first "
+             "nothing (1.94 tries per slave, 0.52 offers). At 1e6 (`perf`, alpha 0.2): the search 56% (its "
+             "largest stalls the first pass's loop over ranges longer than 8 keys and the kept masters' lines), "
+             "the corner solves 13% (0.24 a node, 89% of them give a candidate), the forces added after each "
+             "slave 7% (the master's forces, another body's, are rarely in cache), the counting sort of the "
+             "keys 9%, the segment pass with the median 6%. Measured and dropped: the first "
              "pass 8 keys at a time with AVX2 (chosen at run time; no faster: the screen is not the bottleneck); "
              "a compact copy of the lengths for the order statistics; the masters' records copied in cell order "
              "(one 64-byte line each, with the previous segment: the search no faster, the cells phase 15 ns "
              "slower); software prefetch of the stencil's keys 8 to 16 slaves ahead; keys as 16-byte structs "
-             "(1 to 2% faster at 1e6, 5 to 8% slower at 1e4); the two passes of consecutive slaves pipelined; "
-             "the slaves visited in cell order instead of slave order (no faster at 1e6, slower at 1e4, and the "
-             "records would need sorting back for the brute force's bits); transparent huge pages. None of these "
-             "moved the 1e6 figure, so the penalty there is spread over every structure the search touches "
-             "rather than one. Left to try: a screen that applies the flat and corner conditions in single "
+             "(1 to 2% faster at 1e6, 5 to 8% slower at 1e4); the two passes of consecutive slaves pipelined "
+             "(tried twice; the second time 2% faster at 1e6, 6% slower at 1e4); the slaves visited in cell "
+             "order instead of slave order (no faster at 1e6, slower at 1e4, and the records would need sorting "
+             "back for the brute force's bits); transparent huge pages; the keys staged in entry order by the "
+             "binning pass so that the sort reads 16 bytes a master instead of its segment (no faster, 8 bytes "
+             "more per node); a third group of 4 keys read unconditionally per range (slower at every size); "
+             "prefetching the forces of the slave or of an active master before they are added (no faster). "
+             "Left to try: a screen that applies the flat and corner conditions in single "
              "precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, at 20 more bytes per "
-             "key), which attacks both the mispredicted branches and the masters' loads.")
+             "key), which attacks both the mispredicted branches and the masters' loads; forces accumulated per "
+             "surface entry (next to the segment lines already in cache) and gathered to nodes at the end, "
+             "which changes the order of the sums and so needs the parallel scatter changed alike.")
     L.append("")
     if dig_a:
         L.append("### Bitwise equality before/after")
