@@ -94,13 +94,38 @@ void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int s
         for (j = b; j < e; ++j)
             if (cell_of[j] >= 0) ++h[cell_of[j]];
     }
-    for (cell = 0; cell < ncell; ++cell) {
-        c->cell_start[cell] = at;
+    /* The prefix sum over (cell, slice), in parallel over `slices` blocks of
+     * cells: each block's total, their prefix, then each block's places from
+     * its start (the places are the same whatever the blocks). */
+    {
+        int total[SORT_SLICES];
+        assert(slices <= SORT_SLICES);
+        NTS_PARALLEL_FOR(threads)
         for (u = 0; u < slices; ++u) {
-            int* h = hist + (size_t)u * (size_t)ncell + cell;
-            const int k = *h;
-            *h = at;
+            const int c1 = nts_slice_begin(ncell, slices, u + 1);
+            int sum = 0, cc, v;
+            for (cc = nts_slice_begin(ncell, slices, u); cc < c1; ++cc)
+                for (v = 0; v < slices; ++v) sum += hist[(size_t)v * (size_t)ncell + cc];
+            total[u] = sum;
+        }
+        for (u = 0; u < slices; ++u) {
+            const int k = total[u];
+            total[u] = at;
             at += k;
+        }
+        NTS_PARALLEL_FOR(threads)
+        for (u = 0; u < slices; ++u) {
+            const int c1 = nts_slice_begin(ncell, slices, u + 1);
+            int place = total[u], cc, v;
+            for (cc = nts_slice_begin(ncell, slices, u); cc < c1; ++cc) {
+                c->cell_start[cc] = place;
+                for (v = 0; v < slices; ++v) {
+                    int* h = hist + (size_t)v * (size_t)ncell + cc;
+                    const int k = *h;
+                    *h = place;
+                    place += k;
+                }
+            }
         }
     }
     c->cell_start[ncell] = at;

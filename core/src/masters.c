@@ -100,9 +100,6 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, 
     return NTS_OK;
 }
 
-enum { SORT_SLICES = 4 };
-
-
 int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
                       long long budget, int min_cells, int threads) {
     const nts_cells* cl = &ctx->cells;

@@ -115,6 +115,9 @@ static inline int nts_slice_begin(int n, int slices, int u) { return (int)((long
  * slice in increasing e (in parallel): then every cell lists its entries in
  * increasing e, whatever the slices. With one slice hist is not used: the
  * first places are the cells' starts. */
+/* At most this many slices: each costs a count per cell (the sort is a
+ * small part of the work). */
+enum { SORT_SLICES = 4 };
 void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, int threads);
 void nts_cells_free(nts_cells* c);
 
