@@ -58,14 +58,16 @@ typedef struct kth_plan {
  * k-th is selected among the kept. Should the bracket miss (adversarial
  * lengths), every length is copied and selected: the answer is the same, only
  * slower. `sample`: NTS_SAMPLE doubles. */
-static kth_plan kth_prepare(const nts_scene* s, int k, double* sample) {
+static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, int threads) {
     const int n = s->surface_count;
     kth_plan plan;
     int i, rlo, rhi;
+    (void)threads; /* without OpenMP */
     plan.k = k;
     plan.bracket = k >= 0 && n > 4 * NTS_SAMPLE;
     plan.lo = plan.hi = 0.0;
     if (!plan.bracket) return plan;
+    NTS_PARALLEL_FOR(threads)
     for (i = 0; i < NTS_SAMPLE; ++i) {
         const int e = (int)((long long)i * n / NTS_SAMPLE);
         nts_vec2 t;
@@ -100,7 +102,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     (void)threads; /* without OpenMP */
     assert(k < n);
     if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
-    plan = kth_prepare(s, k, scratch + n);
+    plan = kth_prepare(s, k, scratch + n, threads);
 #if NTS_CONFIG_OPENMP
 #pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static) reduction(min : bad, xmin, ymin) \
     reduction(max : lmax, amax, xmax, ymax)
