@@ -216,7 +216,7 @@ enum { CHUNK_SLAVES = 1024 };
 typedef struct chunk_info {
     int worker, first, count; /* records workers[worker].recs[first .. first + count) */
     int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
-    int pad;
+    int share_at;             /* the first place of its active records' force shares */
     contact_sums sums;        /* of its active contacts */
 } chunk_info;
 
@@ -244,6 +244,8 @@ struct nts_context {
     int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
+    struct force_shares* shares; /* with several threads: each active record's forces, computed once */
+    int shares_cap;
     nts_contact* contacts;
     int contacts_cap;
     nts_contact* gaps;
@@ -377,19 +379,38 @@ static inline void contact_sum(const search_env* env, const candidate* b, contac
     }
 }
 
-/* Add an active record's forces (10) on nodes [n0, n1) into F: f_s = -eps g n
- * on the slave, f_k = eps g N_k n on master node k. */
-static inline void contact_forces(const search_env* env, const candidate* b, nts_vec2* F, int n0, int n1) {
+/* An active record's forces (10), node by node: f_s = -eps g n on the slave,
+ * f_k = eps g N_k n on master node k (at most 3). */
+typedef struct force_shares {
+    int count;
+    int node[4];
+    nts_vec2 f[4];
+} force_shares;
+
+static inline force_shares contact_shares(const search_env* env, const candidate* b) {
     const double eg = record_penalty(env, b) * b->gap;
-    const int ns = env->seg[b->slave].node;
+    force_shares sh;
     int entry[3], q, m;
     double w[3];
-    if (ns >= n0 && ns < n1) F[ns] = nts_add(F[ns], nts_scale(-eg, b->normal));
+    sh.node[0] = env->seg[b->slave].node;
+    sh.f[0] = nts_scale(-eg, b->normal);
     m = record_masters(env, b, entry, w);
     for (q = 0; q < m; ++q) {
-        const int nm = env->seg[entry[q]].node;
-        if (nm >= n0 && nm < n1) F[nm] = nts_mul_add(F[nm], eg * w[q], b->normal);
+        sh.node[q + 1] = env->seg[entry[q]].node;
+        sh.f[q + 1] = nts_scale(eg * w[q], b->normal);
     }
+    sh.count = m + 1;
+    return sh;
+}
+
+/* Add an active record's forces on nodes [n0, n1) into F, in the order of
+ * its shares (the scatter adds precomputed shares the same way: the same
+ * bits). */
+static inline void contact_forces(const search_env* env, const candidate* b, nts_vec2* F, int n0, int n1) {
+    const force_shares sh = contact_shares(env, b);
+    int q;
+    for (q = 0; q < sh.count; ++q)
+        if (sh.node[q] >= n0 && sh.node[q] < n1) F[sh.node[q]] = nts_add(F[sh.node[q]], sh.f[q]);
 }
 
 /* segments.c */
