@@ -64,15 +64,16 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     }
 }
 
-/* Try the features that master j (a surface entry of body `body`) offers to a
- * slave at xs: the flat part of segment (j, j+1), and the corner (alpha > 0)
- * or vertex (alpha = 0) at j. Each test is exact on its own: which masters
- * get here decides nothing but the time. */
-static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, int body,
+/* Try the features that master j (a surface entry) offers to a slave at xs:
+ * the flat part of segment (j, j+1), and the corner (alpha > 0) or vertex
+ * (alpha = 0) at j. Each test is exact on its own: which masters get here
+ * decides nothing but the time. */
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j,
                                                 const int periodic) {
+    const seg_data* m = &env->seg[j];
+    const int body = m->body;
     const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
     const double r = env->r;
-    const seg_data* m = &env->seg[j];
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
     double sj_param;
@@ -332,7 +333,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 NTS_PREFETCH(&env->seg[j]);
                 NTS_PREFETCH(&env->seg[j - (j > 0)]);
             }
-            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->seg[kept[k]].body, periodic);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], periodic);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
@@ -342,10 +343,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                     const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                     int k;
-                    for (k = 0; k < n; ++k) {
-                        const int j = keys->entry[kept[k]];
-                        try_master(env, w, xs, j, env->seg[j].body, periodic);
-                    }
+                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], periodic);
                     e0 = e1;
                 }
             }
@@ -357,7 +355,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 const long_master* lm = &env->long_m[env->long_items[e]];
                 const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, b, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, periodic);
             }
         }
         flush_slave(env, w, i);
@@ -387,7 +385,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
                               env->brute_pad);
-            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, b, periodic);
+            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, periodic);
         }
         flush_slave(env, w, i);
     }
