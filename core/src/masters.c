@@ -55,9 +55,9 @@ static long long long_box(const nts_context* ctx, const nts_scene* s, int j, dou
                           int* ncx, int* cy0, int* ncy) {
     const nts_cells* cl = &ctx->cells;
     const seg_data* m = &ctx->seg[j];
-    const nts_vec2 tp = ctx->seg[s->surf_prev[j]].t, t = m->t;
+    const nts_vec2 tp = ctx->seg[m->prev].t, t = m->t;
     const nts_cell_place q = nts_cells_place(cl, m->p);
-    const double a = alpha_of_body(s, s->surf_body[j], alpha);
+    const double a = alpha_of_body(s, m->body, alpha);
     const double xlo = fmin(fmin(0.0, t.x), -a * tp.x), xhi = fmax(fmax(0.0, t.x), -a * tp.x);
     const double ylo = fmin(fmin(0.0, t.y), -a * tp.y), yhi = fmax(fmax(0.0, t.y), -a * tp.y);
     *ncx = cell_span(q.x + xlo - R, q.x + xhi + R, cl->inv_hx, cl->nx, cl->periodic, cx0);
@@ -113,8 +113,8 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     master_keys* k = &ctx->keys;
     NTS_PARALLEL_FOR_REDUCE(threads, reduction(+ : nlong))
     for (e = 0; e < n; ++e) {
-        const int b = s->surf_body[e];
         const seg_data* m = &ctx->seg[e];
+        const int b = m->body;
         if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
             cell_of[e] = -1;
             continue;
@@ -176,7 +176,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
         if (cell_of[e] == -2) {
             long_master* lm = &ctx->long_m[ctx->long_count++];
             const double R =
-                reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, s->surf_body[e], alpha)), r, pad);
+                reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, ctx->seg[e].body, alpha)), r, pad);
             lm->reach2 = R * R;
             lm->entry = e;
             lm->pad = 0;
