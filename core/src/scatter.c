@@ -77,7 +77,7 @@ static void chunk_shares(nts_context* ctx, const search_env* env, const chunk_in
 /* The forces on nodes [n0, n1) from the shares of the `count` active
  * records, in record order: each thread reads every share but computes
  * none. Returns 1 when one of them overflowed. */
-static int forces_range_shares(nts_context* ctx, int count, int n0, int n1) {
+static int forces_range(nts_context* ctx, int count, int n0, int n1) {
     nts_vec2* F = ctx->forces;
     int k, q;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
@@ -85,21 +85,6 @@ static int forces_range_shares(nts_context* ctx, int count, int n0, int n1) {
         const force_shares* sh = &ctx->shares[k];
         for (q = 0; q < sh->count; ++q)
             if (sh->node[q] >= n0 && sh->node[q] < n1) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
-    }
-    return forces_finite(F, n0, n1) ? 0 : 1;
-}
-
-/* The forces on nodes [n0, n1): every active record's share of them, in
- * record order. Returns 1 when one of them overflowed. */
-static int forces_range(nts_context* ctx, const search_env* env, int n0, int n1) {
-    nts_vec2* F = ctx->forces;
-    int c, k;
-    memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
-    for (c = 0; c < ctx->chunk_count; ++c) {
-        const chunk_info* ch = &ctx->chunks[c];
-        const candidate* rec = chunk_recs(ctx, ch);
-        for (k = 0; k < ch->count; ++k)
-            if (rec[k].gap < 0.0) contact_forces(env, &rec[k], F, n0, n1);
     }
     return forces_finite(F, n0, n1) ? 0 : 1;
 }
@@ -142,30 +127,24 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     if (want_forces && env->direct) {
         overflow |= !forces_finite(ctx->forces, 0, s->node_count);
     } else if (want_forces) {
-        int part, bad = 0;
+        /* Each thread adds the forces on its range of nodes, so every node's
+         * sum runs in record order whatever the threads; the shares are
+         * computed once, in parallel by chunk, not by every thread. */
+        int part, bad = 0, at = 0;
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
-        if (nthreads == 1) {
-            bad = forces_range(ctx, env, 0, s->node_count);
-        } else {
-            /* Each thread adds the forces on its range of nodes, so every
-             * node's sum runs in record order whatever the threads; the
-             * shares are computed once, in parallel by chunk, not by every
-             * thread. */
-            int at = 0;
-            for (c = 0; c < nchunk; ++c) {
-                ctx->chunks[c].share_at = at;
-                at += ctx->chunks[c].sums.active;
-            }
-            if ((rc = nts_grow((void**)&ctx->shares, &ctx->shares_cap, at, sizeof(force_shares))) != NTS_OK)
-                return eval_fail(err, rc, -1, -1, "out of memory");
-            NTS_PARALLEL_FOR(nthreads)
-            for (c = 0; c < nchunk; ++c) chunk_shares(ctx, env, &ctx->chunks[c]);
-            NTS_PARALLEL_FOR_REDUCE(nthreads, reduction(| : bad))
-            for (part = 0; part < nthreads; ++part) {
-                const long long n = s->node_count;
-                bad |= forces_range_shares(ctx, at, (int)(n * part / nthreads), (int)(n * (part + 1) / nthreads));
-            }
+        for (c = 0; c < nchunk; ++c) {
+            ctx->chunks[c].share_at = at;
+            at += ctx->chunks[c].sums.active;
+        }
+        if ((rc = nts_grow((void**)&ctx->shares, &ctx->shares_cap, at, sizeof(force_shares))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        NTS_PARALLEL_FOR(nthreads)
+        for (c = 0; c < nchunk; ++c) chunk_shares(ctx, env, &ctx->chunks[c]);
+        NTS_PARALLEL_FOR_REDUCE(nthreads, reduction(| : bad))
+        for (part = 0; part < nthreads; ++part) {
+            const long long n = s->node_count;
+            bad |= forces_range(ctx, at, (int)(n * part / nthreads), (int)(n * (part + 1) / nthreads));
         }
         overflow |= bad;
     }

@@ -244,7 +244,7 @@ struct nts_context {
     int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
-    struct force_shares* shares; /* with several threads: each active record's forces, computed once */
+    struct force_shares* shares; /* each active record's forces, computed once (records kept) */
     int shares_cap;
     nts_contact* contacts;
     int contacts_cap;
