@@ -65,11 +65,14 @@ static void chunk_sums(const nts_context* ctx, const search_env* env, chunk_info
         if (rec[k].gap < 0.0) contact_sum(env, &rec[k], &ch->sums);
 }
 
-/* A chunk's active records' force shares, from its place on. */
+/* A chunk's active records' force shares, from its place on (none, and
+ * maybe no buffer at all, when it has no active record). */
 static void chunk_shares(nts_context* ctx, const search_env* env, const chunk_info* ch) {
     const candidate* rec = chunk_recs(ctx, ch);
-    force_shares* out = ctx->shares + ch->share_at;
+    force_shares* out;
     int k;
+    if (ch->sums.active == 0) return;
+    out = ctx->shares + ch->share_at;
     for (k = 0; k < ch->count; ++k)
         if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
 }
