@@ -93,6 +93,28 @@ def start_daemon(binary, log_path, *args, timeout=20):
     return Daemon(proc, int(text.rsplit(":", 1)[1]), pathlib.Path(log_path))
 
 
+import time  # noqa: E402
+
+import requests  # noqa: E402
+
+
+def settled_health(d, within_s=5.0, **kw):
+    """The daemon's /v1/health document once every request before this call
+    has completed on the server's side: counted (served, metrics) and its
+    memory given back. That happens when a request completes, which may be
+    just after the client has read its answer. The document counts the
+    requests in flight (itself included) under the same lock as the
+    counters. Fails if they have not completed within `within_s`."""
+    deadline = time.monotonic() + within_s
+    while True:
+        h = requests.get(d.url("/v1/health"), timeout=10, **kw).json()
+        if h["requests_in_flight"] == 1 and h["memory"]["in_use_bytes"] == 0:
+            return h
+        if time.monotonic() > deadline:
+            pytest.fail(f"requests still in flight after {within_s} s: {h}")
+        time.sleep(0.02)
+
+
 import socket  # noqa: E402
 
 

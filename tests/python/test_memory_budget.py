@@ -6,26 +6,13 @@ import time
 
 import requests
 
-from conftest import start_daemon
+from conftest import settled_health, start_daemon
 
 HEAD = "POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
 
 
 def _health(d):
     return requests.get(d.url("/v1/health"), timeout=10).json()
-
-
-def _health_once_released(d, within_s: float = 5.0):
-    """The health report once nothing is reserved, or the last one after
-    `within_s`. A reservation covers the answer until it is sent, and the
-    server gives it back when the request completes, which may be just after
-    the client has read the answer (a race the sanitized build often loses)."""
-    deadline = time.monotonic() + within_s
-    h = _health(d)
-    while h["memory"]["in_use_bytes"] != 0 and time.monotonic() < deadline:
-        time.sleep(0.02)
-        h = _health(d)
-    return h
 
 
 def _zeros(n):
@@ -50,7 +37,7 @@ def test_a_request_that_alone_needs_more_is_413(paths, tmp_path):
         ok = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
                            headers={"Content-Type": "application/json"}, timeout=10)
         assert ok.status_code == 200
-        h = _health_once_released(d)
+        h = settled_health(d)
         assert h["memory"]["budget_bytes"] == 16 << 20
         assert h["memory"]["in_use_bytes"] == 0
     finally:
@@ -96,7 +83,7 @@ def test_bodies_in_flight_share_the_budget(paths, tmp_path):
             s.close()
     try:
         # given back by the uploads that were abandoned
-        assert _health_once_released(d)["memory"]["in_use_bytes"] == 0
+        assert settled_health(d)["memory"]["in_use_bytes"] == 0
         r = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
                           headers={"Content-Type": "application/json"}, timeout=10)
         assert r.status_code == 200
@@ -122,6 +109,6 @@ def test_a_request_reserves_its_estimate(paths, tmp_path):
             assert r.status_code == status, (budget, r.text[:200])
             if status == 413:
                 assert f"about {need} bytes" in r.json()["error"]["message"]
-            assert _health_once_released(d)["memory"]["in_use_bytes"] == 0
+            assert settled_health(d)["memory"]["in_use_bytes"] == 0
         finally:
             assert d.stop() == 0

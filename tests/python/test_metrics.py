@@ -4,7 +4,7 @@ the test made."""
 import requests
 from prometheus_client.parser import text_string_to_metric_families
 
-from conftest import start_daemon
+from conftest import settled_health, start_daemon
 
 
 def _scrape(d, **kw):
@@ -42,6 +42,7 @@ def test_metrics_count_what_was_asked(paths, tmp_path):
         step = requests.post(d.url(created.headers["Location"] + "/contact"), timeout=10)
         summaries.append(step.json()["summary"])
 
+        settled_health(d)
         s = _scrape(d)
         assert _get(s, "ntscontactd_requests_total", route="/v1/contact", status="200") == 3
         assert _get(s, "ntscontactd_requests_total", route="/v1/contact", status="400") == 1
@@ -78,7 +79,9 @@ def test_metrics_need_the_token(paths, tmp_path):
     try:
         r = requests.get(d.url("/metrics"), timeout=10)
         assert r.status_code == 401
-        s = _scrape(d, headers={"Authorization": "Bearer metrics-token"})
+        auth = {"Authorization": "Bearer metrics-token"}
+        settled_health(d, headers=auth)
+        s = _scrape(d, headers=auth)
         assert _get(s, "ntscontactd_refusals_total", reason="unauthorized") == 1
     finally:
         assert d.stop() == 0
