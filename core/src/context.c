@@ -30,7 +30,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
-             (size_t)w->rec_cap * sizeof(candidate);
+             (size_t)w->rec_cap * sizeof(candidate) + (size_t)w->share_cap * sizeof(force_shares);
     }
     return n;
 }
@@ -47,6 +47,7 @@ static void workers_free(nts_context* ctx) {
         nts_free(ctx->workers[i].slot);
         nts_free(ctx->workers[i].best);
         nts_free(ctx->workers[i].recs);
+        nts_free(ctx->workers[i].shares);
     }
     nts_free(ctx->workers);
     ctx->workers = NULL;
@@ -94,6 +95,7 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
     }
     for (i = 0; i < count; ++i) {
         ctx->workers[i].rec_count = 0;
+        ctx->workers[i].share_count = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].best_count = 0;
         ctx->workers[i].status = NTS_OK;

@@ -188,6 +188,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     /* One thread and no records asked for: no records at all, the search
      * sums and scatters each slave's contacts itself (search_env.direct). */
     env.direct = nthreads == 1 && !env.keep_all;
+    /* Several threads and no records asked for: each chunk its sums and
+     * force shares, no records (search_env.shares). */
+    env.shares = nthreads > 1 && !env.keep_all;
+    env.want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
     if (env.direct && (opt->outputs & NTS_OUT_FORCES) != 0u) {
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
@@ -208,10 +212,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         const int begin = i * CHUNK_SLAVES, end = begin + CHUNK_SLAVES < s->surface_count ? begin + CHUNK_SLAVES
                                                                                            : s->surface_count;
         ch->worker = t;
-        ch->first = w->rec_count;
+        ch->first = env.shares ? w->share_count : w->rec_count;
         w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
-        ch->count = w->rec_count - ch->first;
+        ch->count = (env.shares ? w->share_count : w->rec_count) - ch->first;
     }
     {
         long long records = 0;

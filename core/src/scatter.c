@@ -67,27 +67,32 @@ static void chunk_sums(const nts_context* ctx, const search_env* env, chunk_info
 
 /* A chunk's active records' force shares, from its place on (none, and
  * maybe no buffer at all, when it has no active record). */
-static void chunk_shares(nts_context* ctx, const search_env* env, const chunk_info* ch) {
+static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ctx, ch);
     force_shares* out;
     int k;
+    ch->sh = NULL;
     if (ch->sums.active == 0) return;
     out = ctx->shares + ch->share_at;
+    ch->sh = out;
     for (k = 0; k < ch->count; ++k)
         if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
 }
 
-/* The forces on nodes [n0, n1) from the shares of the `count` active
- * records, in record order: each thread reads every share but computes
- * none. Returns 1 when one of them overflowed. */
-static int forces_range(nts_context* ctx, int count, int n0, int n1) {
+/* The forces on nodes [n0, n1) from the chunks' force shares, in chunk
+ * order and in record order within a chunk: each thread reads every share
+ * but computes none. Returns 1 when one of them overflowed. */
+static int forces_range(nts_context* ctx, int n0, int n1) {
     nts_vec2* F = ctx->forces;
-    int k, q;
+    int c, k, q;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
-    for (k = 0; k < count; ++k) {
-        const force_shares* sh = &ctx->shares[k];
-        for (q = 0; q < sh->count; ++q)
-            if (sh->node[q] >= n0 && sh->node[q] < n1) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        for (k = 0; k < ch->sums.active; ++k) {
+            const force_shares* sh = &ch->sh[k];
+            for (q = 0; q < sh->count; ++q)
+                if (sh->node[q] >= n0 && sh->node[q] < n1) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
+        }
     }
     return forces_finite(F, n0, n1) ? 0 : 1;
 }
@@ -111,7 +116,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     double energy = 0.0, maxpen = 0.0;
     nts_virial vir = {0.0, 0.0, 0.0};
 
-    if (!env->direct) {
+    if (!env->direct && !env->shares) { /* else the search summed them */
         NTS_PARALLEL_FOR(nthreads)
         for (c = 0; c < nchunk; ++c) chunk_sums(ctx, env, &ctx->chunks[c]);
     }
@@ -136,18 +141,26 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         int part, bad = 0, at = 0;
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
-        for (c = 0; c < nchunk; ++c) {
-            ctx->chunks[c].share_at = at;
-            at += ctx->chunks[c].sums.active;
+        if (env->shares) { /* the search kept them, chunk by chunk */
+            for (c = 0; c < nchunk; ++c) {
+                chunk_info* ch = &ctx->chunks[c];
+                assert(ch->count == ch->sums.active);
+                ch->sh = ch->count > 0 ? ctx->workers[ch->worker].shares + ch->first : NULL;
+            }
+        } else {
+            for (c = 0; c < nchunk; ++c) {
+                ctx->chunks[c].share_at = at;
+                at += ctx->chunks[c].sums.active;
+            }
+            if ((rc = nts_grow((void**)&ctx->shares, &ctx->shares_cap, at, sizeof(force_shares))) != NTS_OK)
+                return eval_fail(err, rc, -1, -1, "out of memory");
+            NTS_PARALLEL_FOR(nthreads)
+            for (c = 0; c < nchunk; ++c) chunk_shares(ctx, env, &ctx->chunks[c]);
         }
-        if ((rc = nts_grow((void**)&ctx->shares, &ctx->shares_cap, at, sizeof(force_shares))) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
-        NTS_PARALLEL_FOR(nthreads)
-        for (c = 0; c < nchunk; ++c) chunk_shares(ctx, env, &ctx->chunks[c]);
         NTS_PARALLEL_FOR_REDUCE(nthreads, reduction(| : bad))
         for (part = 0; part < nthreads; ++part) {
             const long long n = s->node_count;
-            bad |= forces_range(ctx, at, (int)(n * part / nthreads), (int)(n * (part + 1) / nthreads));
+            bad |= forces_range(ctx, (int)(n * part / nthreads), (int)(n * (part + 1) / nthreads));
         }
         overflow |= bad;
     }

@@ -228,8 +228,11 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         /* Over the budget in this worker alone, so the total is too (the caller
          * checks the sum as well: the verdict does not depend on threads). */
         w->status = NTS_ELIMIT;
-    } else if (!env->direct && need > w->rec_cap &&
-               nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
+    } else if (env->shares ? env->want_forces && w->share_count + w->best_count > w->share_cap &&
+                                 nts_grow((void**)&w->shares, &w->share_cap, w->share_count + w->best_count,
+                                          sizeof(force_shares)) != NTS_OK
+                           : !env->direct && need > w->rec_cap &&
+                                 nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
         w->status = NTS_ENOMEM;
     }
     /* Insertion sort by master body (a handful of entries). */
@@ -248,6 +251,9 @@ static void flush_slave(const search_env* env, worker* w, int i) {
             /* What the scatter would do with the record, in the same order. */
             contact_sum(env, b, w->sums);
             if (env->forces != NULL) contact_forces(env, b, env->forces, 0, env->s->node_count);
+        } else if (env->shares) {
+            contact_sum(env, b, w->sums);
+            if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
         } else {
             w->recs[w->rec_count++] = *b;
         }

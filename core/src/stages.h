@@ -186,6 +186,14 @@ typedef struct contact_sums {
     int active, overflow;
 } contact_sums;
 
+/* An active record's forces (10), node by node: f_s = -eps g n on the slave,
+ * f_k = eps g N_k n on master node k (at most 3). */
+typedef struct force_shares {
+    int count;
+    int node[4];
+    nts_vec2 f[4];
+} force_shares;
+
 /* One worker's scratch: the per-slave best candidate of each master body, and
  * the records of the chunks it ran, each chunk's in slave order: every
  * closest point within r when contacts, gaps or the tangent are asked for,
@@ -197,8 +205,10 @@ typedef struct worker {
     int best_count, best_cap;
     candidate* recs;
     int rec_count, rec_cap;
+    force_shares* shares; /* the active contacts' force shares (search_env.shares) */
+    int share_count, share_cap;
     long long gaps;    /* closest points within r found (kept or not) */
-    contact_sums* sums;/* the current chunk's, when the search sums as it goes (search_env.direct) */
+    contact_sums* sums;/* the current chunk's, when the search sums as it goes (direct or shares) */
     int status;
     /* Workers sit side by side in one array and update their counts all the
      * time: keep each on its own cache lines (no false sharing between threads). */
@@ -214,9 +224,11 @@ typedef struct worker {
 enum { CHUNK_SLAVES = 1024 };
 
 typedef struct chunk_info {
-    int worker, first, count; /* records workers[worker].recs[first .. first + count) */
+    int worker, first, count; /* records workers[worker].recs[first .. first + count), or its
+                                 force shares workers[worker].shares[...] (search_env.shares) */
     int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
-    int share_at;             /* the first place of its active records' force shares */
+    int share_at;             /* the first place of its active records' force shares in ctx->shares */
+    const force_shares* sh;   /* its force shares (sums.active of them), wherever they are */
     contact_sums sums;        /* of its active contacts */
 } chunk_info;
 
@@ -244,7 +256,7 @@ struct nts_context {
     int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
-    struct force_shares* shares; /* each active record's forces, computed once (records kept) */
+    force_shares* shares; /* each active record's forces, computed once (records kept) */
     int shares_cap;
     nts_contact* contacts;
     int contacts_cap;
@@ -279,6 +291,11 @@ typedef struct search_env {
      * `forces`) itself, in the order the scatter would, and keeps no records. */
     int direct;
     nts_vec2* forces;
+    /* Several threads and no records asked for: each chunk sums its active
+     * contacts as it goes and keeps only their force shares (when forces are
+     * asked, `want_forces`), in the order the scatter would compute them. */
+    int shares;
+    int want_forces;
 } search_env;
 
 /* A failed evaluation: the error record filled, the status returned. */
@@ -379,13 +396,6 @@ static inline void contact_sum(const search_env* env, const candidate* b, contac
     }
 }
 
-/* An active record's forces (10), node by node: f_s = -eps g n on the slave,
- * f_k = eps g N_k n on master node k (at most 3). */
-typedef struct force_shares {
-    int count;
-    int node[4];
-    nts_vec2 f[4];
-} force_shares;
 
 static inline force_shares contact_shares(const search_env* env, const candidate* b) {
     const double eg = record_penalty(env, b) * b->gap;
