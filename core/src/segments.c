@@ -88,6 +88,69 @@ static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, int threa
  * `scratch`; the value selected does not depend on their order anyway. */
 enum { SHARES = 64 };
 
+/* The share q's first entry (its kept lengths start there in `scratch`). */
+static inline int share_begin(int n, int q) { return (int)((long long)n * q / SHARES); }
+
+/* Where a length of the bracket [lo, hi] falls among BINS equal bins: never
+ * decreasing with the length (a difference, a product by a positive number,
+ * a floor), so the bins hold the kept lengths in order. */
+enum { BINS = 1024, PARTS = 4 };
+typedef char nts_histograms_fit_the_sample[PARTS * BINS * sizeof(int) <= NTS_SAMPLE * sizeof(double) ? 1 : -1];
+static inline int bin_of(double x, double lo, double inv_w) {
+    const double t = (x - lo) * inv_w;
+    return t < (double)BINS ? (int)t : BINS - 1;
+}
+
+/* The k-th smallest of the lengths kept in the bracket (share q's cnt_in[q]
+ * of them from its first entry on in `v`), with the threads: PARTS partial
+ * histograms of BINS equal bins of [lo, hi] (counts: the same whatever the
+ * threads) find the bin that holds the k-th, and only that bin's lengths are
+ * gathered and selected, one in about BINS of those kept. `hist`: PARTS BINS
+ * ints. */
+static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double lo, double hi, int* hist,
+                             int threads) {
+    const double inv_w = (double)BINS / (hi - lo);
+    int cnt_bin[SHARES];
+    int u, q, bin, below = 0;
+    long long at = 0;
+    (void)threads; /* without OpenMP */
+    if (!(hi > lo)) return lo; /* every kept length is lo */
+    NTS_PARALLEL_FOR(threads)
+    for (u = 0; u < PARTS; ++u) {
+        int* h = hist + u * BINS;
+        int qq, j;
+        memset(h, 0, sizeof(int) * BINS);
+        for (qq = u * SHARES / PARTS; qq < (u + 1) * SHARES / PARTS; ++qq) {
+            const int b = share_begin(n, qq);
+            for (j = b; j < b + cnt_in[qq]; ++j) ++h[bin_of(v[j], lo, inv_w)];
+        }
+    }
+    for (bin = 0; bin < BINS; ++bin) {
+        int c = 0;
+        for (u = 0; u < PARTS; ++u) c += hist[u * BINS + bin];
+        if (below + c > k) break;
+        below += c;
+    }
+    assert(bin < BINS);
+    NTS_PARALLEL_FOR(threads)
+    for (q = 0; q < SHARES; ++q) { /* the bin's lengths to the front of the share's, without a branch */
+        const int b = share_begin(n, q);
+        int j, m = 0;
+        for (j = b; j < b + cnt_in[q]; ++j) {
+            const double x = v[j];
+            v[b + m] = x;
+            m += bin_of(x, lo, inv_w) == bin;
+        }
+        cnt_bin[q] = m;
+    }
+    for (q = 0; q < SHARES; ++q) { /* to the front (each share's start is at or past where its go) */
+        const int b = share_begin(n, q);
+        if (at != b) memmove(v + at, v + b, sizeof(double) * (size_t)cnt_bin[q]);
+        at += cnt_bin[q];
+    }
+    return nts_select_kth(v, (int)at, k - below);
+}
+
 /* Each segment is its own, so the loop runs in parallel; the reductions are
  * a minimum and maxima, exact whatever the threads. A segment of zero length
  * (possible after new positions) is reported, never divided by. */
@@ -109,7 +172,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
 #endif
     for (q = 0; q < SHARES; ++q) {
         /* The share's own accumulators, in registers. */
-        const int b = (int)((long long)n * q / SHARES), e = (int)((long long)n * (q + 1) / SHARES);
+        const int b = share_begin(n, q), e = share_begin(n, q + 1);
         const int keep = plan.bracket;
         const double lo = plan.lo, hi = plan.hi;
         double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL;
@@ -170,15 +233,9 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
             inside += cnt_in[q];
         }
         if (below <= k && k < below + inside) {
-            /* Gather the shares' kept lengths to the front (each share's
-             * start is at or past where its lengths go). */
-            long long at = 0;
-            for (q = 0; q < SHARES; ++q) {
-                const int b = (int)((long long)n * q / SHARES);
-                if (at != b) memmove(scratch + at, scratch + b, sizeof(double) * (size_t)cnt_in[q]);
-                at += cnt_in[q];
-            }
-            out->kth = nts_select_kth(scratch, (int)inside, k - (int)below);
+            /* the sample's room holds the histograms now */
+            out->kth = kth_in_bracket(scratch, n, cnt_in, k - (int)below, plan.lo, plan.hi, (int*)(void*)(scratch + n),
+                                      threads);
             return NTS_OK;
         }
     }

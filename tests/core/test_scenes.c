@@ -228,6 +228,72 @@ static void test_default_radius_is_the_median_of_many(void) {
     nts_context_destroy(c);
 }
 
+/* The median of many lengths that are equal, or nearly: rectangles walked
+ * in steps of 1 or 2, so the sample's bracket holds whole runs of equal
+ * lengths, or is a single value when every step is 1; in the last pass the
+ * nodes are moved along their side by up to 1e-6, so thousands of distinct
+ * lengths share the bracket's first bin. The default radius is still the
+ * median, with any number of threads. */
+static void test_median_of_equal_lengths(void) {
+    enum { BODIES = 12, SIDE = 600, MAXN = 4 * SIDE, PASSES = 4 };
+    static test_body b[BODIES];
+    static double len[BODIES * MAXN];
+    const double ones[PASSES] = {1.0, 0.5, 0.7, 0.6};
+    nts_body_def defs[BODIES];
+    nts_context* c = nts_context_create();
+    test_rng rng = {777u};
+    int pass, i;
+    for (pass = 0; pass < PASSES; ++pass) {
+        const double jitter = pass == PASSES - 1 ? 1e-6 : 0.0;
+        nts_scene* s;
+        nts_error err;
+        int n = 0, threads, k;
+        for (i = 0; i < BODIES; ++i) {
+            /* Corners, counter-clockwise; each side in steps of 1 or 2. */
+            const double x0 = 700.0 * (i % 4), y0 = 700.0 * (i / 4);
+            const double cx[4] = {x0, x0 + SIDE, x0 + SIDE, x0}, cy[4] = {y0, y0, y0 + SIDE, y0 + SIDE};
+            int side;
+            memset(&b[i], 0, sizeof b[i]);
+            for (side = 0; side < 4; ++side) {
+                const double dx = (cx[(side + 1) % 4] - cx[side]) / SIDE, dy = (cy[(side + 1) % 4] - cy[side]) / SIDE;
+                int at = 0;
+                while (at < SIDE) {
+                    const double along = at + (at > 0 ? jitter * rng_uniform(&rng) : 0.0);
+                    int step = rng_uniform(&rng) < ones[pass] ? 1 : 2;
+                    if (at + step > SIDE) step = 1;
+                    b[i].nodes[b[i].node_count++] = nts_v2(cx[side] + dx * along, cy[side] + dy * along);
+                    at += step;
+                }
+            }
+            defs[i] = def_of(&b[i]);
+            for (k = 0; k < b[i].node_count; ++k) { /* as the library computes it: X_{k+1} - X_k */
+                const nts_vec2 d = nts_sub(b[i].nodes[(k + 1) % b[i].node_count], b[i].nodes[k]);
+                len[n++] = sqrt(d.x * d.x + d.y * d.y);
+            }
+        }
+        s = scene_of(defs, BODIES, 0.0, 0.0, &err);
+        CU_ASSERT_FATAL(s != NULL);
+        ASSERT_INT_EQ(nts_scene_surface_node_count(s), n);
+        CU_ASSERT_FATAL(n > 4 * 4096); /* large enough for the sample's bracket */
+        qsort(len, (size_t)n, sizeof(double), cmp_double);
+        for (threads = 1; threads <= 3; ++threads) {
+            nts_options o = nts_default_options();
+            nts_result r;
+            o.threads = threads;
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+            ASSERT_NEAR(r.summary.search_radius, len[(n - 1) / 2], 0.0);
+        }
+        if (pass == 0) ASSERT_NEAR(len[0], len[n - 1], 0.0); /* one value */
+        if (pass == PASSES - 1) { /* the median near 1, among thousands of distinct lengths */
+            int distinct = 1;
+            for (k = 1; k < n; ++k) distinct += len[k] > len[k - 1];
+            CU_ASSERT(len[(n - 1) / 2] < 1.5 && distinct > 5000);
+        }
+        nts_scene_destroy(s);
+    }
+    nts_context_destroy(c);
+}
+
 /* A disk resting in a container's corner, 0.02 into both walls. With the
  * scene's alpha = 0.2 the 12-unit walls' inner corner is rounded over 2.4
  * units: a spurious deep contact. The container's own alpha = 0 keeps its
@@ -618,6 +684,7 @@ void register_scenes_suite(void) {
     ADD_TEST(s, test_long_bar_periodic_equals_brute_force);
     ADD_TEST(s, test_default_radius_is_the_median_segment);
     ADD_TEST(s, test_default_radius_is_the_median_of_many);
+    ADD_TEST(s, test_median_of_equal_lengths);
     ADD_TEST(s, test_body_alpha_keeps_a_container_sharp);
     ADD_TEST(s, test_roles);
     ADD_TEST(s, test_penalty_per_length);
