@@ -604,7 +604,8 @@ static double cores_available(void) {
 }
 
 static void section_threads(const char* dir, int max_threads) {
-    FILE* f = open_csv(dir, "threads", TIMING_HEADER ",speedup,speedup_best,bitwise_identical,cores_available");
+    FILE* f = open_csv(dir, "threads",
+                       TIMING_HEADER ",speedup,speedup_best,bitwise_identical,cores_available,speedup_paired");
     scene_buf b;
     nts_scene* s;
     nts_context* c0 = nts_context_create();
@@ -653,7 +654,7 @@ static void section_threads(const char* dir, int max_threads) {
                 }
             for (th = 1; th <= max_threads; ++th) {
                 timing t;
-                double ph[4];
+                double ph[4], ratio[REPS];
                 memset(&t, 0, sizeof t);
                 nts_context_phase_times(ct[th - 1], ph);
                 t.reps = reps;
@@ -669,8 +670,11 @@ static void section_threads(const char* dir, int max_threads) {
                 t.contacts = r1.summary.contacts;
                 write_timing(f, "packing", 1, b.body_count, b.total, sv, o.alpha, th, &t);
                 fseek(f, -1, SEEK_CUR);
-                fprintf(f, ",%.3f,%.3f,%d,%.2f\n", ntsx_median(te[0], reps) / t.eval, best[0] / best[th - 1], same[th - 1],
-                        cores);
+                /* Paired: each round's 1-thread time over its own n-thread time, timed
+                 * back to back, so load that comes and goes between rounds cancels. */
+                for (k = 0; k < reps; ++k) ratio[k] = te[0][k] / te[th - 1][k];
+                fprintf(f, ",%.3f,%.3f,%d,%.2f,%.3f\n", ntsx_median(te[0], reps) / t.eval, best[0] / best[th - 1],
+                        same[th - 1], cores, ntsx_median(ratio, reps));
                 fflush(f);
             }
         }

@@ -474,13 +474,16 @@ def report(res, made):
         two = [r for r in thr if r["threads"] == "2"]
         cores = [float(r.get("cores_available", "nan")) for r in two]
         L.append("- Threads: results bitwise identical for 1..%s threads in every case: **%s**. Speed-up with 2 "
-                 "threads on this machine's %s cores: %s from median wall times, %s from the best times (the "
+                 "threads on this machine's %s cores: %s from median wall times, %s from the median of each "
+                 "round's paired ratio (1 and 2 threads timed back to back), %s from the best times (the "
                  "moments both cores were free), while a 2-thread busy loop found %s cores actually available "
                  "(other sessions kept the machine busy, so the medians mostly show time-sharing of one core); "
                  "see \"Threads\"."
                  % (max(int(r["threads"]) for r in thr), "yes" if allsame else "NO", meta.get("nproc", "?"),
                     "-".join([fnum(min(float(r["speedup"]) for r in two)), fnum(max(float(r["speedup"])
                                                                                      for r in two))]),
+                    "-".join([fnum(min(float(r.get("speedup_paired", "nan")) for r in two)),
+                              fnum(max(float(r.get("speedup_paired", "nan")) for r in two))]),
                     "-".join([fnum(min(float(r.get("speedup_best", "nan")) for r in two)),
                               fnum(max(float(r.get("speedup_best", "nan")) for r in two))]),
                     "-".join([fnum(min(cores)), fnum(max(cores))])))
@@ -701,7 +704,8 @@ def report(res, made):
         L.append("`options.threads` = 1..4 on a periodic packing; *bitwise* compares every output (summary, "
                  "forces, contacts, gaps) with the serial evaluation byte for byte. The thread counts are timed "
                  "interleaved (1, 2, 3, 4, 1, 2, ...), so load from other processes hits all alike. Speed-up: "
-                 "median wall time against 1 thread; *best*: the same with the fastest of the repeats. "
+                 "median wall time against 1 thread; *paired*: the median over the rounds of each round's 1-thread "
+                 "time over its n-thread time, timed back to back; *best*: the same with the fastest of the repeats. "
                  "*cores available*: CPU time over wall time of a 2-thread busy loop run just before (2.0 on an "
                  "idle 2-core machine); a speed-up above it is impossible, and when it is about 1 the second "
                  "thread only time-shares a core. *eval CPU* is the CPU time of all threads: with n threads "
@@ -711,9 +715,11 @@ def report(res, made):
         thb = {(r["solver"], r["alpha"], r["threads"]): r for r in read_csv(os.path.join(res,
                                                                                      "before_threads.csv"))}
         L.append(table(["surface nodes", "solver", "alpha", "threads", "eval (wall)", "eval best", "eval CPU",
-                        "speed-up", "speed-up (best)", "cores available", "bitwise identical", "before: eval"],
+                        "speed-up", "speed-up (paired)", "speed-up (best)", "cores available", "bitwise identical",
+                        "before: eval"],
                        [[r["surface_nodes"], r["solver"], r["alpha"], r["threads"], fnum(r["eval_ns"]),
                          fnum(r["eval_min_ns"]), fnum(r["eval_cpu_ns"]), fnum(r["speedup"]),
+                         fnum(r.get("speedup_paired", "")),
                          fnum(r.get("speedup_best", "")), r.get("cores_available", ""),
                          "yes" if r["bitwise_identical"] == "1" else "NO",
                          fnum(thb[(r["solver"], r["alpha"], r["threads"])]["eval_ns"])
