@@ -96,6 +96,7 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
     for (i = 0; i < count; ++i) {
         ctx->workers[i].rec_count = 0;
         ctx->workers[i].share_count = 0;
+        ctx->workers[i].fifo_head = ctx->workers[i].fifo_count = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].best_count = 0;
         ctx->workers[i].status = NTS_OK;

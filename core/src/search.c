@@ -215,6 +215,39 @@ static inline int near_keys(const master_keys* k, float sx, float sy, int own0, 
 }
 #endif
 
+#if defined(__GNUC__)
+#define NTS_PREFETCH(p) __builtin_prefetch(p)
+#define NTS_PREFETCH_W(p) __builtin_prefetch(p, 1)
+#else
+#define NTS_PREFETCH(p) ((void)0)
+#define NTS_PREFETCH_W(p) ((void)0)
+#endif
+
+/* The direct path adds a contact's forces FORCE_DELAY contacts after it was
+ * found, in the order found (first in, first out: the same sums, the same
+ * bits), and asks for the nodes' forces when it is found: they are scattered
+ * over the whole node array, and the additions would otherwise wait on
+ * memory one after another. */
+static void forces_delayed(const search_env* env, worker* w, const force_shares* sh) {
+    int q;
+    for (q = 0; q < sh->count; ++q) NTS_PREFETCH_W(&env->forces[sh->node[q]]);
+    if (w->fifo_count == FORCE_DELAY) {
+        add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->fifo[w->fifo_head] = *sh;
+        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
+    } else {
+        w->fifo[(w->fifo_head + w->fifo_count++) % FORCE_DELAY] = *sh;
+    }
+}
+
+static void forces_drain(const search_env* env, worker* w) {
+    for (; w->fifo_count > 0; --w->fifo_count) {
+        add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
+    }
+    w->fifo_head = 0;
+}
+
 /* Move the current slave's best candidates to the worker's records (all of
  * them, or the active ones: search_env.keep_all) and reset the slot map.
  * Candidates are kept in increasing master body order (determinism
@@ -250,7 +283,10 @@ static void flush_slave(const search_env* env, worker* w, int i) {
         if (env->direct) {
             /* What the scatter would do with the record, in the same order. */
             contact_sum(env, b, w->sums);
-            if (env->forces != NULL) contact_forces(env, b, env->forces, 0, env->s->node_count);
+            if (env->forces != NULL) {
+                const force_shares sh = contact_shares(env, b);
+                forces_delayed(env, w, &sh);
+            }
         } else if (env->shares) {
             contact_sum(env, b, w->sums);
             if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
@@ -261,11 +297,6 @@ static void flush_slave(const search_env* env, worker* w, int i) {
     w->best_count = 0;
 }
 
-#if defined(__GNUC__)
-#define NTS_PREFETCH(p) __builtin_prefetch(p)
-#else
-#define NTS_PREFETCH(p) ((void)0)
-#endif
 
 /* The masters the first pass keeps: every key of the stencil's ranges and 4
  * lanes past each, or a batch of keys of one range and 4 past it. */
@@ -406,4 +437,5 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end) {
         if (periodic) search_brute(env, w, begin, end, 1);
         else search_brute(env, w, begin, end, 0);
     }
+    if (env->direct && env->forces != NULL) forces_drain(env, w);
 }

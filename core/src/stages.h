@@ -194,6 +194,9 @@ typedef struct force_shares {
     nts_vec2 f[4];
 } force_shares;
 
+/* How many contacts later the direct path adds a contact's forces. */
+enum { FORCE_DELAY = 8 };
+
 /* One worker's scratch: the per-slave best candidate of each master body, and
  * the records of the chunks it ran, each chunk's in slave order: every
  * closest point within r when contacts, gaps or the tangent are asked for,
@@ -207,6 +210,10 @@ typedef struct worker {
     int rec_count, rec_cap;
     force_shares* shares; /* the active contacts' force shares (search_env.shares) */
     int share_count, share_cap;
+    /* The direct path's forces not yet added, first in first out (search.c:
+     * forces_delayed). */
+    force_shares fifo[FORCE_DELAY];
+    int fifo_head, fifo_count;
     long long gaps;    /* closest points within r found (kept or not) */
     contact_sums* sums;/* the current chunk's, when the search sums as it goes (direct or shares) */
     int status;
@@ -413,14 +420,11 @@ static inline force_shares contact_shares(const search_env* env, const candidate
     return sh;
 }
 
-/* Add an active record's forces on nodes [n0, n1) into F, in the order of
- * its shares (the scatter adds precomputed shares the same way: the same
- * bits). */
-static inline void contact_forces(const search_env* env, const candidate* b, nts_vec2* F, int n0, int n1) {
-    const force_shares sh = contact_shares(env, b);
+/* Add a record's force shares into F, in the order of its shares (the
+ * scatter adds them the same way: the same bits). */
+static inline void add_shares(nts_vec2* F, const force_shares* sh) {
     int q;
-    for (q = 0; q < sh.count; ++q)
-        if (sh.node[q] >= n0 && sh.node[q] < n1) F[sh.node[q]] = nts_add(F[sh.node[q]], sh.f[q]);
+    for (q = 0; q < sh->count; ++q) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
 }
 
 /* segments.c */
