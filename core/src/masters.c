@@ -13,6 +13,8 @@
  * lose at most 3 * 2^-24 relative, which the factor 1 + 2^-20 on the reach
  * squared covers with room to spare. */
 #define KEY_SLACK 9.5367431640625e-07 /* 2^-20 */
+/* How far ahead the binning asks for the lines of a key it will write. */
+enum { KEY_AHEAD = 48 };
 
 static int keys_reserve(master_keys* k, int count) {
     const int need = count + KEY_PAD;
@@ -149,6 +151,14 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             nts_cell_place q;
             double R, Rs;
             int at;
+            if (j + KEY_AHEAD < end && cell_of[j + KEY_AHEAD] >= 0) {
+                /* Where a later master's key goes: four scattered lines. */
+                const int ahead = next[cell_of[j + KEY_AHEAD]];
+                NTS_PREFETCH_W(&k->x[ahead]);
+                NTS_PREFETCH_W(&k->y[ahead]);
+                NTS_PREFETCH_W(&k->reach2[ahead]);
+                NTS_PREFETCH_W(&k->entry[ahead]);
+            }
             if (cell < 0) continue;
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));

@@ -215,13 +215,6 @@ static inline int near_keys(const master_keys* k, float sx, float sy, int own0, 
 }
 #endif
 
-#if defined(__GNUC__)
-#define NTS_PREFETCH(p) __builtin_prefetch(p)
-#define NTS_PREFETCH_W(p) __builtin_prefetch(p, 1)
-#else
-#define NTS_PREFETCH(p) ((void)0)
-#define NTS_PREFETCH_W(p) ((void)0)
-#endif
 
 /* The direct path adds a contact's forces FORCE_DELAY contacts after it was
  * found, in the order found (first in, first out: the same sums, the same

@@ -194,6 +194,15 @@ typedef struct force_shares {
     nts_vec2 f[4];
 } force_shares;
 
+/* A hint to load a line that will be read (written) soon. */
+#if defined(__GNUC__)
+#define NTS_PREFETCH(p) __builtin_prefetch(p)
+#define NTS_PREFETCH_W(p) __builtin_prefetch(p, 1)
+#else
+#define NTS_PREFETCH(p) ((void)0)
+#define NTS_PREFETCH_W(p) ((void)0)
+#endif
+
 /* How many contacts later the direct path adds a contact's forces. */
 enum { FORCE_DELAY = 8 };
 
