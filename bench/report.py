@@ -477,7 +477,7 @@ def report(res, made):
                  "threads on this machine's %s cores: %s from median wall times, %s from the median of each "
                  "round's paired ratio (1 and 2 threads timed back to back), %s from the best times (the "
                  "moments both cores were free), while a 2-thread busy loop found %s cores actually available "
-                 "(other sessions kept the machine busy, so the medians mostly show time-sharing of one core); "
+                 "(when other sessions keep the machine busy, the medians show the second thread time-sharing a core); "
                  "see \"Threads\"."
                  % (max(int(r["threads"]) for r in thr), "yes" if allsame else "NO", meta.get("nproc", "?"),
                     "-".join([fnum(min(float(r["speedup"]) for r in two)), fnum(max(float(r["speedup"])
@@ -785,6 +785,12 @@ def report(res, made):
          "entry range; one scattered store less per master in the counting sort (A/B: 141 to 137)", "137"],
         ["each kept master's previous segment line prefetched with its own (the corner and vertex tests read "
          "it at once; A/B: 141 to 136)", "136"],
+        ["the 1-thread path adds each contact's forces 8 contacts after finding it, first in first out (the "
+         "same order, the same bits), the nodes' force lines asked for when it is found: the additions, "
+         "scattered over the node array, no longer wait on memory one by one (A/B: 137 to 131; alpha 0: 114 "
+         "to 107)", "131"],
+        ["the binning asks for the lines of the key it will write 48 masters ahead (cells phase: 14.5 to "
+         "13.2 ns)", "130"],
     ]))
     L.append("")
     mem_1e6 = float(sa[-1]["bytes_per_node"]) if sa else None
@@ -793,7 +799,12 @@ def report(res, made):
              "records). Every phase runs in parallel: segments, the order statistics' passes, "
              "the binning, the keys, the search (chunks dealt to the threads in turn) and the scatter (each chunk "
              "its own sums, added in chunk order; each thread a range of nodes, adding every record's share in "
-             "record order), with the same bits for any number of threads.")
+             "record order), with the same bits for any number of threads. With several threads and no "
+             "records asked for, each chunk sums its contacts and keeps their force shares as the search goes "
+             "(the scatter at 2 threads, 1.9e5 nodes: 7.5 to 3 ns per node), and the median segment is "
+             "selected among the sampled bracket's lengths by parallel histograms of 1,024 bins, then among "
+             "the one bin that holds it (the serial selection among an eighth of the lengths took 1.4 ns per "
+             "node).")
     L.append("")
     L.append("Where the time goes now. At 1e4 nodes the evaluation is bound by instructions and branches: about "
              "1,100 instructions per node (callgrind) and 4 mispredicted branches per slave (cachegrind's "
@@ -801,7 +812,8 @@ def report(res, made):
              "nothing (1.94 tries per slave, 0.52 offers). At 1e6 (`perf`, alpha 0.2): the search 56% (its "
              "largest stalls the first pass's loop over ranges longer than 8 keys and the kept masters' lines), "
              "the corner solves 13% (0.24 a node, 89% of them give a candidate), the forces added after each "
-             "slave 7% (the master's forces, another body's, are rarely in cache), the counting sort of the "
+             "slave 7% before they were delayed and prefetched (the master's forces, another body's, are "
+             "rarely in cache), the counting sort of the "
              "keys 9%, the segment pass with the median 6%. Measured and dropped: the first "
              "pass 8 keys at a time with AVX2 (chosen at run time; no faster: the screen is not the bottleneck); "
              "a compact copy of the lengths for the order statistics; the masters' records copied in cell order "
@@ -813,12 +825,14 @@ def report(res, made):
              "back for the brute force's bits); transparent huge pages; the keys staged in entry order by the "
              "binning pass so that the sort reads 16 bytes a master instead of its segment (no faster, 8 bytes "
              "more per node); a third group of 4 keys read unconditionally per range (slower at every size); "
-             "prefetching the forces of the slave or of an active master before they are added (no faster). "
+             "prefetching the forces of the slave or of an active master just before they are added (no "
+             "faster: too late; the queue above asks 8 contacts ahead); gathering the sample's nodes in a "
+             "separate loop from their lengths (no faster); a queue of 16 contacts instead of 8 (the same). "
              "Left to try: a screen that applies the flat and corner conditions in single "
              "precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, at 20 more bytes per "
-             "key), which attacks both the mispredicted branches and the masters' loads; forces accumulated per "
-             "surface entry (next to the segment lines already in cache) and gathered to nodes at the end, "
-             "which changes the order of the sums and so needs the parallel scatter changed alike.")
+             "key), which attacks both the mispredicted branches and the masters' loads; the cells phase with "
+             "2 threads (1.2 to 1.6x: the counting sort's two slices count twice the cells, and the keys' "
+             "scattered stores share the memory bandwidth).")
     L.append("")
     if dig_a:
         L.append("### Bitwise equality before/after")
