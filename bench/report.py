@@ -118,11 +118,12 @@ def build_previous_cross(args, log):
 
 def run_cross(args, res, prev_cross, log):
     """nts_cross of both releases: the timing of 1e4..1e6 nodes at alpha 0 and
-    0.2, alternated before/after (3 rounds, 1 in --quick) so that a machine
+    0.2, alternated before/after (5 rounds, 1 in --quick) so that a machine
     that slows down or speeds up during the run hits both alike, medians per
-    row; and the dumps of both, compared (bench/cross_dump.py)."""
+    row, and the spread of each round's own ratio; and the dumps of both,
+    compared (bench/cross_dump.py)."""
     cur = os.path.join(args.build, "bin", "nts_cross")
-    rounds = 1 if args.quick else 3
+    rounds = 1 if args.quick else 5
     t0 = time.time()
     rows = {"before": {}, "after": {}}
     with tempfile.TemporaryDirectory() as tmp:
@@ -138,12 +139,16 @@ def run_cross(args, res, prev_cross, log):
         with open(os.path.join(res, "cross_time.csv"), "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["surface_nodes", "alpha", "rounds", "before_eval_cpu_ns", "after_eval_cpu_ns", "speedup",
-                        "before_contacts", "after_contacts"])
+                        "before_contacts", "after_contacts", "speedup_round_min", "speedup_round_max"])
             for key in sorted(rows["after"], key=lambda k: (int(k[0]), float(k[1]))):
                 a = statistics.median(float(r["eval_cpu_ns"]) for r in rows["after"][key])
                 b = statistics.median(float(r["eval_cpu_ns"]) for r in rows["before"][key])
+                # each round's before over its own after (run one after the other)
+                per_round = [float(rb["eval_cpu_ns"]) / float(ra["eval_cpu_ns"])
+                             for rb, ra in zip(rows["before"][key], rows["after"][key])]
                 w.writerow([key[0], key[1], rounds, "%.3f" % b, "%.3f" % a, "%.3f" % (b / a),
-                            rows["before"][key][0]["contacts"], rows["after"][key][0]["contacts"]])
+                            rows["before"][key][0]["contacts"], rows["after"][key][0]["contacts"],
+                            "%.3f" % min(per_round), "%.3f" % max(per_round)])
         dirs = {}
         for side, exe in (("before", prev_cross), ("after", cur)):
             dirs[side] = os.path.join(tmp, "dump_" + side)
@@ -668,13 +673,17 @@ def report(res, made):
                  "and once against the previous release's headers and library (report.py), on the scaling "
                  "section's periodic packings; default options (each release's own default search radius) with "
                  "alpha 0 and 0.2, 1 thread, CPU ns per surface node, median of repeated warm evaluations. The two "
-                 "programs run alternately, %s rounds, and each row is the median over the rounds."
+                 "programs run alternately, %s rounds, and each row is the median over the rounds; *rounds' "
+                 "range*: the lowest and highest of each round's own ratio (how much this machine moved)."
                  % cross[0]["rounds"])
         L.append("")
-        L.append(table(["surface nodes", "alpha", "before: eval CPU", "eval CPU", "speed-up", "contacts before",
-                        "contacts"],
+        L.append(table(["surface nodes", "alpha", "before: eval CPU", "eval CPU", "speed-up", "rounds' range",
+                        "contacts before", "contacts"],
                        [[r["surface_nodes"], r["alpha"], fnum(r["before_eval_cpu_ns"]), fnum(r["after_eval_cpu_ns"]),
-                         fnum(r["speedup"]), r["before_contacts"], r["after_contacts"]] for r in cross]))
+                         fnum(r["speedup"]),
+                         "%s-%s" % (fnum(r["speedup_round_min"]), fnum(r["speedup_round_max"]))
+                         if r.get("speedup_round_min") else "",
+                         r["before_contacts"], r["after_contacts"]] for r in cross]))
         L.append("")
         L.append("The contact counts differ because the default search radius does (the longest segment before, "
                  "the median now): a larger radius finds no more contacts in principle, but a different closest "
@@ -797,7 +806,7 @@ def report(res, made):
     L.append("Bytes per node at 1e6 went from 267 to " + (f"{mem_1e6:.0f}" if mem_1e6 else "(not run)") +
              " (no records with one thread, no cell-ordered copy of the masters, 16-byte keys, 64-byte segment "
              "records). Every phase runs in parallel: segments, the order statistics' passes, "
-             "the binning, the keys, the search (chunks dealt to the threads in turn) and the scatter (each chunk "
+             "the binning, the keys, the search (chunks taken by whichever thread is free) and the scatter (each chunk "
              "its own sums, added in chunk order; each thread a range of nodes, adding every record's share in "
              "record order), with the same bits for any number of threads. With several threads and no "
              "records asked for, each chunk sums its contacts and keeps their force shares as the search goes "
@@ -827,7 +836,9 @@ def report(res, made):
              "more per node); a third group of 4 keys read unconditionally per range (slower at every size); "
              "prefetching the forces of the slave or of an active master just before they are added (no "
              "faster: too late; the queue above asks 8 contacts ahead); gathering the sample's nodes in a "
-             "separate loop from their lengths (no faster); a queue of 16 contacts instead of 8 (the same). "
+             "separate loop from their lengths (no faster); a queue of 16 contacts instead of 8 (the same); "
+             "the segment records streamed around the cache at 1e6 (non-temporal stores: the pass slower); "
+             "prefetching the force lines in the 2-thread scatter (slower). "
              "Left to try: a screen that applies the flat and corner conditions in single "
              "precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, at 20 more bytes per "
              "key), which attacks both the mispredicted branches and the masters' loads; the cells phase with "

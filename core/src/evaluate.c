@@ -48,6 +48,29 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     *finest = nts_select_kth(sharp, count, (int)(0.95 * (double)(count - 1)));
 }
 
+/* The chunks go to whichever thread is free, so the next evaluation may give
+ * a worker more of them than this one did: room in every worker for all of
+ * this evaluation's records, force shares and per-slave candidates, so that
+ * evaluating again (the same scene, new positions) allocates nothing. Like
+ * every allocation, a refused one is the caller's NTS_ENOMEM. */
+static int workers_reserve(nts_context* ctx, int nthreads) {
+    int t, recs = 0, shares = 0, best = 0;
+    for (t = 0; t < nthreads; ++t) {
+        const worker* w = &ctx->workers[t];
+        recs += w->rec_count;
+        shares += w->share_count;
+        if (w->best_cap > best) best = w->best_cap;
+    }
+    for (t = 0; t < nthreads; ++t) {
+        worker* w = &ctx->workers[t];
+        if ((recs > 0 && nts_grow((void**)&w->recs, &w->rec_cap, recs, sizeof(candidate)) != NTS_OK) ||
+            (shares > 0 && nts_grow((void**)&w->shares, &w->share_cap, shares, sizeof(force_shares)) != NTS_OK) ||
+            (best > 0 && nts_grow((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK))
+            return NTS_ENOMEM;
+    }
+    return NTS_OK;
+}
+
 /* The largest alpha that shapes a surface: the options' and the bodies' own. */
 static double largest_alpha(const nts_scene* s, double alpha) {
     double a = alpha;
@@ -199,7 +222,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.forces = ctx->forces;
     }
 #if NTS_CONFIG_OPENMP
-#pragma omp parallel for num_threads(nthreads) if (nthreads > 1) schedule(static, 1)
+#pragma omp parallel for num_threads(nthreads) if (nthreads > 1) schedule(dynamic, 1)
 #endif
     for (i = 0; i < nchunk; ++i) {
 #if NTS_CONFIG_OPENMP
@@ -237,6 +260,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             return rc;
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
+        if (nthreads > 1 && (rc = workers_reserve(ctx, nthreads)) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
     }
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;

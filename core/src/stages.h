@@ -231,11 +231,10 @@ typedef struct worker {
     char pad[64];
 } worker;
 
-/* The slaves are searched in chunks of CHUNK_SLAVES entries, dealt to the
- * threads in turn (chunk c to thread c mod threads: a warm context finds each
- * worker's buffers the size they were); a chunk's records sit in the worker
- * that ran it, and the scatter reads the chunks in order: slave order,
- * whoever ran them. The scatter also leaves each chunk's partial sums here, added in
+/* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
+ * whichever thread is free (so a thread that the machine slows down takes
+ * fewer); a chunk's records sit in the worker that ran it, and the scatter
+ * reads the chunks in order: slave order, whoever ran them. The scatter also leaves each chunk's partial sums here, added in
  * chunk order: the same bits for any number of threads. */
 enum { CHUNK_SLAVES = 1024 };
 

@@ -5,6 +5,10 @@
  * the origin); a warm context allocates nothing, whatever the thread count. */
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "suites.h"
 #include "test_util.h"
@@ -155,6 +159,63 @@ static void test_warm_context_allocates_nothing(void) {
     free_packing(&p);
 }
 
+#ifdef _OPENMP
+/* A cancel hook that cancels nothing but slows one thread down: the search
+ * asks it once per chunk, so that thread runs few chunks and the other most. */
+static int g_slow_thread;
+static int slow_one_thread(void* user) {
+    (void)user;
+    if (omp_get_thread_num() == g_slow_thread) {
+        const struct timespec pause = {0, 3000000};
+        nanosleep(&pause, NULL);
+    }
+    return 0;
+}
+
+/* The chunks go to whichever thread is free, so each evaluation may deal the
+ * workers different shares of the records: a warm context still allocates
+ * nothing, and the answer is the same bits, when the thread slowed down
+ * alternates between evaluations (every output asked for, so every record
+ * is kept). */
+static void test_warm_context_with_uneven_threads(void) {
+    test_packing p = make_packing(160, 48, 1.0, 1.93, 1, 91);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context *c = NULL, *c0 = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r, r0;
+    nts_error err;
+    int k, outputs;
+    CU_ASSERT_FATAL(s != NULL && c0 != NULL);
+    CU_ASSERT_FATAL(nts_scene_surface_node_count(s) > 6 * 1024); /* several chunks */
+    for (outputs = 0; outputs < 2; ++outputs) {
+        long long before;
+        o.outputs = outputs == 0 ? NTS_OUT_ALL : nts_default_options().outputs; /* records; force shares */
+        o.threads = 1;
+        o.cancel = NULL;
+        CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
+        nts_set_allocator(counting_alloc, counting_free, NULL);
+        c = nts_context_create();
+        CU_ASSERT_FATAL(c != NULL);
+        o.threads = 2;
+        o.cancel = slow_one_thread;
+        g_slow_thread = 0;
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0); /* warm-up: buffers grow */
+        before = g_allocs;
+        for (k = 1; k <= 4; ++k) {
+            g_slow_thread = k % 2;
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+            CU_ASSERT(same_result(s, &r0, &r));
+        }
+        ASSERT_INT_EQ(g_allocs - before, 0);
+        nts_context_destroy(c);
+        nts_set_allocator(NULL, NULL, NULL);
+    }
+    nts_context_destroy(c0);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+#endif
+
 /* One context moved between thread counts gives the serial answer each time. */
 static void test_context_reuse_across_threads(void) {
     test_packing p = make_packing(25, 48, 1.0, 1.93, 0, 4321);
@@ -185,5 +246,8 @@ void register_parallel_suite(void) {
     ADD_TEST(s, test_threads_bitwise_periodic);
     ADD_TEST(s, test_cells_equal_brute_force);
     ADD_TEST(s, test_warm_context_allocates_nothing);
+#ifdef _OPENMP
+    ADD_TEST(s, test_warm_context_with_uneven_threads);
+#endif
     ADD_TEST(s, test_context_reuse_across_threads);
 }
