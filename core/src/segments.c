@@ -83,9 +83,10 @@ static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, int threa
     return plan;
 }
 
-/* The pass runs over SHARES fixed slices of the entries (in parallel), each
- * keeping the lengths in the bracket from its own first entry on in
- * `scratch`; the value selected does not depend on their order anyway. */
+/* The pass runs over SHARES fixed slices of the entries (in parallel, each
+ * taken by whichever thread is free), each keeping the lengths in the
+ * bracket from its own first entry on in `scratch`; the value selected does
+ * not depend on their order anyway. */
 enum { SHARES = 64 };
 
 /* The share q's first entry (its kept lengths start there in `scratch`). */
@@ -167,7 +168,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
     plan = kth_prepare(s, k, scratch + n, threads);
 #if NTS_CONFIG_OPENMP
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(static) reduction(min : bad, xmin, ymin) \
+#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(min : bad, xmin, ymin) \
     reduction(max : lmax, amax, xmax, ymax)
 #endif
     for (q = 0; q < SHARES; ++q) {
