@@ -813,7 +813,12 @@ def report(res, made):
              "(the scatter at 2 threads, 1.9e5 nodes: 7.5 to 3 ns per node), and the median segment is "
              "selected among the sampled bracket's lengths by parallel histograms of 1,024 bins, then among "
              "the one bin that holds it (the serial selection among an eighth of the lengths took 1.4 ns per "
-             "node).")
+             "node). The search's chunks and the segment pass's slices go to whichever thread is free, so a "
+             "thread slowed by another process takes fewer (with a busy loop on one of the 2 cores: 81-88 ns "
+             "per node instead of 95-132 at 1.9e5 nodes); since either worker may then run any chunk, each "
+             "keeps room for all of an evaluation's force shares (64 bytes an active contact): with 2 "
+             "threads and the default outputs the context holds 201 bytes per node at 1.9e5 nodes, against "
+             "148 with one.")
     L.append("")
     L.append("Where the time goes now. At 1e4 nodes the evaluation is bound by instructions and branches: about "
              "1,100 instructions per node (callgrind) and 4 mispredicted branches per slave (cachegrind's "
@@ -1030,7 +1035,8 @@ def hard_cases_doc(res, path):
              "force with bodies across the periodic box edge, coordinates outside the box, 1e6 away from the "
              "origin, and periodic grids of fewer than 3 cells a side (where a cell comes back in the stencil "
              "with another shift); a warm context allocates nothing for 0 or 2 threads, even when alpha "
-             "changes.")
+             "changes, and when one of 2 threads is slowed down (alternately) so that the chunks are dealt "
+             "unevenly.")
     L.append("- `tests/core/test_search.c`: cell list against brute force on packings, and the continuity of the "
              "force direction past a corner (docs/benchmarks.md, \"Smoothness\", measures it per alpha).")
     L.append("")

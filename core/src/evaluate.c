@@ -53,6 +53,21 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
  * this evaluation's records, force shares and per-slave candidates, so that
  * evaluating again (the same scene, new positions) allocates nothing. Like
  * every allocation, a refused one is the caller's NTS_ENOMEM. */
+static int reserve(void** ptr, int* cap, int need, size_t size) {
+    /* Room for need and an eighth more, not the next power of two: every
+     * worker holds it. The contents (this evaluation's) are kept. */
+    const long long want = (long long)need + need / 8 < INT_MAX ? (long long)need + need / 8 : INT_MAX;
+    void* p;
+    if (need <= *cap) return NTS_OK;
+    p = nts_alloc((size_t)want * size);
+    if (p == NULL) return NTS_ENOMEM;
+    if (*ptr != NULL && *cap > 0) memcpy(p, *ptr, (size_t)*cap * size);
+    nts_free(*ptr);
+    *ptr = p;
+    *cap = (int)want;
+    return NTS_OK;
+}
+
 static int workers_reserve(nts_context* ctx, int nthreads) {
     int t, recs = 0, shares = 0, best = 0;
     for (t = 0; t < nthreads; ++t) {
@@ -63,9 +78,9 @@ static int workers_reserve(nts_context* ctx, int nthreads) {
     }
     for (t = 0; t < nthreads; ++t) {
         worker* w = &ctx->workers[t];
-        if ((recs > 0 && nts_grow((void**)&w->recs, &w->rec_cap, recs, sizeof(candidate)) != NTS_OK) ||
-            (shares > 0 && nts_grow((void**)&w->shares, &w->share_cap, shares, sizeof(force_shares)) != NTS_OK) ||
-            (best > 0 && nts_grow((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK))
+        if (reserve((void**)&w->recs, &w->rec_cap, recs, sizeof(candidate)) != NTS_OK ||
+            reserve((void**)&w->shares, &w->share_cap, shares, sizeof(force_shares)) != NTS_OK ||
+            reserve((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK)
             return NTS_ENOMEM;
     }
     return NTS_OK;

@@ -90,8 +90,9 @@ static int forces_range(nts_context* ctx, int n0, int n1) {
         const chunk_info* ch = &ctx->chunks[c];
         for (k = 0; k < ch->sums.active; ++k) {
             const force_shares* sh = &ch->sh[k];
-            for (q = 0; q < sh->count; ++q)
-                if (sh->node[q] >= n0 && sh->node[q] < n1) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
+            for (q = 0; q < 4 && sh->node[q] >= 0; ++q)
+                if (sh->node[q] >= n0 && sh->node[q] < n1)
+                    F[sh->node[q]] = nts_add(F[sh->node[q]], share_force(sh, q));
         }
     }
     return forces_finite(F, n0, n1) ? 0 : 1;

@@ -223,7 +223,7 @@ static inline int near_keys(const master_keys* k, float sx, float sy, int own0, 
  * memory one after another. */
 static void forces_delayed(const search_env* env, worker* w, const force_shares* sh) {
     int q;
-    for (q = 0; q < sh->count; ++q) NTS_PREFETCH_W(&env->forces[sh->node[q]]);
+    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) NTS_PREFETCH_W(&env->forces[sh->node[q]]);
     if (w->fifo_count == FORCE_DELAY) {
         add_shares(env->forces, &w->fifo[w->fifo_head]);
         w->fifo[w->fifo_head] = *sh;

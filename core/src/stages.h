@@ -186,13 +186,22 @@ typedef struct contact_sums {
     int active, overflow;
 } contact_sums;
 
-/* An active record's forces (10), node by node: f_s = -eps g n on the slave,
- * f_k = eps g N_k n on master node k (at most 3). */
+/* An active record's forces (10), node by node: f_s = -eps g n on the slave
+ * (node[0]), f_k = eps g N_k n on master node k (node[1..3], -1 past the
+ * last). Kept as eps g, n and the N_k, one 64-byte line: share_force makes
+ * each node's force by the same products wherever it runs (the same bits). */
 typedef struct force_shares {
-    int count;
     int node[4];
-    nts_vec2 f[4];
+    double eg;
+    nts_vec2 n;
+    double w[3];
 } force_shares;
+
+typedef char nts_force_shares_are_one_line[sizeof(force_shares) == 64 ? 1 : -1];
+
+static inline nts_vec2 share_force(const force_shares* sh, int q) {
+    return q == 0 ? nts_scale(-sh->eg, sh->n) : nts_scale(sh->eg * sh->w[q - 1], sh->n);
+}
 
 /* A hint to load a line that will be read (written) soon. */
 #if defined(__GNUC__)
@@ -413,26 +422,24 @@ static inline void contact_sum(const search_env* env, const candidate* b, contac
 
 
 static inline force_shares contact_shares(const search_env* env, const candidate* b) {
-    const double eg = record_penalty(env, b) * b->gap;
     force_shares sh;
     int entry[3], q, m;
-    double w[3];
+    sh.eg = record_penalty(env, b) * b->gap;
+    sh.n = b->normal;
     sh.node[0] = env->seg[b->slave].node;
-    sh.f[0] = nts_scale(-eg, b->normal);
-    m = record_masters(env, b, entry, w);
-    for (q = 0; q < m; ++q) {
-        sh.node[q + 1] = env->seg[entry[q]].node;
-        sh.f[q + 1] = nts_scale(eg * w[q], b->normal);
+    m = record_masters(env, b, entry, sh.w);
+    for (q = 0; q < 3; ++q) {
+        sh.node[q + 1] = q < m ? env->seg[entry[q]].node : -1;
+        if (q >= m) sh.w[q] = 0.0;
     }
-    sh.count = m + 1;
     return sh;
 }
 
-/* Add a record's force shares into F, in the order of its shares (the
- * scatter adds them the same way: the same bits). */
+/* Add a record's force shares into F, node by node in order (the scatter
+ * adds them the same way: the same bits). */
 static inline void add_shares(nts_vec2* F, const force_shares* sh) {
     int q;
-    for (q = 0; q < sh->count; ++q) F[sh->node[q]] = nts_add(F[sh->node[q]], sh->f[q]);
+    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) F[sh->node[q]] = nts_add(F[sh->node[q]], share_force(sh, q));
 }
 
 /* segments.c */
