@@ -758,13 +758,13 @@ def report(res, made):
         if thr_b:
             L.append("The same section run again with `OMP_PROC_BIND=true` (OpenMP's threads pinned to cores). "
                      "Why it matters here: between two 2-thread evaluations the 1-, 3- and 4-thread ones run, so "
-                     "the second worker sleeps; when the next evaluation wakes it, this VM's kernel (a Firecracker "
-                     "guest booted with `sched_vcpu_pack`) queues it on the caller's own core, where the caller "
-                     "spins waiting for it (libgomp's default wait policy), until the caller's time slice ends. "
-                     "Measured with an empty 2-thread parallel region after 20 ms idle: 7.1 ms unpinned, 70 us "
-                     "pinned, 25 us with `OMP_WAIT_POLICY=passive`; after 1 ms idle (the worker still spinning) "
-                     "2 us. A solver that calls the library from a loop with idle gaps meets the same: pin the "
-                     "threads (`OMP_PROC_BIND=true`) or let them sleep (`OMP_WAIT_POLICY=passive`).")
+                     "the second worker sleeps. Measured with an empty 2-thread parallel region after 20 ms idle: "
+                     "6.5 to 7.1 ms unpinned, 70 us pinned, 25 us with `OMP_WAIT_POLICY=passive`; after 1 ms idle "
+                     "(the worker still spinning) 2 us. Our reading: this VM's kernel (a Firecracker guest booted "
+                     "with `sched_vcpu_pack`) wakes the worker on the caller's own core, where the caller spins "
+                     "waiting for it (libgomp's default wait policy) until its time slice ends; pinning or passive "
+                     "waiting both remove it. A solver that calls the library from a loop with idle gaps may meet "
+                     "the same: pin the threads (`OMP_PROC_BIND=true`) or let them sleep (`OMP_WAIT_POLICY=passive`).")
             L.append("")
             L.append(table(["surface nodes", "solver", "alpha", "threads", "eval (wall)", "eval best", "speed-up",
                             "speed-up (paired)", "speed-up (best)", "cores available", "bitwise identical"],
