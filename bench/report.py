@@ -883,9 +883,13 @@ def report(res, made):
              "separate loop from their lengths (no faster); a queue of 16 contacts instead of 8 (the same); "
              "the segment records streamed around the cache at 1e6 (non-temporal stores: the pass slower); "
              "prefetching the force lines in the 2-thread scatter (slower). "
-             "Left to try: a screen that applies the flat and corner conditions in single "
-             "precision (in an exact replay it halves the tries, 1.94 to 1.02 per slave, at 20 more bytes per "
-             "key), which attacks both the mispredicted branches and the masters' loads; the cells phase with "
+             "A screen that applies the flat and node conditions in single precision (each key 32 bytes: "
+             "the middle, the unit tangent, the flat half length, the node's reach) did halve the tries, "
+             "1.94 to 1.01 per slave, as an exact replay had predicted, but the whole evaluation was 12 to 15% "
+             "slower at 1e4 to 1e6 (the screen's extra work on every key of the stencil, about 30 a slave, "
+             "costs more than 0.9 tries; the cells phase 4 ns slower with the wider keys): dropped. "
+             "Left to try: that test on the survivors of the distance screen only (about 2 a slave); the "
+             "cells phase with "
              "2 threads (1.2 to 1.6x: the counting sort's two slices count twice the cells, and the keys' "
              "scattered stores share the memory bandwidth).")
     L.append("")
