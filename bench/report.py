@@ -505,8 +505,8 @@ def report(res, made):
         two_b = [r for r in thr_b if r["threads"] == "2"]
         if two_b:
             L.append("- Threads pinned to cores (`OMP_PROC_BIND=true`, the same run): 2 threads %s from median wall "
-                     "times, %s from the best, bitwise identical: **%s**. Unpinned, this VM's kernel wakes an idle "
-                     "OpenMP worker on the caller's own core while the caller spins for it: see \"Threads\"."
+                     "times, %s from the best, bitwise identical: **%s**. Unpinned, a worker idle for a while takes "
+                     "milliseconds to join the next evaluation on this VM: see \"Threads\"."
                      % ("-".join([fnum(min(float(r["speedup"]) for r in two_b)),
                                   fnum(max(float(r["speedup"]) for r in two_b))]),
                         "-".join([fnum(min(float(r["speedup_best"]) for r in two_b)),
