@@ -1,7 +1,9 @@
 /* The evaluation context: its buffers (they only grow, so a warm context
  * allocates nothing), its per-thread workers and chunks, and the phase
  * profile. */
+#include <limits.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "stages.h"
 
@@ -26,11 +28,12 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) +
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
-        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double));
+        (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double)) +
+        ctx->pool_cap;
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
-             (size_t)w->rec_cap * sizeof(candidate) + (size_t)w->share_cap * sizeof(force_shares);
+             (size_t)w->rec_cap * sizeof(candidate) + (size_t)w->share_cap * sizeof(force_shares) + w->spill_cap;
     }
     return n;
 }
@@ -48,6 +51,7 @@ static void workers_free(nts_context* ctx) {
         nts_free(ctx->workers[i].best);
         nts_free(ctx->workers[i].recs);
         nts_free(ctx->workers[i].shares);
+        nts_free(ctx->workers[i].spill);
     }
     nts_free(ctx->workers);
     ctx->workers = NULL;
@@ -69,6 +73,7 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->chunks);
     nts_free(ctx->forces);
     nts_free(ctx->shares);
+    nts_free(ctx->pool);
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
     nts_kbuf_free(&ctx->stiffness);
@@ -93,13 +98,120 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
         }
         ctx->slot_cap = body_count;
     }
+    ctx->pool_at = 0;
     for (i = 0; i < count; ++i) {
         ctx->workers[i].rec_count = 0;
         ctx->workers[i].share_count = 0;
         ctx->workers[i].fifo_head = ctx->workers[i].fifo_count = 0;
+        ctx->workers[i].spill_used = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].best_count = 0;
         ctx->workers[i].status = NTS_OK;
+    }
+    return NTS_OK;
+}
+
+/* Room for `need` bytes and an eighth more (the contents kept). */
+static int grow_bytes(char** p, size_t* cap, size_t need) {
+    const size_t want = need + need / 8;
+    char* q;
+    if (need <= *cap) return NTS_OK;
+    q = (char*)nts_alloc(want);
+    if (q == NULL) return NTS_ENOMEM;
+    if (*p != NULL && *cap > 0) memcpy(q, *p, *cap);
+    nts_free(*p);
+    *p = q;
+    *cap = want;
+    return NTS_OK;
+}
+
+void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, const void* staged, size_t bytes) {
+    size_t at;
+    if (bytes == 0) return;
+#if NTS_CONFIG_OPENMP
+#pragma omp atomic capture
+#endif
+    {
+        at = ctx->pool_at;
+        ctx->pool_at += bytes;
+    }
+    if (at + bytes <= ctx->pool_cap) { /* claimed: no other chunk writes there */
+        memcpy(ctx->pool + at, staged, bytes);
+        ch->spilled = 0;
+        ch->at = at;
+        return;
+    }
+    if (grow_bytes(&w->spill, &w->spill_cap, w->spill_used + bytes) != NTS_OK) {
+        w->status = NTS_ENOMEM;
+        return;
+    }
+    memcpy(w->spill + w->spill_used, staged, bytes);
+    ch->spilled = 1;
+    ch->at = w->spill_used;
+    w->spill_used += bytes;
+}
+
+/* Room for `need` elements of `size` bytes, an eighth more (the contents kept). */
+static int reserve(void** p, int* cap, int need, size_t size) {
+    const long long want = (long long)need + need / 8 < INT_MAX ? (long long)need + need / 8 : INT_MAX;
+    void* q;
+    if (need <= *cap) return NTS_OK;
+    q = nts_alloc((size_t)want * size);
+    if (q == NULL) return NTS_ENOMEM;
+    if (*p != NULL && *cap > 0) memcpy(q, *p, (size_t)*cap * size);
+    nts_free(*p);
+    *p = q;
+    *cap = (int)want;
+    return NTS_OK;
+}
+
+int nts_chunks_settle(nts_context* ctx, int nthreads, int shares) {
+    const size_t size = shares ? sizeof(force_shares) : sizeof(candidate);
+    size_t total = 0;
+    int c, t, largest = 0, best = 0, spilled = 0;
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        total += (size_t)ch->count * size;
+        if (ch->count > largest) largest = ch->count;
+        spilled |= ch->count > 0 && ch->spilled;
+    }
+    if (spilled) {
+        /* The pool was too small: a new one, every chunk's records in chunk order. */
+        const size_t want = total + total / 8;
+        char* pool = (char*)nts_alloc(want);
+        size_t at = 0;
+        if (pool == NULL) return NTS_ENOMEM;
+        for (c = 0; c < ctx->chunk_count; ++c) {
+            chunk_info* ch = &ctx->chunks[c];
+            const size_t bytes = (size_t)ch->count * size;
+            if (bytes == 0) continue;
+            memcpy(pool + at, (ch->spilled ? ctx->workers[ch->worker].spill : ctx->pool) + ch->at, bytes);
+            ch->spilled = 0;
+            ch->at = at;
+            at += bytes;
+        }
+        nts_free(ctx->pool);
+        ctx->pool = pool;
+        ctx->pool_cap = want;
+        for (t = 0; t < ctx->worker_count; ++t) { /* nothing left there: give it back */
+            worker* w = &ctx->workers[t];
+            nts_free(w->spill);
+            w->spill = NULL;
+            w->spill_cap = w->spill_used = 0;
+        }
+    }
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        chunk_info* ch = &ctx->chunks[c];
+        ch->data = ch->count > 0 ? (const void*)(ctx->pool + ch->at) : NULL;
+    }
+    for (t = 0; t < nthreads; ++t)
+        if (ctx->workers[t].best_cap > best) best = ctx->workers[t].best_cap;
+    for (t = 0; t < nthreads && nthreads > 1; ++t) {
+        worker* w = &ctx->workers[t];
+        if ((!shares && reserve((void**)&w->recs, &w->rec_cap, largest, sizeof(candidate)) != NTS_OK) ||
+            (shares && reserve((void**)&w->shares, &w->share_cap, largest, sizeof(force_shares)) != NTS_OK) ||
+            reserve((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK)
+            return NTS_ENOMEM;
     }
     return NTS_OK;
 }

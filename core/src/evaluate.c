@@ -48,44 +48,6 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     *finest = nts_select_kth(sharp, count, (int)(0.95 * (double)(count - 1)));
 }
 
-/* The chunks go to whichever thread is free, so the next evaluation may give
- * a worker more of them than this one did: room in every worker for all of
- * this evaluation's records, force shares and per-slave candidates, so that
- * evaluating again (the same scene, new positions) allocates nothing. Like
- * every allocation, a refused one is the caller's NTS_ENOMEM. */
-static int reserve(void** ptr, int* cap, int need, size_t size) {
-    /* Room for need and an eighth more, not the next power of two: every
-     * worker holds it. The contents (this evaluation's) are kept. */
-    const long long want = (long long)need + need / 8 < INT_MAX ? (long long)need + need / 8 : INT_MAX;
-    void* p;
-    if (need <= *cap) return NTS_OK;
-    p = nts_alloc((size_t)want * size);
-    if (p == NULL) return NTS_ENOMEM;
-    if (*ptr != NULL && *cap > 0) memcpy(p, *ptr, (size_t)*cap * size);
-    nts_free(*ptr);
-    *ptr = p;
-    *cap = (int)want;
-    return NTS_OK;
-}
-
-static int workers_reserve(nts_context* ctx, int nthreads) {
-    int t, recs = 0, shares = 0, best = 0;
-    for (t = 0; t < nthreads; ++t) {
-        const worker* w = &ctx->workers[t];
-        recs += w->rec_count;
-        shares += w->share_count;
-        if (w->best_cap > best) best = w->best_cap;
-    }
-    for (t = 0; t < nthreads; ++t) {
-        worker* w = &ctx->workers[t];
-        if (reserve((void**)&w->recs, &w->rec_cap, recs, sizeof(candidate)) != NTS_OK ||
-            reserve((void**)&w->shares, &w->share_cap, shares, sizeof(force_shares)) != NTS_OK ||
-            reserve((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK)
-            return NTS_ENOMEM;
-    }
-    return NTS_OK;
-}
-
 /* The largest alpha that shapes a surface: the options' and the bodies' own. */
 static double largest_alpha(const nts_scene* s, double alpha) {
     double a = alpha;
@@ -218,8 +180,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     ctx->phase[1] = t1 - t0;
     t0 = t1;
 
-    /* 3. Local search, chunk by chunk, each chunk's records kept by the
-     * worker that ran it (any worker: the scatter reads them in chunk order). */
+    /* 3. Local search, chunk by chunk, each chunk taken by whichever thread
+     * is free and its records kept in one pool for all the chunks (the
+     * scatter reads them in chunk order, whoever ran them). */
     nchunk = (s->surface_count + CHUNK_SLAVES - 1) / CHUNK_SLAVES;
     if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count, nchunk)) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
@@ -250,10 +213,13 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         const int begin = i * CHUNK_SLAVES, end = begin + CHUNK_SLAVES < s->surface_count ? begin + CHUNK_SLAVES
                                                                                            : s->surface_count;
         ch->worker = t;
-        ch->first = env.shares ? w->share_count : w->rec_count;
+        w->rec_count = w->share_count = 0; /* the chunk's own records, then kept in the pool */
         w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
-        ch->count = (env.shares ? w->share_count : w->rec_count) - ch->first;
+        ch->count = env.shares ? w->share_count : w->rec_count;
+        if (w->status == NTS_OK && ch->count > 0)
+            nts_chunk_keep(ctx, w, ch, env.shares ? (const void*)w->shares : (const void*)w->recs,
+                           (size_t)ch->count * (env.shares ? sizeof(force_shares) : sizeof(candidate)));
     }
     {
         long long records = 0;
@@ -275,7 +241,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             return rc;
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
-        if (nthreads > 1 && (rc = workers_reserve(ctx, nthreads)) != NTS_OK)
+        if ((rc = nts_chunks_settle(ctx, nthreads, env.shares)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
     }
     t1 = wall_time();

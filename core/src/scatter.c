@@ -52,13 +52,11 @@ static int forces_finite(const nts_vec2* F, int n0, int n1) {
 }
 
 /* A chunk's records (none, and maybe no buffer, when it found nothing). */
-static inline const candidate* chunk_recs(const nts_context* ctx, const chunk_info* ch) {
-    return ch->count > 0 ? ctx->workers[ch->worker].recs + ch->first : NULL;
-}
+static inline const candidate* chunk_recs(const chunk_info* ch) { return (const candidate*)ch->data; }
 
 /* A chunk's active contacts and their sums. */
-static void chunk_sums(const nts_context* ctx, const search_env* env, chunk_info* ch) {
-    const candidate* rec = chunk_recs(ctx, ch);
+static void chunk_sums(const search_env* env, chunk_info* ch) {
+    const candidate* rec = chunk_recs(ch);
     int k;
     memset(&ch->sums, 0, sizeof ch->sums);
     for (k = 0; k < ch->count; ++k)
@@ -68,7 +66,7 @@ static void chunk_sums(const nts_context* ctx, const search_env* env, chunk_info
 /* A chunk's active records' force shares, from its place on (none, and
  * maybe no buffer at all, when it has no active record). */
 static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch) {
-    const candidate* rec = chunk_recs(ctx, ch);
+    const candidate* rec = chunk_recs(ch);
     force_shares* out;
     int k;
     ch->sh = NULL;
@@ -119,7 +117,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
 
     if (!env->direct && !env->shares) { /* else the search summed them */
         NTS_PARALLEL_FOR(nthreads)
-        for (c = 0; c < nchunk; ++c) chunk_sums(ctx, env, &ctx->chunks[c]);
+        for (c = 0; c < nchunk; ++c) chunk_sums(env, &ctx->chunks[c]);
     }
     for (c = 0; c < nchunk; ++c) { /* in chunk order */
         const contact_sums* cs = &ctx->chunks[c].sums;
@@ -146,7 +144,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             for (c = 0; c < nchunk; ++c) {
                 chunk_info* ch = &ctx->chunks[c];
                 assert(ch->count == ch->sums.active);
-                ch->sh = ch->count > 0 ? ctx->workers[ch->worker].shares + ch->first : NULL;
+                ch->sh = (const force_shares*)ch->data;
             }
         } else {
             for (c = 0; c < nchunk; ++c) {
@@ -188,7 +186,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         NTS_PARALLEL_FOR(nthreads)
         for (c = 0; c < nchunk; ++c) {
             const chunk_info* ch = &ctx->chunks[c];
-            const candidate* rec = chunk_recs(ctx, ch);
+            const candidate* rec = chunk_recs(ch);
             int k, g = ch->gap_at, a = ch->contact_at;
             for (k = 0; k < ch->count; ++k) {
                 const nts_contact cc = make_contact(env, &rec[k]);
@@ -203,7 +201,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         ctx->stiffness.count = 0;
         for (c = 0; c < nchunk; ++c) {
             const chunk_info* ch = &ctx->chunks[c];
-            const candidate* rec = chunk_recs(ctx, ch);
+            const candidate* rec = chunk_recs(ch);
             int k;
             for (k = 0; k < ch->count; ++k) {
                 nts_contact cc;

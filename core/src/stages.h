@@ -216,18 +216,22 @@ static inline nts_vec2 share_force(const force_shares* sh, int q) {
 enum { FORCE_DELAY = 8 };
 
 /* One worker's scratch: the per-slave best candidate of each master body, and
- * the records of the chunks it ran, each chunk's in slave order: every
- * closest point within r when contacts, gaps or the tangent are asked for,
- * else only the active contacts (g < 0), all that forces, energy and virial
- * need. */
+ * the records of the chunk it runs, in slave order: every closest point
+ * within r when contacts, gaps or the tangent are asked for, else only the
+ * active contacts (g < 0), all that forces, energy and virial need; or, with
+ * several threads and no records asked for, only the active contacts' force
+ * shares. A finished chunk's records move to the context's pool
+ * (nts_chunk_keep), or to the worker's spill when the pool is full. */
 typedef struct worker {
     int* slot;         /* body -> index into best, -1 if none (all -1 between slaves) */
     candidate* best;   /* candidates of the current slave */
     int best_count, best_cap;
-    candidate* recs;
+    candidate* recs;   /* the current chunk's records */
     int rec_count, rec_cap;
-    force_shares* shares; /* the active contacts' force shares (search_env.shares) */
+    force_shares* shares; /* the current chunk's force shares (search_env.shares) */
     int share_count, share_cap;
+    char* spill;       /* finished chunks' records that the pool had no room for */
+    size_t spill_used, spill_cap;
     /* The direct path's forces not yet added, first in first out (search.c:
      * forces_delayed). */
     force_shares fifo[FORCE_DELAY];
@@ -242,14 +246,17 @@ typedef struct worker {
 
 /* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
  * whichever thread is free (so a thread that the machine slows down takes
- * fewer); a chunk's records sit in the worker that ran it, and the scatter
- * reads the chunks in order: slave order, whoever ran them. The scatter also leaves each chunk's partial sums here, added in
+ * fewer); a chunk's records go to one pool for all the chunks, wherever they
+ * ran, and the scatter reads the chunks in order: slave order, whoever ran
+ * them. The scatter also leaves each chunk's partial sums here, added in
  * chunk order: the same bits for any number of threads. */
 enum { CHUNK_SLAVES = 1024 };
 
 typedef struct chunk_info {
-    int worker, first, count; /* records workers[worker].recs[first .. first + count), or its
-                                 force shares workers[worker].shares[...] (search_env.shares) */
+    int worker, count;        /* who ran it; its records (force shares with search_env.shares) */
+    int spilled;              /* 1: its records are in workers[worker].spill at `at` */
+    size_t at;                /* the byte where they are, in the pool or the spill */
+    const void* data;         /* its records once the search is over (nts_chunks_settle) */
     int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
     int share_at;             /* the first place of its active records' force shares in ctx->shares */
     const force_shares* sh;   /* its force shares (sums.active of them), wherever they are */
@@ -276,6 +283,8 @@ struct nts_context {
     int hist_cap;
     worker* workers;
     int worker_count, slot_cap;
+    char* pool;        /* the chunks' records (or force shares), each chunk's in one piece */
+    size_t pool_cap, pool_at;
     chunk_info* chunks;
     int chunk_cap, chunk_count;
     nts_vec2* forces;
@@ -464,6 +473,16 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
 /* context.c: `count` workers with a body slot map of at least body_count
  * entries, and room for `chunks` chunks. */
 int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks);
+/* context.c: chunk ch, just run by worker w, keeps its `bytes` of records
+ * from `staged`: in the pool when it has room (any thread may call it at
+ * once), else in w's spill (w->status is NTS_ENOMEM if that fails). */
+void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, const void* staged, size_t bytes);
+/* context.c: once the search is over, every chunk's records in the pool, in
+ * chunk order when the pool had to grow (force shares or candidates), and
+ * room kept for the next evaluation to allocate nothing whoever runs which
+ * chunk: the pool for all the records, each worker for the largest chunk
+ * and the most candidates of a slave. Sets each chunk's `data`. */
+int nts_chunks_settle(nts_context* ctx, int nthreads, int shares);
 
 /* search.c: the local search of slaves [begin, end) into worker w. */
 void nts_search_range(const search_env* env, worker* w, int begin, int end);
