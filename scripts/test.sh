@@ -14,6 +14,11 @@ if [ -d tests/python ]; then
   [ $rc -eq 5 ] && rc=0   # no tests collected is not a failure of the suite
   [ $rc -ne 0 ] && exit $rc
 fi
+# The core and its CUnit suites without OpenMP (NTS_OPENMP=OFF): the serial
+# build must compile and give the same answers.
+cmake -S . -B build-serial -DCMAKE_BUILD_TYPE=RelWithDebInfo -DNTS_WERROR=ON -DNTS_OPENMP=OFF >/dev/null
+cmake --build build-serial -j "$(nproc)" --target test_core >/dev/null
+(cd build-serial && ctest --output-on-failure -R '^core$')
 # Reliability (issue 7): everything again under ASan + UBSan, then a bounded
 # libFuzzer run of decode + evaluate + encode (fails on crash, leak or timeout).
 bash scripts/test-sanitize.sh
