@@ -151,17 +151,14 @@ void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, const void* sta
     w->spill_used += bytes;
 }
 
-/* Room for `need` elements of `size` bytes, an eighth more (the contents kept). */
+/* Room for `need` elements of `size` bytes, an eighth more (grow_bytes). */
 static int reserve(void** p, int* cap, int need, size_t size) {
-    const long long want = (long long)need + need / 8 < INT_MAX ? (long long)need + need / 8 : INT_MAX;
-    void* q;
+    size_t bytes = (size_t)*cap * size;
+    char* q = (char*)*p;
     if (need <= *cap) return NTS_OK;
-    q = nts_alloc((size_t)want * size);
-    if (q == NULL) return NTS_ENOMEM;
-    if (*p != NULL && *cap > 0) memcpy(q, *p, (size_t)*cap * size);
-    nts_free(*p);
+    if (grow_bytes(&q, &bytes, (size_t)need * size) != NTS_OK) return NTS_ENOMEM;
     *p = q;
-    *cap = (int)want;
+    *cap = bytes / size < (size_t)INT_MAX ? (int)(bytes / size) : INT_MAX;
     return NTS_OK;
 }
 

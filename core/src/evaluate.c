@@ -193,7 +193,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
      * force shares, no records (search_env.shares). */
     env.shares = nthreads > 1 && !env.keep_all;
     env.want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
-    if (env.direct && (opt->outputs & NTS_OUT_FORCES) != 0u) {
+    if (env.direct && env.want_forces) {
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         memset(ctx->forces, 0, sizeof(nts_vec2) * (size_t)s->node_count);

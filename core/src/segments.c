@@ -41,7 +41,6 @@ static inline double segment_length(const nts_scene* s, int i, nts_vec2 p, nts_v
 
 /* The order statistic of the lengths that the segment pass brackets (below). */
 typedef struct kth_plan {
-    int k;         /* -1: none asked for */
     int bracket;   /* 1: keep the lengths in [lo, hi] while the segments are computed */
     double lo, hi;
 } kth_plan;
@@ -63,7 +62,6 @@ static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, int threa
     kth_plan plan;
     int i, rlo, rhi;
     (void)threads; /* without OpenMP */
-    plan.k = k;
     plan.bracket = k >= 0 && n > 4 * NTS_SAMPLE;
     plan.lo = plan.hi = 0.0;
     if (!plan.bracket) return plan;
