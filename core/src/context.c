@@ -106,6 +106,7 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
         ctx->workers[i].spill_used = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].best_count = 0;
+        ctx->workers[i].best_most = 0;
         ctx->workers[i].status = NTS_OK;
     }
     return NTS_OK;
@@ -201,8 +202,12 @@ int nts_chunks_settle(nts_context* ctx, int nthreads, int shares) {
         chunk_info* ch = &ctx->chunks[c];
         ch->data = ch->count > 0 ? (const void*)(ctx->pool + ch->at) : NULL;
     }
+    /* What every worker must hold is sized by the scene's needs (the largest
+     * chunk, the most candidates of a slave), never by another worker's
+     * capacity: capacities depend on which worker ran what, and sizing one
+     * by another's grew each by an eighth at every evaluation (issue 22). */
     for (t = 0; t < nthreads; ++t)
-        if (ctx->workers[t].best_cap > best) best = ctx->workers[t].best_cap;
+        if (ctx->workers[t].best_most > best) best = ctx->workers[t].best_most;
     for (t = 0; t < nthreads && nthreads > 1; ++t) {
         worker* w = &ctx->workers[t];
         if ((!shares && reserve((void**)&w->recs, &w->rec_cap, largest, sizeof(candidate)) != NTS_OK) ||

@@ -248,6 +248,7 @@ static void forces_drain(const search_env* env, worker* w) {
 static void flush_slave(const search_env* env, worker* w, int i) {
     int k, m, need;
     if (w->best_count == 0) return;
+    if (w->best_count > w->best_most) w->best_most = w->best_count;
     w->gaps += w->best_count;
     need = w->rec_count + w->best_count;
     if (w->gaps > env->max_records) {

@@ -226,6 +226,8 @@ typedef struct worker {
     int* slot;         /* body -> index into best, -1 if none (all -1 between slaves) */
     candidate* best;   /* candidates of the current slave */
     int best_count, best_cap;
+    int best_most;     /* the most candidates of one slave this evaluation (a need of the
+                          scene, whichever worker met it: nts_chunks_settle) */
     candidate* recs;   /* the current chunk's records */
     int rec_count, rec_cap;
     force_shares* shares; /* the current chunk's force shares (search_env.shares) */

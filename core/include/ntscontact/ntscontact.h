@@ -240,8 +240,12 @@ NTS_API nts_profile nts_context_profile(const nts_context* ctx);
 NTS_API size_t nts_context_memory_bytes(const nts_context* ctx);
 
 /* Evaluate contact. Returns 0 or a negative status (with *err filled when not
- * NULL); on success fills *out. Reusing a context on the same scene allocates
- * nothing once its buffers have grown to the scene's needs. */
+ * NULL); on success fills *out. A context's buffers are sized by what the
+ * scene needs (its records, the largest chunk of slaves, the most candidates
+ * of one slave), never by which thread ran which part: evaluating the same
+ * scene at the same positions with the same options and thread count again
+ * allocates nothing, whatever the schedule, and a context never holds more
+ * than a fixed multiple of the largest needs it has met. */
 NTS_API int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
                  nts_result* out, nts_error* err);
 
