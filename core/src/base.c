@@ -1,5 +1,5 @@
 /* Status names, messages and the allocator hook (base.h). */
-#include <ntscontact/base.h>
+#include <ntscontact/ntscontact.h>
 
 #include "internal.h"
 
@@ -25,6 +25,24 @@ const char* nts_strerror(int status) {
         NTS_ERRNO_MAP(NTS_XX_)
 #undef NTS_XX_
     default: return "unknown error";
+    }
+}
+
+const char* nts_warning_name(int code) {
+    switch (code) {
+#define NTS_XX_(e, v, name, msg) case NTS_WARN_##e: return name;
+        NTS_WARNING_MAP(NTS_XX_)
+#undef NTS_XX_
+    default: return "unknown_warning";
+    }
+}
+
+const char* nts_warning_message(int code) {
+    switch (code) {
+#define NTS_XX_(e, v, name, msg) case NTS_WARN_##e: return msg;
+        NTS_WARNING_MAP(NTS_XX_)
+#undef NTS_XX_
+    default: return "unknown warning";
     }
 }
 

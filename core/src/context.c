@@ -29,11 +29,13 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double)) +
-        ctx->pool_cap;
+        ctx->pool_cap[STREAM_RECORDS] + ctx->pool_cap[STREAM_REACH] + nts_reach_memory_bytes(&ctx->reach);
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
         n += sizeof *w + (size_t)ctx->slot_cap * sizeof(int) + (size_t)w->best_cap * sizeof(candidate) +
-             (size_t)w->rec_cap * sizeof(candidate) + (size_t)w->share_cap * sizeof(force_shares) + w->spill_cap;
+             (size_t)w->rec_cap * sizeof(candidate) + (size_t)w->share_cap * sizeof(force_shares) +
+             (size_t)w->item_cap * sizeof(reach_item) + (size_t)w->last_cap * sizeof(candidate) +
+             w->spill_cap[STREAM_RECORDS] + w->spill_cap[STREAM_REACH];
     }
     return n;
 }
@@ -51,7 +53,10 @@ static void workers_free(nts_context* ctx) {
         nts_free(ctx->workers[i].best);
         nts_free(ctx->workers[i].recs);
         nts_free(ctx->workers[i].shares);
-        nts_free(ctx->workers[i].spill);
+        nts_free(ctx->workers[i].items);
+        nts_free(ctx->workers[i].last);
+        nts_free(ctx->workers[i].spill[STREAM_RECORDS]);
+        nts_free(ctx->workers[i].spill[STREAM_REACH]);
     }
     nts_free(ctx->workers);
     ctx->workers = NULL;
@@ -73,7 +78,9 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->chunks);
     nts_free(ctx->forces);
     nts_free(ctx->shares);
-    nts_free(ctx->pool);
+    nts_free(ctx->pool[STREAM_RECORDS]);
+    nts_free(ctx->pool[STREAM_REACH]);
+    nts_reach_free(&ctx->reach);
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
     nts_kbuf_free(&ctx->stiffness);
@@ -98,12 +105,15 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
         }
         ctx->slot_cap = body_count;
     }
-    ctx->pool_at = 0;
+    ctx->pool_at[STREAM_RECORDS] = ctx->pool_at[STREAM_REACH] = 0;
     for (i = 0; i < count; ++i) {
         ctx->workers[i].rec_count = 0;
         ctx->workers[i].share_count = 0;
+        ctx->workers[i].item_count = 0;
+        ctx->workers[i].last_count = 0;
+        ctx->workers[i].last_slave = -1;
         ctx->workers[i].fifo_head = ctx->workers[i].fifo_count = 0;
-        ctx->workers[i].spill_used = 0;
+        ctx->workers[i].spill_used[STREAM_RECORDS] = ctx->workers[i].spill_used[STREAM_REACH] = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].best_count = 0;
         ctx->workers[i].best_most = 0;
@@ -126,30 +136,31 @@ static int grow_bytes(char** p, size_t* cap, size_t need) {
     return NTS_OK;
 }
 
-void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, const void* staged, size_t bytes) {
+void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, const void* staged, size_t bytes) {
+    chunk_part* part = &ch->part[stream];
     size_t at;
     if (bytes == 0) return;
 #if NTS_CONFIG_OPENMP
 #pragma omp atomic capture
 #endif
     {
-        at = ctx->pool_at;
-        ctx->pool_at += bytes;
+        at = ctx->pool_at[stream];
+        ctx->pool_at[stream] += bytes;
     }
-    if (at + bytes <= ctx->pool_cap) { /* claimed: no other chunk writes there */
-        memcpy(ctx->pool + at, staged, bytes);
-        ch->spilled = 0;
-        ch->at = at;
+    if (at + bytes <= ctx->pool_cap[stream]) { /* claimed: no other chunk writes there */
+        memcpy(ctx->pool[stream] + at, staged, bytes);
+        part->spilled = 0;
+        part->at = at;
         return;
     }
-    if (grow_bytes(&w->spill, &w->spill_cap, w->spill_used + bytes) != NTS_OK) {
+    if (grow_bytes(&w->spill[stream], &w->spill_cap[stream], w->spill_used[stream] + bytes) != NTS_OK) {
         w->status = NTS_ENOMEM;
         return;
     }
-    memcpy(w->spill + w->spill_used, staged, bytes);
-    ch->spilled = 1;
-    ch->at = w->spill_used;
-    w->spill_used += bytes;
+    memcpy(w->spill[stream] + w->spill_used[stream], staged, bytes);
+    part->spilled = 1;
+    part->at = w->spill_used[stream];
+    w->spill_used[stream] += bytes;
 }
 
 /* Room for `need` elements of `size` bytes, an eighth more (grow_bytes). */
@@ -163,45 +174,57 @@ static int reserve(void** p, int* cap, int need, size_t size) {
     return NTS_OK;
 }
 
-int nts_chunks_settle(nts_context* ctx, int nthreads, int shares) {
-    const size_t size = shares ? sizeof(force_shares) : sizeof(candidate);
+/* One stream's chunks in its pool: when some spilled, a new pool with room
+ * for all, every chunk's items in chunk order, and the spills given back.
+ * Sets each chunk's `data`; *largest is the most items of one chunk. */
+static int settle_stream(nts_context* ctx, int stream, size_t size, int* largest) {
     size_t total = 0;
-    int c, t, largest = 0, best = 0, spilled = 0;
+    int c, t, spilled = 0;
+    *largest = 0;
     for (c = 0; c < ctx->chunk_count; ++c) {
-        const chunk_info* ch = &ctx->chunks[c];
-        total += (size_t)ch->count * size;
-        if (ch->count > largest) largest = ch->count;
-        spilled |= ch->count > 0 && ch->spilled;
+        const chunk_part* part = &ctx->chunks[c].part[stream];
+        total += (size_t)part->count * size;
+        if (part->count > *largest) *largest = part->count;
+        spilled |= part->count > 0 && part->spilled;
     }
     if (spilled) {
-        /* The pool was too small: a new one, every chunk's records in chunk order. */
         const size_t want = total + total / 8;
         char* pool = (char*)nts_alloc(want);
         size_t at = 0;
         if (pool == NULL) return NTS_ENOMEM;
         for (c = 0; c < ctx->chunk_count; ++c) {
-            chunk_info* ch = &ctx->chunks[c];
-            const size_t bytes = (size_t)ch->count * size;
+            chunk_part* part = &ctx->chunks[c].part[stream];
+            const size_t bytes = (size_t)part->count * size;
             if (bytes == 0) continue;
-            memcpy(pool + at, (ch->spilled ? ctx->workers[ch->worker].spill : ctx->pool) + ch->at, bytes);
-            ch->spilled = 0;
-            ch->at = at;
+            memcpy(pool + at,
+                   (part->spilled ? ctx->workers[ctx->chunks[c].worker].spill[stream] : ctx->pool[stream]) + part->at,
+                   bytes);
+            part->spilled = 0;
+            part->at = at;
             at += bytes;
         }
-        nts_free(ctx->pool);
-        ctx->pool = pool;
-        ctx->pool_cap = want;
+        nts_free(ctx->pool[stream]);
+        ctx->pool[stream] = pool;
+        ctx->pool_cap[stream] = want;
         for (t = 0; t < ctx->worker_count; ++t) { /* nothing left there: give it back */
             worker* w = &ctx->workers[t];
-            nts_free(w->spill);
-            w->spill = NULL;
-            w->spill_cap = w->spill_used = 0;
+            nts_free(w->spill[stream]);
+            w->spill[stream] = NULL;
+            w->spill_cap[stream] = w->spill_used[stream] = 0;
         }
     }
     for (c = 0; c < ctx->chunk_count; ++c) {
-        chunk_info* ch = &ctx->chunks[c];
-        ch->data = ch->count > 0 ? (const void*)(ctx->pool + ch->at) : NULL;
+        chunk_part* part = &ctx->chunks[c].part[stream];
+        part->data = part->count > 0 ? (const void*)(ctx->pool[stream] + part->at) : NULL;
     }
+    return NTS_OK;
+}
+
+int nts_chunks_settle(nts_context* ctx, int nthreads, int shares) {
+    int t, largest, most_items, best = 0;
+    if (settle_stream(ctx, STREAM_RECORDS, shares ? sizeof(force_shares) : sizeof(candidate), &largest) != NTS_OK ||
+        settle_stream(ctx, STREAM_REACH, sizeof(reach_item), &most_items) != NTS_OK)
+        return NTS_ENOMEM;
     /* What every worker must hold is sized by the scene's needs (the largest
      * chunk, the most candidates of a slave), never by another worker's
      * capacity: capacities depend on which worker ran what, and sizing one
@@ -212,7 +235,9 @@ int nts_chunks_settle(nts_context* ctx, int nthreads, int shares) {
         worker* w = &ctx->workers[t];
         if ((!shares && reserve((void**)&w->recs, &w->rec_cap, largest, sizeof(candidate)) != NTS_OK) ||
             (shares && reserve((void**)&w->shares, &w->share_cap, largest, sizeof(force_shares)) != NTS_OK) ||
-            reserve((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK)
+            reserve((void**)&w->items, &w->item_cap, most_items, sizeof(reach_item)) != NTS_OK ||
+            reserve((void**)&w->best, &w->best_cap, best, sizeof(candidate)) != NTS_OK ||
+            reserve((void**)&w->last, &w->last_cap, best, sizeof(candidate)) != NTS_OK)
             return NTS_ENOMEM;
     }
     return NTS_OK;

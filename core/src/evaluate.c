@@ -2,6 +2,7 @@
  * scatter -> summary. Each stage is its own file (stages.h); this one sizes
  * the search (radius, cell side) and runs the stages in order, timing each
  * for nts_context_profile. */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <float.h>
 #include <limits.h>
 #include <stdio.h>
@@ -15,13 +16,12 @@
 #endif
 #include <time.h>
 
-/* Wall clock for the phase profile (nts_context_profile). */
+/* Wall clock for the phase profile (nts_context_profile): monotonic, with
+ * or without OpenMP (clock() would count the CPU time of the process). */
 static double wall_time(void) {
-#if NTS_CONFIG_OPENMP
-    return omp_get_wtime();
-#else
-    return (double)clock() / (double)CLOCKS_PER_SEC;
-#endif
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* The cell side that suits most masters: the 95th percentile of their reach
@@ -176,6 +176,20 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         /* The minimum image's round-off, for brute force's reach test. */
         env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);
     }
+    /* The reach's growth (reach.c): the round-off of its tests (that of the
+     * grid's frame, the larger), and its largest radius: the scene's
+     * diagonal, within which every feature lies; in a periodic box, the
+     * radius beyond which an image could be nearer than the minimum one. */
+    env.grow = opt->search_radius < 0.0;
+    env.coarse = 2.0 * env.r;
+    env.wide_lmax = ss.lmax;
+    env.wide_pad = 1e-12 * (ss.coord_max + (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) + s->lx + s->ly);
+    if (s->lx > 0.0)
+        env.reach_max = 0.5 * (s->lx < s->ly ? s->lx : s->ly) - ss.lmax * (1.0 + 1e-9) - env.wide_pad;
+    else
+        env.reach_max = sqrt((ss.xmax - ss.xmin) * (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) * (ss.ymax - ss.ymin)) *
+                            (1.0 + 1e-9) + env.wide_pad;
+    if (env.reach_max < env.r) env.reach_max = env.r;
     t1 = wall_time();
     ctx->phase[1] = t1 - t0;
     t0 = t1;
@@ -212,14 +226,21 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         chunk_info* ch = &ctx->chunks[i];
         const int begin = i * CHUNK_SLAVES, end = begin + CHUNK_SLAVES < s->surface_count ? begin + CHUNK_SLAVES
                                                                                            : s->surface_count;
+        chunk_part* recs = &ch->part[STREAM_RECORDS];
+        chunk_part* items = &ch->part[STREAM_REACH];
         ch->worker = t;
-        w->rec_count = w->share_count = 0; /* the chunk's own records, then kept in the pool */
+        /* the chunk's own records and items, then kept in the pools */
+        w->rec_count = w->share_count = w->item_count = 0;
+        w->last_slave = -1;
         w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
-        ch->count = env.shares ? w->share_count : w->rec_count;
-        if (w->status == NTS_OK && ch->count > 0)
-            nts_chunk_keep(ctx, w, ch, env.shares ? (const void*)w->shares : (const void*)w->recs,
-                           (size_t)ch->count * (env.shares ? sizeof(force_shares) : sizeof(candidate)));
+        recs->count = env.shares ? w->share_count : w->rec_count;
+        items->count = w->item_count;
+        if (w->status == NTS_OK && recs->count > 0)
+            nts_chunk_keep(ctx, w, ch, STREAM_RECORDS, env.shares ? (const void*)w->shares : (const void*)w->recs,
+                           (size_t)recs->count * (env.shares ? sizeof(force_shares) : sizeof(candidate)));
+        if (w->status == NTS_OK && items->count > 0)
+            nts_chunk_keep(ctx, w, ch, STREAM_REACH, w->items, (size_t)items->count * sizeof(reach_item));
     }
     {
         long long records = 0;
@@ -243,6 +264,20 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
         if ((rc = nts_chunks_settle(ctx, nthreads, env.shares)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
+        /* The active contacts deeper than r, found (default radius) or
+         * counted (an explicit one). */
+        rc = nts_reach_grow(ctx, &env, records);
+        if (rc == NTS_ECANCELLED)
+            return eval_fail(err, rc, -1, -1, "the evaluation was cancelled (a deadline passed, or the caller asked)");
+        if (rc == NTS_ELIMIT) {
+            char msg[192];
+            snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius and "
+                     "deeper: the bodies overlap far more than contact does (or raise the limit)", env.max_records);
+            rc = eval_fail(err, NTS_ELIMIT, -1, -1, msg);
+            if (err != NULL) snprintf(err->option, sizeof err->option, "max_candidates");
+            return rc;
+        }
+        if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     }
     t1 = wall_time();
     ctx->phase[2] = t1 - t0;

@@ -52,15 +52,45 @@ static int forces_finite(const nts_vec2* F, int n0, int n1) {
 }
 
 /* A chunk's records (none, and maybe no buffer, when it found nothing). */
-static inline const candidate* chunk_recs(const chunk_info* ch) { return (const candidate*)ch->data; }
+static inline const candidate* chunk_recs(const chunk_info* ch) {
+    return (const candidate*)ch->part[STREAM_RECORDS].data;
+}
+static inline int chunk_count(const chunk_info* ch) { return ch->part[STREAM_RECORDS].count; }
 
 /* A chunk's active contacts and their sums. */
 static void chunk_sums(const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ch);
     int k;
     memset(&ch->sums, 0, sizeof ch->sums);
-    for (k = 0; k < ch->count; ++k)
+    for (k = 0; k < chunk_count(ch); ++k)
         if (rec[k].gap < 0.0) contact_sum(env, &rec[k], &ch->sums);
+}
+
+/* The records of chunk ch and its deep contacts (reach.c), merged by slave
+ * then master body (each pair is in one of them only): the order of the
+ * contacts and gaps, and of the tangent's blocks, the order a radius large
+ * enough for every contact would give. */
+typedef struct merged {
+    const candidate *rec, *deep;
+    int i, n, j, m;
+} merged;
+
+static merged merged_begin(const nts_context* ctx, const chunk_info* ch) {
+    merged it;
+    it.rec = chunk_recs(ch);
+    it.n = chunk_count(ch);
+    it.deep = ctx->reach.deep + ch->deep_at;
+    it.m = ch->deep_count;
+    it.i = it.j = 0;
+    return it;
+}
+
+/* The next record in the merged order, NULL after the last. */
+static const candidate* merged_next(merged* it) {
+    if (it->i < it->n && (it->j == it->m || it->rec[it->i].slave < it->deep[it->j].slave ||
+                          (it->rec[it->i].slave == it->deep[it->j].slave && it->rec[it->i].body < it->deep[it->j].body)))
+        return &it->rec[it->i++];
+    return it->j < it->m ? &it->deep[it->j++] : NULL;
 }
 
 /* A chunk's active records' force shares, from its place on (none, and
@@ -73,26 +103,29 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
     if (ch->sums.active == 0) return;
     out = ctx->shares + ch->share_at;
     ch->sh = out;
-    for (k = 0; k < ch->count; ++k)
+    for (k = 0; k < chunk_count(ch); ++k)
         if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
 }
 
+/* Add the forces of shares sh[0..n) on nodes [n0, n1), in order. */
+static void shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int n1) {
+    int k, q;
+    for (k = 0; k < n; ++k)
+        for (q = 0; q < 4 && sh[k].node[q] >= 0; ++q)
+            if (sh[k].node[q] >= n0 && sh[k].node[q] < n1)
+                F[sh[k].node[q]] = nts_add(F[sh[k].node[q]], share_force(&sh[k], q));
+}
+
 /* The forces on nodes [n0, n1) from the chunks' force shares, in chunk
- * order and in record order within a chunk: each thread reads every share
- * but computes none. Returns 1 when one of them overflowed. */
+ * order and in record order within a chunk, then the deep contacts' (in
+ * their order): each thread reads every share but computes none. Returns 1
+ * when one of them overflowed. */
 static int forces_range(nts_context* ctx, int n0, int n1) {
     nts_vec2* F = ctx->forces;
-    int c, k, q;
+    int c;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
-    for (c = 0; c < ctx->chunk_count; ++c) {
-        const chunk_info* ch = &ctx->chunks[c];
-        for (k = 0; k < ch->sums.active; ++k) {
-            const force_shares* sh = &ch->sh[k];
-            for (q = 0; q < 4 && sh->node[q] >= 0; ++q)
-                if (sh->node[q] >= n0 && sh->node[q] < n1)
-                    F[sh->node[q]] = nts_add(F[sh->node[q]], share_force(sh, q));
-        }
-    }
+    for (c = 0; c < ctx->chunk_count; ++c) shares_range(F, ctx->chunks[c].sh, ctx->chunks[c].sums.active, n0, n1);
+    shares_range(F, ctx->reach.shares, ctx->reach.deep_count, n0, n1);
     return forces_finite(F, n0, n1) ? 0 : 1;
 }
 
@@ -102,6 +135,19 @@ static int overflow_error(nts_error* err, const char* msg) {
     return rc;
 }
 
+/* The warnings of the result (nts_result.warnings), in code order. */
+static void set_warnings(nts_context* ctx, nts_result* out) {
+    const long long count[NTS_WARN_COUNT_] = {ctx->reach.beyond, ctx->reach.unresolved};
+    int k, n = 0;
+    for (k = 0; k < NTS_WARN_COUNT_; ++k) {
+        if (count[k] == 0) continue;
+        ctx->warnings[n].code = k + 1;
+        ctx->warnings[n++].count = count[k];
+    }
+    out->warnings = n > 0 ? ctx->warnings : NULL;
+    out->warning_count = n;
+}
+
 int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,
                 nts_result* out, nts_error* err) {
     const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
@@ -109,18 +155,30 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     const int want_gaps = (opt->outputs & NTS_OUT_GAPS) != 0u;
     const int want_stiffness = (opt->outputs & NTS_OUT_STIFFNESS) != 0u;
     const int nchunk = ctx->chunk_count;
+    const nts_reach* reach = &ctx->reach;
     nts_summary* sum = &out->summary;
     long long total = 0;
-    int ncontact = 0, c, rc, overflow = 0;
+    int ncontact = 0, c, k, rc, overflow = 0;
     double energy = 0.0, maxpen = 0.0;
     nts_virial vir = {0.0, 0.0, 0.0};
+    contact_sums deep;
 
     if (!env->direct && !env->shares) { /* else the search summed them */
         NTS_PARALLEL_FOR(nthreads)
         for (c = 0; c < nchunk; ++c) chunk_sums(env, &ctx->chunks[c]);
     }
-    for (c = 0; c < nchunk; ++c) { /* in chunk order */
-        const contact_sums* cs = &ctx->chunks[c].sums;
+    /* The deep contacts (reach.c) of each chunk's slaves, and their sums. */
+    memset(&deep, 0, sizeof deep);
+    for (c = 0, k = 0; c < nchunk; ++c) {
+        chunk_info* ch = &ctx->chunks[c];
+        ch->deep_at = k;
+        while (k < reach->deep_count && reach->deep[k].slave < (c + 1) * CHUNK_SLAVES) ++k;
+        ch->deep_count = k - ch->deep_at;
+    }
+    for (k = 0; k < reach->deep_count; ++k) contact_sum(env, &reach->deep[k], &deep);
+    /* In chunk order, then the deep contacts: the same order in every path. */
+    for (c = 0; c <= nchunk; ++c) {
+        const contact_sums* cs = c < nchunk ? &ctx->chunks[c].sums : &deep;
         ncontact += cs->active;
         energy += cs->energy;
         vir.xx += cs->vxx;
@@ -130,8 +188,17 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         overflow |= cs->overflow;
     }
     for (c = 0; c < nthreads; ++c) total += ctx->workers[c].gaps;
+    total += reach->deep_count;
 
+    if (want_forces) {
+        /* The deep contacts' force shares, added after the chunks'. */
+        if ((rc = nts_grow((void**)&ctx->reach.shares, &ctx->reach.shares_cap, reach->deep_count,
+                           sizeof(force_shares))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        for (k = 0; k < reach->deep_count; ++k) ctx->reach.shares[k] = contact_shares(env, &reach->deep[k]);
+    }
     if (want_forces && env->direct) {
+        for (k = 0; k < reach->deep_count; ++k) add_shares(ctx->forces, &reach->shares[k]);
         overflow |= !forces_finite(ctx->forces, 0, s->node_count);
     } else if (want_forces) {
         /* Each thread adds the forces on its range of nodes, so every node's
@@ -143,8 +210,8 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         if (env->shares) { /* the search kept them, chunk by chunk */
             for (c = 0; c < nchunk; ++c) {
                 chunk_info* ch = &ctx->chunks[c];
-                assert(ch->count == ch->sums.active);
-                ch->sh = (const force_shares*)ch->data;
+                assert(chunk_count(ch) == ch->sums.active);
+                ch->sh = (const force_shares*)ch->part[STREAM_RECORDS].data;
             }
         } else {
             for (c = 0; c < nchunk; ++c) {
@@ -169,7 +236,8 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     if (overflow) return overflow_error(err, "the result overflows a double (penalty or coordinates too large)");
 
     if (want_contacts || want_gaps) {
-        /* Each chunk's records at their places in the arrays (slave order). */
+        /* Each chunk's records with its deep contacts at their places in the
+         * arrays (slave order). */
         int gap_at = 0, contact_at = 0;
         if (want_gaps && (rc = nts_grow((void**)&ctx->gaps, &ctx->gaps_cap, (int)total, sizeof(nts_contact))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
@@ -180,16 +248,17 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             chunk_info* ch = &ctx->chunks[c];
             ch->contact_at = contact_at;
             ch->gap_at = gap_at;
-            gap_at += ch->count;
-            contact_at += ch->sums.active;
+            gap_at += chunk_count(ch) + ch->deep_count;
+            contact_at += ch->sums.active + ch->deep_count;
         }
         NTS_PARALLEL_FOR(nthreads)
         for (c = 0; c < nchunk; ++c) {
             const chunk_info* ch = &ctx->chunks[c];
-            const candidate* rec = chunk_recs(ch);
-            int k, g = ch->gap_at, a = ch->contact_at;
-            for (k = 0; k < ch->count; ++k) {
-                const nts_contact cc = make_contact(env, &rec[k]);
+            merged it = merged_begin(ctx, ch);
+            const candidate* rec;
+            int g = ch->gap_at, a = ch->contact_at;
+            while ((rec = merged_next(&it)) != NULL) {
+                const nts_contact cc = make_contact(env, rec);
                 if (want_gaps) ctx->gaps[g++] = cc;
                 if (want_contacts && cc.gap < 0.0) ctx->contacts[a++] = cc;
             }
@@ -200,13 +269,12 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         int i;
         ctx->stiffness.count = 0;
         for (c = 0; c < nchunk; ++c) {
-            const chunk_info* ch = &ctx->chunks[c];
-            const candidate* rec = chunk_recs(ch);
-            int k;
-            for (k = 0; k < ch->count; ++k) {
+            merged it = merged_begin(ctx, &ctx->chunks[c]);
+            const candidate* rec;
+            while ((rec = merged_next(&it)) != NULL) {
                 nts_contact cc;
-                if (!(rec[k].gap < 0.0)) continue;
-                cc = make_contact(env, &rec[k]);
+                if (!(rec->gap < 0.0)) continue;
+                cc = make_contact(env, rec);
                 if ((rc = nts_stiffness_add(&ctx->stiffness, s, &cc, alpha_of_body(s, cc.master_body, env->alpha))) !=
                     NTS_OK)
                     return eval_fail(err, rc, -1, -1, "out of memory");
@@ -226,6 +294,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     sum->surface_nodes = s->surface_count;
     sum->contacts = ncontact;
     sum->gaps = (int)total;
+    sum->deep_contacts = reach->deep_count;
     sum->energy = energy;
     sum->virial = vir;
     sum->max_penetration = maxpen;
@@ -237,5 +306,6 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     out->contact_count = want_contacts ? ncontact : 0;
     out->gaps = want_gaps ? ctx->gaps : NULL;
     out->gap_count = want_gaps ? (int)total : 0;
+    set_warnings(ctx, out);
     return NTS_OK;
 }

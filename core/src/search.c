@@ -64,16 +64,16 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     }
 }
 
-/* Try the features that master j (a surface entry) offers to a slave at xs:
- * the flat part of segment (j, j+1), and the corner (alpha > 0) or vertex
- * (alpha = 0) at j. Each test is exact on its own: which masters get here
- * decides nothing but the time. */
-static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j,
+/* Try the features that master j (a surface entry) offers to a slave at xs
+ * within radius r (the search radius, or a widened search's): the flat part
+ * of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0) at j.
+ * Each test is exact on its own: which masters get here decides nothing but
+ * the time. */
+static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, const double r,
                                                 const int periodic) {
     const seg_data* m = &env->seg[j];
     const int body = m->body;
     const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
-    const double r = env->r;
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
     double sj_param;
@@ -241,54 +241,149 @@ static void forces_drain(const search_env* env, worker* w) {
     w->fifo_head = 0;
 }
 
+/* Keep an item for the reach's growth (reach.c), growing the worker's room
+ * when needed; NULL when that fails (w->status is NTS_ENOMEM). */
+static reach_item* push_item(worker* w, int kind, int slave, int body, int from, double value) {
+    reach_item* it;
+    if (w->item_count == w->item_cap &&
+        nts_grow((void**)&w->items, &w->item_cap, w->item_count + 1, sizeof(reach_item)) != NTS_OK) {
+        w->status = NTS_ENOMEM;
+        return NULL;
+    }
+    it = &w->items[w->item_count++];
+    it->slave = slave;
+    it->body = body;
+    it->kind = (unsigned char)kind;
+    it->from = (unsigned char)from;
+    it->value = value;
+    it->h = it->nx = it->ny = 0.0f;
+    return it;
+}
+
+static inline int has_body(const candidate* c, int n, int body) {
+    int k;
+    for (k = 0; k < n; ++k)
+        if (c[k].body == body) return 1;
+    return 0;
+}
+
+/* Slave k = X_i + d, with no closest point within r on c->body while its
+ * neighbour i, on side `from`, has c there: ask for a widened search when k
+ * could lie deeper than r (reach_may_be_deeper), with k's height over the
+ * tangent at c. */
+static void reach_ask(const search_env* env, worker* w, int k, int from, const candidate* c, nts_vec2 d, double l) {
+    reach_item* it;
+    if (!reach_may_be_deeper(l, c->gap, env->r)) return;
+    if ((it = push_item(w, REACH_ASK, k, c->body, from, fabs(c->gap) + l)) != NULL)
+        it->h = (float)(c->gap + nts_dot(d, c->normal));
+}
+
+/* A closest point of slave i whose neighbour on side `from` is across the
+ * end of the chunk or of the loop: reach.c compares the two. */
+static void reach_edge(worker* w, int i, int from, const candidate* c) {
+    reach_item* it = push_item(w, REACH_EDGE, i, c->body, from, c->gap);
+    if (it != NULL) {
+        it->nx = (float)c->normal.x;
+        it->ny = (float)c->normal.y;
+    }
+}
+
+/* The reach's growth starts here (reach.c): slave i's closest points (in
+ * w->best, by body) against those of the slave before it along the loop,
+ * when the search just did that one (w->last); otherwise, or when the next
+ * slave of the loop is not the next of the chunk, they go to reach.c as
+ * edges. Then i's become the last (the two buffers swap: nothing copied). */
+static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
+    const seg_data* seg = env->seg;
+    const int n = w->best_count;
+    int prev, next, k;
+    candidate* t;
+    const int before = w->last_slave;
+    w->last_slave = i;
+    if ((n | w->last_count) == 0) return;
+    prev = seg[i].prev;
+    next = seg[i].next;
+    if (prev == i - 1 && before == prev) {
+        const nts_vec2 d = seg[prev].t; /* X_i - X_{i-1} */
+        const double l = seg[prev].len;
+        for (k = 0; k < w->last_count; ++k)
+            if (!has_body(w->best, n, w->last[k].body)) reach_ask(env, w, i, SIDE_PREV, &w->last[k], d, l);
+        for (k = 0; k < n; ++k)
+            if (!has_body(w->last, w->last_count, w->best[k].body))
+                reach_ask(env, w, prev, SIDE_NEXT, &w->best[k], nts_neg(d), l);
+    } else {
+        for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_PREV, &w->best[k]);
+    }
+    if (next != i + 1 || i + 1 == end)
+        for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_NEXT, &w->best[k]);
+    w->last_count = n;
+    if (n == 0) return;
+    t = w->last;
+    w->last = w->best;
+    w->best = t;
+    k = w->last_cap;
+    w->last_cap = w->best_cap;
+    w->best_cap = k;
+    w->best_count = 0;
+}
+
 /* Move the current slave's best candidates to the worker's records (all of
  * them, or the active ones: search_env.keep_all) and reset the slot map.
  * Candidates are kept in increasing master body order (determinism
- * independent of visiting order). */
-static void flush_slave(const search_env* env, worker* w, int i) {
+ * independent of visiting order). Then the reach's growth compares them with
+ * the slave before (reach_neighbours); `end`: the chunk's end. */
+static void flush_slave(const search_env* env, worker* w, int i, int end) {
     int k, m, need;
-    if (w->best_count == 0) return;
-    if (w->best_count > w->best_most) w->best_most = w->best_count;
-    w->gaps += w->best_count;
-    need = w->rec_count + w->best_count;
-    if (w->gaps > env->max_records) {
-        /* Over the budget in this worker alone, so the total is too (the caller
-         * checks the sum as well: the verdict does not depend on threads). */
-        w->status = NTS_ELIMIT;
-    } else if (env->shares ? env->want_forces && w->share_count + w->best_count > w->share_cap &&
-                                 nts_grow((void**)&w->shares, &w->share_cap, w->share_count + w->best_count,
-                                          sizeof(force_shares)) != NTS_OK
-                           : !env->direct && need > w->rec_cap &&
-                                 nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
-        w->status = NTS_ENOMEM;
+    if (env->seg[i].len > env->coarse) {
+        /* The two ends of a long segment: the reach's growth searches them
+         * widened (each once: the next one, unless its own segment is long). */
+        const int next = env->seg[i].next;
+        push_item(w, REACH_COARSE, i, -1, 0, 0.0);
+        if (!(env->seg[next].len > env->coarse)) push_item(w, REACH_COARSE, next, -1, 0, 0.0);
     }
-    /* Insertion sort by master body (a handful of entries). */
-    for (k = 1; k < w->best_count; ++k) {
-        candidate t = w->best[k];
-        m = k - 1;
-        while (m >= 0 && w->best[m].body > t.body) { w->best[m + 1] = w->best[m]; --m; }
-        w->best[m + 1] = t;
-    }
-    for (k = 0; k < w->best_count; ++k) {
-        candidate* b = &w->best[k];
-        w->slot[b->body] = -1;
-        if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
-        b->slave = i;
-        if (env->direct) {
-            /* What the scatter would do with the record, in the same order. */
-            contact_sum(env, b, w->sums);
-            if (env->forces != NULL) {
-                const force_shares sh = contact_shares(env, b);
-                forces_delayed(env, w, &sh);
+    if (w->best_count > 0) {
+        if (w->best_count > w->best_most) w->best_most = w->best_count;
+        w->gaps += w->best_count;
+        need = w->rec_count + w->best_count;
+        if (w->gaps > env->max_records) {
+            /* Over the budget in this worker alone, so the total is too (the caller
+             * checks the sum as well: the verdict does not depend on threads). */
+            w->status = NTS_ELIMIT;
+        } else if (env->shares ? env->want_forces && w->share_count + w->best_count > w->share_cap &&
+                                     nts_grow((void**)&w->shares, &w->share_cap, w->share_count + w->best_count,
+                                              sizeof(force_shares)) != NTS_OK
+                               : !env->direct && need > w->rec_cap &&
+                                     nts_grow((void**)&w->recs, &w->rec_cap, need, sizeof(candidate)) != NTS_OK) {
+            w->status = NTS_ENOMEM;
+        }
+        /* Insertion sort by master body (a handful of entries). */
+        for (k = 1; k < w->best_count; ++k) {
+            candidate t = w->best[k];
+            m = k - 1;
+            while (m >= 0 && w->best[m].body > t.body) { w->best[m + 1] = w->best[m]; --m; }
+            w->best[m + 1] = t;
+        }
+        for (k = 0; k < w->best_count; ++k) {
+            candidate* b = &w->best[k];
+            w->slot[b->body] = -1;
+            if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
+            b->slave = i;
+            if (env->direct) {
+                /* What the scatter would do with the record, in the same order. */
+                contact_sum(env, b, w->sums);
+                if (env->forces != NULL) {
+                    const force_shares sh = contact_shares(env, b);
+                    forces_delayed(env, w, &sh);
+                }
+            } else if (env->shares) {
+                contact_sum(env, b, w->sums);
+                if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
+            } else {
+                w->recs[w->rec_count++] = *b;
             }
-        } else if (env->shares) {
-            contact_sum(env, b, w->sums);
-            if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
-        } else {
-            w->recs[w->rec_count++] = *b;
         }
     }
-    w->best_count = 0;
+    reach_neighbours(env, w, i, end);
 }
 
 
@@ -364,7 +459,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 NTS_PREFETCH(&env->seg[j]);
                 NTS_PREFETCH(&env->seg[j - (j > 0)]);
             }
-            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], periodic);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->r, periodic);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
@@ -374,7 +469,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                     const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                     int k;
-                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], periodic);
+                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], env->r, periodic);
                     e0 = e1;
                 }
             }
@@ -386,10 +481,11 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 const long_master* lm = &env->long_m[env->long_items[e]];
                 const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, env->r, periodic);
             }
         }
-        flush_slave(env, w, i);
+        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) flush_slave(env, w, i, end);
+        else w->last_slave = i; /* most slaves: nothing here, nothing before */
     }
 }
 
@@ -416,9 +512,10 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
                               env->brute_pad);
-            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, periodic);
+            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic);
         }
-        flush_slave(env, w, i);
+        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) flush_slave(env, w, i, end);
+        else w->last_slave = i; /* most slaves: nothing here, nothing before */
     }
 }
 
@@ -432,4 +529,120 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end) {
         else search_brute(env, w, begin, end, 0);
     }
     if (env->direct && env->forces != NULL) forces_drain(env, w);
+}
+
+/* A widened search tries master j of body b (not the slave's own, offering
+ * a surface, the one asked for if any) within radius min(rho, body_rho[b]),
+ * culled by an exact reach test in double around X_j. */
+static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, nts_vec2 xs, int own, int j,
+                                              int body, double rho, double* body_rho, const int periodic) {
+    const seg_data* m = &env->seg[j];
+    const int b = m->body;
+    double rb = rho, R, d2;
+    nts_vec2 d;
+    if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE) return;
+    if (body < 0) {
+        const double depth = nts_body_depth(env, body_rho, b);
+        if (depth < rb) rb = depth;
+    }
+    d = search_diff(env, xs, m->p, periodic);
+    d2 = d.x * d.x + d.y * d.y;
+    /* Every reach around a node is at most L_max (reach_at_node): most
+     * masters are out of that first. */
+    R = reach_allowed(env->wide_lmax, rb, env->wide_pad);
+    if (d2 > R * R) return;
+    R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(env->s, b, env->alpha)), rb, env->wide_pad);
+    if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic);
+}
+
+/* The entries of body b: consecutive. */
+static inline void body_entries(const nts_scene* s, int b, int* e0, int* e1) {
+    *e0 = s->loop_start[s->body_loop_start[b]];
+    *e1 = s->loop_start[s->body_loop_start[b + 1]];
+}
+
+/* The columns (or rows) of the cells within `reach` of frame coordinate q:
+ * [*first, *first + count), wrapped in a periodic grid (each column once). */
+static int wide_span(double q, double reach, double inv_h, int n, int periodic, int* first) {
+    const double lo = floor((q - reach) * inv_h), hi = floor((q + reach) * inv_h);
+    if (periodic) {
+        if (!(hi - lo + 1.0 < (double)n)) {
+            *first = 0;
+            return n;
+        }
+        *first = (int)(lo - (double)n * floor(lo / (double)n));
+        return (int)(hi - lo) + 1;
+    }
+    *first = lo < 0.0 ? 0 : (lo > (double)(n - 1) ? n - 1 : (int)lo);
+    return (hi > (double)(n - 1) ? n - 1 : (hi < 0.0 ? 0 : (int)hi)) - *first + 1;
+}
+
+static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int k, int body, double rho,
+                                          double* body_rho, const int periodic) {
+    const nts_scene* s = env->s;
+    const nts_cells* cl = env->cells;
+    const int own = env->seg[k].body;
+    const nts_vec2 xs = env->seg[k].p;
+    int e0 = 0, e1 = s->surface_count, j;
+    if (body >= 0) body_entries(s, body, &e0, &e1);
+    if (cl != NULL) {
+        /* A binned master's middle lies within its reach, at most a cell's
+         * side, of its features: the cells within rho + that of the slave
+         * hold every master that could offer a feature within rho. */
+        const double reach = rho + (cl->hx > cl->hy ? cl->hx : cl->hy) + env->wide_pad;
+        const nts_cell_place q = nts_cells_place(cl, xs);
+        int cx0, ncx, cy0, ncy, a, b;
+        ncx = wide_span(q.x, reach, cl->inv_hx, cl->nx, cl->periodic, &cx0);
+        ncy = wide_span(q.y, reach, cl->inv_hy, cl->ny, cl->periodic, &cy0);
+        /* One body asked for and few entries: try them all instead. */
+        if (body < 0 || (long long)ncx * ncy * (cl->cell_start[cl->nx * cl->ny] + 1) >
+                            (long long)(e1 - e0) * cl->nx * cl->ny) {
+            for (b = 0; b < ncy; ++b) {
+                const int row = ((cy0 + b) % cl->ny) * cl->nx;
+                for (a = 0; a < ncx; ++a) {
+                    const int cell = row + (cx0 + a) % cl->nx;
+                    int e;
+                    for (e = cl->cell_start[cell]; e < cl->cell_start[cell + 1]; ++e) {
+                        j = env->keys->entry[e];
+                        if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+                    }
+                    if (env->long_start != NULL)
+                        for (e = env->long_start[cell]; e < env->long_start[cell + 1]; ++e) {
+                            j = env->long_m[env->long_items[e]].entry;
+                            if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+                        }
+                }
+            }
+            return;
+        }
+    }
+    if (body < 0) {
+        for (j = e0; j < e1; ++j) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+        return;
+    }
+    if (body == own || s->body_role[body] == NTS_ROLE_SLAVE) return;
+    {
+        /* One body, all its entries: the bound of wide_try first. */
+        const double alpha = alpha_of_body(s, body, env->alpha);
+        const double Rmax = reach_allowed(env->wide_lmax, rho, env->wide_pad), Rmax2 = Rmax * Rmax;
+        for (j = e0; j < e1; ++j) {
+            const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
+            const double d2 = d.x * d.x + d.y * d.y;
+            double R;
+            if (d2 > Rmax2) continue;
+            R = reach_allowed(reach_at_node(env->seg, j, alpha), rho, env->wide_pad);
+            if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic);
+        }
+    }
+}
+
+void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* body_rho) {
+    if (env->lx > 0.0 || env->ly > 0.0) wide(env, w, k, body, rho, body_rho, 1);
+    else wide(env, w, k, body, rho, body_rho, 0);
+}
+
+void nts_search_wide_done(worker* w) {
+    int k;
+    for (k = 0; k < w->best_count; ++k) w->slot[w->best[k].body] = -1;
+    w->best_count = 0;
 }

@@ -215,6 +215,33 @@ static inline nts_vec2 share_force(const force_shares* sh, int q) {
 /* How many contacts later the direct path adds a contact's forces. */
 enum { FORCE_DELAY = 8 };
 
+/* What the search leaves for the reach's growth (reach.c), 32 bytes. As it
+ * goes it compares each slave's closest points with those of the slave
+ * before it along the loop (search.c: reach_neighbours):
+ * - REACH_ASK: `slave` has no closest point within r on `body`, but its
+ *   neighbour on side `from` has one, and `slave` could lie deeper than r
+ *   in the body: search it widened to radius `value`. `h` is its height
+ *   over the tangent at the neighbour's closest point (a convex body lies
+ *   behind it, so h > 0 puts the slave outside).
+ * - REACH_EDGE: a closest point of `slave` on `body` (gap `value`, normal
+ *   nx, ny) whose neighbour on side `from` is across the end of the chunk or
+ *   of the loop: reach.c compares the two.
+ * - REACH_COARSE: `slave` is next to a segment longer than 2 r: its
+ *   chain may have no closest point within r at all. */
+enum { REACH_ASK = 0, REACH_EDGE = 1, REACH_COARSE = 2 };
+enum { SIDE_PREV = 1, SIDE_NEXT = 2 }; /* bits: the neighbour before or after along the loop */
+typedef struct reach_item {
+    int slave, body;
+    unsigned char kind, from;
+    float h;
+    double value;
+    float nx, ny;
+} reach_item;
+
+/* What a chunk leaves behind, stream by stream: its records (candidates, or
+ * force shares with search_env.shares) and its items for the reach. */
+enum { STREAM_RECORDS = 0, STREAM_REACH = 1, STREAMS = 2 };
+
 /* One worker's scratch: the per-slave best candidate of each master body, and
  * the records of the chunk it runs, in slave order: every closest point
  * within r when contacts, gaps or the tangent are asked for, else only the
@@ -232,8 +259,13 @@ typedef struct worker {
     int rec_count, rec_cap;
     force_shares* shares; /* the current chunk's force shares (search_env.shares) */
     int share_count, share_cap;
-    char* spill;       /* finished chunks' records that the pool had no room for */
-    size_t spill_used, spill_cap;
+    reach_item* items; /* the current chunk's items for the reach */
+    int item_count, item_cap;
+    candidate* last;   /* the closest points of the slave flushed last in this chunk */
+    int last_count, last_cap, last_slave;
+    /* Finished chunks' records and items that the pools had no room for. */
+    char* spill[STREAMS];
+    size_t spill_used[STREAMS], spill_cap[STREAMS];
     /* The direct path's forces not yet added, first in first out (search.c:
      * forces_delayed). */
     force_shares fifo[FORCE_DELAY];
@@ -254,16 +286,59 @@ typedef struct worker {
  * chunk order: the same bits for any number of threads. */
 enum { CHUNK_SLAVES = 1024 };
 
-typedef struct chunk_info {
-    int worker, count;        /* who ran it; its records (force shares with search_env.shares) */
-    int spilled;              /* 1: its records are in workers[worker].spill at `at` */
+/* One stream of one chunk: how many items, and where they are. */
+typedef struct chunk_part {
+    int count;
+    int spilled;              /* 1: in workers[worker].spill[stream] at `at` */
     size_t at;                /* the byte where they are, in the pool or the spill */
-    const void* data;         /* its records once the search is over (nts_chunks_settle) */
+    const void* data;         /* once the search is over (nts_chunks_settle) */
+} chunk_part;
+
+typedef struct chunk_info {
+    int worker;               /* who ran it */
+    chunk_part part[STREAMS]; /* its records (force shares with search_env.shares), its reach items */
     int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
+    int deep_at, deep_count;  /* the deep contacts of its slaves (ctx->reach.deep) */
     int share_at;             /* the first place of its active records' force shares in ctx->shares */
     const force_shares* sh;   /* its force shares (sums.active of them), wherever they are */
     contact_sums sums;        /* of its active contacts */
 } chunk_info;
+
+/* The growth of the reach (reach.c, docs/model.md §4.5): the closest points
+ * deeper than r that the search could not see, found by widening the search
+ * around the slaves next to those it found. */
+typedef struct reach_request {
+    int slave, body; /* a slave entry and a master body it may be inside of */
+    double rho;      /* a radius within which its closest point on the body lies */
+    int from;        /* SIDE_* bits: the neighbours that asked (they have a closest point there) */
+    int pad;
+} reach_request;
+
+/* A pair queued or settled: slave * bodies + body, and its place in the queue
+ * (-1: settled outside it). */
+typedef struct reach_seen {
+    long long key;
+    int at, pad;
+} reach_seen;
+
+typedef struct nts_reach {
+    reach_request* queue;   /* the pairs to search, each once */
+    int queue_count, queue_cap;
+    reach_seen* seen;       /* open addressing, key -1: empty */
+    int seen_cap, seen_count;
+    reach_item* edges;      /* the chunks' REACH_EDGE items, by slave */
+    int edge_count, edge_cap;
+    candidate* deep;        /* the active contacts deeper than r, by slave then body */
+    int deep_count, deep_cap;
+    force_shares* shares;   /* their forces */
+    int shares_cap;
+    double* depth;          /* per body: the deepest a point inside it can be (nts_body_depth), -1: not yet */
+    signed char* convex;    /* per body: 1 convex, 0 not, -1 not yet known (reach.c) */
+    int depth_cap, convex_cap;
+    long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
+    long long unresolved;   /* pairs whose search hit the periodic box's limit without an answer */
+    long long searches;     /* widened searches run */
+} nts_reach;
 
 struct nts_context {
     seg_data* seg;    /* aligned to NTS_SEG_ALIGN inside seg_block */
@@ -285,8 +360,10 @@ struct nts_context {
     int hist_cap;
     worker* workers;
     int worker_count, slot_cap;
-    char* pool;        /* the chunks' records (or force shares), each chunk's in one piece */
-    size_t pool_cap, pool_at;
+    /* Per stream, the chunks' items (records or force shares; reach items),
+     * each chunk's in one piece. */
+    char* pool[STREAMS];
+    size_t pool_cap[STREAMS], pool_at[STREAMS];
     chunk_info* chunks;
     int chunk_cap, chunk_count;
     nts_vec2* forces;
@@ -298,6 +375,8 @@ struct nts_context {
     nts_contact* gaps;
     int gaps_cap;
     nts_kbuf stiffness; /* the tangent's triplets (NTS_OUT_STIFFNESS) */
+    nts_reach reach;
+    nts_warning warnings[NTS_WARN_COUNT_]; /* the last result's (nts_result.warnings) */
     double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
 };
 
@@ -313,6 +392,11 @@ typedef struct search_env {
     double alpha, r, eps;    /* alpha: the options' (a body may have its own) */
     int body_alphas;         /* some body has its own alpha */
     double brute_pad;        /* brute force: the round-off allowance of its reach test */
+    double wide_pad;         /* the widened searches' round-off allowance (reach.c) */
+    double wide_lmax;        /* the longest reach around a node: L_max (alpha <= 1/2, reach_at_node) */
+    double reach_max;        /* the largest radius a widened search may take */
+    double coarse;           /* 2 r: a slave next to a longer segment is searched widened (reach.c) */
+    int grow;                /* default radius: the active contacts deeper than r are kept (reach.c) */
     long long max_records;   /* the candidate budget (nts_options.max_candidates) */
     int (*cancel)(void* user);
     void* cancel_user;
@@ -366,6 +450,14 @@ static inline double reach_at_node(const seg_data* seg, int j, double alpha) {
 static inline double reach_at_middle(const seg_data* seg, int j, double alpha) {
     return 0.5 * seg[j].len + alpha * seg[seg[j].prev].len;
 }
+
+/* Whether a slave's neighbour |d| = l away along its loop, with no closest
+ * point within r on a body where the slave has one at gap g, could lie
+ * deeper than r in it (reach.c): it lies within |g| + l of the body's
+ * surface, so deeper than r only when l - g > r. The factor allows for the
+ * round-off of g and l: a neighbour asked for in vain costs a search, never
+ * an answer. */
+static inline int reach_may_be_deeper(double l, double g, double r) { return (l - g) * (1.0 + 1e-9) > r; }
 
 /* ------------------------------------------------------------ contacts */
 
@@ -476,18 +568,38 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
  * entries, and room for `chunks` chunks. */
 int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks);
 /* context.c: chunk ch, just run by worker w, keeps its `bytes` of records
- * from `staged`: in the pool when it has room (any thread may call it at
- * once), else in w's spill (w->status is NTS_ENOMEM if that fails). */
-void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, const void* staged, size_t bytes);
-/* context.c: once the search is over, every chunk's records in the pool, in
- * chunk order when the pool had to grow (force shares or candidates), and
- * room kept for the next evaluation to allocate nothing whoever runs which
- * chunk: the pool for all the records, each worker for the largest chunk
- * and the most candidates of a slave. Sets each chunk's `data`. */
+ * or reach items (`stream`) from `staged`: in that stream's pool when it has room
+ * (any thread may call it at once), else in w's spill (w->status is
+ * NTS_ENOMEM if that fails). */
+void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, const void* staged, size_t bytes);
+/* context.c: once the search is over, every chunk's records and items in
+ * their pools, in chunk order when a pool had to grow, and room kept for the
+ * next evaluation to allocate nothing whoever runs which chunk: the pools
+ * for all the items, each worker for the largest chunk and the most
+ * candidates of a slave. Sets each chunk's parts' `data`. */
 int nts_chunks_settle(nts_context* ctx, int nthreads, int shares);
 
 /* search.c: the local search of slaves [begin, end) into worker w. */
 void nts_search_range(const search_env* env, worker* w, int begin, int end);
+/* search.c: a widened search around slave entry k, in worker w: the best
+ * candidate on body `body` among its features within `rho` of the slave;
+ * or, when body < 0, on every other body b that offers a surface, within
+ * min(rho, body_rho[b]). The candidates are left in w->best (w->best_count
+ * of them); nts_search_wide_done clears them. */
+void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* body_rho);
+void nts_search_wide_done(worker* w);
+
+/* reach.c: after the search, the pairs (slave, master body) next to those
+ * it found whose closest point lies deeper than r; kept in ctx->reach.deep
+ * when env->grow, else counted in ctx->reach.beyond. NTS_OK, NTS_ENOMEM,
+ * NTS_ELIMIT (more than env->max_records closest points with `found`) or
+ * NTS_ECANCELLED. */
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found);
+size_t nts_reach_memory_bytes(const nts_reach* r);
+/* reach.c: the deepest a point inside body b can lie below its surface,
+ * computed once per evaluation and kept in depth[b] (-1 until then). */
+double nts_body_depth(const search_env* env, double* depth, int b);
+void nts_reach_free(nts_reach* r);
 
 /* scatter.c: the chunks' records, in slave order, into *out. */
 int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,

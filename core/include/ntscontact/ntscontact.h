@@ -127,8 +127,12 @@ typedef enum nts_search {
 typedef struct nts_options {
     double alpha;          /* smoothing fraction in [0, 0.5]; default 0.2 */
     double penalty;        /* epsilon > 0; default 1 */
-    double search_radius;  /* r >= 0; a negative value means "the median segment" (default): a
-                              typical segment, so that one long wall does not widen the search */
+    double search_radius;  /* r >= 0: closest points count within r, and an active contact
+                              deeper than r is left out (the result says so: a warning);
+                              negative (default): r is the median segment (a typical segment,
+                              so that one long wall does not widen the search), and the active
+                              contacts deeper than r are found too, at any depth (docs/model.md
+                              §4.5) */
     nts_solver solver;     /* default NTS_SOLVER_CLOSED_FORM */
     unsigned outputs;      /* NTS_OUT_* flags; default forces | energy | virial */
     nts_search search;     /* default NTS_SEARCH_CELLS */
@@ -176,7 +180,8 @@ typedef struct nts_summary {
     int bodies;
     int surface_nodes;
     int contacts;          /* active contacts (g < 0) */
-    int gaps;              /* closest points within the search radius */
+    int gaps;              /* closest points within the search radius, and the deep contacts */
+    int deep_contacts;     /* of the active contacts, those deeper than the (default) search radius */
     double energy;         /* 1/2 eps sum g^2 */
     nts_virial virial;
     double max_penetration;/* max(-g) over active contacts, 0 if none */
@@ -212,12 +217,46 @@ typedef struct nts_csr {
 NTS_API int nts_triplets_to_csr(const nts_triplets* t, nts_csr* out, nts_error* err);
 NTS_API void nts_csr_free(nts_csr* csr);
 
+/* A result that may be incomplete says so: what, and how many times (one
+ * table, as the errors). XX(enum suffix, value, stable name, message); the
+ * names are part of the JSON contract: never renumber or rename, only append. */
+#define NTS_WARNING_MAP(XX)                                                                             \
+    XX(PENETRATION_BEYOND_RADIUS, 1, "penetration_beyond_radius",                                      \
+       "active contacts deeper than the explicit search radius were left out (leave search_radius "   \
+       "unset to find every contact, or raise it)")                                                    \
+    XX(PENETRATION_BEYOND_REACH, 2, "penetration_beyond_reach",                                        \
+       "a slave node's closest point lies beyond half the periodic box: its contact may be missing")
+
+typedef enum nts_warning_code {
+    NTS_WARN_NONE = 0,
+#define NTS_XX_(e, v, name, msg) NTS_WARN_##e = (v),
+    NTS_WARNING_MAP(NTS_XX_)
+#undef NTS_XX_
+#define NTS_XX_(e, v, name, msg) +1
+    NTS_WARN_COUNT_ = 0 NTS_WARNING_MAP(NTS_XX_) /* the table's rows */
+#undef NTS_XX_
+} nts_warning_code;
+
+typedef struct nts_warning {
+    int code;         /* nts_warning_code */
+    long long count;  /* how many contacts (or slave nodes) it concerns */
+} nts_warning;
+
+/* Stable snake_case name and human message of a warning code. */
+NTS_API const char* nts_warning_name(int code);
+NTS_API const char* nts_warning_message(int code);
+
 typedef struct nts_result {
     nts_summary summary;
+    /* What may be missing from this result, in code order; none when
+     * warning_count is 0 (every contact there is was found). */
+    const nts_warning* warnings;
+    int warning_count;
     const nts_vec2* forces;     /* global node order (see nts_scene_body_node_offset), or NULL if not asked */
     const nts_contact* contacts;/* active contacts, slave order; NULL unless NTS_OUT_CONTACTS */
     int contact_count;
-    const nts_contact* gaps;    /* all closest points within r; NULL unless NTS_OUT_GAPS */
+    const nts_contact* gaps;    /* all closest points within r and the deep contacts, slave order;
+                                   NULL unless NTS_OUT_GAPS */
     int gap_count;
     /* The consistent tangent of the active contacts (docs/model.md, "Tangent
      * stiffness"): symmetric, duplicates summed. Empty unless NTS_OUT_STIFFNESS. */

@@ -1,0 +1,366 @@
+/* The growth of the reach (docs/model.md §4.5): the active contacts deeper
+ * than the search radius r, which the search cannot see.
+ *
+ * A slave node inside a master body belongs to a chain of its loop's nodes
+ * inside that body. Where the chain meets the master's surface, the loop
+ * crosses it: of the segment that crosses, one end lies within half its
+ * length of the surface. So, unless that segment is longer than 2 r, a node
+ * at each end of the chain is within r of the master, and the search found
+ * its closest point there. From there the chain is followed node by node:
+ * the closest point of a neighbour k of a node i lies within
+ * |g_i| + |X_k - X_i| of k (the triangle inequality), so a search widened to
+ * that radius around k finds it, the closest point over the whole body:
+ * exactly what any larger radius would give.
+ *
+ * The search compares each slave's closest points with those of the slave
+ * before it (search.c: reach_neighbours) and asks for a neighbour that has
+ * none on a body where the other has one, when it could lie deeper than r
+ * there (|X_k - X_i| - g_i > r, reach_may_be_deeper); a neighbour across the
+ * end of a chunk or a loop is compared here (its "edges"). A neighbour
+ * beyond the tangent at the other's closest point is outside a convex body
+ * (the body lies behind every tangent) and is not searched. A pair found
+ * deep is followed on to its neighbours that did not ask for it (those have
+ * a closest point within r there, or are deep already); the chain stops at
+ * its first node outside. A slave next to a segment longer than 2 r is
+ * searched widened from the start, to min(that length, the depth the
+ * master can hold: half the smaller side of its bounding box), since its
+ * chain may have no closest point within r at all.
+ *
+ * Every pair (slave, master body) is settled once, and its answer does not
+ * depend on the radius it was searched with (a radius that finds nothing is
+ * doubled, up to the scene's size), so the contacts found do not depend on
+ * the order of the work, the threads or how space is binned. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "stages.h"
+
+void nts_reach_free(nts_reach* r) {
+    nts_free(r->queue);
+    nts_free(r->edges);
+    nts_free(r->seen);
+    nts_free(r->deep);
+    nts_free(r->shares);
+    nts_free(r->depth);
+    nts_free(r->convex);
+    memset(r, 0, sizeof *r);
+}
+
+size_t nts_reach_memory_bytes(const nts_reach* r) {
+    return (size_t)r->queue_cap * sizeof(reach_request) + (size_t)r->seen_cap * sizeof(reach_seen) +
+           (size_t)r->edge_cap * sizeof(reach_item) +
+           (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
+           (size_t)r->depth_cap * sizeof(double) + (size_t)r->convex_cap;
+}
+
+/* ---------------------------------------------------- the bodies' shapes */
+
+/* A body's loops walked by their segments from its first node, so that a
+ * body across a periodic box's edge is measured whole: its bounding box,
+ * relative to that node. */
+static void body_box(const search_env* env, int b, double box[4]) {
+    const nts_scene* s = env->s;
+    const int first = s->loop_start[s->body_loop_start[b]];
+    int l;
+    box[0] = box[1] = box[2] = box[3] = 0.0;
+    for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
+        nts_vec2 p = nts_scene_diff(s, env->seg[s->loop_start[l]].p, env->seg[first].p);
+        int e;
+        for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
+            box[0] = p.x < box[0] ? p.x : box[0];
+            box[1] = p.x > box[1] ? p.x : box[1];
+            box[2] = p.y < box[2] ? p.y : box[2];
+            box[3] = p.y > box[3] ? p.y : box[3];
+            p = nts_add(p, env->seg[e].t);
+        }
+    }
+}
+
+/* The deepest a point inside body b can lie below its surface: half the
+ * smaller side of its bounding box (a line through the point along that
+ * side's axis leaves the body within the box, on both sides). */
+double nts_body_depth(const search_env* env, double* depth, int b) {
+    if (depth[b] < 0.0) {
+        double box[4];
+        body_box(env, b, box);
+        depth[b] = 0.5 * (box[1] - box[0] < box[3] - box[2] ? box[1] - box[0] : box[3] - box[2]);
+    }
+    return depth[b];
+}
+
+/* Whether body b is convex: one loop, every turn to the left (within the
+ * round-off of its cross product) and x going up, then down, once around
+ * (a loop wound twice turns left everywhere too). Its smoothed surface is
+ * then convex as well (each corner curve lies in its corner's triangle and
+ * turns the same way). */
+static int body_convex(const search_env* env, signed char* convex, int b) {
+    const nts_scene* s = env->s;
+    if (convex[b] < 0) {
+        const int l = s->body_loop_start[b], e0 = s->loop_start[l], e1 = s->loop_start[l + 1];
+        int e, flips = 0, ok = s->body_loop_start[b + 1] == l + 1;
+        double sx = 0.0;
+        for (e = e0; e < e1 && ok; ++e) {
+            const nts_vec2 tp = env->seg[env->seg[e].prev].t, t = env->seg[e].t;
+            ok = nts_cross(tp, t) >= -1e-12 * env->seg[env->seg[e].prev].len * env->seg[e].len;
+            if (t.x != 0.0) {
+                flips += sx != 0.0 && (t.x > 0.0) != (sx > 0.0);
+                sx = t.x;
+            }
+        }
+        for (e = e0; e < e1 && env->seg[e].t.x == 0.0; ++e) continue; /* the wrap: last direction to first */
+        if (e < e1 && sx != 0.0) flips += (env->seg[e].t.x > 0.0) != (sx > 0.0);
+        convex[b] = (signed char)(ok && flips == 2);
+    }
+    return convex[b];
+}
+
+/* ----------------------------------------------------------- the pairs */
+
+/* The set of pairs queued or settled: open addressing on slave * bodies +
+ * body, at most half full. Returns the pair's slot; *fresh is 1 when it was
+ * not there (its `at` is then the caller's to set). NULL: out of memory. */
+static unsigned long long pair_hash(long long key, int cap) {
+    return ((unsigned long long)key * 0x9E3779B97F4A7C15ull) >> 11 & (unsigned long long)(cap - 1);
+}
+
+static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
+    unsigned long long h;
+    if (2 * (r->seen_count + 1) > r->seen_cap) {
+        const int cap = r->seen_cap > 0 ? 2 * r->seen_cap : 1024;
+        reach_seen* old = r->seen;
+        const int old_cap = r->seen_cap;
+        int i;
+        if (cap <= 0 || (r->seen = (reach_seen*)nts_alloc(sizeof(reach_seen) * (size_t)cap)) == NULL) {
+            r->seen = old;
+            return NULL;
+        }
+        r->seen_cap = cap;
+        for (i = 0; i < cap; ++i) r->seen[i].key = -1;
+        for (i = 0; i < old_cap; ++i) {
+            if (old[i].key < 0) continue;
+            for (h = pair_hash(old[i].key, cap); r->seen[h].key >= 0; h = (h + 1) & (unsigned long long)(cap - 1))
+                continue;
+            r->seen[h] = old[i];
+        }
+        nts_free(old);
+    }
+    for (h = pair_hash(key, r->seen_cap); r->seen[h].key >= 0; h = (h + 1) & (unsigned long long)(r->seen_cap - 1))
+        if (r->seen[h].key == key) {
+            *fresh = 0;
+            return &r->seen[h];
+        }
+    r->seen[h].key = key;
+    r->seen[h].at = -1;
+    ++r->seen_count;
+    *fresh = 1;
+    return &r->seen[h];
+}
+
+/* Queue (k, body) with radius rho, asked by k's neighbour on side `from`,
+ * unless k lies beyond the tangent at that neighbour's closest point on a
+ * convex body (height h > 0: outside it). A pair queued already records the
+ * second neighbour that asks; a pair settled already is left alone. */
+static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double h,
+                   double l) {
+    nts_reach* r = &ctx->reach;
+    reach_seen* p;
+    int fresh, rc;
+    if (h > 1e-6 * l && body_convex(env, r->convex, body)) return NTS_OK;
+    if ((p = seen_find(r, (long long)k * env->s->body_count + body, &fresh)) == NULL) return NTS_ENOMEM;
+    if (!fresh) {
+        if (p->at >= 0) r->queue[p->at].from |= from;
+        return NTS_OK;
+    }
+    if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
+        return rc;
+    p->at = r->queue_count;
+    r->queue[r->queue_count].slave = k;
+    r->queue[r->queue_count].body = body;
+    r->queue[r->queue_count].rho = rho;
+    r->queue[r->queue_count++].from = from;
+    return NTS_OK;
+}
+
+/* Slave k, settled deep inside c->body (gap g < -r, normal n): its
+ * neighbours along the loop that did not ask for it (those have a closest
+ * point within r there, or are settled) may be deeper still. */
+static int follow(nts_context* ctx, const search_env* env, int k, const candidate* c, int asked) {
+    const seg_data* seg = env->seg;
+    const int prev = seg[k].prev, next = seg[k].next;
+    const double lp = seg[prev].len, ln = seg[k].len;
+    const double g = c->gap;
+    int rc = NTS_OK;
+    if (!(asked & SIDE_PREV) && reach_may_be_deeper(lp, g, env->r))
+        rc = enqueue(ctx, env, prev, c->body, fabs(g) + lp, SIDE_NEXT, g - nts_dot(seg[prev].t, c->normal), lp);
+    if (rc == NTS_OK && !(asked & SIDE_NEXT) && reach_may_be_deeper(ln, g, env->r))
+        rc = enqueue(ctx, env, next, c->body, fabs(g) + ln, SIDE_PREV, g + nts_dot(seg[k].t, c->normal), ln);
+    return rc;
+}
+
+/* The closest point c of slave k on c->body, found by a widened search, the
+ * search having found none within r: an active contact deeper than r is
+ * kept, and its chain followed past the neighbours that did not ask. */
+static int settle(nts_context* ctx, const search_env* env, int k, const candidate* c, int asked) {
+    nts_reach* r = &ctx->reach;
+    int rc;
+    if (!(c->gap < 0.0 && -c->gap > env->r)) return NTS_OK; /* outside, or found by the search: the chain ends */
+    if ((rc = nts_grow((void**)&r->deep, &r->deep_cap, r->deep_count + 1, sizeof(candidate))) != NTS_OK) return rc;
+    r->deep[r->deep_count] = *c;
+    r->deep[r->deep_count++].slave = k;
+    return follow(ctx, env, k, c, asked);
+}
+
+/* A slave next to a segment of length l > 2 r: its closest point on every
+ * other body within min(l, the body's depth), where the end of its chain
+ * inside that body lies. What lies within r the search has already. */
+static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, double l) {
+    nts_reach* r = &ctx->reach;
+    int k, rc = NTS_OK;
+    ++r->searches;
+    nts_search_wide(env, w, i, -1, (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad,
+                    r->depth);
+    if (w->status != NTS_OK) return w->status;
+    /* Each body's best in body order (found in the order of the cells). */
+    for (k = 1; k < w->best_count; ++k) {
+        candidate c = w->best[k];
+        int m = k - 1;
+        while (m >= 0 && w->best[m].body > c.body) {
+            w->best[m + 1] = w->best[m];
+            --m;
+        }
+        w->best[m + 1] = c;
+    }
+    for (k = 0; k < w->best_count && rc == NTS_OK; ++k) {
+        const candidate* b = &w->best[k];
+        reach_seen* p;
+        int fresh;
+        if (!(b->gap < 0.0 && -b->gap > env->r)) continue;
+        if ((p = seen_find(r, (long long)i * env->s->body_count + b->body, &fresh)) == NULL) rc = NTS_ENOMEM;
+        else if (fresh) rc = settle(ctx, env, i, b, 0);
+    }
+    nts_search_wide_done(w);
+    return rc;
+}
+
+/* Edge items by slave, then side, then body (binary search). */
+static int edge_before(const reach_item* a, int slave, int from, int body) {
+    if (a->slave != slave) return a->slave < slave;
+    if (a->from != from) return a->from < from;
+    return a->body < body;
+}
+
+static int has_edge(const nts_reach* r, int slave, int from, int body) {
+    int lo = 0, hi = r->edge_count;
+    while (lo < hi) {
+        const int mid = lo + (hi - lo) / 2;
+        if (edge_before(&r->edges[mid], slave, from, body)) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo < r->edge_count && r->edges[lo].slave == slave && r->edges[lo].from == from && r->edges[lo].body == body;
+}
+
+/* An edge: slave i's closest point on a body, its neighbour on side e->from
+ * across the end of a chunk or a loop. That neighbour asks nothing when it
+ * has a closest point on the body too (an edge facing back). */
+static int edge(nts_context* ctx, const search_env* env, const reach_item* e) {
+    const seg_data* seg = env->seg;
+    const int i = e->slave, k = e->from == SIDE_PREV ? seg[i].prev : seg[i].next;
+    const int back = e->from == SIDE_PREV ? SIDE_NEXT : SIDE_PREV;
+    const nts_vec2 d = e->from == SIDE_PREV ? nts_neg(seg[k].t) : seg[i].t; /* X_k - X_i */
+    const double l = e->from == SIDE_PREV ? seg[k].len : seg[i].len;
+    if (has_edge(&ctx->reach, k, back, e->body) || !reach_may_be_deeper(l, e->value, env->r)) return NTS_OK;
+    return enqueue(ctx, env, k, e->body, fabs(e->value) + l, back, e->value + d.x * e->nx + d.y * e->ny, l);
+}
+
+/* A pair's search, widened from its radius, doubled while it finds nothing
+ * (the closest point may not be where the triangle inequality puts the
+ * nearest point of the surface: a slave beside a corner's region), up to
+ * the largest radius the scene allows. */
+static int resolve(nts_context* ctx, const search_env* env, worker* w, reach_request q) {
+    nts_reach* r = &ctx->reach;
+    double rho = q.rho * (1.0 + 1e-9) + env->wide_pad;
+    int rc = NTS_OK;
+    for (;;) {
+        if (rho > env->reach_max) rho = env->reach_max;
+        ++r->searches;
+        nts_search_wide(env, w, q.slave, q.body, rho, NULL);
+        if (w->status != NTS_OK) return w->status;
+        if (w->best_count > 0 || rho >= env->reach_max) break;
+        rho *= 2.0;
+    }
+    if (w->best_count > 0) rc = settle(ctx, env, q.slave, &w->best[0], q.from);
+    else if (env->lx > 0.0) ++r->unresolved; /* the box's half: beyond it no image is the nearest */
+    nts_search_wide_done(w);
+    return rc;
+}
+
+/* Deep contacts by slave, then master body (each pair is there once). */
+static int deep_order(const void* pa, const void* pb) {
+    const candidate* a = (const candidate*)pa;
+    const candidate* b = (const candidate*)pb;
+    if (a->slave != b->slave) return a->slave < b->slave ? -1 : 1;
+    return (a->body > b->body) - (a->body < b->body);
+}
+
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found) {
+    const nts_scene* s = env->s;
+    nts_reach* r = &ctx->reach;
+    worker* w = &ctx->workers[0];
+    int c, i, k, q, rc;
+    r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
+    r->beyond = r->unresolved = r->searches = 0;
+    for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
+    if ((rc = nts_grow((void**)&r->depth, &r->depth_cap, s->body_count, sizeof(double))) != NTS_OK ||
+        (rc = nts_grow((void**)&r->convex, &r->convex_cap, s->body_count, 1)) != NTS_OK)
+        return rc;
+    for (i = 0; i < s->body_count; ++i) r->depth[i] = -1.0;
+    memset(r->convex, -1, (size_t)s->body_count);
+
+    /* 1. What the search asked for, chunk by chunk; its edges, gathered in
+     * slave order, then compared across. */
+    for (c = 0; c < ctx->chunk_count && rc == NTS_OK; ++c) {
+        const chunk_part* part = &ctx->chunks[c].part[STREAM_REACH];
+        const reach_item* it = (const reach_item*)part->data;
+        for (k = 0; k < part->count && rc == NTS_OK; ++k) {
+            const seg_data* seg = env->seg;
+            const int i2 = it[k].slave;
+            if (it[k].kind == REACH_ASK) {
+                const double l = it[k].from == SIDE_PREV ? seg[seg[i2].prev].len : seg[i2].len;
+                rc = enqueue(ctx, env, i2, it[k].body, it[k].value, it[k].from, it[k].h, l);
+            } else if (it[k].kind == REACH_EDGE) {
+                if ((rc = nts_grow((void**)&r->edges, &r->edge_cap, r->edge_count + 1, sizeof(reach_item))) == NTS_OK)
+                    r->edges[r->edge_count++] = it[k];
+            }
+        }
+    }
+    /* (in slave order already: the chunks in order, each slave's edges on
+     * its previous side and then its next, by body) */
+    for (k = 0; k < r->edge_count && rc == NTS_OK; ++k) rc = edge(ctx, env, &r->edges[k]);
+    /* 2. The slaves next to long segments. */
+    for (c = 0; c < ctx->chunk_count && rc == NTS_OK; ++c) {
+        const chunk_part* part = &ctx->chunks[c].part[STREAM_REACH];
+        const reach_item* it = (const reach_item*)part->data;
+        for (k = 0; k < part->count && rc == NTS_OK; ++k)
+            if (it[k].kind == REACH_COARSE) {
+                const seg_data* seg = env->seg;
+                const int i2 = it[k].slave;
+                const double lp = seg[seg[i2].prev].len, ln = seg[i2].len;
+                rc = coarse(ctx, env, w, i2, lp > ln ? lp : ln);
+            }
+    }
+    /* 3. The chains, pair by pair. */
+    for (q = 0; q < r->queue_count && rc == NTS_OK; ++q) {
+        if ((q & 255) == 255 && env->cancel != NULL && env->cancel(env->cancel_user)) return NTS_ECANCELLED;
+        if (found + r->deep_count > env->max_records) return NTS_ELIMIT;
+        rc = resolve(ctx, env, w, r->queue[q]);
+    }
+    if (rc != NTS_OK) return rc;
+    if (found + r->deep_count > env->max_records) return NTS_ELIMIT;
+    if (r->deep_count > 1) qsort(r->deep, (size_t)r->deep_count, sizeof(candidate), deep_order);
+    if (!env->grow) { /* an explicit radius: counted, left out */
+        r->beyond = r->deep_count;
+        r->deep_count = 0;
+    }
+    return NTS_OK;
+}
