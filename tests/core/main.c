@@ -18,6 +18,7 @@ int main(void) {
     register_stiffness_suite();
     register_alloc_suite();
     register_parallel_suite();
+    register_reach_suite();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     CU_basic_run_tests();
     failed = CU_get_number_of_failures() + CU_get_number_of_tests_failed();

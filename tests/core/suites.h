@@ -12,4 +12,5 @@ void register_scenes_suite(void);
 void register_stiffness_suite(void);
 void register_alloc_suite(void);
 void register_parallel_suite(void);
+void register_reach_suite(void);
 #endif

@@ -283,6 +283,23 @@ static void test_oom_threads(void) {
     sweep(&t, &opt);
 }
 
+/* The reach's growth (issue 22 §1) has buffers of its own: the default
+ * radius, disk b pushed 0.5 into disk a (contacts far deeper than the median
+ * segment, found by widened searches). */
+static void test_oom_deep_contacts(void) {
+    test_scene t;
+    nts_options opt = all_outputs(0, NTS_SEARCH_CELLS);
+    result_copy ref;
+    int i;
+    make_scene(&t, 0.0, 0.0);
+    for (i = 0; i < DISK_NODES; ++i) t.disk_b[i].x -= 0.45;
+    opt.search_radius = -1.0;
+    CU_ASSERT_FATAL(reference(&t, &opt, &ref) == 0);
+    CU_ASSERT(ref.summary.deep_contacts > 4);
+    free_copy(&ref);
+    sweep(&t, &opt);
+}
+
 /* A context that has evaluated a small scene grows for a bigger one: failures
  * during that growth leave the context usable for both. */
 static void test_oom_context_regrowth(void) {
@@ -357,5 +374,6 @@ void register_alloc_suite(void) {
     CU_add_test(s, "fail every allocation: brute force", test_oom_brute_force);
     CU_add_test(s, "fail every allocation: periodic", test_oom_periodic);
     CU_add_test(s, "fail every allocation: two threads", test_oom_threads);
+    CU_add_test(s, "fail every allocation: deep contacts", test_oom_deep_contacts);
     CU_add_test(s, "fail every allocation: context regrowth", test_oom_context_regrowth);
 }
