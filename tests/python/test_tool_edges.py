@@ -158,3 +158,130 @@ def test_cli_options_after_the_scene_and_after_double_dash(tmp_path):
     proc = run_cli("--penalty", "10", "--", weird, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert without_elapsed(proc.stdout) == a
+
+
+# --------------------------------------------------------------- daemon options
+
+DAEMON_FLAGS = {"--quiet", "--help", "--version"}
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def tls_pair(tmp_path_factory):
+    if shutil.which("openssl") is None:
+        pytest.skip("needs openssl to make a certificate")
+    d = tmp_path_factory.mktemp("tls")
+    key, cert = d / "key.pem", d / "cert.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out",
+                    str(cert), "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
+                   check=True, capture_output=True, timeout=60)
+    return cert, key
+
+
+def daemon_values(tmp_path, tls_pair, form):
+    tokens = tmp_path / "tokens"
+    tokens.write_text("edge-token\n")
+    cert, key = tls_pair
+    return {
+        "--host": "127.0.0.1", "--port": "0", "--threads": "2", "--max-bytes": "1M", "--timeout": "7",
+        "--max-connections": "9", "--max-depth": "40", "--max-bodies": "1000", "--max-nodes": "100k",
+        "--max-nodes-per-body": "10k", "--max-seconds": "5", "--max-sessions": "8", "--session-ttl": "60",
+        "--session-memory": "64M", "--drain-seconds": "3", "--max-per-client": "16",
+        "--log-file": str(tmp_path / f"{form}.log"), "--max-candidates": "1M", "--token-file": str(tokens),
+        "--allow-origin": "https://app.example.org", "--tls-cert": str(cert), "--tls-key": str(key),
+        "--header-seconds": "5", "--max-memory": "256M", "--log-format": "json", "--allow-host": "127.0.0.1",
+        "--session-id-header": "X-Edge-Id",
+    }
+
+
+def test_daemon_help_lists_the_options_this_test_knows(tmp_path, tls_pair):
+    known = {**{k: True for k in daemon_values(tmp_path, tls_pair, "x")}, **{k: False for k in DAEMON_FLAGS}}
+    assert help_options(DAEMON) == known
+
+
+def test_every_daemon_option_takes_both_forms(tmp_path, tls_pair):
+    docs = []
+    for form in ("space", "equals"):
+        values = daemon_values(tmp_path, tls_pair, form)
+        args = [a for k, v in values.items() for a in ([k, v] if form == "space" else [f"{k}={v}"])]
+        d = start_daemon(DAEMON, tmp_path / f"{form}.err", *args)
+        try:
+            base = d.base.replace("http://", "https://")
+            h = requests.get(base + "/v1/health", headers={"Authorization": "Bearer edge-token"},
+                             verify=str(tls_pair[0]), timeout=20).json()
+            r = requests.post(base + "/v1/contact", data=TWO_DISKS.read_bytes(), verify=str(tls_pair[0]),
+                              headers={"Authorization": "Bearer edge-token", "Content-Type": "application/json",
+                                       "Origin": "https://app.example.org"}, timeout=20)
+            assert r.status_code == 200 and r.json()["summary"]["contacts"] > 0
+        finally:
+            assert d.stop() == 0
+        assert d.log() == ""  # nothing on stderr: every option understood, none deprecated
+        log = (tmp_path / f"{form}.log").read_text().splitlines()
+        assert log and all(json.loads(line)["level"] for line in log)  # --log-file, --log-format json
+        docs.append((h["server"], h["memory"]["budget_bytes"]))
+    assert docs[0] == docs[1]
+    assert docs[0] == ({"threading": "per-connection", "threads": 2, "max_body": 1 << 20, "timeout_s": 7,
+                        "max_connections": 9}, 256 << 20)
+
+
+def test_daemon_port_with_equals(tmp_path):
+    port = free_port()
+    d = start_daemon(DAEMON, tmp_path / "d.log", f"--port={port}", "--max-bytes=4k")
+    try:
+        assert d.port == port
+        r = requests.post(d.url("/v1/contact"), data=b"{" + b" " * 5000 + b"}",
+                          headers={"Content-Type": "application/json"}, timeout=20)
+        assert r.status_code == 413
+    finally:
+        assert d.stop() == 0
+
+
+@pytest.mark.parametrize("form", ["space", "equals"])
+def test_daemon_old_max_body_is_deprecated_but_works(tmp_path, form):
+    args = ["--max-body", "4k"] if form == "space" else ["--max-body=4k"]
+    d = start_daemon(DAEMON, tmp_path / "d.log", *args)
+    try:
+        h = requests.get(d.url("/v1/health"), timeout=10).json()
+        assert h["server"]["max_body"] == 4096
+    finally:
+        assert d.stop() == 0
+    first = d.log().splitlines()[0]
+    assert first == "ntscontactd: --max-body is deprecated: use --max-bytes (the CLI's name for the same limit)"
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--quiet=1"], "option '--quiet' takes no value"),
+    (["--port"], "option '--port' needs a value"),
+    (["--port=70000"], "--port: expected an integer in [0, 65535], got '70000'"),
+    (["--por", "0"], "unknown option '--por'"),
+    (["--bogus"], "unknown option '--bogus'"),
+    (["stray"], "unexpected argument 'stray'"),
+], ids=lambda a: " ".join(a) if isinstance(a, list) else "")
+def test_daemon_usage_errors_are_clear(args, says):
+    proc = subprocess.run([str(DAEMON), *args], capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stdout == ""
+    assert proc.stderr.splitlines() == [f"ntscontactd: {says}", "Try 'ntscontactd --help' for more information."]
+
+
+# --------------------------------------------------------------- daemon help
+
+def test_daemon_help_names_every_route():
+    """Every route of schemas/openapi.json, with its methods, on one line of
+    --help; /v1/schemas/{...} names every schema the daemon embeds."""
+    text = subprocess.run([str(DAEMON), "--help"], capture_output=True, text=True, timeout=30).stdout
+    api = json.loads((REPO / "schemas" / "openapi.json").read_text())
+    schemas = {p.name.split(".")[0] for p in (REPO / "schemas").glob("*.schema.json")}
+    listed = re.search(r"/v1/schemas/\{([a-z,]+)\}", text)
+    assert listed and set(listed.group(1).split(",")) == schemas, listed
+    for path, ops in api["paths"].items():
+        if path == "/v1/schemas/{name}":
+            path = listed.group(0)
+        for method in ops:
+            if method in ("get", "post", "delete", "put"):
+                assert re.search(rf"(?m)^ +{method.upper()} +{re.escape(path)}(\s|$)", text), (method, path)
