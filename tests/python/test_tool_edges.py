@@ -285,3 +285,174 @@ def test_daemon_help_names_every_route():
         for method in ops:
             if method in ("get", "post", "delete", "put"):
                 assert re.search(rf"(?m)^ +{method.upper()} +{re.escape(path)}(\s|$)", text), (method, path)
+
+
+# --------------------------------------------------------------- convert
+
+def convert(*args, timeout=120):
+    return subprocess.run([sys.executable, "-m", "ntscontact", "convert", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def assert_one_line(proc, code):
+    assert proc.returncode == code, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("ntscontact: "), proc.stderr
+
+
+def test_convert_a_missing_file(tmp_path):
+    proc = convert(tmp_path / "nowhere.msh", "--penalty", "10")
+    assert_one_line(proc, 2)
+    assert f"cannot open '{tmp_path / 'nowhere.msh'}': No such file or directory" in proc.stderr
+    proc = convert(tmp_path, "--penalty", "10")
+    assert_one_line(proc, 2)
+    assert "directory" in proc.stderr.lower()
+
+
+@pytest.mark.parametrize("name, data", [("garbage.msh", "not a mesh\n"), ("mesh.xyz", "1 2 3\n"),
+                                        ("empty.vtk", "")])
+def test_convert_an_unreadable_file(tmp_path, name, data):
+    path = tmp_path / name
+    path.write_text(data)
+    proc = convert(path, "--penalty", "10")
+    assert_one_line(proc, 3)
+    assert f"cannot read {path} as a mesh" in proc.stderr
+
+
+def test_convert_a_3d_mesh_says_so(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    # a square bent along its diagonal: triangles that are not flat in z
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 0]], dtype=float)
+    path = tmp_path / "bent.vtk"
+    meshio.write(str(path), meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))]))
+    proc = convert(path, "--penalty", "10")
+    assert_one_line(proc, 3)
+    assert "3D mesh: ntscontact is 2D" in proc.stderr and "zero area" not in proc.stderr
+    assert "mesh point 2" in proc.stderr  # the first point off the plane of the others
+    # a vertical wall: every triangle has zero area seen from above
+    wall = np.array([[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], dtype=float)
+    meshio.write(str(path), meshio.Mesh(wall, [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))]))
+    proc = convert(path, "--penalty", "10")
+    assert_one_line(proc, 3)
+    assert "3D mesh: ntscontact is 2D" in proc.stderr and "zero area" not in proc.stderr
+    # tetrahedra alone
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
+    meshio.write(str(path), meshio.Mesh(tet, [("tetra", np.array([[0, 1, 2, 3]]))]))
+    proc = convert(path, "--penalty", "10")
+    assert_one_line(proc, 3)
+    assert "3D mesh: ntscontact is 2D" in proc.stderr and "tetra" in proc.stderr
+
+
+def test_convert_a_flat_mesh_at_any_constant_z(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    pts = np.array([[0, 0, 7.5], [1, 0, 7.5], [1, 1, 7.5], [0, 1, 7.5]], dtype=float)
+    path = tmp_path / "flat.vtk"
+    meshio.write(str(path), meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2], [0, 2, 3]]))]))
+    out = tmp_path / "scene.json"
+    proc = convert(path, "--penalty", "10", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(out.read_text())["bodies"][0]["nodes"] == [[0, 0], [1, 0], [1, 1], [0, 1]]
+
+
+def pinched():
+    """Two triangles sharing node 2 only (a bow tie), and a third apart."""
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 0], [2, 2, 0], [5, 5, 0], [6, 5, 0], [5, 6, 0]], float)
+    tris = np.array([[0, 1, 2], [2, 3, 4], [5, 6, 7]])
+    return pts, tris
+
+
+def test_convert_a_pinched_mesh_is_refused_at_convert_time(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    pts, tris = pinched()
+    path = tmp_path / "bowtie.vtk"
+    meshio.write(str(path), meshio.Mesh(pts, [("triangle", tris)]))
+    for extra in ([], ["--loops"]):
+        proc = convert(path, "--penalty", "10", *extra)
+        assert_one_line(proc, 3)
+        err = proc.stderr
+        assert "non_manifold_mesh" in err and "body 0" in err and "mesh point 2 is a pinch point" in err, err
+        assert "triangle 1" in err, err
+
+
+def test_convert_requires_the_penalty(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    pts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0]], dtype=float)
+    path = tmp_path / "one.vtk"
+    meshio.write(str(path), meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2]]))]))
+    proc = convert(path)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert "--penalty" in proc.stderr and "required" in proc.stderr
+    proc = convert(path, "--penalty", "25")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["options"]["penalty"] == 25.0
+
+
+def test_scene_from_mesh_sets_no_penalty_by_itself():
+    meshio = pytest.importorskip("meshio")
+    from ntscontact import InvalidScene
+    from ntscontact.mesh import scene_from_mesh
+    mesh = meshio.Mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0]], dtype=float), [("triangle", np.array([[0, 1, 2]]))])
+    scene = scene_from_mesh(mesh)
+    assert scene.penalty is None and "penalty" not in scene.options_dict()
+    with pytest.raises(InvalidScene) as e:
+        scene.check()
+    assert e.value.code == "missing_field" and e.value.pointer == "/options/penalty"
+    assert scene_from_mesh(mesh, penalty=3.0).options_dict()["penalty"] == 3.0
+
+
+def core_verdict(nodes, tris):
+    """What the core says of one body given as triangles: None, or (code, pointer, message)."""
+    scene = {"options": {"penalty": 1}, "bodies": [{"id": 0, "nodes": nodes.tolist(), "triangles": tris.tolist()}]}
+    proc = run_cli("--validate", "-", stdin=json.dumps(scene).encode())
+    if proc.returncode == 0:
+        return None
+    m = re.match(r'ntscontact: ([a-z_]+) at "([^"]*)": (.*)$', proc.stderr.decode())
+    assert m, proc.stderr
+    return m.group(1), m.group(2), m.group(3)
+
+
+TRIANGLE_CODES = {"degenerate_triangle", "non_manifold_mesh", "no_boundary", "index_out_of_range"}
+
+
+def test_the_converter_applies_the_cores_triangle_rule():
+    """Random small meshes: whenever the core refuses a body for its triangles,
+    ntscontact.mesh.check_triangles refuses it with the same code, the same
+    triangle and (for a pinch point) the same node; when it accepts, so does the
+    core's triangle stage."""
+    from ntscontact import InvalidScene
+    from ntscontact.mesh import check_triangles
+    rng = np.random.default_rng(22)
+    grid = np.array([[x, y] for y in range(3) for x in range(3)], dtype=float)
+    seen = set()
+    for trial in range(300):
+        m = int(rng.integers(1, 7))
+        tris = rng.integers(0, 9, size=(m, 3))
+        if trial % 3 == 0:  # fans around the centre: pinches and valid meshes more often
+            ring = [0, 1, 2, 5, 8, 7, 6, 3]
+            picks = rng.choice(8, size=m, replace=False)
+            tris = np.array([[4, ring[k], ring[(k + 1) % 8]] for k in picks])
+        used = np.unique(tris)
+        local = np.full(9, -1)
+        local[used] = np.arange(used.size)
+        nodes, t = grid[used], local[tris]
+        core = core_verdict(nodes, t)
+        try:
+            check_triangles(nodes, t)
+            ours = None
+        except InvalidScene as e:
+            ours = (e.code, e.pointer, e.message)
+        if core is not None and core[0] not in TRIANGLE_CODES:
+            core = None  # a later check of the scene (loops crossing, ...): not the triangle rule
+        if core is None:
+            assert ours is None, (t.tolist(), ours)
+            seen.add("ok")
+            continue
+        assert ours is not None, (t.tolist(), core)
+        assert ours[0] == core[0] and ours[1] == core[1].removeprefix("/bodies/0"), (t.tolist(), ours, core)
+        node = re.search(r"node (\d+) is a pinch point", core[2])
+        if node:
+            assert f"node {node.group(1)} is a pinch point" in ours[2], (ours, core)
+            seen.add("pinch")
+        seen.add(core[0])
+    assert seen >= {"ok", "degenerate_triangle", "non_manifold_mesh", "pinch"}, seen
