@@ -7,6 +7,7 @@ without LD_LIBRARY_PATH."""
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 
@@ -120,3 +121,52 @@ def test_shared_build_installs_programs_that_run(paths, tmp_path):
     ldd = subprocess.run(["ldd", str(tmp_path / "consumer")], capture_output=True, text=True, timeout=60,
                          env=dict(env, LD_LIBRARY_PATH=str(libdir)))
     assert str(libdir / "libntscontact.so.0") in ldd.stdout
+
+
+CORE_ONLY = r"""
+#include <stdio.h>
+#include <ntscontact/ntscontact.h>
+int main(void) {
+    static const nts_vec2 a[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, b[4] = {{0.95, 0.1}, {2, 0.1}, {2, 1.1}, {0.95, 1.1}};
+    nts_body_def bodies[2] = {{0}, {0}};
+    nts_scene_def def = nts_default_scene_def();
+    nts_options o = nts_default_options();
+    nts_context* c = nts_context_create();
+    nts_error err;
+    nts_result r;
+    nts_scene* s;
+    bodies[0].nodes = a; bodies[0].node_count = 4;
+    bodies[1].nodes = b; bodies[1].node_count = 4;
+    def.bodies = bodies; def.body_count = 2;
+    s = nts_scene_create(&def, &err);
+    o.penalty = 100.0; o.search_radius = 0.2; o.solver = NTS_SOLVER_CLOSED_FORM; o.threads = 2;
+    if (s == NULL || nts_evaluate(c, s, &o, &r, &err) != NTS_OK) return 1;
+    printf("contacts %d\n", r.summary.contacts);
+    nts_scene_destroy(s);
+    nts_context_destroy(c);
+    return 0;
+}
+"""
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="needs cc")
+def test_readme_link_line_of_a_static_build(paths, tmp_path):
+    """The README's link line by hand, for the static library, links and runs."""
+    if sanitized(paths):
+        pytest.skip("a sanitizer build: its static libraries need the sanitizer runtime in the consumer too")
+    readme = " ".join((REPO / "README.md").read_text().split())
+    m = re.search(r"`(cc app\.c -IPREFIX[^`]+)`", readme)
+    assert m, "README: no `cc app.c ...` link line"
+    prefix = tmp_path / "prefix"
+    subprocess.run(["cmake", "--install", str(paths.build), "--prefix", str(prefix)], check=True,
+                   capture_output=True, timeout=120)
+    (tmp_path / "app.c").write_text(CORE_ONLY)
+    config = (prefix / "include" / "ntscontact" / "config.h").read_text()
+    args = m.group(1).replace("PREFIX", str(prefix)).split()
+    if "NTS_CONFIG_OPENMP 0" in config:
+        args = [a for a in args if a != "-fopenmp"]
+    assert "-lgsl" in args and "-lgslcblas" in args and "-lm" in args
+    r = subprocess.run([*args, "-o", "app"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, " ".join(args) + "\n" + r.stderr
+    out = subprocess.run([str(tmp_path / "app")], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and int(out.stdout.split()[1]) > 0, out.stdout + out.stderr
