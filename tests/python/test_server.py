@@ -658,10 +658,11 @@ def test_port_in_use_fails_cleanly(daemon, paths):
     assert "cannot listen" in p.stderr
 
 
-def test_serve_demo_once(paths):
+@pytest.mark.parametrize("port", [["--port", "0"], ["--port=0"]], ids=["space", "equals"])
+def test_serve_demo_once(paths, port):
     """scripts/serve-demo.sh: start, query with the bundled example, summary, stop."""
     env = dict(os.environ, NTS_BUILD_DIR=str(paths.build))
-    p = subprocess.run(["bash", str(paths.repo / "scripts/serve-demo.sh"), "--port", "0", "--once"],
+    p = subprocess.run(["bash", str(paths.repo / "scripts/serve-demo.sh"), *port, "--once"],
                        capture_output=True, text=True, timeout=120, env=env)
     assert p.returncode == 0, p.stdout + p.stderr
     assert re.search(r"contacts: +\d+ active", p.stdout), p.stdout
