@@ -19,6 +19,7 @@ import datetime
 import json
 import os
 import platform
+import re
 import resource
 import statistics
 import shutil
@@ -177,7 +178,7 @@ def run_benchmarks(args):
         t0 = time.time()
         p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT,
                            env=dict(os.environ, **env) if env else None)
-        log.append("%s: %.1f s" % (" ".join(os.path.basename(c) if i == 0 else c for i, c in enumerate(cmd)),
+        log.append("%s: %.1f s" % (" ".join(os.path.basename(c) if i == 0 else shown(c) for i, c in enumerate(cmd)),
                                    time.time() - t0))
         sys.stderr.write(p.stderr)
         if p.returncode != 0:
@@ -912,7 +913,7 @@ def report(res, made):
                      "same contacts and forces within 1e-13 of the largest. Within this release the digests "
                      "compare thread counts and searches (`tests/core/test_parallel.c`, `test_search.c`).")
         L.append("")
-    L.append("Run log: " + "; ".join(meta.get("steps", [])))
+    L.append("Run log: " + "; ".join(shown_paths(s) for s in meta.get("steps", [])))
     return "\n".join(L)
 
 
@@ -1101,6 +1102,29 @@ def write_doc(text, path):
         new = old.rstrip("\n") + "\n\n" + block + "\n"
     with open(path, "w") as f:
         f.write(new)
+
+
+def shown(arg):
+    """A command's argument as the run log shows it, with no machine's paths:
+    a path in the repository relative to it, a temporary directory as
+    $TMPDIR/<prefix>*, any other absolute path by its name."""
+    if not os.path.isabs(arg):
+        return arg
+    root, tmp = os.path.realpath(ROOT), os.path.realpath(tempfile.gettempdir())
+    real = os.path.realpath(arg)
+    if real == root or real.startswith(root + os.sep):
+        return os.path.relpath(real, root)
+    if real.startswith(tmp + os.sep) or real.startswith("/tmp/"):
+        return "$TMPDIR/" + re.sub(r"[^-]*$", "*", os.path.basename(real), count=1)
+    if "/bench/" in real:  # the results of another checkout
+        return real[real.index("/bench/") + 1:]
+    return os.path.basename(real)
+
+
+def shown_paths(text):
+    """Every absolute path of a run log line through shown() (logs written
+    before it kept them)."""
+    return re.sub(r"(?<![\w.$])/[^\s:;,]+", lambda m: shown(m.group(0)), text)
 
 
 def main():

@@ -4,7 +4,7 @@
 # running in the foreground until Ctrl-C (it then finishes what is in flight
 # and exits 0).
 #
-#   scripts/serve-demo.sh [--port N] [--once]
+#   scripts/serve-demo.sh [--port N | --port=N] [--once]
 #
 # --port N   listen on 127.0.0.1:N (default 8080, or $NTS_PORT; 0 = any free port;
 #            when the default 8080 is busy, any free port is taken)
@@ -18,7 +18,9 @@ port_given=${NTS_PORT:+1}
 once=0
 while [ $# -gt 0 ]; do
   case "$1" in
-    --port) port=$2; port_given=1; shift 2 ;;
+    --port) [ $# -ge 2 ] || { echo "serve-demo: option '--port' needs a value" >&2; exit 2; }
+            port=$2; port_given=1; shift 2 ;;
+    --port=*) port=${1#--port=}; port_given=1; shift ;;
     --once) once=1; shift ;;
     -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "serve-demo: unknown argument: $1" >&2; exit 2 ;;

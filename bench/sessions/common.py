@@ -12,7 +12,7 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 def start_daemon(max_body="512M"):
     """ntscontactd on a free loopback port, one evaluation thread: (process, port)."""
     proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
-                             "--max-body", max_body, "--session-memory", "8G"],
+                             "--max-bytes", max_body, "--session-memory", "8G"],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     line = proc.stdout.readline().decode()
     if not line.startswith("ntscontactd listening on "):

@@ -5,10 +5,12 @@
  * Exit status: 0 done, 2 usage (bad flags, unreadable files), 3 invalid input
  * (one line on stderr: code, JSON pointer, message), 1 internal error. */
 #include <errno.h>
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include <ntscontact/codec.h>
 
@@ -58,6 +60,9 @@ static const char usage_text[] =
     "                       bodies piled on one spot\n"
     "  -h, --help           print this help and exit\n"
     "  -V, --version        print the version and exit\n"
+    "\n"
+    "Every option with a value takes it as '--name VALUE' or '--name=VALUE';\n"
+    "names are written in full. '--' ends the options.\n"
     "\n"
     "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
     "error: code, JSON pointer, message), 1 internal error\n";
@@ -124,6 +129,25 @@ static int usage_error(const char* fmt, const char* arg) {
     return EXIT_USAGE;
 }
 
+/* Open a file to read ("-": standard input), refusing what cannot be read as
+ * one (a directory) with one line naming it: NULL then, the caller exits 2. */
+static FILE* open_input(const char* path) {
+    struct stat st;
+    FILE* f;
+    if (strcmp(path, "-") == 0) return stdin;
+    f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "ntscontact: cannot open '%s': %s\n", path, strerror(errno));
+        return NULL;
+    }
+    if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "ntscontact: cannot read '%s': %s\n", path, strerror(EISDIR));
+        fclose(f);
+        return NULL;
+    }
+    return f;
+}
+
 static int parse_double(const char* s, double* out) {
     char* end;
     double v;
@@ -175,11 +199,13 @@ static void put_escaped(FILE* f, const char* s, int quote) {
 }
 
 /* Read all of `f`, at most `limit` + 1 bytes (one more than allowed, so the
- * codec sees the request is too large without us reading gigabytes). */
-static char* read_all(FILE* f, size_t limit, size_t* length) {
+ * codec sees the request is too large without us reading gigabytes). NULL on
+ * failure, with *read_errno the read's errno (0: out of memory). */
+static char* read_all(FILE* f, size_t limit, size_t* length, int* read_errno) {
     size_t cap = 1 << 16, len = 0;
     const size_t most = limit < (size_t)-1 ? limit + 1 : limit; /* bytes we read at most */
     char* buf = (char*)malloc(cap);
+    *read_errno = 0;
     if (!buf) return NULL;
     for (;;) {
         size_t want, got;
@@ -197,11 +223,13 @@ static char* read_all(FILE* f, size_t limit, size_t* length) {
         want = cap - len;
         if (want > most - len) want = most - len;
         if (want == 0) break;
+        errno = 0;
         got = fread(buf + len, 1, want, f);
         len += got;
         if (got < want) break;
     }
     if (ferror(f)) {
+        *read_errno = errno ? errno : EIO;
         free(buf);
         return NULL;
     }
@@ -301,9 +329,8 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     }
     nodes = ntsj_session_get_info(ss).nodes;
     frame_bytes = (size_t)nodes * 16u;
-    in = strcmp(frames, "-") == 0 ? stdin : fopen(frames, "rb");
+    in = open_input(frames);
     if (!in) {
-        fprintf(stderr, "ntscontact: cannot open '%s': %s\n", frames, strerror(errno));
         ntsj_session_destroy(ss);
         return EXIT_USAGE;
     }
@@ -368,6 +395,54 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     return status;
 }
 
+/* The options, each with one name; getopt_long takes "--name VALUE" and
+ * "--name=VALUE" alike. */
+enum {
+    OPT_ALPHA = 256, OPT_PENALTY, OPT_SEARCH_RADIUS, OPT_SOLVER, OPT_OUTPUTS, OPT_VALIDATE, OPT_PRETTY,
+    OPT_FRAMES, OPT_VTK, OPT_MAX_BYTES, OPT_MAX_DEPTH, OPT_MAX_BODIES, OPT_MAX_NODES, OPT_MAX_NODES_PER_BODY,
+    OPT_MAX_SECONDS, OPT_MAX_CANDIDATES
+};
+
+static const struct option long_options[] = {
+    {"alpha", required_argument, NULL, OPT_ALPHA},
+    {"penalty", required_argument, NULL, OPT_PENALTY},
+    {"search-radius", required_argument, NULL, OPT_SEARCH_RADIUS},
+    {"solver", required_argument, NULL, OPT_SOLVER},
+    {"outputs", required_argument, NULL, OPT_OUTPUTS},
+    {"validate", no_argument, NULL, OPT_VALIDATE},
+    {"pretty", no_argument, NULL, OPT_PRETTY},
+    {"output", required_argument, NULL, 'o'},
+    {"frames", required_argument, NULL, OPT_FRAMES},
+    {"vtk", required_argument, NULL, OPT_VTK},
+    {"max-bytes", required_argument, NULL, OPT_MAX_BYTES},
+    {"max-depth", required_argument, NULL, OPT_MAX_DEPTH},
+    {"max-bodies", required_argument, NULL, OPT_MAX_BODIES},
+    {"max-nodes", required_argument, NULL, OPT_MAX_NODES},
+    {"max-nodes-per-body", required_argument, NULL, OPT_MAX_NODES_PER_BODY},
+    {"max-seconds", required_argument, NULL, OPT_MAX_SECONDS},
+    {"max-candidates", required_argument, NULL, OPT_MAX_CANDIDATES},
+    {"help", no_argument, NULL, 'h'},
+    {"version", no_argument, NULL, 'V'},
+    {NULL, 0, NULL, 0}};
+
+/* The option at argv[at] as written, up to any '=': "--name" (or "-x"). */
+static const char* option_name(const char* arg, char* buf, size_t cap) {
+    size_t n = strcspn(arg, "=");
+    if (arg[0] != '-' || arg[1] != '-') n = 2; /* a short option: "-x" */
+    if (n >= cap) n = cap - 1;
+    memcpy(buf, arg, n);
+    buf[n] = '\0';
+    return buf;
+}
+
+/* A count limit: [1, hi], k/M/G suffixes. */
+static int limit_value(const char* name, const char* val, long long hi, long long* out) {
+    if (parse_count(val, 1, hi, out) == 0) return 0;
+    fprintf(stderr, "ntscontact: %s needs a positive count, not '%s'\nTry 'ntscontact --help' for more information.\n",
+            name, val);
+    return -1;
+}
+
 int main(int argc, char** argv) {
     ntsj_config cfg = ntsj_default_config();
     ntsj_response resp;
@@ -379,118 +454,127 @@ int main(int argc, char** argv) {
     FILE* out;
     char* data;
     size_t length = 0;
-    int i, only_files = 0, status;
+    int status, read_errno = 0;
 
-    for (i = 1; i < argc; ++i) {
-        const char* a = argv[i];
-        const char* val = NULL;
-        const char* eq;
-        char name[32];
-        if (only_files || a[0] != '-' || strcmp(a, "-") == 0) {
-            if (input) return usage_error("more than one scene given ('%s')", a);
-            input = a;
+    /* "-": non-options come back in order as code 1, so a scene may come
+     * before or after the options whatever POSIXLY_CORRECT says; ":": a
+     * missing value is ':' and not '?'. */
+    opterr = 0;
+    for (;;) {
+        const int at = optind; /* argv[at]: the option getopt_long reads now */
+        int index = -1, c = getopt_long(argc, argv, "-:ho:V", long_options, &index);
+        const char* val = optarg;
+        char name[64];
+        long long n = 0;
+        if (c == -1) break;
+        if (c == 1) {
+            if (input) return usage_error("more than one scene given ('%s')", val);
+            input = val;
             continue;
         }
-        if (strcmp(a, "--") == 0) {
-            only_files = 1;
-            continue;
+        if (c == '?') {
+            /* An unknown option (or an ambiguous abbreviation), or a value
+             * given to an option that takes none. */
+            if (optopt != 0 && at < argc && strncmp(argv[at], "--", 2) == 0)
+                return usage_error("option '%s' takes no value", option_name(argv[at], name, sizeof name));
+            if (optopt != 0 && (at >= argc || strncmp(argv[at], "--", 2) != 0)) {
+                name[0] = '-';
+                name[1] = (char)optopt;
+                name[2] = '\0';
+                return usage_error("unknown option '%s'", name);
+            }
+            return usage_error("unknown option '%s'", at < argc ? argv[at] : "?");
         }
-        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+        if (c == ':') return usage_error("option '%s' needs a value", option_name(argv[at], name, sizeof name));
+        /* Names in full: getopt_long would take an unambiguous abbreviation. */
+        if (index >= 0 && strcmp(option_name(argv[at], name, sizeof name) + 2, long_options[index].name) != 0)
+            return usage_error("unknown option '%s'", name);
+        switch (c) {
+        case 'h':
             fputs(usage_text, stdout);
             return EXIT_DONE;
-        }
-        if (strcmp(a, "-V") == 0 || strcmp(a, "--version") == 0) {
+        case 'V':
             printf("ntscontact %s\n", NTS_VERSION_STRING);
             return EXIT_DONE;
-        }
-        if (strcmp(a, "--pretty") == 0) {
+        case OPT_PRETTY:
             cfg.pretty = 1;
-            continue;
-        }
-        if (strcmp(a, "--validate") == 0) {
+            break;
+        case OPT_VALIDATE:
             cfg.mode = NTSJ_VALIDATE;
-            continue;
-        }
-        /* Options with a value: "--name VALUE" or "--name=VALUE"; "-o FILE". */
-        eq = strchr(a, '=');
-        if (eq && a[1] == '-') {
-            size_t n = (size_t)(eq - a);
-            if (n >= sizeof name) return usage_error("unknown option '%s'", a);
-            memcpy(name, a, n);
-            name[n] = '\0';
-            val = eq + 1;
-        } else {
-            if (strlen(a) >= sizeof name) return usage_error("unknown option '%s'", a);
-            strcpy(name, a);
-        }
-        if (strcmp(name, "--alpha") != 0 && strcmp(name, "--penalty") != 0 && strcmp(name, "--search-radius") != 0 &&
-            strcmp(name, "--solver") != 0 && strcmp(name, "--outputs") != 0 && strcmp(name, "-o") != 0 &&
-            strcmp(name, "--output") != 0 && strcmp(name, "--frames") != 0 && strcmp(name, "--vtk") != 0 &&
-            strncmp(name, "--max-", 6) != 0)
-            return usage_error("unknown option '%s'", a);
-        if (!val) {
-            if (i + 1 >= argc) return usage_error("option '%s' needs a value", name);
-            val = argv[++i];
-        }
-        if (strcmp(name, "--alpha") == 0) {
+            break;
+        case OPT_ALPHA:
             if (parse_double(val, &cfg.overrides.alpha) != 0) return usage_error("--alpha needs a number, not '%s'", val);
             cfg.overrides.has_alpha = 1;
-        } else if (strcmp(name, "--penalty") == 0) {
+            break;
+        case OPT_PENALTY:
             if (parse_double(val, &cfg.overrides.penalty) != 0) return usage_error("--penalty needs a number, not '%s'", val);
             cfg.overrides.has_penalty = 1;
-        } else if (strcmp(name, "--search-radius") == 0) {
+            break;
+        case OPT_SEARCH_RADIUS:
             if (parse_double(val, &cfg.overrides.search_radius) != 0)
                 return usage_error("--search-radius needs a number, not '%s'", val);
             cfg.overrides.has_search_radius = 1;
-        } else if (strcmp(name, "--solver") == 0) {
+            break;
+        case OPT_SOLVER:
             if (ntsj_solver_from_name(val, &cfg.overrides.solver) != 0)
                 return usage_error("--solver must be closed_form or newton, not '%s'", val);
             cfg.overrides.has_solver = 1;
-        } else if (strcmp(name, "--outputs") == 0) {
+            break;
+        case OPT_OUTPUTS:
             if (parse_outputs(val, &cfg.overrides.outputs) != 0)
                 return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps,stiffness, not '%s'", val);
             cfg.overrides.has_outputs = 1;
-        } else if (strncmp(name, "--max-", 6) == 0) {
-            long long n = 0;
-            const char* lim = name + 6;
-            if (strcmp(lim, "seconds") == 0) {
-                double sec;
-                if (parse_double(val, &sec) != 0 || sec < 0.0)
-                    return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
-                cfg.max_seconds = sec;
-            } else if (parse_count(val, 1, strcmp(lim, "nodes") == 0 || strcmp(lim, "candidates") == 0 ? (1LL << 40)
-                                                                                                     : 0x7fffffffLL,
-                                   &n) != 0) {
-                if (strcmp(lim, "bytes") && strcmp(lim, "depth") && strcmp(lim, "bodies") && strcmp(lim, "nodes") &&
-                    strcmp(lim, "nodes-per-body") && strcmp(lim, "candidates"))
-                    return usage_error("unknown option '%s'", name);
-                return usage_error("this limit needs a positive count, not '%s'", val);
-            } else if (strcmp(lim, "bytes") == 0) {
-                cfg.max_bytes = (size_t)n;
-            } else if (strcmp(lim, "depth") == 0) {
-                cfg.max_depth = (int)n;
-            } else if (strcmp(lim, "bodies") == 0) {
-                cfg.limits.max_bodies = (int)n;
-            } else if (strcmp(lim, "nodes") == 0) {
-                cfg.limits.max_nodes = n;
-            } else if (strcmp(lim, "nodes-per-body") == 0) {
-                cfg.limits.max_nodes_per_body = (int)n;
-            } else if (strcmp(lim, "candidates") == 0) {
-                cfg.max_candidates = n;
-            } else {
-                return usage_error("unknown option '%s'", name);
-            }
-        } else if (strcmp(name, "--frames") == 0) {
+            break;
+        case OPT_MAX_SECONDS: {
+            double sec;
+            if (parse_double(val, &sec) != 0 || sec < 0.0)
+                return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
+            cfg.max_seconds = sec;
+            break;
+        }
+        case OPT_MAX_BYTES:
+            if (limit_value("--max-bytes", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
+            cfg.max_bytes = (size_t)n;
+            break;
+        case OPT_MAX_DEPTH:
+            if (limit_value("--max-depth", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
+            cfg.max_depth = (int)n;
+            break;
+        case OPT_MAX_BODIES:
+            if (limit_value("--max-bodies", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
+            cfg.limits.max_bodies = (int)n;
+            break;
+        case OPT_MAX_NODES:
+            if (limit_value("--max-nodes", val, 1LL << 40, &n) != 0) return EXIT_USAGE;
+            cfg.limits.max_nodes = n;
+            break;
+        case OPT_MAX_NODES_PER_BODY:
+            if (limit_value("--max-nodes-per-body", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
+            cfg.limits.max_nodes_per_body = (int)n;
+            break;
+        case OPT_MAX_CANDIDATES:
+            if (limit_value("--max-candidates", val, 1LL << 40, &n) != 0) return EXIT_USAGE;
+            cfg.max_candidates = n;
+            break;
+        case OPT_FRAMES:
             frames = val;
-        } else if (strcmp(name, "--vtk") == 0) {
-            size_t n = strlen(val);
-            if (n < 5 || strcmp(val + n - 4, ".vtu") != 0)
+            break;
+        case OPT_VTK: {
+            size_t len = strlen(val);
+            if (len < 5 || strcmp(val + len - 4, ".vtu") != 0)
                 return usage_error("--vtk needs a file name ending in .vtu, not '%s'", val);
             vtk = val;
             cfg.vtk = 1;
-        } else {
-            output = val;
+            break;
         }
+        default: /* 'o' */
+            output = val;
+            break;
+        }
+    }
+    for (; optind < argc; ++optind) { /* after "--": file names only */
+        if (input) return usage_error("more than one scene given ('%s')", argv[optind]);
+        input = argv[optind];
     }
     if (!input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
     if (frames && strcmp(frames, "-") == 0 && strcmp(input, "-") == 0)
@@ -499,19 +583,16 @@ int main(int argc, char** argv) {
     if (frames && (cfg.mode == NTSJ_VALIDATE || cfg.pretty))
         return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
 
-    if (strcmp(input, "-") == 0) {
-        in = stdin;
-    } else {
-        in = fopen(input, "rb");
-        if (!in) {
-            fprintf(stderr, "ntscontact: cannot open '%s': %s\n", input, strerror(errno));
-            return EXIT_USAGE;
-        }
-    }
-    data = read_all(in, cfg.max_bytes, &length);
+    in = open_input(input);
+    if (!in) return EXIT_USAGE;
+    data = read_all(in, cfg.max_bytes, &length, &read_errno);
     if (in != stdin) fclose(in);
+    if (!data && read_errno != 0) { /* the file's fault, not ours */
+        fprintf(stderr, "ntscontact: cannot read '%s': %s\n", input, strerror(read_errno));
+        return EXIT_USAGE;
+    }
     if (!data) {
-        fprintf(stderr, "ntscontact: cannot read '%s'\n", input);
+        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory reading '%s'\n", input);
         return EXIT_INTERNAL;
     }
 

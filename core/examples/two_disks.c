@@ -1,6 +1,10 @@
-/* The main job until the CLI exists: two disks of radius 1 pressed together,
- * their contact forces, energy and virial. */
+/* The core's C API in one program: two disks of radius 1 (32 nodes each)
+ * pressed together; prints the active contacts, the energy, the virial and
+ * each contact (kind, gap, normal, force). Built as build/bin/two_disks with
+ * the rest (core/CMakeLists.txt); the README's "The core in C" walks through
+ * the same calls. */
 #include <stdio.h>
+#include <string.h>
 
 #include <ntscontact/ntscontact.h>
 
@@ -23,11 +27,12 @@ int main(void) {
         a[i] = nts_v2(cos(th), sin(th));
         b[i] = nts_v2(2.0 - overlap + cos(th + pi / NODES), sin(th + pi / NODES));
     }
+    /* Every field zero first: no loops (the nodes are one loop), no triangles,
+     * the body's own alpha unset, role both (master and slave), ... */
+    memset(bodies, 0, sizeof bodies);
     for (k = 0; k < 2; ++k) {
         bodies[k].nodes = k == 0 ? a : b;
         bodies[k].node_count = NODES;
-        bodies[k].loop_nodes = bodies[k].loop_start = bodies[k].triangles = NULL;
-        bodies[k].loop_count = bodies[k].triangle_count = 0;
     }
     def.bodies = bodies;
     def.body_count = 2;

@@ -1,5 +1,6 @@
 /* ntscontactd command line. */
 #include <errno.h>
+#include <getopt.h>
 #include <limits.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -11,31 +12,38 @@
 #include "server.h"
 
 static const char usage[] =
-    "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-body BYTES]\n"
-    "                   [--timeout S] [--max-connections N]\n"
-    "                   [--quiet]\n"
-    "                   [--max-depth N] [--max-bodies N] [--max-nodes N]\n"
-    "                   [--max-nodes-per-body N] [--max-seconds S]\n"
-    "                   [--max-sessions N] [--session-ttl S] [--session-memory BYTES]\n"
-    "                   [--drain-seconds S] [--max-per-client N] [--log-file PATH]\n"
-    "                   [--max-candidates N] [--token-file PATH] [--allow-origin URL]\n"
-    "                   [--tls-cert PATH --tls-key PATH] [--header-seconds S]\n"
-    "                   [--max-memory BYTES] [--log-format text|json] [--allow-host NAME]\n"
-    "                   [--session-id-header NAME]\n"
+    "usage: ntscontactd [--host ADDR] [--port N] [--threads N] [--max-bytes N]\n"
+    "                   [--timeout S] [--max-connections N] [--quiet] [options]\n"
     "\n"
-    "Node-to-segment contact over HTTP (POST /v1/contact, POST /v1/validate,\n"
-    "POST /v1/scenes, POST /v1/scenes/{id}/contact, GET and DELETE /v1/scenes/{id},\n"
-    "GET /v1/health, GET /v1/schemas/{scene,result,error}, GET /v1/openapi.json).\n"
+    "Node-to-segment contact over HTTP. Routes (schemas/openapi.json, also served\n"
+    "at GET /v1/openapi.json):\n"
+    "  POST   /v1/contact              a scene in, a result out\n"
+    "  POST   /v1/validate             check a scene only\n"
+    "  POST   /v1/scenes               keep a scene for a solver loop (a session)\n"
+    "  POST   /v1/scenes/{id}/contact  one step of a session: new positions in\n"
+    "  GET    /v1/scenes/{id}          a session's description\n"
+    "  DELETE /v1/scenes/{id}          drop a session\n"
+    "  GET    /v1/health               status, version, build, limits, counters\n"
+    "  GET    /metrics                 Prometheus text format\n"
+    "  GET    /v1/schemas/{scene,result,error,session}  the JSON Schemas\n"
+    "  GET    /v1/openapi.json         the OpenAPI 3.1 document\n"
+    "\n"
+    "Every option with a value takes it as '--name VALUE' or '--name=VALUE';\n"
+    "names are written in full. Counts and sizes take k, M, G suffixes where said.\n"
     "\n"
     "  --host ADDR          numeric IPv4/IPv6 address to bind (default 127.0.0.1)\n"
     "  --port N             TCP port, 0 for any free one (default 8080); the bound\n"
     "                       address is printed on stdout: 'ntscontactd listening on HOST:PORT'\n"
     "  --threads N          evaluations at once, each on its connection's thread\n"
     "                       (default: online cores)\n"
-    "  --max-body BYTES     largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
+    "  --max-bytes N        largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
+    "                       (the CLI's --max-bytes; --max-body, its old name here, is deprecated)\n"
     "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
     "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
-    "  --quiet              no per-request log lines on stderr\n"
+    "  -q, --quiet          no per-request log lines\n"
+    ;
+/* The limits of a request (C99 guarantees string literals of 4095 bytes only). */
+static const char usage_limits[] =
     "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
     "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
@@ -79,7 +87,11 @@ static const char usage_service[] =
     "  --session-memory BYTES  memory of all sessions together, suffixes k, M, G\n"
     "                       (default 1G); beyond it the least recently used idle\n"
     "                       sessions are evicted\n"
-    "  --help, --version\n";
+    "  -h, --help           print this help and exit\n"
+    "  -V, --version        print the version and exit\n"
+    "\n"
+    "exit status: 0 stopped by a signal after draining, 1 could not start or\n"
+    "requests abandoned, 2 usage error\n";
 
 /* Half the memory this process may use: the machine's, or its cgroup's
  * (a container) when that is smaller. */
@@ -140,131 +152,249 @@ static int parse_unsigned(const char* flag, const char* text, unsigned long long
     return -1;
 }
 
+/* The options, each with one name (--max-body: the deprecated old name of
+ * --max-bytes); getopt_long takes "--name VALUE" and "--name=VALUE" alike. */
+enum {
+    OPT_HOST = 256, OPT_PORT, OPT_THREADS, OPT_MAX_BYTES, OPT_MAX_BODY, OPT_TIMEOUT, OPT_MAX_CONNECTIONS,
+    OPT_MAX_DEPTH, OPT_MAX_BODIES, OPT_MAX_NODES, OPT_MAX_NODES_PER_BODY, OPT_MAX_SECONDS, OPT_MAX_SESSIONS,
+    OPT_SESSION_TTL, OPT_SESSION_MEMORY, OPT_DRAIN_SECONDS, OPT_MAX_PER_CLIENT, OPT_LOG_FILE, OPT_LOG_FORMAT,
+    OPT_MAX_CANDIDATES, OPT_TOKEN_FILE, OPT_ALLOW_ORIGIN, OPT_ALLOW_HOST, OPT_TLS_CERT, OPT_TLS_KEY,
+    OPT_HEADER_SECONDS, OPT_MAX_MEMORY, OPT_SESSION_ID_HEADER
+};
+
+static const struct option long_options[] = {
+    {"host", required_argument, NULL, OPT_HOST},
+    {"port", required_argument, NULL, OPT_PORT},
+    {"threads", required_argument, NULL, OPT_THREADS},
+    {"max-bytes", required_argument, NULL, OPT_MAX_BYTES},
+    {"max-body", required_argument, NULL, OPT_MAX_BODY},
+    {"timeout", required_argument, NULL, OPT_TIMEOUT},
+    {"max-connections", required_argument, NULL, OPT_MAX_CONNECTIONS},
+    {"quiet", no_argument, NULL, 'q'},
+    {"max-depth", required_argument, NULL, OPT_MAX_DEPTH},
+    {"max-bodies", required_argument, NULL, OPT_MAX_BODIES},
+    {"max-nodes", required_argument, NULL, OPT_MAX_NODES},
+    {"max-nodes-per-body", required_argument, NULL, OPT_MAX_NODES_PER_BODY},
+    {"max-seconds", required_argument, NULL, OPT_MAX_SECONDS},
+    {"max-sessions", required_argument, NULL, OPT_MAX_SESSIONS},
+    {"session-ttl", required_argument, NULL, OPT_SESSION_TTL},
+    {"session-memory", required_argument, NULL, OPT_SESSION_MEMORY},
+    {"drain-seconds", required_argument, NULL, OPT_DRAIN_SECONDS},
+    {"max-per-client", required_argument, NULL, OPT_MAX_PER_CLIENT},
+    {"log-file", required_argument, NULL, OPT_LOG_FILE},
+    {"log-format", required_argument, NULL, OPT_LOG_FORMAT},
+    {"max-candidates", required_argument, NULL, OPT_MAX_CANDIDATES},
+    {"token-file", required_argument, NULL, OPT_TOKEN_FILE},
+    {"allow-origin", required_argument, NULL, OPT_ALLOW_ORIGIN},
+    {"allow-host", required_argument, NULL, OPT_ALLOW_HOST},
+    {"tls-cert", required_argument, NULL, OPT_TLS_CERT},
+    {"tls-key", required_argument, NULL, OPT_TLS_KEY},
+    {"header-seconds", required_argument, NULL, OPT_HEADER_SECONDS},
+    {"max-memory", required_argument, NULL, OPT_MAX_MEMORY},
+    {"session-id-header", required_argument, NULL, OPT_SESSION_ID_HEADER},
+    {"help", no_argument, NULL, 'h'},
+    {"version", no_argument, NULL, 'V'},
+    {NULL, 0, NULL, 0}};
+
+/* The option in `arg` as written, up to any '=': "--name" (or "-x"). */
+static const char* option_name(const char* arg, char* buf, size_t cap) {
+    size_t n = strcspn(arg, "=");
+    if (arg[0] != '-' || arg[1] != '-') n = 2;
+    if (n >= cap) n = cap - 1;
+    memcpy(buf, arg, n);
+    buf[n] = '\0';
+    return buf;
+}
+
+/* A path into a fixed buffer: 0, or -1 with a message. */
+static int copy_path(const char* flag, const char* v, char* dst, size_t cap) {
+    if (strlen(v) >= cap) {
+        fprintf(stderr, "ntscontactd: %s: path too long\n", flag);
+        return -1;
+    }
+    strcpy(dst, v);
+    return 0;
+}
+
+/* One option and its value: 0, or -1 after a message naming it. */
+static int apply_option(int c, const char* flag, const char* v, ntsd_config* cfg) {
+    unsigned long long n = 0;
+    switch (c) {
+    case OPT_HOST:
+        if (strlen(v) >= sizeof cfg->host) {
+            fprintf(stderr, "ntscontactd: --host: address too long\n");
+            return -1;
+        }
+        strcpy(cfg->host, v);
+        return 0;
+    case OPT_PORT:
+        if (parse_unsigned(flag, v, 0, 65535, 0, &n)) return -1;
+        cfg->port = (unsigned)n;
+        return 0;
+    case OPT_THREADS:
+        if (parse_unsigned(flag, v, 1, 1024, 0, &n)) return -1;
+        cfg->threads = (int)n;
+        return 0;
+    case OPT_MAX_BODY:
+        fprintf(stderr, "ntscontactd: --max-body is deprecated: use --max-bytes (the CLI's name for the same limit)\n");
+        /* fall through */
+    case OPT_MAX_BYTES:
+        if (parse_unsigned(flag, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+        cfg->codec.max_bytes = (size_t)n;
+        return 0;
+    case OPT_TIMEOUT:
+        if (parse_unsigned(flag, v, 1, 86400, 0, &n)) return -1;
+        cfg->timeout_s = (unsigned)n;
+        return 0;
+    case OPT_MAX_CONNECTIONS:
+        if (parse_unsigned(flag, v, 1, 65536, 0, &n)) return -1;
+        cfg->max_connections = (unsigned)n;
+        return 0;
+    case OPT_MAX_DEPTH:
+        if (parse_unsigned(flag, v, 1, 100000, 0, &n)) return -1;
+        cfg->codec.max_depth = (int)n;
+        return 0;
+    case OPT_MAX_BODIES:
+        if (parse_unsigned(flag, v, 1, INT_MAX, 1, &n)) return -1;
+        cfg->codec.limits.max_bodies = (int)n;
+        return 0;
+    case OPT_MAX_SESSIONS:
+        if (parse_unsigned(flag, v, 1, 1000000, 1, &n)) return -1;
+        cfg->max_sessions = (int)n;
+        return 0;
+    case OPT_SESSION_TTL:
+        if (parse_unsigned(flag, v, 1, 30 * 86400, 0, &n)) return -1;
+        cfg->session_ttl_s = (unsigned)n;
+        return 0;
+    case OPT_SESSION_MEMORY:
+        if (parse_unsigned(flag, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+        cfg->session_memory = (size_t)n;
+        return 0;
+    case OPT_MAX_NODES_PER_BODY:
+        if (parse_unsigned(flag, v, 1, INT_MAX, 1, &n)) return -1;
+        cfg->codec.limits.max_nodes_per_body = (int)n;
+        return 0;
+    case OPT_DRAIN_SECONDS:
+        if (parse_unsigned(flag, v, 0, 86400, 0, &n)) return -1;
+        cfg->drain_seconds = (unsigned)n;
+        return 0;
+    case OPT_LOG_FORMAT:
+        if (strcmp(v, "json") != 0 && strcmp(v, "text") != 0) {
+            fprintf(stderr, "ntscontactd: --log-format: text or json, not %s\n", v);
+            return -1;
+        }
+        cfg->log_json = strcmp(v, "json") == 0;
+        return 0;
+    case OPT_MAX_MEMORY:
+        if (parse_unsigned(flag, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
+        cfg->max_memory = (size_t)n;
+        return 0;
+    case OPT_HEADER_SECONDS:
+        if (parse_unsigned(flag, v, 0, 86400, 0, &n)) return -1;
+        cfg->header_seconds = (unsigned)n;
+        return 0;
+    case OPT_MAX_PER_CLIENT:
+        if (parse_unsigned(flag, v, 1, 65536, 0, &n)) return -1;
+        cfg->max_per_client = (unsigned)n;
+        return 0;
+    case OPT_TOKEN_FILE:
+        return copy_path(flag, v, cfg->token_file, sizeof cfg->token_file);
+    case OPT_TLS_CERT:
+        return copy_path(flag, v, cfg->tls_cert, sizeof cfg->tls_cert);
+    case OPT_TLS_KEY:
+        return copy_path(flag, v, cfg->tls_key, sizeof cfg->tls_key);
+    case OPT_LOG_FILE:
+        return copy_path(flag, v, cfg->log_file, sizeof cfg->log_file);
+    case OPT_ALLOW_ORIGIN:
+        return add_name(flag, v, cfg->allow_origin, &cfg->allow_origin_count);
+    case OPT_ALLOW_HOST:
+        return add_name(flag, v, cfg->allow_host, &cfg->allow_host_count);
+    case OPT_SESSION_ID_HEADER:
+        if (strlen(v) == 0 || strlen(v) >= sizeof cfg->session_id_header) {
+            fprintf(stderr, "ntscontactd: --session-id-header: a header name under 64 bytes\n");
+            return -1;
+        }
+        strcpy(cfg->session_id_header, v);
+        return 0;
+    case OPT_MAX_CANDIDATES:
+        if (parse_unsigned(flag, v, 1, 1ull << 40, 1, &n)) return -1;
+        cfg->codec.max_candidates = (long long)n;
+        return 0;
+    case OPT_MAX_NODES:
+        if (parse_unsigned(flag, v, 1, 1ull << 40, 1, &n)) return -1;
+        cfg->codec.limits.max_nodes = (long long)n;
+        return 0;
+    case OPT_MAX_SECONDS: {
+        char* end = NULL;
+        double sec;
+        errno = 0;
+        sec = strtod(v, &end);
+        if (errno != 0 || end == v || *end != '\0' || !(sec >= 0.0) || sec > 1e9) {
+            fprintf(stderr, "ntscontactd: --max-seconds: expected a number of seconds >= 0, got '%s'\n", v);
+            return -1;
+        }
+        cfg->codec.max_seconds = sec;
+        return 0;
+    }
+    default:
+        return -1;
+    }
+}
+
+static int usage_error(const char* fmt, const char* arg) {
+    fprintf(stderr, "ntscontactd: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\n");
+    fprintf(stderr, "Try 'ntscontactd --help' for more information.\n");
+    return -1;
+}
+
 int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
-    int i;
-    for (i = 1; i < argc; i++) {
-        const char* a = argv[i];
-        const char* v = i + 1 < argc ? argv[i + 1] : NULL;
-        unsigned long long n = 0;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+    /* "-": a stray argument comes back as code 1 (this program takes none),
+     * in order, whatever POSIXLY_CORRECT says; ":": a missing value is ':'. */
+    opterr = 0;
+    optind = 1;
+    for (;;) {
+        const int at = optind; /* argv[at]: the option getopt_long reads now */
+        int index = -1, c = getopt_long(argc, argv, "-:hqV", long_options, &index);
+        char name[64];
+        if (c == -1) break;
+        if (c == 1) return usage_error("unexpected argument '%s'", optarg);
+        if (c == '?') {
+            if (optopt != 0 && at < argc && strncmp(argv[at], "--", 2) == 0)
+                return usage_error("option '%s' takes no value", option_name(argv[at], name, sizeof name));
+            if (optopt != 0) {
+                name[0] = '-';
+                name[1] = (char)optopt;
+                name[2] = '\0';
+                return usage_error("unknown option '%s'", name);
+            }
+            return usage_error("unknown option '%s'", at < argc ? argv[at] : "?");
+        }
+        if (c == ':') return usage_error("option '%s' needs a value", option_name(argv[at], name, sizeof name));
+        /* Names in full: getopt_long would take an unambiguous abbreviation. */
+        if (index >= 0 && strcmp(option_name(argv[at], name, sizeof name) + 2, long_options[index].name) != 0)
+            return usage_error("unknown option '%s'", name);
+        if (c == 'h') {
             fputs(usage, stdout);
+            fputs(usage_limits, stdout);
             fputs(usage_service, stdout);
             return 1;
         }
-        if (strcmp(a, "--version") == 0) {
+        if (c == 'V') {
             printf("ntscontactd %s (libmicrohttpd %s)\n", NTS_VERSION_STRING, MHD_get_version());
             return 1;
         }
-        if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
+        if (c == 'q') {
             cfg->quiet = 1;
             continue;
         }
-        if (v == NULL) {
-            fprintf(stderr, "ntscontactd: unknown option or missing value: %s\n%s%s", a, usage, usage_service);
+        if (apply_option(c, name, optarg, cfg) != 0) {
+            fprintf(stderr, "Try 'ntscontactd --help' for more information.\n");
             return -1;
         }
-        if (strcmp(a, "--host") == 0) {
-            if (strlen(v) >= sizeof cfg->host) {
-                fprintf(stderr, "ntscontactd: --host: address too long\n");
-                return -1;
-            }
-            strcpy(cfg->host, v);
-        } else if (strcmp(a, "--port") == 0) {
-            if (parse_unsigned(a, v, 0, 65535, 0, &n)) return -1;
-            cfg->port = (unsigned)n;
-        } else if (strcmp(a, "--threads") == 0) {
-            if (parse_unsigned(a, v, 1, 1024, 0, &n)) return -1;
-            cfg->threads = (int)n;
-        } else if (strcmp(a, "--max-body") == 0) {
-            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
-            cfg->codec.max_bytes = (size_t)n;
-        } else if (strcmp(a, "--timeout") == 0) {
-            if (parse_unsigned(a, v, 1, 86400, 0, &n)) return -1;
-            cfg->timeout_s = (unsigned)n;
-        } else if (strcmp(a, "--max-connections") == 0) {
-            if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
-            cfg->max_connections = (unsigned)n;
-        } else if (strcmp(a, "--max-depth") == 0) {
-            if (parse_unsigned(a, v, 1, 100000, 0, &n)) return -1;
-            cfg->codec.max_depth = (int)n;
-        } else if (strcmp(a, "--max-bodies") == 0) {
-            if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
-            cfg->codec.limits.max_bodies = (int)n;
-        } else if (strcmp(a, "--max-sessions") == 0) {
-            if (parse_unsigned(a, v, 1, 1000000, 1, &n)) return -1;
-            cfg->max_sessions = (int)n;
-        } else if (strcmp(a, "--session-ttl") == 0) {
-            if (parse_unsigned(a, v, 1, 30 * 86400, 0, &n)) return -1;
-            cfg->session_ttl_s = (unsigned)n;
-        } else if (strcmp(a, "--session-memory") == 0) {
-            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
-            cfg->session_memory = (size_t)n;
-        } else if (strcmp(a, "--max-nodes-per-body") == 0) {
-            if (parse_unsigned(a, v, 1, INT_MAX, 1, &n)) return -1;
-            cfg->codec.limits.max_nodes_per_body = (int)n;
-        } else if (strcmp(a, "--drain-seconds") == 0) {
-            if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
-            cfg->drain_seconds = (unsigned)n;
-        } else if (strcmp(a, "--log-format") == 0) {
-            if (strcmp(v, "json") != 0 && strcmp(v, "text") != 0) {
-                fprintf(stderr, "ntscontactd: --log-format: text or json, not %s\n", v);
-                return -1;
-            }
-            cfg->log_json = strcmp(v, "json") == 0;
-        } else if (strcmp(a, "--max-memory") == 0) {
-            if (parse_unsigned(a, v, 1, (unsigned long long)SIZE_MAX / 2, 1, &n)) return -1;
-            cfg->max_memory = (size_t)n;
-        } else if (strcmp(a, "--header-seconds") == 0) {
-            if (parse_unsigned(a, v, 0, 86400, 0, &n)) return -1;
-            cfg->header_seconds = (unsigned)n;
-        } else if (strcmp(a, "--max-per-client") == 0) {
-            if (parse_unsigned(a, v, 1, 65536, 0, &n)) return -1;
-            cfg->max_per_client = (unsigned)n;
-        } else if (strcmp(a, "--token-file") == 0 || strcmp(a, "--tls-cert") == 0 || strcmp(a, "--tls-key") == 0) {
-            char* dst = a[2] == 't' && a[3] == 'o' ? cfg->token_file : a[6] == 'c' ? cfg->tls_cert : cfg->tls_key;
-            if (strlen(v) >= sizeof cfg->token_file) {
-                fprintf(stderr, "ntscontactd: %s: path too long\n", a);
-                return -1;
-            }
-            strcpy(dst, v);
-        } else if (strcmp(a, "--allow-origin") == 0) {
-            if (add_name(a, v, cfg->allow_origin, &cfg->allow_origin_count)) return -1;
-        } else if (strcmp(a, "--session-id-header") == 0) {
-            if (strlen(v) == 0 || strlen(v) >= sizeof cfg->session_id_header) {
-                fprintf(stderr, "ntscontactd: --session-id-header: a header name under 64 bytes\n");
-                return -1;
-            }
-            strcpy(cfg->session_id_header, v);
-        } else if (strcmp(a, "--allow-host") == 0) {
-            if (add_name(a, v, cfg->allow_host, &cfg->allow_host_count)) return -1;
-        } else if (strcmp(a, "--log-file") == 0) {
-            if (strlen(v) >= sizeof cfg->log_file) {
-                fprintf(stderr, "ntscontactd: --log-file: path too long\n");
-                return -1;
-            }
-            strcpy(cfg->log_file, v);
-        } else if (strcmp(a, "--max-candidates") == 0) {
-            if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
-            cfg->codec.max_candidates = (long long)n;
-        } else if (strcmp(a, "--max-nodes") == 0) {
-            if (parse_unsigned(a, v, 1, 1ull << 40, 1, &n)) return -1;
-            cfg->codec.limits.max_nodes = (long long)n;
-        } else if (strcmp(a, "--max-seconds") == 0) {
-            char* end = NULL;
-            double sec;
-            errno = 0;
-            sec = strtod(v, &end);
-            if (errno != 0 || end == v || *end != '\0' || !(sec >= 0.0) || sec > 1e9) {
-                fprintf(stderr, "ntscontactd: --max-seconds: expected a number of seconds >= 0, got '%s'\n", v);
-                return -1;
-            }
-            cfg->codec.max_seconds = sec;
-        } else {
-            fprintf(stderr, "ntscontactd: unknown option: %s\n%s%s", a, usage, usage_service);
-            return -1;
-        }
-        i++;
     }
+    if (optind < argc) return usage_error("unexpected argument '%s'", argv[optind]); /* after "--" */
     if ((cfg->tls_cert[0] == '\0') != (cfg->tls_key[0] == '\0')) {
         fprintf(stderr, "ntscontactd: --tls-cert and --tls-key go together\n");
         return -1;

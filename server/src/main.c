@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
     else
         printf("ntscontactd listening on %s:%u\n", cfg.host, server.port);
     fflush(stdout);
-    ntsd_log_info("threads=%d max-body=%zu timeout=%us max-connections=%u max-memory=%zu", cfg.threads,
+    ntsd_log_info("threads=%d max-bytes=%zu timeout=%us max-connections=%u max-memory=%zu", cfg.threads,
                   cfg.codec.max_bytes, cfg.timeout_s, cfg.max_connections, cfg.max_memory);
 
     /* Wait for a stop signal; every few seconds, drop the expired sessions so

@@ -32,7 +32,7 @@ typedef struct ntsd_request {
     ntsd_body body;
     size_t received;           /* body bytes received, kept or not */
     int queued;                /* a response is queued */
-    int too_large;             /* the body went beyond --max-body: answer 413 */
+    int too_large;             /* the body went beyond --max-bytes: answer 413 */
     int status;                /* of the queued response */
     size_t bytes_out;
     char code[48];             /* error code of the response, or why the request ended */
@@ -586,7 +586,7 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     /* Answer before reading the body when its announced length is too large. */
     if (length > (unsigned long long)s->config.codec.max_bytes)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
-                           "the request body is larger than --max-body", NULL, 1);
+                           "the request body is larger than --max-bytes", NULL, 1);
     /* The body in flight counts against --max-memory from its first byte. */
     if (!budget_reserve(s, r, (size_t)length)) return reply_over_budget(c, r, (size_t)length, 1);
     if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
@@ -659,7 +659,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
-                           "the request body is larger than --max-body", NULL, 1);
+                           "the request body is larger than --max-bytes", NULL, 1);
     if (r->over_budget) return reply_over_budget(c, r, r->received, 1);
     return answer_post(c, r);
 }

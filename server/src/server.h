@@ -52,7 +52,7 @@ typedef struct ntsd_config {
     int allow_host_count;
     char session_id_header[64]; /* --session-id-header: a proxy's id for a new session ("" none) */
     char tls_cert[512], tls_key[512];
-    /* What every request hands to the codec: max_bytes (--max-body, also the
+    /* What every request hands to the codec: max_bytes (--max-bytes, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */
     ntsj_config codec;
     /* Scene sessions (sessions.c). */

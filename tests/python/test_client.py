@@ -244,7 +244,7 @@ def test_service_error_message_names_body_and_node(client):
 
 
 def test_payload_too_large(daemon_factory):
-    d = daemon_factory("--max-body", "4k", "--quiet")
+    d = daemon_factory("--max-bytes", "4k", "--quiet")
     s = Scene(penalty=1.0)
     s.add_body(disk(0, 0, n=400))
     with Client(d.base, timeout=30) as c:

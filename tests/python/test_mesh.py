@@ -188,8 +188,8 @@ def test_convert_usage_errors(tmp_path):
     bad = tmp_path / "bad.vtk"
     pts = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0.0]])
     meshio.write(str(bad), meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2]]))]))
-    proc = subprocess.run([sys.executable, "-m", "ntscontact", "convert", str(bad)], capture_output=True, text=True,
-                          timeout=120)
+    proc = subprocess.run([sys.executable, "-m", "ntscontact", "convert", str(bad), "--penalty", "1"],
+                          capture_output=True, text=True, timeout=120)
     assert proc.returncode == 3 and "degenerate_triangle" in proc.stderr
     proc = subprocess.run([sys.executable, "-m", "ntscontact", "convert"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2

@@ -168,7 +168,7 @@ def test_daemon_limit(daemon_factory, flag, ok, bad, code, name):
 
 def test_daemon_body_size_limit(daemon_factory):
     body = _scene_bytes()
-    d = daemon_factory("--quiet", "--max-body", str(len(body)))
+    d = daemon_factory("--quiet", "--max-bytes", str(len(body)))
     assert _post(d, body)[0] == 200
     status, doc = _post(d, body + b" ")
     assert status == 413 and doc["error"]["code"] == "payload_too_large", doc

@@ -303,7 +303,7 @@ def test_json_media_types_accepted(daemon, example_bodies, cli_answers, ctype):
 # ------------------------------------------------------------------- limits
 
 def test_413_from_content_length_before_the_body(daemon_factory, validators):
-    d = daemon_factory("--max-body", "4096")
+    d = daemon_factory("--max-bytes", "4096")
     # Headers only: the answer must come without the body ever being sent.
     with socket.create_connection(("127.0.0.1", d.port), timeout=20) as s:
         s.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: t\r\nContent-Type: application/json\r\n"
@@ -326,7 +326,7 @@ def test_413_from_content_length_before_the_body(daemon_factory, validators):
 
 
 def test_413_for_a_chunked_body_found_while_reading(daemon_factory, validators):
-    d = daemon_factory("--max-body", "4096")
+    d = daemon_factory("--max-bytes", "4096")
 
     def chunks():
         for _ in range(10):
@@ -625,7 +625,7 @@ def test_quiet_logs_nothing(daemon_factory, example_bodies):
 
 
 def test_flags_shown_by_health(daemon_factory):
-    d = daemon_factory("--threads", "3", "--max-body", "1M", "--timeout", "7", "--max-connections", "9",
+    d = daemon_factory("--threads", "3", "--max-bytes", "1M", "--timeout", "7", "--max-connections", "9",
                        "--max-memory", "100M")
     doc = requests.get(d.url("/v1/health"), timeout=10).json()
     assert doc["server"] == {"threading": "per-connection", "threads": 3, "max_body": 1 << 20, "timeout_s": 7,
@@ -633,7 +633,7 @@ def test_flags_shown_by_health(daemon_factory):
     assert doc["memory"]["budget_bytes"] == 100 << 20
 
 
-@pytest.mark.parametrize("args", [["--port", "70000"], ["--port", "-1"], ["--threads", "0"], ["--max-body", "12x"],
+@pytest.mark.parametrize("args", [["--port", "70000"], ["--port", "-1"], ["--threads", "0"], ["--max-bytes", "12x"],
                                   ["--timeout", "0"], ["--threading", "pool"], ["--host", "localhost"],
                                   ["--max-memory", "0"], ["--log-format", "xml"], ["--session-id-header", ""],
                                   ["--bogus"], ["--port"]])
@@ -646,7 +646,7 @@ def test_bad_flags_exit_nonzero(paths, args):
 
 def test_help_and_version(paths):
     p = subprocess.run([str(paths.bin / "ntscontactd"), "--help"], capture_output=True, text=True, timeout=30)
-    assert p.returncode == 0 and "--max-body" in p.stdout
+    assert p.returncode == 0 and "--max-bytes" in p.stdout
     p = subprocess.run([str(paths.bin / "ntscontactd"), "--version"], capture_output=True, text=True, timeout=30)
     assert p.returncode == 0 and p.stdout.startswith("ntscontactd ")
 
@@ -658,10 +658,11 @@ def test_port_in_use_fails_cleanly(daemon, paths):
     assert "cannot listen" in p.stderr
 
 
-def test_serve_demo_once(paths):
+@pytest.mark.parametrize("port", [["--port", "0"], ["--port=0"]], ids=["space", "equals"])
+def test_serve_demo_once(paths, port):
     """scripts/serve-demo.sh: start, query with the bundled example, summary, stop."""
     env = dict(os.environ, NTS_BUILD_DIR=str(paths.build))
-    p = subprocess.run(["bash", str(paths.repo / "scripts/serve-demo.sh"), "--port", "0", "--once"],
+    p = subprocess.run(["bash", str(paths.repo / "scripts/serve-demo.sh"), *port, "--once"],
                        capture_output=True, text=True, timeout=120, env=env)
     assert p.returncode == 0, p.stdout + p.stderr
     assert re.search(r"contacts: +\d+ active", p.stdout), p.stdout

@@ -19,9 +19,13 @@ def _convert(args: argparse.Namespace) -> int:
 
     periodic = tuple(args.periodic) if args.periodic else None
     tag = False if args.no_tags else args.tag
-    scene = scene_from_mesh(args.mesh, penalty=args.penalty, alpha=args.alpha, search_radius=args.search_radius,
-                            periodic=periodic, solver=args.solver, outputs=args.outputs, tag=tag,
-                            boundary="loops" if args.loops else "triangles")
+    try:
+        scene = scene_from_mesh(args.mesh, penalty=args.penalty, alpha=args.alpha, search_radius=args.search_radius,
+                                periodic=periodic, solver=args.solver, outputs=args.outputs, tag=tag,
+                                boundary="loops" if args.loops else "triangles")
+    except OSError as exc:  # the file cannot be opened: a usage error, as in the C CLI
+        print(f"ntscontact: cannot open '{args.mesh}': {exc.strerror or exc}", file=sys.stderr)
+        return 2
     text = scene.to_json(indent=2 if args.pretty else None) + "\n"
     if args.output in (None, "-"):
         sys.stdout.write(text)
@@ -63,7 +67,9 @@ def build_parser() -> argparse.ArgumentParser:
     c = sub.add_parser("convert", help="mesh file (any format meshio reads) to a scene JSON")
     c.add_argument("mesh", help="mesh file: .msh, .vtk, .vtu, .xdmf, .med, ...")
     c.add_argument("-o", "--output", help="scene JSON file (default: standard output)")
-    c.add_argument("--penalty", type=float, default=1.0, help="options.penalty (default 1.0)")
+    c.add_argument("--penalty", type=float, required=True, metavar="EPS",
+                   help="options.penalty, the penalty stiffness (required: no default fits every scale; "
+                        "docs/coupling.md says how to choose it)")
     c.add_argument("--alpha", type=float, help="options.alpha")
     c.add_argument("--search-radius", type=float, help="options.search_radius")
     c.add_argument("--periodic", type=float, nargs=2, metavar=("LX", "LY"), help="periodic box")

@@ -66,7 +66,7 @@ class InvalidScene(NtsError, ValueError):
 
 
 class PayloadTooLarge(NtsError):
-    """HTTP 413: the request body exceeds the daemon's ``--max-body``."""
+    """HTTP 413: the request body exceeds the daemon's ``--max-bytes``."""
 
 
 class ServerError(NtsError):

@@ -2,14 +2,23 @@
 
 Bodies come from cell tags when the mesh has them (``gmsh:physical``, or another
 integer ``cell_data`` field), otherwise from the connected components of the
-triangles. Coordinates keep x and y (z is dropped); every triangle is oriented
-counter-clockwise, so boundaries come out counter-clockwise (holes clockwise).
+triangles. Coordinates keep x and y: a constant z is dropped, a z that varies
+is a 3D mesh and refused; every triangle is oriented counter-clockwise, so
+boundaries come out counter-clockwise (holes clockwise).
+
+Each body is checked by the core's own rule for a triangle mesh
+(``core/src/triangles.c``, :func:`check_triangles`), so a mesh that converts is
+one the core accepts as triangles, and one it would refuse is refused here
+with the same code, naming the mesh point and the triangle.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import os
+import re
 from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -21,6 +30,7 @@ from .scene import BodyId, Scene
 
 __all__ = [
     "MeshBody",
+    "check_triangles",
     "bodies_from_mesh",
     "scene_from_mesh",
     "orient_ccw",
@@ -36,6 +46,8 @@ IntArray = npt.NDArray[np.int64]
 #: Cell types taken as (split into) linear triangles; higher-order cells keep their corners.
 _TRIANGLE_CORNERS = {"triangle": 3, "triangle6": 3, "triangle7": 3}
 _QUAD_CORNERS = {"quad": 4, "quad8": 4, "quad9": 4}
+#: Cell types of a 3D mesh (volumes): a mesh that has them is not ntscontact's.
+_VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid")
 #: cell_data fields tried, in this order, when no tag is named.
 _TAG_NAMES = ("gmsh:physical", "medit:ref", "CellEntityIds", "cell_tags", "tag", "tags", "body", "bodies",
               "region", "material", "gmsh:geometrical")
@@ -91,13 +103,7 @@ def orient_ccw(points: npt.ArrayLike, triangles: npt.ArrayLike) -> IntArray:
     triangle is an :class:`InvalidScene` (``degenerate_triangle``)."""
     p = np.asarray(points, dtype=np.float64)[:, :2]
     t = np.array(triangles, dtype=np.int64, copy=True).reshape(-1, 3)
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    # twice the signed area, relative to the first corner for precision; zero
-    # area by the core's rule (core/src/triangles.c): |e1 x e2| <= 64 eps |e1| |e2|
-    e1, e2 = b - a, c - a
-    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    zero = ~(np.abs(cross) > 64.0 * np.finfo(np.float64).eps * np.hypot(e1[:, 0], e1[:, 1]) * np.hypot(e2[:, 0], e2[:, 1]))
-    zero |= (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
+    cross, zero = _cross_zero(p, t)
     if zero.any():
         k = int(np.flatnonzero(zero)[0])
         raise InvalidScene(f"triangle {k} = {t[k].tolist()} has zero area", code="degenerate_triangle",
@@ -105,6 +111,112 @@ def orient_ccw(points: npt.ArrayLike, triangles: npt.ArrayLike) -> IntArray:
     flip = cross < 0.0
     t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()
     return t
+
+
+def _cross_zero(p: FloatArray, t: IntArray) -> Tuple[FloatArray, npt.NDArray[np.bool_]]:
+    """Twice the signed area of each triangle, and whether it is zero by the
+    core's rule (``nts_triangle_winding``): |e1 x e2| <= 64 eps |e1| |e2|, or a
+    repeated corner."""
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    e1, e2 = b - a, c - a
+    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    zero = ~(np.abs(cross) > 64.0 * np.finfo(np.float64).eps * np.hypot(e1[:, 0], e1[:, 1]) * np.hypot(e2[:, 0], e2[:, 1]))
+    zero |= (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
+    return cross, zero
+
+
+def check_triangles(
+    nodes: npt.ArrayLike,
+    triangles: npt.ArrayLike,
+    *,
+    point_index: Optional[npt.ArrayLike] = None,
+    body: Optional[str] = None,
+) -> None:
+    """Refuse a body's triangle mesh exactly when the core would
+    (``nts_boundary_from_triangles`` in ``core/src/triangles.c``), with the same
+    code and the same triangle (``pointer`` ``/triangles/T``, relative to the
+    body), in the same order of checks:
+
+    1. a node index out of range (``index_out_of_range``);
+    2. a triangle of zero area, the first in order (``degenerate_triangle``);
+    3. over the edges sorted by (smaller node, larger node, triangle): an edge of
+       three or more triangles, or of two running the same way after each is
+       turned counter-clockwise (``non_manifold_mesh``), or a node that two
+       boundary edges leave, a pinch point (``non_manifold_mesh``), whichever
+       comes first;
+    4. no boundary edge at all (``no_boundary``).
+
+    ``point_index`` (the mesh point of each node) and ``body`` only make the
+    message name the mesh's points and the body. Raises :class:`InvalidScene`.
+    """
+    p = np.asarray(nodes, dtype=np.float64).reshape(-1, 2)
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    n = p.shape[0]
+    pidx = None if point_index is None else np.asarray(point_index, dtype=np.int64)
+    prefix = f"body {body}: " if body is not None else ""
+
+    def node_name(k: int) -> str:
+        return f"mesh point {int(pidx[k])}" if pidx is not None else f"node {k}"
+
+    def corners(k: int) -> str:
+        return "(" + ", ".join(str(int(pidx[v])) if pidx is not None else str(int(v)) for v in t[k]) + ")"
+
+    def fail(code: str, msg: str, tri: int, corner: Optional[int] = None) -> None:
+        pointer = f"/triangles/{tri}" + ("" if corner is None else f"/{corner}")
+        raise InvalidScene(prefix + msg, code=code, pointer=pointer,
+                           where=(f"body {body}, " if body is not None else "") + f"triangle {tri}")
+
+    bad = (t < 0) | (t >= n)
+    if bad.any():
+        k, c = (int(v) for v in np.argwhere(bad)[0])
+        fail("index_out_of_range", f"triangle {k}: node index {int(t[k, c])} is out of range [0, {n})", k, c)
+    cross, zero = _cross_zero(p, t)
+    if zero.any():
+        k = int(np.flatnonzero(zero)[0])
+        fail("degenerate_triangle", f"triangle {k} {corners(k)} has zero area", k)
+    t = t.copy()
+    flip = cross < 0.0
+    t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()  # counter-clockwise, as the core turns them
+    m = t.shape[0]
+    frm = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
+    to = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
+    tri = np.concatenate([np.arange(m)] * 3)
+    lo, hi = np.minimum(frm, to), np.maximum(frm, to)
+    order = np.lexsort((tri, hi, lo))
+    frm, to, tri, lo, hi = frm[order], to[order], tri[order], lo[order], hi[order]
+    ne = frm.size
+    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
+    size = np.diff(np.r_[start, ne])
+    same_way = np.zeros(start.size, dtype=bool)
+    two = size == 2
+    same_way[two] = frm[start[two]] == frm[start[two] + 1]
+    bad_group = (size > 2) | same_way
+    first_bad = int(start[np.flatnonzero(bad_group)[0]]) if bad_group.any() else ne
+    # a pinch: a boundary edge (alone in its group) whose node already has one, in sorted order
+    single = start[size == 1]
+    first_pinch = ne
+    if single.size:
+        _, first_seen = np.unique(frm[single], return_index=True)
+        again = np.ones(single.size, dtype=bool)
+        again[first_seen] = False
+        if again.any():
+            first_pinch = int(single[np.flatnonzero(again)[0]])
+    if first_bad < first_pinch:
+        g = int(np.flatnonzero(start == first_bad)[0])
+        last = first_bad + int(size[g]) - 1
+        a, b = int(lo[first_bad]), int(hi[first_bad])
+        fail("non_manifold_mesh", f"edge ({node_name(a)}, {node_name(b)}) is shared by {int(size[g])} triangles in a "
+             "non-manifold way" + (" (two of them run along it the same way: folded onto each other)"
+                                   if size[g] == 2 else ""), int(tri[last]))
+    if first_pinch < ne:
+        v, k = int(frm[first_pinch]), int(tri[first_pinch])
+        other = int(tri[single[(frm[single] == v)][0]])
+        fail("non_manifold_mesh", f"{node_name(v)} is a pinch point (two boundary edges leave it): triangles "
+             f"{other} {corners(other)} and {k} {corners(k)} meet there with no edge between them; the core refuses "
+             "such a body: give each side its own body (a cell tag) or its own copy of the point", k)
+    if single.size == 0:
+        raise InvalidScene(prefix + "triangle mesh has no boundary edge", code="no_boundary",
+                           where=f"body {body}" if body is not None else "")
 
 
 def boundary_loops(triangles: npt.ArrayLike) -> List[IntArray]:
@@ -183,13 +295,48 @@ def connected_components(triangles: npt.ArrayLike, n_points: int) -> IntArray:
 
 
 def _read(mesh: Any) -> Any:
-    if isinstance(mesh, (str, os.PathLike)):
-        try:
-            import meshio  # type: ignore[import-untyped]
-        except ImportError as exc:  # pragma: no cover - depends on the install
-            raise ImportError("reading mesh files needs meshio: pip install 'ntscontact[mesh]'") from exc
-        return meshio.read(os.fspath(mesh))
-    return mesh
+    """A ``meshio.Mesh`` from a path (or the mesh itself). A file that cannot be
+    opened is an ``OSError`` (``FileNotFoundError``, ``IsADirectoryError``, ...);
+    one meshio cannot read is an :class:`InvalidScene` (``invalid_mesh``) that
+    says why. meshio's own prints (it writes to standard output, and exits
+    the process on some files) are kept out of the way."""
+    if not isinstance(mesh, (str, os.PathLike)):
+        return mesh
+    try:
+        import meshio  # type: ignore[import-untyped]
+    except ImportError as exc:  # pragma: no cover - depends on the install
+        raise ImportError("reading mesh files needs meshio: pip install 'ntscontact[mesh]'") from exc
+    path = os.fspath(mesh)
+    with open(path, "rb"):  # FileNotFoundError, IsADirectoryError, PermissionError: the caller's to report
+        pass
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except (Exception, SystemExit) as exc:  # meshio raises many kinds, and SystemExit when no reader fits
+        told = " ".join(line.strip() for line in said.getvalue().splitlines() if line.strip())
+        reason = str(exc) if not isinstance(exc, SystemExit) and str(exc) else told or type(exc).__name__
+        reason = re.sub(r"\x1b\[[0-9;]*m", "", reason)  # meshio's colours
+        reason = re.sub(r"^Error: ", "", reason)
+        raise InvalidScene(f"cannot read {path} as a mesh: {reason}", code="invalid_mesh") from None
+
+
+def _check_planar(points: FloatArray, used: IntArray, mesh: Any) -> None:
+    """A 3D mesh is refused as one: volume cells, or points of the triangles at
+    more than one z (a constant z, a plane parallel to xy, is dropped)."""
+    volumes = sorted({b.type for b in mesh.cells if b.type.rstrip("0123456789") in _VOLUME_CELLS})
+    if volumes:
+        raise InvalidScene(f"3D mesh: ntscontact is 2D (the mesh has {', '.join(volumes)} cells); give it a planar "
+                           "mesh of triangles or quads in the xy plane", code="invalid_mesh")
+    if points.shape[1] < 3 or used.size == 0:
+        return
+    z = points[used, 2]
+    off = np.flatnonzero(z != z[0])
+    if off.size:
+        k = int(used[off[0]])
+        raise InvalidScene(f"3D mesh: ntscontact is 2D, and the points of its cells do not share one z (mesh point "
+                           f"{int(used[0])} at z = {float(z[0])!r}, mesh point {k} at z = {float(points[k, 2])!r}); give it a "
+                           "planar mesh in the xy plane", code="invalid_mesh", where=f"mesh point {k}")
 
 
 def _triangles_and_tags(mesh: Any, tag: Union[str, None, bool]) -> Tuple[IntArray, Optional[IntArray], str]:
@@ -228,6 +375,7 @@ def _triangles_and_tags(mesh: Any, tag: Union[str, None, bool]) -> Tuple[IntArra
         blocks.append(tri)
         block_tags.append(tags)
     if not blocks:
+        _check_planar(np.zeros((0, 2)), np.zeros(0, dtype=np.int64), mesh)  # only volumes: a 3D mesh
         raise InvalidScene("the mesh has no triangle (or quad) cells", code="no_nodes")
     triangles = np.concatenate(blocks, axis=0)
     all_tags: Optional[IntArray] = None
@@ -272,10 +420,12 @@ def bodies_from_mesh(mesh: Any, *, tag: Union[str, None, bool] = None) -> List[M
         raise InvalidScene(f"mesh points have shape {points.shape}", code="invalid_type")
     xy = np.ascontiguousarray(points[:, :2])
     triangles, tags, _ = _triangles_and_tags(m, tag)
-    bad = ~np.isfinite(xy[np.unique(triangles)]).all(axis=1)
+    used = np.unique(triangles)
+    bad = ~np.isfinite(xy[used]).all(axis=1)
     if bad.any():
-        node = int(np.unique(triangles)[np.flatnonzero(bad)[0]])
+        node = int(used[np.flatnonzero(bad)[0]])
         raise InvalidScene(f"mesh point {node} is not finite", code="non_finite", where=f"mesh point {node}")
+    _check_planar(points, used, m)
     triangles = orient_ccw(xy, triangles)
     groups: List[Tuple[BodyId, IntArray]] = []
     if tags is None:
@@ -296,14 +446,18 @@ def bodies_from_mesh(mesh: Any, *, tag: Union[str, None, bool] = None) -> List[M
         used = np.unique(tri)
         local = np.full(xy.shape[0], -1, dtype=np.int64)
         local[used] = np.arange(used.size, dtype=np.int64)
-        bodies.append(MeshBody(id=body_id, nodes=xy[used].copy(), triangles=local[tri], point_index=used))
+        body = MeshBody(id=body_id, nodes=xy[used].copy(), triangles=local[tri], point_index=used)
+        # the core's rule for a triangle body, at convert time (a pinch point, a folded edge, ...)
+        check_triangles(body.nodes, body.triangles, point_index=used, body=repr(body_id) if isinstance(
+            body_id, str) else str(body_id))
+        bodies.append(body)
     return bodies
 
 
 def scene_from_mesh(
     mesh: Any,
     *,
-    penalty: float = 1.0,
+    penalty: Optional[float] = None,
     alpha: Optional[float] = None,
     search_radius: Optional[float] = None,
     periodic: Optional[Tuple[float, float]] = None,
@@ -313,6 +467,9 @@ def scene_from_mesh(
     boundary: str = "triangles",
 ) -> Scene:
     """A :class:`Scene` from a mesh file or a ``meshio.Mesh``.
+
+    ``penalty`` has no default that fits every scale: None leaves it unset (set
+    ``scene.penalty`` before sending; the service requires it).
 
     ``boundary="triangles"`` sends each body as its (counter-clockwise) triangles,
     so forces come back for every node of the mesh body (interior nodes get zero);
