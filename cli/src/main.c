@@ -68,6 +68,21 @@ static const char usage_text[] =
     "error: code, JSON pointer, message), 1 internal error\n";
 
 /* One line on standard error: [frame K: ]code at "pointer": message. */
+/* What a result may lack, one line on standard error per warning (the
+ * result's "warnings" say it too); `frame` < 0 outside --frames. */
+static void print_warnings(const ntsj_response* resp, long long frame) {
+    int k;
+    for (k = 0; k < resp->warning_count; ++k) {
+        const nts_warning* w = &resp->warnings[k];
+        if (frame >= 0)
+            fprintf(stderr, "ntscontact: frame %lld: warning: %s (%lld): %s\n", frame, nts_warning_name(w->code),
+                    w->count, nts_warning_message(w->code));
+        else
+            fprintf(stderr, "ntscontact: warning: %s (%lld): %s\n", nts_warning_name(w->code), w->count,
+                    nts_warning_message(w->code));
+    }
+}
+
 static int print_error(const ntsj_response* resp, long long frame) {
     char pointer[256], message[512];
     ntsj_error_fields(resp->body, resp->length, pointer, sizeof pointer, message, sizeof message);
@@ -367,6 +382,7 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
             break;
         }
         if (fwrite(resp.body, 1, resp.length, out) != resp.length) write_failed = 1;
+        print_warnings(&resp, k);
         if (vtk && !write_failed && write_vtk_frame(vtk, k, &resp) != 0) {
             ntsj_response_free(&resp);
             status = EXIT_USAGE;
@@ -648,6 +664,7 @@ int main(int argc, char** argv) {
         status = EXIT_INTERNAL;
     }
     if (status != EXIT_DONE) fprintf(stderr, "ntscontact: error writing the result\n");
+    print_warnings(&resp, -1);
     ntsj_response_free(&resp);
     return status;
 }

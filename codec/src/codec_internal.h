@@ -117,6 +117,9 @@ double ntsj_now_ms(void);                 /* monotonic milliseconds */
 double ntsj_round_us(double ms);          /* rounded to whole microseconds */
 /* Hand the buffer over as the response (status from the code's table). */
 int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code);
+/* A successful evaluation's summary and warnings into the response (for a
+ * binary answer's headers, the CLI's standard error, a front end's counters). */
+void ntsj_keep_summary(ntsj_response* out, const nts_result* r);
 int ntsj_respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer, int pretty);
 int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty);
 /* A core error, with the JSON pointer of its place in the scene document. */

@@ -203,6 +203,8 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     w_int(&w, sm->contacts);
     w_key(&w, "gaps");
     w_int(&w, sm->gaps);
+    w_key(&w, "deep_contacts");
+    w_int(&w, sm->deep_contacts);
     w_key(&w, "energy");
     w_double(&w, sm->energy);
     w_key(&w, "virial");
@@ -218,6 +220,20 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     w_key(&w, "elapsed_ms");
     w_double(&w, elapsed_ms);
     w_close(&w, '}');
+    /* What the result may lack, always there (empty: nothing). */
+    w_key(&w, "warnings");
+    w_open(&w, '[', 0);
+    for (i = 0; i < r->warning_count; ++i) {
+        w_open(&w, '{', 0);
+        w_key(&w, "code");
+        w_string(&w, nts_warning_name(r->warnings[i].code));
+        w_key(&w, "count");
+        w_int(&w, r->warnings[i].count);
+        w_key(&w, "message");
+        w_string(&w, nts_warning_message(r->warnings[i].code));
+        w_close(&w, '}');
+    }
+    w_close(&w, ']');
 
     if ((outputs & NTS_OUT_FORCES) && r->forces) {
         w_key(&w, "bodies");

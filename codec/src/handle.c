@@ -38,6 +38,13 @@ double ntsj_now_ms(void) {
 /* Elapsed wall time rounded to whole microseconds: the digits beyond are noise. */
 double ntsj_round_us(double ms) { return floor(ms * 1e3 + 0.5) / 1e3; }
 
+void ntsj_keep_summary(ntsj_response* out, const nts_result* r) {
+    int k;
+    out->summary = r->summary;
+    out->warning_count = r->warning_count < NTS_WARN_COUNT_ ? r->warning_count : NTS_WARN_COUNT_;
+    for (k = 0; k < out->warning_count; ++k) out->warnings[k] = r->warnings[k];
+}
+
 int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code) {
     if (b->oom || !b->data) {
         ntsj_buf_free(b);
@@ -179,11 +186,11 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     ntsj_buf b;
     const char* parse_end = NULL;
     double t0 = ntsj_now_ms(), elapsed;
-    nts_summary summary;
+    ntsj_response kept;
     int rc, done = 0, pretty = cfg.pretty;
 
     memset(out, 0, sizeof *out);
-    memset(&summary, 0, sizeof summary);
+    memset(&kept, 0, sizeof kept);
     memset(&fault, 0, sizeof fault);
     if (cfg.max_depth <= 0) cfg.max_depth = NTSJ_DEFAULT_MAX_DEPTH;
     if (cfg.max_bytes == 0) cfg.max_bytes = NTSJ_DEFAULT_MAX_BYTES;
@@ -262,7 +269,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             ntsj_encode_validation(&b, scene, ntsj_round_us(elapsed), pretty);
         } else {
             ntsj_encode_result(&b, &s, scene, &result, ntsj_round_us(elapsed), pretty);
-            summary = result.summary;
+            ntsj_keep_summary(&kept, &result);
             if (cfg.vtk && ntsj_attach_vtk(out, &s, scene, &result) != 0) b.oom = 1;
         }
         nts_context_destroy(ctx);
@@ -276,7 +283,11 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     nts_scene_destroy(scene);
     ntsj_scene_free(&s);
     rc = ntsj_finish(out, &b, "ok");
-    if (rc == 0) out->summary = summary; /* for the front end's counters */
+    if (rc == 0) { /* for the front end's counters and warnings */
+        out->summary = kept.summary;
+        out->warning_count = kept.warning_count;
+        memcpy(out->warnings, kept.warnings, sizeof out->warnings);
+    }
     return rc;
 }
 

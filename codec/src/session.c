@@ -516,7 +516,7 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         ss->steps++;
         out->binary = st->answer_binary;
         out->triplets = st->answer_binary ? result.stiffness.count : 0;
-        out->summary = result.summary;
+        ntsj_keep_summary(out, &result);
         out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
     }
     return rc;

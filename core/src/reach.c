@@ -273,6 +273,27 @@ static int edge(nts_context* ctx, const search_env* env, const reach_item* e) {
     return enqueue(ctx, env, k, e->body, fabs(e->value) + l, back, e->value + d.x * e->nx + d.y * e->ny, l);
 }
 
+/* Whether X_k lies inside body b's polygon (its loops by their segments,
+ * each from the image of its first node nearest to X_k; a ray along +x
+ * crosses them an odd number of times). For a slave that a search out to
+ * half a periodic box finds nothing for: only then may a contact be lost. */
+static int inside_body(const search_env* env, int k, int b) {
+    const nts_scene* s = env->s;
+    const nts_vec2 xs = env->seg[k].p;
+    int l, inside = 0;
+    for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
+        nts_vec2 cur = nts_scene_diff(s, env->seg[s->loop_start[l]].p, xs);
+        int e;
+        for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
+            const nts_vec2 next = nts_add(cur, env->seg[e].t);
+            if ((cur.y > 0.0) != (next.y > 0.0) && cur.x + (next.x - cur.x) * (-cur.y / (next.y - cur.y)) > 0.0)
+                inside ^= 1;
+            cur = next;
+        }
+    }
+    return inside;
+}
+
 /* A pair's search, widened from its radius, doubled while it finds nothing
  * (the closest point may not be where the triangle inequality puts the
  * nearest point of the surface: a slave beside a corner's region), up to
@@ -290,7 +311,8 @@ static int resolve(nts_context* ctx, const search_env* env, worker* w, reach_req
         rho *= 2.0;
     }
     if (w->best_count > 0) rc = settle(ctx, env, q.slave, &w->best[0], q.from);
-    else if (env->lx > 0.0) ++r->unresolved; /* the box's half: beyond it no image is the nearest */
+    else if (env->lx > 0.0 && inside_body(env, q.slave, q.body))
+        ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
     nts_search_wide_done(w);
     return rc;
 }

@@ -346,12 +346,20 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         /* The forces as raw bytes, the summary in headers that read back bitwise. */
         const nts_summary* sm = &r->resp.summary;
         char energy[32], virial[100], contacts[24], pen[32], ms[32], gaps[24], reversed[24], radius[32], cell[32];
-        char triplets[24];
+        char triplets[24], deep[24], warnings[160];
+        /* What the result may lack: "code=count, ..." (NTS-Warnings, last: left out when there is none). */
         const char* extra[] = {"NTS-Energy", energy, "NTS-Virial", virial, "NTS-Contacts", contacts,
                                "NTS-Max-Penetration", pen, "NTS-Elapsed-Ms", ms, "NTS-Gaps", gaps,
                                "NTS-Loops-Reversed", reversed, "NTS-Search-Radius", radius, "NTS-Cell-Size", cell,
-                               "NTS-Stiffness-Triplets", triplets, NULL};
+                               "NTS-Stiffness-Triplets", triplets, "NTS-Deep-Contacts", deep,
+                               r->resp.warning_count > 0 ? "NTS-Warnings" : NULL, warnings, NULL};
         size_t k;
+        int w;
+        warnings[0] = '\0';
+        for (w = 0, k = 0; w < r->resp.warning_count && k < sizeof warnings; ++w)
+            k += (size_t)snprintf(warnings + k, sizeof warnings - k, "%s%s=%lld", w > 0 ? ", " : "",
+                                  nts_warning_name(r->resp.warnings[w].code), r->resp.warnings[w].count);
+        snprintf(deep, sizeof deep, "%d", sm->deep_contacts);
         ntsj_format_double(energy, sm->energy);
         k = (size_t)ntsj_format_double(virial, sm->virial.xx);
         virial[k++] = ',';

@@ -393,6 +393,53 @@ static void test_periodic_edge(void) {
     ntsx_scene_free(&x);
 }
 
+/* In a periodic box no search reaches past half its side (an image could be
+ * nearer): a square nearly as large as the box, and a needle from the gap
+ * between its images to its centre, 1.48 deep where half the box less the
+ * longest segment is 1.45. The nodes there are counted as a warning
+ * (penetration_beyond_reach); the search out to that limit from a node
+ * outside every body finds nothing and says nothing. */
+static void test_periodic_reach_limit(void) {
+    const double h = 0.05, lo = 0.02, hi = 2.98;
+    ntsx_scene x;
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    nts_context* c = nts_context_create();
+    nts_result r;
+    nts_error err;
+    int i, n = (int)((hi - lo) / h + 0.5), m = (int)(1.5 / h + 0.5);
+    ntsx_scene_init(&x, 2);
+    x.counts[0] = 4 * n;
+    x.nodes[0] = (nts_vec2*)calloc((size_t)(4 * n), sizeof(nts_vec2));
+    for (i = 0; i < n; ++i) {
+        const double t = lo + (hi - lo) * i / n;
+        x.nodes[0][i] = nts_v2(t, lo);
+        x.nodes[0][n + i] = nts_v2(hi, t);
+        x.nodes[0][2 * n + i] = nts_v2(hi + lo - t, hi);
+        x.nodes[0][3 * n + i] = nts_v2(lo, hi + lo - t);
+    }
+    x.total += 4 * n;
+    x.counts[1] = 2 * m + 2; /* a needle along y = 1.5 from x = 0 to x = 1.5, 0.02 wide */
+    x.nodes[1] = (nts_vec2*)calloc((size_t)(2 * m + 2), sizeof(nts_vec2));
+    for (i = 0; i <= m; ++i) {
+        x.nodes[1][i] = nts_v2(h * i, 1.49);
+        x.nodes[1][2 * m + 1 - i] = nts_v2(h * i, 1.51);
+    }
+    x.total += 2 * m + 2;
+    x.lx = x.ly = 3.0;
+    s = scene_from(&x, NULL);
+    CU_ASSERT_FATAL(s != NULL && c != NULL);
+    o.penalty = 10.0;
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == NTS_OK);
+    CU_ASSERT(r.summary.deep_contacts > 20);
+    CU_ASSERT_FATAL(r.warning_count == 1);
+    ASSERT_INT_EQ(r.warnings[0].code, NTS_WARN_PENETRATION_BEYOND_REACH);
+    CU_ASSERT(r.warnings[0].count >= 2 && r.warnings[0].count <= 8);
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 /* An explicit radius shorter than a penetration: the contacts deeper than it
  * are left out (the model's rule), and the result says how many. */
 static void test_explicit_radius_warns(void) {
@@ -456,5 +503,6 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_chunk_and_loop_ends);
     ADD_TEST(s, test_single_node_across_both_ends);
     ADD_TEST(s, test_periodic_edge);
+    ADD_TEST(s, test_periodic_reach_limit);
     ADD_TEST(s, test_explicit_radius_warns);
 }

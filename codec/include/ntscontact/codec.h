@@ -58,6 +58,8 @@ typedef struct ntsj_response {
     size_t length;    /* strlen(body), or the bytes of a binary answer */
     int binary;       /* ok and body holds 16 N bytes: little-endian float64 forces, x then y per node */
     nts_summary summary; /* of a successful evaluation (for a binary answer's headers, a front end's counters) */
+    nts_warning warnings[NTS_WARN_COUNT_]; /* what the evaluation may have left out (nts_result.warnings) */
+    int warning_count;
     double elapsed_ms;   /* of the request, rounded to whole microseconds */
     int triplets;        /* a binary answer with outputs stiffness: the triplets after the forces
                           * (int32 rows, int32 cols, float64 values, little-endian), else 0 */

@@ -19,7 +19,7 @@ from .errors import (  # noqa: E402
     ServiceUnavailable,
     Timeout,
 )
-from .result import Contact, Gap, Result, Summary  # noqa: E402
+from .result import Contact, Gap, IncompleteResultWarning, Result, ResultWarning, Summary  # noqa: E402
 from .scene import OUTPUTS, SOLVERS, Body, BodyId, Scene  # noqa: E402
 from .session import Session  # noqa: E402
 from .plot import plot  # noqa: E402
@@ -41,6 +41,8 @@ __all__ = [
     "Summary",
     "Contact",
     "Gap",
+    "ResultWarning",
+    "IncompleteResultWarning",
     "NtsError",
     "InvalidScene",
     "PayloadTooLarge",

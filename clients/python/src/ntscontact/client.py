@@ -117,7 +117,7 @@ class Client:
         result = Result.from_dict(doc)
         if isinstance(scene, Scene):
             result._scene = (scene, scene.positions())  # the topology, and the positions evaluated
-        return result
+        return result.warn()
 
     def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Session:
         """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings as _warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -11,7 +12,7 @@ import numpy.typing as npt
 
 from .scene import BodyId
 
-__all__ = ["Result", "Summary", "Contact", "Gap", "virial_matrix"]
+__all__ = ["Result", "Summary", "Contact", "Gap", "ResultWarning", "IncompleteResultWarning", "virial_matrix"]
 
 FloatArray = npt.NDArray[np.float64]
 Vec2 = Tuple[float, float]
@@ -102,6 +103,36 @@ class Gap:
                    extra=extra)
 
 
+class IncompleteResultWarning(UserWarning):
+    """Raised through :func:`warnings.warn` when a result says it may lack
+    something (its ``warnings``): e.g. ``penetration_beyond_radius``, active
+    contacts deeper than an explicit search radius, left out."""
+
+
+@dataclass(frozen=True)
+class ResultWarning:
+    """One entry of a result's ``warnings``: a stable ``code``, how many
+    contacts (or nodes) it concerns, and the service's ``message``."""
+
+    code: str
+    count: int
+    message: str = ""
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "ResultWarning":
+        return cls(code=str(d.get("code", "")), count=int(d.get("count", 0)), message=str(d.get("message", "")))
+
+    @classmethod
+    def from_header(cls, value: str) -> List["ResultWarning"]:
+        """The ``NTS-Warnings`` header of a binary answer: ``code=count, ...``."""
+        out: List[ResultWarning] = []
+        for part in value.split(","):
+            code, _, count = part.strip().partition("=")
+            if code:
+                out.append(cls(code=code, count=int(count or 0)))
+        return out
+
+
 @dataclass(frozen=True)
 class Summary:
     """``summary`` of a result (always complete). ``virial`` is a 2x2 array."""
@@ -118,12 +149,14 @@ class Summary:
     search_radius: float
     cell_size: float
     elapsed_ms: float = field(compare=False)
+    #: Of the active contacts, those deeper than the (default) search radius.
+    deep_contacts: int = 0
     extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
         known = ("bodies", "nodes", "surface_nodes", "contacts", "gaps", "energy", "virial", "max_penetration",
-                 "loops_reversed", "search_radius", "cell_size", "elapsed_ms")
+                 "loops_reversed", "search_radius", "cell_size", "elapsed_ms", "deep_contacts")
         return cls(
             bodies=int(d.get("bodies", 0)),
             nodes=int(d.get("nodes", 0)),
@@ -137,6 +170,7 @@ class Summary:
             search_radius=float(d.get("search_radius", 0.0)),
             cell_size=float(d.get("cell_size", 0.0)),
             elapsed_ms=float(d.get("elapsed_ms", 0.0)),
+            deep_contacts=int(d.get("deep_contacts", 0)),
             extra={k: v for k, v in d.items() if k not in known},
         )
 
@@ -148,7 +182,8 @@ class Result:
     ``forces`` maps each body id to an ``(n, 2)`` float64 array aligned with the
     nodes that were sent (empty when ``forces`` was not asked for); ``energy`` and
     ``virial`` (2x2) come from the summary; ``contacts`` and ``gaps`` are lists,
-    empty unless asked for in ``outputs``; ``raw`` is the parsed JSON.
+    empty unless asked for in ``outputs``; ``warnings`` says what the result
+    may lack (empty: nothing); ``raw`` is the parsed JSON.
     """
 
     summary: Summary
@@ -156,6 +191,7 @@ class Result:
     contacts: List[Contact]
     gaps: List[Gap]
     raw: Dict[str, Any] = field(repr=False)
+    warnings: List[ResultWarning] = field(default_factory=list)
     #: A binary session answer's (N, 2) forces; ``forces`` holds views into it.
     _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
     #: The tangent's triplets (rows, cols, values, size) of a binary answer.
@@ -295,7 +331,17 @@ class Result:
             contacts=[Contact.from_dict(c) for c in doc.get("contacts") or []],
             gaps=[Gap.from_dict(g) for g in doc.get("gaps") or []],
             raw=dict(doc),
+            warnings=[ResultWarning.from_dict(w) for w in doc.get("warnings") or []],
         )
+
+    def warn(self) -> "Result":
+        """Pass each of the result's ``warnings`` to :func:`warnings.warn` as an
+        :class:`IncompleteResultWarning` (the client does, for every answer it
+        receives); returns the result."""
+        for w in self.warnings:
+            text = f"{w.code} ({w.count})" + (f": {w.message}" if w.message else "")
+            _warnings.warn(text, IncompleteResultWarning, stacklevel=3)
+        return self
 
     @classmethod
     def from_json(cls, text: Union[str, bytes]) -> "Result":

@@ -26,7 +26,7 @@ import numpy.typing as npt
 import requests
 
 from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
-from .result import Result, Summary, virial_matrix
+from .result import Result, ResultWarning, Summary, virial_matrix
 from .scene import BodyId, Scene, normalize_outputs
 
 __all__ = ["Session", "PositionsLike"]
@@ -208,7 +208,7 @@ class Session:
         self.steps += 1
         result = self._binary_result(resp) if binary else Result.from_dict(doc)
         result._scene = (self._scene_factory, self._positions.copy())
-        return result
+        return result.warn()
 
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
@@ -237,13 +237,14 @@ class Session:
                 max_penetration=float(h["NTS-Max-Penetration"]),
                 loops_reversed=int(h.get("NTS-Loops-Reversed", 0)),
                 search_radius=float(h.get("NTS-Search-Radius", 0.0)), cell_size=float(h.get("NTS-Cell-Size", 0.0)),
-                elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)))
+                elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)), deep_contacts=int(h.get("NTS-Deep-Contacts", 0)))
+            warned = ResultWarning.from_header(h.get("NTS-Warnings", ""))
         except (KeyError, ValueError, IndexError) as exc:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
                               status=resp.status_code) from exc
         per_body = {i: forces[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
-        return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, _force_array=forces,
-                      _triplets=triplets)
+        return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, warnings=warned,
+                      _force_array=forces, _triplets=triplets)
 
     # ------------------------------------------------------------ HTTP
 
