@@ -266,7 +266,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             return eval_fail(err, rc, -1, -1, "out of memory");
         /* The active contacts deeper than r, found (default radius) or
          * counted (an explicit one). */
-        rc = nts_reach_grow(ctx, &env, records);
+        rc = nts_reach_grow(ctx, &env, records, nthreads);
         if (rc == NTS_ECANCELLED)
             return eval_fail(err, rc, -1, -1, "the evaluation was cancelled (a deadline passed, or the caller asked)");
         if (rc == NTS_ELIMIT) {

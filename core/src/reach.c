@@ -36,8 +36,13 @@
 
 #include "stages.h"
 
+#if NTS_CONFIG_OPENMP
+#include <omp.h>
+#endif
+
 void nts_reach_free(nts_reach* r) {
     nts_free(r->queue);
+    nts_free(r->hits);
     nts_free(r->edges);
     nts_free(r->seen);
     nts_free(r->deep);
@@ -48,7 +53,8 @@ void nts_reach_free(nts_reach* r) {
 }
 
 size_t nts_reach_memory_bytes(const nts_reach* r) {
-    return (size_t)r->queue_cap * sizeof(reach_request) + (size_t)r->seen_cap * sizeof(reach_seen) +
+    return (size_t)r->queue_cap * sizeof(reach_request) + (size_t)r->hits_cap * sizeof(candidate) +
+           (size_t)r->seen_cap * sizeof(reach_seen) +
            (size_t)r->edge_cap * sizeof(reach_item) +
            (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
            (size_t)r->depth_cap * sizeof(double) + (size_t)r->convex_cap;
@@ -217,7 +223,6 @@ static int settle(nts_context* ctx, const search_env* env, int k, const candidat
 static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, double l) {
     nts_reach* r = &ctx->reach;
     int k, rc = NTS_OK;
-    ++r->searches;
     nts_search_wide(env, w, i, -1, (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad,
                     r->depth);
     if (w->status != NTS_OK) return w->status;
@@ -297,24 +302,20 @@ static int inside_body(const search_env* env, int k, int b) {
 /* A pair's search, widened from its radius, doubled while it finds nothing
  * (the closest point may not be where the triangle inequality puts the
  * nearest point of the surface: a slave beside a corner's region), up to
- * the largest radius the scene allows. */
-static int resolve(nts_context* ctx, const search_env* env, worker* w, reach_request q) {
-    nts_reach* r = &ctx->reach;
-    double rho = q.rho * (1.0 + 1e-9) + env->wide_pad;
-    int rc = NTS_OK;
+ * the largest radius the scene allows: its closest point on the body in
+ * *hit, or hit->kind = -1 when there is none within that. */
+static void search_pair(const search_env* env, worker* w, const reach_request* q, candidate* hit) {
+    double rho = q->rho * (1.0 + 1e-9) + env->wide_pad;
+    hit->kind = -1;
     for (;;) {
         if (rho > env->reach_max) rho = env->reach_max;
-        ++r->searches;
-        nts_search_wide(env, w, q.slave, q.body, rho, NULL);
-        if (w->status != NTS_OK) return w->status;
+        nts_search_wide(env, w, q->slave, q->body, rho, NULL);
+        if (w->status != NTS_OK) return;
         if (w->best_count > 0 || rho >= env->reach_max) break;
         rho *= 2.0;
     }
-    if (w->best_count > 0) rc = settle(ctx, env, q.slave, &w->best[0], q.from);
-    else if (env->lx > 0.0 && inside_body(env, q.slave, q.body))
-        ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
+    if (w->best_count > 0) *hit = w->best[0];
     nts_search_wide_done(w);
-    return rc;
 }
 
 /* Deep contacts by slave, then master body (each pair is there once). */
@@ -325,13 +326,14 @@ static int deep_order(const void* pa, const void* pb) {
     return (a->body > b->body) - (a->body < b->body);
 }
 
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found) {
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads) {
     const nts_scene* s = env->s;
     nts_reach* r = &ctx->reach;
     worker* w = &ctx->workers[0];
-    int c, i, k, q, rc;
+    int c, i, k, q, q0, q1, rc;
+    (void)threads; /* without OpenMP */
     r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
-    r->beyond = r->unresolved = r->searches = 0;
+    r->beyond = r->unresolved = 0;
     for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
     if ((rc = nts_grow((void**)&r->depth, &r->depth_cap, s->body_count, sizeof(double))) != NTS_OK ||
         (rc = nts_grow((void**)&r->convex, &r->convex_cap, s->body_count, 1)) != NTS_OK)
@@ -371,11 +373,32 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found) {
                 rc = coarse(ctx, env, w, i2, lp > ln ? lp : ln);
             }
     }
-    /* 3. The chains, pair by pair. */
-    for (q = 0; q < r->queue_count && rc == NTS_OK; ++q) {
-        if ((q & 255) == 255 && env->cancel != NULL && env->cancel(env->cancel_user)) return NTS_ECANCELLED;
+    /* 3. The chains, in rounds: the pairs queued are searched (in parallel,
+     * each answer its own), then settled in queue order, which queues the
+     * next round: the queue, and so the answer, do not depend on the threads. */
+    for (q0 = 0; q0 < r->queue_count && rc == NTS_OK; q0 = q1) {
+        q1 = r->queue_count;
         if (found + r->deep_count > env->max_records) return NTS_ELIMIT;
-        rc = resolve(ctx, env, w, r->queue[q]);
+        if (env->cancel != NULL && env->cancel(env->cancel_user)) return NTS_ECANCELLED;
+        if ((rc = nts_grow((void**)&r->hits, &r->hits_cap, q1, sizeof(candidate))) != NTS_OK) return rc;
+#if NTS_CONFIG_OPENMP
+#pragma omp parallel for num_threads(threads) if (threads > 1 && q1 - q0 > 64) schedule(dynamic, 16)
+#endif
+        for (q = q0; q < q1; ++q) {
+#if NTS_CONFIG_OPENMP
+            worker* wt = &ctx->workers[omp_get_thread_num()];
+#else
+            worker* wt = w;
+#endif
+            if (wt->status == NTS_OK) search_pair(env, wt, &r->queue[q], &r->hits[q]);
+        }
+        for (i = 0; i < threads; ++i)
+            if (ctx->workers[i].status != NTS_OK) return ctx->workers[i].status;
+        for (q = q0; q < q1 && rc == NTS_OK; ++q) {
+            if (r->hits[q].kind >= 0) rc = settle(ctx, env, r->queue[q].slave, &r->hits[q], r->queue[q].from);
+            else if (env->lx > 0.0 && inside_body(env, r->queue[q].slave, r->queue[q].body))
+                ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
+        }
     }
     if (rc != NTS_OK) return rc;
     if (found + r->deep_count > env->max_records) return NTS_ELIMIT;

@@ -324,6 +324,8 @@ typedef struct reach_seen {
 typedef struct nts_reach {
     reach_request* queue;   /* the pairs to search, each once */
     int queue_count, queue_cap;
+    candidate* hits;        /* each queued pair's closest point (kind -1: none) */
+    int hits_cap;
     reach_seen* seen;       /* open addressing, key -1: empty */
     int seen_cap, seen_count;
     reach_item* edges;      /* the chunks' REACH_EDGE items, by slave */
@@ -336,8 +338,7 @@ typedef struct nts_reach {
     signed char* convex;    /* per body: 1 convex, 0 not, -1 not yet known (reach.c) */
     int depth_cap, convex_cap;
     long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
-    long long unresolved;   /* pairs whose search hit the periodic box's limit without an answer */
-    long long searches;     /* widened searches run */
+    long long unresolved;   /* slaves inside a body deeper than the periodic box's limit */
 } nts_reach;
 
 struct nts_context {
@@ -591,10 +592,10 @@ void nts_search_wide_done(worker* w);
 
 /* reach.c: after the search, the pairs (slave, master body) next to those
  * it found whose closest point lies deeper than r; kept in ctx->reach.deep
- * when env->grow, else counted in ctx->reach.beyond. NTS_OK, NTS_ENOMEM,
- * NTS_ELIMIT (more than env->max_records closest points with `found`) or
- * NTS_ECANCELLED. */
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found);
+ * when env->grow, else counted in ctx->reach.beyond. The widened searches
+ * run on `threads` workers. NTS_OK, NTS_ENOMEM, NTS_ELIMIT (more than
+ * env->max_records closest points with `found`) or NTS_ECANCELLED. */
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads);
 size_t nts_reach_memory_bytes(const nts_reach* r);
 /* reach.c: the deepest a point inside body b can lie below its surface,
  * computed once per evaluation and kept in depth[b] (-1 until then). */
