@@ -17,8 +17,8 @@
  * none on a body where the other has one, when it could lie deeper than r
  * there (|X_k - X_i| - g_i > r, reach_may_be_deeper); a neighbour across the
  * end of a chunk or a loop is compared here (its "edges"). A neighbour
- * beyond the tangent at the other's closest point is outside a convex body
- * (the body lies behind every tangent) and is not searched. A pair found
+ * beyond all of the body's nodes in the direction of the other's normal is
+ * outside it (beyond_body) and is not searched. A pair found
  * deep is followed on to its neighbours that did not ask for it (those have
  * a closest point within r there, or are deep already); the chain stops at
  * its first node outside. A slave next to a segment longer than 2 r is
@@ -48,7 +48,6 @@ void nts_reach_free(nts_reach* r) {
     nts_free(r->deep);
     nts_free(r->shares);
     nts_free(r->depth);
-    nts_free(r->convex);
     memset(r, 0, sizeof *r);
 }
 
@@ -57,7 +56,7 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
            (size_t)r->seen_cap * sizeof(reach_seen) +
            (size_t)r->edge_cap * sizeof(reach_item) +
            (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
-           (size_t)r->depth_cap * sizeof(double) + (size_t)r->convex_cap;
+           (size_t)r->depth_cap * sizeof(double);
 }
 
 /* ---------------------------------------------------- the bodies' shapes */
@@ -95,30 +94,29 @@ double nts_body_depth(const search_env* env, double* depth, int b) {
     return depth[b];
 }
 
-/* Whether body b is convex: one loop, every turn to the left (within the
- * round-off of its cross product) and x going up, then down, once around
- * (a loop wound twice turns left everywhere too). Its smoothed surface is
- * then convex as well (each corner curve lies in its corner's triangle and
- * turns the same way). */
-static int body_convex(const search_env* env, signed char* convex, int b) {
+/* Whether X_k lies beyond body b's every node in direction n: then it is
+ * outside the body, whose smoothed surface lies in its nodes' convex hull
+ * (a corner curve is a convex combination of three nodes, eq. (2)-(3)). n
+ * may be single precision: the allowance. The nodes are walked by their
+ * segments, each loop from the image of its first node nearest to X_k. A
+ * neighbour that a slave asks for along its chain is usually outside so
+ * (the chain's end): a pass over the body's nodes spares a widened search. */
+static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
-    if (convex[b] < 0) {
-        const int l = s->body_loop_start[b], e0 = s->loop_start[l], e1 = s->loop_start[l + 1];
-        int e, flips = 0, ok = s->body_loop_start[b + 1] == l + 1;
-        double sx = 0.0;
-        for (e = e0; e < e1 && ok; ++e) {
-            const nts_vec2 tp = env->seg[env->seg[e].prev].t, t = env->seg[e].t;
-            ok = nts_cross(tp, t) >= -1e-12 * env->seg[env->seg[e].prev].len * env->seg[e].len;
-            if (t.x != 0.0) {
-                flips += sx != 0.0 && (t.x > 0.0) != (sx > 0.0);
-                sx = t.x;
-            }
+    const nts_vec2 xs = env->seg[k].p;
+    double top = -HUGE_VAL, size = 0.0;
+    int l;
+    for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
+        nts_vec2 d = nts_scene_diff(s, env->seg[s->loop_start[l]].p, xs);
+        int e;
+        for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
+            const double h = d.x * nx + d.y * ny, a = fabs(d.x) + fabs(d.y);
+            top = h > top ? h : top;
+            size = a > size ? a : size;
+            d = nts_add(d, env->seg[e].t);
         }
-        for (e = e0; e < e1 && env->seg[e].t.x == 0.0; ++e) continue; /* the wrap: last direction to first */
-        if (e < e1 && sx != 0.0) flips += (env->seg[e].t.x > 0.0) != (sx > 0.0);
-        convex[b] = (signed char)(ok && flips == 2);
     }
-    return convex[b];
+    return top < -1e-6 * size;
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -163,21 +161,27 @@ static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
     return &r->seen[h];
 }
 
-/* Queue (k, body) with radius rho, asked by k's neighbour on side `from`,
- * unless k lies beyond the tangent at that neighbour's closest point on a
- * convex body (height h > 0: outside it). A pair queued already records the
- * second neighbour that asks; a pair settled already is left alone. */
-static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double h,
-                   double l) {
+/* Queue (k, body) with radius rho, asked by k's neighbour on side `from`
+ * whose closest point on the body has normal n, unless k lies beyond the
+ * body's every node in that direction (outside it: beyond_body, for a body
+ * of at most WIDE_HULL entries; a larger one is left to the search). A pair
+ * queued already records the second neighbour that asks; a pair settled
+ * already is left alone. */
+enum { WIDE_HULL = 512 };
+static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
+                   double ny) {
     nts_reach* r = &ctx->reach;
+    const nts_scene* s = env->s;
     reach_seen* p;
     int fresh, rc;
-    if (h > 1e-6 * l && body_convex(env, r->convex, body)) return NTS_OK;
-    if ((p = seen_find(r, (long long)k * env->s->body_count + body, &fresh)) == NULL) return NTS_ENOMEM;
+    if ((p = seen_find(r, (long long)k * s->body_count + body, &fresh)) == NULL) return NTS_ENOMEM;
     if (!fresh) {
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
+    if (s->loop_start[s->body_loop_start[body + 1]] - s->loop_start[s->body_loop_start[body]] <= WIDE_HULL &&
+        beyond_body(env, k, body, nx, ny))
+        return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
     p->at = r->queue_count;
@@ -198,9 +202,9 @@ static int follow(nts_context* ctx, const search_env* env, int k, const candidat
     const double g = c->gap;
     int rc = NTS_OK;
     if (!(asked & SIDE_PREV) && reach_may_be_deeper(lp, g, env->r))
-        rc = enqueue(ctx, env, prev, c->body, fabs(g) + lp, SIDE_NEXT, g - nts_dot(seg[prev].t, c->normal), lp);
+        rc = enqueue(ctx, env, prev, c->body, fabs(g) + lp, SIDE_NEXT, c->normal.x, c->normal.y);
     if (rc == NTS_OK && !(asked & SIDE_NEXT) && reach_may_be_deeper(ln, g, env->r))
-        rc = enqueue(ctx, env, next, c->body, fabs(g) + ln, SIDE_PREV, g + nts_dot(seg[k].t, c->normal), ln);
+        rc = enqueue(ctx, env, next, c->body, fabs(g) + ln, SIDE_PREV, c->normal.x, c->normal.y);
     return rc;
 }
 
@@ -272,10 +276,9 @@ static int edge(nts_context* ctx, const search_env* env, const reach_item* e) {
     const seg_data* seg = env->seg;
     const int i = e->slave, k = e->from == SIDE_PREV ? seg[i].prev : seg[i].next;
     const int back = e->from == SIDE_PREV ? SIDE_NEXT : SIDE_PREV;
-    const nts_vec2 d = e->from == SIDE_PREV ? nts_neg(seg[k].t) : seg[i].t; /* X_k - X_i */
     const double l = e->from == SIDE_PREV ? seg[k].len : seg[i].len;
     if (has_edge(&ctx->reach, k, back, e->body) || !reach_may_be_deeper(l, e->value, env->r)) return NTS_OK;
-    return enqueue(ctx, env, k, e->body, fabs(e->value) + l, back, e->value + d.x * e->nx + d.y * e->ny, l);
+    return enqueue(ctx, env, k, e->body, fabs(e->value) + l, back, e->nx, e->ny);
 }
 
 /* Whether X_k lies inside body b's polygon (its loops by their segments,
@@ -335,11 +338,8 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
     r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
     r->beyond = r->unresolved = 0;
     for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
-    if ((rc = nts_grow((void**)&r->depth, &r->depth_cap, s->body_count, sizeof(double))) != NTS_OK ||
-        (rc = nts_grow((void**)&r->convex, &r->convex_cap, s->body_count, 1)) != NTS_OK)
-        return rc;
+    if ((rc = nts_grow((void**)&r->depth, &r->depth_cap, s->body_count, sizeof(double))) != NTS_OK) return rc;
     for (i = 0; i < s->body_count; ++i) r->depth[i] = -1.0;
-    memset(r->convex, -1, (size_t)s->body_count);
 
     /* 1. What the search asked for, chunk by chunk; its edges, gathered in
      * slave order, then compared across. */
@@ -347,11 +347,8 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
         const chunk_part* part = &ctx->chunks[c].part[STREAM_REACH];
         const reach_item* it = (const reach_item*)part->data;
         for (k = 0; k < part->count && rc == NTS_OK; ++k) {
-            const seg_data* seg = env->seg;
-            const int i2 = it[k].slave;
             if (it[k].kind == REACH_ASK) {
-                const double l = it[k].from == SIDE_PREV ? seg[seg[i2].prev].len : seg[i2].len;
-                rc = enqueue(ctx, env, i2, it[k].body, it[k].value, it[k].from, it[k].h, l);
+                rc = enqueue(ctx, env, it[k].slave, it[k].body, it[k].value, it[k].from, it[k].nx, it[k].ny);
             } else if (it[k].kind == REACH_EDGE) {
                 if ((rc = nts_grow((void**)&r->edges, &r->edge_cap, r->edge_count + 1, sizeof(reach_item))) == NTS_OK)
                     r->edges[r->edge_count++] = it[k];

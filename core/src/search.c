@@ -256,7 +256,8 @@ static reach_item* push_item(worker* w, int kind, int slave, int body, int from,
     it->kind = (unsigned char)kind;
     it->from = (unsigned char)from;
     it->value = value;
-    it->h = it->nx = it->ny = 0.0f;
+    it->pad = 0;
+    it->nx = it->ny = 0.0f;
     return it;
 }
 
@@ -267,15 +268,16 @@ static inline int has_body(const candidate* c, int n, int body) {
     return 0;
 }
 
-/* Slave k = X_i + d, with no closest point within r on c->body while its
- * neighbour i, on side `from`, has c there: ask for a widened search when k
- * could lie deeper than r (reach_may_be_deeper), with k's height over the
- * tangent at c. */
-static void reach_ask(const search_env* env, worker* w, int k, int from, const candidate* c, nts_vec2 d, double l) {
+/* Slave k, l from its neighbour on side `from` along the loop, with no
+ * closest point within r on c->body while the neighbour has c there: ask
+ * for a widened search when k could lie deeper than r (reach_may_be_deeper). */
+static void reach_ask(const search_env* env, worker* w, int k, int from, const candidate* c, double l) {
     reach_item* it;
     if (!reach_may_be_deeper(l, c->gap, env->r)) return;
-    if ((it = push_item(w, REACH_ASK, k, c->body, from, fabs(c->gap) + l)) != NULL)
-        it->h = (float)(c->gap + nts_dot(d, c->normal));
+    if ((it = push_item(w, REACH_ASK, k, c->body, from, fabs(c->gap) + l)) != NULL) {
+        it->nx = (float)c->normal.x;
+        it->ny = (float)c->normal.y;
+    }
 }
 
 /* A closest point of slave i whose neighbour on side `from` is across the
@@ -304,13 +306,12 @@ static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
     prev = seg[i].prev;
     next = seg[i].next;
     if (prev == i - 1 && before == prev) {
-        const nts_vec2 d = seg[prev].t; /* X_i - X_{i-1} */
         const double l = seg[prev].len;
         for (k = 0; k < w->last_count; ++k)
-            if (!has_body(w->best, n, w->last[k].body)) reach_ask(env, w, i, SIDE_PREV, &w->last[k], d, l);
+            if (!has_body(w->best, n, w->last[k].body)) reach_ask(env, w, i, SIDE_PREV, &w->last[k], l);
         for (k = 0; k < n; ++k)
             if (!has_body(w->last, w->last_count, w->best[k].body))
-                reach_ask(env, w, prev, SIDE_NEXT, &w->best[k], nts_neg(d), l);
+                reach_ask(env, w, prev, SIDE_NEXT, &w->best[k], l);
     } else {
         for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_PREV, &w->best[k]);
     }
@@ -585,7 +586,8 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
     const nts_vec2 xs = env->seg[k].p;
     int e0 = 0, e1 = s->surface_count, j;
     if (body >= 0) body_entries(s, body, &e0, &e1);
-    if (cl != NULL) {
+    /* A body of few entries: all of them, without placing the cells. */
+    if (cl != NULL && (body < 0 || e1 - e0 > 64)) {
         /* A binned master's middle lies within its reach, at most a cell's
          * side, of its features: the cells within rho + that of the slave
          * hold every master that could offer a feature within rho. */

@@ -219,10 +219,9 @@ enum { FORCE_DELAY = 8 };
  * goes it compares each slave's closest points with those of the slave
  * before it along the loop (search.c: reach_neighbours):
  * - REACH_ASK: `slave` has no closest point within r on `body`, but its
- *   neighbour on side `from` has one, and `slave` could lie deeper than r
- *   in the body: search it widened to radius `value`. `h` is its height
- *   over the tangent at the neighbour's closest point (a convex body lies
- *   behind it, so h > 0 puts the slave outside).
+ *   neighbour on side `from` has one (normal nx, ny, in single precision:
+ *   it only rules slaves out, with an allowance), and `slave` could lie
+ *   deeper than r in the body: search it widened to radius `value`.
  * - REACH_EDGE: a closest point of `slave` on `body` (gap `value`, normal
  *   nx, ny) whose neighbour on side `from` is across the end of the chunk or
  *   of the loop: reach.c compares the two.
@@ -233,7 +232,7 @@ enum { SIDE_PREV = 1, SIDE_NEXT = 2 }; /* bits: the neighbour before or after al
 typedef struct reach_item {
     int slave, body;
     unsigned char kind, from;
-    float h;
+    int pad;
     double value;
     float nx, ny;
 } reach_item;
@@ -335,8 +334,7 @@ typedef struct nts_reach {
     force_shares* shares;   /* their forces */
     int shares_cap;
     double* depth;          /* per body: the deepest a point inside it can be (nts_body_depth), -1: not yet */
-    signed char* convex;    /* per body: 1 convex, 0 not, -1 not yet known (reach.c) */
-    int depth_cap, convex_cap;
+    int depth_cap;
     long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
     long long unresolved;   /* slaves inside a body deeper than the periodic box's limit */
 } nts_reach;
