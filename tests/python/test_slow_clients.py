@@ -9,7 +9,7 @@ import time
 
 import requests
 
-from conftest import start_daemon
+from conftest import settled_health, start_daemon
 
 
 def _trickle(port, stop, closed_at, index, period=0.2):
@@ -62,9 +62,14 @@ def test_trickled_headers_are_cut_by_the_header_deadline(paths, tmp_path):
         threads = [threading.Thread(target=_trickle, args=(d.port, stop, closed_at, i)) for i in range(10)]
         for t in threads:
             t.start()
-        time.sleep(2.5)
-        # Every trickler was cut after about a second, though it sent a byte every 0.2 s ...
-        assert all(c is not None and 0.8 < c < 2.5 for c in closed_at), closed_at
+        # Every trickler is cut, though it sends a byte every 0.2 s (each would
+        # take 800 s to send its headers), and none before its second is up.
+        # How soon after it the daemon gets to it is the machine's business: a
+        # busy one is given a minute (the suite asserts no timing).
+        deadline = time.monotonic() + 60
+        while any(c is None for c in closed_at) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert all(c is not None and c > 0.8 for c in closed_at), closed_at
         # ... so another client gets in while they keep trying.
         r = requests.post(d.url("/v1/contact"), data=(paths.examples / "two_disks.json").read_bytes(),
                           headers={"Content-Type": "application/json"}, timeout=10)
@@ -117,12 +122,9 @@ def test_the_work_of_a_client_that_left_stops(paths, tmp_path):
     body = _slow_scene()
     d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--threads", "1")
     try:
-        # The control: the whole evaluation, answered, takes this long.
-        t0 = time.monotonic()
+        # The control: the whole evaluation is answered.
         r = requests.post(d.url("/v1/contact"), data=body, headers={"Content-Type": "application/json"}, timeout=300)
-        full = time.monotonic() - t0
         assert r.status_code == 200
-        assert full > 1.5, f"the scene is too quick to tell ({full:.2f} s)"
         # A client sends it, then leaves while it is evaluated.
         s = socket.create_connection(("127.0.0.1", d.port), timeout=5)
         s.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
@@ -130,14 +132,17 @@ def test_the_work_of_a_client_that_left_stops(paths, tmp_path):
         deadline = time.monotonic() + 10
         while _evaluating(d) == 0 and time.monotonic() < deadline:
             time.sleep(0.02)
+        assert _evaluating(d) == 1
         left = time.monotonic()
         s.close()
-        while _evaluating(d) > 0 and time.monotonic() < left + 30:
+        while _evaluating(d) > 0 and time.monotonic() < left + 300:
             time.sleep(0.02)
-        stopped_after = time.monotonic() - left
-        # Stopped within a fraction of the whole: the core asks every 1024 slaves.
-        assert stopped_after < 0.5 * full, (stopped_after, full)
-        assert requests.get(d.url("/v1/health"), timeout=10).status_code == 200
+        # The work stopped inside the core (which asks every 1024 slaves):
+        # the evaluation ended as cancelled because the client left, not by
+        # finishing (client_left counts only that).
+        health = settled_health(d)
+        assert health["evaluations_running"] == 0
+        assert health["client_left"] == 1
     finally:
         assert d.stop() == 0
     assert "client_left" in d.log()
