@@ -445,9 +445,10 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
         return fail(err, NTS_EINVALID_ARGUMENT, body, -1, -1, -1, "no such body %d", body);
     off = s->body_node_start[body];
     n = s->body_node_start[body + 1] - off;
-    for (i = 0; i < n; ++i)
-        if (!nts_is_valid_vec2(nodes[i]))
-            return fail(err, NTS_ENONFINITE, body, -1, -1, i, "body %d node %d has a non-finite coordinate", body, i);
+    for (i = 0; i < n; ++i) {
+        int rc = check_node(nodes[i], body, i, err); /* the rule of nts_scene_create and updates */
+        if (rc != NTS_OK) return rc;
+    }
     memcpy(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n);
     return NTS_OK;
 }

@@ -276,6 +276,39 @@ static void test_set_positions_checks_finite(void) {
     nts_scene_destroy(s);
 }
 
+/* One rule for a coordinate at every entry point (docs/scenes.md, "Local
+ * verdicts"): finite and within +-1e100. nts_scene_set_positions used to check
+ * finiteness only, and took 1e101 that creation and updates refuse. */
+static void test_set_positions_checks_the_range(void) {
+    nts_body_def b = body_of(square, 4, NULL, NULL, 0);
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    nts_scene* s;
+    nts_vec2 moved[4] = {{0, 0}, {1, 0}, {1, 1}, {-1e101, 1}}, all[4];
+    int k;
+    def.bodies = &b;
+    def.body_count = 1;
+    s = nts_scene_create(&def, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(nts_scene_set_positions(s, 0, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.body, 0);
+    ASSERT_INT_EQ(err.node, 3);
+    CU_ASSERT(strstr(err.message, "node 3") != NULL);
+    ASSERT_NEAR(nts_scene_positions(s)[3].x, 0.0, 0.0); /* unchanged */
+    /* The same verdict as the two other entry points. */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 3);
+    b.nodes = moved;
+    CU_ASSERT(nts_scene_create(&def, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 3);
+    /* 1e100 itself is inside the range, for all three. */
+    for (k = 0; k < 4; ++k) all[k] = nts_v2(1e100 * square[k].x, 1e100 * square[k].y);
+    ASSERT_INT_EQ(nts_scene_set_positions(s, 0, all, &err), 0);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, all, &err), 0);
+    nts_scene_destroy(s);
+}
+
 static void test_options_validated(void) {
     nts_options o = nts_default_options();
     nts_error err;
@@ -309,5 +342,6 @@ void register_scene_suite(void) {
     ADD_TEST(s, test_triangle_boundary);
     ADD_TEST(s, test_annulus_mesh_has_two_loops);
     ADD_TEST(s, test_set_positions_checks_finite);
+    ADD_TEST(s, test_set_positions_checks_the_range);
     ADD_TEST(s, test_options_validated);
 }

@@ -71,7 +71,9 @@ NTS_API nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err);
 NTS_API void nts_scene_destroy(nts_scene* scene);
 
 /* New positions for body `body` (node_count entries, same order as created).
- * Checks finiteness; allocates nothing. */
+ * Checks every coordinate as nts_scene_create does (finite, within +-1e100:
+ * NTS_ENONFINITE or NTS_EOUT_OF_RANGE naming the node), not the geometry;
+ * allocates nothing. */
 NTS_API int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
 
 /* New positions for every node (node_count entries, global order: bodies in
