@@ -13,14 +13,13 @@
 #if NTS_CONFIG_OPENMP
 #include <omp.h>
 #endif
-#include <time.h>
 
 /* Wall clock for the phase profile (nts_context_profile). */
 static double wall_time(void) {
 #if NTS_CONFIG_OPENMP
     return omp_get_wtime();
 #else
-    return (double)clock() / (double)CLOCKS_PER_SEC;
+    return nts_wall_seconds(); /* clock() would be processor time */
 #endif
 }
 

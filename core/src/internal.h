@@ -64,6 +64,10 @@ int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...)
 #endif
     ;
 
+/* Wall-clock seconds from an arbitrary origin (monotonic where the platform
+ * has it), for the phase profile of a build without OpenMP (base.c). */
+double nts_wall_seconds(void);
+
 /* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping
  * the contents. Returns 0 or NTS_ENOMEM (the old block stays valid). */
 int nts_grow(void** ptr, int* cap, int need, size_t size);
