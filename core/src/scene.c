@@ -148,16 +148,22 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
     return NTS_OK;
 }
 
-/* A coordinate inside the supported range (finite, |x| <= NTS_COORD_MAX). */
-static int check_node(nts_vec2 p, int body, int node, nts_error* err) {
+/* A coordinate inside the supported range (finite, |x| <= NTS_COORD_MAX).
+ * `option` is "" for a node, "reference" for a node of the reference
+ * configuration (nts_body_def.reference). */
+static int check_point(nts_vec2 p, int body, int node, const char* option, nts_error* err) {
+    nts_where at = nts_at(body, -1, -1, node);
+    const char* what = option[0] ? "reference node" : "node";
+    at.option = option;
     if (!nts_is_valid_vec2(p))
-        return fail(err, NTS_ENONFINITE, body, -1, -1, node, "body %d node %d has a non-finite coordinate", body, node);
+        return nts_error_set(err, NTS_ENONFINITE, at, "body %d %s %d has a non-finite coordinate", body, what, node);
     if (!(fabs(p.x) <= NTS_COORD_MAX && fabs(p.y) <= NTS_COORD_MAX))
-        return fail(err, NTS_EOUT_OF_RANGE, body, -1, -1, node,
-                    "body %d node %d: coordinate %.3g is beyond +-1e100, where squared lengths overflow (rescale "
-                    "the scene)", body, node, fabs(p.x) > fabs(p.y) ? p.x : p.y);
+        return nts_error_set(err, NTS_EOUT_OF_RANGE, at,
+                             "body %d %s %d: coordinate %.3g is beyond +-1e100, where squared lengths overflow "
+                             "(rescale the scene)", body, what, node, fabs(p.x) > fabs(p.y) ? p.x : p.y);
     return NTS_OK;
 }
+static int check_node(nts_vec2 p, int body, int node, nts_error* err) { return check_point(p, body, node, "", err); }
 
 nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     nts_scene* s = NULL;
@@ -231,6 +237,8 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         }
         for (i = 0; i < bd->node_count; ++i)
             if ((rc = check_node(bd->nodes[i], b, i, err)) != NTS_OK) goto fail;
+        for (i = 0; bd->reference != NULL && i < bd->node_count; ++i)
+            if ((rc = check_point(bd->reference[i], b, i, "reference", err)) != NTS_OK) goto fail;
         if (bd->node_count > max_body_nodes) max_body_nodes = bd->node_count;
         if (bd->triangles != NULL && bd->triangle_count > 0) {
             rc = nts_boundary_from_triangles(bd->nodes, bd->node_count, bd->triangles, bd->triangle_count,
@@ -409,13 +417,25 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         s->body_loop_start[def->body_count] = loop_i;
         s->loop_start[loop_i] = surf;
         assert(surf == s->surface_count && loop_i == s->loop_total);
-        /* Tributary lengths at creation (the reference configuration of
-         * NTS_PENALTY_PER_LENGTH): half of the two segments at each node. */
+        /* Tributary lengths in each body's reference configuration (the
+         * nodes as given unless nts_body_def.reference says otherwise): half
+         * of the two segments at each node. A loop stored reversed has the
+         * same two segments at each node, so the same lengths, bit for bit. */
         for (b = 0; b < s->surface_count; ++b) {
-            int p = s->surf_prev[b], q = s->surf_next[b];
-            double lp = nts_length(nts_scene_diff(s, s->pos[s->surf_node[b]], s->pos[s->surf_node[p]]));
-            double lq = nts_length(nts_scene_diff(s, s->pos[s->surf_node[q]], s->pos[s->surf_node[b]]));
+            const nts_body_def* bd = &def->bodies[s->surf_body[b]];
+            const nts_vec2* ref = bd->reference != NULL ? bd->reference : bd->nodes;
+            nts_vec2 x = ref[s->surf_local[b]];
+            double lp = nts_length(nts_scene_diff(s, x, ref[s->surf_local[s->surf_prev[b]]]));
+            double lq = nts_length(nts_scene_diff(s, ref[s->surf_local[s->surf_next[b]]], x));
             s->surf_trib[b] = 0.5 * (lp + lq);
+            if (!(s->surf_trib[b] > 0.0)) {
+                nts_where at = nts_at(s->surf_body[b], -1, -1, s->surf_local[b]);
+                at.option = "reference";
+                rc = nts_error_set(err, NTS_EDEGENERATE_SEGMENT, at,
+                                   "body %d node %d: both of its segments have length 0 in the reference "
+                                   "configuration (no tributary length)", s->surf_body[b], s->surf_local[b]);
+                goto fail;
+            }
         }
     }
     nts_free(mark);

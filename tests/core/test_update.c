@@ -176,10 +176,175 @@ static void test_triangle_windings(void) {
     nts_scene_destroy(s);
 }
 
+/* Energy and forces of one evaluation, for comparisons across scenes. */
+typedef struct snapshot {
+    double energy;
+    int contacts;
+    nts_vec2 forces[64];
+    double penalty[64]; /* of each active contact */
+} snapshot;
+
+static snapshot snap(const nts_scene* s) {
+    snapshot z;
+    nts_options o = nts_default_options();
+    nts_context* c = nts_context_create();
+    nts_result r;
+    nts_error err;
+    int i;
+    memset(&z, 0, sizeof z);
+    o.penalty = 100.0;
+    o.search_radius = 0.3;
+    o.penalty_scaling = NTS_PENALTY_PER_LENGTH;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+    CU_ASSERT_FATAL(nts_scene_node_count(s) <= 64 && r.contact_count <= 64);
+    z.energy = r.summary.energy;
+    z.contacts = r.contact_count;
+    memcpy(z.forces, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
+    for (i = 0; i < r.contact_count; ++i) z.penalty[i] = r.contacts[i].penalty;
+    nts_context_destroy(c);
+    return z;
+}
+
+/* A scene from `pos` (three loop bodies of 24, 20 and 12 nodes, global
+ * order), with each body's reference configuration taken from `ref` (NULL:
+ * the nodes themselves). */
+static nts_scene* three_bodies(const nts_vec2* pos, const nts_vec2* ref, nts_error* err) {
+    static const int counts[3] = {24, 20, 12};
+    nts_body_def bd[3];
+    nts_scene_def def = nts_default_scene_def();
+    int b, off = 0;
+    memset(bd, 0, sizeof bd);
+    for (b = 0; b < 3; ++b) {
+        bd[b].nodes = pos + off;
+        bd[b].node_count = counts[b];
+        bd[b].reference = ref != NULL ? ref + off : NULL;
+        off += counts[b];
+    }
+    def.bodies = bd;
+    def.body_count = 3;
+    return nts_scene_create(&def, err);
+}
+
+/* Sessions must not depend on their history (issue 22 §4). With penalty per
+ * length, a scene created anew after NTS_ERESHAPED (a far body mirrored) used
+ * to measure every body's tributary lengths at the deformed positions: the
+ * same positions gave another energy before and after such a step. Created
+ * anew with the first positions as its reference, it gives the same bits. */
+static void test_reference_survives_a_rebuild(void) {
+    test_body t[3];
+    nts_vec2 x0[56], p[56], q[56];
+    nts_scene *s, *again, *back, *plain;
+    snapshot first, mirrored, returned, remeasured;
+    nts_error err;
+    int i;
+    make_polygon(&t[0], 24, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&t[1], 20, 1.0, nts_v2(1.9, 0.05), 0.1);
+    make_polygon(&t[2], 12, 0.5, nts_v2(10.0, 0.0), 0.0);
+    for (i = 0; i < 24; ++i) x0[i] = t[0].nodes[i];
+    for (i = 0; i < 20; ++i) x0[24 + i] = t[1].nodes[i];
+    for (i = 0; i < 12; ++i) x0[44 + i] = t[2].nodes[i];
+    /* p: body 0 stretched 1.5 times (its segments change length), body 1
+     * pressed into it, body 2 untouched; q: p with body 2 mirrored. */
+    for (i = 0; i < 56; ++i) p[i] = x0[i];
+    for (i = 0; i < 24; ++i) p[i] = nts_v2(1.5 * x0[i].x, 1.5 * x0[i].y);
+    for (i = 24; i < 44; ++i) p[i].x += 0.55;
+    for (i = 0; i < 56; ++i) q[i] = p[i];
+    for (i = 44; i < 56; ++i) q[i].x = 20.0 - q[i].x;
+
+    s = three_bodies(x0, NULL, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, p, &err), 0);
+    first = snap(s);
+    CU_ASSERT_FATAL(first.contacts > 0);
+
+    /* The mirrored body needs a new scene; with the first positions as the
+     * reference it gives the same bits (body 2 touches nothing). */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, q, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 2);
+    again = three_bodies(q, x0, &err);
+    CU_ASSERT_FATAL(again != NULL);
+    ASSERT_INT_EQ(nts_scene_loops_reversed(again), 1);
+    mirrored = snap(again);
+    ASSERT_INT_EQ(mirrored.contacts, first.contacts);
+    CU_ASSERT(memcmp(&mirrored.energy, &first.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(mirrored.penalty, first.penalty, sizeof first.penalty) == 0);
+    CU_ASSERT(memcmp(mirrored.forces, first.forces, 44 * sizeof(nts_vec2)) == 0);
+
+    /* Back to p: body 2 turns over again, a new scene again, the same bits. */
+    ASSERT_INT_EQ(nts_scene_update_positions(again, p, &err), NTS_ERESHAPED);
+    back = three_bodies(p, x0, &err);
+    CU_ASSERT_FATAL(back != NULL);
+    returned = snap(back);
+    ASSERT_INT_EQ(returned.contacts, first.contacts);
+    CU_ASSERT(memcmp(&returned.energy, &first.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(returned.penalty, first.penalty, sizeof first.penalty) == 0);
+    CU_ASSERT(memcmp(returned.forces, first.forces, sizeof first.forces) == 0);
+
+    /* What the reference prevents: measured at p, body 0's tributary lengths
+     * are 1.5 times longer, and so is its share of the energy. */
+    plain = three_bodies(p, NULL, &err);
+    CU_ASSERT_FATAL(plain != NULL);
+    remeasured = snap(plain);
+    ASSERT_INT_EQ(remeasured.contacts, first.contacts);
+    CU_ASSERT(remeasured.energy > 1.05 * first.energy);
+
+    nts_scene_destroy(s);
+    nts_scene_destroy(again);
+    nts_scene_destroy(back);
+    nts_scene_destroy(plain);
+}
+
+/* A reference configuration is checked as nodes are, and the error names the
+ * body, the node and "reference". */
+static void test_reference_errors_name_the_node(void) {
+    test_body t[3];
+    nts_vec2 x0[56], ref[56];
+    nts_error err;
+    int i;
+    make_polygon(&t[0], 24, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&t[1], 20, 1.0, nts_v2(1.9, 0.05), 0.1);
+    make_polygon(&t[2], 12, 0.5, nts_v2(10.0, 0.0), 0.0);
+    for (i = 0; i < 24; ++i) x0[i] = t[0].nodes[i];
+    for (i = 0; i < 20; ++i) x0[24 + i] = t[1].nodes[i];
+    for (i = 0; i < 12; ++i) x0[44 + i] = t[2].nodes[i];
+    memcpy(ref, x0, sizeof ref);
+    ref[24 + 7].y = NAN;
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_ENONFINITE);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(err.node, 7);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    CU_ASSERT(strstr(err.message, "reference node 7") != NULL);
+    ref[24 + 7] = nts_v2(2e100, 0.0);
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 7);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    /* Node 3 of body 2 where both its neighbours are: no tributary length. */
+    memcpy(ref, x0, sizeof ref);
+    ref[44 + 2] = ref[44 + 3];
+    ref[44 + 4] = ref[44 + 3];
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(err.body, 2);
+    ASSERT_INT_EQ(err.node, 3);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    /* Its neighbours keep half of their other segment: accepted. */
+    ref[44 + 4] = x0[44 + 4];
+    {
+        nts_scene* s = three_bodies(x0, ref, &err);
+        CU_ASSERT(s != NULL);
+        nts_scene_destroy(s);
+    }
+}
+
 void register_update_suite(void) {
     CU_pSuite s = CU_add_suite("update", NULL, NULL);
     ADD_TEST(s, test_random_moves_open);
     ADD_TEST(s, test_random_moves_periodic);
     ADD_TEST(s, test_orientation_kept_or_refused);
     ADD_TEST(s, test_triangle_windings);
+    ADD_TEST(s, test_reference_survives_a_rebuild);
+    ADD_TEST(s, test_reference_errors_name_the_node);
 }

@@ -46,6 +46,14 @@ typedef struct nts_body_def {
     nts_role role;
     int has_alpha;    /* 1: `alpha` shapes this body's surface instead of nts_options.alpha */
     double alpha;     /* in [0, 0.5]; walls and containers want 0 (sharp inner corners) */
+    /* The reference configuration: node_count positions (same order as
+     * `nodes`) at which the tributary lengths of NTS_PENALTY_PER_LENGTH are
+     * measured; NULL: `nodes` themselves. A solver that creates the scene anew
+     * after NTS_ERESHAPED passes its first positions here, so that the same
+     * positions give the same answer whatever the session's history. Checked
+     * as nodes are (finite, within +-1e100; err->option "reference"), and
+     * every surface node's tributary length in it must be positive. */
+    const nts_vec2* reference;
 } nts_body_def;
 
 typedef struct nts_limits {
@@ -114,8 +122,9 @@ enum nts_output_flags {
 
 /* The penalty of a slave node (docs/model.md §6): eps itself, or
  * eps times the node's tributary length (half of its two segments, measured at
- * nts_scene_create), so that eps is a pressure stiffness and the contact
- * pressure and the penetration converge under mesh refinement. */
+ * nts_scene_create in the body's reference configuration, nts_body_def.reference),
+ * so that eps is a pressure stiffness and the contact pressure and the
+ * penetration converge under mesh refinement. */
 typedef enum nts_penalty_scaling {
     NTS_PENALTY_PER_NODE = 0,
     NTS_PENALTY_PER_LENGTH = 1
