@@ -235,6 +235,46 @@ def test_length_scaling_does_not_depend_on_the_history(daemon, validators):
     assert plain["summary"]["energy"] > 1.05 * first["summary"]["energy"]
 
 
+def grid_mesh_and_disk():
+    """A 5 x 5 grid mesh of the unit square and a disk pressed into its bottom edge."""
+    nodes = [[0.25 * i, 0.25 * j] for j in range(5) for i in range(5)]
+    tris = []
+    for j in range(4):
+        for i in range(4):
+            v = 5 * j + i
+            tris += [[v, v + 1, v + 6], [v, v + 6, v + 5]]
+    return {"version": 1, "options": {"penalty": 100.0, "outputs": ["forces", "energy", "virial", "contacts", "gaps"]},
+            "bodies": [{"id": "mesh", "nodes": nodes, "triangles": tris},
+                       {"id": "disk", "nodes": polygon(24, 0.3, (0.55, -0.29), 0.1).tolist()}]}
+
+
+def test_an_interior_triangle_turned_over_is_taken(daemon, validators):
+    """Issue 22 §5: contact depends on a mesh's boundary. A FIRE iterate that
+    turns one interior triangle over (node 12 pushed just past the edge 13-18
+    of its neighbours) used to abort the run (the step rebuilt the scene and
+    got non_manifold_mesh); it is taken, by the session and the full call, and
+    gives the contacts of the mesh un-turned, whose boundary is the same."""
+    scene = grid_mesh_and_disk()
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene)
+    turned = pos.copy()
+    turned[12] = [0.775, 0.625]
+    tri = np.array(scene["bodies"][0]["triangles"])
+    e1, e2 = turned[tri[:, 1]] - turned[tri[:, 0]], turned[tri[:, 2]] - turned[tri[:, 0]]
+    assert np.flatnonzero(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0).tolist() == [20]
+    before = step_json(daemon, doc["id"], {"positions": pos.tolist()}).json()
+    assert before["summary"]["contacts"] > 0
+    r = step_json(daemon, doc["id"], {"positions": turned.tolist()})
+    assert r.status_code == 200, r.text
+    validators["result"].validate(r.json())
+    assert without_elapsed(r.json()) == without_elapsed(before)
+    assert without_elapsed(full_contact(daemon, with_positions(scene, turned))) == without_elapsed(before)
+    assert_binary_equals(step_binary(daemon, doc["id"], turned), before)
+    # A session created at the turned positions too.
+    doc = create(daemon, with_positions(scene, turned), validators)
+    assert_binary_equals(step_binary(daemon, doc["id"], pos), before)
+
+
 def test_a_failing_step_gives_the_full_calls_error_and_keeps_the_session(daemon, paths, validators):
     scene = load(paths, "two_disks")
     doc = create(daemon, scene, validators)

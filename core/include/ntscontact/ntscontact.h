@@ -31,8 +31,11 @@ typedef enum nts_role {
  * - loops: `loop_count` loops, loop l is loop_nodes[loop_start[l] .. loop_start[l+1]),
  *   `loop_start` has loop_count + 1 entries;
  * - triangles: `triangle_count` triples of node indices (a linear triangle mesh);
- *   the boundary is extracted (directed edges whose reverse is absent, chained
- *   into loops);
+ *   the boundary is extracted from the connectivity (each connected piece
+ *   oriented through its shared edges, directed edges whose reverse is absent,
+ *   chained into loops, the piece turned so that its outer loop runs
+ *   counter-clockwise); interior triangles are not checked (zero area or
+ *   turned over is fine: contact reads the boundary);
  * - neither: one loop through all nodes in order. */
 typedef struct nts_body_def {
     const nts_vec2* nodes;
@@ -89,10 +92,11 @@ NTS_API int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* 
  * many configurations (sessions). Makes every check of nts_scene_create on the
  * new positions and takes them only when creating the scene anew from them
  * would give this very scene: every loop keeps its orientation verdict, the
- * outer loop of each body stays the outer one and no triangle of a mesh turns
- * over. Otherwise returns the error of the failed check, or NTS_ERESHAPED when
+ * outer loop of each body stays the outer one, and each piece of a mesh keeps
+ * its outer loop counter-clockwise (its interior triangles are not read).
+ * Otherwise returns the error of the failed check, or NTS_ERESHAPED when
  * the positions are valid but the scene must be created anew from them; the
- * scene is then unchanged. Allocates nothing; O(nodes + triangles). */
+ * scene is then unchanged. Allocates nothing; O(nodes). */
 NTS_API int nts_scene_update_positions(nts_scene* scene, const nts_vec2* positions, nts_error* err);
 /* Bytes held by the scene (its arrays), for budgets. */
 NTS_API size_t nts_scene_memory_bytes(const nts_scene* scene);
