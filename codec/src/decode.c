@@ -253,7 +253,8 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     return fail_type(d, ptr, v, "a string or an integer");
 }
 
-static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points", "reference"};
+static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points",
+                                          "reference"};
 enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE, BODY_COUNT };
 
 /* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
@@ -281,8 +282,9 @@ static int check_mesh_points(decoder* d, int b, const cJSON* v) {
     return 0;
 }
 
-/* The points of `v` ([x, y] pairs, finite numbers) into `out` (`n` of them),
- * faults named under `ptr` ("/bodies/B/nodes" or "/bodies/B/reference"). */
+/* The points of `v` ([x, y] pairs of finite numbers) into `out`, which has
+ * room for all of them; faults named under `ptr` ("/bodies/B/nodes" or
+ * "/bodies/B/reference"). */
 static int decode_points(decoder* d, const char* ptr, const cJSON* v, nts_vec2* out) {
     const cJSON* e;
     int i = 0;

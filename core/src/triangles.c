@@ -103,8 +103,9 @@ int nts_boundary_from_triangles(int node_count, const int* tri, int tri_count, n
         int j = i;
         while (j < ne && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
         if (j - i > 2) {
-            snprintf(msg, sizeof msg, "edge (%d, %d) is shared by %d triangles (%d, %d, %d, ...): at most two may share "
-                     "an edge", edges[i].lo, edges[i].hi, j - i, edges[i].tri, edges[i + 1].tri, edges[i + 2].tri);
+            snprintf(msg, sizeof msg,
+                     "edge (%d, %d) is shared by %d triangles (%d, %d, %d, ...): at most two may share an edge",
+                     edges[i].lo, edges[i].hi, j - i, edges[i].tri, edges[i + 1].tri, edges[i + 2].tri);
             rc = tri_fail(err, NTS_ENONMANIFOLD, edges[i + 2].tri, -1, -1, msg);
             goto done;
         }
