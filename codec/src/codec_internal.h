@@ -76,6 +76,7 @@ typedef struct ntsj_scene {
     int* has_loops;     /* 1 when the body came with explicit "loops" */
     nts_vec2** nodes;   /* owned per body */
     int** ints;         /* owned per body: loop_nodes + loop_start, or triangles */
+    nts_vec2** refs;    /* owned per body: its reference configuration ("reference"), or NULL */
     nts_options options;
     double lx, ly;
     int has_periodic;

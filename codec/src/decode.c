@@ -253,8 +253,9 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
     return fail_type(d, ptr, v, "a string or an integer");
 }
 
-static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points"};
-enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_COUNT };
+static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points",
+                                          "reference"};
+enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE, BODY_COUNT };
 
 /* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
  * the caller: the core does not use it). Checked: one non-negative integer per node. */
@@ -281,11 +282,44 @@ static int check_mesh_points(decoder* d, int b, const cJSON* v) {
     return 0;
 }
 
+/* The points of `v` ([x, y] pairs of finite numbers) into `out`, which has
+ * room for all of them; faults named under `ptr` ("/bodies/B/nodes" or
+ * "/bodies/B/reference"). */
+static int decode_points(decoder* d, const char* ptr, const cJSON* v, nts_vec2* out) {
+    const cJSON* e;
+    int i = 0;
+    cJSON_ArrayForEach(e, v) {
+        char p[112], pc[128];
+        const cJSON* c;
+        double xy[2];
+        int k = 0;
+        if (!cJSON_IsArray(e)) {
+            snprintf(p, sizeof p, "%s/%d", ptr, i);
+            return fail_type(d, p, e, "a node [x, y]");
+        }
+        cJSON_ArrayForEach(c, e) {
+            if (k < 2 && cJSON_IsNumber(c) && isfinite(c->valuedouble)) {
+                xy[k++] = c->valuedouble;
+                continue;
+            }
+            snprintf(pc, sizeof pc, "%s/%d/%d", ptr, i, k);
+            if (k >= 2) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), pc, "a node has exactly two coordinates [x, y]");
+            if (!cJSON_IsNumber(c)) return fail_type(d, pc, c, "a coordinate (a number)");
+            return fail(d, nts_status_name(NTS_ENONFINITE), pc, "coordinate is not a finite number");
+        }
+        if (k != 2) {
+            snprintf(p, sizeof p, "%s/%d", ptr, i);
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a node has exactly two coordinates [x, y]");
+        }
+        out[i++] = nts_v2(xy[0], xy[1]);
+    }
+    return 0;
+}
+
 static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     char ptr[96];
-    const cJSON* e;
     nts_vec2* nodes;
-    int n, i = 0;
+    int n;
     snprintf(ptr, sizeof ptr, "/bodies/%d/nodes", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of [x, y] nodes");
     n = array_size(v);
@@ -309,32 +343,31 @@ static int decode_nodes(decoder* d, int b, const cJSON* v, long long* total) {
     d->scene->nodes[b] = nodes;
     d->scene->defs[b].nodes = nodes;
     d->scene->defs[b].node_count = n;
-    cJSON_ArrayForEach(e, v) {
-        char p[112], pc[128];
-        const cJSON* c;
-        double xy[2];
-        int k = 0;
-        if (!cJSON_IsArray(e)) {
-            snprintf(p, sizeof p, "/bodies/%d/nodes/%d", b, i);
-            return fail_type(d, p, e, "a node [x, y]");
-        }
-        cJSON_ArrayForEach(c, e) {
-            if (k < 2 && cJSON_IsNumber(c) && isfinite(c->valuedouble)) {
-                xy[k++] = c->valuedouble;
-                continue;
-            }
-            snprintf(pc, sizeof pc, "/bodies/%d/nodes/%d/%d", b, i, k);
-            if (k >= 2) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), pc, "a node has exactly two coordinates [x, y]");
-            if (!cJSON_IsNumber(c)) return fail_type(d, pc, c, "a coordinate (a number)");
-            return fail(d, nts_status_name(NTS_ENONFINITE), pc, "coordinate is not a finite number");
-        }
-        if (k != 2) {
-            snprintf(p, sizeof p, "/bodies/%d/nodes/%d", b, i);
-            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a node has exactly two coordinates [x, y]");
-        }
-        nodes[i++] = nts_v2(xy[0], xy[1]);
+    return decode_points(d, ptr, v, nodes);
+}
+
+/* "reference": the body's reference configuration (nts_body_def.reference),
+ * one [x, y] per node. */
+static int decode_reference(decoder* d, int b, const cJSON* v) {
+    char ptr[96];
+    nts_vec2* ref;
+    int n = d->scene->defs[b].node_count, m;
+    snprintf(ptr, sizeof ptr, "/bodies/%d/reference", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of [x, y] points, one per node");
+    m = array_size(v);
+    if (m != n) {
+        ntsj_fault_set(d->fault, ntsj_code_name(NTSJ_INVALID_VALUE), ptr,
+                       "%d reference points for %d nodes (one per node, in the order of \"nodes\")", m, n);
+        return -1;
     }
-    return 0;
+    ref = (nts_vec2*)nts_alloc((size_t)n * sizeof *ref);
+    if (!ref) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->refs[b] = ref;
+    d->scene->defs[b].reference = ref;
+    return decode_points(d, ptr, v, ref);
 }
 
 static int decode_loops(decoder* d, int b, const cJSON* v) {
@@ -445,6 +478,7 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
     }
     if (decode_nodes(d, b, f[BODY_NODES], total) != 0) return -1;
     if (f[BODY_MESH_POINTS] && check_mesh_points(d, b, f[BODY_MESH_POINTS]) != 0) return -1;
+    if (f[BODY_REFERENCE] && decode_reference(d, b, f[BODY_REFERENCE]) != 0) return -1;
     if (f[BODY_ALPHA]) {
         /* Per-body smoothing: this body's surface (docs/model.md, "Per-body options"). */
         char p[80];
@@ -546,12 +580,14 @@ void ntsj_scene_free(ntsj_scene* s) {
         if (s->ids) nts_free(s->ids[b].sval);
         if (s->nodes) nts_free(s->nodes[b]);
         if (s->ints) nts_free(s->ints[b]);
+        if (s->refs) nts_free(s->refs[b]);
     }
     nts_free(s->defs);
     nts_free(s->ids);
     nts_free(s->has_loops);
     nts_free(s->nodes);
     nts_free(s->ints);
+    nts_free(s->refs);
     memset(s, 0, sizeof *s);
 }
 
@@ -609,7 +645,8 @@ static int decode_root(decoder* d, const cJSON* root) {
     s->has_loops = (int*)alloc_zero((size_t)n, sizeof *s->has_loops);
     s->nodes = (nts_vec2**)alloc_zero((size_t)n, sizeof *s->nodes);
     s->ints = (int**)alloc_zero((size_t)n, sizeof *s->ints);
-    if (!s->defs || !s->ids || !s->has_loops || !s->nodes || !s->ints) {
+    s->refs = (nts_vec2**)alloc_zero((size_t)n, sizeof *s->refs);
+    if (!s->defs || !s->ids || !s->has_loops || !s->nodes || !s->ints || !s->refs) {
         d->oom = 1;
         return -1;
     }
@@ -648,9 +685,14 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
     }
     if (err->code == NTS_ELIMIT && strcmp(err->option, "max_candidates") == 0) return; /* the whole request */
     if (err->option[0] && err->body >= 0 && s && err->body < s->body_count) {
-        /* A body's own option (alpha, role). */
+        /* A body's own option (alpha, role), or a point of its reference
+         * configuration. */
+        size_t len;
         snprintf(out, size, "/bodies/%d", err->body);
         pointer_append_key(out, size, err->option);
+        len = strlen(out);
+        if (strcmp(err->option, "reference") == 0 && err->node >= 0 && len < size)
+            snprintf(out + len, size - len, "/%d", err->node);
         return;
     }
     if (err->option[0]) {

@@ -4,9 +4,13 @@
  * check them against the scene (nts_scene_update_positions: every check of
  * nts_scene_create, and the same normalisation), and evaluates with the warm
  * context. When the core says the positions would give another scene (a loop
- * turned over, a triangle flipped) or fail a check, the scene is created anew
+ * turned over, a body mirrored) or fail a check, the scene is created anew
  * from them exactly as ntsj_handle would, so the answer, error or result, is
- * the full call's, bit for bit (elapsed_ms aside). */
+ * the full call's, bit for bit (elapsed_ms aside), with the session's
+ * reference configuration: the scene's "reference" where it gives one, else
+ * the positions it was created with. A session's answer at given positions
+ * thus never depends on the steps before (penalty per length measures the
+ * tributary lengths there). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdint.h>
@@ -19,7 +23,8 @@
 #include "codec_internal.h"
 
 struct ntsj_session {
-    ntsj_scene js;       /* decoded request: ids, options, topology; node arrays are scratch for rebuilds */
+    ntsj_scene js;       /* decoded request: ids, options, topology; node arrays are scratch for rebuilds,
+                            js.refs[b] the reference configuration of every body */
     nts_scene* scene;    /* the authority on the stored positions */
     nts_context* ctx;
     nts_vec2* next;      /* node_count: a step's positions before the core takes them */
@@ -29,11 +34,11 @@ struct ntsj_session {
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
-    size_t n = (size_t)s->body_count * (sizeof(nts_body_def) + sizeof(ntsj_id) + sizeof(int) + 2 * sizeof(void*));
+    size_t n = (size_t)s->body_count * (sizeof(nts_body_def) + sizeof(ntsj_id) + sizeof(int) + 3 * sizeof(void*));
     int b;
     for (b = 0; b < s->body_count; ++b) {
         const nts_body_def* d = &s->defs[b];
-        n += (size_t)d->node_count * sizeof(nts_vec2);
+        n += (size_t)d->node_count * sizeof(nts_vec2) * (s->refs && s->refs[b] ? 2u : 1u);
         if (d->triangle_count > 0) n += 3 * (size_t)d->triangle_count * sizeof(int);
         else if (d->loop_count > 0) n += ((size_t)d->loop_start[d->loop_count] + (size_t)d->loop_count + 1) * sizeof(int);
         if (!s->ids[b].is_int && s->ids[b].sval) n += strlen(s->ids[b].sval) + 1;
@@ -90,7 +95,7 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     nts_result result;
     ntsj_fault fault;
     cJSON* root;
-    int rc;
+    int rc, b;
 
     *out = NULL;
     memset(error, 0, sizeof *error);
@@ -123,6 +128,19 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
         rc = ntsj_respond_core(error, &ss->js, &err, NTS_EINVALID_OPTION, cfg.pretty);
         ntsj_session_destroy(ss);
         return rc;
+    }
+    /* The reference configuration of every body, kept across rebuilds: the
+     * scene's own "reference", or the positions the session starts from. */
+    for (b = 0; b < ss->js.body_count; ++b) {
+        nts_body_def* bd = &ss->js.defs[b];
+        if (ss->js.refs[b] != NULL) continue;
+        ss->js.refs[b] = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)bd->node_count);
+        if (ss->js.refs[b] == NULL) {
+            ntsj_session_destroy(ss);
+            return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
+        }
+        memcpy(ss->js.refs[b], bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
+        bd->reference = ss->js.refs[b];
     }
     ss->limits = cfg.limits;
     def = scene_def_of(&ss->js, &ss->limits);

@@ -1,4 +1,6 @@
-/* Status names, messages and the allocator hook (base.h). */
+/* Status and warning names, messages, the allocator hook (base.h) and the
+ * wall clock. */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <ntscontact/ntscontact.h>
 
 #include "internal.h"
@@ -7,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 const char* nts_status_name(int status) {
     switch (status) {
@@ -105,4 +108,12 @@ void* nts_alloc(size_t size) {
 
 void nts_free(void* ptr) {
     if (ptr != NULL) g_free(ptr, g_user);
+}
+
+double nts_wall_seconds(void) {
+#if defined(CLOCK_MONOTONIC)
+    struct timespec ts;
+    if (clock_gettime(CLOCK_MONOTONIC, &ts) == 0) return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+#endif
+    return (double)time(NULL); /* no monotonic clock: whole seconds, still wall clock */
 }

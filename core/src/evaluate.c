@@ -2,7 +2,6 @@
  * scatter -> summary. Each stage is its own file (stages.h); this one sizes
  * the search (radius, cell side) and runs the stages in order, timing each
  * for nts_context_profile. */
-#define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <float.h>
 #include <limits.h>
 #include <stdio.h>
@@ -14,14 +13,11 @@
 #if NTS_CONFIG_OPENMP
 #include <omp.h>
 #endif
-#include <time.h>
 
 /* Wall clock for the phase profile (nts_context_profile): monotonic, with
  * or without OpenMP (clock() would count the CPU time of the process). */
 static double wall_time(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    return nts_wall_seconds();
 }
 
 /* The cell side that suits most masters: the 95th percentile of their reach

@@ -29,16 +29,17 @@ struct nts_scene {
     int* surf_body;       /* surface entry -> body */
     /* What nts_scene_update_positions needs to tell whether new positions keep
      * the normalisation that nts_scene_create gave (sessions): */
-    unsigned char* loop_reversed; /* loop_total: 1 when stored reversed from the input order */
-    int* body_outer;      /* body_count: the outer loop (index into loop_start) */
-    int* body_tri_start;  /* body_count + 1 into tri/tri_sign; NULL when no body has triangles */
-    int* tri;             /* 3 per triangle, body-local node indices */
-    signed char* tri_sign;/* winding of each triangle at creation: +1 or -1 */
+    unsigned char* loop_reversed; /* loop_total: 1 when stored reversed from the input order (for a
+                                     mesh: from its piece's orientation by connectivity) */
+    int* body_outer;      /* body_count: the outer loop (index into loop_start); loop bodies */
+    int* loop_piece;      /* loop_total: a mesh loop's piece, named by its first loop (index into
+                             loop_start); -1 for loop bodies */
+    double* piece_area2;  /* loop_total: scratch of the update's piece verdicts */
     /* Per-body model options (nts_body_def) and the reference configuration: */
     unsigned char* body_role;  /* nts_role */
-    unsigned char* body_mesh;  /* 1: loops from triangles, oriented by their windings */
+    unsigned char* body_mesh;  /* 1: loops from triangles, each piece oriented by its outer loop */
     double* body_alpha;        /* the body's own alpha, or -1: the options' */
-    double* surf_trib;         /* surface entry -> tributary length at creation */
+    double* surf_trib;         /* surface entry -> tributary length in the reference configuration */
 };
 
 /* Where an error is (nts_error's indices and option; -1 and "" when they do
@@ -64,24 +65,30 @@ int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...)
 #endif
     ;
 
+/* Wall-clock seconds from an arbitrary origin (monotonic where the platform
+ * has it), for the phase profile of a build without OpenMP (base.c). */
+double nts_wall_seconds(void);
+
 /* Growable array helper: ensures *cap >= need (elements of `size` bytes), keeping
  * the contents. Returns 0 or NTS_ENOMEM (the old block stays valid). */
 int nts_grow(void** ptr, int* cap, int need, size_t size);
 
-/* Boundary of a triangle mesh (triangles.c): loops as CSR arrays allocated with
- * nts_alloc. */
+/* Boundary of a triangle mesh (triangles.c), from its connectivity alone:
+ * loops as CSR arrays allocated with nts_alloc, each connected piece oriented
+ * consistently (from its first triangle as given, whatever the positions);
+ * loop_piece[l] is the first loop of loop l's piece (<= l). The scene turns
+ * a piece over when its outer loop (largest |area|) runs clockwise.
+ * Errors: an index out of range, a triangle that repeats a node, an edge in
+ * more than two triangles, a mesh that is not orientable, a pinched or open
+ * boundary, no boundary; each names the triangle or node at fault. */
 typedef struct nts_boundary {
     int* loop_nodes;
     int* loop_start;
+    int* loop_piece;
     int loop_count;
 } nts_boundary;
-int nts_boundary_from_triangles(const nts_vec2* nodes, int node_count, const int* tri, int tri_count,
-                                double lx, double ly, nts_boundary* out, nts_error* err);
+int nts_boundary_from_triangles(int node_count, const int* tri, int tri_count, nts_boundary* out, nts_error* err);
 void nts_boundary_free(nts_boundary* b);
-/* Winding of triangle v[0..3) (minimum image in a periodic box): +1 counter-
- * clockwise, -1 clockwise, 0 when it has a repeated node or zero area (the
- * rule of nts_boundary_from_triangles, shared by nts_scene_update_positions). */
-int nts_triangle_winding(const nts_vec2* nodes, const int v[3], double lx, double ly);
 
 /* A loop whose iterations touch only their own elements, run on `n` threads
  * when there are several (OpenMP); its result never depends on `n`. */

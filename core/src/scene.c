@@ -57,9 +57,8 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->body_mesh);
     nts_free(s->body_alpha);
     nts_free(s->surf_trib);
-    nts_free(s->body_tri_start);
-    nts_free(s->tri);
-    nts_free(s->tri_sign);
+    nts_free(s->loop_piece);
+    nts_free(s->piece_area2);
     nts_free(s);
 }
 
@@ -148,16 +147,31 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
     return NTS_OK;
 }
 
-/* A coordinate inside the supported range (finite, |x| <= NTS_COORD_MAX). */
-static int check_node(nts_vec2 p, int body, int node, nts_error* err) {
+/* The outer loop of a mesh's piece, loop by loop in the loops' order: the
+ * first of the largest |area| (twice the signed area `a2` of loop `l`, in the
+ * piece's orientation by connectivity) is kept in best[head], head being the
+ * piece's first loop. The piece runs the right way when that area is positive.
+ * nts_scene_create and nts_scene_update_positions both decide by it. */
+static void piece_outer(double* best, int head, int l, double a2) {
+    if (l == head || fabs(a2) > fabs(best[head])) best[head] = a2;
+}
+
+/* A coordinate inside the supported range (finite, |x| <= NTS_COORD_MAX).
+ * `option` is "" for a node, "reference" for a node of the reference
+ * configuration (nts_body_def.reference). */
+static int check_point(nts_vec2 p, int body, int node, const char* option, nts_error* err) {
+    nts_where at = nts_at(body, -1, -1, node);
+    const char* what = option[0] ? "reference node" : "node";
+    at.option = option;
     if (!nts_is_valid_vec2(p))
-        return fail(err, NTS_ENONFINITE, body, -1, -1, node, "body %d node %d has a non-finite coordinate", body, node);
+        return nts_error_set(err, NTS_ENONFINITE, at, "body %d %s %d has a non-finite coordinate", body, what, node);
     if (!(fabs(p.x) <= NTS_COORD_MAX && fabs(p.y) <= NTS_COORD_MAX))
-        return fail(err, NTS_EOUT_OF_RANGE, body, -1, -1, node,
-                    "body %d node %d: coordinate %.3g is beyond +-1e100, where squared lengths overflow (rescale "
-                    "the scene)", body, node, fabs(p.x) > fabs(p.y) ? p.x : p.y);
+        return nts_error_set(err, NTS_EOUT_OF_RANGE, at,
+                             "body %d %s %d: coordinate %.3g is beyond +-1e100, where squared lengths overflow "
+                             "(rescale the scene)", body, what, node, fabs(p.x) > fabs(p.y) ? p.x : p.y);
     return NTS_OK;
 }
+static int check_node(nts_vec2 p, int body, int node, nts_error* err) { return check_point(p, body, node, "", err); }
 
 nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     nts_scene* s = NULL;
@@ -165,7 +179,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     int* mark = NULL;         /* per node of the body being checked: loop place + 1 */
     int* loop_tmp = NULL;
     double* area2 = NULL;
-    long long total_nodes = 0, total_surf = 0, total_loops = 0, total_tris = 0;
+    long long total_nodes = 0, total_surf = 0, total_loops = 0;
     int b, max_body_nodes = 0, rc = NTS_OK;
 
     if (err != NULL) *err = nts_error_none();
@@ -231,17 +245,17 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         }
         for (i = 0; i < bd->node_count; ++i)
             if ((rc = check_node(bd->nodes[i], b, i, err)) != NTS_OK) goto fail;
+        for (i = 0; bd->reference != NULL && i < bd->node_count; ++i)
+            if ((rc = check_point(bd->reference[i], b, i, "reference", err)) != NTS_OK) goto fail;
         if (bd->node_count > max_body_nodes) max_body_nodes = bd->node_count;
         if (bd->triangles != NULL && bd->triangle_count > 0) {
-            rc = nts_boundary_from_triangles(bd->nodes, bd->node_count, bd->triangles, bd->triangle_count,
-                                             def->lx, def->ly, &bnd[b], err);
+            rc = nts_boundary_from_triangles(bd->node_count, bd->triangles, bd->triangle_count, &bnd[b], err);
             if (rc != NTS_OK) {
                 if (err != NULL) err->body = b;
                 goto fail;
             }
             total_loops += bnd[b].loop_count;
             total_surf += bnd[b].loop_start[bnd[b].loop_count];
-            total_tris += bd->triangle_count;
         } else if (bd->loop_count > 0) {
             if (bd->loop_nodes == NULL || bd->loop_start == NULL) {
                 rc = fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
@@ -254,7 +268,7 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             total_surf += bd->node_count;
         }
     }
-    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff || total_tris > 0x3fffffff) {
+    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff) {
         rc = fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has more than 2^30 loop places");
         goto fail;
     }
@@ -283,28 +297,22 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     s->body_mesh = (unsigned char*)nts_alloc((size_t)def->body_count);
     s->body_alpha = (double*)nts_alloc(sizeof(double) * (size_t)def->body_count);
     s->surf_trib = (double*)nts_alloc(sizeof(double) * (size_t)total_surf);
-    if (total_tris > 0) {
-        s->body_tri_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
-        s->tri = (int*)nts_alloc(sizeof(int) * 3 * (size_t)total_tris);
-        s->tri_sign = (signed char*)nts_alloc((size_t)total_tris);
-        if (!s->body_tri_start || !s->tri || !s->tri_sign) {
-            rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
-            goto fail;
-        }
-    }
+    s->loop_piece = (int*)nts_alloc(sizeof(int) * (size_t)total_loops);
+    s->piece_area2 = (double*)nts_alloc(sizeof(double) * (size_t)total_loops);
     mark = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
     area2 = (double*)nts_alloc(sizeof(double) * (size_t)(total_loops + 1));
     loop_tmp = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
         !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
-        !s->body_role || !s->body_mesh || !s->body_alpha || !s->surf_trib || !mark || !area2 || !loop_tmp) {
+        !s->body_role || !s->body_mesh || !s->body_alpha || !s->surf_trib || !s->loop_piece || !s->piece_area2 ||
+        !mark || !area2 || !loop_tmp) {
         rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
         goto fail;
     }
 
     /* Pass 2: copy, check topology and geometry, normalise orientation. */
     {
-        int node_off = 0, loop_i = 0, surf = 0, tri_i = 0;
+        int node_off = 0, loop_i = 0, surf = 0;
         for (b = 0; b < def->body_count; ++b) {
             const nts_body_def* bd = &def->bodies[b];
             const int* ln;
@@ -315,19 +323,6 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             s->body_node_start[b] = node_off;
             s->body_loop_start[b] = loop_i;
             memcpy(s->pos + node_off, bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
-            if (s->body_tri_start != NULL) {
-                /* Keep the mesh and its windings: new positions keep the boundary
-                 * only while no triangle flips (nts_scene_update_positions). */
-                int t;
-                s->body_tri_start[b] = tri_i;
-                if (bnd[b].loop_nodes != NULL) {
-                    for (t = 0; t < bd->triangle_count; ++t, ++tri_i) {
-                        memcpy(s->tri + 3 * (size_t)tri_i, bd->triangles + 3 * (size_t)t, 3 * sizeof(int));
-                        s->tri_sign[tri_i] = (signed char)nts_triangle_winding(bd->nodes, s->tri + 3 * (size_t)tri_i,
-                                                                               def->lx, def->ly);
-                    }
-                }
-            }
             if (bnd[b].loop_nodes != NULL) {
                 ln = bnd[b].loop_nodes; ls = bnd[b].loop_start; nl = bnd[b].loop_count;
             } else if (bd->loop_count > 0) {
@@ -376,25 +371,35 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             }
             /* Orientation: the loop with the largest |area| is the outer one and
              * runs counter-clockwise; holes run clockwise. A loop the wrong way is
-             * reversed keeping its first node. A triangle mesh's loops are
-             * oriented already, by the windings of its triangles: each piece of
-             * a mesh in several pieces keeps its own outer loop. */
+             * reversed keeping its first node. A triangle mesh's loops come
+             * oriented by its connectivity, piece by piece: each piece is
+             * turned over as a whole when its own outer loop (the largest |area|
+             * of the piece) runs clockwise, so each piece of a mesh in several
+             * pieces keeps its own outer loop counter-clockwise and its holes
+             * clockwise (not counted in loops_reversed: a mesh gives no loops). */
             s->body_outer[b] = outer;
             s->body_mesh[b] = (unsigned char)(bnd[b].loop_nodes != NULL);
             s->body_role[b] = (unsigned char)bd->role;
             s->body_alpha[b] = bd->has_alpha ? bd->alpha : -1.0;
             for (l = body_loop0; l < loop_i; ++l) {
+                s->loop_piece[l] = s->body_mesh[b] ? body_loop0 + bnd[b].loop_piece[l - body_loop0] : -1;
+                if (s->body_mesh[b]) piece_outer(s->piece_area2, s->loop_piece[l], l, area2[l]);
+            }
+            for (l = body_loop0; l < loop_i; ++l) {
                 int want_ccw = (l == outer);
                 int first = s->loop_start[l], n = surf - first, k;
                 if (l + 1 < loop_i) n = s->loop_start[l + 1] - first;
-                s->loop_reversed[l] = (unsigned char)(!s->body_mesh[b] && (area2[l] > 0.0) != want_ccw);
+                if (s->body_mesh[b])
+                    s->loop_reversed[l] = (unsigned char)(s->piece_area2[s->loop_piece[l]] < 0.0);
+                else
+                    s->loop_reversed[l] = (unsigned char)((area2[l] > 0.0) != want_ccw);
                 if (s->loop_reversed[l]) {
                     for (k = 1; k < n - k; ++k) {
                         int t = s->surf_local[first + k];
                         s->surf_local[first + k] = s->surf_local[first + n - k];
                         s->surf_local[first + n - k] = t;
                     }
-                    ++s->loops_reversed;
+                    if (!s->body_mesh[b]) ++s->loops_reversed;
                 }
                 for (k = 0; k < n; ++k) {
                     s->surf_node[first + k] = node_off + s->surf_local[first + k];
@@ -405,17 +410,28 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             node_off += bd->node_count;
         }
         s->body_node_start[def->body_count] = node_off;
-        if (s->body_tri_start != NULL) s->body_tri_start[def->body_count] = tri_i;
         s->body_loop_start[def->body_count] = loop_i;
         s->loop_start[loop_i] = surf;
         assert(surf == s->surface_count && loop_i == s->loop_total);
-        /* Tributary lengths at creation (the reference configuration of
-         * NTS_PENALTY_PER_LENGTH): half of the two segments at each node. */
+        /* Tributary lengths in each body's reference configuration (the
+         * nodes as given unless nts_body_def.reference says otherwise): half
+         * of the two segments at each node. A loop stored reversed has the
+         * same two segments at each node, so the same lengths, bit for bit. */
         for (b = 0; b < s->surface_count; ++b) {
-            int p = s->surf_prev[b], q = s->surf_next[b];
-            double lp = nts_length(nts_scene_diff(s, s->pos[s->surf_node[b]], s->pos[s->surf_node[p]]));
-            double lq = nts_length(nts_scene_diff(s, s->pos[s->surf_node[q]], s->pos[s->surf_node[b]]));
+            const nts_body_def* bd = &def->bodies[s->surf_body[b]];
+            const nts_vec2* ref = bd->reference != NULL ? bd->reference : bd->nodes;
+            nts_vec2 x = ref[s->surf_local[b]];
+            double lp = nts_length(nts_scene_diff(s, x, ref[s->surf_local[s->surf_prev[b]]]));
+            double lq = nts_length(nts_scene_diff(s, ref[s->surf_local[s->surf_next[b]]], x));
             s->surf_trib[b] = 0.5 * (lp + lq);
+            if (!(s->surf_trib[b] > 0.0)) {
+                nts_where at = nts_at(s->surf_body[b], -1, -1, s->surf_local[b]);
+                at.option = "reference";
+                rc = nts_error_set(err, NTS_EDEGENERATE_SEGMENT, at,
+                                   "body %d node %d: both of its segments have length 0 in the reference "
+                                   "configuration (no tributary length)", s->surf_body[b], s->surf_local[b]);
+                goto fail;
+            }
         }
     }
     nts_free(mark);
@@ -445,9 +461,10 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
         return fail(err, NTS_EINVALID_ARGUMENT, body, -1, -1, -1, "no such body %d", body);
     off = s->body_node_start[body];
     n = s->body_node_start[body + 1] - off;
-    for (i = 0; i < n; ++i)
-        if (!nts_is_valid_vec2(nodes[i]))
-            return fail(err, NTS_ENONFINITE, body, -1, -1, i, "body %d node %d has a non-finite coordinate", body, i);
+    for (i = 0; i < n; ++i) {
+        int rc = check_node(nodes[i], body, i, err); /* the rule of nts_scene_create and updates */
+        if (rc != NTS_OK) return rc;
+    }
     memcpy(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n);
     return NTS_OK;
 }
@@ -456,31 +473,14 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
     int b, i, rc;
     if (err != NULL) *err = nts_error_none();
     if (s == NULL || pos == NULL) return fail(err, NTS_EINVALID_ARGUMENT, -1, -1, -1, -1, "null argument");
-    /* The checks of nts_scene_create, in its order, on the new positions. */
+    /* The checks of nts_scene_create, in its order, on the new positions: the
+     * coordinates, then each loop's geometry and orientation verdict. A
+     * mesh's triangles are not read: its boundary follows from its
+     * connectivity, and an interior triangle turned over changes no contact. */
     for (b = 0; b < s->body_count; ++b) {
         int off = s->body_node_start[b], n = s->body_node_start[b + 1] - off;
         for (i = 0; i < n; ++i)
             if ((rc = check_node(pos[off + i], b, i, err)) != NTS_OK) return rc;
-        if (s->body_tri_start != NULL) {
-            /* The boundary of a mesh follows from its triangles' windings: it is
-             * the same boundary while no triangle flips or collapses. */
-            int t;
-            for (t = s->body_tri_start[b]; t < s->body_tri_start[b + 1]; ++t) {
-                int w = nts_triangle_winding(pos + off, s->tri + 3 * (size_t)t, s->lx, s->ly);
-                int tl = t - s->body_tri_start[b];
-                if (w == 0) {
-                    fail(err, NTS_EDEGENERATE_TRIANGLE, b, -1, -1, -1, "body %d triangle %d has zero area", b, tl);
-                    if (err != NULL) err->triangle = tl;
-                    return NTS_EDEGENERATE_TRIANGLE;
-                }
-                if (w != s->tri_sign[t]) {
-                    fail(err, NTS_ERESHAPED, b, -1, -1, -1,
-                         "body %d triangle %d turned over: the mesh's boundary changes; create the scene anew", b, tl);
-                    if (err != NULL) err->triangle = tl;
-                    return NTS_ERESHAPED;
-                }
-            }
-        }
     }
     for (b = 0; b < s->body_count; ++b) {
         int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1], l, outer = -1;
@@ -490,7 +490,11 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
             rc = check_loop(s, pos, b, l - l0, s->surf_local + first, n, s->loop_reversed[l], s->body_node_start[b],
                             &a2, err);
             if (rc != NTS_OK) return rc;
-            if (s->body_mesh[b]) continue; /* oriented by its triangles, checked above */
+            if (s->body_mesh[b]) {
+                /* a2 is in the piece's orientation by connectivity, as at creation */
+                piece_outer(s->piece_area2, s->loop_piece[l], l, a2);
+                continue;
+            }
             if (fabs(a2) > outer_abs) { outer_abs = fabs(a2); outer = l; }
             /* nts_scene_create reverses a loop whose sign disagrees with its role
              * (the outer loop counter-clockwise, holes clockwise): the stored order
@@ -499,22 +503,29 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
                 return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
                             "body %d loop %d turned over; create the scene anew", b, l - l0);
         }
-        if (!s->body_mesh[b] && outer != s->body_outer[b])
+        if (s->body_mesh[b]) {
+            /* Each piece stays turned the way nts_scene_create turned it: by
+             * the sign of its outer loop, the largest |area| of the piece. */
+            for (l = l0; l < l1; ++l)
+                if (s->loop_piece[l] == l && (s->piece_area2[l] < 0.0) != (s->loop_reversed[l] != 0))
+                    return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
+                                "body %d: the piece of its mesh with loop %d turned over (its outer loop changed "
+                                "direction); create the scene anew", b, l - l0);
+        } else if (outer != s->body_outer[b]) {
             return fail(err, NTS_ERESHAPED, b, -1, -1, -1,
                         "body %d: another loop became the outer one; create the scene anew", b);
+        }
     }
     memcpy(s->pos, pos, sizeof(nts_vec2) * (size_t)s->node_count);
     return NTS_OK;
 }
 
 size_t nts_scene_memory_bytes(const nts_scene* s) {
-    size_t tris;
     if (s == NULL) return 0;
-    tris = s->body_tri_start != NULL ? (size_t)s->body_tri_start[s->body_count] : 0;
     return sizeof *s + (size_t)s->node_count * sizeof(nts_vec2) +
            (size_t)s->surface_count * (5 * sizeof(int) + sizeof(double)) +
-           (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total +
-           (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + sizeof(double)) + tris * (3 * sizeof(int) + 1);
+           (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total * (1 + sizeof(int) + sizeof(double)) +
+           (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + sizeof(double));
 }
 
 int nts_scene_body_count(const nts_scene* s) { return s->body_count; }

@@ -208,12 +208,30 @@ static void test_triangle_boundary(void) {
         CU_ASSERT(s == NULL);
         ASSERT_INT_EQ(err.code, NTS_ENONMANIFOLD);
         ASSERT_INT_EQ(err.body, 0);
-        /* Zero-area triangle. */
-        tri3[24] = 0; tri3[25] = 1; tri3[26] = 2;
+        ASSERT_INT_EQ(err.triangle, 8);
+        CU_ASSERT(strstr(err.message, "edge (0, 4)") != NULL);
+        /* A triangle that repeats a node has no edges of its own. */
+        tri3[24] = 0; tri3[25] = 1; tri3[26] = 1;
         s = nts_scene_create(&def, &err);
         CU_ASSERT(s == NULL);
         ASSERT_INT_EQ(err.code, NTS_EDEGENERATE_TRIANGLE);
         ASSERT_INT_EQ(err.triangle, 8);
+        /* A zero-area sliver on the bottom edge (nodes 0, 1, 2 in a line): the
+         * contact model needs the boundary only, and it is sound: 0 -> 2 in
+         * one segment, node 1 inside (docs/scenes.md, "Local verdicts"). */
+        tri3[24] = 0; tri3[25] = 1; tri3[26] = 2;
+        s = nts_scene_create(&def, &err);
+        CU_ASSERT_FATAL(s != NULL);
+        ASSERT_INT_EQ(nts_scene_body_loop_count(s, 0), 1);
+        n = nts_scene_body_loop(s, 0, 0, &l);
+        ASSERT_INT_EQ(n, 7);
+        a2 = 0.0;
+        for (i = 0; i < n; ++i) {
+            CU_ASSERT(l[i] != 1 && l[i] != 4 && l[i] != 9);
+            a2 += nts_cross(pts10[l[i]], pts10[l[(i + 1) % n]]);
+        }
+        ASSERT_NEAR(a2, 8.0, 1e-12);
+        nts_scene_destroy(s);
         /* Index out of range in a triangle. */
         tri3[24] = 0; tri3[25] = 1; tri3[26] = 12;
         s = nts_scene_create(&def, &err);
@@ -223,6 +241,47 @@ static void test_triangle_boundary(void) {
         ASSERT_INT_EQ(err.corner, 2);
         ASSERT_INT_EQ(err.loop_pos, -1);
     }
+}
+
+/* What stays an error in a mesh, each naming the triangle or node at fault: a
+ * mesh that cannot be oriented (a Moebius strip) and a pinched boundary (two
+ * triangles on one node only). Positions play no part in either. */
+static void test_mesh_topology_errors(void) {
+    /* A strip of three quads, top 0 1 2, bottom 3 4 5, closed with a twist. */
+    static const int moebius[6 * 3] = {0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4, 2, 3, 0, 2, 0, 5};
+    static const int pinch[2 * 3] = {0, 1, 2, 0, 3, 4};
+    nts_vec2 pts[6];
+    nts_body_def b;
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    int i;
+    for (i = 0; i < 6; ++i) pts[i] = nts_v2(cos(1.0471975511965976 * i), sin(1.0471975511965976 * i));
+    memset(&b, 0, sizeof b);
+    b.nodes = pts;
+    b.node_count = 6;
+    b.triangles = moebius;
+    b.triangle_count = 6;
+    def.bodies = &b;
+    def.body_count = 1;
+    CU_ASSERT(nts_scene_create(&def, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_ENONMANIFOLD);
+    ASSERT_INT_EQ(err.body, 0);
+    CU_ASSERT(err.triangle >= 0 && err.triangle < 6);
+    CU_ASSERT(strstr(err.message, "not orientable") != NULL);
+    /* Two triangles that meet at node 0 only. */
+    pts[0] = nts_v2(0, 0);
+    pts[1] = nts_v2(1, 0);
+    pts[2] = nts_v2(1, 1);
+    pts[3] = nts_v2(-1, 0);
+    pts[4] = nts_v2(-1, -1);
+    b.node_count = 5;
+    b.triangles = pinch;
+    b.triangle_count = 2;
+    CU_ASSERT(nts_scene_create(&def, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_ENONMANIFOLD);
+    ASSERT_INT_EQ(err.node, 0);
+    ASSERT_INT_EQ(err.triangle, 1);
+    CU_ASSERT(strstr(err.message, "pinch point") != NULL);
 }
 
 static void test_annulus_mesh_has_two_loops(void) {
@@ -276,6 +335,39 @@ static void test_set_positions_checks_finite(void) {
     nts_scene_destroy(s);
 }
 
+/* One rule for a coordinate at every entry point (docs/scenes.md, "Local
+ * verdicts"): finite and within +-1e100. nts_scene_set_positions used to check
+ * finiteness only, and took 1e101 that creation and updates refuse. */
+static void test_set_positions_checks_the_range(void) {
+    nts_body_def b = body_of(square, 4, NULL, NULL, 0);
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    nts_scene* s;
+    nts_vec2 moved[4] = {{0, 0}, {1, 0}, {1, 1}, {-1e101, 1}}, all[4];
+    int k;
+    def.bodies = &b;
+    def.body_count = 1;
+    s = nts_scene_create(&def, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(nts_scene_set_positions(s, 0, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.body, 0);
+    ASSERT_INT_EQ(err.node, 3);
+    CU_ASSERT(strstr(err.message, "node 3") != NULL);
+    ASSERT_NEAR(nts_scene_positions(s)[3].x, 0.0, 0.0); /* unchanged */
+    /* The same verdict as the two other entry points. */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 3);
+    b.nodes = moved;
+    CU_ASSERT(nts_scene_create(&def, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 3);
+    /* 1e100 itself is inside the range, for all three. */
+    for (k = 0; k < 4; ++k) all[k] = nts_v2(1e100 * square[k].x, 1e100 * square[k].y);
+    ASSERT_INT_EQ(nts_scene_set_positions(s, 0, all, &err), 0);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, all, &err), 0);
+    nts_scene_destroy(s);
+}
+
 static void test_options_validated(void) {
     nts_options o = nts_default_options();
     nts_error err;
@@ -308,6 +400,8 @@ void register_scene_suite(void) {
     ADD_TEST(s, test_orientation_normalised);
     ADD_TEST(s, test_triangle_boundary);
     ADD_TEST(s, test_annulus_mesh_has_two_loops);
+    ADD_TEST(s, test_mesh_topology_errors);
     ADD_TEST(s, test_set_positions_checks_finite);
+    ADD_TEST(s, test_set_positions_checks_the_range);
     ADD_TEST(s, test_options_validated);
 }

@@ -2,9 +2,11 @@
  * length, long walls in the cell list (against brute force, bitwise), local
  * tolerances, the supported range from 1e-300 to 1e300, meshes in several
  * pieces, and the tie rule of two equally near corner roots. */
+#define _POSIX_C_SOURCE 199309L /* nanosleep */
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "suites.h"
 #include "nts_support.h"
@@ -678,6 +680,53 @@ static void test_cancel_hook(void) {
     free_packing(&p);
 }
 
+/* nts_context_profile is wall clock, with or without OpenMP: an evaluation
+ * whose cancel hook sleeps 50 ms (and cancels nothing) lasts at least 50 ms of
+ * wall clock, phases summed, whatever the machine's speed. The build without
+ * OpenMP used to report processor time (clock()), in which a sleep counts
+ * nothing. A lower bound that a sleep guarantees, not a timing. */
+static int g_slept;
+static int sleep_once(void* user) {
+    (void)user;
+    if (!g_slept) {
+        struct timespec ts;
+        ts.tv_sec = 0;
+        ts.tv_nsec = 50 * 1000 * 1000;
+        g_slept = 1;
+        while (nanosleep(&ts, &ts) != 0) continue;
+    }
+    return 0;
+}
+
+static void test_profile_is_wall_clock(void) {
+    test_body b[2];
+    nts_scene* s;
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    nts_profile pr;
+    make_polygon(&b[0], 32, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&b[1], 32, 1.0, nts_v2(1.97, 0.0), 0.05);
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL && c != NULL);
+    pr = nts_context_profile(c);
+    CU_ASSERT(pr.segments == 0.0 && pr.cells == 0.0 && pr.search == 0.0 && pr.scatter == 0.0);
+    g_slept = 0;
+    o.cancel = sleep_once;
+    ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), 0);
+    CU_ASSERT(g_slept == 1);
+    pr = nts_context_profile(c);
+    CU_ASSERT(pr.segments >= 0.0 && pr.cells >= 0.0 && pr.search >= 0.0 && pr.scatter >= 0.0);
+    {
+        double total = pr.segments + pr.cells + pr.search + pr.scatter;
+        if (!(total >= 0.05)) fprintf(stderr, "\n  profile: %.3g s in all, around a sleep of 0.05 s\n", total);
+        CU_ASSERT(total >= 0.05);
+    }
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+}
+
 void register_scenes_suite(void) {
     CU_pSuite s = CU_add_suite("scenes", NULL, NULL);
     ADD_TEST(s, test_long_walls_equal_brute_force);
@@ -694,4 +743,5 @@ void register_scenes_suite(void) {
     ADD_TEST(s, test_equal_roots_tie_to_the_smaller_xi);
     ADD_TEST(s, test_candidate_budget);
     ADD_TEST(s, test_cancel_hook);
+    ADD_TEST(s, test_profile_is_wall_clock);
 }

@@ -288,6 +288,39 @@ static void test_threads_and_other_outputs(void) {
     free_packing(&p);
 }
 
+/* Asked for with no contact active, from the C door too: the empty 2N x 2N
+ * tangent (no triplets, size 2N), and CSR of it, for any thread count. A
+ * Newton loop that starts apart gets a matrix (issue 22 §5). */
+static void test_no_contact_gives_the_empty_tangent(void) {
+    test_body b[2];
+    nts_scene* s;
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    nts_csr csr;
+    int th, k;
+    make_polygon(&b[0], 16, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&b[1], 12, 1.0, nts_v2(5.0, 0.0), 0.1);
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_STIFFNESS;
+    for (th = 0; th <= 2; th += 2) {
+        o.threads = th;
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+        ASSERT_INT_EQ(r.summary.contacts, 0);
+        ASSERT_INT_EQ(r.stiffness.count, 0);
+        ASSERT_INT_EQ(r.stiffness.size, 2 * 28);
+        ASSERT_INT_EQ(nts_triplets_to_csr(&r.stiffness, &csr, &err), 0);
+        ASSERT_INT_EQ(csr.size, 2 * 28);
+        ASSERT_INT_EQ(csr.nnz, 0);
+        for (k = 0; k <= csr.size; ++k) ASSERT_INT_EQ(csr.row_start[k], 0);
+        nts_csr_free(&csr);
+    }
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+}
+
 void register_stiffness_suite(void) {
     CU_pSuite s = CU_add_suite("stiffness", NULL, NULL);
     ADD_TEST(s, test_every_kind_alpha_and_solver);
@@ -295,4 +328,5 @@ void register_stiffness_suite(void) {
     ADD_TEST(s, test_hard_corners);
     ADD_TEST(s, test_csr_sums_duplicates_in_order);
     ADD_TEST(s, test_threads_and_other_outputs);
+    ADD_TEST(s, test_no_contact_gives_the_empty_tangent);
 }

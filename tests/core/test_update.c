@@ -136,44 +136,316 @@ static void test_orientation_kept_or_refused(void) {
     nts_scene_destroy(s);
 }
 
-/* A triangle mesh keeps its boundary while no triangle turns over. */
-static void test_triangle_windings(void) {
-    nts_vec2 pts[9], pos[9];
-    int tri[8 * 3], t = 0, i, j;
-    nts_body_def bd;
-    nts_scene_def def = nts_default_scene_def();
-    nts_error err;
-    nts_scene* s;
-    for (j = 0; j < 3; ++j)
-        for (i = 0; i < 3; ++i) pts[3 * j + i] = nts_v2(i, j);
-    for (j = 0; j < 2; ++j)
-        for (i = 0; i < 2; ++i) {
-            int v = 3 * j + i;
-            tri[3 * t] = v; tri[3 * t + 1] = v + 1; tri[3 * t + 2] = v + 4; ++t;
-            tri[3 * t] = v; tri[3 * t + 1] = v + 3; tri[3 * t + 2] = v + 4; ++t;
+/* A 5 x 5 grid mesh of the unit square (32 triangles, diagonals from each
+ * cell's lower left), side `h`, and a disk of 24 nodes pressed into its
+ * bottom edge: nodes 0..24 the grid, 25..48 the disk. */
+enum { GRID_NODES = 25, GRID_TRIS = 32, DISK_NODES = 24, ALL_NODES = GRID_NODES + DISK_NODES };
+static void grid_and_disk(nts_vec2* pos, int* tri) {
+    test_body disk;
+    int i, j, t = 0;
+    for (j = 0; j < 5; ++j)
+        for (i = 0; i < 5; ++i) pos[5 * j + i] = nts_v2(0.25 * i, 0.25 * j);
+    for (j = 0; j < 4; ++j)
+        for (i = 0; i < 4; ++i) {
+            int v = 5 * j + i;
+            tri[3 * t] = v; tri[3 * t + 1] = v + 1; tri[3 * t + 2] = v + 6; ++t;
+            tri[3 * t] = v; tri[3 * t + 1] = v + 6; tri[3 * t + 2] = v + 5; ++t;
         }
-    memset(&bd, 0, sizeof bd);
-    bd.nodes = pts;
-    bd.node_count = 9;
-    bd.triangles = tri;
-    bd.triangle_count = 8;
-    def.bodies = &bd;
-    def.body_count = 1;
-    s = nts_scene_create(&def, &err);
+    make_polygon(&disk, DISK_NODES, 0.3, nts_v2(0.55, -0.29), 0.1);
+    for (i = 0; i < DISK_NODES; ++i) pos[GRID_NODES + i] = disk.nodes[i];
+}
+
+static nts_scene* grid_scene(const nts_vec2* pos, const int* tri, nts_error* err) {
+    nts_body_def bd[2];
+    nts_scene_def def = nts_default_scene_def();
+    memset(bd, 0, sizeof bd);
+    bd[0].nodes = pos;
+    bd[0].node_count = GRID_NODES;
+    bd[0].triangles = tri;
+    bd[0].triangle_count = GRID_TRIS;
+    bd[1].nodes = pos + GRID_NODES;
+    bd[1].node_count = DISK_NODES;
+    def.bodies = bd;
+    def.body_count = 2;
+    return nts_scene_create(&def, err);
+}
+
+/* Forces, energy and contacts of two evaluations agree bit for bit. */
+static void assert_same_contacts(const nts_scene* s1, const nts_scene* s2) {
+    nts_options opt = nts_default_options();
+    nts_context *c1 = nts_context_create(), *c2 = nts_context_create();
+    nts_result r1, r2;
+    nts_error err;
+    opt.penalty = 100.0;
+    opt.outputs = NTS_OUT_ALL;
+    ASSERT_INT_EQ(nts_evaluate(c1, s1, &opt, &r1, &err), 0);
+    ASSERT_INT_EQ(nts_evaluate(c2, s2, &opt, &r2, &err), 0);
+    CU_ASSERT(r1.contact_count > 0);
+    ASSERT_INT_EQ(r1.contact_count, r2.contact_count);
+    ASSERT_INT_EQ(r1.gap_count, r2.gap_count);
+    ASSERT_INT_EQ(r1.stiffness.count, r2.stiffness.count);
+    CU_ASSERT(memcmp(&r1.summary.energy, &r2.summary.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(&r1.summary.virial, &r2.summary.virial, sizeof(nts_virial)) == 0);
+    CU_ASSERT(memcmp(r1.forces, r2.forces, sizeof(nts_vec2) * ALL_NODES) == 0);
+    if (r1.contact_count == r2.contact_count && r1.contact_count > 0)
+        CU_ASSERT(memcmp(r1.contacts, r2.contacts, sizeof(nts_contact) * (size_t)r1.contact_count) == 0);
+    if (r1.stiffness.count == r2.stiffness.count && r1.stiffness.count > 0)
+        CU_ASSERT(memcmp(r1.stiffness.values, r2.stiffness.values, sizeof(double) * (size_t)r1.stiffness.count) == 0);
+    nts_context_destroy(c1);
+    nts_context_destroy(c2);
+}
+
+/* Contact depends on a mesh's boundary only (issue 22 §5): an interior
+ * triangle turned over, as a FIRE iterate turns one, is taken at creation
+ * and by an update, and gives the very contacts of the mesh un-turned, whose
+ * boundary is the same. It used to be refused (non_manifold_mesh at creation,
+ * NTS_ERESHAPED then non_manifold_mesh in a session). */
+static void test_interior_triangle_turned_over(void) {
+    nts_vec2 pos[ALL_NODES], turned[ALL_NODES], flat[ALL_NODES];
+    int tri[3 * GRID_TRIS], i;
+    nts_scene *s, *fresh;
+    nts_error err;
+    grid_and_disk(pos, tri);
+    s = grid_scene(pos, tri, &err);
     CU_ASSERT_FATAL(s != NULL);
-    memcpy(pos, pts, sizeof pts);
-    pos[4] = nts_v2(1.2, 0.9); /* the interior node moves: every triangle keeps its winding */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
-    pos[4] = nts_v2(0.5, 0.0); /* on the edge 0-1: triangle (0, 1, 4) collapses */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_EDEGENERATE_TRIANGLE);
-    ASSERT_INT_EQ(err.triangle, 0);
-    pos[4] = nts_v2(0.5, -0.5); /* beyond it: triangle 0 turns over */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
-    ASSERT_INT_EQ(err.body, 0);
-    ASSERT_INT_EQ(err.triangle, 0);
-    CU_ASSERT(nts_scene_positions(s)[4].x == 1.2 && nts_scene_positions(s)[4].y == 0.9);
-    CU_ASSERT(nts_scene_memory_bytes(s) > 9 * sizeof(nts_vec2) + 8 * 3 * sizeof(int));
+    ASSERT_INT_EQ(nts_scene_surface_node_count(s), 16 + DISK_NODES);
+    /* Node 12 (0.5, 0.5) just beyond the edge (13, 18) of its hexagon of
+     * neighbours: triangle 20 (12, 13, 18) turns over, and only it. */
+    memcpy(turned, pos, sizeof pos);
+    turned[12] = nts_v2(0.775, 0.625);
+    for (i = 0; i < GRID_TRIS; ++i) {
+        const int* v = tri + 3 * i;
+        double cr = nts_cross(nts_sub(turned[v[1]], turned[v[0]]), nts_sub(turned[v[2]], turned[v[0]]));
+        CU_ASSERT(i == 20 ? cr < 0.0 : cr > 0.0);
+    }
+    fresh = grid_scene(turned, tri, &err);
+    CU_ASSERT_FATAL(fresh != NULL);
+    assert_same_contacts(fresh, s);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, turned, &err), 0);
+    CU_ASSERT(memcmp(nts_scene_positions(s), turned, sizeof turned) == 0);
+    assert_same_contacts(s, fresh);
+    nts_scene_destroy(fresh);
+    /* Exactly on the edge: triangle 20 has zero area. Taken too. */
+    memcpy(flat, pos, sizeof pos);
+    flat[12] = nts_v2(0.75, 0.625);
+    fresh = grid_scene(flat, tri, &err);
+    CU_ASSERT_FATAL(fresh != NULL);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, flat, &err), 0);
+    assert_same_contacts(s, fresh);
+    nts_scene_destroy(fresh);
     nts_scene_destroy(s);
+}
+
+/* What a mesh's boundary needs is still checked: a boundary segment of zero
+ * length (named by its node), and the mesh mirrored (its outer loop turns
+ * clockwise: a new scene, with that loop counter-clockwise again). */
+static void test_mesh_boundary_verdicts(void) {
+    nts_vec2 pos[ALL_NODES], moved[ALL_NODES], before[ALL_NODES];
+    int tri[3 * GRID_TRIS], i;
+    nts_scene *s, *fresh;
+    const int* l;
+    double a2 = 0.0;
+    int n;
+    nts_error err;
+    grid_and_disk(pos, tri);
+    s = grid_scene(pos, tri, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    memcpy(before, pos, sizeof pos);
+    memcpy(moved, pos, sizeof pos);
+    moved[3] = moved[4]; /* boundary nodes 3 and 4 on one spot */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(err.body, 0);
+    CU_ASSERT(err.node == 3 || err.node == 4);
+    CU_ASSERT(strstr(err.message, "node 3") != NULL);
+    CU_ASSERT(grid_scene(moved, tri, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EDEGENERATE_SEGMENT);
+    CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0);
+    /* The grid mirrored about x = 1.5, far from the disk. */
+    memcpy(moved, pos, sizeof pos);
+    for (i = 0; i < GRID_NODES; ++i) moved[i].x = 3.0 - moved[i].x;
+    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 0);
+    ASSERT_INT_EQ(err.loop, 0);
+    CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0);
+    fresh = grid_scene(moved, tri, &err);
+    CU_ASSERT_FATAL(fresh != NULL);
+    ASSERT_INT_EQ(nts_scene_loops_reversed(fresh), 0);
+    n = nts_scene_body_loop(fresh, 0, 0, &l);
+    ASSERT_INT_EQ(n, 16);
+    for (i = 0; i < n; ++i) a2 += nts_cross(moved[l[i]], moved[l[(i + 1) % n]]);
+    ASSERT_NEAR(a2, 2.0, 1e-12); /* twice the area, counter-clockwise */
+    CU_ASSERT(l[0] == 0);        /* the same first node, the other way round */
+    {
+        const int* l0;
+        nts_scene_body_loop(s, 0, 0, &l0);
+        for (i = 1; i < n; ++i) ASSERT_INT_EQ(l[i], l0[n - i]);
+    }
+    ASSERT_INT_EQ(nts_scene_update_positions(fresh, moved, &err), 0);
+    nts_scene_destroy(fresh);
+    nts_scene_destroy(s);
+}
+
+/* Energy and forces of one evaluation, for comparisons across scenes. */
+typedef struct snapshot {
+    double energy;
+    int contacts;
+    nts_vec2 forces[64];
+    double penalty[64]; /* of each active contact */
+} snapshot;
+
+static snapshot snap(const nts_scene* s) {
+    snapshot z;
+    nts_options o = nts_default_options();
+    nts_context* c = nts_context_create();
+    nts_result r;
+    nts_error err;
+    int i;
+    memset(&z, 0, sizeof z);
+    o.penalty = 100.0;
+    o.search_radius = 0.3;
+    o.penalty_scaling = NTS_PENALTY_PER_LENGTH;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == 0);
+    CU_ASSERT_FATAL(nts_scene_node_count(s) <= 64 && r.contact_count <= 64);
+    z.energy = r.summary.energy;
+    z.contacts = r.contact_count;
+    memcpy(z.forces, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
+    for (i = 0; i < r.contact_count; ++i) z.penalty[i] = r.contacts[i].penalty;
+    nts_context_destroy(c);
+    return z;
+}
+
+/* A scene from `pos` (three loop bodies of 24, 20 and 12 nodes, global
+ * order), with each body's reference configuration taken from `ref` (NULL:
+ * the nodes themselves). */
+static nts_scene* three_bodies(const nts_vec2* pos, const nts_vec2* ref, nts_error* err) {
+    static const int counts[3] = {24, 20, 12};
+    nts_body_def bd[3];
+    nts_scene_def def = nts_default_scene_def();
+    int b, off = 0;
+    memset(bd, 0, sizeof bd);
+    for (b = 0; b < 3; ++b) {
+        bd[b].nodes = pos + off;
+        bd[b].node_count = counts[b];
+        bd[b].reference = ref != NULL ? ref + off : NULL;
+        off += counts[b];
+    }
+    def.bodies = bd;
+    def.body_count = 3;
+    return nts_scene_create(&def, err);
+}
+
+/* Sessions must not depend on their history (issue 22 §4). With penalty per
+ * length, a scene created anew after NTS_ERESHAPED (a far body mirrored) used
+ * to measure every body's tributary lengths at the deformed positions: the
+ * same positions gave another energy before and after such a step. Created
+ * anew with the first positions as its reference, it gives the same bits. */
+static void test_reference_survives_a_rebuild(void) {
+    test_body t[3];
+    nts_vec2 x0[56], p[56], q[56];
+    nts_scene *s, *again, *back, *plain;
+    snapshot first, mirrored, returned, remeasured;
+    nts_error err;
+    int i;
+    make_polygon(&t[0], 24, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&t[1], 20, 1.0, nts_v2(1.9, 0.05), 0.1);
+    make_polygon(&t[2], 12, 0.5, nts_v2(10.0, 0.0), 0.0);
+    for (i = 0; i < 24; ++i) x0[i] = t[0].nodes[i];
+    for (i = 0; i < 20; ++i) x0[24 + i] = t[1].nodes[i];
+    for (i = 0; i < 12; ++i) x0[44 + i] = t[2].nodes[i];
+    /* p: body 0 stretched 1.5 times (its segments change length), body 1
+     * pressed into it, body 2 untouched; q: p with body 2 mirrored. */
+    for (i = 0; i < 56; ++i) p[i] = x0[i];
+    for (i = 0; i < 24; ++i) p[i] = nts_v2(1.5 * x0[i].x, 1.5 * x0[i].y);
+    for (i = 24; i < 44; ++i) p[i].x += 0.55;
+    for (i = 0; i < 56; ++i) q[i] = p[i];
+    for (i = 44; i < 56; ++i) q[i].x = 20.0 - q[i].x;
+
+    s = three_bodies(x0, NULL, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(nts_scene_update_positions(s, p, &err), 0);
+    first = snap(s);
+    CU_ASSERT_FATAL(first.contacts > 0);
+
+    /* The mirrored body needs a new scene; with the first positions as the
+     * reference it gives the same bits (body 2 touches nothing). */
+    ASSERT_INT_EQ(nts_scene_update_positions(s, q, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(err.body, 2);
+    again = three_bodies(q, x0, &err);
+    CU_ASSERT_FATAL(again != NULL);
+    ASSERT_INT_EQ(nts_scene_loops_reversed(again), 1);
+    mirrored = snap(again);
+    ASSERT_INT_EQ(mirrored.contacts, first.contacts);
+    CU_ASSERT(memcmp(&mirrored.energy, &first.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(mirrored.penalty, first.penalty, sizeof first.penalty) == 0);
+    CU_ASSERT(memcmp(mirrored.forces, first.forces, 44 * sizeof(nts_vec2)) == 0);
+
+    /* Back to p: body 2 turns over again, a new scene again, the same bits. */
+    ASSERT_INT_EQ(nts_scene_update_positions(again, p, &err), NTS_ERESHAPED);
+    back = three_bodies(p, x0, &err);
+    CU_ASSERT_FATAL(back != NULL);
+    returned = snap(back);
+    ASSERT_INT_EQ(returned.contacts, first.contacts);
+    CU_ASSERT(memcmp(&returned.energy, &first.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(returned.penalty, first.penalty, sizeof first.penalty) == 0);
+    CU_ASSERT(memcmp(returned.forces, first.forces, sizeof first.forces) == 0);
+
+    /* What the reference prevents: measured at p, body 0's tributary lengths
+     * are 1.5 times longer, and so is its share of the energy. */
+    plain = three_bodies(p, NULL, &err);
+    CU_ASSERT_FATAL(plain != NULL);
+    remeasured = snap(plain);
+    ASSERT_INT_EQ(remeasured.contacts, first.contacts);
+    CU_ASSERT(remeasured.energy > 1.05 * first.energy);
+
+    nts_scene_destroy(s);
+    nts_scene_destroy(again);
+    nts_scene_destroy(back);
+    nts_scene_destroy(plain);
+}
+
+/* A reference configuration is checked as nodes are, and the error names the
+ * body, the node and "reference". */
+static void test_reference_errors_name_the_node(void) {
+    test_body t[3];
+    nts_vec2 x0[56], ref[56];
+    nts_error err;
+    int i;
+    make_polygon(&t[0], 24, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&t[1], 20, 1.0, nts_v2(1.9, 0.05), 0.1);
+    make_polygon(&t[2], 12, 0.5, nts_v2(10.0, 0.0), 0.0);
+    for (i = 0; i < 24; ++i) x0[i] = t[0].nodes[i];
+    for (i = 0; i < 20; ++i) x0[24 + i] = t[1].nodes[i];
+    for (i = 0; i < 12; ++i) x0[44 + i] = t[2].nodes[i];
+    memcpy(ref, x0, sizeof ref);
+    ref[24 + 7].y = NAN;
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_ENONFINITE);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(err.node, 7);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    CU_ASSERT(strstr(err.message, "reference node 7") != NULL);
+    ref[24 + 7] = nts_v2(2e100, 0.0);
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 7);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    /* Node 3 of body 2 where both its neighbours are: no tributary length. */
+    memcpy(ref, x0, sizeof ref);
+    ref[44 + 2] = ref[44 + 3];
+    ref[44 + 4] = ref[44 + 3];
+    CU_ASSERT(three_bodies(x0, ref, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(err.body, 2);
+    ASSERT_INT_EQ(err.node, 3);
+    CU_ASSERT(strcmp(err.option, "reference") == 0);
+    /* Its neighbours keep half of their other segment: accepted. */
+    ref[44 + 4] = x0[44 + 4];
+    {
+        nts_scene* s = three_bodies(x0, ref, &err);
+        CU_ASSERT(s != NULL);
+        nts_scene_destroy(s);
+    }
 }
 
 void register_update_suite(void) {
@@ -181,5 +453,8 @@ void register_update_suite(void) {
     ADD_TEST(s, test_random_moves_open);
     ADD_TEST(s, test_random_moves_periodic);
     ADD_TEST(s, test_orientation_kept_or_refused);
-    ADD_TEST(s, test_triangle_windings);
+    ADD_TEST(s, test_interior_triangle_turned_over);
+    ADD_TEST(s, test_mesh_boundary_verdicts);
+    ADD_TEST(s, test_reference_survives_a_rebuild);
+    ADD_TEST(s, test_reference_errors_name_the_node);
 }

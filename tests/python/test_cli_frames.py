@@ -92,3 +92,44 @@ def test_bad_frames_name_the_frame(tmp_path):
     assert run("--frames", path, "--validate", scene_path).returncode == 2
     assert run("--frames", "-", "-", stdin=b"").returncode == 2
     assert run("--frames", tmp_path / "missing.bin", scene_path).returncode == 2
+
+
+def polygon(n, r, centre, phase=0.0):
+    t = phase + 2 * np.pi * np.arange(n) / n
+    return np.c_[centre[0] + r * np.cos(t), centre[1] + r * np.sin(t)]
+
+
+def test_frames_do_not_depend_on_the_history(tmp_path):
+    """Issue 22 §4 through --frames: with penalty per length, a frame that
+    needs a new scene (a far body mirrored) used to measure the tributary
+    lengths at its own positions, and every later frame kept them. The
+    lengths belong to the scene file's positions: a frame's line is the
+    one-shot CLI's with those positions as each body's "reference"."""
+    a, b, c = polygon(24, 1.0, (0, 0)), polygon(20, 1.0, (1.9, 0.05), 0.1), polygon(12, 0.5, (10, 0))
+    scene = {"version": 1, "options": {"penalty": 100.0, "penalty_scaling": "length", "search_radius": 0.3},
+             "bodies": [{"id": "a", "nodes": a.tolist()}, {"id": "b", "nodes": b.tolist()},
+                        {"id": "c", "nodes": c.tolist()}]}
+    scene_path = tmp_path / "scene.json"
+    scene_path.write_text(json.dumps(scene))
+    p = np.vstack([1.5 * a, b + [0.55, 0.0], c])
+    q = p.copy()
+    q[44:, 0] = 20.0 - q[44:, 0]
+    path = tmp_path / "frames.bin"
+    path.write_bytes(b"".join(f.astype("<f8").tobytes() for f in (p, q, p)))
+    r = run("--frames", path, "--outputs", "forces,contacts", scene_path)
+    assert r.returncode == 0, r.stderr
+    lines = [without_elapsed(json.loads(line)) for line in r.stdout.decode().splitlines()]
+    assert len(lines) == 3 and lines[0]["summary"]["contacts"] > 0
+    assert lines[1]["summary"]["loops_reversed"] == 1
+    assert lines[1]["summary"]["energy"] == lines[0]["summary"]["energy"]
+    assert lines[1]["contacts"] == lines[0]["contacts"]
+    assert lines[2] == lines[0]
+    for line, pos in zip(lines, (p, q, p)):
+        one = with_positions(scene, pos)
+        for body, start in zip(one["bodies"], scene["bodies"]):
+            body["reference"] = start["nodes"]
+        one_path = tmp_path / "one.json"
+        one_path.write_text(json.dumps(one))
+        want = run("--outputs", "forces,contacts", one_path)
+        assert want.returncode == 0, want.stderr
+        assert line == without_elapsed(json.loads(want.stdout))

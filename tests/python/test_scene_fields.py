@@ -132,3 +132,52 @@ def test_sessions_keep_the_fields_and_the_reference_lengths(daemon):
             trib = 0.5 * (np.linalg.norm(nodes[i] - nodes[i - 1]) + np.linalg.norm(nodes[(i + 1) % n] - nodes[i]))
             energy += 0.5 * 100.0 * trib * k.gap ** 2
         assert stretched.energy == pytest.approx(energy, rel=1e-12)
+
+
+def test_reference_sets_the_tributary_lengths(schemas):
+    """A body's "reference" is where penalty per length measures its tributary
+    lengths (issue 22 §4): the nodes themselves give the very same bits as no
+    reference, another configuration gives its own lengths."""
+    doc = scene(penalty_scaling="length", outputs=["forces", "contacts"])
+    plain = evaluate(doc)
+    same = json.loads(json.dumps(doc))
+    for b in same["bodies"]:
+        b["reference"] = b["nodes"]
+    jsonschema.validate(same, schemas["scene"])
+    got = evaluate(same)
+    got["summary"].pop("elapsed_ms"), plain["summary"].pop("elapsed_ms")
+    assert got == plain
+    # Disk "a" measured at twice its size: its tributary lengths double.
+    bigger = json.loads(json.dumps(doc))
+    ref = 2.0 * np.array(bigger["bodies"][1]["nodes"])
+    bigger["bodies"][1]["reference"] = ref.tolist()
+    out = evaluate(bigger)
+    assert [c["gap"] for c in out["contacts"]] == [c["gap"] for c in plain["contacts"]]
+    lengths = {b["id"]: np.array(b.get("reference", b["nodes"])) for b in bigger["bodies"] if "loops" not in b}
+    energy = 0.0
+    for c in out["contacts"]:
+        nodes = lengths[c["slave"]["body"]]
+        k, n = c["slave"]["node"], len(nodes)
+        trib = 0.5 * (np.linalg.norm(nodes[k] - nodes[k - 1]) + np.linalg.norm(nodes[(k + 1) % n] - nodes[k]))
+        energy += 0.5 * 100.0 * trib * c["gap"] ** 2
+    assert out["summary"]["energy"] == pytest.approx(energy, rel=1e-12)
+    assert out["summary"]["energy"] > plain["summary"]["energy"]
+
+
+def test_python_scene_carries_the_reference(schemas):
+    doc = scene(penalty_scaling="length")
+    doc["bodies"][1]["reference"] = (2.0 * np.array(doc["bodies"][1]["nodes"])).tolist()
+    s = ntscontact.Scene.from_dict(doc)
+    assert s.body("a").reference.shape == (64, 2) and s.body("b").reference is None
+    again = s.to_dict()
+    jsonschema.validate(again, schemas["scene"])
+    assert again["bodies"][1]["reference"] == doc["bodies"][1]["reference"]
+    assert "reference" not in again["bodies"][2]
+    with pytest.raises(ntscontact.InvalidScene) as e:
+        s.add_body(disk(0, 0, 1, 8), reference=disk(0, 0, 1, 7))
+    assert e.value.pointer == "/bodies/3/reference" and e.value.code == "invalid_value"
+    bad = disk(0, 0, 1, 8)
+    bad[5, 1] = np.nan
+    with pytest.raises(ntscontact.InvalidScene) as e:
+        s.add_body(disk(0, 0, 1, 8), reference=bad)
+    assert e.value.pointer == "/bodies/3/reference/5" and e.value.code == "non_finite"

@@ -191,6 +191,90 @@ def test_positions_that_change_the_scene_are_rebuilt(daemon, paths, validators):
     assert without_elapsed(got) == without_elapsed(full_contact(daemon, scene))
 
 
+def polygon(n, r, centre, phase=0.0):
+    t = phase + 2 * np.pi * np.arange(n) / n
+    return np.c_[centre[0] + r * np.cos(t), centre[1] + r * np.sin(t)]
+
+
+def test_length_scaling_does_not_depend_on_the_history(daemon, validators):
+    """Issue 22 §4: with penalty per length, a step that builds the scene anew
+    (a far body mirrored) used to measure every body's tributary lengths at
+    that step's positions, so the same positions gave another answer after
+    it. The session keeps its reference configuration (the positions it was
+    created with) across rebuilds: the same positions give the same bits,
+    and the full call gives them too with those positions as "reference"."""
+    a, b, c = polygon(24, 1.0, (0, 0)), polygon(20, 1.0, (1.9, 0.05), 0.1), polygon(12, 0.5, (10, 0))
+    scene = {"version": 1, "options": {"penalty": 100.0, "penalty_scaling": "length", "search_radius": 0.3,
+                                       "outputs": ["forces", "energy", "virial", "contacts", "gaps"]},
+             "bodies": [{"id": "a", "nodes": a.tolist()}, {"id": "b", "nodes": b.tolist()},
+                        {"id": "c", "nodes": c.tolist()}]}
+    doc = create(daemon, scene, validators)
+    p = np.vstack([1.5 * a, b + [0.55, 0.0], c])  # a stretched: its segments are 1.5 times longer
+    q = p.copy()
+    q[44:, 0] = 20.0 - q[44:, 0]                  # c mirrored: a new scene
+    first = step_json(daemon, doc["id"], {"positions": p.tolist()}).json()
+    assert first["summary"]["contacts"] > 0 and first["summary"]["loops_reversed"] == 0
+    mirrored = step_json(daemon, doc["id"], {"positions": q.tolist()}).json()
+    assert mirrored["summary"]["loops_reversed"] == 1
+    # c touches nothing: a and b see the same contacts, penalties and forces.
+    assert mirrored["summary"]["energy"] == first["summary"]["energy"]
+    assert mirrored["contacts"] == first["contacts"]
+    assert mirrored["bodies"][:2] == first["bodies"][:2]
+    again = step_json(daemon, doc["id"], {"positions": p.tolist()}).json()  # c turns back: a new scene again
+    assert without_elapsed(again) == without_elapsed(first)
+    assert_binary_equals(step_binary(daemon, doc["id"], q), mirrored)
+    assert_binary_equals(step_binary(daemon, doc["id"], p), first)
+    # The full call at p with the session's reference configuration: the same bits.
+    full = with_positions(scene, p)
+    for body, start in zip(full["bodies"], scene["bodies"]):
+        body["reference"] = start["nodes"]
+    assert without_elapsed(full_contact(daemon, full)) == without_elapsed(first)
+    # Without it, the full call measures at p: a's share of the energy is 1.5 times larger.
+    plain = full_contact(daemon, with_positions(scene, p))
+    assert plain["summary"]["contacts"] == first["summary"]["contacts"]
+    assert plain["summary"]["energy"] > 1.05 * first["summary"]["energy"]
+
+
+def grid_mesh_and_disk():
+    """A 5 x 5 grid mesh of the unit square and a disk pressed into its bottom edge."""
+    nodes = [[0.25 * i, 0.25 * j] for j in range(5) for i in range(5)]
+    tris = []
+    for j in range(4):
+        for i in range(4):
+            v = 5 * j + i
+            tris += [[v, v + 1, v + 6], [v, v + 6, v + 5]]
+    return {"version": 1, "options": {"penalty": 100.0, "outputs": ["forces", "energy", "virial", "contacts", "gaps"]},
+            "bodies": [{"id": "mesh", "nodes": nodes, "triangles": tris},
+                       {"id": "disk", "nodes": polygon(24, 0.3, (0.55, -0.29), 0.1).tolist()}]}
+
+
+def test_an_interior_triangle_turned_over_is_taken(daemon, validators):
+    """Issue 22 §5: contact depends on a mesh's boundary. A FIRE iterate that
+    turns one interior triangle over (node 12 pushed just past the edge 13-18
+    of its neighbours) used to abort the run (the step rebuilt the scene and
+    got non_manifold_mesh); it is taken, by the session and the full call, and
+    gives the contacts of the mesh un-turned, whose boundary is the same."""
+    scene = grid_mesh_and_disk()
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene)
+    turned = pos.copy()
+    turned[12] = [0.775, 0.625]
+    tri = np.array(scene["bodies"][0]["triangles"])
+    e1, e2 = turned[tri[:, 1]] - turned[tri[:, 0]], turned[tri[:, 2]] - turned[tri[:, 0]]
+    assert np.flatnonzero(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0).tolist() == [20]
+    before = step_json(daemon, doc["id"], {"positions": pos.tolist()}).json()
+    assert before["summary"]["contacts"] > 0
+    r = step_json(daemon, doc["id"], {"positions": turned.tolist()})
+    assert r.status_code == 200, r.text
+    validators["result"].validate(r.json())
+    assert without_elapsed(r.json()) == without_elapsed(before)
+    assert without_elapsed(full_contact(daemon, with_positions(scene, turned))) == without_elapsed(before)
+    assert_binary_equals(step_binary(daemon, doc["id"], turned), before)
+    # A session created at the turned positions too.
+    doc = create(daemon, with_positions(scene, turned), validators)
+    assert_binary_equals(step_binary(daemon, doc["id"], pos), before)
+
+
 def test_a_failing_step_gives_the_full_calls_error_and_keeps_the_session(daemon, paths, validators):
     scene = load(paths, "two_disks")
     doc = create(daemon, scene, validators)

@@ -105,3 +105,38 @@ def test_binary_layout_over_raw_http(daemon):
                       headers={"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"},
                       timeout=30)
     assert r.headers["NTS-Stiffness-Triplets"] == "0" and len(r.content) == 16 * n
+
+
+def test_no_active_contact_gives_the_empty_matrix_from_every_door(daemon, tmp_path):
+    """Asked for and no contact active: the empty 2N x 2N tangent, whichever
+    door; a solver loop gets a matrix, never a KeyError (a binary session step
+    used to raise one, while the stateless call gave the empty matrix)."""
+    doc = two_disks()
+    doc["bodies"][1]["nodes"] = (np.array(doc["bodies"][1]["nodes"]) + [5.0, 0.0]).tolist()  # apart
+    n = sum(len(b["nodes"]) for b in doc["bodies"])
+    cli = run(doc, "--outputs", "forces,stiffness")
+    assert cli["summary"]["contacts"] == 0
+    assert cli["stiffness"] == {"size": 2 * n, "rows": [], "cols": [], "values": []}
+    frames = tmp_path / "frames.bin"
+    x = np.concatenate([np.array(b["nodes"]) for b in doc["bodies"]])
+    frames.write_bytes(x.astype("<f8").tobytes())
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps(doc))
+    r = subprocess.run([str(CLI), "--frames", str(frames), "--outputs", "forces,stiffness", str(scene)],
+                       capture_output=True, timeout=60)
+    assert r.returncode == 0, r.stderr.decode()
+    assert json.loads(r.stdout)["stiffness"] == cli["stiffness"]
+    with ntscontact.Client(daemon.base, timeout=30) as c, c.session(doc) as s:
+        results = [c.contact(ntscontact.Scene.from_dict(doc), outputs=["forces", "stiffness"]),  # stateless
+                   s.contact(x, outputs=["forces", "stiffness"]),                              # binary step
+                   s.contact(x, outputs=["forces", "stiffness", "contacts"]),                  # JSON step
+                   s.contact(outputs=["stiffness"])]                                           # stored positions
+        for res in results:
+            assert res.summary.contacts == 0
+            rows, cols, values, size = res.stiffness_triplets()
+            assert size == 2 * n and len(rows) == len(cols) == len(values) == 0
+            K = res.stiffness
+            assert K.shape == (2 * n, 2 * n) and K.nnz == 0
+        # Not asked for, through a binary step too: still a clear error.
+        with pytest.raises(KeyError):
+            s.contact(x, outputs=["forces"]).stiffness_triplets()

@@ -31,8 +31,11 @@ typedef enum nts_role {
  * - loops: `loop_count` loops, loop l is loop_nodes[loop_start[l] .. loop_start[l+1]),
  *   `loop_start` has loop_count + 1 entries;
  * - triangles: `triangle_count` triples of node indices (a linear triangle mesh);
- *   the boundary is extracted (directed edges whose reverse is absent, chained
- *   into loops);
+ *   the boundary is extracted from the connectivity (each connected piece
+ *   oriented through its shared edges, directed edges whose reverse is absent,
+ *   chained into loops, the piece turned so that its outer loop runs
+ *   counter-clockwise); interior triangles are not checked (zero area or
+ *   turned over is fine: contact reads the boundary);
  * - neither: one loop through all nodes in order. */
 typedef struct nts_body_def {
     const nts_vec2* nodes;
@@ -46,6 +49,14 @@ typedef struct nts_body_def {
     nts_role role;
     int has_alpha;    /* 1: `alpha` shapes this body's surface instead of nts_options.alpha */
     double alpha;     /* in [0, 0.5]; walls and containers want 0 (sharp inner corners) */
+    /* The reference configuration: node_count positions (same order as
+     * `nodes`) at which the tributary lengths of NTS_PENALTY_PER_LENGTH are
+     * measured; NULL: `nodes` themselves. A solver that creates the scene anew
+     * after NTS_ERESHAPED passes its first positions here, so that the same
+     * positions give the same answer whatever the session's history. Checked
+     * as nodes are (finite, within +-1e100; err->option "reference"), and
+     * every surface node's tributary length in it must be positive. */
+    const nts_vec2* reference;
 } nts_body_def;
 
 typedef struct nts_limits {
@@ -71,7 +82,9 @@ NTS_API nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err);
 NTS_API void nts_scene_destroy(nts_scene* scene);
 
 /* New positions for body `body` (node_count entries, same order as created).
- * Checks finiteness; allocates nothing. */
+ * Checks every coordinate as nts_scene_create does (finite, within +-1e100:
+ * NTS_ENONFINITE or NTS_EOUT_OF_RANGE naming the node), not the geometry;
+ * allocates nothing. */
 NTS_API int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* nodes, nts_error* err);
 
 /* New positions for every node (node_count entries, global order: bodies in
@@ -79,10 +92,11 @@ NTS_API int nts_scene_set_positions(nts_scene* scene, int body, const nts_vec2* 
  * many configurations (sessions). Makes every check of nts_scene_create on the
  * new positions and takes them only when creating the scene anew from them
  * would give this very scene: every loop keeps its orientation verdict, the
- * outer loop of each body stays the outer one and no triangle of a mesh turns
- * over. Otherwise returns the error of the failed check, or NTS_ERESHAPED when
+ * outer loop of each body stays the outer one, and each piece of a mesh keeps
+ * its outer loop counter-clockwise (its interior triangles are not read).
+ * Otherwise returns the error of the failed check, or NTS_ERESHAPED when
  * the positions are valid but the scene must be created anew from them; the
- * scene is then unchanged. Allocates nothing; O(nodes + triangles). */
+ * scene is then unchanged. Allocates nothing; O(nodes). */
 NTS_API int nts_scene_update_positions(nts_scene* scene, const nts_vec2* positions, nts_error* err);
 /* Bytes held by the scene (its arrays), for budgets. */
 NTS_API size_t nts_scene_memory_bytes(const nts_scene* scene);
@@ -112,8 +126,9 @@ enum nts_output_flags {
 
 /* The penalty of a slave node (docs/model.md §6): eps itself, or
  * eps times the node's tributary length (half of its two segments, measured at
- * nts_scene_create), so that eps is a pressure stiffness and the contact
- * pressure and the penetration converge under mesh refinement. */
+ * nts_scene_create in the body's reference configuration, nts_body_def.reference),
+ * so that eps is a pressure stiffness and the contact pressure and the
+ * penetration converge under mesh refinement. */
 typedef enum nts_penalty_scaling {
     NTS_PENALTY_PER_NODE = 0,
     NTS_PENALTY_PER_LENGTH = 1

@@ -58,18 +58,19 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
                        pointer=pointer, where=_where(index, body_id))
 
 
-def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None) -> FloatArray:
+def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None, field: str = "nodes") -> FloatArray:
     """An ``(n, 2)`` C-contiguous float64 copy of ``nodes``, checked for shape and
-    finiteness; the error names the body and the first bad node."""
+    finiteness; the error names the body and the first bad node. ``field`` is
+    the body's member they are sent as ("nodes" or "reference")."""
     where = _where(index, body_id)
-    pointer = f"/bodies/{index}/nodes"
+    pointer = f"/bodies/{index}/{field}"
     try:
         arr = np.array(nodes, dtype=np.float64, order="C", copy=True)
     except (TypeError, ValueError) as exc:
-        raise InvalidScene(f"nodes are not an (n, 2) array of numbers ({exc})", code="invalid_type",
+        raise InvalidScene(f"{field} are not an (n, 2) array of numbers ({exc})", code="invalid_type",
                            pointer=pointer, where=where) from None
     if arr.ndim != 2 or arr.shape[1] != 2:
-        raise InvalidScene(f"nodes must have shape (n, 2), got {arr.shape}", code="invalid_type",
+        raise InvalidScene(f"{field} must have shape (n, 2), got {arr.shape}", code="invalid_type",
                            pointer=pointer, where=where)
     if arr.shape[0] == 0:
         raise InvalidScene("body has no nodes", code="no_nodes", pointer=pointer, where=where)
@@ -83,7 +84,9 @@ def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None) -> FloatArra
 
 @dataclass
 class Body:
-    """One body: ``nodes`` ``(n, 2)`` float64, and ``loops`` or ``triangles`` (or neither)."""
+    """One body: ``nodes`` ``(n, 2)`` float64, and ``loops`` or ``triangles`` (or neither).
+    ``reference`` (``(n, 2)``, or None for the nodes themselves) is where the
+    tributary lengths of ``penalty_scaling="length"`` are measured."""
 
     id: BodyId
     nodes: FloatArray
@@ -92,6 +95,7 @@ class Body:
     alpha: Optional[float] = None
     role: Optional[str] = None
     mesh_points: Optional[IntArray] = None
+    reference: Optional[FloatArray] = None
 
     @property
     def node_count(self) -> int:
@@ -109,6 +113,8 @@ class Body:
             out["role"] = self.role
         if self.mesh_points is not None:
             out["mesh_points"] = self.mesh_points.tolist()
+        if self.reference is not None:
+            out["reference"] = self.reference.tolist()
         return out
 
 
@@ -204,12 +210,18 @@ class Scene:
         alpha: Optional[float] = None,
         role: Optional[str] = None,
         mesh_points: Optional[ArrayLike] = None,
+        reference: Optional[ArrayLike] = None,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
         ``alpha`` is this body's own smoothing (walls want 0); ``role`` is
         ``"both"`` (default), ``"master"`` (an obstacle: never a slave, two
         masters never interact) or ``"slave"`` (offers no surface).
+        ``reference`` is the body's reference configuration (``(n, 2)``, one
+        point per node): with ``penalty_scaling="length"`` the tributary
+        lengths are measured there, not at ``nodes``; give the first positions
+        when sending the scene again at new ones in a solver loop, so that the
+        same positions always give the same answer (a session keeps its own).
         Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
         naming the body and the node at fault.
         """
@@ -290,8 +302,15 @@ class Scene:
             if mp.shape != (n,) or (mp < 0).any():
                 raise InvalidScene(f"mesh_points needs one non-negative index per node ({n}), got shape {mp.shape}",
                                    code="invalid_value", pointer=f"/bodies/{index}/mesh_points", where=where)
+        ref: Optional[FloatArray] = None
+        if reference is not None:
+            ref = as_nodes(reference, index, id, field="reference")
+            if ref.shape != arr.shape:
+                raise InvalidScene(f"reference has shape {ref.shape}, the nodes {arr.shape} (one point per node)",
+                                   code="invalid_value", pointer=f"/bodies/{index}/reference", where=where)
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
-                                 alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp))
+                                 alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp,
+                                 reference=ref))
         self._index[key] = index
         return id
 
@@ -405,7 +424,8 @@ class Scene:
             if not isinstance(b, Mapping) or "nodes" not in b:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
             scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
-                           alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"))
+                           alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"),
+                           reference=b.get("reference"))
         return scene
 
     @classmethod

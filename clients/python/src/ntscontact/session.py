@@ -181,7 +181,8 @@ class Session:
             params["solver"] = str(solver)
         # The binary answer when everything asked for fits in it (the forces
         # and the summary): the step's outputs, else the scene's.
-        binary = (set(outs) if outs is not None else self._scene_outputs) <= _BINARY_OUTPUTS
+        wanted = set(outs) if outs is not None else set(self._scene_outputs)
+        binary = wanted <= _BINARY_OUTPUTS
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
@@ -206,14 +207,14 @@ class Session:
         if pos is not None:
             self._positions = pos.astype(np.float64, copy=True)
         self.steps += 1
-        result = self._binary_result(resp) if binary else Result.from_dict(doc)
+        result = self._binary_result(resp, "stiffness" in wanted) if binary else Result.from_dict(doc)
         result._scene = (self._scene_factory, self._positions.copy())
         return result.warn()
 
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
 
-    def _binary_result(self, resp: requests.Response) -> Result:
+    def _binary_result(self, resp: requests.Response, stiffness: bool) -> Result:
         h = resp.headers
         body = resp.content
         count = int(h.get("NTS-Stiffness-Triplets", 0) or 0)
@@ -222,7 +223,12 @@ class Session:
                               code="bad_response", status=resp.status_code)
         forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
         triplets = None
-        if count:
+        if stiffness and not count:
+            # Asked for, and no contact active: the empty 2N x 2N tangent, as
+            # the JSON answers give it (not "no stiffness").
+            empty = np.zeros(0, dtype=np.int64)
+            triplets = (empty, empty, np.zeros(0, dtype=np.float64), 2 * self.nodes)
+        elif count:
             off = 16 * self.nodes
             rows = np.frombuffer(body, dtype="<i4", count=count, offset=off)
             cols = np.frombuffer(body, dtype="<i4", count=count, offset=off + 4 * count)
