@@ -190,7 +190,8 @@ def test_convert_usage_errors(tmp_path):
     meshio.write(str(bad), meshio.Mesh(pts, [("triangle", np.array([[0, 1, 2]]))]))
     proc = subprocess.run([sys.executable, "-m", "ntscontact", "convert", str(bad), "--penalty", "1"],
                           capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 3 and "degenerate_triangle" in proc.stderr
+    # (a triangle of zero area is no fault of the mesh: its boundary encloses none)
+    assert proc.returncode == 3 and "zero_area_loop" in proc.stderr
     proc = subprocess.run([sys.executable, "-m", "ntscontact", "convert"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
 
@@ -201,9 +202,17 @@ def test_orientation_and_boundary_helpers():
     ccw = orient_ccw(pts, cw)
     (loop,) = boundary_loops(ccw)
     assert loop.tolist() == [0, 1, 2, 3] and loop_area(pts, loop) == 1.0
-    with pytest.raises(InvalidScene) as ei:
+    with pytest.raises(InvalidScene) as ei:  # as the core: only its boundary's area matters
         orient_ccw(np.array([[0, 0], [1, 0], [2, 0]]), [[0, 1, 2]])
+    assert ei.value.code == "zero_area_loop"
+    with pytest.raises(InvalidScene) as ei:
+        orient_ccw(np.array([[0, 0], [1, 0], [2, 0]]), [[0, 1, 1]])
     assert ei.value.code == "degenerate_triangle"
+    # an interior triangle turned over: the same boundary, counter-clockwise
+    flipped = cw.copy()
+    flipped[1] = flipped[1][::-1]
+    (loop,) = boundary_loops(orient_ccw(pts, flipped))
+    assert loop.tolist() == [0, 1, 2, 3]
     fin = np.array([[0, 1, 2], [0, 1, 3], [1, 0, 4]])
     with pytest.raises(InvalidScene) as ei:
         boundary_loops(fin)

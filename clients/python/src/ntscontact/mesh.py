@@ -3,8 +3,9 @@
 Bodies come from cell tags when the mesh has them (``gmsh:physical``, or another
 integer ``cell_data`` field), otherwise from the connected components of the
 triangles. Coordinates keep x and y: a constant z is dropped, a z that varies
-is a 3D mesh and refused; every triangle is oriented counter-clockwise, so
-boundaries come out counter-clockwise (holes clockwise).
+is a 3D mesh and refused; each connected piece is oriented as the core orients
+it (through its shared edges, its outer loop counter-clockwise, holes
+clockwise; a triangle turned over inside is no fault).
 
 Each body is checked by the core's own rule for a triangle mesh
 (``core/src/triangles.c``, :func:`check_triangles`), so a mesh that converts is
@@ -98,33 +99,6 @@ class MeshBody:
         return boundary_loops(self.triangles)
 
 
-def orient_ccw(points: npt.ArrayLike, triangles: npt.ArrayLike) -> IntArray:
-    """A copy of ``triangles`` with every triangle counter-clockwise. A zero-area
-    triangle is an :class:`InvalidScene` (``degenerate_triangle``)."""
-    p = np.asarray(points, dtype=np.float64)[:, :2]
-    t = np.array(triangles, dtype=np.int64, copy=True).reshape(-1, 3)
-    cross, zero = _cross_zero(p, t)
-    if zero.any():
-        k = int(np.flatnonzero(zero)[0])
-        raise InvalidScene(f"triangle {k} = {t[k].tolist()} has zero area", code="degenerate_triangle",
-                           where=f"triangle {k}")
-    flip = cross < 0.0
-    t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()
-    return t
-
-
-def _cross_zero(p: FloatArray, t: IntArray) -> Tuple[FloatArray, npt.NDArray[np.bool_]]:
-    """Twice the signed area of each triangle, and whether it is zero by the
-    core's rule (``nts_triangle_winding``): |e1 x e2| <= 64 eps |e1| |e2|, or a
-    repeated corner."""
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    e1, e2 = b - a, c - a
-    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    zero = ~(np.abs(cross) > 64.0 * np.finfo(np.float64).eps * np.hypot(e1[:, 0], e1[:, 1]) * np.hypot(e2[:, 0], e2[:, 1]))
-    zero |= (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
-    return cross, zero
-
-
 def check_triangles(
     nodes: npt.ArrayLike,
     triangles: npt.ArrayLike,
@@ -137,21 +111,23 @@ def check_triangles(
     code and the same triangle (``pointer`` ``/triangles/T``, relative to the
     body), in the same order of checks:
 
-    1. a node index out of range (``index_out_of_range``);
-    2. a triangle of zero area, the first in order (``degenerate_triangle``);
-    3. over the edges sorted by (smaller node, larger node, triangle): an edge of
-       three or more triangles, or of two running the same way after each is
-       turned counter-clockwise (``non_manifold_mesh``), or a node that two
-       boundary edges leave, a pinch point (``non_manifold_mesh``), whichever
-       comes first;
-    4. no boundary edge at all (``no_boundary``).
+    1. triangle by triangle, a node index out of range (``index_out_of_range``)
+       or a node repeated (``degenerate_triangle``);
+    2. over the edges sorted by (smaller node, larger node, triangle): an edge
+       of three or more triangles (``non_manifold_mesh``, at the third);
+    3. piece by piece, from its first triangle: two triangles sharing an edge
+       that cannot run it opposite ways (``non_manifold_mesh``: not orientable);
+    4. triangle by triangle, a node that two boundary edges leave, a pinch
+       point (``non_manifold_mesh``);
+    5. no boundary edge at all (``no_boundary``).
 
-    ``point_index`` (the mesh point of each node) and ``body`` only make the
-    message name the mesh's points and the body. Raises :class:`InvalidScene`.
+    Only the connectivity counts, as in the core: a triangle of zero area or
+    turned over is no fault. ``point_index`` (the mesh point of each node) and
+    ``body`` only make the message name the mesh's points and the body.
+    Raises :class:`InvalidScene`.
     """
-    p = np.asarray(nodes, dtype=np.float64).reshape(-1, 2)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    n = p.shape[0]
+    n = np.asarray(nodes, dtype=np.float64).reshape(-1, 2).shape[0]
     pidx = None if point_index is None else np.asarray(point_index, dtype=np.int64)
     prefix = f"body {body}: " if body is not None else ""
 
@@ -161,62 +137,143 @@ def check_triangles(
     def corners(k: int) -> str:
         return "(" + ", ".join(str(int(pidx[v])) if pidx is not None else str(int(v)) for v in t[k]) + ")"
 
-    def fail(code: str, msg: str, tri: int, corner: Optional[int] = None) -> None:
-        pointer = f"/triangles/{tri}" + ("" if corner is None else f"/{corner}")
-        raise InvalidScene(prefix + msg, code=code, pointer=pointer,
-                           where=(f"body {body}, " if body is not None else "") + f"triangle {tri}")
+    try:
+        _mesh_rule(t, n)
+    except _MeshFault as f:
+        if f.code == "no_boundary":
+            raise InvalidScene(prefix + f.what, code=f.code,
+                               where=f"body {body}" if body is not None else "") from None
+        if f.node is not None:  # a pinch point
+            others = [k for k in range(f.tri) if f.node in t[k]]
+            other = f" and {others[0]} {corners(others[0])}" if others else ""
+            msg = (f"{node_name(f.node)} is a pinch point (two boundary edges leave it, one in triangle {f.tri}): "
+                   f"triangles {f.tri} {corners(f.tri)}{other} meet there with no edge between them; the core "
+                   "refuses such a body: give each side its own body (a cell tag) or its own copy of the point")
+        elif f.code == "index_out_of_range":
+            msg = f"triangle {f.tri}: {f.what}"
+        else:
+            msg = f"triangle {f.tri} {corners(f.tri)} {f.what}"
+        pointer = f"/triangles/{f.tri}" + ("" if f.corner is None else f"/{f.corner}")
+        raise InvalidScene(prefix + msg, code=f.code, pointer=pointer,
+                           where=(f"body {body}, " if body is not None else "") + f"triangle {f.tri}") from None
 
-    bad = (t < 0) | (t >= n)
-    if bad.any():
-        k, c = (int(v) for v in np.argwhere(bad)[0])
-        fail("index_out_of_range", f"triangle {k}: node index {int(t[k, c])} is out of range [0, {n})", k, c)
-    cross, zero = _cross_zero(p, t)
-    if zero.any():
-        k = int(np.flatnonzero(zero)[0])
-        fail("degenerate_triangle", f"triangle {k} {corners(k)} has zero area", k)
-    t = t.copy()
-    flip = cross < 0.0
-    t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()  # counter-clockwise, as the core turns them
+
+def orient_ccw(points: npt.ArrayLike, triangles: npt.ArrayLike) -> IntArray:
+    """A copy of ``triangles`` oriented as the core orients a mesh: each
+    connected piece (triangles sharing edges) consistently, through its shared
+    edges, and turned so that its outer loop (the boundary loop of largest
+    |area|) runs counter-clockwise; an interior triangle turned over stays as
+    its neighbours make it. A mesh the core refuses raises
+    :class:`InvalidScene` (:func:`check_triangles`), and so does a piece whose
+    boundary encloses no area (``zero_area_loop``)."""
+    p = np.asarray(points, dtype=np.float64)[:, :2]
+    t = np.array(triangles, dtype=np.int64, copy=True).reshape(-1, 3)
+    check_triangles(p, t)
+    flip, piece, _ = _mesh_rule(t, p.shape[0])
+    t[flip, 1], t[flip, 2] = t[flip, 2].copy(), t[flip, 1].copy()
+    for k in range(int(piece.max()) + 1 if piece.size else 0):
+        mine = piece == k
+        areas = [loop_area(p, lp) for lp in boundary_loops(t[mine])]
+        outer = areas[int(np.argmax(np.abs(areas)))]
+        first = int(np.flatnonzero(mine)[0])
+        if outer == 0.0:
+            raise InvalidScene(f"the piece of the mesh with triangle {first} encloses zero area",
+                               code="zero_area_loop", where=f"triangle {first}")
+        if outer < 0.0:
+            sub = t[mine]
+            sub[:, [1, 2]] = sub[:, [2, 1]]
+            t[mine] = sub
+    return t
+
+
+class _MeshFault(Exception):
+    """Where _mesh_rule stopped: the core's code, triangle, corner, what, node."""
+
+    def __init__(self, code: str, tri: int, corner: Optional[int], what: str, node: Optional[int] = None):
+        super().__init__(what)
+        self.code, self.tri, self.corner, self.what, self.node = code, tri, corner, what, node
+
+
+def _mesh_rule(t: IntArray, n: int) -> Tuple[npt.NDArray[np.bool_], IntArray, Dict[int, int]]:
+    """The core's rule for a triangle mesh (``nts_boundary_from_triangles``),
+    step for step: each triangle's indices in range and distinct; each edge in
+    at most two triangles; each piece (through shared edges) oriented from its
+    first triangle as given, two triangles sharing an edge running it
+    opposite ways; the boundary (the edges of one triangle, in that
+    orientation) with no node that two boundary edges leave; some boundary.
+    Returns each triangle's flip, its piece and the boundary's next node;
+    raises _MeshFault at the first fault, the one the core reports."""
     m = t.shape[0]
+    for k in range(m):
+        for c in range(3):
+            if not 0 <= int(t[k, c]) < n:
+                raise _MeshFault("index_out_of_range", k, c, f"node index {int(t[k, c])} is out of range [0, {n})")
+        if t[k, 0] == t[k, 1] or t[k, 1] == t[k, 2] or t[k, 0] == t[k, 2]:
+            raise _MeshFault("degenerate_triangle", k, None, "repeats a node: it has no edges of its own")
     frm = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
     to = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
     tri = np.concatenate([np.arange(m)] * 3)
+    corner = np.repeat(np.arange(3), m)
     lo, hi = np.minimum(frm, to), np.maximum(frm, to)
     order = np.lexsort((tri, hi, lo))
-    frm, to, tri, lo, hi = frm[order], to[order], tri[order], lo[order], hi[order]
-    ne = frm.size
-    start = np.flatnonzero(np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])])
-    size = np.diff(np.r_[start, ne])
-    same_way = np.zeros(start.size, dtype=bool)
-    two = size == 2
-    same_way[two] = frm[start[two]] == frm[start[two] + 1]
-    bad_group = (size > 2) | same_way
-    first_bad = int(start[np.flatnonzero(bad_group)[0]]) if bad_group.any() else ne
-    # a pinch: a boundary edge (alone in its group) whose node already has one, in sorted order
-    single = start[size == 1]
-    first_pinch = ne
-    if single.size:
-        _, first_seen = np.unique(frm[single], return_index=True)
-        again = np.ones(single.size, dtype=bool)
-        again[first_seen] = False
-        if again.any():
-            first_pinch = int(single[np.flatnonzero(again)[0]])
-    if first_bad < first_pinch:
-        g = int(np.flatnonzero(start == first_bad)[0])
-        last = first_bad + int(size[g]) - 1
-        a, b = int(lo[first_bad]), int(hi[first_bad])
-        fail("non_manifold_mesh", f"edge ({node_name(a)}, {node_name(b)}) is shared by {int(size[g])} triangles in a "
-             "non-manifold way" + (" (two of them run along it the same way: folded onto each other)"
-                                   if size[g] == 2 else ""), int(tri[last]))
-    if first_pinch < ne:
-        v, k = int(frm[first_pinch]), int(tri[first_pinch])
-        other = int(tri[single[(frm[single] == v)][0]])
-        fail("non_manifold_mesh", f"{node_name(v)} is a pinch point (two boundary edges leave it): triangles "
-             f"{other} {corners(other)} and {k} {corners(k)} meet there with no edge between them; the core refuses "
-             "such a body: give each side its own body (a cell tag) or its own copy of the point", k)
-    if single.size == 0:
-        raise InvalidScene(prefix + "triangle mesh has no boundary edge", code="no_boundary",
-                           where=f"body {body}" if body is not None else "")
+    frm, tri, corner, lo, hi = frm[order], tri[order], corner[order], lo[order], hi[order]
+    nb = np.full((m, 3), -1, dtype=np.int64)
+    same = np.zeros((m, 3), dtype=bool)
+    i, ne = 0, frm.size
+    while i < ne:
+        j = i
+        while j < ne and lo[j] == lo[i] and hi[j] == hi[i]:
+            j += 1
+        if j - i > 2:
+            raise _MeshFault("non_manifold_mesh", int(tri[i + 2]), None,
+                             f"shares its edge ({int(lo[i])}, {int(hi[i])}) with {j - i - 1} other triangles "
+                             f"({int(tri[i])}, {int(tri[i + 1])}, ...): at most two may share an edge")
+        if j - i == 2:
+            a, c = i, i + 1
+            nb[tri[a], corner[a]] = tri[c]
+            nb[tri[c], corner[c]] = tri[a]
+            same[tri[a], corner[a]] = same[tri[c], corner[c]] = frm[a] == frm[c]
+        i = j
+    piece = np.full(m, -1, dtype=np.int64)
+    flip = np.zeros(m, dtype=bool)
+    pieces = 0
+    for t0 in range(m):
+        if piece[t0] != -1:
+            continue
+        piece[t0] = pieces
+        queue = [t0]
+        head = 0
+        while head < len(queue):
+            u = queue[head]
+            head += 1
+            for k in range(3):
+                w = int(nb[u, k])
+                if w < 0:
+                    continue
+                want = bool(flip[u] ^ same[u, k])
+                if piece[w] == -1:
+                    piece[w], flip[w] = pieces, want
+                    queue.append(w)
+                elif flip[w] != want:
+                    a, c = int(t[u, k]), int(t[u, (k + 1) % 3])
+                    raise _MeshFault("non_manifold_mesh", w, None,
+                                     f"cannot be oriented as its neighbours are (across edge ({min(a, c)}, "
+                                     f"{max(a, c)}) from triangle {u}): the mesh is not orientable")
+        pieces += 1
+    nxt: Dict[int, int] = {}
+    for k in range(m):
+        for c in range(3):
+            if nb[k, c] >= 0:
+                continue
+            a, b = int(t[k, c]), int(t[k, (c + 1) % 3])
+            if flip[k]:
+                a, b = b, a
+            if a in nxt:
+                raise _MeshFault("non_manifold_mesh", k, None, "pinch", node=a)
+            nxt[a] = b
+    if not nxt:
+        raise _MeshFault("no_boundary", -1, None, "triangle mesh has no boundary edge")
+    return flip, piece, nxt
 
 
 def boundary_loops(triangles: npt.ArrayLike) -> List[IntArray]:
@@ -426,7 +483,6 @@ def bodies_from_mesh(mesh: Any, *, tag: Union[str, None, bool] = None) -> List[M
         node = int(used[np.flatnonzero(bad)[0]])
         raise InvalidScene(f"mesh point {node} is not finite", code="non_finite", where=f"mesh point {node}")
     _check_planar(points, used, m)
-    triangles = orient_ccw(xy, triangles)
     groups: List[Tuple[BodyId, IntArray]] = []
     if tags is None:
         comp = connected_components(triangles, xy.shape[0])
@@ -446,11 +502,11 @@ def bodies_from_mesh(mesh: Any, *, tag: Union[str, None, bool] = None) -> List[M
         used = np.unique(tri)
         local = np.full(xy.shape[0], -1, dtype=np.int64)
         local[used] = np.arange(used.size, dtype=np.int64)
-        body = MeshBody(id=body_id, nodes=xy[used].copy(), triangles=local[tri], point_index=used)
+        nodes, local_tri = xy[used].copy(), local[tri]
         # the core's rule for a triangle body, at convert time (a pinch point, a folded edge, ...)
-        check_triangles(body.nodes, body.triangles, point_index=used, body=repr(body_id) if isinstance(
+        check_triangles(nodes, local_tri, point_index=used, body=repr(body_id) if isinstance(
             body_id, str) else str(body_id))
-        bodies.append(body)
+        bodies.append(MeshBody(id=body_id, nodes=nodes, triangles=orient_ccw(nodes, local_tri), point_index=used))
     return bodies
 
 
