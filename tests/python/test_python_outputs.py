@@ -148,11 +148,16 @@ def test_python_boundary_is_the_c_boundary(client):
         full[np.searchsorted(tri_body.mesh_points, body.mesh_points)] = b.forces[body.id]
         assert np.array_equal(full, a.forces[body.id]), body.id
         assert len(on) == body.node_count
-    # The same zero-area rule as the core: a sliver the core refuses is refused here.
+    # The same rule as the core: only the connectivity counts, so a sliver
+    # triangle (zero area to the last bit) is no fault, and the boundary is
+    # the C one: the quadrilateral around both triangles.
     sliver = meshio.Mesh(np.array([[0, 0, 0], [1, 0, 0], [0.5, 1e-17, 0], [0, 1, 0.0]]),
                          [("triangle", np.array([[0, 1, 2], [0, 1, 3]]))])
-    with pytest.raises(ntscontact.InvalidScene):
-        ntscontact.mesh.scene_from_mesh(sliver, penalty=1.0)
+    tri = ntscontact.mesh.scene_from_mesh(sliver, penalty=1.0)
+    loops = ntscontact.mesh.scene_from_mesh(sliver, penalty=1.0, boundary="loops")
+    (body,) = list(loops)
+    assert [lp.tolist() for lp in body.loops] == [[0, 2, 1, 3]]  # (0, 0), (0.5, 0), (1, 0), (0, 1)
+    assert client.contact(tri).summary.surface_nodes == client.contact(loops).summary.surface_nodes == 4
 
 
 def test_one_version_number(paths):
