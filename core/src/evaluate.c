@@ -227,7 +227,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         ch->worker = t;
         /* the chunk's own records and items, then kept in the pools */
         w->rec_count = w->share_count = w->item_count = 0;
-        w->last_slave = -1;
+        w->last_slave = w->first_slave = -1;
         w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
         recs->count = env.shares ? w->share_count : w->rec_count;

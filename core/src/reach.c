@@ -96,25 +96,23 @@ double nts_body_depth(const search_env* env, double* depth, int b) {
 
 /* Whether X_k lies beyond body b's every node in direction n: then it is
  * outside the body, whose smoothed surface lies in its nodes' convex hull
- * (a corner curve is a convex combination of three nodes, eq. (2)-(3)). n
- * may be single precision: the allowance. The nodes are walked by their
- * segments, each loop from the image of its first node nearest to X_k. A
- * neighbour that a slave asks for along its chain is usually outside so
- * (the chain's end): a pass over the body's nodes spares a widened search. */
+ * (a corner curve is a convex combination of three nodes, eq. (2)-(3); the
+ * nodes inside a mesh lie in it too). n may be single precision: the
+ * allowance. The nodes are read from the scene's positions (16 bytes each,
+ * in body order: a quarter of the memory of their segment data), each as
+ * its minimum image from X_k. A neighbour that a slave asks for along its
+ * chain is usually outside so (the chain's end): a pass over the body's
+ * nodes spares a widened search. */
 static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
     const nts_vec2 xs = env->seg[k].p;
     double top = -HUGE_VAL, size = 0.0;
-    int l;
-    for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
-        nts_vec2 d = nts_scene_diff(s, env->seg[s->loop_start[l]].p, xs);
-        int e;
-        for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
-            const double h = d.x * nx + d.y * ny, a = fabs(d.x) + fabs(d.y);
-            top = h > top ? h : top;
-            size = a > size ? a : size;
-            d = nts_add(d, env->seg[e].t);
-        }
+    int m;
+    for (m = s->body_node_start[b]; m < s->body_node_start[b + 1]; ++m) {
+        const nts_vec2 d = nts_scene_diff(s, s->pos[m], xs);
+        const double h = d.x * nx + d.y * ny, a = fabs(d.x) + fabs(d.y);
+        top = h > top ? h : top;
+        size = a > size ? a : size;
     }
     return top < -1e-6 * size;
 }
@@ -164,7 +162,7 @@ static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
 /* Queue (k, body) with radius rho, asked by k's neighbour on side `from`
  * whose closest point on the body has normal n, unless k lies beyond the
  * body's every node in that direction (outside it: beyond_body, for a body
- * of at most WIDE_HULL entries; a larger one is left to the search). A pair
+ * of at most WIDE_HULL nodes; a larger one is left to the search). A pair
  * queued already records the second neighbour that asks; a pair settled
  * already is left alone. */
 enum { WIDE_HULL = 512 };
@@ -179,8 +177,7 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    if (s->loop_start[s->body_loop_start[body + 1]] - s->loop_start[s->body_loop_start[body]] <= WIDE_HULL &&
-        beyond_body(env, k, body, nx, ny))
+    if (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && beyond_body(env, k, body, nx, ny))
         return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
@@ -347,6 +344,15 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
         const chunk_part* part = &ctx->chunks[c].part[STREAM_REACH];
         const reach_item* it = (const reach_item*)part->data;
         for (k = 0; k < part->count && rc == NTS_OK; ++k) {
+            if (k + 8 < part->count) { /* what an ask reads, scattered: asked for 8 items ahead */
+                NTS_PREFETCH(&env->seg[it[k + 8].slave]);
+                if (it[k + 8].body >= 0) {
+                    NTS_PREFETCH(&s->pos[s->body_node_start[it[k + 8].body]]);
+                    if (r->seen_cap > 0)
+                        NTS_PREFETCH(&r->seen[pair_hash((long long)it[k + 8].slave * s->body_count + it[k + 8].body,
+                                                        r->seen_cap)]);
+                }
+            }
             if (it[k].kind == REACH_ASK) {
                 rc = enqueue(ctx, env, it[k].slave, it[k].body, it[k].value, it[k].from, it[k].nx, it[k].ny);
             } else if (it[k].kind == REACH_EDGE) {

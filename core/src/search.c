@@ -292,19 +292,22 @@ static void reach_edge(worker* w, int i, int from, const candidate* c) {
 
 /* The reach's growth starts here (reach.c): slave i's closest points (in
  * w->best, by body) against those of the slave before it along the loop,
- * when the search just did that one (w->last); otherwise, or when the next
- * slave of the loop is not the next of the chunk, they go to reach.c as
- * edges. Then i's become the last (the two buffers swap: nothing copied). */
+ * which the search did just before (w->last): each asks for the other where
+ * the other has none on that body. A neighbour across the chunk's end is
+ * compared in reach.c (an edge). The pair that closes a loop, its last slave
+ * and its first, is compared the same way when it crosses a chunk's end, and
+ * needs no comparison when the loop lies in the chunk: a chain of slaves
+ * deep in a body has two ends, and when one is that pair the other is a pair
+ * the search compares (or the chain is the whole loop: then nothing of it
+ * is near the surface). Then i's become the last (the two buffers swap:
+ * nothing copied). */
 static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
     const seg_data* seg = env->seg;
-    const int n = w->best_count;
-    int prev, next, k;
+    const int n = w->best_count, prev = seg[i].prev, next = seg[i].next, before = w->last_slave;
+    int k;
     candidate* t;
-    const int before = w->last_slave;
     w->last_slave = i;
-    if ((n | w->last_count) == 0) return;
-    prev = seg[i].prev;
-    next = seg[i].next;
+    if (prev != i - 1) w->first_slave = i; /* the loop's first slave */
     if (prev == i - 1 && before == prev) {
         const double l = seg[prev].len;
         for (k = 0; k < w->last_count; ++k)
@@ -312,10 +315,10 @@ static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
         for (k = 0; k < n; ++k)
             if (!has_body(w->last, w->last_count, w->best[k].body))
                 reach_ask(env, w, prev, SIDE_NEXT, &w->best[k], l);
-    } else {
+    } else if (prev == i - 1 || prev >= end) { /* across the chunk's start, or a loop ending past its end */
         for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_PREV, &w->best[k]);
     }
-    if (next != i + 1 || i + 1 == end)
+    if (next == i + 1 ? i + 1 == end : next != w->first_slave) /* across the chunk's end */
         for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_NEXT, &w->best[k]);
     w->last_count = n;
     if (n == 0) return;
@@ -485,8 +488,12 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, env->r, periodic);
             }
         }
-        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) flush_slave(env, w, i, end);
-        else w->last_slave = i; /* most slaves: nothing here, nothing before */
+        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
+            flush_slave(env, w, i, end);
+        } else { /* most slaves: nothing here, nothing before */
+            w->last_slave = i;
+            if (env->seg[i].prev != i - 1) w->first_slave = i;
+        }
     }
 }
 
@@ -515,8 +522,12 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
                               env->brute_pad);
             if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic);
         }
-        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) flush_slave(env, w, i, end);
-        else w->last_slave = i; /* most slaves: nothing here, nothing before */
+        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
+            flush_slave(env, w, i, end);
+        } else { /* most slaves: nothing here, nothing before */
+            w->last_slave = i;
+            if (env->seg[i].prev != i - 1) w->first_slave = i;
+        }
     }
 }
 

@@ -262,6 +262,7 @@ typedef struct worker {
     int item_count, item_cap;
     candidate* last;   /* the closest points of the slave flushed last in this chunk */
     int last_count, last_cap, last_slave;
+    int first_slave;   /* the first slave of the current loop, when it is in this chunk (else -1) */
     /* Finished chunks' records and items that the pools had no room for. */
     char* spill[STREAMS];
     size_t spill_used[STREAMS], spill_cap[STREAMS];
