@@ -47,7 +47,7 @@ void nts_reach_free(nts_reach* r) {
     nts_free(r->seen);
     nts_free(r->deep);
     nts_free(r->shares);
-    nts_free(r->depth);
+    nts_free(r->shape);
     memset(r, 0, sizeof *r);
 }
 
@@ -56,42 +56,82 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
            (size_t)r->seen_cap * sizeof(reach_seen) +
            (size_t)r->edge_cap * sizeof(reach_item) +
            (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
-           (size_t)r->depth_cap * sizeof(double);
+           (size_t)r->shape_cap * sizeof(double);
 }
 
 /* ---------------------------------------------------- the bodies' shapes */
 
-/* A body's loops walked by their segments from its first node, so that a
- * body across a periodic box's edge is measured whole: its bounding box,
- * relative to that node. */
-static void body_box(const search_env* env, int b, double box[4]) {
-    const nts_scene* s = env->s;
-    const int first = s->loop_start[s->body_loop_start[b]];
-    int l;
-    box[0] = box[1] = box[2] = box[3] = 0.0;
-    for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
-        nts_vec2 p = nts_scene_diff(s, env->seg[s->loop_start[l]].p, env->seg[first].p);
-        int e;
-        for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
-            box[0] = p.x < box[0] ? p.x : box[0];
-            box[1] = p.x > box[1] ? p.x : box[1];
-            box[2] = p.y < box[2] ? p.y : box[2];
-            box[3] = p.y > box[3] ? p.y : box[3];
-            p = nts_add(p, env->seg[e].t);
+/* What the reach asks of a body's shape, from its nodes (the scene's
+ * positions, 16 bytes a node, each as its minimum image from the body's first
+ * node, so a body across a periodic box's edge is measured whole), once per
+ * evaluation: a circle around its nodes (the centre of their bounding box,
+ * relative to the first node, and the largest distance of a node from it,
+ * squared), and the deepest a point inside the body can lie below its
+ * surface, half the smaller side of the bounding box (a line through the
+ * point along that side's axis leaves the body within the box, on both
+ * sides). The smoothed surface lies in the nodes' hull (a corner curve is a
+ * convex combination of three nodes, eq. (2)-(3)), so a point outside the
+ * circle is outside the body. shape[4 b + 3] < 0: not yet. */
+const double* nts_body_shape(const search_env* env, double* shape, int b) {
+    double* c = shape + 4 * b;
+    if (c[3] < 0.0) {
+        const nts_scene* s = env->s;
+        const int m0 = s->body_node_start[b], m1 = s->body_node_start[b + 1];
+        const nts_vec2 p0 = s->pos[m0];
+        double x0 = 0.0, x1 = 0.0, y0 = 0.0, y1 = 0.0, r2 = 0.0;
+        int m;
+        for (m = m0; m < m1; ++m) {
+            const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+            x0 = d.x < x0 ? d.x : x0;
+            x1 = d.x > x1 ? d.x : x1;
+            y0 = d.y < y0 ? d.y : y0;
+            y1 = d.y > y1 ? d.y : y1;
         }
+        if (s->lx > 0.0 && (x1 - x0 > 0.25 * s->lx || y1 - y0 > 0.25 * s->ly)) {
+            /* A body more than a quarter of the periodic box: its nodes' minimum
+             * images from one node need not be one piece. No circle (it rules
+             * nothing out), and the depth from its loops walked by their
+             * segments (each shorter than half the box), which are. */
+            int l;
+            x0 = x1 = y0 = y1 = 0.0;
+            for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
+                const int e0 = s->loop_start[l], e1 = s->loop_start[l + 1];
+                nts_vec2 p = nts_scene_diff(s, env->seg[e0].p, p0);
+                int e;
+                for (e = e0; e < e1; ++e) {
+                    x0 = p.x < x0 ? p.x : x0;
+                    x1 = p.x > x1 ? p.x : x1;
+                    y0 = p.y < y0 ? p.y : y0;
+                    y1 = p.y > y1 ? p.y : y1;
+                    p = nts_add(p, env->seg[e].t);
+                }
+            }
+            c[0] = c[1] = 0.0;
+            c[2] = HUGE_VAL;
+            c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
+            return c;
+        }
+        c[0] = 0.5 * (x0 + x1);
+        c[1] = 0.5 * (y0 + y1);
+        for (m = m0; m < m1; ++m) {
+            const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+            const double dx = d.x - c[0], dy = d.y - c[1], d2 = dx * dx + dy * dy;
+            r2 = d2 > r2 ? d2 : r2;
+        }
+        c[2] = r2;
+        c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
     }
+    return c;
 }
 
-/* The deepest a point inside body b can lie below its surface: half the
- * smaller side of its bounding box (a line through the point along that
- * side's axis leaves the body within the box, on both sides). */
-double nts_body_depth(const search_env* env, double* depth, int b) {
-    if (depth[b] < 0.0) {
-        double box[4];
-        body_box(env, b, box);
-        depth[b] = 0.5 * (box[1] - box[0] < box[3] - box[2] ? box[1] - box[0] : box[3] - box[2]);
-    }
-    return depth[b];
+/* Whether X lies outside body b's circle (allowing for the round-off of the
+ * minimum images): then it is outside the body. */
+int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x) {
+    const nts_scene* s = env->s;
+    const double* c = nts_body_shape(env, shape, b);
+    const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
+    const double dx = q.x - c[0], dy = q.y - c[1];
+    return dx * dx + dy * dy > c[2] * (1.0 + 1e-9) + 4.0 * env->wide_pad * env->wide_pad;
 }
 
 /* Whether X_k lies beyond body b's every node in direction n: then it is
@@ -177,8 +217,10 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    if (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && beyond_body(env, k, body, nx, ny))
-        return NTS_OK; /* settled: outside */
+    if (nts_outside_circle(env, r->shape, body, env->seg[k].p) ||
+        (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && r->shape[4 * body + 2] < HUGE_VAL &&
+         beyond_body(env, k, body, nx, ny)))
+        return NTS_OK; /* settled: outside (a body of a quarter of a periodic box or more: no test) */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
     p->at = r->queue_count;
@@ -225,7 +267,7 @@ static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, dou
     nts_reach* r = &ctx->reach;
     int k, rc = NTS_OK;
     nts_search_wide(env, w, i, -1, (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad,
-                    r->depth);
+                    r->shape);
     if (w->status != NTS_OK) return w->status;
     /* Each body's best in body order (found in the order of the cells). */
     for (k = 1; k < w->best_count; ++k) {
@@ -335,8 +377,8 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
     r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
     r->beyond = r->unresolved = 0;
     for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
-    if ((rc = nts_grow((void**)&r->depth, &r->depth_cap, s->body_count, sizeof(double))) != NTS_OK) return rc;
-    for (i = 0; i < s->body_count; ++i) r->depth[i] = -1.0;
+    if ((rc = nts_grow((void**)&r->shape, &r->shape_cap, 4 * s->body_count, sizeof(double))) != NTS_OK) return rc;
+    for (i = 0; i < s->body_count; ++i) r->shape[4 * i + 3] = -1.0;
 
     /* 1. What the search asked for, chunk by chunk; its edges, gathered in
      * slave order, then compared across. */
@@ -347,6 +389,7 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
             if (k + 8 < part->count) { /* what an ask reads, scattered: asked for 8 items ahead */
                 NTS_PREFETCH(&env->seg[it[k + 8].slave]);
                 if (it[k + 8].body >= 0) {
+                    NTS_PREFETCH(&r->shape[4 * it[k + 8].body]);
                     NTS_PREFETCH(&s->pos[s->body_node_start[it[k + 8].body]]);
                     if (r->seen_cap > 0)
                         NTS_PREFETCH(&r->seen[pair_hash((long long)it[k + 8].slave * s->body_count + it[k + 8].body,

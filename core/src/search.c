@@ -544,17 +544,19 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end) {
 }
 
 /* A widened search tries master j of body b (not the slave's own, offering
- * a surface, the one asked for if any) within radius min(rho, body_rho[b]),
+ * a surface, the one asked for if any) within radius rho, or for every body
+ * (body < 0) min(rho, the body's depth) when its circle holds the slave,
  * culled by an exact reach test in double around X_j. */
 static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, nts_vec2 xs, int own, int j,
-                                              int body, double rho, double* body_rho, const int periodic) {
+                                              int body, double rho, double* shape, const int periodic) {
     const seg_data* m = &env->seg[j];
     const int b = m->body;
     double rb = rho, R, d2;
     nts_vec2 d;
     if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE) return;
     if (body < 0) {
-        const double depth = nts_body_depth(env, body_rho, b);
+        const double depth = nts_body_shape(env, shape, b)[3];
+        if (nts_outside_circle(env, shape, b, xs)) return; /* outside the body: no active contact there */
         if (depth < rb) rb = depth;
     }
     d = search_diff(env, xs, m->p, periodic);
@@ -590,7 +592,7 @@ static int wide_span(double q, double reach, double inv_h, int n, int periodic, 
 }
 
 static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int k, int body, double rho,
-                                          double* body_rho, const int periodic) {
+                                          double* shape, const int periodic) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
     const int own = env->seg[k].body;
@@ -617,12 +619,12 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
                     int e;
                     for (e = cl->cell_start[cell]; e < cl->cell_start[cell + 1]; ++e) {
                         j = env->keys->entry[e];
-                        if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+                        if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
                     }
                     if (env->long_start != NULL)
                         for (e = env->long_start[cell]; e < env->long_start[cell + 1]; ++e) {
                             j = env->long_m[env->long_items[e]].entry;
-                            if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+                            if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
                         }
                 }
             }
@@ -630,7 +632,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
         }
     }
     if (body < 0) {
-        for (j = e0; j < e1; ++j) wide_try(env, w, xs, own, j, body, rho, body_rho, periodic);
+        for (j = e0; j < e1; ++j) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
         return;
     }
     if (body == own || s->body_role[body] == NTS_ROLE_SLAVE) return;
@@ -649,9 +651,9 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
     }
 }
 
-void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* body_rho) {
-    if (env->lx > 0.0 || env->ly > 0.0) wide(env, w, k, body, rho, body_rho, 1);
-    else wide(env, w, k, body, rho, body_rho, 0);
+void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* shape) {
+    if (env->lx > 0.0 || env->ly > 0.0) wide(env, w, k, body, rho, shape, 1);
+    else wide(env, w, k, body, rho, shape, 0);
 }
 
 void nts_search_wide_done(worker* w) {

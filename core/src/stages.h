@@ -334,8 +334,9 @@ typedef struct nts_reach {
     int deep_count, deep_cap;
     force_shares* shares;   /* their forces */
     int shares_cap;
-    double* depth;          /* per body: the deepest a point inside it can be (nts_body_depth), -1: not yet */
-    int depth_cap;
+    double* shape;          /* per body, 4: a circle around its nodes and the deepest a point inside can
+                               be (nts_body_shape) */
+    int shape_cap;
     long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
     long long unresolved;   /* slaves inside a body deeper than the periodic box's limit */
 } nts_reach;
@@ -584,9 +585,11 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end);
 /* search.c: a widened search around slave entry k, in worker w: the best
  * candidate on body `body` among its features within `rho` of the slave;
  * or, when body < 0, on every other body b that offers a surface, within
- * min(rho, body_rho[b]). The candidates are left in w->best (w->best_count
+ * min(rho, the body's depth) for the bodies whose circle holds the slave
+ * (nts_body_shape: no other can hold it, or give it an active contact).
+ * The candidates are left in w->best (w->best_count
  * of them); nts_search_wide_done clears them. */
-void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* body_rho);
+void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* shape);
 void nts_search_wide_done(worker* w);
 
 /* reach.c: after the search, the pairs (slave, master body) next to those
@@ -596,9 +599,12 @@ void nts_search_wide_done(worker* w);
  * env->max_records closest points with `found`) or NTS_ECANCELLED. */
 int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads);
 size_t nts_reach_memory_bytes(const nts_reach* r);
-/* reach.c: the deepest a point inside body b can lie below its surface,
- * computed once per evaluation and kept in depth[b] (-1 until then). */
-double nts_body_depth(const search_env* env, double* depth, int b);
+/* reach.c: body b's shape, once per evaluation (shape[4 b + 3] < 0 until
+ * then): a circle around its nodes, centre relative to its first node and
+ * radius squared, and the deepest a point inside can lie below its surface.
+ * A point outside the circle is outside the body (nts_outside_circle). */
+const double* nts_body_shape(const search_env* env, double* shape, int b);
+int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x);
 void nts_reach_free(nts_reach* r);
 
 /* scatter.c: the chunks' records, in slave order, into *out. */
