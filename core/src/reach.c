@@ -48,6 +48,8 @@ void nts_reach_free(nts_reach* r) {
     nts_free(r->deep);
     nts_free(r->shares);
     nts_free(r->shape);
+    nts_free(r->grid_start);
+    nts_free(r->grid_items);
     memset(r, 0, sizeof *r);
 }
 
@@ -56,7 +58,7 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
            (size_t)r->seen_cap * sizeof(reach_seen) +
            (size_t)r->edge_cap * sizeof(reach_item) +
            (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
-           (size_t)r->shape_cap * sizeof(double);
+           (size_t)r->shape_cap * sizeof(double) + (size_t)(r->grid_start_cap + r->grid_items_cap) * sizeof(int);
 }
 
 /* ---------------------------------------------------- the bodies' shapes */
@@ -71,9 +73,10 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
  * point along that side's axis leaves the body within the box, on both
  * sides). The smoothed surface lies in the nodes' hull (a corner curve is a
  * convex combination of three nodes, eq. (2)-(3)), so a point outside the
- * circle is outside the body. shape[4 b + 3] < 0: not yet. */
+ * circle is outside the body. Then its bounding box, relative to the first
+ * node: x0, x1, y0, y1. shape[SHAPE b + 3] < 0: not yet. */
 const double* nts_body_shape(const search_env* env, double* shape, int b) {
-    double* c = shape + 4 * b;
+    double* c = shape + SHAPE * b;
     if (c[3] < 0.0) {
         const nts_scene* s = env->s;
         const int m0 = s->body_node_start[b], m1 = s->body_node_start[b + 1];
@@ -109,6 +112,10 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
             c[0] = c[1] = 0.0;
             c[2] = HUGE_VAL;
             c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
+            c[4] = x0;
+            c[5] = x1;
+            c[6] = y0;
+            c[7] = y1;
             return c;
         }
         c[0] = 0.5 * (x0 + x1);
@@ -120,6 +127,10 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
         }
         c[2] = r2;
         c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
+        c[4] = x0;
+        c[5] = x1;
+        c[6] = y0;
+        c[7] = y1;
     }
     return c;
 }
@@ -218,7 +229,7 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
         return NTS_OK;
     }
     if (nts_outside_circle(env, r->shape, body, env->seg[k].p) ||
-        (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && r->shape[4 * body + 2] < HUGE_VAL &&
+        (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && r->shape[SHAPE * body + 2] < HUGE_VAL &&
          beyond_body(env, k, body, nx, ny)))
         return NTS_OK; /* settled: outside (a body of a quarter of a periodic box or more: no test) */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
@@ -260,14 +271,119 @@ static int settle(nts_context* ctx, const search_env* env, int k, const candidat
     return follow(ctx, env, k, c, asked);
 }
 
+/* The columns (or rows) of the cells that [lo, hi] (frame coordinates)
+ * overlaps: [*first, *first + count), wrapped in a periodic grid, each once. */
+static int grid_span(double lo, double hi, double inv_h, int n, int periodic, int* first) {
+    const double a = floor(lo * inv_h), z = floor(hi * inv_h);
+    if (periodic) {
+        if (!(z - a + 1.0 < (double)n)) {
+            *first = 0;
+            return n;
+        }
+        *first = (int)(a - (double)n * floor(a / (double)n));
+        return (int)(z - a) + 1;
+    }
+    *first = a < 0.0 ? 0 : (a > (double)(n - 1) ? n - 1 : (int)a);
+    return (z > (double)(n - 1) ? n - 1 : (z < 0.0 ? 0 : (int)z)) - *first + 1;
+}
+
+/* The cells that body b's bounding box overlaps (allowing for round-off). */
+static void body_cells(const search_env* env, double* shape, int b, int* cx0, int* ncx, int* cy0, int* ncy) {
+    const nts_scene* s = env->s;
+    const nts_cells* cl = env->cells;
+    const double* c = nts_body_shape(env, shape, b);
+    const nts_cell_place q = nts_cells_place(cl, s->pos[s->body_node_start[b]]);
+    const double pad = 2.0 * env->wide_pad;
+    *ncx = grid_span(q.x + c[4] - pad, q.x + c[5] + pad, cl->inv_hx, cl->nx, cl->periodic, cx0);
+    *ncy = grid_span(q.y + c[6] - pad, q.y + c[7] + pad, cl->inv_hy, cl->ny, cl->periodic, cy0);
+}
+
+/* Every body that offers a surface, listed in every cell its bounding box
+ * overlaps (CSR by cell, bodies in order), for the slaves next to long
+ * segments: the bodies that can hold a point are those listed in its cell.
+ * Built once per evaluation when one asks; NTS_ELIMIT when the lists would
+ * exceed `budget` entries (bodies piled on one another: the caller searches
+ * by cells instead). */
+static int body_grid(nts_reach* r, const search_env* env, long long budget) {
+    const nts_scene* s = env->s;
+    const nts_cells* cl = env->cells;
+    const int ncell = cl->nx * cl->ny;
+    long long total = 0;
+    int b, rc, pass;
+    if ((rc = nts_grow((void**)&r->grid_start, &r->grid_start_cap, ncell + 1, sizeof(int))) != NTS_OK) return rc;
+    memset(r->grid_start, 0, sizeof(int) * (size_t)(ncell + 1));
+    for (pass = 0; pass < 2; ++pass) {
+        for (b = 0; b < s->body_count; ++b) {
+            int cx0, ncx, cy0, ncy, x, y;
+            if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
+            body_cells(env, r->shape, b, &cx0, &ncx, &cy0, &ncy);
+            if (pass == 0) {
+                total += (long long)ncx * ncy;
+                if (total > budget) return NTS_ELIMIT;
+            }
+            for (y = 0; y < ncy; ++y)
+                for (x = 0; x < ncx; ++x) {
+                    const int cell = ((cy0 + y) % cl->ny) * cl->nx + (cx0 + x) % cl->nx;
+                    if (pass == 0) ++r->grid_start[cell + 1];
+                    else r->grid_items[r->grid_start[cell]++] = b;
+                }
+        }
+        if (pass == 0) {
+            for (b = 0; b < ncell; ++b) r->grid_start[b + 1] += r->grid_start[b];
+            if ((rc = nts_grow((void**)&r->grid_items, &r->grid_items_cap, (int)total, sizeof(int))) != NTS_OK)
+                return rc;
+        }
+    }
+    for (b = ncell; b > 0; --b) r->grid_start[b] = r->grid_start[b - 1];
+    r->grid_start[0] = 0;
+    r->grid_built = 1;
+    return NTS_OK;
+}
+
+/* A candidate of a long segment's end: deep, and not settled yet, it is. */
+static int coarse_hit(nts_context* ctx, const search_env* env, int i, const candidate* b) {
+    reach_seen* p;
+    int fresh;
+    if (!(b->gap < 0.0 && -b->gap > env->r)) return NTS_OK;
+    if ((p = seen_find(&ctx->reach, (long long)i * env->s->body_count + b->body, &fresh)) == NULL) return NTS_ENOMEM;
+    return fresh ? settle(ctx, env, i, b, 0) : NTS_OK;
+}
+
 /* A slave next to a segment of length l > 2 r: its closest point on every
  * other body within min(l, the body's depth), where the end of its chain
- * inside that body lies. What lies within r the search has already. */
+ * inside that body lies, for the bodies whose circle holds it (no other can
+ * give it an active contact). What lies within r the search has already.
+ * Against a segment far longer than the cells (a long wall's corners), the
+ * bodies are those listed in its cell of the bodies' grid, each searched on
+ * its own, rather than every cell within l. */
 static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, double l) {
     nts_reach* r = &ctx->reach;
+    const nts_cells* cl = env->cells;
+    const double rho = (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad;
     int k, rc = NTS_OK;
-    nts_search_wide(env, w, i, -1, (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad,
-                    r->shape);
+    if (cl != NULL && rho > 2.0 * (cl->hx > cl->hy ? cl->hx : cl->hy) && r->grid_built >= 0) {
+        if (!r->grid_built && (rc = body_grid(r, env, 8LL * env->s->surface_count + 4096)) != NTS_OK) {
+            if (rc != NTS_ELIMIT) return rc;
+            r->grid_built = -1; /* too many: by cells */
+            rc = NTS_OK;
+        }
+        if (r->grid_built > 0) {
+            const int cell = nts_cells_place(cl, env->seg[i].p).cell, own = env->seg[i].body;
+            for (k = r->grid_start[cell]; k < r->grid_start[cell + 1] && rc == NTS_OK; ++k) {
+                const int b = r->grid_items[k];
+                double rb;
+                if (b == own || nts_outside_circle(env, r->shape, b, env->seg[i].p)) continue;
+                rb = nts_body_shape(env, r->shape, b)[3];
+                rb = (rb < rho ? rb : rho) * (1.0 + 1e-9) + env->wide_pad;
+                nts_search_wide(env, w, i, b, rb, NULL);
+                if (w->status != NTS_OK) return w->status;
+                if (w->best_count > 0) rc = coarse_hit(ctx, env, i, &w->best[0]);
+                nts_search_wide_done(w);
+            }
+            return rc;
+        }
+    }
+    nts_search_wide(env, w, i, -1, rho, r->shape);
     if (w->status != NTS_OK) return w->status;
     /* Each body's best in body order (found in the order of the cells). */
     for (k = 1; k < w->best_count; ++k) {
@@ -279,14 +395,7 @@ static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, dou
         }
         w->best[m + 1] = c;
     }
-    for (k = 0; k < w->best_count && rc == NTS_OK; ++k) {
-        const candidate* b = &w->best[k];
-        reach_seen* p;
-        int fresh;
-        if (!(b->gap < 0.0 && -b->gap > env->r)) continue;
-        if ((p = seen_find(r, (long long)i * env->s->body_count + b->body, &fresh)) == NULL) rc = NTS_ENOMEM;
-        else if (fresh) rc = settle(ctx, env, i, b, 0);
-    }
+    for (k = 0; k < w->best_count && rc == NTS_OK; ++k) rc = coarse_hit(ctx, env, i, &w->best[k]);
     nts_search_wide_done(w);
     return rc;
 }
@@ -377,8 +486,9 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
     r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
     r->beyond = r->unresolved = 0;
     for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
-    if ((rc = nts_grow((void**)&r->shape, &r->shape_cap, 4 * s->body_count, sizeof(double))) != NTS_OK) return rc;
-    for (i = 0; i < s->body_count; ++i) r->shape[4 * i + 3] = -1.0;
+    if ((rc = nts_grow((void**)&r->shape, &r->shape_cap, SHAPE * s->body_count, sizeof(double))) != NTS_OK) return rc;
+    for (i = 0; i < s->body_count; ++i) r->shape[SHAPE * i + 3] = -1.0;
+    r->grid_built = 0;
 
     /* 1. What the search asked for, chunk by chunk; its edges, gathered in
      * slave order, then compared across. */
@@ -389,7 +499,7 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
             if (k + 8 < part->count) { /* what an ask reads, scattered: asked for 8 items ahead */
                 NTS_PREFETCH(&env->seg[it[k + 8].slave]);
                 if (it[k + 8].body >= 0) {
-                    NTS_PREFETCH(&r->shape[4 * it[k + 8].body]);
+                    NTS_PREFETCH(&r->shape[SHAPE * it[k + 8].body]);
                     NTS_PREFETCH(&s->pos[s->body_node_start[it[k + 8].body]]);
                     if (r->seen_cap > 0)
                         NTS_PREFETCH(&r->seen[pair_hash((long long)it[k + 8].slave * s->body_count + it[k + 8].body,

@@ -321,6 +321,8 @@ typedef struct reach_seen {
     int at, pad;
 } reach_seen;
 
+enum { SHAPE = 8 }; /* doubles per body in nts_reach.shape */
+
 typedef struct nts_reach {
     reach_request* queue;   /* the pairs to search, each once */
     int queue_count, queue_cap;
@@ -334,9 +336,12 @@ typedef struct nts_reach {
     int deep_count, deep_cap;
     force_shares* shares;   /* their forces */
     int shares_cap;
-    double* shape;          /* per body, 4: a circle around its nodes and the deepest a point inside can
-                               be (nts_body_shape) */
+    double* shape;          /* per body, SHAPE: a circle around its nodes, the deepest a point inside can
+                               be, its bounding box (nts_body_shape) */
     int shape_cap;
+    int* grid_start;        /* the bodies' grid (reach.c: body_grid), cells + 1 */
+    int* grid_items;
+    int grid_start_cap, grid_items_cap, grid_built; /* built: 1, not yet: 0, too many: -1 */
     long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
     long long unresolved;   /* slaves inside a body deeper than the periodic box's limit */
 } nts_reach;
@@ -599,10 +604,11 @@ void nts_search_wide_done(worker* w);
  * env->max_records closest points with `found`) or NTS_ECANCELLED. */
 int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads);
 size_t nts_reach_memory_bytes(const nts_reach* r);
-/* reach.c: body b's shape, once per evaluation (shape[4 b + 3] < 0 until
- * then): a circle around its nodes, centre relative to its first node and
- * radius squared, and the deepest a point inside can lie below its surface.
- * A point outside the circle is outside the body (nts_outside_circle). */
+/* reach.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
+ * until then): a circle around its nodes, centre relative to its first node
+ * and radius squared, the deepest a point inside can lie below its surface,
+ * and its bounding box. A point outside the circle is outside the body
+ * (nts_outside_circle). */
 const double* nts_body_shape(const search_env* env, double* shape, int b);
 int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x);
 void nts_reach_free(nts_reach* r);
