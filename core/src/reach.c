@@ -16,15 +16,18 @@
  * before it (search.c: reach_neighbours) and asks for a neighbour that has
  * none on a body where the other has one, when it could lie deeper than r
  * there (|X_k - X_i| - g_i > r, reach_may_be_deeper); a neighbour across the
- * end of a chunk or a loop is compared here (its "edges"). A neighbour
- * beyond all of the body's nodes in the direction of the other's normal is
- * outside it (beyond_body) and is not searched. A pair found
- * deep is followed on to its neighbours that did not ask for it (those have
- * a closest point within r there, or are deep already); the chain stops at
- * its first node outside. A slave next to a segment longer than 2 r is
- * searched widened from the start, to min(that length, the depth the
- * master can hold: half the smaller side of its bounding box), since its
- * chain may have no closest point within r at all.
+ * end of a chunk (or the end of a loop that crosses one) is compared here
+ * (its "edges"). A neighbour beyond all of the body's nodes in the direction
+ * of the other's normal, or outside a circle around them, is outside the
+ * body and is not searched. A pair found deep is followed on to its
+ * neighbours that did not ask for it (those have a closest point within r
+ * there, or are deep already); the chain stops at its first node outside. A
+ * slave next to a segment longer than 2 r is searched widened from the
+ * start, against the bodies whose circle holds it, to min(that length, the
+ * depth the body can hold: half the smaller side of its bounding box), since
+ * its chain may have no closest point within r at all; against a segment far
+ * longer than the cells, the bodies come from a grid of their bounding
+ * boxes.
  *
  * Every pair (slave, master body) is settled once, and its answer does not
  * depend on the radius it was searched with (a radius that finds nothing is
@@ -157,15 +160,19 @@ int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x) 
 static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
     const nts_vec2 xs = env->seg[k].p;
-    double top = -HUGE_VAL, size = 0.0;
+    double top = -HUGE_VAL, ax = 0.0, ay = 0.0;
     int m;
     for (m = s->body_node_start[b]; m < s->body_node_start[b + 1]; ++m) {
         const nts_vec2 d = nts_scene_diff(s, s->pos[m], xs);
-        const double h = d.x * nx + d.y * ny, a = fabs(d.x) + fabs(d.y);
+        const double h = d.x * nx + d.y * ny;
         top = h > top ? h : top;
-        size = a > size ? a : size;
+        ax = fabs(d.x) > ax ? fabs(d.x) : ax;
+        ay = fabs(d.y) > ay ? fabs(d.y) : ay;
     }
-    return top < -1e-6 * size;
+    /* In a periodic box, nodes a quarter of a side or more away may not be
+     * the body's nearest images: nothing is ruled out. */
+    if (s->lx > 0.0 && !(ax < 0.25 * s->lx && ay < 0.25 * s->ly)) return 0;
+    return top < -1e-6 * (ax + ay);
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -228,10 +235,12 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    if (nts_outside_circle(env, r->shape, body, env->seg[k].p) ||
-        (s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL && r->shape[SHAPE * body + 2] < HUGE_VAL &&
-         beyond_body(env, k, body, nx, ny)))
-        return NTS_OK; /* settled: outside (a body of a quarter of a periodic box or more: no test) */
+    /* The body's circle when it is at hand (a long segment's end asked for
+     * its shape), else one pass over its nodes along n. */
+    if (r->shape[SHAPE * body + 3] >= 0.0 ? nts_outside_circle(env, r->shape, body, env->seg[k].p)
+                                           : s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL &&
+                                                 beyond_body(env, k, body, nx, ny))
+        return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
     p->at = r->queue_count;
