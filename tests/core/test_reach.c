@@ -493,6 +493,51 @@ static void test_explicit_radius_warns(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): the closest point of docs/model.md §5 (the candidate
+ * of smallest |g|) is not 1-Lipschitz along a slave's loop when alpha > 0.
+ * At a corner between a short segment and a long one, the corner's region
+ * (s_{j-1} >= 1 - alpha, s_j <= alpha) reaches only alpha x the short
+ * segment along it, while its curve reaches alpha x the long one along the
+ * other: a node just inside the long side, past that region, has no
+ * candidate on the curve or on the long side's flat part, and its closest
+ * point is the far wall. Here the unit square (alpha 0.45) has its bottom
+ * cut into segments of 0.02 and its right side in one piece: at y = 0.3 the
+ * corner curve at (1, 0) runs at x = 0.99977, and its region ends at
+ * x = 0.991. A needle (segments 0.01 = r, the median) crosses the right side
+ * at y = 0.3: its node at x = 1.00 is 0.0002 outside, found; its neighbour at
+ * x = 0.99 lies 0.0098 from the curve (nearer than r) but its closest point
+ * is the bottom, 0.3 deep, and so are all the needle's nodes inside. The
+ * reach's bound (19) says x = 0.99 cannot lie deeper than r (l - g = 0.0098
+ * < r): nothing asks for it, and every contact of the needle is missing at
+ * the default. */
+static void test_hole_behind_an_uneven_corner(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_scene* s;
+    int i, m = 0;
+    ntsx_scene_init(&x, 2);
+    x.nodes[0] = (nts_vec2*)calloc(53, sizeof(nts_vec2));
+    for (i = 0; i < 50; ++i) x.nodes[0][m++] = nts_v2(0.02 * i, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 1.0);
+    x.nodes[0][m++] = nts_v2(0.0, 1.0);
+    x.counts[0] = m;
+    x.total += m;
+    /* the needle from x = 0.5 to 1.2, y in [0.3, 0.31] */
+    x.counts[1] = 2 * 71;
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= 70; ++i) {
+        x.nodes[1][i] = nts_v2(0.5 + 0.01 * i, 0.3);
+        x.nodes[1][2 * 71 - 1 - i] = nts_v2(0.5 + 0.01 * i, 0.31);
+    }
+    x.total += x.counts[1];
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    check_default_finds_all(s, 0.45, 10.0, 3.0, 50, "a hole behind an uneven corner");
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -505,4 +550,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_periodic_edge);
     ADD_TEST(s, test_periodic_reach_limit);
     ADD_TEST(s, test_explicit_radius_warns);
+    ADD_TEST(s, test_hole_behind_an_uneven_corner);
 }
