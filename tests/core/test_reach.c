@@ -538,6 +538,44 @@ static void test_hole_behind_an_uneven_corner(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): the same hole met by a coarse slave (segments longer
+ * than 2 r, the radius set by a fine disk far away, segments of 0.004). The
+ * needle's node at x = 1.005 is 0.005 outside the corner curve: deeper than r,
+ * so the search does not find it, and the coarse search that does (within
+ * its segment, 0.05) keeps only what is deeper than r inside. Its neighbour
+ * at x = 0.955 lies 0.045 from the curve, within that segment, but its
+ * closest point is the bottom, 0.3 deep: beyond the coarse search's radius,
+ * and no one asks for it. Every contact of the needle is missing at the
+ * default. */
+static void test_hole_behind_an_uneven_corner_coarse(void) {
+    ntsx_scene x;
+    nts_role roles[3] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE, NTS_ROLE_BOTH};
+    nts_scene* s;
+    int i, m = 0;
+    ntsx_scene_init(&x, 3);
+    x.nodes[0] = (nts_vec2*)calloc(53, sizeof(nts_vec2));
+    for (i = 0; i < 50; ++i) x.nodes[0][m++] = nts_v2(0.02 * i, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 1.0);
+    x.nodes[0][m++] = nts_v2(0.0, 1.0);
+    x.counts[0] = m;
+    x.total += m;
+    /* the needle from x = 0.455 to 1.205 in steps of 0.05, y in [0.3, 0.31] */
+    x.counts[1] = 2 * 16;
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i < 16; ++i) {
+        x.nodes[1][i] = nts_v2(0.455 + 0.05 * i, 0.3);
+        x.nodes[1][2 * 16 - 1 - i] = nts_v2(0.455 + 0.05 * i, 0.31);
+    }
+    x.total += x.counts[1];
+    put_disk(&x, 2, 400, 20.0, 0.0, 400 * 0.004 / (2.0 * PI_), 0.0); /* r = 0.004 */
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    check_default_finds_all(s, 0.45, 10.0, 50.0, 20, "a hole behind an uneven corner, coarse");
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -551,4 +589,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_periodic_reach_limit);
     ADD_TEST(s, test_explicit_radius_warns);
     ADD_TEST(s, test_hole_behind_an_uneven_corner);
+    ADD_TEST(s, test_hole_behind_an_uneven_corner_coarse);
 }
