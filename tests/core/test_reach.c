@@ -576,6 +576,58 @@ static void test_hole_behind_an_uneven_corner_coarse(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): in a periodic box a chain of deep slaves is cut
+ * where it passes a node deeper than the box allows (half the box less the
+ * longest segment): the nodes past it, within reach, are lost too, and the
+ * warning counts only the nodes that were out of reach. A disk of radius 2.9
+ * (segments 0.15) fills a box of 6: at its centre it is 2.9 deep, the reach
+ * 2.85. A needle (segments 0.05 = r) enters it from the left, passes the
+ * centre and ends 1.4 short of its right side: only its nodes within 0.05 of
+ * the centre lie beyond reach, but every contact past them is missing at the
+ * default, though a radius of 2.8 finds them all. */
+static void test_periodic_chain_past_the_reach(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_options o = nts_default_options();
+    nts_scene* s;
+    kept d, big;
+    int i, k, found = 0, beyond = 0, n = 90;
+    ntsx_scene_init(&x, 2);
+    put_disk(&x, 0, 122, 3.0, 3.0, 2.9, 0.0);
+    x.counts[1] = 2 * (n + 1);
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= n; ++i) {
+        x.nodes[1][i] = nts_v2(0.0 + 0.05 * i, 2.98);
+        x.nodes[1][2 * (n + 1) - 1 - i] = nts_v2(0.0 + 0.05 * i, 3.02);
+    }
+    x.total += x.counts[1];
+    x.lx = x.ly = 6.0;
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    o.penalty = 10.0;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &d) == NTS_OK);
+    o.search_radius = 2.8;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &big) == NTS_OK);
+    /* Every contact the radius 2.8 finds, the default finds, the same bits. */
+    for (i = 0; i < big.r.contact_count; ++i) {
+        for (k = 0; k < d.r.contact_count; ++k)
+            if (d.contacts[k].slave_node == big.contacts[i].slave_node) break;
+        if (k < d.r.contact_count && memcmp(&d.contacts[k], &big.contacts[i], sizeof(nts_contact)) == 0) ++found;
+    }
+    for (i = 0; i < 2 * (n + 1); ++i) beyond += fabs(x.nodes[1][i].x - 3.0) < 0.05 - 1e-9;
+    if (found != big.r.contact_count)
+        fprintf(stderr, "\n  chain past the reach: the default finds %d of the %d contacts of radius 2.8 (%d warning)\n",
+                found, big.r.contact_count, d.r.warning_count);
+    ASSERT_INT_EQ(found, big.r.contact_count);
+    CU_ASSERT(big.r.contact_count > 100);
+    ASSERT_INT_EQ(d.r.contact_count, big.r.contact_count + beyond);
+    kept_free(&d);
+    kept_free(&big);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -590,4 +642,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_explicit_radius_warns);
     ADD_TEST(s, test_hole_behind_an_uneven_corner);
     ADD_TEST(s, test_hole_behind_an_uneven_corner_coarse);
+    ADD_TEST(s, test_periodic_chain_past_the_reach);
 }
