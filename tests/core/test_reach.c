@@ -628,6 +628,111 @@ static void test_periodic_chain_past_the_reach(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): an allocation refused inside a widened search leaves
+ * the worker's body slots set (search.c: offer marks slot[body]; reach.c:
+ * coarse and search_pair return on w->status without nts_search_wide_done),
+ * and nts_workers_prepare does not clear them: the next evaluation on the
+ * same context offers into stale slots and loses closest points. A square's
+ * corner (its sides 3 long, far longer than 2 r) has 17 thin sectors around
+ * it, their apexes 0.1 away: its coarse search finds 17 bodies, one more than
+ * a worker's first room (16) and more than any slave of the search itself,
+ * so the room grows there. Each allocation of the evaluation is refused in
+ * turn; after a refusal the same context must give the reference answer. */
+static long fa_calls, fa_fail_at, fa_failed;
+static void* fa_alloc(size_t size, void* user) {
+    (void)user;
+    if (++fa_calls == fa_fail_at) {
+        ++fa_failed;
+        return NULL;
+    }
+    return malloc(size);
+}
+static void fa_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
+static void test_refused_allocation_in_a_wide_search(void) {
+    const int sectors = 17, arc = 8, side = 40;
+    ntsx_scene x;
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    kept ref;
+    long n;
+    int k, i, retried = 0, differ = 0;
+    ntsx_scene_init(&x, 1 + sectors);
+    x.counts[0] = 4;
+    x.nodes[0] = (nts_vec2*)calloc(4, sizeof(nts_vec2));
+    x.nodes[0][0] = nts_v2(0.0, 0.0);
+    x.nodes[0][1] = nts_v2(3.0, 0.0);
+    x.nodes[0][2] = nts_v2(3.0, 3.0);
+    x.nodes[0][3] = nts_v2(0.0, 3.0);
+    x.total += 4;
+    for (k = 0; k < sectors; ++k) {
+        const double th = (100.0 + 15.0 * k) * PI_ / 180.0, half = 6.0 * PI_ / 180.0;
+        const nts_vec2 a = nts_v2(0.1 * cos(th), 0.1 * sin(th));
+        nts_vec2* p;
+        int m = 0;
+        x.counts[1 + k] = 2 * side + arc - 1;
+        p = x.nodes[1 + k] = (nts_vec2*)calloc((size_t)x.counts[1 + k], sizeof(nts_vec2));
+        for (i = 0; i < side; ++i) /* apex out along th - half */
+            p[m++] = nts_v2(a.x + 2.0 * i / side * cos(th - half), a.y + 2.0 * i / side * sin(th - half));
+        for (i = 0; i < arc; ++i) {
+            const double t = th - half + 2.0 * half * i / arc;
+            p[m++] = nts_v2(a.x + 2.0 * cos(t), a.y + 2.0 * sin(t));
+        }
+        for (i = side; i > 1; --i) /* back along th + half */
+            p[m++] = nts_v2(a.x + 2.0 * i / side * cos(th + half), a.y + 2.0 * i / side * sin(th + half));
+        x.total += m;
+        x.counts[1 + k] = m;
+    }
+    s = scene_from(&x, NULL);
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &ref) == NTS_OK);
+    CU_ASSERT(ref.r.contact_count == 0); /* nothing touches: gaps only */
+    o.outputs |= NTS_OUT_GAPS;
+    for (n = 1; n < 100000; ++n) {
+        nts_context* c = nts_context_create();
+        nts_result r1, r2;
+        nts_error err;
+        int rc, gaps_ref;
+        CU_ASSERT_FATAL(c != NULL);
+        /* the reference's gaps */
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r1, &err) == NTS_OK);
+        gaps_ref = r1.gap_count;
+        nts_context_destroy(c);
+        c = nts_context_create();
+        fa_calls = fa_failed = 0;
+        fa_fail_at = n;
+        nts_set_allocator(fa_alloc, fa_free, NULL);
+        rc = nts_evaluate(c, s, &o, &r1, &err);
+        fa_fail_at = 0;
+        if (rc == NTS_OK && fa_failed == 0) {
+            nts_set_allocator(NULL, NULL, NULL);
+            nts_context_destroy(c);
+            break;
+        }
+        if (rc != NTS_OK) {
+            ++retried;
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r2, &err) == NTS_OK);
+            if (r2.gap_count != gaps_ref) {
+                if (differ == 0)
+                    fprintf(stderr, "\n  allocation %ld refused: the retry has %d closest points, the reference %d\n", n,
+                            r2.gap_count, gaps_ref);
+                ++differ;
+            }
+        }
+        nts_set_allocator(NULL, NULL, NULL);
+        nts_context_destroy(c);
+    }
+    CU_ASSERT(retried > 10);
+    ASSERT_INT_EQ(differ, 0);
+    kept_free(&ref);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -643,4 +748,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_hole_behind_an_uneven_corner);
     ADD_TEST(s, test_hole_behind_an_uneven_corner_coarse);
     ADD_TEST(s, test_periodic_chain_past_the_reach);
+    ADD_TEST(s, test_refused_allocation_in_a_wide_search);
 }
