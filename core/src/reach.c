@@ -226,7 +226,10 @@ static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, dou
     int k, rc = NTS_OK;
     nts_search_wide(env, w, i, -1, (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad,
                     r->depth);
-    if (w->status != NTS_OK) return w->status;
+    if (w->status != NTS_OK) { /* its slots cleared all the same: the context is used again */
+        nts_search_wide_done(w);
+        return w->status;
+    }
     /* Each body's best in body order (found in the order of the cells). */
     for (k = 1; k < w->best_count; ++k) {
         candidate c = w->best[k];
@@ -310,11 +313,11 @@ static void search_pair(const search_env* env, worker* w, const reach_request* q
     for (;;) {
         if (rho > env->reach_max) rho = env->reach_max;
         nts_search_wide(env, w, q->slave, q->body, rho, NULL);
-        if (w->status != NTS_OK) return;
+        if (w->status != NTS_OK) break; /* out of memory: its slots cleared all the same */
         if (w->best_count > 0 || rho >= env->reach_max) break;
         rho *= 2.0;
     }
-    if (w->best_count > 0) *hit = w->best[0];
+    if (w->status == NTS_OK && w->best_count > 0) *hit = w->best[0];
     nts_search_wide_done(w);
 }
 
