@@ -733,6 +733,66 @@ static void test_refused_allocation_in_a_wide_search(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): in a periodic box the polygon test of a slave that no
+ * search out to the reach finds anything for (reach.c: inside_body) walks
+ * the body from the image of its first node nearest to the slave; when the
+ * body spans more than half the box, that image need not be the one around
+ * the slave. A disk of radius 2.95 (first node on its left, x = 0.05) nearly
+ * fills a box of 6: a node just right of its centre lies more than 3 from
+ * that node, whose nearest image is then the one on the right, and the test
+ * says outside: the node is not counted (penetration_beyond_reach) and the
+ * chain of deep nodes stops there, losing every contact past it. */
+static void test_periodic_inside_test_of_a_large_body(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_options o = nts_default_options();
+    nts_scene* s;
+    kept d, big;
+    nts_context* c = nts_context_create();
+    nts_result res;
+    nts_error err;
+    int i, k, found = 0, n = 90, beyond = 0;
+    ntsx_scene_init(&x, 2);
+    put_disk(&x, 0, 122, 3.0, 3.0, 2.95, PI_);
+    x.counts[1] = 2 * (n + 1);
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= n; ++i) {
+        x.nodes[1][i] = nts_v2(0.025 + 0.05 * i, 2.98);
+        x.nodes[1][2 * (n + 1) - 1 - i] = nts_v2(0.025 + 0.05 * i, 3.02);
+    }
+    x.total += x.counts[1];
+    x.lx = x.ly = 6.0;
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL && c != NULL);
+    o.penalty = 10.0;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &d) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &res, &err) == NTS_OK);
+    o.search_radius = 2.8;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &big) == NTS_OK);
+    for (i = 0; i < big.r.contact_count; ++i) {
+        for (k = 0; k < d.r.contact_count; ++k)
+            if (d.contacts[k].slave_node == big.contacts[i].slave_node) break;
+        if (k < d.r.contact_count && memcmp(&d.contacts[k], &big.contacts[i], sizeof(nts_contact)) == 0) ++found;
+    }
+    /* the needle's nodes beyond the reach (3 - 0.152 = 2.848): within 0.1 of the
+     * centre (2.874 deep and more; the next ones, 2.824) */
+    for (i = 0; i < 2 * (n + 1); ++i) beyond += fabs(x.nodes[1][i].x - 3.0) < 0.1;
+    if (found != big.r.contact_count)
+        fprintf(stderr, "\n  large body: the default finds %d of the %d contacts of radius 2.8\n", found,
+                big.r.contact_count);
+    ASSERT_INT_EQ(found, big.r.contact_count);
+    CU_ASSERT(big.r.contact_count > 100);
+    CU_ASSERT_FATAL(res.warning_count == 1);
+    ASSERT_INT_EQ(res.warnings[0].code, NTS_WARN_PENETRATION_BEYOND_REACH);
+    ASSERT_INT_EQ(res.warnings[0].count, beyond);
+    nts_context_destroy(c);
+    kept_free(&d);
+    kept_free(&big);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -749,4 +809,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_hole_behind_an_uneven_corner_coarse);
     ADD_TEST(s, test_periodic_chain_past_the_reach);
     ADD_TEST(s, test_refused_allocation_in_a_wide_search);
+    ADD_TEST(s, test_periodic_inside_test_of_a_large_body);
 }
