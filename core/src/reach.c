@@ -297,15 +297,20 @@ static int edge(nts_context* ctx, const search_env* env, const reach_item* e) {
 }
 
 /* Whether X_k lies inside body b's polygon (its loops by their segments,
- * each from the image of its first node nearest to X_k; a ray along +x
- * crosses them an odd number of times). For a slave that a search out to
- * half a periodic box finds nothing for: only then may a contact be lost. */
-static int inside_body(const search_env* env, int k, int b) {
+ * from the image of the body's first node nearest to X_k; a ray along +x
+ * crosses them an odd number of times). A body may span more than half the
+ * box: that image need not be the one around X_k, and the polygon walked
+ * from it lies within the body's extent (less than the box) of it, so X_k is
+ * tried with its images one box away as well. For a slave that a search out
+ * to half a periodic box finds nothing for: only then may a contact be
+ * lost. */
+static int inside_at(const search_env* env, nts_vec2 base, int b) {
     const nts_scene* s = env->s;
-    const nts_vec2 xs = env->seg[k].p;
+    const nts_vec2 p0 = env->seg[s->loop_start[s->body_loop_start[b]]].p;
     int l, inside = 0;
     for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
-        nts_vec2 cur = nts_scene_diff(s, env->seg[s->loop_start[l]].p, xs);
+        /* the loop's first node relative to the point tested (base: the body's first node) */
+        nts_vec2 cur = nts_add(base, nts_scene_diff(s, env->seg[s->loop_start[l]].p, p0));
         int e;
         for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
             const nts_vec2 next = nts_add(cur, env->seg[e].t);
@@ -315,6 +320,18 @@ static int inside_body(const search_env* env, int k, int b) {
         }
     }
     return inside;
+}
+
+static int inside_body(const search_env* env, int k, int b) {
+    const nts_scene* s = env->s;
+    /* the body's first node relative to X_k, its nearest image, then to X_k's images one box away */
+    const nts_vec2 d = nts_scene_diff(s, env->seg[s->loop_start[s->body_loop_start[b]]].p, env->seg[k].p);
+    int i, j;
+    if (inside_at(env, d, b)) return 1;
+    for (i = -1; i <= 1; ++i)
+        for (j = -1; j <= 1; ++j)
+            if ((i != 0 || j != 0) && inside_at(env, nts_v2(d.x - i * env->lx, d.y - j * env->ly), b)) return 1;
+    return 0;
 }
 
 /* A pair's search, widened from its radius, doubled while it finds nothing
