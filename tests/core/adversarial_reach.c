@@ -516,8 +516,9 @@ static void build(scene* sc, int kind) {
         for (k = 0; k < nb; ++k) {
             body* b = &sc->b[k];
             if (k == 0) {
-                const double sz = L * Ur(0.25, 0.47), h = Ur(0.02, 0.1);
+                /* as large as the box allows without meeting its own image */
                 const int w = Ui(0, 4);
+                const double sz = L * (w == 0 ? Ur(0.25, 0.47) : Ur(0.2, 0.33)), h = Ur(0.02, 0.1);
                 if (w == 0) shape_disk(b, sz, (int)(2 * PI * sz / h) + 8, 0.0);
                 else if (w == 1) shape_rect(b, sz, sz * Ur(0.3, 1.0), h, 0.0);
                 else if (w == 2) shape_u(b, sz, h);
@@ -820,7 +821,7 @@ static long long compare_contacts(const nts_scene* s, const kept* a, const kept*
                 const nts_vec2 t0 = min_image(s, nts_v2(p1.x - p0.x, p1.y - p0.y), box_lx, box_ly);
                 const nts_vec2 t1 = min_image(s, nts_v2(p2.x - p1.x, p2.y - p1.y), box_lx, box_ly);
                 const double lmax = fmax(hypot(t0.x, t0.y), hypot(t1.x, t1.y));
-                if (!(gg < -r)) whole = 0;
+                if (!(gg < -r) && !isnan(gg)) whole = 0; /* NaN: deeper than the large radius */
                 if (lmax > 2 * r && -gg <= fmin(lmax, depth[M]) * (1 - 1e-9)) coarse_hit = 1;
             }
             if (whole && !coarse_hit) {
@@ -833,6 +834,10 @@ static long long compare_contacts(const nts_scene* s, const kept* a, const kept*
                 for (k = 0; k < loop_len[L]; ++k)
                     if (isnan(gap[(size_t)(loop_first[L] + loop_ptr[L][k]) * (size_t)nb + (size_t)M])) cut = 1;
                 if (cut) {
+                    if (getenv("ADV_SHOWCUT") && past_reach < 3) {
+                        fprintf(stderr, "CUT seed %llu kind %d\n", (unsigned long long)seed, kind);
+                        describe_contact(c);
+                    }
                     ++past_reach;
                     ++excused;
                     continue;

@@ -793,6 +793,39 @@ static void test_periodic_inside_test_of_a_large_body(void) {
     ntsx_scene_free(&x);
 }
 
+/* The same hole where the bound does ask (h-adv): the needle 0.002 further
+ * in, its node at x = 0.998 is 0.0018 inside the corner curve and its
+ * neighbour at x = 0.988, in the hole, is asked for within 0.0118; its
+ * closest point, the bottom 0.3 deep, is found only because the widened
+ * search doubles its radius while it finds nothing (reach.c: search_pair).
+ * Passes: it guards the doubling. */
+static void test_hole_found_by_doubling(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_scene* s;
+    int i, m = 0;
+    ntsx_scene_init(&x, 2);
+    x.nodes[0] = (nts_vec2*)calloc(53, sizeof(nts_vec2));
+    for (i = 0; i < 50; ++i) x.nodes[0][m++] = nts_v2(0.02 * i, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 1.0);
+    x.nodes[0][m++] = nts_v2(0.0, 1.0);
+    x.counts[0] = m;
+    x.total += m;
+    x.counts[1] = 2 * 71;
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= 70; ++i) {
+        x.nodes[1][i] = nts_v2(0.498 + 0.01 * i, 0.3);
+        x.nodes[1][2 * 71 - 1 - i] = nts_v2(0.498 + 0.01 * i, 0.31);
+    }
+    x.total += x.counts[1];
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    check_default_finds_all(s, 0.45, 10.0, 3.0, 90, "a hole found by doubling");
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -810,4 +843,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_periodic_chain_past_the_reach);
     ADD_TEST(s, test_refused_allocation_in_a_wide_search);
     ADD_TEST(s, test_periodic_inside_test_of_a_large_body);
+    ADD_TEST(s, test_hole_found_by_doubling);
 }
