@@ -826,6 +826,45 @@ static void test_hole_found_by_doubling(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): the same hole under a single node, the tip of a fine
+ * spike poking 0.0093 through the right side of the square at y = 0.3 (r =
+ * 0.012, set by a fine disk far away; the spike's segments at most 0.0226,
+ * none coarse). The tip lies nearer than r to the corner curve but its
+ * closest point is the bottom, 0.3 deep; its neighbours lie 0.0127 outside,
+ * deeper than r: nothing finds anything near it, so nothing asks for it,
+ * whatever the bound. Only a complete set of candidates (the nearest point of
+ * the smoothed surface always among them) would make its closest point
+ * reachable from the surface. */
+static void test_hole_under_a_single_node(void) {
+    ntsx_scene x;
+    nts_role roles[3] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE, NTS_ROLE_BOTH};
+    nts_scene* s;
+    int i, m = 0, side = 15;
+    ntsx_scene_init(&x, 3);
+    x.nodes[0] = (nts_vec2*)calloc(53, sizeof(nts_vec2));
+    for (i = 0; i < 50; ++i) x.nodes[0][m++] = nts_v2(0.02 * i, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 1.0);
+    x.nodes[0][m++] = nts_v2(0.0, 1.0);
+    x.counts[0] = m;
+    x.total += m;
+    /* the spike: its tip, then out along y = 0.295 to x = 1.3, back along y = 0.305 */
+    x.counts[1] = 2 * side + 1;
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    x.nodes[1][0] = nts_v2(0.9905, 0.3);
+    for (i = 0; i < side; ++i) {
+        x.nodes[1][1 + i] = nts_v2(1.0125 + 0.02 * i, 0.295);
+        x.nodes[1][2 * side - i] = nts_v2(1.0125 + 0.02 * i, 0.305);
+    }
+    x.total += x.counts[1];
+    put_disk(&x, 2, 400, 20.0, 0.0, 400 * 0.012 / (2.0 * PI_), 0.0); /* r = 0.012 */
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    check_default_finds_all(s, 0.45, 10.0, 50.0, 1, "a hole under a single node");
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -844,4 +883,5 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_refused_allocation_in_a_wide_search);
     ADD_TEST(s, test_periodic_inside_test_of_a_large_body);
     ADD_TEST(s, test_hole_found_by_doubling);
+    ADD_TEST(s, test_hole_under_a_single_node);
 }
