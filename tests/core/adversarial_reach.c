@@ -3,13 +3,14 @@
  * must be found as a large explicit radius finds it, the same records bit for
  * bit, the sums to round-off; brute force, cells and 1 or 3 threads bitwise
  * the same; an explicit radius r counts exactly the contacts deeper than r.
- * Not part of the default test run (it takes minutes): build it by hand,
+ * Not part of the default test run (it takes minutes): build it on demand,
  *
- *   gcc -O2 -g -fopenmp -Icore/include -Ibuild/core/generated -Isupport \
- *       tests/core/adversarial_reach.c build/lib/libntscontact.a \
- *       build/lib/libnts_support.a -lgsl -lgslcblas -lm -o build/adversarial_reach
- *   build/adversarial_reach [first_seed] [count] [kind or -1] [verbose]
+ *   cmake --build build --target adversarial_reach
+ *   build/bin/adversarial_reach [first_seed] [count] [kind or -1] [verbose]
  *
+ * (ADV_ALPHA0=1: every alpha 0; ADV_PAIR=s,m: the gaps of slave body s on
+ * master m, node by node, at both radii; ADV_SHOWCUT=1: the missing contacts
+ * of loops cut beyond the large radius.)
  * Each failure prints its seed and kind: run that seed alone with verbose 1
  * to see the scene. Exit status 1 when anything failed. */
 #include <math.h>
@@ -1016,8 +1017,8 @@ static int run_scene(uint64_t seed, int kind) {
             goto skip_big;
         }
         else
-            FAIL("default warns (%d: code %d count %lld), deep %d", d.r.warning_count, d.warn[0].code, d.warn[0].count,
-                 d.r.summary.deep_contacts);
+            FAIL("default warns (%d: code %d count %lld), deep %d; the deepest body holds %g, the reach %g",
+                 d.r.warning_count, d.warn[0].code, d.warn[0].count, d.r.summary.deep_contacts, deepest, reach_max);
     }
     if (kind == 6) {
         ++scenes_compared[kind];
