@@ -267,6 +267,21 @@ static int follow(nts_context* ctx, const search_env* env, int k, const candidat
     return rc;
 }
 
+/* Slave k of request q, inside q->body in a periodic box with no closest
+ * point there within the largest radius (counted: r->unresolved): its chain
+ * goes on past it, and the nodes beyond may lie within reach again. Its
+ * neighbours that did not ask are searched out to that radius (no normal:
+ * no hull test). */
+static int follow_beyond(nts_context* ctx, const search_env* env, const reach_request* q) {
+    const seg_data* seg = env->seg;
+    const int k = q->slave;
+    int rc = NTS_OK;
+    if (!(q->from & SIDE_PREV)) rc = enqueue(ctx, env, seg[k].prev, q->body, env->reach_max, SIDE_NEXT, 0.0, 0.0);
+    if (rc == NTS_OK && !(q->from & SIDE_NEXT))
+        rc = enqueue(ctx, env, seg[k].next, q->body, env->reach_max, SIDE_PREV, 0.0, 0.0);
+    return rc;
+}
+
 /* The closest point c of slave k on c->body, found by a widened search, the
  * search having found none within r: an active contact deeper than r is
  * kept, and its chain followed past the neighbours that did not ask. */
@@ -385,15 +400,18 @@ static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, dou
                 rb = nts_body_shape(env, r->shape, b)[3];
                 rb = (rb < rho ? rb : rho) * (1.0 + 1e-9) + env->wide_pad;
                 nts_search_wide(env, w, i, b, rb, NULL);
+                if (w->status == NTS_OK && w->best_count > 0) rc = coarse_hit(ctx, env, i, &w->best[0]);
+                nts_search_wide_done(w); /* its slots cleared, out of memory too: the context is used again */
                 if (w->status != NTS_OK) return w->status;
-                if (w->best_count > 0) rc = coarse_hit(ctx, env, i, &w->best[0]);
-                nts_search_wide_done(w);
             }
             return rc;
         }
     }
     nts_search_wide(env, w, i, -1, rho, r->shape);
-    if (w->status != NTS_OK) return w->status;
+    if (w->status != NTS_OK) { /* its slots cleared all the same: the context is used again */
+        nts_search_wide_done(w);
+        return w->status;
+    }
     /* Each body's best in body order (found in the order of the cells). */
     for (k = 1; k < w->best_count; ++k) {
         candidate c = w->best[k];
@@ -439,15 +457,20 @@ static int edge(nts_context* ctx, const search_env* env, const reach_item* e) {
 }
 
 /* Whether X_k lies inside body b's polygon (its loops by their segments,
- * each from the image of its first node nearest to X_k; a ray along +x
- * crosses them an odd number of times). For a slave that a search out to
- * half a periodic box finds nothing for: only then may a contact be lost. */
-static int inside_body(const search_env* env, int k, int b) {
+ * from the image of the body's first node nearest to X_k; a ray along +x
+ * crosses them an odd number of times). A body may span more than half the
+ * box: that image need not be the one around X_k, and the polygon walked
+ * from it lies within the body's extent (less than the box) of it, so X_k is
+ * tried with its images one box away as well. For a slave that a search out
+ * to half a periodic box finds nothing for: only then may a contact be
+ * lost. */
+static int inside_at(const search_env* env, nts_vec2 base, int b) {
     const nts_scene* s = env->s;
-    const nts_vec2 xs = env->seg[k].p;
+    const nts_vec2 p0 = env->seg[s->loop_start[s->body_loop_start[b]]].p;
     int l, inside = 0;
     for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
-        nts_vec2 cur = nts_scene_diff(s, env->seg[s->loop_start[l]].p, xs);
+        /* the loop's first node relative to the point tested (base: the body's first node) */
+        nts_vec2 cur = nts_add(base, nts_scene_diff(s, env->seg[s->loop_start[l]].p, p0));
         int e;
         for (e = s->loop_start[l]; e < s->loop_start[l + 1]; ++e) {
             const nts_vec2 next = nts_add(cur, env->seg[e].t);
@@ -457,6 +480,18 @@ static int inside_body(const search_env* env, int k, int b) {
         }
     }
     return inside;
+}
+
+static int inside_body(const search_env* env, int k, int b) {
+    const nts_scene* s = env->s;
+    /* the body's first node relative to X_k, its nearest image, then to X_k's images one box away */
+    const nts_vec2 d = nts_scene_diff(s, env->seg[s->loop_start[s->body_loop_start[b]]].p, env->seg[k].p);
+    int i, j;
+    if (inside_at(env, d, b)) return 1;
+    for (i = -1; i <= 1; ++i)
+        for (j = -1; j <= 1; ++j)
+            if ((i != 0 || j != 0) && inside_at(env, nts_v2(d.x - i * env->lx, d.y - j * env->ly), b)) return 1;
+    return 0;
 }
 
 /* A pair's search, widened from its radius, doubled while it finds nothing
@@ -470,11 +505,11 @@ static void search_pair(const search_env* env, worker* w, const reach_request* q
     for (;;) {
         if (rho > env->reach_max) rho = env->reach_max;
         nts_search_wide(env, w, q->slave, q->body, rho, NULL);
-        if (w->status != NTS_OK) return;
+        if (w->status != NTS_OK) break; /* out of memory: its slots cleared all the same */
         if (w->best_count > 0 || rho >= env->reach_max) break;
         rho *= 2.0;
     }
-    if (w->best_count > 0) *hit = w->best[0];
+    if (w->status == NTS_OK && w->best_count > 0) *hit = w->best[0];
     nts_search_wide_done(w);
 }
 
@@ -561,8 +596,10 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
             if (ctx->workers[i].status != NTS_OK) return ctx->workers[i].status;
         for (q = q0; q < q1 && rc == NTS_OK; ++q) {
             if (r->hits[q].kind >= 0) rc = settle(ctx, env, r->queue[q].slave, &r->hits[q], r->queue[q].from);
-            else if (env->lx > 0.0 && inside_body(env, r->queue[q].slave, r->queue[q].body))
+            else if (env->lx > 0.0 && inside_body(env, r->queue[q].slave, r->queue[q].body)) {
                 ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
+                rc = follow_beyond(ctx, env, &r->queue[q]);
+            }
         }
     }
     if (rc != NTS_OK) return rc;

@@ -493,6 +493,263 @@ static void test_explicit_radius_warns(void) {
     ntsx_scene_free(&x);
 }
 
+/* Adversarial (h-adv): in a periodic box a chain of deep slaves is cut
+ * where it passes a node deeper than the box allows (half the box less the
+ * longest segment): the nodes past it, within reach, are lost too, and the
+ * warning counts only the nodes that were out of reach. A disk of radius 2.9
+ * (segments 0.15) fills a box of 6: at its centre it is 2.9 deep, the reach
+ * 2.85. A needle (segments 0.05 = r) enters it from the left, passes the
+ * centre and ends 1.4 short of its right side: only its nodes within 0.05 of
+ * the centre lie beyond reach, but every contact past them is missing at the
+ * default, though a radius of 2.8 finds them all. */
+static void test_periodic_chain_past_the_reach(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_options o = nts_default_options();
+    nts_scene* s;
+    kept d, big;
+    int i, k, found = 0, beyond = 0, n = 90;
+    ntsx_scene_init(&x, 2);
+    put_disk(&x, 0, 122, 3.0, 3.0, 2.9, 0.0);
+    x.counts[1] = 2 * (n + 1);
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= n; ++i) {
+        x.nodes[1][i] = nts_v2(0.0 + 0.05 * i, 2.98);
+        x.nodes[1][2 * (n + 1) - 1 - i] = nts_v2(0.0 + 0.05 * i, 3.02);
+    }
+    x.total += x.counts[1];
+    x.lx = x.ly = 6.0;
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    o.penalty = 10.0;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &d) == NTS_OK);
+    o.search_radius = 2.8;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &big) == NTS_OK);
+    /* Every contact the radius 2.8 finds, the default finds, the same bits. */
+    for (i = 0; i < big.r.contact_count; ++i) {
+        for (k = 0; k < d.r.contact_count; ++k)
+            if (d.contacts[k].slave_node == big.contacts[i].slave_node) break;
+        if (k < d.r.contact_count && memcmp(&d.contacts[k], &big.contacts[i], sizeof(nts_contact)) == 0) ++found;
+    }
+    for (i = 0; i < d.r.contact_count; ++i) beyond += -d.contacts[i].gap > 2.8; /* out of the radius's reach */
+    if (found != big.r.contact_count)
+        fprintf(stderr, "\n  chain past the reach: the default finds %d of the %d contacts of radius 2.8 (%d warning)\n",
+                found, big.r.contact_count, d.r.warning_count);
+    ASSERT_INT_EQ(found, big.r.contact_count);
+    CU_ASSERT(big.r.contact_count > 100);
+    ASSERT_INT_EQ(d.r.contact_count, big.r.contact_count + beyond);
+    kept_free(&d);
+    kept_free(&big);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
+/* Adversarial (h-adv): an allocation refused inside a widened search leaves
+ * the worker's body slots set (search.c: offer marks slot[body]; reach.c:
+ * coarse and search_pair return on w->status without nts_search_wide_done),
+ * and nts_workers_prepare does not clear them: the next evaluation on the
+ * same context offers into stale slots and loses closest points. A square's
+ * corner (its sides 3 long, far longer than 2 r) has 17 thin sectors around
+ * it, their apexes 0.1 away: its coarse search finds 17 bodies, one more than
+ * a worker's first room (16) and more than any slave of the search itself,
+ * so the room grows there. Each allocation of the evaluation is refused in
+ * turn; after a refusal the same context must give the reference answer. */
+static long fa_calls, fa_fail_at, fa_failed;
+static void* fa_alloc(size_t size, void* user) {
+    (void)user;
+    if (++fa_calls == fa_fail_at) {
+        ++fa_failed;
+        return NULL;
+    }
+    return malloc(size);
+}
+static void fa_free(void* p, void* user) {
+    (void)user;
+    free(p);
+}
+
+static void test_refused_allocation_in_a_wide_search(void) {
+    const int sectors = 17, arc = 8, side = 40;
+    ntsx_scene x;
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    kept ref;
+    long n;
+    int k, i, retried = 0, differ = 0;
+    ntsx_scene_init(&x, 1 + sectors);
+    x.counts[0] = 4;
+    x.nodes[0] = (nts_vec2*)calloc(4, sizeof(nts_vec2));
+    x.nodes[0][0] = nts_v2(0.0, 0.0);
+    x.nodes[0][1] = nts_v2(3.0, 0.0);
+    x.nodes[0][2] = nts_v2(3.0, 3.0);
+    x.nodes[0][3] = nts_v2(0.0, 3.0);
+    x.total += 4;
+    for (k = 0; k < sectors; ++k) {
+        const double th = (100.0 + 15.0 * k) * PI_ / 180.0, half = 6.0 * PI_ / 180.0;
+        const nts_vec2 a = nts_v2(0.1 * cos(th), 0.1 * sin(th));
+        nts_vec2* p;
+        int m = 0;
+        x.counts[1 + k] = 2 * side + arc - 1;
+        p = x.nodes[1 + k] = (nts_vec2*)calloc((size_t)x.counts[1 + k], sizeof(nts_vec2));
+        for (i = 0; i < side; ++i) /* apex out along th - half */
+            p[m++] = nts_v2(a.x + 2.0 * i / side * cos(th - half), a.y + 2.0 * i / side * sin(th - half));
+        for (i = 0; i < arc; ++i) {
+            const double t = th - half + 2.0 * half * i / arc;
+            p[m++] = nts_v2(a.x + 2.0 * cos(t), a.y + 2.0 * sin(t));
+        }
+        for (i = side; i > 1; --i) /* back along th + half */
+            p[m++] = nts_v2(a.x + 2.0 * i / side * cos(th + half), a.y + 2.0 * i / side * sin(th + half));
+        x.total += m;
+        x.counts[1 + k] = m;
+    }
+    s = scene_from(&x, NULL);
+    CU_ASSERT_FATAL(s != NULL);
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &ref) == NTS_OK);
+    CU_ASSERT(ref.r.contact_count == 0); /* nothing touches: gaps only */
+    o.outputs |= NTS_OUT_GAPS;
+    for (n = 1; n < 100000; ++n) {
+        nts_context* c = nts_context_create();
+        nts_result r1, r2;
+        nts_error err;
+        int rc, gaps_ref;
+        CU_ASSERT_FATAL(c != NULL);
+        /* the reference's gaps */
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r1, &err) == NTS_OK);
+        gaps_ref = r1.gap_count;
+        nts_context_destroy(c);
+        c = nts_context_create();
+        fa_calls = fa_failed = 0;
+        fa_fail_at = n;
+        nts_set_allocator(fa_alloc, fa_free, NULL);
+        rc = nts_evaluate(c, s, &o, &r1, &err);
+        fa_fail_at = 0;
+        if (rc == NTS_OK && fa_failed == 0) {
+            nts_set_allocator(NULL, NULL, NULL);
+            nts_context_destroy(c);
+            break;
+        }
+        if (rc != NTS_OK) {
+            ++retried;
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r2, &err) == NTS_OK);
+            if (r2.gap_count != gaps_ref) {
+                if (differ == 0)
+                    fprintf(stderr, "\n  allocation %ld refused: the retry has %d closest points, the reference %d\n", n,
+                            r2.gap_count, gaps_ref);
+                ++differ;
+            }
+        }
+        nts_set_allocator(NULL, NULL, NULL);
+        nts_context_destroy(c);
+    }
+    CU_ASSERT(retried > 10);
+    ASSERT_INT_EQ(differ, 0);
+    kept_free(&ref);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
+/* Adversarial (h-adv): in a periodic box the polygon test of a slave that no
+ * search out to the reach finds anything for (reach.c: inside_body) walks
+ * the body from the image of its first node nearest to the slave; when the
+ * body spans more than half the box, that image need not be the one around
+ * the slave. A disk of radius 2.95 (first node on its left, x = 0.05) nearly
+ * fills a box of 6: a node just right of its centre lies more than 3 from
+ * that node, whose nearest image is then the one on the right, and the test
+ * says outside: the node is not counted (penetration_beyond_reach) and the
+ * chain of deep nodes stops there, losing every contact past it. */
+static void test_periodic_inside_test_of_a_large_body(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_options o = nts_default_options();
+    nts_scene* s;
+    kept d, big;
+    nts_context* c = nts_context_create();
+    nts_result res;
+    nts_error err;
+    int i, k, found = 0, n = 90, beyond = 0;
+    ntsx_scene_init(&x, 2);
+    put_disk(&x, 0, 122, 3.0, 3.0, 2.95, PI_);
+    x.counts[1] = 2 * (n + 1);
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= n; ++i) {
+        x.nodes[1][i] = nts_v2(0.025 + 0.05 * i, 2.98);
+        x.nodes[1][2 * (n + 1) - 1 - i] = nts_v2(0.025 + 0.05 * i, 3.02);
+    }
+    x.total += x.counts[1];
+    x.lx = x.ly = 6.0;
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL && c != NULL);
+    o.penalty = 10.0;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &d) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &res, &err) == NTS_OK);
+    o.search_radius = 2.8;
+    CU_ASSERT_FATAL(eval_keep(s, &o, &big) == NTS_OK);
+    for (i = 0; i < big.r.contact_count; ++i) {
+        for (k = 0; k < d.r.contact_count; ++k)
+            if (d.contacts[k].slave_node == big.contacts[i].slave_node) break;
+        if (k < d.r.contact_count && memcmp(&d.contacts[k], &big.contacts[i], sizeof(nts_contact)) == 0) ++found;
+    }
+    /* the needle's nodes beyond the reach (3 - 0.152 = 2.848): within 0.1 of the
+     * centre (2.874 deep and more; the next ones, 2.824) */
+    for (i = 0; i < 2 * (n + 1); ++i) beyond += fabs(x.nodes[1][i].x - 3.0) < 0.1;
+    if (found != big.r.contact_count)
+        fprintf(stderr, "\n  large body: the default finds %d of the %d contacts of radius 2.8\n", found,
+                big.r.contact_count);
+    ASSERT_INT_EQ(found, big.r.contact_count);
+    CU_ASSERT(big.r.contact_count > 100);
+    CU_ASSERT_FATAL(res.warning_count == 1);
+    ASSERT_INT_EQ(res.warnings[0].code, NTS_WARN_PENETRATION_BEYOND_REACH);
+    ASSERT_INT_EQ(res.warnings[0].count, beyond);
+    nts_context_destroy(c);
+    kept_free(&d);
+    kept_free(&big);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
+/* A hole of the closest point (docs/model.md §4.5, "known limit"): a box
+ * (an obstacle) whose bottom is cut into segments of 0.02 and whose right
+ * side is one segment of 1, smoothed at alpha 0.45, so the corner at (1, 0)
+ * between a short and a long segment is uneven (its curve runs 0.45 up the
+ * side and 0.009 along the bottom); a needle (a slave body) along y = 0.3
+ * from x = 0.498, inside, to 1.198, outside, crosses the side. Its node at
+ * x = 0.998 is 0.0018 inside the corner curve, and its neighbour at
+ * x = 0.988 lies beyond the corner's evolute, where (§4.3's zone fails) its
+ * closest point is not the nearest point of the curve but the bottom, 0.3
+ * deep: the neighbour is asked for within |g| + |X_k - X_i| = 0.0118, finds
+ * nothing there, and is found only because the widened search doubles its
+ * radius while it finds nothing (reach.c: search_pair). It guards the
+ * doubling (without it, 2 of 102 contacts). */
+static void test_hole_found_by_doubling(void) {
+    ntsx_scene x;
+    nts_role roles[2] = {NTS_ROLE_MASTER, NTS_ROLE_SLAVE};
+    nts_scene* s;
+    int i, m = 0;
+    ntsx_scene_init(&x, 2);
+    x.nodes[0] = (nts_vec2*)calloc(53, sizeof(nts_vec2));
+    for (i = 0; i < 50; ++i) x.nodes[0][m++] = nts_v2(0.02 * i, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 0.0);
+    x.nodes[0][m++] = nts_v2(1.0, 1.0);
+    x.nodes[0][m++] = nts_v2(0.0, 1.0);
+    x.counts[0] = m;
+    x.total += m;
+    x.counts[1] = 2 * 71;
+    x.nodes[1] = (nts_vec2*)calloc((size_t)x.counts[1], sizeof(nts_vec2));
+    for (i = 0; i <= 70; ++i) {
+        x.nodes[1][i] = nts_v2(0.498 + 0.01 * i, 0.3);
+        x.nodes[1][2 * 71 - 1 - i] = nts_v2(0.498 + 0.01 * i, 0.31);
+    }
+    x.total += x.counts[1];
+    s = scene_from(&x, roles);
+    CU_ASSERT_FATAL(s != NULL);
+    check_default_finds_all(s, 0.45, 10.0, 3.0, 90, "a hole found by doubling");
+    nts_scene_destroy(s);
+    ntsx_scene_free(&x);
+}
+
 void register_reach_suite(void) {
     CU_pSuite s = CU_add_suite("reach", NULL, NULL);
     ADD_TEST(s, test_issue_packing);
@@ -505,4 +762,8 @@ void register_reach_suite(void) {
     ADD_TEST(s, test_periodic_edge);
     ADD_TEST(s, test_periodic_reach_limit);
     ADD_TEST(s, test_explicit_radius_warns);
+    ADD_TEST(s, test_periodic_chain_past_the_reach);
+    ADD_TEST(s, test_refused_allocation_in_a_wide_search);
+    ADD_TEST(s, test_periodic_inside_test_of_a_large_body);
+    ADD_TEST(s, test_hole_found_by_doubling);
 }
