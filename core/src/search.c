@@ -610,23 +610,32 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
         ncx = wide_span(q.x, reach, cl->inv_hx, cl->nx, cl->periodic, &cx0);
         ncy = wide_span(q.y, reach, cl->inv_hy, cl->ny, cl->periodic, &cy0);
         /* One body asked for and few entries: try them all instead. */
-        if (body < 0 || (long long)ncx * ncy * (cl->cell_start[cl->nx * cl->ny] + 1) >
+        /* the cells' cost: a range of keys per row, and the keys in them */
+        if (body < 0 || (long long)ncy * cl->nx * cl->ny + (long long)ncx * ncy * (cl->cell_start[cl->nx * cl->ny] + 1) <
                             (long long)(e1 - e0) * cl->nx * cl->ny) {
             for (b = 0; b < ncy; ++b) {
                 const int row = ((cy0 + b) % cl->ny) * cl->nx;
-                for (a = 0; a < ncx; ++a) {
-                    const int cell = row + (cx0 + a) % cl->nx;
-                    int e;
-                    for (e = cl->cell_start[cell]; e < cl->cell_start[cell + 1]; ++e) {
+                int run, e;
+                /* The row's cells are consecutive, and so are their keys: one
+                 * range (two where the row wraps around the box), whatever
+                 * the empty cells inside a deep slave's range. */
+                for (run = 0; run < 2; ++run) {
+                    const int c0 = run == 0 ? cx0 : 0;
+                    const int c1 = run == 0 ? (cx0 + ncx < cl->nx ? cx0 + ncx : cl->nx) : cx0 + ncx - cl->nx;
+                    if (c1 <= c0) continue;
+                    for (e = cl->cell_start[row + c0]; e < cl->cell_start[row + c1]; ++e) {
                         j = env->keys->entry[e];
                         if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
                     }
-                    if (env->long_start != NULL)
+                }
+                if (env->long_start != NULL)
+                    for (a = 0; a < ncx; ++a) {
+                        const int cell = row + (cx0 + a) % cl->nx;
                         for (e = env->long_start[cell]; e < env->long_start[cell + 1]; ++e) {
                             j = env->long_m[env->long_items[e]].entry;
                             if (j >= e0 && j < e1) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
                         }
-                }
+                    }
             }
             return;
         }
