@@ -555,7 +555,7 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
     nts_vec2 d;
     if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE) return;
     if (body < 0) {
-        const double depth = nts_body_shape(env, shape, b)[3];
+        const double depth = nts_body_shape(env, shape, b)[3] * (1.0 + 1e-9) + env->wide_pad; /* with round-off */
         if (nts_outside_circle(env, shape, b, xs)) return; /* outside the body: no active contact there */
         if (depth < rb) rb = depth;
     }
