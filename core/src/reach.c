@@ -267,18 +267,18 @@ static int follow(nts_context* ctx, const search_env* env, int k, const candidat
     return rc;
 }
 
-/* Slave k of request q, inside q->body in a periodic box with no closest
+/* Slave q.slave, inside q.body in a periodic box with no closest
  * point there within the largest radius (counted: r->unresolved): its chain
  * goes on past it, and the nodes beyond may lie within reach again. Its
  * neighbours that did not ask are searched out to that radius (no normal:
  * no hull test). */
-static int follow_beyond(nts_context* ctx, const search_env* env, const reach_request* q) {
+static int follow_beyond(nts_context* ctx, const search_env* env, reach_request q) {
     const seg_data* seg = env->seg;
-    const int k = q->slave;
     int rc = NTS_OK;
-    if (!(q->from & SIDE_PREV)) rc = enqueue(ctx, env, seg[k].prev, q->body, env->reach_max, SIDE_NEXT, 0.0, 0.0);
-    if (rc == NTS_OK && !(q->from & SIDE_NEXT))
-        rc = enqueue(ctx, env, seg[k].next, q->body, env->reach_max, SIDE_PREV, 0.0, 0.0);
+    /* (q is a copy: enqueue may move the queue it came from) */
+    if (!(q.from & SIDE_PREV)) rc = enqueue(ctx, env, seg[q.slave].prev, q.body, env->reach_max, SIDE_NEXT, 0.0, 0.0);
+    if (rc == NTS_OK && !(q.from & SIDE_NEXT))
+        rc = enqueue(ctx, env, seg[q.slave].next, q.body, env->reach_max, SIDE_PREV, 0.0, 0.0);
     return rc;
 }
 
@@ -598,7 +598,7 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
             if (r->hits[q].kind >= 0) rc = settle(ctx, env, r->queue[q].slave, &r->hits[q], r->queue[q].from);
             else if (env->lx > 0.0 && inside_body(env, r->queue[q].slave, r->queue[q].body)) {
                 ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
-                rc = follow_beyond(ctx, env, &r->queue[q]);
+                rc = follow_beyond(ctx, env, r->queue[q]);
             }
         }
     }

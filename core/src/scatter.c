@@ -79,7 +79,7 @@ static merged merged_begin(const nts_context* ctx, const chunk_info* ch) {
     merged it;
     it.rec = chunk_recs(ch);
     it.n = chunk_count(ch);
-    it.deep = ctx->reach.deep + ch->deep_at;
+    it.deep = ch->deep_count > 0 ? ctx->reach.deep + ch->deep_at : NULL; /* (no deep contact: maybe no buffer) */
     it.m = ch->deep_count;
     it.i = it.j = 0;
     return it;
