@@ -702,6 +702,13 @@ static void section_peer(const char* dir) {
         make_packing(&b, sizes[si], 0, 555u + (uint64_t)si);
         s = scene_from(&b);
         o.alpha = 0.0;
+        /* Like for like with Shapely's dwithin r: the median segment given
+         * explicitly, so that the gaps are those within r (the default adds
+         * every active contact deeper than r, which a query within r cannot
+         * see: docs/model.md §4.5). */
+        o.outputs = 0u;
+        eval_or_die(ctx, s, &o, &r);
+        o.search_radius = r.summary.search_radius;
         o.outputs = NTS_OUT_GAPS;
         tg = time_eval(s, &o, g_quick ? 0.05 : 0.3);
         o.outputs = nts_default_options().outputs;

@@ -706,9 +706,14 @@ def report(res, made):
                          if r.get("speedup_round_min") else "",
                          r["before_contacts"], r["after_contacts"]] for r in cross]))
         L.append("")
-        L.append("The contact counts differ because the default search radius does (the longest segment before, "
-                 "the median now): a larger radius finds no more contacts in principle, but a different closest "
-                 "point can win within it; \"Across releases\" compares with the radius given.")
+        same = all(r["before_contacts"] == r["after_contacts"] for r in cross)
+        L.append(("Equal work: the same contacts on every row (the previous release's default radius, the longest "
+                  "segment, reaches every penetration of these packings; this release's default, the median "
+                  "segment, finds every active contact at any depth: docs/model.md §4.5)." if same else
+                  "**The contact counts differ on some rows: those ratios are not at equal work.** (The previous "
+                  "release's default radius is the longest segment; this release's default finds every active "
+                  "contact at any depth: docs/model.md §4.5.)") +
+                 " \"Across releases\" compares with the radius given.")
         L.append("")
     if cmp_rows:
         L.append("### Across releases: the same contacts, forces at round-off")
@@ -788,7 +793,9 @@ def report(res, made):
                  "`dwithin(polygon)` is true for any point inside, however deep, while our rule is |g| <= r, a "
                  "distance to the boundary. Both radii are inclusive; a pair within round-off of r could be "
                  "kept by one side only (counted as only-ours/only-Shapely; *unexplained* counts those that "
-                 "are not within round-off of r). The peer has no periodic box, so the packing is open.")
+                 "are not within round-off of r). Ours is given r, the median segment, explicitly: the default "
+                 "adds the active contacts deeper than r (docs/model.md §4.5), which a query within r cannot see. "
+                 "The peer has no periodic box, so the packing is open.")
         L.append("")
         L.append(table(["particles", "surface nodes", "pairs (ours)", "pairs (Shapely)", "common", "only ours",
                         "only Shapely", "unexplained", "sign flips", "vertex pairs", "gap diff max",
