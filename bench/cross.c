@@ -15,7 +15,13 @@
  *       For a fixed set of scenes and options, with the search radius given
  *       (the median segment, computed here, so that releases whose default
  *       radius differs search alike): every node's force and every active
- *       contact, one binary file per case (cross_dump.py reads them). */
+ *       contact, one binary file per case (cross_dump.py reads them).
+ *   nts_cross memory EVALS
+ *       A periodic packing of 1,441 surface nodes, default options, 2
+ *       threads, EVALS evaluations on one context: the context's bytes after
+ *       the 1st, 10th, 100th, 1,000th and last, and the most, one CSV row
+ *       each (bench/thread_memory.py runs it beside busy loops, whose
+ *       schedule deals the threads uneven shares). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -202,9 +208,44 @@ static int run_dump(const char* dir) {
     return 0;
 }
 
+static int run_memory(int evals) {
+    ntsx_scene b;
+    ntsx_packing_def def = ntsx_default_packing(30, 1, 7);
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    size_t most = 0;
+    nts_scene* s;
+    int k;
+    ntsx_packing(&b, &def);
+    s = scene_of(&b);
+    if (ctx == NULL) die("context", NULL);
+    o.threads = 2;
+    printf("surface_nodes,eval,bytes,most\n");
+    for (k = 1; k <= evals; ++k) {
+        size_t held;
+        if (nts_evaluate(ctx, s, &o, &r, &err) != NTS_OK) {
+            printf("%d,%d,error,%zu\n", nts_scene_surface_node_count(s), k, most);
+            fprintf(stderr, "nts_cross: evaluation %d: %s\n", k, err.message);
+            return 1;
+        }
+        held = nts_context_memory_bytes(ctx);
+        most = held > most ? held : most;
+        if (k == 1 || k == 10 || k == 100 || k == 1000 || k == evals)
+            printf("%d,%d,%zu,%zu\n", nts_scene_surface_node_count(s), k, held, most);
+        fflush(stdout);
+    }
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    ntsx_scene_free(&b);
+    return 0;
+}
+
 int main(int argc, char** argv) {
+    if (argc == 3 && strcmp(argv[1], "memory") == 0) return run_memory(atoi(argv[2]) > 0 ? atoi(argv[2]) : 1);
     if (argc >= 3 && strcmp(argv[1], "time") == 0) return run_time(argv[2], argc > 3 && strcmp(argv[3], "--quick") == 0);
     if (argc == 3 && strcmp(argv[1], "dump") == 0) return run_dump(argv[2]);
-    fprintf(stderr, "usage: %s time FILE.csv [--quick] | dump DIR\n", argv[0]);
+    fprintf(stderr, "usage: %s time FILE.csv [--quick] | dump DIR | memory EVALS\n", argv[0]);
     return 2;
 }
