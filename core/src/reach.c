@@ -114,21 +114,16 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
             }
             c[0] = c[1] = 0.0;
             c[2] = HUGE_VAL;
-            c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
-            c[4] = x0;
-            c[5] = x1;
-            c[6] = y0;
-            c[7] = y1;
-            return c;
+        } else {
+            c[0] = 0.5 * (x0 + x1);
+            c[1] = 0.5 * (y0 + y1);
+            for (m = m0; m < m1; ++m) {
+                const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+                const double dx = d.x - c[0], dy = d.y - c[1], d2 = dx * dx + dy * dy;
+                r2 = d2 > r2 ? d2 : r2;
+            }
+            c[2] = r2;
         }
-        c[0] = 0.5 * (x0 + x1);
-        c[1] = 0.5 * (y0 + y1);
-        for (m = m0; m < m1; ++m) {
-            const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
-            const double dx = d.x - c[0], dy = d.y - c[1], d2 = dx * dx + dy * dy;
-            r2 = d2 > r2 ? d2 : r2;
-        }
-        c[2] = r2;
         c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
         c[4] = x0;
         c[5] = x1;
