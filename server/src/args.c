@@ -1,4 +1,5 @@
 /* ntscontactd command line. */
+#include <arpa/inet.h>
 #include <errno.h>
 #include <getopt.h>
 #include <limits.h>
@@ -81,6 +82,10 @@ static const char usage_service[] =
     "                       session takes the id this header gives (32-64 URL-safe\n"
     "                       characters; deploy/nginx.conf sends nginx's $request_id).\n"
     "                       Only behind a proxy that always sets it\n"
+    "  --trusted-proxy ADDR a proxy in front (numeric address, repeatable): its\n"
+    "                       requests count as those of the client its\n"
+    "                       X-Forwarded-For names last, and its connections are\n"
+    "                       not limited per client (the proxy limits its clients)\n"
     "  --max-sessions N     scene sessions held at once (default 64); when full, the\n"
     "                       least recently used idle one is evicted\n"
     "  --session-ttl S      a session unused for S seconds is dropped (default 600)\n"
@@ -159,7 +164,7 @@ enum {
     OPT_MAX_DEPTH, OPT_MAX_BODIES, OPT_MAX_NODES, OPT_MAX_NODES_PER_BODY, OPT_MAX_SECONDS, OPT_MAX_SESSIONS,
     OPT_SESSION_TTL, OPT_SESSION_MEMORY, OPT_DRAIN_SECONDS, OPT_MAX_PER_CLIENT, OPT_LOG_FILE, OPT_LOG_FORMAT,
     OPT_MAX_CANDIDATES, OPT_TOKEN_FILE, OPT_ALLOW_ORIGIN, OPT_ALLOW_HOST, OPT_TLS_CERT, OPT_TLS_KEY,
-    OPT_HEADER_SECONDS, OPT_MAX_MEMORY, OPT_SESSION_ID_HEADER
+    OPT_HEADER_SECONDS, OPT_MAX_MEMORY, OPT_SESSION_ID_HEADER, OPT_TRUSTED_PROXY
 };
 
 static const struct option long_options[] = {
@@ -192,6 +197,7 @@ static const struct option long_options[] = {
     {"header-seconds", required_argument, NULL, OPT_HEADER_SECONDS},
     {"max-memory", required_argument, NULL, OPT_MAX_MEMORY},
     {"session-id-header", required_argument, NULL, OPT_SESSION_ID_HEADER},
+    {"trusted-proxy", required_argument, NULL, OPT_TRUSTED_PROXY},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
     {NULL, 0, NULL, 0}};
@@ -309,6 +315,19 @@ static int apply_option(int c, const char* flag, const char* v, ntsd_config* cfg
         return add_name(flag, v, cfg->allow_origin, &cfg->allow_origin_count);
     case OPT_ALLOW_HOST:
         return add_name(flag, v, cfg->allow_host, &cfg->allow_host_count);
+    case OPT_TRUSTED_PROXY: {
+        unsigned char raw[16];
+        if (inet_pton(strchr(v, ':') != NULL ? AF_INET6 : AF_INET, v, raw) != 1) {
+            fprintf(stderr, "ntscontactd: --trusted-proxy: a numeric IPv4 or IPv6 address, not '%s'\n", v);
+            return -1;
+        }
+        if (cfg->trusted_proxy_count == NTSD_ALLOW_MAX || strlen(v) >= sizeof cfg->trusted_proxy[0]) {
+            fprintf(stderr, "ntscontactd: --trusted-proxy: at most %d\n", NTSD_ALLOW_MAX);
+            return -1;
+        }
+        strcpy(cfg->trusted_proxy[cfg->trusted_proxy_count++], v);
+        return 0;
+    }
     case OPT_SESSION_ID_HEADER:
         if (strlen(v) == 0 || strlen(v) >= sizeof cfg->session_id_header) {
             fprintf(stderr, "ntscontactd: --session-id-header: a header name under 64 bytes\n");

@@ -39,6 +39,7 @@ typedef struct ntsd_request {
     char method[16];
     char path[256];
     char peer[64];
+    char client[NTSD_CLIENT_LEN]; /* who it is, for per-client quotas and ownership (ntsd_client_key) */
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
     int over_budget;           /* a chunked body outgrew the budget: answer 503 */
@@ -563,8 +564,11 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         if (!allowed)
             return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
                                "requests from a web page of this Origin are refused (--allow-origin)", NULL, 1);
-        r->authorized = ntsd_authorized(&s->config,
-                                        MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION));
+        int token = -1;
+        r->authorized = ntsd_authorized(
+            &s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION), &token);
+        ntsd_client_key(&s->config, r->peer, MHD_lookup_connection_value(c, MHD_HEADER_KIND, "X-Forwarded-For"),
+                        token, r->client);
         if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH && (has_body || is_post_route(r)))
             return reply_unauthorized(c, r, 1);
     }

@@ -51,6 +51,10 @@ typedef struct ntsd_config {
     char allow_host[NTSD_ALLOW_MAX][256]; /* --allow-host: the names a request's Host may give (none: any) */
     int allow_host_count;
     char session_id_header[64]; /* --session-id-header: a proxy's id for a new session ("" none) */
+    /* --trusted-proxy: numeric addresses of the proxies in front (deploy/nginx.conf).
+     * A request from one of them is the client's that X-Forwarded-For names last. */
+    char trusted_proxy[NTSD_ALLOW_MAX][64];
+    int trusted_proxy_count;
     char tls_cert[512], tls_key[512];
     /* What every request hands to the codec: max_bytes (--max-bytes, also the
      * cap of a body in flight), max_depth, limits, max_seconds. */
@@ -260,8 +264,21 @@ int ntsd_conn_client_left(void* user);
 int ntsd_load_tokens(ntsd_config* cfg);
 void ntsd_free_tokens(ntsd_config* cfg);
 /* 1 when `authorization` (the header's value, may be NULL) carries one of the
- * tokens, compared in constant time; 1 as well when no token is configured. */
-int ntsd_authorized(const ntsd_config* cfg, const char* authorization);
+ * tokens, compared in constant time; 1 as well when no token is configured.
+ * `which` (may be NULL): the index of the token it carries, -1 for none. */
+int ntsd_authorized(const ntsd_config* cfg, const char* authorization, int* which);
+
+/* Who a request is, for what is counted or owned per client (sessions and
+ * their quotas): "token:" and 16 hex digits of a hash of its bearer token
+ * when tokens are configured, otherwise "addr:" and its address: the peer's,
+ * or, when the peer is a --trusted-proxy, the last address X-Forwarded-For
+ * gives (the one that proxy saw). Never logged (a token's hash is not a
+ * secret, but it need not travel). */
+#define NTSD_CLIENT_LEN 80
+void ntsd_client_key(const ntsd_config* cfg, const char* peer, const char* forwarded_for, int token,
+                     char out[NTSD_CLIENT_LEN]);
+/* 1 when `peer` (a numeric address) is one of --trusted-proxy. */
+int ntsd_is_trusted_proxy(const ntsd_config* cfg, const char* peer);
 
 /* Start listening. 0, or -1 with a message printed. */
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg);
