@@ -41,6 +41,7 @@ typedef struct ntsd_request {
     char peer[64];
     char client[NTSD_CLIENT_LEN]; /* who it is, for per-client quotas and ownership (ntsd_client_key) */
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
+    int cut_by_watcher;        /* the watcher cut its connection (counted there) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
     int over_budget;           /* a chunked body outgrew the budget: answer 503 */
     const char* refusal;       /* why the service refused it (the metrics' reason), or NULL */
@@ -70,15 +71,7 @@ static void copy_str(char* dst, size_t cap, const char* src) {
 
 static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
     const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
-    copy_str(out, cap, "-");
-    if (ci == NULL || ci->client_addr == NULL) return;
-    if (ci->client_addr->sa_family == AF_INET) {
-        const struct sockaddr_in* a = (const struct sockaddr_in*)(const void*)ci->client_addr;
-        inet_ntop(AF_INET, &a->sin_addr, out, (socklen_t)cap);
-    } else if (ci->client_addr->sa_family == AF_INET6) {
-        const struct sockaddr_in6* a = (const struct sockaddr_in6*)(const void*)ci->client_addr;
-        inet_ntop(AF_INET6, &a->sin6_addr, out, (socklen_t)cap);
-    }
+    ntsd_address_name(ci != NULL ? ci->client_addr : NULL, out, cap);
 }
 
 /* ------------------------------------------------------------- answers */
@@ -528,20 +521,24 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     unsigned long long length = cl != NULL ? strtoull(cl, NULL, 10) : 0;
     int has_body = length > 0 || te != NULL;
     int shutting;
-    unsigned open_connections;
+    const char* refused;
 
     pthread_mutex_lock(&s->lock);
     shutting = s->shutting_down;
-    open_connections = s->connections;
+    refused = r->link != NULL ? r->link->refused : NULL;
     pthread_mutex_unlock(&s->lock);
 
     if (shutting) {
         r->refusal = "shutting_down";
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "the server is shutting down", NULL, 1);
     }
-    if (open_connections > s->config.max_connections) {
-        r->refusal = "max_connections";
-        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "too many connections; retry later", NULL, 1);
+    if (refused != NULL) { /* no room when it opened, and nothing slower to cut (watch.c) */
+        r->refusal = refused;
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED),
+                           strcmp(refused, "max_per_client") == 0
+                               ? "too many connections from this address (--max-per-client); retry later"
+                               : "too many connections (--max-connections); retry later",
+                           NULL, 1);
     }
     /* Framing that two parsers may read two ways (request smuggling, RFC 9112
      * 6.1): libmicrohttpd 0.9.75 takes the chunks; we refuse the request. */
@@ -599,10 +596,13 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     if (length > (unsigned long long)s->config.codec.max_bytes)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-bytes", NULL, 1);
-    /* The body in flight counts against --max-memory from its first byte. */
-    if (!budget_reserve(s, r, (size_t)length)) return reply_over_budget(c, r, (size_t)length, 1);
-    if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
-        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
+    /* A body that can never fit the budget is refused before it is read. One
+     * that may is counted against --max-memory as its bytes arrive, not as
+     * announced: sockets announcing large bodies and sending nothing hold
+     * nothing (issue 23). */
+    if (length > (unsigned long long)s->config.max_memory) return reply_over_budget(c, r, (size_t)length, 1);
+    ntsd_body_expect(&r->body, (size_t)length);
+    if (has_body) ntsd_conn_enter(s, r->link, NTSD_CONN_RECEIVING);
     return MHD_YES;
 }
 
@@ -627,7 +627,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         {
             const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
             r->link = ci != NULL ? ci->socket_context : NULL;
-            ntsd_conn_busy(s, r->link, 1);
+            ntsd_conn_enter(s, r->link, NTSD_CONN_WORKING);
         }
         *con_cls = r;
         pthread_mutex_lock(&s->lock);
@@ -651,7 +651,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         if (r->over_budget) return MHD_YES;
         switch (ntsd_body_append(&r->body, upload_data, n)) {
         case 0:
-            if (!budget_reserve(s, r, r->body.length)) { /* a chunked body, growing */
+            if (!budget_reserve(s, r, r->body.capacity)) { /* the bytes held, as they grow */
                 r->over_budget = 1;
                 ntsd_body_free(&r->body);
             }
@@ -668,6 +668,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     }
 
     if (r->queued) return MHD_YES;
+    ntsd_conn_enter(s, r->link, NTSD_CONN_WORKING);
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
@@ -691,7 +692,9 @@ static const char* termination_name(enum MHD_RequestTerminationCode toe) {
 /* The reason a request counts as refused by the service (not a fault of its
  * scene): the limits, access control, the budgets; NULL otherwise. */
 static const char* refusal_of(const ntsd_request* r, int ok) {
-    if (!ok) return strcmp(r->code, "upload_timeout") == 0 || strcmp(r->code, "client_left") == 0 ? r->code : NULL;
+    if (!ok) /* (a connection the watcher cut is counted there) */
+        return r->cut_by_watcher ? NULL
+               : strcmp(r->code, "upload_timeout") == 0 || strcmp(r->code, "client_left") == 0 ? r->code : NULL;
     if (r->refusal != NULL) return r->refusal;
     switch (r->status) {
     case MHD_HTTP_UNAUTHORIZED:
@@ -711,7 +714,15 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     double t_end = ntsd_now();
     (void)c;
     if (r == NULL) return;
-    ntsd_conn_busy(s, r->link, 0);
+    ntsd_conn_enter(s, r->link, NTSD_CONN_WAITING);
+    if (!ok && r->link != NULL) { /* cut by the watcher (a deadline, or room made): say why */
+        pthread_mutex_lock(&s->lock);
+        if (r->link->cut != NULL) {
+            r->cut_by_watcher = 1;
+            if (r->code[0] == '\0') copy_str(r->code, sizeof r->code, r->link->cut);
+        }
+        pthread_mutex_unlock(&s->lock);
+    }
     if (r->resp.code != NULL && strcmp(r->resp.code, nts_status_name(NTS_ECANCELLED)) == 0 && r->link != NULL &&
         ntsd_conn_client_left(r->link)) {
         copy_str(r->code, sizeof r->code, "client_left");
@@ -749,17 +760,13 @@ static void on_connection(void* cls, struct MHD_Connection* c, void** socket_con
     ntsd_server* s = cls;
     if (toe == MHD_CONNECTION_NOTIFY_STARTED) {
         const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
-        *socket_context = ci != NULL ? ntsd_conn_open(s, ci->connect_fd) : NULL;
+        char addr[64];
+        peer_name(c, addr, sizeof addr);
+        *socket_context = ci != NULL ? ntsd_conn_open(s, ci->connect_fd, addr) : NULL;
     } else {
         ntsd_conn_close(s, *socket_context);
         *socket_context = NULL;
     }
-    pthread_mutex_lock(&s->lock);
-    if (toe == MHD_CONNECTION_NOTIFY_STARTED)
-        s->connections++;
-    else if (s->connections > 0)
-        s->connections--;
-    pthread_mutex_unlock(&s->lock);
 }
 
 /* ------------------------------------------------------------ start/stop */
@@ -859,9 +866,6 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_SOCK_ADDR, (struct sockaddr*)&addr,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->timeout_s,
         MHD_OPTION_CONNECTION_LIMIT, hard_limit,
-        /* One client cannot hold every connection (one trickling its headers
-         * is cut by --header-seconds: watch.c). */
-        MHD_OPTION_PER_IP_CONNECTION_LIMIT, cfg->max_per_client,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
         MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
@@ -896,11 +900,13 @@ ntsd_stats ntsd_server_stats(ntsd_server* s) {
     st.shutting_down = s->shutting_down;
     st.in_flight = s->in_flight;
     st.evaluating = s->evaluating;
-    st.connections = s->connections;
+    st.connections = s->live; /* open and not being cut: what the limits count */
     st.served = s->served;
     st.memory_in_use = s->memory_in_use;
     st.memory_refused = s->memory_refused;
     st.header_timeouts = s->header_timeouts;
+    st.body_timeouts = s->body_timeouts;
+    st.shed = s->shed;
     st.client_left = s->client_left;
     st.receiving_s = s->receiving_s;
     st.handling_s = s->handling_s;
