@@ -39,6 +39,7 @@ typedef struct ntsd_request {
     char method[16];
     char path[256];
     char peer[64];
+    int http10;                /* an HTTP/1.0 request */
     char client[NTSD_CLIENT_LEN]; /* who it is, for per-client quotas and ownership (ntsd_client_key) */
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
@@ -520,6 +521,70 @@ static int host_allowed(const ntsd_config* cfg, const char* host) {
     return 0;
 }
 
+/* The headers a request may give once: libmicrohttpd keeps every copy and
+ * its lookup gives the first, where a proxy in front may take another. */
+static const char* const once_headers[] = {MHD_HTTP_HEADER_AUTHORIZATION, MHD_HTTP_HEADER_HOST, "Origin",
+                                           MHD_HTTP_HEADER_CONTENT_LENGTH, MHD_HTTP_HEADER_TRANSFER_ENCODING};
+#define NTSD_ONCE_HEADERS (sizeof once_headers / sizeof once_headers[0])
+
+typedef struct header_scan {
+    int bad_name;          /* a name that is not a token */
+    const char* twice;     /* the first of once_headers given twice, or NULL */
+    int seen[NTSD_ONCE_HEADERS];
+} header_scan;
+
+/* tchar of RFC 9110 5.6.2: what a header's name is made of. */
+static int is_token_char(unsigned char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
+           (ch != '\0' && strchr("!#$%&'*+-.^_`|~", ch) != NULL);
+}
+
+static enum MHD_Result scan_header(void* cls, enum MHD_ValueKind kind, const char* key, const char* value) {
+    header_scan* h = cls;
+    const char* k = key != NULL ? key : "";
+    size_t i;
+    (void)kind;
+    (void)value;
+    if (*k == '\0') h->bad_name = 1;
+    for (; *k != '\0'; ++k)
+        if (!is_token_char((unsigned char)*k)) h->bad_name = 1;
+    for (i = 0; key != NULL && i < NTSD_ONCE_HEADERS; ++i)
+        if (strcasecmp(key, once_headers[i]) == 0 && h->seen[i]++ == 1 && h->twice == NULL) h->twice = once_headers[i];
+    return MHD_YES;
+}
+
+/* Headers that two parsers may read two ways (request smuggling, RFC 9112
+ * 6.1, 6.3 and 5.1): one 400 and a close, or MHD_YES to go on. libmicrohttpd
+ * 0.9.75 keeps a name with a space before its colon as a name of its own
+ * (`Transfer-Encoding : chunked` was no framing: the chunks were read as the
+ * next request), and reads a Transfer-Encoding other than `chunked` as a body
+ * that lasts until the connection closes (the request hung until --timeout). */
+static int refuse_framing(struct MHD_Connection* c, ntsd_request* r, const char* cl, const char* te,
+                          enum MHD_Result* answer) {
+    header_scan h;
+    char msg[200];
+    memset(&h, 0, sizeof h);
+    MHD_get_connection_values(c, MHD_HEADER_KIND, scan_header, &h);
+    if (h.bad_name)
+        snprintf(msg, sizeof msg, "a header name with whitespace or a character outside RFC 9110's token "
+                                  "(a space before the colon?)");
+    else if (h.twice != NULL)
+        snprintf(msg, sizeof msg, "the %s header is given twice: Authorization, Host, Origin, Content-Length "
+                                  "and Transfer-Encoding may come once each", h.twice);
+    else if (te != NULL && r->http10)
+        snprintf(msg, sizeof msg, "Transfer-Encoding in an HTTP/1.0 request: the framing is faulty");
+    else if (te != NULL && strcasecmp(te, "chunked") != 0)
+        snprintf(msg, sizeof msg, "Transfer-Encoding other than chunked alone: the body's length cannot be known");
+    else if (cl != NULL && te != NULL)
+        /* libmicrohttpd 0.9.75 takes the chunks */
+        snprintf(msg, sizeof msg, "Content-Length and Transfer-Encoding together: ambiguous framing");
+    else
+        return 0;
+    r->refusal = h.bad_name || h.twice != NULL ? "bad_header" : "bad_framing";
+    *answer = reply_error(c, r, ntsj_code_name(NTSJ_BAD_REQUEST), msg, NULL, 1);
+    return 1;
+}
+
 static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd_request* r) {
     const char* ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     const char* cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -543,12 +608,9 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         r->refusal = "max_connections";
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "too many connections; retry later", NULL, 1);
     }
-    /* Framing that two parsers may read two ways (request smuggling, RFC 9112
-     * 6.1): libmicrohttpd 0.9.75 takes the chunks; we refuse the request. */
-    if (cl != NULL && te != NULL) {
-        r->refusal = "bad_framing";
-        return reply_error(c, r, ntsj_code_name(NTSJ_BAD_REQUEST),
-                           "Content-Length and Transfer-Encoding together: ambiguous framing", NULL, 1);
+    {
+        enum MHD_Result answer;
+        if (refuse_framing(c, r, cl, te, &answer)) return answer;
     }
     if (s->config.allow_host_count > 0 && !host_allowed(&s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST))) {
         r->refusal = "forbidden";
@@ -611,7 +673,6 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
                                   void** con_cls) {
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
-    (void)version;
 
     if (r == NULL) {
         r = calloc(1, sizeof *r);
@@ -622,6 +683,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         ntsd_body_init(&r->body, s->config.codec.max_bytes);
         copy_str(r->method, sizeof r->method, method);
         copy_str(r->path, sizeof r->path, url);
+        r->http10 = version != NULL && strcmp(version, MHD_HTTP_VERSION_1_0) == 0;
         peer_name(c, r->peer, sizeof r->peer);
         r->route = ntsd_route_find(url, method);
         {
