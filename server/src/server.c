@@ -627,10 +627,12 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
             return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
                                "requests from a web page of this Origin are refused (--allow-origin)", NULL, 1);
         int token = -1;
+        pthread_rwlock_rdlock(&s->tokens_lock); /* SIGHUP may swap the list */
         r->authorized = ntsd_authorized(
             &s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION), &token);
         ntsd_client_key(&s->config, r->peer, MHD_lookup_connection_value(c, MHD_HEADER_KIND, "X-Forwarded-For"),
                         token, r->client);
+        pthread_rwlock_unlock(&s->tokens_lock);
         if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH && (has_body || is_post_route(r)))
             return reply_unauthorized(c, r, 1);
     }
@@ -854,6 +856,8 @@ static void release(ntsd_server* s) {
     ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);
     pthread_mutex_destroy(&s->lock);
+    pthread_rwlock_destroy(&s->tokens_lock);
+    ntsd_free_tokens(&s->config);
 }
 
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
@@ -889,15 +893,19 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
 
     if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, cfg->session_ttl_s, cfg->session_memory) != 0) {
         ntsd_log_message("cannot allocate the session table");
+        ntsd_free_tokens(&s->config);
         return -1;
     }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
+    pthread_rwlock_init(&s->tokens_lock, NULL);
     if (ntsd_watch_start(s) != 0) {
         ntsd_log_message("cannot start the connection watcher");
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
+        pthread_rwlock_destroy(&s->tokens_lock);
+        ntsd_free_tokens(&s->config);
         return -1;
     }
     s->started = ntsd_now();
@@ -940,6 +948,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     return 0;
 bad_host:
     ntsd_log_message("--host: not a numeric IPv4 or IPv6 address: %s", cfg->host);
+    ntsd_free_tokens(&s->config);
     return -1;
 }
 

@@ -216,7 +216,10 @@ typedef struct ntsd_conn {
 } ntsd_conn;
 
 typedef struct ntsd_server {
+    /* config.tokens and config.token_count belong to the server (freed at
+     * stop) and change at SIGHUP: read them only under tokens_lock (read). */
     ntsd_config config;
+    pthread_rwlock_t tokens_lock;
     struct MHD_Daemon* daemon;
     ntsd_sessions sessions;
     unsigned port;             /* the bound port */
@@ -259,10 +262,17 @@ void ntsd_conn_busy(ntsd_server* s, ntsd_conn* k, int busy);
 /* 1 when the client of this connection has gone (for ntsj_config.cancel). */
 int ntsd_conn_client_left(void* user);
 
-/* Read --token-file: one token a line (blank lines and # comments skipped).
- * 0, or -1 with a message printed. */
+/* Read a token file: one token a line (blank lines and # comments skipped).
+ * 0 with a malloc'ed list, or -1 with why in `why` (a file that cannot be
+ * opened or holds no token; no memory). */
+int ntsd_read_tokens(const char* path, char*** tokens, int* count, char* why, size_t cap);
+void ntsd_free_token_list(char** tokens, int count);
+/* Read --token-file into cfg at the start. 0, or -1 with a message printed. */
 int ntsd_load_tokens(ntsd_config* cfg);
 void ntsd_free_tokens(ntsd_config* cfg);
+/* SIGHUP: read --token-file again and swap the server's list under
+ * tokens_lock. A file that fails to load keeps the old list (logged): 0 or -1. */
+int ntsd_server_reload_tokens(ntsd_server* s);
 /* 1 when `authorization` (the header's value, may be NULL) carries one of the
  * tokens, compared in constant time; 1 as well when no token is configured.
  * `which` (may be NULL): the index of the token it carries, -1 for none. */
@@ -280,7 +290,8 @@ void ntsd_client_key(const ntsd_config* cfg, const char* peer, const char* forwa
 /* 1 when `peer` (a numeric address) is one of --trusted-proxy. */
 int ntsd_is_trusted_proxy(const ntsd_config* cfg, const char* peer);
 
-/* Start listening. 0, or -1 with a message printed. */
+/* Start listening. 0, or -1 with a message printed. The server takes cfg's
+ * tokens (ntsd_server_stop frees them, as does a failed start). */
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg);
 /* Stop accepting connections; requests arriving on open connections get 503. */
 void ntsd_server_quiesce(ntsd_server* s);
