@@ -40,6 +40,8 @@ typedef struct ntsd_request {
     char path[256];
     char peer[64];
     int http10;                /* an HTTP/1.0 request */
+    char origin[256];          /* its Origin when --allow-origin names it (CORS headers), or "" */
+    int preflight;             /* OPTIONS: a CORS preflight */
     char client[NTSD_CLIENT_LEN]; /* who it is, for per-client quotas and ownership (ntsd_client_key) */
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
@@ -84,8 +86,18 @@ static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
 
 /* ------------------------------------------------------------- answers */
 
+/* The headers a page of an allowed Origin may read beyond the CORS-safelisted
+ * ones: a new session's Location, Retry-After of a 503, Allow of a 405,
+ * WWW-Authenticate of a 401, and every header of a binary session step
+ * (reply_evaluated). */
+static const char cors_exposed[] =
+    "Location, Retry-After, Allow, WWW-Authenticate, NTS-Energy, NTS-Virial, NTS-Contacts, NTS-Max-Penetration, "
+    "NTS-Elapsed-Ms, NTS-Gaps, NTS-Loops-Reversed, NTS-Search-Radius, NTS-Cell-Size, NTS-Stiffness-Triplets, "
+    "NTS-Deep-Contacts, NTS-Warnings";
+
 /* Queue a response. `body` is freed with `free_fn` once sent (NULL: static
- * storage). `close`: ask the client to close (the body may be left unread). */
+ * storage). `content_type` NULL: none. `close`: ask the client to close (the
+ * body may be left unread). */
 static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
                                      char* body, size_t length, void (*free_fn)(void*), const char* content_type,
                                      const char* allow, int close, const char* const* extra) {
@@ -98,7 +110,14 @@ static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, 
         resp = MHD_create_response_from_buffer(length, body, MHD_RESPMEM_PERSISTENT);
     }
     if (resp == NULL) return MHD_NO;
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, content_type);
+    if (content_type != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, content_type);
+    /* CORS (--allow-origin): the answer depends on the Origin; an allowed
+     * page may read it, and the headers a browser client needs. */
+    if (r->server->config.allow_origin_count > 0) MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Origin");
+    if (r->origin[0] != '\0') {
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_ACCESS_CONTROL_ALLOW_ORIGIN, r->origin);
+        if (!r->preflight) MHD_add_response_header(resp, "Access-Control-Expose-Headers", cors_exposed);
+    }
     if (allow != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
     if (status == MHD_HTTP_SERVICE_UNAVAILABLE) MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "1");
     if (close) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
@@ -494,10 +513,24 @@ static enum MHD_Result reply_unauthorized(struct MHD_Connection* c, ntsd_request
                          "application/json", NULL, close, extra);
 }
 
+/* A CORS preflight (OPTIONS) from an allowed Origin (first_call refused any
+ * other): 204 with the route's methods and the request headers the service
+ * reads from a browser. No token needed (a browser sends none with it) and
+ * nothing looked up: it says what the route table says. */
+static enum MHD_Result answer_preflight(struct MHD_Connection* c, ntsd_request* r) {
+    const char* extra[] = {MHD_HTTP_HEADER_ACCESS_CONTROL_ALLOW_METHODS, r->route.methods,
+                           "Access-Control-Allow-Headers", "Authorization, Content-Type, Accept",
+                           "Access-Control-Max-Age", "600", NULL};
+    if (r->route.kind == NTSD_ROUTE_NONE)
+        return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
+    return reply_headers(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, NULL, r->route.allow, 0, extra);
+}
+
 /* The answers that need no body. Sent from the first call only when the request
  * carries a body (libmicrohttpd then closes the connection rather than read
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
+    if (r->preflight) return answer_preflight(c, r);
     if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH) return reply_unauthorized(c, r, 0);
     if (r->route.kind == NTSD_ROUTE_NONE)
         return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
@@ -626,6 +659,16 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         if (!allowed)
             return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
                                "requests from a web page of this Origin are refused (--allow-origin)", NULL, 1);
+        if (origin != NULL) copy_str(r->origin, sizeof r->origin, origin);
+        if (strcmp(r->method, "OPTIONS") == 0) {
+            /* A CORS preflight: answered for an allowed Origin only, no token. */
+            if (origin == NULL)
+                return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
+                                   "OPTIONS answers the CORS preflight of a web page whose Origin --allow-origin "
+                                   "names", NULL, 1);
+            r->preflight = 1;
+            return has_body ? answer_bodiless(c, r) : MHD_YES;
+        }
         int token = -1;
         pthread_rwlock_rdlock(&s->tokens_lock); /* SIGHUP may swap the list */
         r->authorized = ntsd_authorized(

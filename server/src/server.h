@@ -305,15 +305,17 @@ void ntsd_server_stop(ntsd_server* s);
 
 typedef struct ntsd_route {
     ntsd_route_kind kind;
-    const char* allow;   /* the Allow header of the path ("POST", "GET, HEAD") */
-    int method_ok;       /* the method is one of `allow` */
+    const char* methods; /* the methods of the path ("POST", "GET, HEAD", "GET, HEAD, DELETE") */
+    const char* allow;   /* its Allow header: those and OPTIONS ("POST, OPTIONS") */
+    int method_ok;       /* the method is one of `methods` (OPTIONS is not: a preflight) */
     int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
     char scene_id[NTSD_SESSION_ID_MAX + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 
 /* 32 to 64 URL-safe characters: what a session id may be. */
 int ntsd_is_session_id(const char* id, size_t n);
-/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
+/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405
+ * (or, for OPTIONS, a CORS preflight: server.c). */
 ntsd_route ntsd_route_find(const char* path, const char* method);
 /* 1 when a Content-Type header value names JSON (application/json, *+json); 0 for none. */
 int ntsd_is_json_media_type(const char* content_type);
