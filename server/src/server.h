@@ -227,7 +227,10 @@ typedef struct ntsd_conn {
     const char* refused; /* no room and nothing to shed: its request gets 503 (the reason), or NULL */
 } ntsd_conn;
 typedef struct ntsd_server {
+    /* config.tokens and config.token_count belong to the server (freed at
+     * stop) and change at SIGHUP: read them only under tokens_lock (read). */
     ntsd_config config;
+    pthread_rwlock_t tokens_lock;
     struct MHD_Daemon* daemon;
     ntsd_sessions sessions;
     unsigned port;             /* the bound port */
@@ -279,10 +282,17 @@ void ntsd_address_name(const struct sockaddr* a, char* out, size_t cap);
 /* 1 when the client of this connection has gone (for ntsj_config.cancel). */
 int ntsd_conn_client_left(void* user);
 
-/* Read --token-file: one token a line (blank lines and # comments skipped).
- * 0, or -1 with a message printed. */
+/* Read a token file: one token a line (blank lines and # comments skipped).
+ * 0 with a malloc'ed list, or -1 with why in `why` (a file that cannot be
+ * opened or holds no token; no memory). */
+int ntsd_read_tokens(const char* path, char*** tokens, int* count, char* why, size_t cap);
+void ntsd_free_token_list(char** tokens, int count);
+/* Read --token-file into cfg at the start. 0, or -1 with a message printed. */
 int ntsd_load_tokens(ntsd_config* cfg);
 void ntsd_free_tokens(ntsd_config* cfg);
+/* SIGHUP: read --token-file again and swap the server's list under
+ * tokens_lock. A file that fails to load keeps the old list (logged): 0 or -1. */
+int ntsd_server_reload_tokens(ntsd_server* s);
 /* 1 when `authorization` (the header's value, may be NULL) carries one of the
  * tokens, compared in constant time; 1 as well when no token is configured.
  * `which` (may be NULL): the index of the token it carries, -1 for none. */
@@ -300,7 +310,8 @@ void ntsd_client_key(const ntsd_config* cfg, const char* peer, const char* forwa
 /* 1 when `peer` (a numeric address) is one of --trusted-proxy. */
 int ntsd_is_trusted_proxy(const ntsd_config* cfg, const char* peer);
 
-/* Start listening. 0, or -1 with a message printed. */
+/* Start listening. 0, or -1 with a message printed. The server takes cfg's
+ * tokens (ntsd_server_stop frees them, as does a failed start). */
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg);
 /* Stop accepting connections; requests arriving on open connections get 503. */
 void ntsd_server_quiesce(ntsd_server* s);
@@ -314,15 +325,17 @@ void ntsd_server_stop(ntsd_server* s);
 
 typedef struct ntsd_route {
     ntsd_route_kind kind;
-    const char* allow;   /* the Allow header of the path ("POST", "GET, HEAD") */
-    int method_ok;       /* the method is one of `allow` */
+    const char* methods; /* the methods of the path ("POST", "GET, HEAD", "GET, HEAD, DELETE") */
+    const char* allow;   /* its Allow header: those and OPTIONS ("POST, OPTIONS") */
+    int method_ok;       /* the method is one of `methods` (OPTIONS is not: a preflight) */
     int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
     char scene_id[NTSD_SESSION_ID_MAX + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 
 /* 32 to 64 URL-safe characters: what a session id may be. */
 int ntsd_is_session_id(const char* id, size_t n);
-/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
+/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405
+ * (or, for OPTIONS, a CORS preflight: server.c). */
 ntsd_route ntsd_route_find(const char* path, const char* method);
 /* 1 when a Content-Type header value names JSON (application/json, *+json); 0 for none. */
 int ntsd_is_json_media_type(const char* content_type);

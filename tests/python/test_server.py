@@ -256,12 +256,12 @@ def test_not_found(daemon, validators, path):
 
 
 @pytest.mark.parametrize("method,path,allow", [
-    ("GET", "/v1/contact", "POST"),
-    ("PUT", "/v1/contact", "POST"),
-    ("DELETE", "/v1/validate", "POST"),
-    ("POST", "/v1/health", "GET, HEAD"),
-    ("PUT", "/v1/schemas/scene", "GET, HEAD"),
-    ("POST", "/v1/openapi.json", "GET, HEAD"),
+    ("GET", "/v1/contact", "POST, OPTIONS"),
+    ("PUT", "/v1/contact", "POST, OPTIONS"),
+    ("DELETE", "/v1/validate", "POST, OPTIONS"),
+    ("POST", "/v1/health", "GET, HEAD, OPTIONS"),
+    ("PUT", "/v1/schemas/scene", "GET, HEAD, OPTIONS"),
+    ("POST", "/v1/openapi.json", "GET, HEAD, OPTIONS"),
 ])
 def test_method_not_allowed(daemon, validators, method, path, allow):
     r = requests.request(method, daemon.url(path), timeout=10)
@@ -272,7 +272,7 @@ def test_method_not_allowed(daemon, validators, method, path, allow):
 def test_method_not_allowed_with_a_body(daemon, validators, example_bodies):
     r = requests.put(daemon.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=10)
     check_error(validators, r, 405, "method_not_allowed")
-    assert r.headers["Allow"] == "POST"
+    assert r.headers["Allow"] == "POST, OPTIONS"
 
 
 @pytest.mark.parametrize("ctype", ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data",
