@@ -222,6 +222,7 @@ typedef struct ntsd_conn {
     int limited;         /* counted against --max-per-client (not a --trusted-proxy) */
     int state;           /* ntsd_conn_state */
     double since;        /* monotonic: the state's start (opened, headers in, request ended) */
+    double begun;        /* monotonic: its current request's start (opened, or the previous one ended) */
     unsigned requests;   /* requests it has completed */
     const char* cut;     /* shut down by the watcher: why (a refusal reason), or NULL */
     const char* refused; /* no room and nothing to shed: its request gets 503 (the reason), or NULL */
