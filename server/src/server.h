@@ -240,7 +240,10 @@ typedef struct ntsd_server {
     char* tls_cert;
 
     pthread_mutex_t lock;      /* guards everything below */
-    pthread_cond_t changed;    /* an evaluation slot was freed */
+    pthread_cond_t changed;    /* an evaluation slot was freed (for a small request) */
+    pthread_cond_t changed_large; /* a slot a large request may take was freed */
+    int evaluating_large;      /* large evaluations running (<= threads - 1 when threads >= 2) */
+    int waiting_small, waiting_large; /* requests waiting at the gate */
     int shutting_down;
     int in_flight;             /* requests between their first callback and completion */
     int evaluating;            /* evaluations running (<= config.threads) */
