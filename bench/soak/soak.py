@@ -117,6 +117,47 @@ def build_cases(cli, rng, variants=3, log=print):
     return cases
 
 
+def build_session_cases(cli, rng, steps=6):
+    """Sessions to step: for a few example scenes, the scene (to create the
+    session) and `steps` jittered position sets, each a step body
+    {"positions": ...} with the CLI's answer to the whole scene at those
+    positions (a step answers exactly what a full scene would)."""
+    out = []
+    for name in ("two_disks", "jittered_packing"):
+        path = REPO / "examples" / f"{name}.json"
+        if not path.exists():
+            continue
+        scene = json.loads(path.read_bytes())
+        cases = []
+        for k in range(steps):
+            moved = jitter(scene, rng, rng.choice([1e-3, 1e-2]))
+            moved["options"] = scene.get("options", {})  # a step keeps the session's options
+            positions = [p for b in moved["bodies"] for p in b["nodes"]]
+            full = oracle(cli, f"{name}@{k}", json.dumps(moved).encode())
+            cases.append(Case(f"session {name} step {k}", json.dumps({"positions": positions}).encode(), full.ok,
+                              expect=full.expect, code=full.code, pointer=full.pointer))
+        out.append((json.dumps(scene).encode(), cases))
+    return out
+
+
+class Session:
+    """A session the load steps: created from `scene`, created again when
+    the daemon no longer knows it (evicted: --max-sessions)."""
+
+    def __init__(self, scene, cases):
+        self.scene, self.cases, self.id = scene, cases, None
+
+    def path(self, conn):
+        if self.id is None:
+            conn.request("POST", "/v1/scenes", body=self.scene, headers={"Content-Type": "application/json"})
+            resp = conn.getresponse()
+            data = resp.read()
+            if resp.status != 201:
+                raise http.client.HTTPException(f"session not created: {resp.status} {data[:200]!r}")
+            self.id = json.loads(data)["id"]
+        return f"/v1/scenes/{self.id}/contact"
+
+
 def check(case, status, data):
     """None when the answer is the CLI's, else what is wrong."""
     if case.ok:
@@ -154,6 +195,8 @@ class Stats:
         self.refused_after_sigterm = 0
         self.latencies_after = []
         self.idle_reconnects = 0
+        self.session_steps = 0
+        self.sessions_recreated = 0
 
     def record(self, case, status, data, latency):
         problem = check(case, status, data)
@@ -187,8 +230,9 @@ class Stats:
             d[outcome] = d.get(outcome, 0) + 1
 
 
-def load_client(port, cases, seed, stop, stats, idle_timeout=None):
-    """Posts random bodies on one keep-alive connection. A connection the
+def load_client(port, cases, seed, stop, stats, idle_timeout=None, session=None):
+    """Posts random bodies on one keep-alive connection (with `session`, the
+    steps of that session: `cases` are its step bodies). A connection the
     daemon closed because it sat idle for its --timeout (this client was
     starved of CPU that long) is not a lost request: the request is sent again
     on a new connection, as HTTP clients do, and counted apart. Any other
@@ -202,7 +246,8 @@ def load_client(port, cases, seed, stop, stats, idle_timeout=None):
         t0 = time.perf_counter()
         started = time.monotonic()
         try:
-            conn.request("POST", "/v1/contact", body=case.body, headers={"Content-Type": "application/json"})
+            path = session.path(conn) if session is not None else "/v1/contact"
+            conn.request("POST", path, body=case.body, headers={"Content-Type": "application/json"})
             resp = conn.getresponse()
             data = resp.read()
         except (OSError, http.client.HTTPException) as exc:
@@ -223,6 +268,15 @@ def load_client(port, cases, seed, stop, stats, idle_timeout=None):
             continue
         retry = None
         last_done = time.monotonic()
+        if session is not None:
+            if resp.status == 404 and b'"unknown_scene"' in data:  # evicted: create it again, step again
+                session.id = None
+                retry = case
+                with stats.lock:
+                    stats.sessions_recreated += 1
+                continue
+            with stats.lock:
+                stats.session_steps += 1
         stats.record(case, resp.status, data, time.perf_counter() - t0)
         if resp.will_close:
             conn.close()
@@ -458,12 +512,13 @@ def percentile(values, q):
 
 
 def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, seed=7,
-        daemon_flags=("--quiet",), log=print, log_path=None, variants=3, held=4):
+        daemon_flags=("--quiet",), log=print, log_path=None, variants=3, held=4, sessions=4):
     build_dir = pathlib.Path(build_dir)
     cli, daemon_bin = build_dir / "bin" / "ntscontact", build_dir / "bin" / "ntscontactd"
     rng = random.Random(seed)
     cases = build_cases(cli, rng, variants=variants, log=log)
     valid = [c for c in cases if c.ok]
+    session_cases = build_session_cases(cli, rng) if sessions else []
     log_path = pathlib.Path(log_path or (build_dir / "soak-daemon.log"))
     flags = list(daemon_flags)
     idle_timeout = 30.0  # the daemon's default --timeout
@@ -489,6 +544,11 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
         threads.append(threading.Thread(target=load_client,
                                         args=(port, cases, seed * 1000 + i, stop_load, stats, idle_timeout),
                                         daemon=True))
+    for i in range(sessions if session_cases else 0):
+        scene, steps = session_cases[i % len(session_cases)]
+        threads.append(threading.Thread(target=load_client,
+                                        args=(port, steps, seed * 2000 + i, stop_load, stats, idle_timeout,
+                                              Session(scene, steps)), daemon=True))
     fault_threads = []
     if faults:
         small = min(valid, key=lambda c: len(c.body)).body
@@ -567,6 +627,9 @@ def run(build_dir, duration=60.0, connections=16, faults=True, sigterm=True, see
         "transport_errors_after_sigterm": stats.transport_after,
         "refused_503_after_sigterm": stats.refused_after_sigterm,
         "idle_reconnects": stats.idle_reconnects,
+        "session_clients": sessions if session_cases else 0,
+        "session_steps": stats.session_steps,
+        "sessions_recreated": stats.sessions_recreated,
         "latency_ms": {"p50": percentile(lat_ms, 50), "p90": percentile(lat_ms, 90),
                        "p99": percentile(lat_ms, 99), "p999": percentile(lat_ms, 99.9),
                        "max": max(lat_ms) if lat_ms else None,
@@ -590,6 +653,8 @@ def failures(result, sigterm=True):
     bad = []
     if result["requests"] == 0:
         bad.append("no request was answered")
+    if result["session_clients"] and result["session_steps"] == 0:
+        bad.append("no session step was answered")
     if result["wrong_answers"]:
         bad.append(f"{result['wrong_answers']} wrong answers, e.g. {result['wrong_examples']}")
     if result["server_errors_5xx"]:
@@ -612,6 +677,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--connections", type=int, default=16)
+    ap.add_argument("--sessions", type=int, default=4, help="clients stepping a session each (besides --connections)")
     ap.add_argument("--build-dir", default=os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--no-faults", action="store_true")
@@ -622,7 +688,8 @@ def main():
     args = ap.parse_args()
     flags = ["--quiet", "--timeout", "5", *args.daemon_flag]
     result = run(args.build_dir, duration=args.duration, connections=args.connections,
-                 faults=not args.no_faults, sigterm=not args.no_sigterm, seed=args.seed, daemon_flags=flags)
+                 faults=not args.no_faults, sigterm=not args.no_sigterm, seed=args.seed, daemon_flags=flags,
+                 sessions=args.sessions)
     text = json.dumps(result, indent=2)
     print(text)
     if args.json_out:
