@@ -1,5 +1,6 @@
 /* Access control: bearer tokens, compared in constant time (the time of a
- * compare does not tell how many leading bytes of a guess were right). */
+ * compare does not tell how many leading bytes of a guess were right), read
+ * from --token-file at the start and again at SIGHUP. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,13 +8,14 @@
 
 #include "server.h"
 
-int ntsd_load_tokens(ntsd_config* cfg) {
+int ntsd_read_tokens(const char* path, char*** tokens_out, int* count_out, char* why, size_t cap) {
     FILE* f;
     char line[1024];
-    if (cfg->token_file[0] == '\0') return 0;
-    f = fopen(cfg->token_file, "r");
+    char** tokens = NULL;
+    int count = 0;
+    f = fopen(path, "r");
     if (f == NULL) {
-        fprintf(stderr, "ntscontactd: --token-file %s: cannot open it\n", cfg->token_file);
+        snprintf(why, cap, "--token-file %s: cannot open it", path);
         return -1;
     }
     while (fgets(line, sizeof line, f) != NULL) {
@@ -22,29 +24,69 @@ int ntsd_load_tokens(ntsd_config* cfg) {
         while (n > 0 && (line[n - 1] == '\n' || line[n - 1] == '\r' || line[n - 1] == ' ' || line[n - 1] == '\t'))
             line[--n] = '\0';
         if (n == 0 || line[0] == '#') continue;
-        grown = realloc(cfg->tokens, sizeof(char*) * (size_t)(cfg->token_count + 1));
-        if (grown == NULL || (grown[cfg->token_count] = strdup(line)) == NULL) {
+        grown = realloc(tokens, sizeof(char*) * (size_t)(count + 1));
+        if (grown != NULL) tokens = grown;
+        if (grown == NULL || (tokens[count] = strdup(line)) == NULL) {
             fclose(f);
-            fprintf(stderr, "ntscontactd: --token-file: out of memory\n");
+            ntsd_free_token_list(tokens, count);
+            snprintf(why, cap, "--token-file: out of memory");
             return -1;
         }
-        cfg->tokens = grown;
-        cfg->token_count++;
+        count++;
     }
     fclose(f);
-    if (cfg->token_count == 0) {
-        fprintf(stderr, "ntscontactd: --token-file %s holds no token\n", cfg->token_file);
+    if (count == 0) {
+        free(tokens);
+        snprintf(why, cap, "--token-file %s holds no token", path);
+        return -1;
+    }
+    *tokens_out = tokens;
+    *count_out = count;
+    return 0;
+}
+
+void ntsd_free_token_list(char** tokens, int count) {
+    int i;
+    for (i = 0; i < count; ++i) free(tokens[i]);
+    free(tokens);
+}
+
+int ntsd_load_tokens(ntsd_config* cfg) {
+    char why[600];
+    if (cfg->token_file[0] == '\0') return 0;
+    if (ntsd_read_tokens(cfg->token_file, &cfg->tokens, &cfg->token_count, why, sizeof why) != 0) {
+        fprintf(stderr, "ntscontactd: %s\n", why);
         return -1;
     }
     return 0;
 }
 
 void ntsd_free_tokens(ntsd_config* cfg) {
-    int i;
-    for (i = 0; i < cfg->token_count; ++i) free(cfg->tokens[i]);
-    free(cfg->tokens);
+    ntsd_free_token_list(cfg->tokens, cfg->token_count);
     cfg->tokens = NULL;
     cfg->token_count = 0;
+}
+
+int ntsd_server_reload_tokens(ntsd_server* s) {
+    char why[600];
+    char** tokens = NULL;
+    char** old;
+    int count = 0, old_count;
+    if (s->config.token_file[0] == '\0') return 0; /* started without tokens: stays so */
+    if (ntsd_read_tokens(s->config.token_file, &tokens, &count, why, sizeof why) != 0) {
+        ntsd_log_message("SIGHUP: %s; the %d token(s) loaded before stay", why, s->config.token_count);
+        return -1;
+    }
+    /* The only writer is this thread: it reads the old list without the lock. */
+    pthread_rwlock_wrlock(&s->tokens_lock);
+    old = s->config.tokens;
+    old_count = s->config.token_count;
+    s->config.tokens = tokens;
+    s->config.token_count = count;
+    pthread_rwlock_unlock(&s->tokens_lock);
+    ntsd_free_token_list(old, old_count);
+    ntsd_log_info("SIGHUP: %d token(s) loaded from --token-file %s", count, s->config.token_file);
+    return 0;
 }
 
 /* Equal strings, in time that depends on their lengths only. */

@@ -1,5 +1,7 @@
 /* A request body accumulated with a cap (libmicrohttpd's largepost.c pattern):
- * the buffer grows geometrically but never beyond `max` + 1 bytes (the NUL). */
+ * the buffer grows geometrically as bytes arrive, never beyond `max` + 1 bytes
+ * (the NUL), nor beyond an announced length: it holds what was received (the
+ * memory budget counts it, server.c), not what was promised. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -9,13 +11,15 @@ void ntsd_body_init(ntsd_body* b, size_t max) {
     b->data = NULL;
     b->length = 0;
     b->capacity = 0;
+    b->expected = 0;
     b->max = max;
 }
 
 static int grow(ntsd_body* b, size_t need) {
     size_t cap = b->capacity ? b->capacity : 4096;
     char* p;
-    while (cap < need) cap = cap > b->max / 2 ? b->max : cap * 2;
+    const size_t top = b->expected >= need && b->expected < b->max ? b->expected : b->max;
+    while (cap < need) cap = cap > top / 2 ? top : cap * 2;
     if (cap < need) cap = need;
     p = realloc(b->data, cap + 1);
     if (p == NULL) return -1;
@@ -24,11 +28,7 @@ static int grow(ntsd_body* b, size_t need) {
     return 0;
 }
 
-int ntsd_body_reserve(ntsd_body* b, size_t expected) {
-    if (expected > b->max) return 1;
-    if (expected <= b->capacity) return 0;
-    return grow(b, expected);
-}
+void ntsd_body_expect(ntsd_body* b, size_t expected) { b->expected = expected; }
 
 int ntsd_body_append(ntsd_body* b, const char* data, size_t size) {
     if (size > b->max - b->length) return 1;

@@ -28,14 +28,15 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  "\"sessions\":{\"held\":%d,\"memory_bytes\":%zu,\"max\":%d,\"ttl_s\":%u,\"memory_max\":%zu,"
                  "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu},"
                  "\"memory\":{\"budget_bytes\":%zu,\"in_use_bytes\":%zu,\"refused\":%llu},"
-                 "\"header_timeouts\":%llu,\"client_left\":%llu}\n",
+                 "\"header_timeouts\":%llu,\"body_timeouts\":%llu,\"shed\":%llu,\"client_left\":%llu}\n",
                  st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTS_CONFIG_BUILD_TYPE,
                  NTS_CONFIG_OPENMP ? "true" : "false", NTS_CONFIG_SANITIZE ? "true" : "false", MHD_get_version(),
                  "per-connection", c->threads, c->codec.max_bytes, c->timeout_s,
                  c->max_connections, st->uptime_s, st->served, st->in_flight, st->evaluating, st->connections,
                  st->receiving_s, st->handling_s, st->sending_s, ss->held, ss->memory, c->max_sessions,
                  c->session_ttl_s, c->session_memory, ss->created, ss->evicted, ss->expired, ss->deleted,
-                 c->max_memory, st->memory_in_use, st->memory_refused, st->header_timeouts, st->client_left);
+                 c->max_memory, st->memory_in_use, st->memory_refused, st->header_timeouts, st->body_timeouts, st->shed,
+                 st->client_left);
     if (n < 0 || n >= 2048) {
         free(doc);
         return NULL;

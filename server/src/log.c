@@ -68,6 +68,30 @@ static void write_line(char* line, int n, size_t cap) {
     }
 }
 
+/* A printable copy of `src` for a text line, cut to fit `cap`: control bytes,
+ * DEL, bytes over 0x7f and the backslash (and, in a field of a request line,
+ * the space that separates the fields) are written \xNN, so a line is plain
+ * ASCII whatever a client sent and reads back unambiguously. */
+static void text_escape(char* dst, size_t cap, const char* src, int escape_space) {
+    static const char hex[] = "0123456789abcdef";
+    size_t i = 0;
+    if (src == NULL) src = "-";
+    for (; *src != '\0'; src++) {
+        unsigned char ch = (unsigned char)*src;
+        if (ch < 0x20 || ch >= 0x7f || ch == '\\' || (ch == ' ' && escape_space)) {
+            if (i + 4 >= cap) break;
+            dst[i++] = '\\';
+            dst[i++] = 'x';
+            dst[i++] = hex[ch >> 4];
+            dst[i++] = hex[ch & 15];
+        } else {
+            if (i + 1 >= cap) break;
+            dst[i++] = (char)ch;
+        }
+    }
+    dst[i] = '\0';
+}
+
 static void log_line(const char* level, const char* source, const char* fmt, va_list ap) {
     char line[1280];
     int n;
@@ -79,8 +103,16 @@ static void log_line(const char* level, const char* source, const char* fmt, va_
         n = snprintf(line, sizeof line, "{\"time\":\"%s\",\"level\":\"%s\",\"event\":\"message\",\"source\":\"%s\","
                      "\"message\":%s}", stamp, level, source, quoted);
     } else {
-        n = snprintf(line, sizeof line, "ntscontactd: %s", strcmp(source, "libmicrohttpd") == 0 ? "libmicrohttpd: " : "");
-        n += vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+        /* A message may quote what a client sent (libmicrohttpd's do): escaped
+         * like a request line's fields, its own line end aside. */
+        char text[768], escaped[1024];
+        size_t k;
+        vsnprintf(text, sizeof text, fmt, ap);
+        k = strlen(text);
+        while (k > 0 && (text[k - 1] == '\n' || text[k - 1] == '\r')) text[--k] = '\0';
+        text_escape(escaped, sizeof escaped, text, 0);
+        n = snprintf(line, sizeof line, "ntscontactd: %s%s", strcmp(source, "libmicrohttpd") == 0 ? "libmicrohttpd: " : "",
+                     escaped);
     }
     write_line(line, n, sizeof line);
 }
@@ -106,25 +138,14 @@ void ntsd_log_mhd(void* cls, const char* fmt, va_list ap) {
     log_line("warning", "libmicrohttpd", fmt, ap);
 }
 
-/* Printable copy of a client-given string: no control characters in the log. */
-static void sanitize(char* dst, size_t cap, const char* src) {
-    size_t i = 0;
-    if (src == NULL) src = "-";
-    for (; *src != '\0' && i + 1 < cap; src++) {
-        unsigned char ch = (unsigned char)*src;
-        dst[i++] = (ch < 0x20 || ch == 0x7f || ch == ' ') ? '?' : (char)ch;
-    }
-    dst[i] = '\0';
-}
-
 void ntsd_log_request(const char* peer, const char* method, const char* path, int status,
                       const char* code, size_t bytes_in, size_t bytes_out, double ms) {
-    char line[1536], m[64], p[1024], stamp[40];
+    char line[1536], m[64], p[1024], q_code[128], stamp[40];
     int n;
     if (log_quiet) return;
     now_stamp(stamp, sizeof stamp);
     if (log_json) {
-        char q_peer[160], q_code[128];
+        char q_peer[160];
         json_string(m, sizeof m, method);
         json_string(p, sizeof p, path);
         json_string(q_peer, sizeof q_peer, peer);
@@ -134,14 +155,15 @@ void ntsd_log_request(const char* peer, const char* method, const char* path, in
                      "\"path\":%s,\"status\":%d,\"code\":%s,\"bytes_in\":%zu,\"bytes_out\":%zu,\"ms\":%.3f}",
                      stamp, q_peer, m, p, status, q_code, bytes_in, status > 0 ? bytes_out : 0, ms);
     } else {
-        sanitize(m, sizeof m, method);
-        sanitize(p, 512, path);
+        text_escape(m, sizeof m, method, 1);
+        text_escape(p, sizeof p, path, 1);
+        text_escape(q_code, sizeof q_code, code ? code : status > 0 ? "-" : "aborted", 1);
         if (status > 0)
             n = snprintf(line, sizeof line, "%s %s %s %s %d %s in=%zu out=%zu %.3fms", stamp, peer, m, p, status,
-                         code ? code : "-", bytes_in, bytes_out, ms);
+                         q_code, bytes_in, bytes_out, ms);
         else
             n = snprintf(line, sizeof line, "%s %s %s %s - %s in=%zu out=0 %.3fms", stamp, peer, m, p,
-                         code ? code : "aborted", bytes_in, ms);
+                         q_code, bytes_in, ms);
     }
     write_line(line, n, sizeof line);
 }

@@ -1,7 +1,8 @@
 /* ntscontactd: node-to-segment contact over HTTP.
  * Lifetime: parse the flags, ignore SIGPIPE, block the signals we handle in
  * every thread (libmicrohttpd's threads inherit the mask), start, print the
- * bound address, wait. SIGHUP reopens --log-file. Every terminating signal
+ * bound address, wait. SIGHUP reopens --log-file and reads --token-file
+ * again (a file that fails to load keeps the tokens). Every terminating signal
  * (TERM, INT, QUIT, USR1, USR2, ALRM) drains: stop accepting, let the requests
  * in flight finish for at most --drain-seconds, stop, exit 0; past the deadline,
  * or at a second signal, the requests left are abandoned: exit 1. */
@@ -56,6 +57,8 @@ int main(int argc, char** argv) {
     if (cfg.log_file[0] != '\0' && ntsd_log_reopen(cfg.log_file) != 0) return 1;
 
     if (ntsd_server_start(&server, &cfg) != 0) return 1;
+    cfg.tokens = NULL; /* the server's now (SIGHUP replaces them) */
+    cfg.token_count = 0;
     if (strchr(cfg.host, ':') != NULL)
         printf("ntscontactd listening on [%s]:%u\n", cfg.host, server.port);
     else
@@ -69,9 +72,10 @@ int main(int argc, char** argv) {
     for (;;) {
         struct timespec tick = {5, 0};
         rc = sigtimedwait(&stop_signals, NULL, &tick);
-        if (rc == SIGHUP) { /* log rotation: write to the file anew */
+        if (rc == SIGHUP) { /* log rotation: write to the file anew; a revoked token goes */
             if (cfg.log_file[0] != '\0') ntsd_log_reopen(cfg.log_file);
             ntsd_log_info("SIGHUP: log reopened");
+            ntsd_server_reload_tokens(&server);
             continue;
         }
         if (rc > 0) {
@@ -97,8 +101,7 @@ int main(int argc, char** argv) {
             }
         }
     }
-    ntsd_server_stop(&server);
-    ntsd_free_tokens(&cfg);
+    ntsd_server_stop(&server); /* frees the tokens */
     ntsd_log_info("stopped after %llu request(s)", server.served);
     return 0;
 }

@@ -8,15 +8,26 @@
 #include "assets.h"
 #include "server.h"
 
-#define ALLOW_POST "POST"
-#define ALLOW_GET "GET, HEAD"
-#define ALLOW_SCENE "GET, HEAD, DELETE"
+/* The methods of each kind of path, and its Allow header: those and OPTIONS
+ * (a CORS preflight, answered for an Origin of --allow-origin). */
+#define METHODS_POST "POST"
+#define METHODS_GET "GET, HEAD"
+#define METHODS_SCENE "GET, HEAD, DELETE"
+#define WITH_OPTIONS ", OPTIONS"
 
-static int method_in(const char* method, const char* allow) {
-    if (strcmp(allow, ALLOW_POST) == 0) return strcmp(method, "POST") == 0;
-    if (strcmp(method, "DELETE") == 0) return strcmp(allow, ALLOW_SCENE) == 0;
+static int method_in(const char* method, const char* methods) {
+    if (strcmp(methods, METHODS_POST) == 0) return strcmp(method, "POST") == 0;
+    if (strcmp(method, "DELETE") == 0) return strcmp(methods, METHODS_SCENE) == 0;
     return strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
 }
+
+static void set_methods(ntsd_route* r, const char* methods, const char* allow) {
+    r->methods = methods;
+    r->allow = allow;
+}
+#define ROUTE_POST(r) set_methods(&(r), METHODS_POST, METHODS_POST WITH_OPTIONS)
+#define ROUTE_GET(r) set_methods(&(r), METHODS_GET, METHODS_GET WITH_OPTIONS)
+#define ROUTE_SCENE(r) set_methods(&(r), METHODS_SCENE, METHODS_SCENE WITH_OPTIONS)
 
 /* The {id} of /v1/scenes/{id}[/contact]: 32 to 64 URL-safe characters (the
  * store's own ids, or a proxy's); anything else names no session. */
@@ -49,50 +60,50 @@ ntsd_route ntsd_route_find(const char* path, const char* method) {
     static const char schemas[] = "/v1/schemas/";
     ntsd_route r;
     r.kind = NTSD_ROUTE_NONE;
-    r.allow = "";
+    r.allow = r.methods = "";
     r.method_ok = 0;
     r.asset = -1;
     r.scene_id[0] = '\0';
     if (strcmp(path, "/v1/contact") == 0) {
         r.kind = NTSD_ROUTE_CONTACT;
-        r.allow = ALLOW_POST;
+        ROUTE_POST(r);
     } else if (strcmp(path, "/v1/validate") == 0) {
         r.kind = NTSD_ROUTE_VALIDATE;
-        r.allow = ALLOW_POST;
+        ROUTE_POST(r);
     } else if (strcmp(path, "/v1/scenes") == 0) {
         r.kind = NTSD_ROUTE_SCENES;
-        r.allow = ALLOW_POST;
+        ROUTE_POST(r);
     } else if (strncmp(path, "/v1/scenes/", 11) == 0 && path[11] != '\0') {
         static const char tail[] = "/contact";
         const char* id = path + 11;
         size_t n = strcspn(id, "/");
         if (id[n] == '\0') {
             r.kind = NTSD_ROUTE_SCENE;
-            r.allow = ALLOW_SCENE;
+            ROUTE_SCENE(r);
             take_scene_id(id, n, &r);
         } else if (strcmp(id + n, tail) == 0) {
             r.kind = NTSD_ROUTE_SCENE_CONTACT;
-            r.allow = ALLOW_POST;
+            ROUTE_POST(r);
             take_scene_id(id, n, &r);
         }
     } else if (strcmp(path, "/metrics") == 0) {
         r.kind = NTSD_ROUTE_METRICS;
-        r.allow = ALLOW_GET;
+        ROUTE_GET(r);
     } else if (strcmp(path, "/v1/health") == 0) {
         r.kind = NTSD_ROUTE_HEALTH;
-        r.allow = ALLOW_GET;
+        ROUTE_GET(r);
     } else if (strcmp(path, "/v1/openapi.json") == 0) {
         r.kind = NTSD_ROUTE_ASSET;
-        r.allow = ALLOW_GET;
+        ROUTE_GET(r);
         r.asset = find_asset("openapi");
     } else if (strncmp(path, schemas, sizeof schemas - 1) == 0) {
         const char* name = path + sizeof schemas - 1;
         if (strcmp(name, "openapi") != 0 && (r.asset = find_asset(name)) >= 0) {
             r.kind = NTSD_ROUTE_ASSET;
-            r.allow = ALLOW_GET;
+            ROUTE_GET(r);
         }
     }
-    if (r.kind != NTSD_ROUTE_NONE) r.method_ok = method_in(method, r.allow);
+    if (r.kind != NTSD_ROUTE_NONE) r.method_ok = method_in(method, r.methods);
     return r;
 }
 

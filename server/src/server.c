@@ -39,8 +39,12 @@ typedef struct ntsd_request {
     char method[16];
     char path[256];
     char peer[64];
+    int http10;                /* an HTTP/1.0 request */
+    char origin[256];          /* its Origin when --allow-origin names it (CORS headers), or "" */
+    int preflight;             /* OPTIONS: a CORS preflight */
     char client[NTSD_CLIENT_LEN]; /* who it is, for per-client quotas and ownership (ntsd_client_key) */
     ntsd_conn* link;           /* the watcher's record of the connection (watch.c) */
+    int cut_by_watcher;        /* the watcher cut its connection (counted there) */
     size_t reserved;           /* bytes held against --max-memory, given back at completion */
     int over_budget;           /* a chunked body outgrew the budget: answer 503 */
     const char* refusal;       /* why the service refused it (the metrics' reason), or NULL */
@@ -70,21 +74,23 @@ static void copy_str(char* dst, size_t cap, const char* src) {
 
 static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
     const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
-    copy_str(out, cap, "-");
-    if (ci == NULL || ci->client_addr == NULL) return;
-    if (ci->client_addr->sa_family == AF_INET) {
-        const struct sockaddr_in* a = (const struct sockaddr_in*)(const void*)ci->client_addr;
-        inet_ntop(AF_INET, &a->sin_addr, out, (socklen_t)cap);
-    } else if (ci->client_addr->sa_family == AF_INET6) {
-        const struct sockaddr_in6* a = (const struct sockaddr_in6*)(const void*)ci->client_addr;
-        inet_ntop(AF_INET6, &a->sin6_addr, out, (socklen_t)cap);
-    }
+    ntsd_address_name(ci != NULL ? ci->client_addr : NULL, out, cap);
 }
 
 /* ------------------------------------------------------------- answers */
 
+/* The headers a page of an allowed Origin may read beyond the CORS-safelisted
+ * ones: a new session's Location, Retry-After of a 503, Allow of a 405,
+ * WWW-Authenticate of a 401, and every header of a binary session step
+ * (reply_evaluated). */
+static const char cors_exposed[] =
+    "Location, Retry-After, Allow, WWW-Authenticate, NTS-Energy, NTS-Virial, NTS-Contacts, NTS-Max-Penetration, "
+    "NTS-Elapsed-Ms, NTS-Gaps, NTS-Loops-Reversed, NTS-Search-Radius, NTS-Cell-Size, NTS-Stiffness-Triplets, "
+    "NTS-Deep-Contacts, NTS-Warnings";
+
 /* Queue a response. `body` is freed with `free_fn` once sent (NULL: static
- * storage). `close`: ask the client to close (the body may be left unread). */
+ * storage). `content_type` NULL: none. `close`: ask the client to close (the
+ * body may be left unread). */
 static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, unsigned status, const char* code,
                                      char* body, size_t length, void (*free_fn)(void*), const char* content_type,
                                      const char* allow, int close, const char* const* extra) {
@@ -97,7 +103,14 @@ static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, 
         resp = MHD_create_response_from_buffer(length, body, MHD_RESPMEM_PERSISTENT);
     }
     if (resp == NULL) return MHD_NO;
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, content_type);
+    if (content_type != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, content_type);
+    /* CORS (--allow-origin): the answer depends on the Origin; an allowed
+     * page may read it, and the headers a browser client needs. */
+    if (r->server->config.allow_origin_count > 0) MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Origin");
+    if (r->origin[0] != '\0') {
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_ACCESS_CONTROL_ALLOW_ORIGIN, r->origin);
+        if (!r->preflight) MHD_add_response_header(resp, "Access-Control-Expose-Headers", cors_exposed);
+    }
     if (allow != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
     if (status == MHD_HTTP_SERVICE_UNAVAILABLE) MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "1");
     if (close) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
@@ -493,10 +506,24 @@ static enum MHD_Result reply_unauthorized(struct MHD_Connection* c, ntsd_request
                          "application/json", NULL, close, extra);
 }
 
+/* A CORS preflight (OPTIONS) from an allowed Origin (first_call refused any
+ * other): 204 with the route's methods and the request headers the service
+ * reads from a browser. No token needed (a browser sends none with it) and
+ * nothing looked up: it says what the route table says. */
+static enum MHD_Result answer_preflight(struct MHD_Connection* c, ntsd_request* r) {
+    const char* extra[] = {MHD_HTTP_HEADER_ACCESS_CONTROL_ALLOW_METHODS, r->route.methods,
+                           "Access-Control-Allow-Headers", "Authorization, Content-Type, Accept",
+                           "Access-Control-Max-Age", "600", NULL};
+    if (r->route.kind == NTSD_ROUTE_NONE)
+        return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
+    return reply_headers(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, NULL, r->route.allow, 0, extra);
+}
+
 /* The answers that need no body. Sent from the first call only when the request
  * carries a body (libmicrohttpd then closes the connection rather than read
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
+    if (r->preflight) return answer_preflight(c, r);
     if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH) return reply_unauthorized(c, r, 0);
     if (r->route.kind == NTSD_ROUTE_NONE)
         return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
@@ -520,6 +547,70 @@ static int host_allowed(const ntsd_config* cfg, const char* host) {
     return 0;
 }
 
+/* The headers a request may give once: libmicrohttpd keeps every copy and
+ * its lookup gives the first, where a proxy in front may take another. */
+static const char* const once_headers[] = {MHD_HTTP_HEADER_AUTHORIZATION, MHD_HTTP_HEADER_HOST, "Origin",
+                                           MHD_HTTP_HEADER_CONTENT_LENGTH, MHD_HTTP_HEADER_TRANSFER_ENCODING};
+#define NTSD_ONCE_HEADERS (sizeof once_headers / sizeof once_headers[0])
+
+typedef struct header_scan {
+    int bad_name;          /* a name that is not a token */
+    const char* twice;     /* the first of once_headers given twice, or NULL */
+    int seen[NTSD_ONCE_HEADERS];
+} header_scan;
+
+/* tchar of RFC 9110 5.6.2: what a header's name is made of. */
+static int is_token_char(unsigned char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
+           (ch != '\0' && strchr("!#$%&'*+-.^_`|~", ch) != NULL);
+}
+
+static enum MHD_Result scan_header(void* cls, enum MHD_ValueKind kind, const char* key, const char* value) {
+    header_scan* h = cls;
+    const char* k = key != NULL ? key : "";
+    size_t i;
+    (void)kind;
+    (void)value;
+    if (*k == '\0') h->bad_name = 1;
+    for (; *k != '\0'; ++k)
+        if (!is_token_char((unsigned char)*k)) h->bad_name = 1;
+    for (i = 0; key != NULL && i < NTSD_ONCE_HEADERS; ++i)
+        if (strcasecmp(key, once_headers[i]) == 0 && h->seen[i]++ == 1 && h->twice == NULL) h->twice = once_headers[i];
+    return MHD_YES;
+}
+
+/* Headers that two parsers may read two ways (request smuggling, RFC 9112
+ * 6.1, 6.3 and 5.1): one 400 and a close, or MHD_YES to go on. libmicrohttpd
+ * 0.9.75 keeps a name with a space before its colon as a name of its own
+ * (`Transfer-Encoding : chunked` was no framing: the chunks were read as the
+ * next request), and reads a Transfer-Encoding other than `chunked` as a body
+ * that lasts until the connection closes (the request hung until --timeout). */
+static int refuse_framing(struct MHD_Connection* c, ntsd_request* r, const char* cl, const char* te,
+                          enum MHD_Result* answer) {
+    header_scan h;
+    char msg[200];
+    memset(&h, 0, sizeof h);
+    MHD_get_connection_values(c, MHD_HEADER_KIND, scan_header, &h);
+    if (h.bad_name)
+        snprintf(msg, sizeof msg, "a header name with whitespace or a character outside RFC 9110's token "
+                                  "(a space before the colon?)");
+    else if (h.twice != NULL)
+        snprintf(msg, sizeof msg, "the %s header is given twice: Authorization, Host, Origin, Content-Length "
+                                  "and Transfer-Encoding may come once each", h.twice);
+    else if (te != NULL && r->http10)
+        snprintf(msg, sizeof msg, "Transfer-Encoding in an HTTP/1.0 request: the framing is faulty");
+    else if (te != NULL && strcasecmp(te, "chunked") != 0)
+        snprintf(msg, sizeof msg, "Transfer-Encoding other than chunked alone: the body's length cannot be known");
+    else if (cl != NULL && te != NULL)
+        /* libmicrohttpd 0.9.75 takes the chunks */
+        snprintf(msg, sizeof msg, "Content-Length and Transfer-Encoding together: ambiguous framing");
+    else
+        return 0;
+    r->refusal = h.bad_name || h.twice != NULL ? "bad_header" : "bad_framing";
+    *answer = reply_error(c, r, ntsj_code_name(NTSJ_BAD_REQUEST), msg, NULL, 1);
+    return 1;
+}
+
 static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd_request* r) {
     const char* ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     const char* cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
@@ -528,27 +619,28 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     unsigned long long length = cl != NULL ? strtoull(cl, NULL, 10) : 0;
     int has_body = length > 0 || te != NULL;
     int shutting;
-    unsigned open_connections;
+    const char* refused;
 
     pthread_mutex_lock(&s->lock);
     shutting = s->shutting_down;
-    open_connections = s->connections;
+    refused = r->link != NULL ? r->link->refused : NULL;
     pthread_mutex_unlock(&s->lock);
 
     if (shutting) {
         r->refusal = "shutting_down";
         return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "the server is shutting down", NULL, 1);
     }
-    if (open_connections > s->config.max_connections) {
-        r->refusal = "max_connections";
-        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "too many connections; retry later", NULL, 1);
+    if (refused != NULL) { /* no room when it opened, and nothing slower to cut (watch.c) */
+        r->refusal = refused;
+        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED),
+                           strcmp(refused, "max_per_client") == 0
+                               ? "too many connections from this address (--max-per-client); retry later"
+                               : "too many connections (--max-connections); retry later",
+                           NULL, 1);
     }
-    /* Framing that two parsers may read two ways (request smuggling, RFC 9112
-     * 6.1): libmicrohttpd 0.9.75 takes the chunks; we refuse the request. */
-    if (cl != NULL && te != NULL) {
-        r->refusal = "bad_framing";
-        return reply_error(c, r, ntsj_code_name(NTSJ_BAD_REQUEST),
-                           "Content-Length and Transfer-Encoding together: ambiguous framing", NULL, 1);
+    {
+        enum MHD_Result answer;
+        if (refuse_framing(c, r, cl, te, &answer)) return answer;
     }
     if (s->config.allow_host_count > 0 && !host_allowed(&s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST))) {
         r->refusal = "forbidden";
@@ -564,11 +656,23 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         if (!allowed)
             return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
                                "requests from a web page of this Origin are refused (--allow-origin)", NULL, 1);
+        if (origin != NULL) copy_str(r->origin, sizeof r->origin, origin);
+        if (strcmp(r->method, "OPTIONS") == 0) {
+            /* A CORS preflight: answered for an allowed Origin only, no token. */
+            if (origin == NULL)
+                return reply_error(c, r, ntsj_code_name(NTSJ_FORBIDDEN),
+                                   "OPTIONS answers the CORS preflight of a web page whose Origin --allow-origin "
+                                   "names", NULL, 1);
+            r->preflight = 1;
+            return has_body ? answer_bodiless(c, r) : MHD_YES;
+        }
         int token = -1;
+        pthread_rwlock_rdlock(&s->tokens_lock); /* SIGHUP may swap the list */
         r->authorized = ntsd_authorized(
             &s->config, MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION), &token);
         ntsd_client_key(&s->config, r->peer, MHD_lookup_connection_value(c, MHD_HEADER_KIND, "X-Forwarded-For"),
                         token, r->client);
+        pthread_rwlock_unlock(&s->tokens_lock);
         if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH && (has_body || is_post_route(r)))
             return reply_unauthorized(c, r, 1);
     }
@@ -599,10 +703,13 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
     if (length > (unsigned long long)s->config.codec.max_bytes)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-bytes", NULL, 1);
-    /* The body in flight counts against --max-memory from its first byte. */
-    if (!budget_reserve(s, r, (size_t)length)) return reply_over_budget(c, r, (size_t)length, 1);
-    if (ntsd_body_reserve(&r->body, (size_t)length) < 0)
-        return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 1);
+    /* A body that can never fit the budget is refused before it is read. One
+     * that may is counted against --max-memory as its bytes arrive, not as
+     * announced: sockets announcing large bodies and sending nothing hold
+     * nothing (issue 23). */
+    if (length > (unsigned long long)s->config.max_memory) return reply_over_budget(c, r, (size_t)length, 1);
+    ntsd_body_expect(&r->body, (size_t)length);
+    if (has_body) ntsd_conn_enter(s, r->link, NTSD_CONN_RECEIVING);
     return MHD_YES;
 }
 
@@ -611,7 +718,6 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
                                   void** con_cls) {
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
-    (void)version;
 
     if (r == NULL) {
         r = calloc(1, sizeof *r);
@@ -622,12 +728,13 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         ntsd_body_init(&r->body, s->config.codec.max_bytes);
         copy_str(r->method, sizeof r->method, method);
         copy_str(r->path, sizeof r->path, url);
+        r->http10 = version != NULL && strcmp(version, MHD_HTTP_VERSION_1_0) == 0;
         peer_name(c, r->peer, sizeof r->peer);
         r->route = ntsd_route_find(url, method);
         {
             const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
             r->link = ci != NULL ? ci->socket_context : NULL;
-            ntsd_conn_busy(s, r->link, 1);
+            ntsd_conn_enter(s, r->link, NTSD_CONN_WORKING);
         }
         *con_cls = r;
         pthread_mutex_lock(&s->lock);
@@ -651,7 +758,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         if (r->over_budget) return MHD_YES;
         switch (ntsd_body_append(&r->body, upload_data, n)) {
         case 0:
-            if (!budget_reserve(s, r, r->body.length)) { /* a chunked body, growing */
+            if (!budget_reserve(s, r, r->body.capacity)) { /* the bytes held, as they grow */
                 r->over_budget = 1;
                 ntsd_body_free(&r->body);
             }
@@ -668,6 +775,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
     }
 
     if (r->queued) return MHD_YES;
+    ntsd_conn_enter(s, r->link, NTSD_CONN_WORKING);
     if (!is_post_route(r)) return answer_bodiless(c, r);
     if (r->too_large)
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
@@ -691,7 +799,9 @@ static const char* termination_name(enum MHD_RequestTerminationCode toe) {
 /* The reason a request counts as refused by the service (not a fault of its
  * scene): the limits, access control, the budgets; NULL otherwise. */
 static const char* refusal_of(const ntsd_request* r, int ok) {
-    if (!ok) return strcmp(r->code, "upload_timeout") == 0 || strcmp(r->code, "client_left") == 0 ? r->code : NULL;
+    if (!ok) /* (a connection the watcher cut is counted there) */
+        return r->cut_by_watcher ? NULL
+               : strcmp(r->code, "upload_timeout") == 0 || strcmp(r->code, "client_left") == 0 ? r->code : NULL;
     if (r->refusal != NULL) return r->refusal;
     switch (r->status) {
     case MHD_HTTP_UNAUTHORIZED:
@@ -711,7 +821,15 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     double t_end = ntsd_now();
     (void)c;
     if (r == NULL) return;
-    ntsd_conn_busy(s, r->link, 0);
+    ntsd_conn_enter(s, r->link, NTSD_CONN_WAITING);
+    if (!ok && r->link != NULL) { /* cut by the watcher (a deadline, or room made): say why */
+        pthread_mutex_lock(&s->lock);
+        if (r->link->cut != NULL) {
+            r->cut_by_watcher = 1;
+            if (r->code[0] == '\0') copy_str(r->code, sizeof r->code, r->link->cut);
+        }
+        pthread_mutex_unlock(&s->lock);
+    }
     if (r->resp.code != NULL && strcmp(r->resp.code, nts_status_name(NTS_ECANCELLED)) == 0 && r->link != NULL &&
         ntsd_conn_client_left(r->link)) {
         copy_str(r->code, sizeof r->code, "client_left");
@@ -749,17 +867,13 @@ static void on_connection(void* cls, struct MHD_Connection* c, void** socket_con
     ntsd_server* s = cls;
     if (toe == MHD_CONNECTION_NOTIFY_STARTED) {
         const union MHD_ConnectionInfo* ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
-        *socket_context = ci != NULL ? ntsd_conn_open(s, ci->connect_fd) : NULL;
+        char addr[64];
+        peer_name(c, addr, sizeof addr);
+        *socket_context = ci != NULL ? ntsd_conn_open(s, ci->connect_fd, addr) : NULL;
     } else {
         ntsd_conn_close(s, *socket_context);
         *socket_context = NULL;
     }
-    pthread_mutex_lock(&s->lock);
-    if (toe == MHD_CONNECTION_NOTIFY_STARTED)
-        s->connections++;
-    else if (s->connections > 0)
-        s->connections--;
-    pthread_mutex_unlock(&s->lock);
 }
 
 /* ------------------------------------------------------------ start/stop */
@@ -792,6 +906,8 @@ static void release(ntsd_server* s) {
     ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);
     pthread_mutex_destroy(&s->lock);
+    pthread_rwlock_destroy(&s->tokens_lock);
+    ntsd_free_tokens(&s->config);
 }
 
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
@@ -827,15 +943,19 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
 
     if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, cfg->session_ttl_s, cfg->session_memory) != 0) {
         ntsd_log_message("cannot allocate the session table");
+        ntsd_free_tokens(&s->config);
         return -1;
     }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
+    pthread_rwlock_init(&s->tokens_lock, NULL);
     if (ntsd_watch_start(s) != 0) {
         ntsd_log_message("cannot start the connection watcher");
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
         pthread_mutex_destroy(&s->lock);
+        pthread_rwlock_destroy(&s->tokens_lock);
+        ntsd_free_tokens(&s->config);
         return -1;
     }
     s->started = ntsd_now();
@@ -859,9 +979,6 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
         MHD_OPTION_SOCK_ADDR, (struct sockaddr*)&addr,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->timeout_s,
         MHD_OPTION_CONNECTION_LIMIT, hard_limit,
-        /* One client cannot hold every connection (one trickling its headers
-         * is cut by --header-seconds: watch.c). */
-        MHD_OPTION_PER_IP_CONNECTION_LIMIT, cfg->max_per_client,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)128 * 1024,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, s,
         MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
@@ -878,6 +995,7 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     return 0;
 bad_host:
     ntsd_log_message("--host: not a numeric IPv4 or IPv6 address: %s", cfg->host);
+    ntsd_free_tokens(&s->config);
     return -1;
 }
 
@@ -896,11 +1014,13 @@ ntsd_stats ntsd_server_stats(ntsd_server* s) {
     st.shutting_down = s->shutting_down;
     st.in_flight = s->in_flight;
     st.evaluating = s->evaluating;
-    st.connections = s->connections;
+    st.connections = s->live; /* open and not being cut: what the limits count */
     st.served = s->served;
     st.memory_in_use = s->memory_in_use;
     st.memory_refused = s->memory_refused;
     st.header_timeouts = s->header_timeouts;
+    st.body_timeouts = s->body_timeouts;
+    st.shed = s->shed;
     st.client_left = s->client_left;
     st.receiving_s = s->receiving_s;
     st.handling_s = s->handling_s;

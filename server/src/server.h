@@ -17,6 +17,7 @@
 #include <pthread.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <sys/socket.h>
 
 #include <microhttpd.h>
 
@@ -77,11 +78,12 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg);
 typedef struct ntsd_body {
     char* data;   /* NUL-terminated when not NULL */
     size_t length, capacity, max;
+    size_t expected; /* an announced Content-Length (0: none): the buffer grows no further */
 } ntsd_body;
 
 void ntsd_body_init(ntsd_body* b, size_t max);
-/* Reserve room for an announced Content-Length (<= max). 0 or -1 (no memory). */
-int ntsd_body_reserve(ntsd_body* b, size_t expected);
+/* An announced Content-Length: the buffer grows to it as bytes arrive, no further. */
+void ntsd_body_expect(ntsd_body* b, size_t expected);
 /* 0, -1 (no memory) or 1 (the body would exceed `max`; nothing appended). */
 int ntsd_body_append(ntsd_body* b, const char* data, size_t size);
 void ntsd_body_free(ntsd_body* b);
@@ -207,16 +209,28 @@ typedef struct ntsd_metrics {
 } ntsd_metrics;
 
 /* An open connection, as the watcher sees it (watch.c). */
+typedef enum ntsd_conn_state {
+    NTSD_CONN_WAITING = 0, /* a TLS handshake, a request's headers, or idle between requests */
+    NTSD_CONN_RECEIVING,   /* a request's body */
+    NTSD_CONN_WORKING      /* a request handled and answered */
+} ntsd_conn_state;
+
 typedef struct ntsd_conn {
     struct ntsd_conn *prev, *next;
     int fd;
-    double since;  /* monotonic: opened, or its previous request ended */
-    int busy;      /* a request's headers are in (its body and work have their own budgets) */
-    int cut;       /* shut down by the watcher */
+    char addr[64];       /* the peer's numeric address */
+    int limited;         /* counted against --max-per-client (not a --trusted-proxy) */
+    int state;           /* ntsd_conn_state */
+    double since;        /* monotonic: the state's start (opened, headers in, request ended) */
+    unsigned requests;   /* requests it has completed */
+    const char* cut;     /* shut down by the watcher: why (a refusal reason), or NULL */
+    const char* refused; /* no room and nothing to shed: its request gets 503 (the reason), or NULL */
 } ntsd_conn;
-
 typedef struct ntsd_server {
+    /* config.tokens and config.token_count belong to the server (freed at
+     * stop) and change at SIGHUP: read them only under tokens_lock (read). */
     ntsd_config config;
+    pthread_rwlock_t tokens_lock;
     struct MHD_Daemon* daemon;
     ntsd_sessions sessions;
     unsigned port;             /* the bound port */
@@ -229,7 +243,6 @@ typedef struct ntsd_server {
     int shutting_down;
     int in_flight;             /* requests between their first callback and completion */
     int evaluating;            /* evaluations running (<= config.threads) */
-    unsigned connections;      /* open connections */
     unsigned long long served; /* requests answered completely */
     /* Seconds summed over the requests answered: from the headers to the whole
      * body (receiving), in the codec and the core (handling), from the queued
@@ -240,29 +253,46 @@ typedef struct ntsd_server {
     pthread_t watcher;
     pthread_cond_t watch_wake;
     int watching, watch_stop;
+    unsigned live;                      /* connections open and not cut (watch.c) */
     unsigned long long header_timeouts; /* connections cut by --header-seconds */
+    unsigned long long body_timeouts;   /* connections cut by --timeout while sending a body */
+    unsigned long long shed;            /* connections cut to make room (the slowest first) */
     unsigned long long client_left;     /* evaluations stopped because their client left */
     ntsd_metrics metrics;
     size_t memory_in_use;               /* reserved against --max-memory */
     unsigned long long memory_refused;  /* requests refused for the budget (503) */
 } ntsd_server;
 
-/* The watcher thread (--header-seconds > 0). 0 or -1. */
+/* The watcher thread: the header and body deadlines. 0 or -1. */
 int ntsd_watch_start(ntsd_server* s);
 void ntsd_watch_stop(ntsd_server* s);
-/* A connection opens and closes (libmicrohttpd's connection notifications). */
-ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd);
+/* A connection opens (libmicrohttpd's connection notification) from `addr`.
+ * Room is made by the rule of watch.c: past --max-per-client connections
+ * from its address, that address's slowest connection is cut; past
+ * --max-connections, the slowest of all. With nothing to cut, the connection
+ * is marked refused (its request gets 503). NULL when out of memory. */
+ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd, const char* addr);
 void ntsd_conn_close(ntsd_server* s, ntsd_conn* k);
-/* A request's headers are in (busy), or it ended (not busy: the next request's
+/* The connection's request moves on: its headers are in (WORKING, or
+ * RECEIVING while its body comes), or it ended (WAITING: the next request's
  * header deadline starts). */
-void ntsd_conn_busy(ntsd_server* s, ntsd_conn* k, int busy);
+void ntsd_conn_enter(ntsd_server* s, ntsd_conn* k, ntsd_conn_state state);
+/* The numeric address of a socket address, or "-". */
+void ntsd_address_name(const struct sockaddr* a, char* out, size_t cap);
 /* 1 when the client of this connection has gone (for ntsj_config.cancel). */
 int ntsd_conn_client_left(void* user);
 
-/* Read --token-file: one token a line (blank lines and # comments skipped).
- * 0, or -1 with a message printed. */
+/* Read a token file: one token a line (blank lines and # comments skipped).
+ * 0 with a malloc'ed list, or -1 with why in `why` (a file that cannot be
+ * opened or holds no token; no memory). */
+int ntsd_read_tokens(const char* path, char*** tokens, int* count, char* why, size_t cap);
+void ntsd_free_token_list(char** tokens, int count);
+/* Read --token-file into cfg at the start. 0, or -1 with a message printed. */
 int ntsd_load_tokens(ntsd_config* cfg);
 void ntsd_free_tokens(ntsd_config* cfg);
+/* SIGHUP: read --token-file again and swap the server's list under
+ * tokens_lock. A file that fails to load keeps the old list (logged): 0 or -1. */
+int ntsd_server_reload_tokens(ntsd_server* s);
 /* 1 when `authorization` (the header's value, may be NULL) carries one of the
  * tokens, compared in constant time; 1 as well when no token is configured.
  * `which` (may be NULL): the index of the token it carries, -1 for none. */
@@ -280,7 +310,8 @@ void ntsd_client_key(const ntsd_config* cfg, const char* peer, const char* forwa
 /* 1 when `peer` (a numeric address) is one of --trusted-proxy. */
 int ntsd_is_trusted_proxy(const ntsd_config* cfg, const char* peer);
 
-/* Start listening. 0, or -1 with a message printed. */
+/* Start listening. 0, or -1 with a message printed. The server takes cfg's
+ * tokens (ntsd_server_stop frees them, as does a failed start). */
 int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg);
 /* Stop accepting connections; requests arriving on open connections get 503. */
 void ntsd_server_quiesce(ntsd_server* s);
@@ -294,15 +325,17 @@ void ntsd_server_stop(ntsd_server* s);
 
 typedef struct ntsd_route {
     ntsd_route_kind kind;
-    const char* allow;   /* the Allow header of the path ("POST", "GET, HEAD") */
-    int method_ok;       /* the method is one of `allow` */
+    const char* methods; /* the methods of the path ("POST", "GET, HEAD", "GET, HEAD, DELETE") */
+    const char* allow;   /* its Allow header: those and OPTIONS ("POST, OPTIONS") */
+    int method_ok;       /* the method is one of `methods` (OPTIONS is not: a preflight) */
     int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
     char scene_id[NTSD_SESSION_ID_MAX + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 
 /* 32 to 64 URL-safe characters: what a session id may be. */
 int ntsd_is_session_id(const char* id, size_t n);
-/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405. */
+/* Match a path (without query) and a method. kind NONE: 404. !method_ok: 405
+ * (or, for OPTIONS, a CORS preflight: server.c). */
 ntsd_route ntsd_route_find(const char* path, const char* method);
 /* 1 when a Content-Type header value names JSON (application/json, *+json); 0 for none. */
 int ntsd_is_json_media_type(const char* content_type);
@@ -316,7 +349,7 @@ typedef struct ntsd_stats {
     unsigned connections;
     unsigned long long served;
     size_t memory_in_use;
-    unsigned long long memory_refused, header_timeouts, client_left;
+    unsigned long long memory_refused, header_timeouts, body_timeouts, shed, client_left;
     double uptime_s, receiving_s, handling_s, sending_s;
 } ntsd_stats;
 ntsd_stats ntsd_server_stats(ntsd_server* s);

@@ -1,25 +1,50 @@
-/* The open connections, watched: a header deadline that trickled bytes cannot
- * extend, and the question "has this request's client left?" asked by the
- * core while it evaluates.
+/* The open connections, watched: deadlines that trickled bytes cannot
+ * extend, room made for a new connection by cutting the slowest, and the
+ * question "has this request's client left?" asked by the core while it
+ * evaluates.
  *
- * libmicrohttpd 0.9.75 calls the access handler only once a request's headers
- * are complete, and every byte resets its idle timer, so a client sending one
- * header byte every few seconds holds its connection for as long as it likes
- * (F2 in docs/reliability.md). The watcher gives each connection
- * --header-seconds from its opening, or from the end of its previous request,
- * to deliver the next request's headers; past that it shuts the socket down
- * (shutdown(2), not close: the descriptor stays libmicrohttpd's, which sees
- * the end of the stream and closes the connection itself). Once the headers
- * are in, the body has its own budget (--timeout, server.c) and the
- * evaluation its own (--max-seconds). */
+ * Deadlines. libmicrohttpd 0.9.75 calls the access handler only once a
+ * request's headers are complete, and every byte resets its idle timer, so a
+ * client sending one header byte every few seconds holds its connection for
+ * as long as it likes (F2 in docs/reliability.md). The watcher gives each
+ * connection --header-seconds from its opening (a TLS handshake included) or
+ * from the end of its previous request to deliver the next request's
+ * headers, and --timeout from its headers to deliver its body; past either
+ * it shuts the socket down (shutdown(2), not close: the descriptor stays
+ * libmicrohttpd's, which sees the end of the stream and closes the
+ * connection itself). The evaluation has its own budget (--max-seconds).
+ *
+ * Room. Clients from a few addresses reopening every connection they lose
+ * must not lock the others out (issue 23). A new connection past
+ * --max-per-client from its address cuts that address's slowest connection;
+ * past --max-connections in all, the slowest of all. The slowest: a
+ * connection that has not completed one request yet and is still waiting
+ * for its headers (or handshake), the longest waiting first; then one
+ * receiving a body, the longest first; then one idle between requests. A
+ * connection being handled or answered is never cut. With nothing to cut,
+ * the new connection is refused: its request gets 503 with Retry-After. A
+ * --trusted-proxy's connections are not counted per client (the proxy
+ * limits its own clients: deploy/nginx.conf). */
 #define _GNU_SOURCE /* POLLRDHUP */
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <poll.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <time.h>
 
 #include "server.h"
+
+/* Cut connection k (the caller holds s->lock): the socket is shut down,
+ * libmicrohttpd ends the connection. */
+static void cut(ntsd_server* s, ntsd_conn* k, const char* reason) {
+    shutdown(k->fd, SHUT_RDWR);
+    k->cut = reason;
+    s->live--;
+    ntsd_metrics_refusal(&s->metrics, reason);
+}
 
 static void* watch_main(void* arg) {
     ntsd_server* s = arg;
@@ -29,15 +54,21 @@ static void* watch_main(void* arg) {
         double now = ntsd_now();
         ntsd_conn* k;
         for (k = s->conns; k != NULL; k = k->next) {
-            if (k->busy || k->cut || now - k->since <= (double)s->config.header_seconds) continue;
             /* Under the lock: the connection cannot be closed (and its
              * descriptor reused) before it is unlinked by on_connection. */
-            shutdown(k->fd, SHUT_RDWR);
-            k->cut = 1;
-            s->header_timeouts++;
-            ntsd_metrics_refusal(&s->metrics, "header_timeout");
-            ntsd_log_info("a connection sent no complete request headers within --header-seconds %u: closed",
-                          s->config.header_seconds);
+            if (k->cut) continue;
+            if (k->state == NTSD_CONN_WAITING && s->config.header_seconds > 0 &&
+                now - k->since > (double)s->config.header_seconds) {
+                cut(s, k, "header_timeout");
+                s->header_timeouts++;
+                ntsd_log_info("a connection sent no complete request headers within --header-seconds %u: closed",
+                              s->config.header_seconds);
+            } else if (k->state == NTSD_CONN_RECEIVING && now - k->since > (double)s->config.timeout_s) {
+                cut(s, k, "upload_timeout");
+                s->body_timeouts++;
+                ntsd_log_info("a connection sent no complete request body within --timeout %u: closed",
+                              s->config.timeout_s);
+            }
         }
         clock_gettime(CLOCK_REALTIME, &until);
         until.tv_nsec += 250L * 1000 * 1000;
@@ -54,8 +85,8 @@ static void* watch_main(void* arg) {
 int ntsd_watch_start(ntsd_server* s) {
     if (pthread_cond_init(&s->watch_wake, NULL) != 0) return -1;
     s->watch_stop = 0;
-    s->watching = s->config.header_seconds > 0 && pthread_create(&s->watcher, NULL, watch_main, s) == 0;
-    if (s->config.header_seconds > 0 && !s->watching) {
+    s->watching = pthread_create(&s->watcher, NULL, watch_main, s) == 0;
+    if (!s->watching) {
         pthread_cond_destroy(&s->watch_wake);
         return -1;
     }
@@ -74,15 +105,79 @@ void ntsd_watch_stop(ntsd_server* s) {
     pthread_cond_destroy(&s->watch_wake);
 }
 
-ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd) {
+/* How slow a connection is, to be cut first: larger is slower, 0 is never
+ * (being handled or answered, or cut already). The rank orders the kinds (see
+ * the top of the file); within one, the longer it has been at it, the slower. */
+static double slowness(const ntsd_conn* k, double now) {
+    if (k->cut || k->state == NTSD_CONN_WORKING) return 0.0;
+    if (k->state == NTSD_CONN_WAITING && k->requests == 0) return 3e9 + (now - k->since);
+    if (k->state == NTSD_CONN_RECEIVING) return 2e9 + (now - k->since);
+    return 1e9 + (now - k->since);
+}
+
+static const char* const state_names[] = {"waiting for a request", "sending a body", "being served"};
+
+/* Cut connection v to make room for a new one, and say so. */
+static void make_room(ntsd_server* s, ntsd_conn* v, const char* reason, double now) {
+    ntsd_log_info("a connection from %s (%s for %.3f s, %u request(s) done) cut to make room (%s)", v->addr,
+                  state_names[v->state], now - v->since, v->requests,
+                  strcmp(reason, "max_per_client") == 0 ? "--max-per-client" : "--max-connections");
+    cut(s, v, reason);
+    s->shed++;
+}
+
+/* The slowest connection from `addr` (NULL: from anywhere), or NULL. */
+static ntsd_conn* slowest(ntsd_server* s, const char* addr, double now, unsigned* from_addr) {
+    ntsd_conn *k, *worst = NULL;
+    double w = 0.0;
+    unsigned n = 0;
+    for (k = s->conns; k != NULL; k = k->next) {
+        double x;
+        if (addr != NULL && (!k->limited || k->cut || strcmp(k->addr, addr) != 0)) continue;
+        n += !k->cut;
+        x = slowness(k, now);
+        if (x > 0.0 && x >= w) { /* on a tie the older: the list runs newest first */
+            w = x;
+            worst = k;
+        }
+    }
+    if (from_addr != NULL) *from_addr = n;
+    return worst;
+}
+
+ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd, const char* addr) {
     ntsd_conn* k = calloc(1, sizeof *k);
+    double now = ntsd_now();
     if (k == NULL) return NULL;
     k->fd = fd;
-    k->since = ntsd_now();
+    k->since = now;
+    k->state = NTSD_CONN_WAITING;
+    snprintf(k->addr, sizeof k->addr, "%s", addr);
+    k->limited = !ntsd_is_trusted_proxy(&s->config, addr);
     pthread_mutex_lock(&s->lock);
+    if (k->limited) {
+        unsigned n;
+        ntsd_conn* v = slowest(s, k->addr, now, &n);
+        if (n >= s->config.max_per_client) {
+            if (v != NULL) {
+                make_room(s, v, "max_per_client", now);
+            } else {
+                k->refused = "max_per_client";
+            }
+        }
+    }
+    if (k->refused == NULL && s->live >= s->config.max_connections) {
+        ntsd_conn* v = slowest(s, NULL, now, NULL);
+        if (v != NULL) {
+            make_room(s, v, "shed", now);
+        } else {
+            k->refused = "max_connections";
+        }
+    }
     k->next = s->conns;
     if (s->conns != NULL) s->conns->prev = k;
     s->conns = k;
+    s->live++;
     pthread_mutex_unlock(&s->lock);
     return k;
 }
@@ -93,16 +188,27 @@ void ntsd_conn_close(ntsd_server* s, ntsd_conn* k) {
     if (k->prev != NULL) k->prev->next = k->next;
     else s->conns = k->next;
     if (k->next != NULL) k->next->prev = k->prev;
+    if (!k->cut) s->live--;
     pthread_mutex_unlock(&s->lock);
     free(k);
 }
 
-void ntsd_conn_busy(ntsd_server* s, ntsd_conn* k, int busy) {
+void ntsd_conn_enter(ntsd_server* s, ntsd_conn* k, ntsd_conn_state state) {
     if (k == NULL) return;
     pthread_mutex_lock(&s->lock);
-    k->busy = busy;
-    if (!busy) k->since = ntsd_now();
+    if (state == NTSD_CONN_WAITING && k->state != NTSD_CONN_WAITING) k->requests++;
+    k->since = ntsd_now();
+    k->state = (int)state;
     pthread_mutex_unlock(&s->lock);
+}
+
+void ntsd_address_name(const struct sockaddr* a, char* out, size_t cap) {
+    snprintf(out, cap, "-");
+    if (a == NULL) return;
+    if (a->sa_family == AF_INET)
+        inet_ntop(AF_INET, &((const struct sockaddr_in*)(const void*)a)->sin_addr, out, (socklen_t)cap);
+    else if (a->sa_family == AF_INET6)
+        inet_ntop(AF_INET6, &((const struct sockaddr_in6*)(const void*)a)->sin6_addr, out, (socklen_t)cap);
 }
 
 /* The core's cancel hook for a request (ntsj_config.cancel): has the peer

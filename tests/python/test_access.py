@@ -90,3 +90,93 @@ def test_https(paths, tmp_path):
     r = subprocess.run([str(paths.bin / "ntscontactd"), "--port", "0", "--tls-cert", str(cert)], capture_output=True,
                        timeout=10)
     assert r.returncode == 2 and b"go together" in r.stderr
+
+
+APP = "https://app.example.org"
+SID = "A" * 43
+ROUTES = {"/v1/contact": "POST", "/v1/validate": "POST", "/v1/scenes": "POST", f"/v1/scenes/{SID}": "GET, HEAD, DELETE",
+          f"/v1/scenes/{SID}/contact": "POST", "/v1/health": "GET, HEAD", "/metrics": "GET, HEAD",
+          "/v1/openapi.json": "GET, HEAD", "/v1/schemas/scene": "GET, HEAD"}
+
+
+def cors_headers(r):
+    return {k.lower(): v for k, v in r.headers.items() if k.lower().startswith("access-control-")}
+
+
+def test_cors_preflight_from_an_allowed_origin(paths, tmp_path):
+    """--allow-origin let a web page's requests through, but its browser's
+    preflight (OPTIONS) got 405 and no answer carried CORS headers: an allowed
+    page could not use the service. Now the preflight from an allowed Origin
+    gets 204 with the route's methods and the headers the service reads,
+    without a token; from any other Origin, or none, 403 without CORS headers."""
+    tokens = tmp_path / "tokens"
+    tokens.write_text("alpha-token-1\n")
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--allow-origin", "https://other.example",
+                     "--allow-origin", APP, "--token-file", str(tokens))
+    try:
+        for path, methods in ROUTES.items():
+            r = requests.options(d.url(path), headers={"Origin": APP, "Access-Control-Request-Method": "POST",
+                                                       "Access-Control-Request-Headers": "authorization,content-type"},
+                                 timeout=10)
+            assert r.status_code == 204 and r.content == b"", (path, r.status_code, r.text)
+            h = cors_headers(r)
+            assert h["access-control-allow-origin"] == APP, h
+            assert h["access-control-allow-methods"] == methods, (path, h)
+            allowed = {x.strip().lower() for x in h["access-control-allow-headers"].split(",")}
+            assert allowed == {"authorization", "content-type", "accept"}, h
+            assert int(h["access-control-max-age"]) > 0
+            assert "Origin" in r.headers["Vary"]
+            assert r.headers["Allow"] == methods + ", OPTIONS"
+            assert "access-control-allow-credentials" not in h
+        # A header the service does not read is not allowed (the browser then refuses).
+        r = requests.options(d.url("/v1/contact"), headers={"Origin": APP, "Access-Control-Request-Method": "POST",
+                                                            "Access-Control-Request-Headers": "x-custom"}, timeout=10)
+        assert r.status_code == 204 and "x-custom" not in r.headers["Access-Control-Allow-Headers"].lower()
+        # Any other Origin, or none: 403, no CORS headers.
+        for headers in ({"Origin": "https://evil.example", "Access-Control-Request-Method": "POST"},
+                        {"Origin": "null"}, {}):
+            r = requests.options(d.url("/v1/contact"), headers=headers, timeout=10)
+            assert r.status_code == 403 and r.json()["error"]["code"] == "forbidden", (headers, r.text)
+            assert cors_headers(r) == {}, r.headers
+        # No such route: 404 (the preflight tells nothing the route table does not).
+        r = requests.options(d.url("/v1/nowhere"), headers={"Origin": APP}, timeout=10)
+        assert r.status_code == 404
+    finally:
+        assert d.stop() == 0
+
+
+def test_cors_headers_on_answers_to_an_allowed_origin(paths, tmp_path):
+    """What an allowed page reads: every answer to its Origin carries
+    Access-Control-Allow-Origin, Vary: Origin and the headers it may read
+    (Location, Retry-After, every NTS-* header of a binary step)."""
+    import numpy as np
+    tokens = tmp_path / "tokens"
+    tokens.write_text("alpha-token-1\n")
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--allow-origin", APP, "--token-file", str(tokens))
+    page = {"Origin": APP, "Authorization": "Bearer alpha-token-1"}
+    try:
+        r = requests.post(d.url("/v1/contact"), json=SCENE, headers=page, timeout=10)
+        assert r.status_code == 200
+        assert r.headers["Access-Control-Allow-Origin"] == APP and "Origin" in r.headers["Vary"]
+        exposed = {x.strip().lower() for x in r.headers["Access-Control-Expose-Headers"].split(",")}
+        assert {"location", "retry-after", "nts-warnings"} <= exposed
+        # The page reads a 401 too (it must know its token was refused).
+        r = requests.post(d.url("/v1/contact"), json=SCENE, headers={"Origin": APP}, timeout=10)
+        assert r.status_code == 401 and r.headers["Access-Control-Allow-Origin"] == APP
+        # A session: its Location, and every header of a binary step, are exposed.
+        r = requests.post(d.url("/v1/scenes"), json=SCENE, headers=page, timeout=10)
+        assert r.status_code == 201 and r.headers["Access-Control-Allow-Origin"] == APP
+        location = r.headers["Location"]
+        pos = np.array([n for b in SCENE["bodies"] for n in b["nodes"]], dtype="<f8")
+        r = requests.post(d.url(location + "/contact"), data=pos.tobytes(),
+                          headers={**page, "Content-Type": "application/octet-stream",
+                                   "Accept": "application/octet-stream"}, timeout=10)
+        assert r.status_code == 200, r.text
+        nts = {k.lower() for k in r.headers if k.lower().startswith("nts-")}
+        assert len(nts) >= 10 and nts <= exposed, nts - exposed
+        # No Origin (not a browser): no CORS headers, but Vary (a cache keeps both answers apart).
+        r = requests.post(d.url("/v1/contact"), json=SCENE, headers={"Authorization": "Bearer alpha-token-1"},
+                          timeout=10)
+        assert r.status_code == 200 and cors_headers(r) == {} and "Origin" in r.headers["Vary"]
+    finally:
+        assert d.stop() == 0

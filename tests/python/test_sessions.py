@@ -375,11 +375,11 @@ def test_unknown_scene_is_404(daemon, validators, method, sid):
 
 def test_scene_routes_methods(daemon, validators):
     r = requests.get(daemon.url("/v1/scenes"), timeout=10)
-    assert r.status_code == 405 and r.headers["Allow"] == "POST"
+    assert r.status_code == 405 and r.headers["Allow"] == "POST, OPTIONS"
     r = requests.put(daemon.url("/v1/scenes/" + "A" * 43), timeout=10)
-    assert r.status_code == 405 and r.headers["Allow"] == "GET, HEAD, DELETE"
+    assert r.status_code == 405 and r.headers["Allow"] == "GET, HEAD, DELETE, OPTIONS"
     r = requests.get(daemon.url("/v1/scenes/" + "A" * 43 + "/contact"), timeout=10)
-    assert r.status_code == 405 and r.headers["Allow"] == "POST"
+    assert r.status_code == 405 and r.headers["Allow"] == "POST, OPTIONS"
     r = requests.get(daemon.url("/v1/scenes/" + "A" * 43 + "/other"), timeout=10)
     check_error(validators, r, 404, "not_found")
 

@@ -55,7 +55,7 @@ def _run_trickle(port, n, seconds):
 
 def test_trickled_headers_are_cut_by_the_header_deadline(paths, tmp_path):
     d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--header-seconds", "1", "--timeout", "30",
-                     "--max-connections", "6", "--max-per-client", "100")
+                     "--max-connections", "20", "--max-per-client", "100")
     try:
         stop = threading.Event()
         closed_at = [None] * 10

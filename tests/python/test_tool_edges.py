@@ -195,7 +195,7 @@ def daemon_values(tmp_path, tls_pair, form):
         "--log-file": str(tmp_path / f"{form}.log"), "--max-candidates": "1M", "--token-file": str(tokens),
         "--allow-origin": "https://app.example.org", "--tls-cert": str(cert), "--tls-key": str(key),
         "--header-seconds": "5", "--max-memory": "256M", "--log-format": "json", "--allow-host": "127.0.0.1",
-        "--session-id-header": "X-Edge-Id",
+        "--session-id-header": "X-Edge-Id", "--trusted-proxy": "127.0.0.1",
     }
 
 
