@@ -814,11 +814,42 @@ static const char* refusal_of(const ntsd_request* r, int ok) {
     }
 }
 
+/* The path as the logs show it: what follows "/scenes/" is a session id
+ * and becomes its tag, "/v1/scenes/~1a2b3c4d/contact" (ntsd_session_tag):
+ * the id is the session's only key, and logs travel further than the
+ * service. Every segment after it but "contact" is tagged, so that a
+ * mistyped path ("/v1/scenes//ID", "/v1/scenes/ID/contacts") shows no id
+ * either. */
+static const char* logged_path(const char* path, char* out, size_t cap) {
+    const char* at = strstr(path, "/scenes/");
+    size_t k;
+    if (at == NULL) return path;
+    at += 8;
+    k = (size_t)snprintf(out, cap, "%.*s", (int)(at - path), path);
+    while (*at != '\0' && k < cap) {
+        size_t n = strcspn(at, "/");
+        if (n == 0 || (n == 7 && strncmp(at, "contact", 7) == 0)) {
+            k += (size_t)snprintf(out + k, cap - k, "%.*s", (int)n, at);
+        } else {
+            char tag[NTSD_SESSION_TAG_LEN + 1];
+            ntsd_session_tag(at, n, tag);
+            k += (size_t)snprintf(out + k, cap - k, "%s", tag);
+        }
+        at += n;
+        if (*at == '/' && k < cap) {
+            k += (size_t)snprintf(out + k, cap - k, "/");
+            at++;
+        }
+    }
+    return out;
+}
+
 static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, enum MHD_RequestTerminationCode toe) {
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
     int ok = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK && r != NULL && r->queued;
     double t_end = ntsd_now();
+    char path[2 * sizeof r->path]; /* logged_path: a tag may be longer than a short segment */
     (void)c;
     if (r == NULL) return;
     ntsd_conn_enter(s, r->link, NTSD_CONN_WAITING);
@@ -837,7 +868,7 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
         s->client_left++;
         pthread_mutex_unlock(&s->lock);
     }
-    ntsd_log_request(r->peer, r->method, r->path, ok ? r->status : 0,
+    ntsd_log_request(r->peer, r->method, logged_path(r->path, path, sizeof path), ok ? r->status : 0,
                      ok || r->code[0] ? r->code : termination_name(toe), r->received,
                      ok ? r->bytes_out : 0, 1e3 * (t_end - r->t0));
     pthread_mutex_lock(&s->lock);

@@ -179,6 +179,12 @@ typedef struct ntsd_session_meta {
 } ntsd_session_meta;
 /* What GET /v1/scenes/{id} shows, without counting as a use: 0 or -1 (none). */
 int ntsd_sessions_describe(ntsd_sessions* st, const char* id, ntsd_session_meta* out);
+/* What the logs show for a session id (n bytes): "~" and the first 8 hex
+ * digits of the id's SHA-256 (tag.c). It says which lines are one session's,
+ * and an operator given an id finds its lines (printf %s ID | sha256sum), but
+ * it cannot be turned back into the id, the session's only key. */
+#define NTSD_SESSION_TAG_LEN 9
+void ntsd_session_tag(const char* id, size_t n, char out[NTSD_SESSION_TAG_LEN + 1]);
 
 typedef enum ntsd_route_kind {
     NTSD_ROUTE_NONE = 0,
