@@ -162,11 +162,11 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
     char* doc;
     int n;
     if (strcmp(r->method, "DELETE") == 0) {
-        if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id) != 0)
+        if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id, r->client) != 0)
             return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
         return reply(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, "application/json", NULL, 0);
     }
-    if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, &m) != 0)
+    if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, r->client, &m) != 0)
         return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
     doc = malloc(512);
     if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
@@ -256,7 +256,7 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
     r->rc = ntsj_session_create(r->body.data ? r->body.data : "", r->body.length, jc, &ss, &r->resp);
     if (ss == NULL) return;
     info = ntsj_session_get_info(ss);
-    rc = ntsd_sessions_add(&s->sessions, ss, r->given_id[0] ? r->given_id : NULL, id);
+    rc = ntsd_sessions_add(&s->sessions, ss, r->client, r->given_id[0] ? r->given_id : NULL, id);
     if (rc == NTSD_SESSIONS_TOO_LARGE) {
         char msg[160];
         snprintf(msg, sizeof msg, "the session would hold %zu bytes, more than --session-memory = %zu",
@@ -265,15 +265,26 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
         resp_error(r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), msg);
         return;
     }
+    if (rc == NTSD_SESSIONS_QUOTA) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "this client holds --max-sessions-per-client = %d scene sessions, every one in use; retry later, "
+                 "or delete one", s->config.max_sessions_per_client);
+        ntsj_session_destroy(ss);
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), msg);
+        return;
+    }
     if (rc != 0) {
         ntsj_session_destroy(ss);
-        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "every scene session is in use (--max-sessions, --session-memory); retry later");
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED),
+                   "the scene sessions are full (--max-sessions, --session-memory) and none that may make room is "
+                   "idle; retry later");
         return;
     }
     memset(&r->resp, 0, sizeof r->resp);
     r->resp.body = nts_alloc(256);
     if (r->resp.body == NULL) {
-        ntsd_sessions_remove(&s->sessions, id);
+        ntsd_sessions_remove(&s->sessions, id, r->client);
         resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory");
         return;
     }
@@ -288,17 +299,43 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
     r->rc = 0;
 }
 
-/* POST /v1/scenes/{id}/contact: one step, serialised per session. */
+static int budget_reserve(ntsd_server* s, ntsd_request* r, size_t total);
+
+/* The answer of a step is held until sent: it counts against --max-memory
+ * (a 0-byte step may have asked for gaps on a wide radius). */
+static void budget_answer(ntsd_request* r) {
+    ntsd_server* s = r->server;
+    char msg[200];
+    int alone;
+    if (!r->resp.ok || budget_reserve(s, r, r->reserved + r->resp.length)) return;
+    r->refusal = "max_memory";
+    alone = r->resp.length > s->config.max_memory;
+    if (alone)
+        snprintf(msg, sizeof msg, "this step's answer (%zu bytes) alone exceeds --max-memory = %zu", r->resp.length,
+                 s->config.max_memory);
+    else
+        snprintf(msg, sizeof msg, "the memory budget (--max-memory = %zu) is in use by other requests; retry later",
+                 s->config.max_memory);
+    ntsj_response_free(&r->resp);
+    resp_error(r, ntsj_code_name(alone ? NTSJ_PAYLOAD_TOO_LARGE : NTSJ_OVERLOADED), msg);
+}
+
+/* POST /v1/scenes/{id}/contact: one step, serialised per session. What the
+ * step may add to its session is the room --session-memory leaves it
+ * (ntsj_config.step_memory). After it, the session's memory is settled in the
+ * store, which may ask for the session's context buffers back: after one
+ * large step (ntsd_sessions_settle), or when the store has no room for what
+ * the step grew. */
 static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     ntsd_server* s = r->server;
     ntsd_session_entry* e;
+    ntsj_config sc = *jc;
     ntsj_step st;
-    size_t memory;
     if (r->too_many_params) {
         resp_error(r, ntsj_code_name(NTSJ_INVALID_VALUE), "too many query parameters");
         return;
     }
-    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id) : NULL;
+    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client) : NULL;
     if (e == NULL) {
         resp_error(r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message);
         return;
@@ -311,13 +348,20 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     st.param_count = r->param_count;
     st.param_names = r->param_names;
     st.param_values = r->param_values;
+    sc.step_memory_name = "--session-memory";
     pthread_mutex_lock(&e->step_lock);
     gate_enter(s);
-    r->rc = ntsj_session_step(e->session, &st, jc, &r->resp);
-    memory = r->resp.ok ? ntsj_session_get_info(e->session).memory_bytes : 0;
+    sc.step_memory = ntsd_sessions_step_room(&s->sessions, e);
+    r->rc = ntsj_session_step(e->session, &st, &sc, &r->resp);
     gate_leave(s);
+    /* Held by this request: the store neither trims nor frees it meanwhile. */
+    if (ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, r->resp.ok, 0)) {
+        ntsj_session_trim(e->session);
+        ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, 0, 1);
+    }
     pthread_mutex_unlock(&e->step_lock);
-    ntsd_sessions_release(&s->sessions, e, memory);
+    ntsd_sessions_release(&s->sessions, e);
+    budget_answer(r);
 }
 
 /* Run the codec on the whole body, on the connection's own thread: fills
@@ -972,7 +1016,14 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
      * of a closed socket. */
     hard_limit = cfg->max_connections + 8 + cfg->max_connections / 16;
 
-    if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, cfg->session_ttl_s, cfg->session_memory) != 0) {
+    /* The default quota: a quarter of the store (four clients at their quota
+     * fill it), but at least 4, so that a small store does not hold one
+     * client's solver loop to a session or two; never above the store. */
+    if (s->config.max_sessions_per_client <= 0)
+        s->config.max_sessions_per_client = cfg->max_sessions / 4 > 4 ? cfg->max_sessions / 4 : 4;
+    if (s->config.max_sessions_per_client > cfg->max_sessions) s->config.max_sessions_per_client = cfg->max_sessions;
+    if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, s->config.max_sessions_per_client, cfg->session_ttl_s,
+                           cfg->session_memory) != 0) {
         ntsd_log_message("cannot allocate the session table");
         ntsd_free_tokens(&s->config);
         return -1;
