@@ -40,7 +40,7 @@ def write_config(workdir: pathlib.Path, nginx_port: int, daemon_ports: Sequence[
     conf = workdir / "nginx.conf"
     shutil.copyfile(HERE / "nginx.conf", conf)
     (workdir / "upstreams.conf").write_text(
-        "".join(f"server 127.0.0.1:{p} max_fails=1 fail_timeout=2s;\n" for p in daemon_ports))
+        "".join(f"server 127.0.0.1:{p} max_fails=3 fail_timeout=2s;\n" for p in daemon_ports))
     (workdir / "listen.conf").write_text(f"listen 127.0.0.1:{nginx_port};\n")
     return conf
 
@@ -55,7 +55,7 @@ class Cluster:
         self.nginx = nginx or find_nginx()
         if self.nginx is None:
             raise RuntimeError("nginx is not installed (scripts/install-deps.sh installs it)")
-        self.port = port or free_port()
+        self.port = port  # 0: a free one, chosen once the daemons have theirs (start)
         self.daemon_ports: List[int] = []
         self.daemons: List[Optional[subprocess.Popen]] = []
         self.proxy: Optional[subprocess.Popen] = None
@@ -70,7 +70,7 @@ class Cluster:
     def _start_daemon(self, i: int, port: int) -> subprocess.Popen:
         log = open(self.workdir / f"daemon{i}.log", "ab")
         proc = subprocess.Popen([str(self.daemon_bin), "--port", str(port), "--session-id-header", "NTS-Session-Id",
-                                 *self.daemon_args], stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)
+                                 "--trusted-proxy", "127.0.0.1", "--max-connections", "1024", *self.daemon_args], stdout=subprocess.PIPE, stderr=log, stdin=subprocess.DEVNULL)
         log.close()
         sel = selectors.DefaultSelector()
         sel.register(proc.stdout, selectors.EVENT_READ)
@@ -92,6 +92,13 @@ class Cluster:
             (self.workdir / d).mkdir(exist_ok=True)
         for i in range(self.count):
             self.daemons.append(self._start_daemon(i, 0))
+        # After the daemons: a port chosen before them could be given to one
+        # of them (both come from the kernel's free ports), and the cluster
+        # would then talk to that daemon directly, not through nginx.
+        if self.port == 0:
+            self.port = free_port()
+        pid = self.workdir / "logs" / "nginx.pid"
+        pid.unlink(missing_ok=True)
         conf = write_config(self.workdir, self.port, self.daemon_ports)
         self.proxy = subprocess.Popen([self.nginx, "-p", str(self.workdir), "-c", str(conf), "-g", "daemon off;"],
                                       stdout=subprocess.DEVNULL, stderr=open(self.workdir / "nginx.stderr", "wb"))
@@ -101,7 +108,9 @@ class Cluster:
                 raise RuntimeError("nginx exited: " + (self.workdir / "nginx.stderr").read_text())
             try:
                 socket.create_connection(("127.0.0.1", self.port), timeout=1).close()
-                return self
+                if pid.exists():  # written once nginx has bound its port (and not before)
+                    return self
+                time.sleep(0.05)
             except OSError:
                 time.sleep(0.05)
         raise RuntimeError("nginx did not listen")

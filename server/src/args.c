@@ -79,7 +79,7 @@ static const char usage_service[] =
     "  --max-candidates N   closest points kept per evaluation (default 64 per\n"
     "                       surface node + 1000000); more -> 400 limit_exceeded\n"
     "  --max-seconds S      budget of one request's decode + evaluation + encode,\n"
-    "                       0 = none (default 0); over -> 400 limit_exceeded\n"
+    "                       0 = none (default 60); over -> 400 limit_exceeded\n"
     "  --session-id-header NAME  behind a proxy that routes sessions by id: a new\n"
     "                       session takes the id this header gives (32-64 URL-safe\n"
     "                       characters; deploy/nginx.conf sends nginx's $request_id).\n"
@@ -146,6 +146,11 @@ ntsd_config ntsd_default_config(void) {
     c.threads = cores > 0 ? (cores > 256 ? 256 : (int)cores) : 1;
     c.codec = ntsj_default_config(); /* limits and budgets of every request */
     c.codec.threads = 0;             /* concurrency comes from requests, not from inside one */
+    /* A request's time is bounded by default (issue 23: two brute-force
+     * scenes held the evaluation slots as long as they liked): the largest
+     * scene --max-bytes admits (64 MiB, 4.6 million nodes) takes about 9 s
+     * here, decode to encode (docs/operations.md). */
+    c.codec.max_seconds = 60.0;
     c.timeout_s = 30;
     c.max_connections = 256;
     c.quiet = 0;

@@ -21,7 +21,7 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  "{\"status\":\"%s\",\"version\":\"%s\","
                  "\"build\":{\"type\":\"%s\",\"openmp\":%s,\"sanitize\":%s,\"libmicrohttpd\":\"%s\"},"
                  "\"server\":{\"threading\":\"%s\",\"threads\":%d,\"max_body\":%zu,\"timeout_s\":%u,"
-                 "\"max_connections\":%u},"
+                 "\"max_connections\":%u,\"max_seconds\":%g},"
                  "\"uptime_s\":%.3f,\"requests_served\":%llu,\"requests_in_flight\":%d,"
                  "\"evaluations_running\":%d,\"connections_open\":%u,"
                  "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f},"
@@ -33,7 +33,8 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTS_CONFIG_BUILD_TYPE,
                  NTS_CONFIG_OPENMP ? "true" : "false", NTS_CONFIG_SANITIZE ? "true" : "false", MHD_get_version(),
                  "per-connection", c->threads, c->codec.max_bytes, c->timeout_s,
-                 c->max_connections, st->uptime_s, st->served, st->in_flight, st->evaluating, st->connections,
+                 c->max_connections, c->codec.max_seconds, st->uptime_s, st->served, st->in_flight, st->evaluating,
+                 st->connections,
                  st->receiving_s, st->handling_s, st->sending_s, ss->held, ss->memory, c->max_sessions,
                  c->session_ttl_s, c->session_memory, ss->created, ss->evicted, ss->expired, ss->deleted,
                  c->max_sessions_per_client, ss->clients, ss->evicted_own, ss->refused, ss->trimmed,

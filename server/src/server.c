@@ -214,21 +214,48 @@ static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
 }
 
 /* At most config.threads evaluations at once (per-connection threads would
- * otherwise oversubscribe the cores); waiting here holds no lock. */
-static void gate_enter(ntsd_server* s) {
+ * otherwise oversubscribe the cores); waiting here holds no lock. Large
+ * requests (ntsd_large_request) take at most threads - 1 slots when there are
+ * two or more: a few long evaluations cannot make a small request wait for
+ * them (issue 23: two brute-force scenes made a normal POST wait 18.5 s). A
+ * freed slot goes to a waiting small request first (it is quick), else to a
+ * large one if a large slot is free: one waiter woken, not the herd. */
+static int large_slots(const ntsd_server* s) {
+    return s->config.threads >= 2 ? s->config.threads - 1 : 1;
+}
+
+static void gate_enter(ntsd_server* s, int large) {
     pthread_mutex_lock(&s->lock);
-    while (s->evaluating >= s->config.threads) pthread_cond_wait(&s->changed, &s->lock);
+    if (large) {
+        s->waiting_large++;
+        while (s->evaluating >= s->config.threads || s->evaluating_large >= large_slots(s))
+            pthread_cond_wait(&s->changed_large, &s->lock);
+        s->waiting_large--;
+        s->evaluating_large++;
+    } else {
+        s->waiting_small++;
+        while (s->evaluating >= s->config.threads) pthread_cond_wait(&s->changed, &s->lock);
+        s->waiting_small--;
+    }
     s->evaluating++;
     pthread_mutex_unlock(&s->lock);
 }
 
-static void gate_leave(ntsd_server* s) {
+static void gate_leave(ntsd_server* s, int large) {
     pthread_mutex_lock(&s->lock);
     s->evaluating--;
-    pthread_cond_signal(&s->changed); /* one slot freed: wake one waiter, not the herd */
+    if (large) s->evaluating_large--;
+    if (s->waiting_small > 0)
+        pthread_cond_signal(&s->changed);
+    else if (s->waiting_large > 0 && s->evaluating_large < large_slots(s))
+        pthread_cond_signal(&s->changed_large);
     pthread_mutex_unlock(&s->lock);
 }
 
+/* Large: a body of NTSD_LARGE_BYTES or more, or a session step over
+ * NTSD_LARGE_NODES nodes (a step's work is its session's size, whatever its
+ * body): about 10,000 nodes or more, milliseconds of work and up. */
+enum { NTSD_LARGE_BYTES = 256 * 1024, NTSD_LARGE_NODES = 16384 };
 
 static int query_flag(struct MHD_Connection* c, const char* name) {
     const char* v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
@@ -331,6 +358,7 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     ntsd_session_entry* e;
     ntsj_config sc = *jc;
     ntsj_step st;
+    int large;
     if (r->too_many_params) {
         resp_error(r, ntsj_code_name(NTSJ_INVALID_VALUE), "too many query parameters");
         return;
@@ -350,10 +378,11 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     st.param_values = r->param_values;
     sc.step_memory_name = "--session-memory";
     pthread_mutex_lock(&e->step_lock);
-    gate_enter(s);
+    large = r->body.length >= NTSD_LARGE_BYTES || ntsj_session_get_info(e->session).nodes >= NTSD_LARGE_NODES;
+    gate_enter(s, large);
     sc.step_memory = ntsd_sessions_step_room(&s->sessions, e);
     r->rc = ntsj_session_step(e->session, &st, &sc, &r->resp);
-    gate_leave(s);
+    gate_leave(s, large);
     /* Held by this request: the store neither trims nor frees it meanwhile. */
     if (ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, r->resp.ok, 0)) {
         ntsj_session_trim(e->session);
@@ -369,6 +398,7 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
 static void evaluate(ntsd_request* r) {
     ntsd_server* s = r->server;
     ntsj_config jc = s->config.codec;
+    int large;
     jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
     jc.pretty = r->pretty;
     if (r->link != NULL) { /* the work stops when its client leaves */
@@ -383,12 +413,13 @@ static void evaluate(ntsd_request* r) {
         ntsd_body_free(&r->body);
         return;
     }
-    gate_enter(s);
+    large = r->body.length >= NTSD_LARGE_BYTES;
+    gate_enter(s, large);
     if (r->route.kind == NTSD_ROUTE_SCENES)
         evaluate_create(r, &jc);
     else
         r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
-    gate_leave(s);
+    gate_leave(s, large);
     ntsd_body_free(&r->body);
 }
 
@@ -980,6 +1011,7 @@ static void release(ntsd_server* s) {
     ntsd_watch_stop(s);
     ntsd_sessions_free(&s->sessions);
     pthread_cond_destroy(&s->changed);
+    pthread_cond_destroy(&s->changed_large);
     pthread_mutex_destroy(&s->lock);
     pthread_rwlock_destroy(&s->tokens_lock);
     ntsd_free_tokens(&s->config);
@@ -1030,11 +1062,13 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
     }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->changed, NULL);
+    pthread_cond_init(&s->changed_large, NULL);
     pthread_rwlock_init(&s->tokens_lock, NULL);
     if (ntsd_watch_start(s) != 0) {
         ntsd_log_message("cannot start the connection watcher");
         ntsd_sessions_free(&s->sessions);
         pthread_cond_destroy(&s->changed);
+        pthread_cond_destroy(&s->changed_large);
         pthread_mutex_destroy(&s->lock);
         pthread_rwlock_destroy(&s->tokens_lock);
         ntsd_free_tokens(&s->config);

@@ -266,6 +266,7 @@ typedef struct ntsd_conn {
     int limited;         /* counted against --max-per-client (not a --trusted-proxy) */
     int state;           /* ntsd_conn_state */
     double since;        /* monotonic: the state's start (opened, headers in, request ended) */
+    double begun;        /* monotonic: its current request's start (opened, or the previous one ended) */
     unsigned requests;   /* requests it has completed */
     const char* cut;     /* shut down by the watcher: why (a refusal reason), or NULL */
     const char* refused; /* no room and nothing to shed: its request gets 503 (the reason), or NULL */
@@ -283,7 +284,10 @@ typedef struct ntsd_server {
     char* tls_cert;
 
     pthread_mutex_t lock;      /* guards everything below */
-    pthread_cond_t changed;    /* an evaluation slot was freed */
+    pthread_cond_t changed;    /* an evaluation slot was freed (for a small request) */
+    pthread_cond_t changed_large; /* a slot a large request may take was freed */
+    int evaluating_large;      /* large evaluations running (<= threads - 1 when threads >= 2) */
+    int waiting_small, waiting_large; /* requests waiting at the gate */
     int shutting_down;
     int in_flight;             /* requests between their first callback and completion */
     int evaluating;            /* evaluations running (<= config.threads) */

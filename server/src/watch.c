@@ -16,14 +16,17 @@
  *
  * Room. Clients from a few addresses reopening every connection they lose
  * must not lock the others out (issue 23). A new connection past
- * --max-per-client from its address cuts that address's slowest connection;
- * past --max-connections in all, the slowest of all. The slowest: a
- * connection that has not completed one request yet and is still waiting
- * for its headers (or handshake), the longest waiting first; then one
- * receiving a body, the longest first; then one idle between requests. A
- * connection being handled or answered is never cut. With nothing to cut,
- * the new connection is refused: its request gets 503 with Retry-After. A
- * --trusted-proxy's connections are not counted per client (the proxy
+ * --max-per-client from its address cuts that address's slowest connection.
+ * Past --max-connections in all, it cuts the slowest connection of the
+ * address holding the most: a few addresses holding most of the room lose
+ * their own connections to each other, however fast they reopen them, and a
+ * client with one connection keeps it. The slowest: the one longest at a
+ * request it has not finished sending (from its opening or the end of its
+ * previous request: its handshake, headers and body), then one idle between
+ * requests, the longest first. A connection being handled or answered is
+ * never cut. With nothing to cut, the new connection is refused: its
+ * request gets 503 with Retry-After. A --trusted-proxy's connections are not
+ * counted per client, and cut only when no client's can be (the proxy
  * limits its own clients: deploy/nginx.conf). */
 #define _GNU_SOURCE /* POLLRDHUP */
 #include <arpa/inet.h>
@@ -110,8 +113,7 @@ void ntsd_watch_stop(ntsd_server* s) {
  * the top of the file); within one, the longer it has been at it, the slower. */
 static double slowness(const ntsd_conn* k, double now) {
     if (k->cut || k->state == NTSD_CONN_WORKING) return 0.0;
-    if (k->state == NTSD_CONN_WAITING && k->requests == 0) return 3e9 + (now - k->since);
-    if (k->state == NTSD_CONN_RECEIVING) return 2e9 + (now - k->since);
+    if (k->state == NTSD_CONN_RECEIVING || k->requests == 0) return 2e9 + (now - k->begun);
     return 1e9 + (now - k->since);
 }
 
@@ -126,23 +128,72 @@ static void make_room(ntsd_server* s, ntsd_conn* v, const char* reason, double n
     s->shed++;
 }
 
-/* The slowest connection from `addr` (NULL: from anywhere), or NULL. */
-static ntsd_conn* slowest(ntsd_server* s, const char* addr, double now, unsigned* from_addr) {
+/* The slowest connection from `addr`, or NULL; *from_addr: how many are
+ * open from it. */
+static ntsd_conn* slowest_from(ntsd_server* s, const char* addr, double now, unsigned* from_addr) {
     ntsd_conn *k, *worst = NULL;
     double w = 0.0;
     unsigned n = 0;
     for (k = s->conns; k != NULL; k = k->next) {
         double x;
-        if (addr != NULL && (!k->limited || k->cut || strcmp(k->addr, addr) != 0)) continue;
-        n += !k->cut;
+        if (!k->limited || k->cut || strcmp(k->addr, addr) != 0) continue;
+        n++;
         x = slowness(k, now);
         if (x > 0.0 && x >= w) { /* on a tie the older: the list runs newest first */
             w = x;
             worst = k;
         }
     }
-    if (from_addr != NULL) *from_addr = n;
+    *from_addr = n;
     return worst;
+}
+
+static int by_address(const void* a, const void* b) {
+    return strcmp((*(ntsd_conn* const*)a)->addr, (*(ntsd_conn* const*)b)->addr);
+}
+
+/* The connection to cut when the server is full: the slowest of the address
+ * holding the most open connections (among those with one to cut), else the
+ * slowest of a --trusted-proxy, else NULL. The clients' connections sorted
+ * by address, each address is one run: O(n log n), n <= --max-connections.
+ * Without memory for the sort, the slowest of all. */
+static ntsd_conn* victim(ntsd_server* s, double now) {
+    ntsd_conn *k, *best = NULL, **v;
+    size_t n = 0, i, j;
+    unsigned most = 0;
+    double w = 0.0;
+    v = malloc((size_t)(s->live + 1) * sizeof *v);
+    if (v != NULL) {
+        for (k = s->conns; k != NULL && n <= s->live; k = k->next)
+            if (k->limited && !k->cut) v[n++] = k;
+        qsort(v, n, sizeof *v, by_address);
+        for (i = 0; i < n; i = j) {
+            ntsd_conn* worst = NULL;
+            double x = 0.0;
+            for (j = i; j < n && strcmp(v[j]->addr, v[i]->addr) == 0; ++j) {
+                double y = slowness(v[j], now);
+                if (y > x || (y == x && y > 0.0 && v[j]->begun < worst->begun)) {
+                    x = y;
+                    worst = v[j];
+                }
+            }
+            if (worst != NULL && ((unsigned)(j - i) > most || ((unsigned)(j - i) == most && x > w))) {
+                most = (unsigned)(j - i);
+                w = x;
+                best = worst;
+            }
+        }
+        free(v);
+        if (best != NULL) return best;
+    }
+    for (k = s->conns; k != NULL; k = k->next) { /* no client's to cut: a proxy's (or any, without memory) */
+        double x = slowness(k, now);
+        if (x > 0.0 && x >= w) {
+            w = x;
+            best = k;
+        }
+    }
+    return best;
 }
 
 ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd, const char* addr) {
@@ -151,13 +202,14 @@ ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd, const char* addr) {
     if (k == NULL) return NULL;
     k->fd = fd;
     k->since = now;
+    k->begun = now;
     k->state = NTSD_CONN_WAITING;
     snprintf(k->addr, sizeof k->addr, "%s", addr);
     k->limited = !ntsd_is_trusted_proxy(&s->config, addr);
     pthread_mutex_lock(&s->lock);
     if (k->limited) {
         unsigned n;
-        ntsd_conn* v = slowest(s, k->addr, now, &n);
+        ntsd_conn* v = slowest_from(s, k->addr, now, &n);
         if (n >= s->config.max_per_client) {
             if (v != NULL) {
                 make_room(s, v, "max_per_client", now);
@@ -167,7 +219,7 @@ ntsd_conn* ntsd_conn_open(ntsd_server* s, int fd, const char* addr) {
         }
     }
     if (k->refused == NULL && s->live >= s->config.max_connections) {
-        ntsd_conn* v = slowest(s, NULL, now, NULL);
+        ntsd_conn* v = victim(s, now);
         if (v != NULL) {
             make_room(s, v, "shed", now);
         } else {
@@ -196,8 +248,11 @@ void ntsd_conn_close(ntsd_server* s, ntsd_conn* k) {
 void ntsd_conn_enter(ntsd_server* s, ntsd_conn* k, ntsd_conn_state state) {
     if (k == NULL) return;
     pthread_mutex_lock(&s->lock);
-    if (state == NTSD_CONN_WAITING && k->state != NTSD_CONN_WAITING) k->requests++;
     k->since = ntsd_now();
+    if (state == NTSD_CONN_WAITING && k->state != NTSD_CONN_WAITING) {
+        k->requests++;
+        k->begun = k->since;
+    }
     k->state = (int)state;
     pthread_mutex_unlock(&s->lock);
 }

@@ -101,9 +101,9 @@ def test_bodies_in_flight_share_the_budget(paths, tmp_path):
 
 
 def _estimate(body: bytes) -> int:
-    """ntsj_memory_estimate: the body plus NTSJ_BYTES_PER_VALUE (112) per value."""
+    """ntsj_memory_estimate: the body plus NTSJ_BYTES_PER_VALUE (136) per value."""
     values = 1 + sum(body.count(c) for c in (b",", b":", b"[", b"{"))
-    return len(body) + 112 * values
+    return len(body) + 136 * values
 
 
 def test_a_request_reserves_its_estimate(paths, tmp_path):

@@ -579,6 +579,34 @@ def test_overload_answers_503(daemon_factory, validators):
     assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=60).status_code == 200)
 
 
+def test_a_small_request_never_waits_for_large_ones(daemon_factory, example_bodies):
+    """Large requests (bodies of 256 KiB or more) take at most --threads - 1
+    evaluation slots: with two slots and two long brute-force scenes in
+    flight, one evaluates, the other waits, and a small scene is answered
+    before either (issue 23: two such scenes made a normal POST wait 18.5
+    s). The large ones are stopped by closing their connections."""
+    d = daemon_factory("--threads", "2", "--max-seconds", "0")
+    body = _brute_scene(200, 400)
+    assert len(body) >= 256 * 1024
+    large = []
+    for _ in range(2):
+        a = socket.create_connection(("127.0.0.1", d.port), timeout=60)
+        a.sendall(b"POST /v1/contact HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                  + f"Content-Length: {len(body)}\r\n\r\n".encode() + body)
+        large.append(a)
+    try:
+        assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=60).json()["evaluations_running"] >= 1)
+        r = requests.post(d.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=60)
+        assert r.status_code == 200 and r.json()["summary"]["contacts"] > 0
+        h = requests.get(d.url("/v1/health"), timeout=60).json()
+        assert h["evaluations_running"] == 1 and h["requests_in_flight"] == 3, h  # one large waits
+        assert not select.select(large, [], [], 0)[0]  # neither large one has been answered
+    finally:
+        for a in large:
+            a.close()
+    assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=60).json()["requests_in_flight"] == 1)
+
+
 def _open(sock):
     """True while the peer has not closed `sock`: a poll with no wait, then a
     peek only when there is something to read (a socket with a timeout
@@ -700,7 +728,7 @@ def test_flags_shown_by_health(daemon_factory):
                        "--max-memory", "100M")
     doc = requests.get(d.url("/v1/health"), timeout=10).json()
     assert doc["server"] == {"threading": "per-connection", "threads": 3, "max_body": 1 << 20, "timeout_s": 7,
-                             "max_connections": 9}
+                             "max_connections": 9, "max_seconds": 60}  # a request's time is bounded by default
     assert doc["memory"]["budget_bytes"] == 100 << 20
 
 

@@ -226,7 +226,7 @@ def test_every_daemon_option_takes_both_forms(tmp_path, tls_pair):
         docs.append((h["server"], h["memory"]["budget_bytes"], h["sessions"]["max_per_client"]))
     assert docs[0] == docs[1]
     assert docs[0] == ({"threading": "per-connection", "threads": 2, "max_body": 1 << 20, "timeout_s": 7,
-                        "max_connections": 9}, 256 << 20, 3)
+                        "max_connections": 9, "max_seconds": 5}, 256 << 20, 3)
 
 
 def test_daemon_port_with_equals(tmp_path):

@@ -87,7 +87,7 @@ NTS_API void ntsj_response_free(ntsj_response* response);
  * over the bytes, counting values (NTSJ_BYTES_PER_VALUE each); measured in
  * docs/reliability.md ("Memory budget"). A front end reserves it before the
  * work starts. */
-#define NTSJ_BYTES_PER_VALUE 112
+#define NTSJ_BYTES_PER_VALUE 136
 NTS_API size_t ntsj_memory_estimate(const char* json, size_t length);
 
 /* An error document {"error": {"code", "message", "pointer"}} for front ends
