@@ -33,16 +33,23 @@ void ntsj_fault_set(ntsj_fault* f, const char* code, const char* pointer, const 
 /* ------------------------------------------------------------ buffer */
 
 /* A growable NUL-terminated byte buffer (through nts_alloc). After a failed
- * allocation `oom` is set and further writes are ignored. */
+ * allocation `oom` is set and further writes are ignored. `max` (0: none)
+ * bounds its capacity: past it `over` and `oom` are set (a session step's
+ * answer within what its session may still take). */
 typedef struct ntsj_buf {
     char* data;
     size_t len, cap;
     int oom;
+    size_t max;
+    int over;
 } ntsj_buf;
 
 void ntsj_buf_init(ntsj_buf* b);
 void ntsj_buf_free(ntsj_buf* b);
 int ntsj_buf_reserve(ntsj_buf* b, size_t extra);
+/* Room for about `extra` more bytes, a guess that saves copies: cut to `max`,
+ * it never sets `over` (only a write past `max` does). */
+void ntsj_buf_hint(ntsj_buf* b, size_t extra);
 void ntsj_buf_put(ntsj_buf* b, const char* s, size_t n);
 void ntsj_buf_puts(ntsj_buf* b, const char* s);
 void ntsj_buf_putc(ntsj_buf* b, char c);

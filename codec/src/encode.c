@@ -187,7 +187,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     int i, k;
     w_init(&w, b, pretty);
     /* Reserve roughly what the forces will take up front: fewer regrowths. */
-    if (outputs & NTS_OUT_FORCES) ntsj_buf_reserve(b, (size_t)nts_scene_node_count(scene) * 48u + 512u);
+    if (outputs & NTS_OUT_FORCES) ntsj_buf_hint(b, (size_t)nts_scene_node_count(scene) * 48u + 512u);
     w_open(&w, '{', 0);
     w_key(&w, "version");
     w_int(&w, 1);
@@ -272,7 +272,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
         /* The tangent as triplets over dof = 2 node + component (global node
          * order), duplicates to be summed (result.schema.json). */
         const nts_triplets* t = &r->stiffness;
-        ntsj_buf_reserve(b, (size_t)t->count * 40u + 64u);
+        ntsj_buf_hint(b, (size_t)t->count * 40u + 64u);
         w_key(&w, "stiffness");
         w_open(&w, '{', 0);
         w_key(&w, "size");

@@ -28,6 +28,8 @@ void ntsj_buf_init(ntsj_buf* b) {
     b->len = 0;
     b->cap = 0;
     b->oom = 0;
+    b->max = 0;
+    b->over = 0;
 }
 
 void ntsj_buf_free(ntsj_buf* b) {
@@ -45,8 +47,13 @@ int ntsj_buf_reserve(ntsj_buf* b, size_t extra) {
     }
     need = b->len + extra + 1; /* room for the terminating NUL */
     if (need <= b->cap) return 0;
+    if (b->max > 0 && need > b->max) {
+        b->over = b->oom = 1;
+        return -1;
+    }
     cap = b->cap ? b->cap : 256;
     while (cap < need) cap *= 2;
+    if (b->max > 0 && cap > b->max) cap = b->max;
     p = (char*)nts_alloc(cap);
     if (!p) {
         b->oom = 1;
@@ -58,6 +65,14 @@ int ntsj_buf_reserve(ntsj_buf* b, size_t extra) {
     b->data = p;
     b->cap = cap;
     return 0;
+}
+
+void ntsj_buf_hint(ntsj_buf* b, size_t extra) {
+    if (b->max > 0) {
+        if (b->len + 1 >= b->max) return;
+        if (extra > b->max - b->len - 1) extra = b->max - b->len - 1;
+    }
+    (void)ntsj_buf_reserve(b, extra);
 }
 
 void ntsj_buf_put(ntsj_buf* b, const char* s, size_t n) {

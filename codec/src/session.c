@@ -59,6 +59,10 @@ ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
     return i;
 }
 
+void ntsj_session_trim(ntsj_session* ss) {
+    if (ss != NULL) nts_context_trim(ss->ctx);
+}
+
 void ntsj_session_destroy(ntsj_session* ss) {
     if (ss == NULL) return;
     nts_context_destroy(ss->ctx);
@@ -441,7 +445,31 @@ static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result*
     b->data[b->len] = '\0';
 }
 
-int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
+/* config->step_memory: a step that keeps records gets a candidate budget
+ * within it (the configured one when smaller). 1 when it is the bound's. */
+static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_options* eo) {
+    long long budget, fits;
+    if (cfg->step_memory == 0 || !(eo->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS))) return 0;
+    budget = eo->max_candidates > 0 ? eo->max_candidates
+                                    : 64LL * nts_scene_surface_node_count(ss->scene) + 1000000; /* the core's default */
+    fits = (long long)(cfg->step_memory / NTSJ_STEP_BYTES_PER_CANDIDATE);
+    if (fits >= budget) return 0;
+    eo->max_candidates = fits > 0 ? fits : 1; /* 0 would be the default */
+    return 1;
+}
+
+/* A step over config->step_memory: limit_exceeded, naming the bound. */
+static int step_too_large(ntsj_response* out, const ntsj_config* cfg, const char* what, int pretty) {
+    char msg[400];
+    snprintf(msg, sizeof msg,
+             "this step's %s would need more than the %zu bytes its session may still take (%s); ask fewer "
+             "outputs (contacts, gaps, stiffness) or a smaller search_radius",
+             what, cfg->step_memory, cfg->step_memory_name ? cfg->step_memory_name : "step_memory");
+    return ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", pretty);
+}
+
+/* The step itself (ntsj_session_step gives back what a failed one grew). */
+static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
     ntsj_config cfg = config ? *config : ntsj_default_config();
     double t0 = ntsj_now_ms();
     nts_options opt;
@@ -449,12 +477,14 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
     nts_result result;
     ntsj_fault fault;
     ntsj_buf b;
-    int rc, pretty = cfg.pretty, have_positions = 0;
+    int rc, pretty = cfg.pretty, have_positions = 0, capped;
+    size_t held, grown = 0;
 
     memset(out, 0, sizeof *out);
     memset(&fault, 0, sizeof fault);
     if (ss == NULL || st == NULL) return ntsj_respond_error(out, nts_status_name(NTS_EINTERNAL), "no session", "", pretty);
     if (cfg.max_depth <= 0) cfg.max_depth = 32;
+    held = nts_context_memory_bytes(ss->ctx);
     opt = ss->js.options;
 
     if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
@@ -511,14 +541,20 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         nts_options eo = eval_options(opt, st->answer_binary, cfg.vtk);
         ntsj_deadline deadline;
         ntsj_arm_deadline(&eo, &deadline, &cfg, t0);
+        capped = cap_candidates(ss, &cfg, &eo);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
     if (rc == NTS_ECANCELLED && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
+    if (rc == NTS_ELIMIT && capped && strcmp(err.option, "max_candidates") == 0)
+        return step_too_large(out, &cfg, "records", pretty);
     if (rc != 0) return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
     if (ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (ntsj_result_overflows(&ss->js, ss->scene, &result, &fault)) return ntsj_respond_fault(out, &fault, pretty);
+    if (nts_context_memory_bytes(ss->ctx) > held) grown = nts_context_memory_bytes(ss->ctx) - held;
+    if (cfg.step_memory > 0 && grown >= cfg.step_memory) return step_too_large(out, &cfg, "records", pretty);
 
     ntsj_buf_init(&b);
+    if (cfg.step_memory > 0) b.max = cfg.step_memory - grown; /* the answer: what is left */
     if (st->answer_binary) {
         encode_binary(&b, ss->scene, &result);
     } else {
@@ -529,6 +565,13 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         ss->js.options = keep;
     }
     if (cfg.vtk && ntsj_attach_vtk(out, &ss->js, ss->scene, &result) != 0) b.oom = 1;
+    if (b.over) {
+        ntsj_buf_free(&b);
+        nts_free(out->vtk);
+        out->vtk = NULL;
+        out->vtk_length = 0;
+        return step_too_large(out, &cfg, "answer", pretty);
+    }
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) {
         ss->steps++;
@@ -537,5 +580,16 @@ int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* 
         ntsj_keep_summary(out, &result);
         out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
     }
+    return rc;
+}
+
+/* What a step grew in the context is kept for the next steps, which need the
+ * same buffers, unless the step failed: a refused step (over
+ * config->step_memory, over its candidate budget) may have grown the context
+ * up to its bound first, and nothing after it needs that (issue 23). */
+int ntsj_session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
+    size_t before = ss != NULL ? nts_context_memory_bytes(ss->ctx) : 0;
+    int rc = session_step(ss, st, config, out);
+    if (ss != NULL && !out->ok && nts_context_memory_bytes(ss->ctx) > before) nts_context_trim(ss->ctx);
     return rc;
 }

@@ -70,7 +70,7 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
     int n = nts_scene_node_count(scene), segs = nts_scene_surface_node_count(scene);
     int nb = nts_scene_body_count(scene), nc = r->contacts ? r->contact_count : 0;
     int body, l, k, i;
-    ntsj_buf_reserve(b, (size_t)(n + nc) * 120u + (size_t)(segs + nc) * 160u + 4096u);
+    ntsj_buf_hint(b, (size_t)(n + nc) * 120u + (size_t)(segs + nc) * 160u + 4096u);
     ntsj_buf_puts(b, "<?xml version=\"1.0\"?>\n"
                      "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
                      "<UnstructuredGrid>\n<FieldData>\n");

@@ -64,8 +64,8 @@ static void workers_free(nts_context* ctx) {
     ctx->slot_cap = 0;
 }
 
-void nts_context_destroy(nts_context* ctx) {
-    if (ctx == NULL) return;
+/* Every buffer of the context, given back (the struct itself kept). */
+static void buffers_free(nts_context* ctx) {
     nts_free(ctx->seg_block);
     nts_cells_free(&ctx->cells);
     nts_free(ctx->keys.block);
@@ -84,7 +84,22 @@ void nts_context_destroy(nts_context* ctx) {
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
     nts_kbuf_free(&ctx->stiffness);
+}
+
+void nts_context_destroy(nts_context* ctx) {
+    if (ctx == NULL) return;
+    buffers_free(ctx);
     nts_free(ctx);
+}
+
+/* A context keeps the largest buffers it has met (so that a warm one
+ * allocates nothing); one large evaluation, such as gaps on a wide radius,
+ * would leave them held for every smaller one after it. Trimming gives them
+ * all back: the context is as nts_context_create made it. */
+void nts_context_trim(nts_context* ctx) {
+    if (ctx == NULL) return;
+    buffers_free(ctx);
+    memset(ctx, 0, sizeof *ctx);
 }
 
 int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks) {

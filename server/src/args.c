@@ -88,17 +88,27 @@ static const char usage_service[] =
     "                       requests count as those of the client its\n"
     "                       X-Forwarded-For names last, and its connections are\n"
     "                       not limited per client (the proxy limits its clients)\n"
-    "  --max-sessions N     scene sessions held at once (default 64); when full, the\n"
-    "                       least recently used idle one is evicted\n"
-    "  --session-ttl S      a session unused for S seconds is dropped (default 600)\n"
-    "  --session-memory BYTES  memory of all sessions together, suffixes k, M, G\n"
-    "                       (default 1G); beyond it the least recently used idle\n"
-    "                       sessions are evicted\n"
     "  -h, --help           print this help and exit\n"
     "  -V, --version        print the version and exit\n"
     "\n"
     "exit status: 0 stopped by a signal after draining, 1 could not start or\n"
     "requests abandoned, 2 usage error\n";
+
+/* Scene sessions (C99 guarantees string literals of 4095 bytes only). */
+static const char usage_sessions[] =
+    "  --max-sessions N     scene sessions held at once (default 64); when full,\n"
+    "                       an idle one of the client holding the most is evicted\n"
+    "  --max-sessions-per-client N  sessions one client (its token, or without\n"
+    "                       tokens its address) holds at once (default a quarter\n"
+    "                       of --max-sessions, at least 4); its new one takes the\n"
+    "                       place of its own least recently used idle one\n"
+    "  --session-ttl S      a session unused for S seconds is dropped (default 600)\n"
+    "  --session-memory BYTES  memory of all sessions together, suffixes k, M, G\n"
+    "                       (default 1G), what a step grows included: idle\n"
+    "                       sessions give back their buffers, then those of the\n"
+    "                       client holding the most are evicted; a step that\n"
+    "                       alone would need more -> 400 limit_exceeded\n"
+    "  A session belongs to the client that created it: 404 for any other.\n";
 
 /* Half the memory this process may use: the machine's, or its cgroup's
  * (a container) when that is smaller. */
@@ -171,7 +181,7 @@ enum {
     OPT_MAX_DEPTH, OPT_MAX_BODIES, OPT_MAX_NODES, OPT_MAX_NODES_PER_BODY, OPT_MAX_SECONDS, OPT_MAX_SESSIONS,
     OPT_SESSION_TTL, OPT_SESSION_MEMORY, OPT_DRAIN_SECONDS, OPT_MAX_PER_CLIENT, OPT_LOG_FILE, OPT_LOG_FORMAT,
     OPT_MAX_CANDIDATES, OPT_TOKEN_FILE, OPT_ALLOW_ORIGIN, OPT_ALLOW_HOST, OPT_TLS_CERT, OPT_TLS_KEY,
-    OPT_HEADER_SECONDS, OPT_MAX_MEMORY, OPT_SESSION_ID_HEADER, OPT_TRUSTED_PROXY
+    OPT_HEADER_SECONDS, OPT_MAX_MEMORY, OPT_SESSION_ID_HEADER, OPT_TRUSTED_PROXY, OPT_MAX_SESSIONS_PER_CLIENT
 };
 
 static const struct option long_options[] = {
@@ -189,6 +199,7 @@ static const struct option long_options[] = {
     {"max-nodes-per-body", required_argument, NULL, OPT_MAX_NODES_PER_BODY},
     {"max-seconds", required_argument, NULL, OPT_MAX_SECONDS},
     {"max-sessions", required_argument, NULL, OPT_MAX_SESSIONS},
+    {"max-sessions-per-client", required_argument, NULL, OPT_MAX_SESSIONS_PER_CLIENT},
     {"session-ttl", required_argument, NULL, OPT_SESSION_TTL},
     {"session-memory", required_argument, NULL, OPT_SESSION_MEMORY},
     {"drain-seconds", required_argument, NULL, OPT_DRAIN_SECONDS},
@@ -274,6 +285,10 @@ static int apply_option(int c, const char* flag, const char* v, ntsd_config* cfg
     case OPT_MAX_SESSIONS:
         if (parse_unsigned(flag, v, 1, 1000000, 1, &n)) return -1;
         cfg->max_sessions = (int)n;
+        return 0;
+    case OPT_MAX_SESSIONS_PER_CLIENT:
+        if (parse_unsigned(flag, v, 1, 1000000, 1, &n)) return -1;
+        cfg->max_sessions_per_client = (int)n;
         return 0;
     case OPT_SESSION_TTL:
         if (parse_unsigned(flag, v, 1, 30 * 86400, 0, &n)) return -1;
@@ -404,6 +419,7 @@ int ntsd_parse_args(int argc, char** argv, ntsd_config* cfg) {
         if (c == 'h') {
             fputs(usage, stdout);
             fputs(usage_limits, stdout);
+            fputs(usage_sessions, stdout);
             fputs(usage_service, stdout);
             return 1;
         }

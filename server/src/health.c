@@ -26,7 +26,8 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  "\"evaluations_running\":%d,\"connections_open\":%u,"
                  "\"time_s\":{\"receiving\":%.6f,\"handling\":%.6f,\"sending\":%.6f},"
                  "\"sessions\":{\"held\":%d,\"memory_bytes\":%zu,\"max\":%d,\"ttl_s\":%u,\"memory_max\":%zu,"
-                 "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu},"
+                 "\"created\":%llu,\"evicted\":%llu,\"expired\":%llu,\"deleted\":%llu,"
+                 "\"max_per_client\":%d,\"clients\":%d,\"evicted_own\":%llu,\"refused\":%llu,\"trimmed\":%llu},"
                  "\"memory\":{\"budget_bytes\":%zu,\"in_use_bytes\":%zu,\"refused\":%llu},"
                  "\"header_timeouts\":%llu,\"body_timeouts\":%llu,\"shed\":%llu,\"client_left\":%llu}\n",
                  st->shutting_down ? "shutting_down" : "ok", NTS_VERSION_STRING, NTS_CONFIG_BUILD_TYPE,
@@ -36,6 +37,7 @@ char* ntsd_health_document(const ntsd_config* c, const ntsd_stats* st, const nts
                  st->connections,
                  st->receiving_s, st->handling_s, st->sending_s, ss->held, ss->memory, c->max_sessions,
                  c->session_ttl_s, c->session_memory, ss->created, ss->evicted, ss->expired, ss->deleted,
+                 c->max_sessions_per_client, ss->clients, ss->evicted_own, ss->refused, ss->trimmed,
                  c->max_memory, st->memory_in_use, st->memory_refused, st->header_timeouts, st->body_timeouts, st->shed,
                  st->client_left);
     if (n < 0 || n >= 2048) {

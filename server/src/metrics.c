@@ -158,8 +158,21 @@ char* ntsd_metrics_document(const ntsd_metrics* m, const ntsd_stats* st, const n
         "ntscontactd_sessions_ended_total{how=\"deleted\"} %llu\n"
         "# HELP ntscontactd_sessions_created_total Sessions created.\n"
         "# TYPE ntscontactd_sessions_created_total counter\n"
-        "ntscontactd_sessions_created_total %llu\n",
-        ss->held, ss->memory, ss->evicted, ss->expired, ss->deleted, ss->created);
+        "ntscontactd_sessions_created_total %llu\n"
+        "# HELP ntscontactd_session_clients Clients holding scene sessions now.\n"
+        "# TYPE ntscontactd_session_clients gauge\n"
+        "ntscontactd_session_clients %d\n"
+        "# HELP ntscontactd_sessions_evicted_own_total Of the evicted sessions, those that made room for their own client's new one.\n"
+        "# TYPE ntscontactd_sessions_evicted_own_total counter\n"
+        "ntscontactd_sessions_evicted_own_total %llu\n"
+        "# HELP ntscontactd_sessions_refused_total Sessions not created: no idle session could fairly make room.\n"
+        "# TYPE ntscontactd_sessions_refused_total counter\n"
+        "ntscontactd_sessions_refused_total %llu\n"
+        "# HELP ntscontactd_sessions_trimmed_total Idle sessions whose evaluation buffers were given back for room.\n"
+        "# TYPE ntscontactd_sessions_trimmed_total counter\n"
+        "ntscontactd_sessions_trimmed_total %llu\n",
+        ss->held, ss->memory, ss->evicted, ss->expired, ss->deleted, ss->created, ss->clients, ss->evicted_own,
+        ss->refused, ss->trimmed);
     put(&t,
         "# HELP ntscontactd_memory_in_use_bytes Reserved against --max-memory: bodies in flight and their work.\n"
         "# TYPE ntscontactd_memory_in_use_bytes gauge\n"

@@ -162,11 +162,11 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
     char* doc;
     int n;
     if (strcmp(r->method, "DELETE") == 0) {
-        if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id) != 0)
+        if (r->route.scene_id[0] == '\0' || ntsd_sessions_remove(&s->sessions, r->route.scene_id, r->client) != 0)
             return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
         return reply(c, r, MHD_HTTP_NO_CONTENT, "ok", (char*)"", 0, NULL, "application/json", NULL, 0);
     }
-    if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, &m) != 0)
+    if (r->route.scene_id[0] == '\0' || ntsd_sessions_describe(&s->sessions, r->route.scene_id, r->client, &m) != 0)
         return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
     doc = malloc(512);
     if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
@@ -283,7 +283,7 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
     r->rc = ntsj_session_create(r->body.data ? r->body.data : "", r->body.length, jc, &ss, &r->resp);
     if (ss == NULL) return;
     info = ntsj_session_get_info(ss);
-    rc = ntsd_sessions_add(&s->sessions, ss, r->given_id[0] ? r->given_id : NULL, id);
+    rc = ntsd_sessions_add(&s->sessions, ss, r->client, r->given_id[0] ? r->given_id : NULL, id);
     if (rc == NTSD_SESSIONS_TOO_LARGE) {
         char msg[160];
         snprintf(msg, sizeof msg, "the session would hold %zu bytes, more than --session-memory = %zu",
@@ -292,15 +292,26 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
         resp_error(r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), msg);
         return;
     }
+    if (rc == NTSD_SESSIONS_QUOTA) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "this client holds --max-sessions-per-client = %d scene sessions, every one in use; retry later, "
+                 "or delete one", s->config.max_sessions_per_client);
+        ntsj_session_destroy(ss);
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), msg);
+        return;
+    }
     if (rc != 0) {
         ntsj_session_destroy(ss);
-        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "every scene session is in use (--max-sessions, --session-memory); retry later");
+        resp_error(r, ntsj_code_name(NTSJ_OVERLOADED),
+                   "the scene sessions are full (--max-sessions, --session-memory) and none that may make room is "
+                   "idle; retry later");
         return;
     }
     memset(&r->resp, 0, sizeof r->resp);
     r->resp.body = nts_alloc(256);
     if (r->resp.body == NULL) {
-        ntsd_sessions_remove(&s->sessions, id);
+        ntsd_sessions_remove(&s->sessions, id, r->client);
         resp_error(r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory");
         return;
     }
@@ -315,18 +326,44 @@ static void evaluate_create(ntsd_request* r, const ntsj_config* jc) {
     r->rc = 0;
 }
 
-/* POST /v1/scenes/{id}/contact: one step, serialised per session. */
+static int budget_reserve(ntsd_server* s, ntsd_request* r, size_t total);
+
+/* The answer of a step is held until sent: it counts against --max-memory
+ * (a 0-byte step may have asked for gaps on a wide radius). */
+static void budget_answer(ntsd_request* r) {
+    ntsd_server* s = r->server;
+    char msg[200];
+    int alone;
+    if (!r->resp.ok || budget_reserve(s, r, r->reserved + r->resp.length)) return;
+    r->refusal = "max_memory";
+    alone = r->resp.length > s->config.max_memory;
+    if (alone)
+        snprintf(msg, sizeof msg, "this step's answer (%zu bytes) alone exceeds --max-memory = %zu", r->resp.length,
+                 s->config.max_memory);
+    else
+        snprintf(msg, sizeof msg, "the memory budget (--max-memory = %zu) is in use by other requests; retry later",
+                 s->config.max_memory);
+    ntsj_response_free(&r->resp);
+    resp_error(r, ntsj_code_name(alone ? NTSJ_PAYLOAD_TOO_LARGE : NTSJ_OVERLOADED), msg);
+}
+
+/* POST /v1/scenes/{id}/contact: one step, serialised per session. What the
+ * step may add to its session is the room --session-memory leaves it
+ * (ntsj_config.step_memory). After it, the session's memory is settled in the
+ * store, which may ask for the session's context buffers back: after one
+ * large step (ntsd_sessions_settle), or when the store has no room for what
+ * the step grew. */
 static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     ntsd_server* s = r->server;
     ntsd_session_entry* e;
+    ntsj_config sc = *jc;
     ntsj_step st;
-    size_t memory;
     int large;
     if (r->too_many_params) {
         resp_error(r, ntsj_code_name(NTSJ_INVALID_VALUE), "too many query parameters");
         return;
     }
-    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id) : NULL;
+    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client) : NULL;
     if (e == NULL) {
         resp_error(r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message);
         return;
@@ -339,14 +376,21 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     st.param_count = r->param_count;
     st.param_names = r->param_names;
     st.param_values = r->param_values;
+    sc.step_memory_name = "--session-memory";
     pthread_mutex_lock(&e->step_lock);
     large = r->body.length >= NTSD_LARGE_BYTES || ntsj_session_get_info(e->session).nodes >= NTSD_LARGE_NODES;
     gate_enter(s, large);
-    r->rc = ntsj_session_step(e->session, &st, jc, &r->resp);
-    memory = r->resp.ok ? ntsj_session_get_info(e->session).memory_bytes : 0;
+    sc.step_memory = ntsd_sessions_step_room(&s->sessions, e);
+    r->rc = ntsj_session_step(e->session, &st, &sc, &r->resp);
     gate_leave(s, large);
+    /* Held by this request: the store neither trims nor frees it meanwhile. */
+    if (ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, r->resp.ok, 0)) {
+        ntsj_session_trim(e->session);
+        ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, 0, 1);
+    }
     pthread_mutex_unlock(&e->step_lock);
-    ntsd_sessions_release(&s->sessions, e, memory);
+    ntsd_sessions_release(&s->sessions, e);
+    budget_answer(r);
 }
 
 /* Run the codec on the whole body, on the connection's own thread: fills
@@ -845,11 +889,42 @@ static const char* refusal_of(const ntsd_request* r, int ok) {
     }
 }
 
+/* The path as the logs show it: what follows "/scenes/" is a session id
+ * and becomes its tag, "/v1/scenes/~1a2b3c4d/contact" (ntsd_session_tag):
+ * the id is the session's only key, and logs travel further than the
+ * service. Every segment after it but "contact" is tagged, so that a
+ * mistyped path ("/v1/scenes//ID", "/v1/scenes/ID/contacts") shows no id
+ * either. */
+static const char* logged_path(const char* path, char* out, size_t cap) {
+    const char* at = strstr(path, "/scenes/");
+    size_t k;
+    if (at == NULL) return path;
+    at += 8;
+    k = (size_t)snprintf(out, cap, "%.*s", (int)(at - path), path);
+    while (*at != '\0' && k < cap) {
+        size_t n = strcspn(at, "/");
+        if (n == 0 || (n == 7 && strncmp(at, "contact", 7) == 0)) {
+            k += (size_t)snprintf(out + k, cap - k, "%.*s", (int)n, at);
+        } else {
+            char tag[NTSD_SESSION_TAG_LEN + 1];
+            ntsd_session_tag(at, n, tag);
+            k += (size_t)snprintf(out + k, cap - k, "%s", tag);
+        }
+        at += n;
+        if (*at == '/' && k < cap) {
+            k += (size_t)snprintf(out + k, cap - k, "/");
+            at++;
+        }
+    }
+    return out;
+}
+
 static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, enum MHD_RequestTerminationCode toe) {
     ntsd_server* s = cls;
     ntsd_request* r = *con_cls;
     int ok = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK && r != NULL && r->queued;
     double t_end = ntsd_now();
+    char path[2 * sizeof r->path]; /* logged_path: a tag may be longer than a short segment */
     (void)c;
     if (r == NULL) return;
     ntsd_conn_enter(s, r->link, NTSD_CONN_WAITING);
@@ -868,7 +943,7 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
         s->client_left++;
         pthread_mutex_unlock(&s->lock);
     }
-    ntsd_log_request(r->peer, r->method, r->path, ok ? r->status : 0,
+    ntsd_log_request(r->peer, r->method, logged_path(r->path, path, sizeof path), ok ? r->status : 0,
                      ok || r->code[0] ? r->code : termination_name(toe), r->received,
                      ok ? r->bytes_out : 0, 1e3 * (t_end - r->t0));
     pthread_mutex_lock(&s->lock);
@@ -973,7 +1048,14 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
      * of a closed socket. */
     hard_limit = cfg->max_connections + 8 + cfg->max_connections / 16;
 
-    if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, cfg->session_ttl_s, cfg->session_memory) != 0) {
+    /* The default quota: a quarter of the store (four clients at their quota
+     * fill it), but at least 4, so that a small store does not hold one
+     * client's solver loop to a session or two; never above the store. */
+    if (s->config.max_sessions_per_client <= 0)
+        s->config.max_sessions_per_client = cfg->max_sessions / 4 > 4 ? cfg->max_sessions / 4 : 4;
+    if (s->config.max_sessions_per_client > cfg->max_sessions) s->config.max_sessions_per_client = cfg->max_sessions;
+    if (ntsd_sessions_init(&s->sessions, cfg->max_sessions, s->config.max_sessions_per_client, cfg->session_ttl_s,
+                           cfg->session_memory) != 0) {
         ntsd_log_message("cannot allocate the session table");
         ntsd_free_tokens(&s->config);
         return -1;

@@ -62,6 +62,8 @@ typedef struct ntsd_config {
     ntsj_config codec;
     /* Scene sessions (sessions.c). */
     int max_sessions;        /* default 64 */
+    int max_sessions_per_client; /* held by one client (ntsd_client_key); 0 until resolved
+                                    (ntsd_server_start): max(4, max_sessions / 4), at most max_sessions */
     unsigned session_ttl_s;  /* since last use; default 600 */
     size_t session_memory;   /* all sessions together; default 1 GiB */
 } ntsd_config;
@@ -114,21 +116,38 @@ void ntsd_log_mhd(void* cls, const char* fmt, va_list ap);
 
 /* -------------------------------------------------------------- sessions */
 
+#define NTSD_CLIENT_LEN 80 /* who a client is: ntsd_client_key (auth.c) */
 #define NTSD_SESSION_ID_LEN 43 /* the ids it makes: 256 random bits in base64url */
 /* An id given by a proxy in --session-id-header (nginx's $request_id: 128
  * random bits in hex) may be 32 to 64 URL-safe characters. */
 #define NTSD_SESSION_ID_MIN 32
 #define NTSD_SESSION_ID_MAX 64
 
+/* A client's part of the store: what it holds, for its quota and for the
+ * choice of whom a full store takes from. */
+typedef struct ntsd_session_client {
+    char key[NTSD_CLIENT_LEN];  /* ntsd_client_key */
+    int count;                   /* sessions it holds */
+    size_t memory;               /* their memory */
+    struct ntsd_session_entry *head, *tail; /* its sessions, most recently used first */
+    struct ntsd_session_entry* pick;        /* scratch of make_room: the one it would give */
+    struct ntsd_session_client* next;
+} ntsd_session_client;
+
 typedef struct ntsd_session_entry {
     char id[NTSD_SESSION_ID_MAX + 1];
+    char owner[NTSD_CLIENT_LEN]; /* its creator's ntsd_client_key: for anyone else it does not exist */
+    ntsd_session_client* client;  /* the owner's counts, while linked */
     ntsj_session* session;
     pthread_mutex_t step_lock; /* one step at a time */
     int users;                 /* requests holding it: never evicted or freed meanwhile */
     int doomed;                /* unlinked while in use: the last user frees it */
     int linked;
+    struct ntsd_session_entry *cprev, *cnext; /* in its client's list, most recently used first */
+    int cold;                  /* its context's buffers were given back since its last step */
     double created, last_used; /* monotonic seconds */
     size_t memory;             /* counted against --session-memory */
+    size_t created_memory;     /* what it held when created (sessions.c, keep_limit) */
     int bodies, nodes, surface_nodes; /* fixed for the session's life */
     unsigned long long steps;  /* successful steps */
     struct ntsd_session_entry *prev, *next; /* LRU list, most recent first */
@@ -140,35 +159,54 @@ typedef struct ntsd_sessions {
     ntsd_session_entry** buckets;
     unsigned bucket_count;     /* a power of two */
     ntsd_session_entry *head, *tail;
-    int count, max;
+    ntsd_session_client* clients; /* those holding a session */
+    int count, max, max_per_client, client_count;
     unsigned ttl_s;
     size_t memory, memory_max;
     unsigned long long created, evicted, expired, deleted;
+    unsigned long long evicted_own; /* of the evicted: the client's own, for its new one (quota, or it held the most) */
+    unsigned long long refused;     /* creations refused: no idle session could fairly make room */
+    unsigned long long trimmed;     /* idle sessions whose context buffers were given back for room */
 } ntsd_sessions;
 
 typedef struct ntsd_sessions_stats {
-    int held;
+    int held, clients;
     size_t memory;
-    unsigned long long created, evicted, expired, deleted;
+    unsigned long long created, evicted, expired, deleted, evicted_own, refused, trimmed;
 } ntsd_sessions_stats;
 
-enum { NTSD_SESSIONS_FULL = -1, NTSD_SESSIONS_TOO_LARGE = -2 };
+/* NTSD_SESSIONS_QUOTA: the client holds --max-sessions-per-client sessions,
+ * every one in use. */
+enum { NTSD_SESSIONS_FULL = -1, NTSD_SESSIONS_TOO_LARGE = -2, NTSD_SESSIONS_QUOTA = -3 };
 
-int ntsd_sessions_init(ntsd_sessions* st, int max, unsigned ttl_s, size_t memory_max);
+int ntsd_sessions_init(ntsd_sessions* st, int max, int max_per_client, unsigned ttl_s, size_t memory_max);
 void ntsd_sessions_free(ntsd_sessions* st);
-/* Take ownership of `session` under `given_id` (a proxy's, already checked;
- * NULL, or taken: a new random id): 0, NTSD_SESSIONS_FULL (every
- * session is in use; the caller keeps `session`) or NTSD_SESSIONS_TOO_LARGE
- * (it alone exceeds --session-memory). Evicts idle sessions, LRU first. */
-int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* given_id,
+/* Take ownership of `session` for `client` (ntsd_client_key) under
+ * `given_id` (a proxy's, already checked; NULL, or taken: a new random id):
+ * 0, NTSD_SESSIONS_FULL or NTSD_SESSIONS_QUOTA (no idle session may make
+ * room; the caller keeps `session`), or NTSD_SESSIONS_TOO_LARGE (it alone
+ * exceeds --session-memory). Room is made fairly (sessions.c, make_room):
+ * a client at its quota gives its own least recently used idle session; a
+ * full store takes from the client holding the most. */
+int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* client, const char* given_id,
                       char id_out[NTSD_SESSION_ID_MAX + 1]);
-/* The session of `id`, held until ntsd_sessions_release, or NULL. */
-ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id);
-/* `stepped_memory`: after a successful step, what the session holds now
- * (ntsj_session_get_info, read under its step lock); 0 otherwise. */
-void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, size_t stepped_memory);
-/* 0, or -1 when there is no such session. */
-int ntsd_sessions_remove(ntsd_sessions* st, const char* id);
+/* The session of `id` if `client` owns it, held until ntsd_sessions_release;
+ * NULL otherwise (missing and foreign look the same). */
+ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, const char* client);
+/* What one step may add to a held session: --session-memory less what it
+ * holds (at least 1; ntsj_config.step_memory). */
+size_t ntsd_sessions_step_room(ntsd_sessions* st, const ntsd_session_entry* e);
+/* After a step, under its step lock: the session holds `memory` now
+ * (ntsj_session_get_info); `stepped`: it succeeded. 1 when the session must
+ * give back its context's buffers: it holds more than it may keep after one
+ * step (sessions.c, keep_limit), or the store is over --session-memory and
+ * idle sessions' buffers, given back from the client holding the most, were
+ * not enough. The caller then trims it (ntsj_session_trim) and calls again
+ * with `last` set, which may evict. 0 otherwise. */
+int ntsd_sessions_settle(ntsd_sessions* st, ntsd_session_entry* e, size_t memory, int stepped, int last);
+void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e);
+/* 0, or -1 when `client` has no such session. */
+int ntsd_sessions_remove(ntsd_sessions* st, const char* id, const char* client);
 void ntsd_sessions_sweep(ntsd_sessions* st); /* drop the expired ones */
 ntsd_sessions_stats ntsd_sessions_get_stats(ntsd_sessions* st);
 typedef struct ntsd_session_meta {
@@ -177,8 +215,14 @@ typedef struct ntsd_session_meta {
     size_t memory_bytes;
     double expires_in_s, age_s, idle_s;
 } ntsd_session_meta;
-/* What GET /v1/scenes/{id} shows, without counting as a use: 0 or -1 (none). */
-int ntsd_sessions_describe(ntsd_sessions* st, const char* id, ntsd_session_meta* out);
+/* What GET /v1/scenes/{id} shows, without counting as a use: 0 or -1 (none, or not `client`'s). */
+int ntsd_sessions_describe(ntsd_sessions* st, const char* id, const char* client, ntsd_session_meta* out);
+/* What the logs show for a session id (n bytes): "~" and the first 8 hex
+ * digits of the id's SHA-256 (tag.c). It says which lines are one session's,
+ * and an operator given an id finds its lines (printf %s ID | sha256sum), but
+ * it cannot be turned back into the id, the session's only key. */
+#define NTSD_SESSION_TAG_LEN 9
+void ntsd_session_tag(const char* id, size_t n, char out[NTSD_SESSION_TAG_LEN + 1]);
 
 typedef enum ntsd_route_kind {
     NTSD_ROUTE_NONE = 0,
@@ -308,7 +352,6 @@ int ntsd_authorized(const ntsd_config* cfg, const char* authorization, int* whic
  * or, when the peer is a --trusted-proxy, the last address X-Forwarded-For
  * gives (the one that proxy saw). Never logged (a token's hash is not a
  * secret, but it need not travel). */
-#define NTSD_CLIENT_LEN 80
 void ntsd_client_key(const ntsd_config* cfg, const char* peer, const char* forwarded_for, int token,
                      char out[NTSD_CLIENT_LEN]);
 /* 1 when `peer` (a numeric address) is one of --trusted-proxy. */

@@ -208,6 +208,51 @@ static void test_overflow_is_an_error_not_nan(void) {
     nts_scene_destroy(s);
 }
 
+/* A context trimmed after a large evaluation holds no more than a new one,
+ * and evaluates again to the same bits (a session gives back what one step
+ * with gaps on a wide radius grew: server/src/sessions.c). */
+static void test_trim_gives_back_and_keeps_results(void) {
+    test_packing p = make_packing(36, 24, 1.0, 1.95, 0, 3);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_context* ctx = nts_context_create();
+    nts_context* fresh = nts_context_create();
+    nts_vec2* f1;
+    nts_summary s1;
+    size_t created = nts_context_memory_bytes(ctx), small, wide;
+    nts_error err;
+    int n;
+    CU_ASSERT_FATAL(s != NULL);
+    n = nts_scene_node_count(s);
+    o.penalty = 10.0;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    small = nts_context_memory_bytes(ctx);
+    f1 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    memcpy(f1, r.forces, sizeof(nts_vec2) * (size_t)n);
+    s1 = r.summary;
+    o.outputs = NTS_OUT_ALL;
+    o.search_radius = 4.0; /* the closest points on every neighbour and theirs */
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    wide = nts_context_memory_bytes(ctx);
+    CU_ASSERT(wide > 4 * small);
+    nts_context_trim(ctx);
+    ASSERT_INT_EQ((long long)nts_context_memory_bytes(ctx), (long long)created);
+    ASSERT_INT_EQ((long long)nts_context_memory_bytes(fresh), (long long)created);
+    o = nts_default_options();
+    o.penalty = 10.0;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT(memcmp(f1, r.forces, sizeof(nts_vec2) * (size_t)n) == 0);
+    CU_ASSERT(memcmp(&s1, &r.summary, sizeof s1) == 0);
+    ASSERT_INT_EQ((long long)nts_context_memory_bytes(ctx), (long long)small);
+    nts_context_trim(NULL); /* like nts_context_destroy(NULL) */
+    free(f1);
+    nts_context_destroy(ctx);
+    nts_context_destroy(fresh);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 void register_contact_suite(void) {
     CU_pSuite s = CU_add_suite("contact", NULL, NULL);
     ADD_TEST(s, test_outputs_only_when_asked);
@@ -216,4 +261,5 @@ void register_contact_suite(void) {
     ADD_TEST(s, test_box_too_small_is_an_error);
     ADD_TEST(s, test_interior_nodes_get_zero_force);
     ADD_TEST(s, test_overflow_is_an_error_not_nan);
+    ADD_TEST(s, test_trim_gives_back_and_keeps_results);
 }

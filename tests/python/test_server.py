@@ -735,7 +735,7 @@ def test_flags_shown_by_health(daemon_factory):
 @pytest.mark.parametrize("args", [["--port", "70000"], ["--port", "-1"], ["--threads", "0"], ["--max-bytes", "12x"],
                                   ["--timeout", "0"], ["--threading", "pool"], ["--host", "localhost"],
                                   ["--max-memory", "0"], ["--log-format", "xml"], ["--session-id-header", ""],
-                                  ["--bogus"], ["--port"]])
+                                  ["--max-sessions-per-client", "0"], ["--bogus"], ["--port"]])
 def test_bad_flags_exit_nonzero(paths, args):
     p = subprocess.run([str(paths.bin / "ntscontactd"), *args], capture_output=True, text=True, timeout=30)
     assert p.returncode in (1, 2), (args, p.returncode)

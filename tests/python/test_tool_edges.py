@@ -195,7 +195,7 @@ def daemon_values(tmp_path, tls_pair, form):
         "--log-file": str(tmp_path / f"{form}.log"), "--max-candidates": "1M", "--token-file": str(tokens),
         "--allow-origin": "https://app.example.org", "--tls-cert": str(cert), "--tls-key": str(key),
         "--header-seconds": "5", "--max-memory": "256M", "--log-format": "json", "--allow-host": "127.0.0.1",
-        "--session-id-header": "X-Edge-Id", "--trusted-proxy": "127.0.0.1",
+        "--session-id-header": "X-Edge-Id", "--trusted-proxy": "127.0.0.1", "--max-sessions-per-client": "3",
     }
 
 
@@ -223,10 +223,10 @@ def test_every_daemon_option_takes_both_forms(tmp_path, tls_pair):
         assert d.log() == ""  # nothing on stderr: every option understood, none deprecated
         log = (tmp_path / f"{form}.log").read_text().splitlines()
         assert log and all(json.loads(line)["level"] for line in log)  # --log-file, --log-format json
-        docs.append((h["server"], h["memory"]["budget_bytes"]))
+        docs.append((h["server"], h["memory"]["budget_bytes"], h["sessions"]["max_per_client"]))
     assert docs[0] == docs[1]
     assert docs[0] == ({"threading": "per-connection", "threads": 2, "max_body": 1 << 20, "timeout_s": 7,
-                        "max_connections": 9, "max_seconds": 5}, 256 << 20)
+                        "max_connections": 9, "max_seconds": 5}, 256 << 20, 3)
 
 
 def test_daemon_port_with_equals(tmp_path):

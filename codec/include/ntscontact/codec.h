@@ -46,6 +46,15 @@ typedef struct ntsj_config {
     void* cancel_user;
     int vtk;                /* also write the result as a VTK XML unstructured grid (ntsj_response.vtk):
                              * surfaces, forces, contacts with their gaps and normals (codec/src/vtk.c) */
+    /* Sessions (ntsj_session_step): the most bytes one step may add to what
+     * its session holds, its answer included; 0: no bound. A step that keeps
+     * records (contacts, gaps, the tangent) gets a candidate budget that fits
+     * (NTSJ_STEP_BYTES_PER_CANDIDATE each), its context's growth and its
+     * answer are checked against what is left, and a step that would need
+     * more is limit_exceeded (400) naming `step_memory_name` (the daemon: the
+     * room --session-memory leaves the session, and that flag). */
+    size_t step_memory;
+    const char* step_memory_name;
 } ntsj_config;
 NTS_API ntsj_config ntsj_default_config(void);
 
@@ -172,9 +181,19 @@ NTS_API int ntsj_session_create(const char* json, size_t length, const ntsj_conf
                         ntsj_response* error);
 NTS_API void ntsj_session_destroy(ntsj_session* session);
 NTS_API ntsj_session_info ntsj_session_get_info(const ntsj_session* session);
+/* Give back the buffers of the session's evaluation context (nts_context_trim):
+ * what one large step (gaps on a wide radius) grew is not held for the steps
+ * after it. The next step allocates what it needs again and answers the same
+ * bits. */
+NTS_API void ntsj_session_trim(ntsj_session* session);
 /* Evaluate at new positions (which become the stored ones once they pass the
  * scene's checks). Fills *out like ntsj_handle; errors name their place:
- * /positions/17 for a bad position, /options/alpha for a bad option. */
+ * /positions/17 for a bad position, /options/alpha for a bad option.
+ * config->step_memory bounds what the step may add to the session. What the
+ * step grew in the context stays for the next steps (they need the same
+ * buffers), unless the step failed: then it is given back at once
+ * (ntsj_session_trim). */
+#define NTSJ_STEP_BYTES_PER_CANDIDATE 256 /* a record (64) and its gap (sizeof(nts_contact)), rounded up */
 NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
 
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps

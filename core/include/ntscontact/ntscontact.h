@@ -292,6 +292,14 @@ typedef struct nts_profile {
 NTS_API nts_profile nts_context_profile(const nts_context* ctx);
 /* Bytes held by the context's buffers (they only grow), for budgets. */
 NTS_API size_t nts_context_memory_bytes(const nts_context* ctx);
+/* Give back every buffer the context holds, keeping the context usable: it is
+ * then as nts_context_create made it, and the next evaluation allocates what
+ * it needs again (results are unchanged, bit for bit). For a long-lived
+ * context that met one large evaluation (a session's step with gaps on a wide
+ * radius) and should not hold its buffers for the smaller ones after it. The
+ * last result's arrays (forces, contacts, gaps, the tangent) are freed with
+ * them. */
+NTS_API void nts_context_trim(nts_context* ctx);
 
 /* Evaluate contact. Returns 0 or a negative status (with *err filled when not
  * NULL); on success fills *out. A context's buffers are sized by what the
