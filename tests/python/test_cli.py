@@ -447,14 +447,23 @@ def test_cell_search_equals_brute_force():
 
 # ------------------------------------------------------------------ CLI
 
+def cmake_version():
+    """The version, written once: the top CMakeLists.txt's project()."""
+    return re.search(r"project\(ntscontact VERSION ([0-9.]+)", (REPO / "CMakeLists.txt").read_text()).group(1)
+
+
+def test_the_python_package_has_the_projects_version():
+    init = (REPO / "clients" / "python" / "src" / "ntscontact" / "__init__.py").read_text()
+    assert re.search(r'__version__ = "([^"]+)"', init).group(1) == cmake_version()
+
+
 def test_help_and_version():
     proc = run("--help")
     assert proc.returncode == 0 and b"usage: ntscontact" in proc.stdout
     for flag in (b"--alpha", b"--penalty", b"--search-radius", b"--solver", b"--outputs", b"--pretty",
                  b"--validate", b"-o"):
         assert flag in proc.stdout
-    version = re.search(r'#define NTS_VERSION_STRING "([^"]+)"',
-                        (REPO / "core" / "include" / "ntscontact" / "base.h").read_text()).group(1)
+    version = cmake_version()
     proc = run("--version")
     assert proc.returncode == 0 and proc.stdout.decode().strip() == f"ntscontact {version}"
 

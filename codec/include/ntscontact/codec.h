@@ -197,8 +197,8 @@ NTS_API void ntsj_session_trim(ntsj_session* session);
 NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
 
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
- * "forces", "energy", "virial", "contacts", "gaps" (n bytes of name) to its
- * NTS_OUT_* flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
+ * an output's name (n bytes: one of the NTS_OUT_* flags' names, "forces" to
+ * "stiffness") to its flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
  * "newton", returning 0 or -1. */
 NTS_API unsigned ntsj_output_flag(const char* name, size_t n);
 NTS_API int ntsj_solver_from_name(const char* name, nts_solver* out);

@@ -20,10 +20,9 @@ extern "C" {
 #define NTS_API
 #endif
 
-#define NTS_VERSION_MAJOR 0
-#define NTS_VERSION_MINOR 2
-#define NTS_VERSION_PATCH 0
-#define NTS_VERSION_STRING "0.2.0"
+/* NTS_VERSION_MAJOR, _MINOR, _PATCH and _STRING: generated from CMake's
+ * project() with the build's configuration. */
+#include <ntscontact/config.h> /* generated: the build directory's include path */
 
 /* XX(enum suffix, value, stable name, message). Values are negative as in libuv;
  * 0 is success. The names are part of the public JSON contract: never renumber

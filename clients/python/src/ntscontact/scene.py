@@ -34,8 +34,6 @@ OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps", "s
 #: The corner solvers of the service (``options.solver``).
 SOLVERS: Tuple[str, ...] = ("closed_form", "newton")
 
-_KNOWN_OPTIONS = ("alpha", "penalty", "search_radius", "periodic", "solver", "outputs")
-
 
 def _where(index: int, body_id: Any) -> str:
     return f"body {body_id!r} (index {index})"
