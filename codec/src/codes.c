@@ -4,6 +4,8 @@
  * append (and add the name to the schema's enum: a test checks both lists). */
 #include <errno.h>
 #include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -114,4 +116,14 @@ int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsi
     if (v < lo || v > hi) return -1;
     *out = v;
     return 0;
+}
+
+/* A fault: its code, where (a JSON pointer) and a message, formatted. */
+void ntsj_fault_set(ntsj_fault* f, const char* code, const char* pointer, const char* fmt, ...) {
+    va_list ap;
+    f->code = code;
+    snprintf(f->pointer, sizeof f->pointer, "%s", pointer ? pointer : "");
+    va_start(ap, fmt);
+    vsnprintf(f->message, sizeof f->message, fmt, ap);
+    va_end(ap);
 }

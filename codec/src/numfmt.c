@@ -6,22 +6,12 @@
  * looks equal and is not used for numbers. The decimal point is always '.',
  * whatever the locale (and nothing here calls setlocale). */
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "codec_internal.h"
-
-void ntsj_fault_set(ntsj_fault* f, const char* code, const char* pointer, const char* fmt, ...) {
-    va_list ap;
-    f->code = code;
-    snprintf(f->pointer, sizeof f->pointer, "%s", pointer ? pointer : "");
-    va_start(ap, fmt);
-    vsnprintf(f->message, sizeof f->message, fmt, ap);
-    va_end(ap);
-}
 
 void ntsj_buf_init(ntsj_buf* b) {
     b->data = NULL;

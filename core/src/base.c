@@ -117,3 +117,20 @@ double nts_wall_seconds(void) {
 #endif
     return (double)time(NULL); /* no monotonic clock: whole seconds, still wall clock */
 }
+
+/* An array grown to hold `need` items of `size` bytes (doubling, from 16):
+ * the allocator hook's one growth rule for the core's working arrays. */
+int nts_grow(void** ptr, int* cap, int need, size_t size) {
+    void* p;
+    int ncap;
+    if (need <= *cap) return NTS_OK;
+    ncap = *cap > 0 ? *cap : 16;
+    while (ncap < need) ncap = (ncap > (1 << 29)) ? need : 2 * ncap;
+    p = nts_alloc((size_t)ncap * size);
+    if (p == NULL) return NTS_ENOMEM;
+    if (*ptr != NULL && *cap > 0) memcpy(p, *ptr, (size_t)(*cap) * size);
+    nts_free(*ptr);
+    *ptr = p;
+    *cap = ncap;
+    return NTS_OK;
+}

@@ -22,21 +22,6 @@ nts_scene_def nts_default_scene_def(void) {
     return d;
 }
 
-int nts_grow(void** ptr, int* cap, int need, size_t size) {
-    void* p;
-    int ncap;
-    if (need <= *cap) return NTS_OK;
-    ncap = *cap > 0 ? *cap : 16;
-    while (ncap < need) ncap = (ncap > (1 << 29)) ? need : 2 * ncap;
-    p = nts_alloc((size_t)ncap * size);
-    if (p == NULL) return NTS_ENOMEM;
-    if (*ptr != NULL && *cap > 0) memcpy(p, *ptr, (size_t)(*cap) * size);
-    nts_free(*ptr);
-    *ptr = p;
-    *cap = ncap;
-    return NTS_OK;
-}
-
 /* An error at (body, loop, place in the loop, node): nts_error_set. */
 #define fail(err, code, body, loop, pos, node, ...) nts_error_set(err, code, nts_at(body, loop, pos, node), __VA_ARGS__)
 
