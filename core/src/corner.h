@@ -2,7 +2,7 @@
  * search runs for every corner candidate, inline (private to the core). The
  * problem is scaled by the corner's size, so its tolerances are relative to
  * the geometry and the same code works at 1e-9 and 1e9 scale. When F may
- * have several roots in [-1, 1] the chosen solver takes over (geometry.c). */
+ * have several roots in [-1, 1] the chosen solver takes over (corner.c). */
 #ifndef NTSCONTACT_CORNER_H
 #define NTSCONTACT_CORNER_H
 
@@ -105,7 +105,7 @@ static inline int root_monotone(const corner_problem* p, double* root, int* iter
     return 1;
 }
 
-/* geometry.c: every root of F in [-1, 1] by the chosen solver (at least
+/* corner.c: every root of F in [-1, 1] by the chosen solver (at least
  * one: a root hidden by rounding falls back to the bracketed solver, then to
  * the better end), and the one nearest to the slave. *roots: how many. */
 double nts_corner_root_general(const corner_problem* p, nts_solver solver, int* roots, int* iters);

@@ -604,7 +604,7 @@ void nts_search_wide_done(worker* w);
  * env->max_records closest points with `found`) or NTS_ECANCELLED. */
 int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads);
 size_t nts_reach_memory_bytes(const nts_reach* r);
-/* reach.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
+/* shape.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
  * until then): a circle around its nodes, centre relative to its first node
  * and radius squared, the deepest a point inside can lie below its surface,
  * and its bounding box. A point outside the circle is outside the body

@@ -1,0 +1,85 @@
+/* A body's shape as the reach and the widened search ask it (docs/model.md
+ * §4.5): a circle around its nodes, the deepest a point inside can lie, its
+ * bounding box; and whether a point lies outside that circle, so outside the
+ * body. Its own file: the search (search.c) and the reach (reach.c) both use
+ * it, and the reach uses the search. */
+#include <math.h>
+
+#include "stages.h"
+
+/* What the reach asks of a body's shape, from its nodes (the scene's
+ * positions, 16 bytes a node, each as its minimum image from the body's first
+ * node, so a body across a periodic box's edge is measured whole), once per
+ * evaluation: a circle around its nodes (the centre of their bounding box,
+ * relative to the first node, and the largest distance of a node from it,
+ * squared), and the deepest a point inside the body can lie below its
+ * surface, half the smaller side of the bounding box (a line through the
+ * point along that side's axis leaves the body within the box, on both
+ * sides). The smoothed surface lies in the nodes' hull (a corner curve is a
+ * convex combination of three nodes, eq. (2)-(3)), so a point outside the
+ * circle is outside the body. Then its bounding box, relative to the first
+ * node: x0, x1, y0, y1. shape[SHAPE b + 3] < 0: not yet. */
+const double* nts_body_shape(const search_env* env, double* shape, int b) {
+    double* c = shape + SHAPE * b;
+    if (c[3] < 0.0) {
+        const nts_scene* s = env->s;
+        const int m0 = s->body_node_start[b], m1 = s->body_node_start[b + 1];
+        const nts_vec2 p0 = s->pos[m0];
+        double x0 = 0.0, x1 = 0.0, y0 = 0.0, y1 = 0.0, r2 = 0.0;
+        int m;
+        for (m = m0; m < m1; ++m) {
+            const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+            x0 = d.x < x0 ? d.x : x0;
+            x1 = d.x > x1 ? d.x : x1;
+            y0 = d.y < y0 ? d.y : y0;
+            y1 = d.y > y1 ? d.y : y1;
+        }
+        if (s->lx > 0.0 && (x1 - x0 > 0.25 * s->lx || y1 - y0 > 0.25 * s->ly)) {
+            /* A body more than a quarter of the periodic box: its nodes' minimum
+             * images from one node need not be one piece. No circle (it rules
+             * nothing out), and the depth from its loops walked by their
+             * segments (each shorter than half the box), which are. */
+            int l;
+            x0 = x1 = y0 = y1 = 0.0;
+            for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
+                const int e0 = s->loop_start[l], e1 = s->loop_start[l + 1];
+                nts_vec2 p = nts_scene_diff(s, env->seg[e0].p, p0);
+                int e;
+                for (e = e0; e < e1; ++e) {
+                    x0 = p.x < x0 ? p.x : x0;
+                    x1 = p.x > x1 ? p.x : x1;
+                    y0 = p.y < y0 ? p.y : y0;
+                    y1 = p.y > y1 ? p.y : y1;
+                    p = nts_add(p, env->seg[e].t);
+                }
+            }
+            c[0] = c[1] = 0.0;
+            c[2] = HUGE_VAL;
+        } else {
+            c[0] = 0.5 * (x0 + x1);
+            c[1] = 0.5 * (y0 + y1);
+            for (m = m0; m < m1; ++m) {
+                const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+                const double dx = d.x - c[0], dy = d.y - c[1], d2 = dx * dx + dy * dy;
+                r2 = d2 > r2 ? d2 : r2;
+            }
+            c[2] = r2;
+        }
+        c[3] = 0.5 * (x1 - x0 < y1 - y0 ? x1 - x0 : y1 - y0);
+        c[4] = x0;
+        c[5] = x1;
+        c[6] = y0;
+        c[7] = y1;
+    }
+    return c;
+}
+
+/* Whether X lies outside body b's circle (allowing for the round-off of the
+ * minimum images): then it is outside the body. */
+int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x) {
+    const nts_scene* s = env->s;
+    const double* c = nts_body_shape(env, shape, b);
+    const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
+    const double dx = q.x - c[0], dy = q.y - c[1];
+    return dx * dx + dy * dy > c[2] * (1.0 + 1e-9) + 4.0 * env->wide_pad * env->wide_pad;
+}
