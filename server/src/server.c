@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -984,6 +985,17 @@ static void on_connection(void* cls, struct MHD_Connection* c, void** socket_con
 
 /* ------------------------------------------------------------ start/stop */
 
+/* The soft limit of open descriptors raised to `need` (within the hard
+ * limit): a thread per connection, each with its socket. Said when short. */
+static void ensure_descriptors(unsigned need) {
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur >= need) return;
+    rl.rlim_cur = rl.rlim_max == RLIM_INFINITY || rl.rlim_max > need ? need : rl.rlim_max;
+    if (setrlimit(RLIMIT_NOFILE, &rl) != 0 || rl.rlim_cur < need)
+        ntsd_log_message("open descriptors limited to %llu, fewer than the %u that --max-connections may use",
+                         (unsigned long long)rl.rlim_cur, need);
+}
+
 /* A whole (PEM) file as a NUL-terminated string, or NULL. */
 static char* read_file(const char* path) {
     FILE* f = fopen(path, "rb");
@@ -1044,9 +1056,13 @@ int ntsd_server_start(ntsd_server* s, const ntsd_config* cfg) {
      * connections (docs/benchmarks.md, "Server"). */
     flags |= MHD_USE_THREAD_PER_CONNECTION | MHD_USE_POLL;
 
-    /* Room above --max-connections so that the extra clients get a 503 instead
-     * of a closed socket. */
-    hard_limit = cfg->max_connections + 8 + cfg->max_connections / 16;
+    /* Room above --max-connections: a connection cut to make room (watch.c)
+     * stays libmicrohttpd's until its thread sees the end of the stream, and
+     * under clients reopening every cut connection on a busy machine those
+     * pile up; a new connection must still be taken (and served, or cut, or
+     * answered 503), never closed at accept. The descriptors are there too. */
+    hard_limit = 2 * cfg->max_connections + 64;
+    ensure_descriptors(hard_limit + 64);
 
     /* The default quota: a quarter of the store (four clients at their quota
      * fill it), but at least 4, so that a small store does not hold one
