@@ -150,8 +150,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
         snprintf(msg, sizeof msg, "periodic box %.6g x %.6g must exceed twice the search reach %.6g", s->lx, s->ly, h);
-        rc = eval_fail(err, NTS_EBOX_TOO_SMALL, -1, -1, msg);
-        if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
+        rc = eval_fail_option(err, NTS_EBOX_TOO_SMALL, "periodic", msg);
         return rc;
     }
     env.lx = s->lx;
@@ -253,8 +252,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             char msg[192];
             snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius: "
                      "the bodies overlap far more than contact does (or raise the limit)", env.max_records);
-            rc = eval_fail(err, NTS_ELIMIT, -1, -1, msg);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "max_candidates");
+            rc = eval_fail_option(err, NTS_ELIMIT, "max_candidates", msg);
             return rc;
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
@@ -269,8 +267,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             char msg[192];
             snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius and "
                      "deeper: the bodies overlap far more than contact does (or raise the limit)", env.max_records);
-            rc = eval_fail(err, NTS_ELIMIT, -1, -1, msg);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "max_candidates");
+            rc = eval_fail_option(err, NTS_ELIMIT, "max_candidates", msg);
             return rc;
         }
         if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");

@@ -59,6 +59,11 @@ static inline nts_where nts_at(int body, int loop, int loop_pos, int node) {
     w.option = "";
     return w;
 }
+/* The same place, naming the option (or limit) at fault: err->option. */
+static inline nts_where nts_naming(nts_where w, const char* option) {
+    w.option = option;
+    return w;
+}
 int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 4, 5)))

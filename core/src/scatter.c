@@ -130,9 +130,7 @@ static int forces_range(nts_context* ctx, int n0, int n1) {
 }
 
 static int overflow_error(nts_error* err, const char* msg) {
-    const int rc = eval_fail(err, NTS_ENONFINITE, -1, -1, msg);
-    if (err != NULL) snprintf(err->option, sizeof err->option, "penalty");
-    return rc;
+    return eval_fail_option(err, NTS_ENONFINITE, "penalty", msg);
 }
 
 /* The warnings of the result (nts_result.warnings), in code order. */

@@ -24,6 +24,9 @@ nts_scene_def nts_default_scene_def(void) {
 
 /* An error at (body, loop, place in the loop, node): nts_error_set. */
 #define fail(err, code, body, loop, pos, node, ...) nts_error_set(err, code, nts_at(body, loop, pos, node), __VA_ARGS__)
+/* An error of body `body` (-1: of the scene) that names an option or limit. */
+#define fail_naming(err, code, body, option, ...) \
+    nts_error_set(err, code, nts_naming(nts_at(body, -1, -1, -1), option), __VA_ARGS__)
 
 void nts_scene_destroy(nts_scene* s) {
     if (s == NULL) return;
@@ -174,19 +177,16 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
     }
     if (!(def->lx >= 0.0 && def->ly >= 0.0) || !nts_is_valid_double(def->lx) || !nts_is_valid_double(def->ly) ||
         ((def->lx > 0.0) != (def->ly > 0.0))) {
-        fail(err, NTS_EINVALID_OPTION, -1, -1, -1, -1, "periodic box needs lx > 0 and ly > 0, finite");
-        if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
+        fail_naming(err, NTS_EINVALID_OPTION, -1, "periodic", "periodic box needs lx > 0 and ly > 0, finite");
         return NULL;
     }
     if (def->lx > NTS_COORD_MAX || def->ly > NTS_COORD_MAX) {
-        fail(err, NTS_EOUT_OF_RANGE, -1, -1, -1, -1, "periodic box beyond 1e100 (rescale the scene)");
-        if (err != NULL) snprintf(err->option, sizeof err->option, "periodic");
+        fail_naming(err, NTS_EOUT_OF_RANGE, -1, "periodic", "periodic box beyond 1e100 (rescale the scene)");
         return NULL;
     }
     if (def->limits.max_bodies > 0 && def->body_count > def->limits.max_bodies) {
-        fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has %d bodies, more than the limit of %d bodies",
-             def->body_count, def->limits.max_bodies);
-        if (err != NULL) snprintf(err->option, sizeof err->option, "max_bodies");
+        fail_naming(err, NTS_ELIMIT, -1, "max_bodies", "scene has %d bodies, more than the limit of %d bodies",
+                    def->body_count, def->limits.max_bodies);
         return NULL;
     }
 
@@ -202,26 +202,23 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
             goto fail;
         }
         if (bd->role != NTS_ROLE_BOTH && bd->role != NTS_ROLE_MASTER && bd->role != NTS_ROLE_SLAVE) {
-            rc = fail(err, NTS_EINVALID_OPTION, b, -1, -1, -1, "body %d: role must be both, master or slave", b);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "role");
+            rc = fail_naming(err, NTS_EINVALID_OPTION, b, "role", "body %d: role must be both, master or slave", b);
             goto fail;
         }
         if (bd->has_alpha && !(bd->alpha >= 0.0 && bd->alpha <= 0.5)) {
-            rc = fail(err, NTS_EINVALID_OPTION, b, -1, -1, -1, "body %d: alpha must be in [0, 0.5]", b);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "alpha");
+            rc = fail_naming(err, NTS_EINVALID_OPTION, b, "alpha", "body %d: alpha must be in [0, 0.5]", b);
             goto fail;
         }
         if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body) {
-            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "body %d has %d nodes, more than the limit of %d nodes per body",
-                      b, bd->node_count, def->limits.max_nodes_per_body);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "max_nodes_per_body");
+            rc = fail_naming(err, NTS_ELIMIT, b, "max_nodes_per_body",
+                             "body %d has %d nodes, more than the limit of %d nodes per body", b, bd->node_count,
+                             def->limits.max_nodes_per_body);
             goto fail;
         }
         total_nodes += bd->node_count;
         if (def->limits.max_nodes > 0 && total_nodes > def->limits.max_nodes) {
-            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than the limit of %lld nodes",
-                      def->limits.max_nodes);
-            if (err != NULL) snprintf(err->option, sizeof err->option, "max_nodes");
+            rc = fail_naming(err, NTS_ELIMIT, b, "max_nodes", "scene has more than the limit of %lld nodes",
+                             def->limits.max_nodes);
             goto fail;
         }
         if (total_nodes > 0x3fffffff) {

@@ -428,6 +428,11 @@ static inline int eval_fail(nts_error* err, int code, int body, int node, const 
     return nts_error_set(err, code, nts_at(body, -1, -1, node), "%s", msg);
 }
 
+/* eval_fail for a fault of an option or limit, which err->option names. */
+static inline int eval_fail_option(nts_error* err, int code, const char* option, const char* msg) {
+    return nts_error_set(err, code, nts_naming(nts_at(-1, -1, -1, -1), option), "%s", msg);
+}
+
 /* The alpha that shapes body b's surface: its own, or the options' (docs/model.md §10). */
 static inline double alpha_of_body(const nts_scene* s, int b, double alpha) {
     return s->body_alpha[b] >= 0.0 ? s->body_alpha[b] : alpha;
