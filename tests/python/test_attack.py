@@ -1,5 +1,5 @@
 """Slow clients from several addresses, each reopening every connection the
-daemon cuts (issue 23, item 3; bench/load/attack.py): slow request headers,
+daemon cuts (issue 23, item 3; tests/load/attack.py): slow request headers,
 slow TLS handshakes, slow bodies, from 5 addresses x 64 connections against
 the default limits (--max-connections 256, --max-per-client 64). 0.2
 answered 0 of 80, 6 of 59 and 1 of 80 honest probes in 40 s. Now a new
@@ -16,7 +16,7 @@ import requests
 
 from conftest import start_daemon
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bench" / "load"))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests" / "load"))
 import attack  # noqa: E402
 
 PROBES = 12

@@ -1,5 +1,5 @@
 """Reliability of the daemon under load and faults (issue 7), a short version
-of bench/soak/soak.py: 16 keep-alive clients post valid and invalid scenes for
+of tests/load/soak.py: 16 keep-alive clients post valid and invalid scenes for
 12 s while fault clients disconnect mid-upload, send garbage, trickle a body,
 announce huge bodies, send oversized headers or nothing; then SIGTERM with the
 load still running and requests held in flight. Every answer is compared with
@@ -12,7 +12,7 @@ import pathlib
 
 import pytest
 
-SOAK = pathlib.Path(__file__).resolve().parents[2] / "bench" / "soak" / "soak.py"
+SOAK = pathlib.Path(__file__).resolve().parents[2] / "tests" / "load" / "soak.py"
 
 
 def _soak():

@@ -162,7 +162,7 @@ def test_nginx_refuses_bad_framing_in_the_error_schema(paths, tmp_path, schemas)
 
 # ------------------------------------------------------------ many clients
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bench" / "load"))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests" / "load"))
 import fanin  # noqa: E402
 
 

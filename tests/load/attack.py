@@ -1,6 +1,6 @@
 """Slow clients from several addresses, and honest probes beside them.
 
-    python3 bench/load/attack.py PORT --mode headers|tls|body [--addresses 5] [--per-address 64]
+    python3 tests/load/attack.py PORT --mode headers|tls|body [--addresses 5] [--per-address 64]
                                  [--seconds 40] [--ca CERT]
 
 Attackers: --per-address connections from each of --addresses loopback

@@ -1,7 +1,7 @@
 """Many clients at once, each on its own keep-alive connection from one of
 several loopback addresses: the fan-in a proxy in front of the daemons sees.
 
-    python3 bench/load/fanin.py URL [--clients 500] [--addresses 10] [--seconds 10] [--scene FILE]
+    python3 tests/load/fanin.py URL [--clients 500] [--addresses 10] [--seconds 10] [--scene FILE]
 
 Each client connects from 127.0.0.(2 + its number modulo --addresses) and
 posts the scene (default examples/two_disks.json) to URL/v1/contact in a loop,

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Soak and fault test of ntscontactd on 127.0.0.1 (issue 7), bounded in time.
 
-    bench/soak/soak.py [--duration 60] [--connections 16] [--build-dir build]
+    tests/load/soak.py [--duration 60] [--connections 16] [--build-dir build]
                        [--json-out FILE] [--no-faults] [--no-sigterm] [--seed N]
 
 What it does:
