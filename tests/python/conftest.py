@@ -38,6 +38,7 @@ def schemas(paths):
 # Its stderr (one log line per request) goes to a file, never to a pipe nobody
 # reads.
 import selectors  # noqa: E402
+import shutil  # noqa: E402
 import signal  # noqa: E402
 import subprocess  # noqa: E402
 
@@ -193,3 +194,17 @@ def with_positions(scene, pos):
         b["nodes"] = np.asarray(pos[k:k + n]).tolist()
         k += n
     return out
+
+
+@pytest.fixture(scope="module")
+def tls_pair(tmp_path_factory):
+    """A self-signed certificate and key for 127.0.0.1 (PEM paths), made once
+    per test module; skipped without openssl."""
+    if shutil.which("openssl") is None:
+        pytest.skip("needs openssl to make a certificate")
+    d = tmp_path_factory.mktemp("tls")
+    key, cert = d / "key.pem", d / "cert.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out",
+                    str(cert), "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
+                   check=True, capture_output=True, timeout=60)
+    return cert, key

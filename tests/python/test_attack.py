@@ -7,8 +7,6 @@ connection cuts the slowest connection of the address holding the most, so
 the honest client (one connection, its own address) is served every time.
 No timing is asserted: each probe waits up to 30 s, and must be answered."""
 import pathlib
-import shutil
-import subprocess
 import sys
 
 import pytest
@@ -20,18 +18,6 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests" / "
 import attack  # noqa: E402
 
 PROBES = 12
-
-
-@pytest.fixture(scope="module")
-def tls_pair(tmp_path_factory):
-    if shutil.which("openssl") is None:
-        pytest.skip("needs openssl to make a certificate")
-    d = tmp_path_factory.mktemp("tls")
-    key, cert = d / "key.pem", d / "cert.pem"
-    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out",
-                    str(cert), "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
-                   check=True, capture_output=True, timeout=60)
-    return cert, key
 
 
 @pytest.mark.parametrize("mode", attack.MODES)
