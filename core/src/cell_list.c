@@ -4,6 +4,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "stages.h"
 
 
@@ -72,10 +73,68 @@ int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, do
  * cell by cell, in slice order within a cell, so that placing each slice's
  * entries in increasing order puts every cell's entries in increasing order,
  * exactly as one slice would. */
-void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, int threads) {
+typedef struct offsets_task {
+    nts_cells* c;
+    const int* cell_of;
+    int* hist;
+    int* total;
+    int n, slices, ncell;
+} offsets_task;
+
+/* Slice u's count of its entries in each cell. */
+static void offsets_count(int begin, int end, int wi, void* p) {
+    const offsets_task* t = (const offsets_task*)p;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u) {
+        const int b = nts_slice_begin(t->n, t->slices, u), e = nts_slice_begin(t->n, t->slices, u + 1);
+        int* h = t->hist + (size_t)u * (size_t)t->ncell;
+        int j;
+        memset(h, 0, sizeof(int) * (size_t)t->ncell);
+        for (j = b; j < e; ++j)
+            if (t->cell_of[j] >= 0) ++h[t->cell_of[j]];
+    }
+}
+
+/* Block u of cells: its total over every slice. */
+static void offsets_total(int begin, int end, int wi, void* p) {
+    const offsets_task* t = (const offsets_task*)p;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u) {
+        const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
+        int sum = 0, cc, v;
+        for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc)
+            for (v = 0; v < t->slices; ++v) sum += t->hist[(size_t)v * (size_t)t->ncell + cc];
+        t->total[u] = sum;
+    }
+}
+
+/* Block u of cells: each (cell, slice)'s first place, from the block's start. */
+static void offsets_place(int begin, int end, int wi, void* p) {
+    const offsets_task* t = (const offsets_task*)p;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u) {
+        const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
+        int place = t->total[u], cc, v;
+        for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc) {
+            t->c->cell_start[cc] = place;
+            for (v = 0; v < t->slices; ++v) {
+                int* h = t->hist + (size_t)v * (size_t)t->ncell + cc;
+                const int k = *h;
+                *h = place;
+                place += k;
+            }
+        }
+    }
+}
+
+void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, const nts_run* run) {
     const int ncell = c->nx * c->ny;
     int u, cell, at = 0;
-    (void)threads; /* without OpenMP */
+    int total[SORT_SLICES];
+    offsets_task t;
     if (slices == 1) { /* one slice: its places are the cells' starts, counted in cell_start + 1 */
         int* h = c->cell_start + 1;
         int j;
@@ -85,49 +144,25 @@ void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int s
         for (cell = 0; cell < ncell; ++cell) c->cell_start[cell + 1] += c->cell_start[cell];
         return;
     }
-    NTS_PARALLEL_FOR(threads)
-    for (u = 0; u < slices; ++u) {
-        const int b = nts_slice_begin(n, slices, u), e = nts_slice_begin(n, slices, u + 1);
-        int* h = hist + (size_t)u * (size_t)ncell;
-        int j;
-        memset(h, 0, sizeof(int) * (size_t)ncell);
-        for (j = b; j < e; ++j)
-            if (cell_of[j] >= 0) ++h[cell_of[j]];
-    }
+    assert(slices <= SORT_SLICES);
+    t.c = c;
+    t.cell_of = cell_of;
+    t.hist = hist;
+    t.total = total;
+    t.n = n;
+    t.slices = slices;
+    t.ncell = ncell;
+    nts_run_each(run, offsets_count, slices, &t);
     /* The prefix sum over (cell, slice), in parallel over `slices` blocks of
      * cells: each block's total, their prefix, then each block's places from
      * its start (the places are the same whatever the blocks). */
-    {
-        int total[SORT_SLICES];
-        assert(slices <= SORT_SLICES);
-        NTS_PARALLEL_FOR(threads)
-        for (u = 0; u < slices; ++u) {
-            const int c1 = nts_slice_begin(ncell, slices, u + 1);
-            int sum = 0, cc, v;
-            for (cc = nts_slice_begin(ncell, slices, u); cc < c1; ++cc)
-                for (v = 0; v < slices; ++v) sum += hist[(size_t)v * (size_t)ncell + cc];
-            total[u] = sum;
-        }
-        for (u = 0; u < slices; ++u) {
-            const int k = total[u];
-            total[u] = at;
-            at += k;
-        }
-        NTS_PARALLEL_FOR(threads)
-        for (u = 0; u < slices; ++u) {
-            const int c1 = nts_slice_begin(ncell, slices, u + 1);
-            int place = total[u], cc, v;
-            for (cc = nts_slice_begin(ncell, slices, u); cc < c1; ++cc) {
-                c->cell_start[cc] = place;
-                for (v = 0; v < slices; ++v) {
-                    int* h = hist + (size_t)v * (size_t)ncell + cc;
-                    const int k = *h;
-                    *h = place;
-                    place += k;
-                }
-            }
-        }
+    nts_run_each(run, offsets_total, slices, &t);
+    for (u = 0; u < slices; ++u) {
+        const int k = total[u];
+        total[u] = at;
+        at += k;
     }
+    nts_run_each(run, offsets_place, slices, &t);
     c->cell_start[ncell] = at;
 }
 

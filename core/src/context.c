@@ -40,6 +40,20 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
     return n;
 }
 
+int nts_context_set_parallel(nts_context* ctx, const nts_parallel* backend) {
+    if (ctx == NULL) return NTS_EINVALID_ARGUMENT;
+    if (backend == NULL) {
+        memset(&ctx->host, 0, sizeof ctx->host);
+        ctx->host_set = 0;
+        return NTS_OK;
+    }
+    if (backend->enqueue == NULL || backend->finish == NULL || backend->worker_count < 1)
+        return NTS_EINVALID_ARGUMENT;
+    ctx->host = *backend;
+    ctx->host_set = 1;
+    return NTS_OK;
+}
+
 nts_context* nts_context_create(void) {
     nts_context* ctx = (nts_context*)nts_alloc(sizeof *ctx);
     if (ctx != NULL) memset(ctx, 0, sizeof *ctx);
@@ -155,13 +169,7 @@ void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, con
     chunk_part* part = &ch->part[stream];
     size_t at;
     if (bytes == 0) return;
-#if NTS_CONFIG_OPENMP
-#pragma omp atomic capture
-#endif
-    {
-        at = ctx->pool_at[stream];
-        ctx->pool_at[stream] += bytes;
-    }
+    at = nts_atomic_add_size(&ctx->pool_at[stream], bytes); /* workers claim their room at once */
     if (at + bytes <= ctx->pool_cap[stream]) { /* claimed: no other chunk writes there */
         memcpy(ctx->pool[stream] + at, staged, bytes);
         part->spilled = 0;

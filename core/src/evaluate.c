@@ -8,11 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "stages.h"
-
-#if NTS_CONFIG_OPENMP
-#include <omp.h>
-#endif
 
 /* Wall clock for the phase profile (nts_context_profile): monotonic, with
  * or without OpenMP (clock() would count the CPU time of the process). */
@@ -59,7 +56,7 @@ static double largest_alpha(const nts_scene* s, double alpha) {
  * the side itself and there are no long lists; when the long lists would be
  * too many, the side doubles, at most up to the longest reach. */
 static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
-                       int nthreads) {
+                       const nts_run* run) {
     /* At most this many (long master, cell) pairs: a few per surface node. */
     const long long budget = 4LL * s->surface_count + 4096;
     /* The round-off of the grid's frame, relative to the size of the
@@ -84,10 +81,45 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
         }
         if ((rc = nts_cells_shape(&ctx->cells, s, ss, hc, min_cells)) != NTS_OK) return rc;
         /* At hmax every master fits (hmax bounds every reach). */
-        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc < hmax ? hc : 0.0, pad, budget, min_cells, nthreads);
+        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc < hmax ? hc : 0.0, pad, budget, min_cells, run);
         if (rc != NTS_ELIMIT) return rc;
         /* Every master fits at hmax: no long lists, no NTS_ELIMIT. */
         assert(hc < hmax && round < 64);
+    }
+}
+
+typedef struct search_task {
+    nts_context* ctx;
+    const search_env* env;
+} search_task;
+
+/* Chunks [begin, end) of slaves, on `worker`'s scratch; each chunk's records
+ * and items kept in the pools, whoever ran it. */
+static void search_chunks(int begin, int end, int t, void* p) {
+    const search_task* st = (const search_task*)p;
+    nts_context* ctx = st->ctx;
+    const search_env* env = st->env;
+    const int n = env->s->surface_count;
+    worker* w = &ctx->workers[t];
+    int i;
+    for (i = begin; i < end; ++i) {
+        chunk_info* ch = &ctx->chunks[i];
+        const int first = i * CHUNK_SLAVES, last = first + CHUNK_SLAVES < n ? first + CHUNK_SLAVES : n;
+        chunk_part* recs = &ch->part[STREAM_RECORDS];
+        chunk_part* items = &ch->part[STREAM_REACH];
+        ch->worker = t;
+        /* the chunk's own records and items, then kept in the pools */
+        w->rec_count = w->share_count = w->item_count = 0;
+        w->last_slave = w->first_slave = -1;
+        w->sums = &ch->sums;
+        if (w->status == NTS_OK) nts_search_range(env, w, first, last);
+        recs->count = env->shares ? w->share_count : w->rec_count;
+        items->count = w->item_count;
+        if (w->status == NTS_OK && recs->count > 0)
+            nts_chunk_keep(ctx, w, ch, STREAM_RECORDS, env->shares ? (const void*)w->shares : (const void*)w->recs,
+                           (size_t)recs->count * (env->shares ? sizeof(force_shares) : sizeof(candidate)));
+        if (w->status == NTS_OK && items->count > 0)
+            nts_chunk_keep(ctx, w, ch, STREAM_REACH, w->items, (size_t)items->count * sizeof(reach_item));
     }
 }
 
@@ -95,7 +127,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     search_env env;
     seg_summary ss;
     double h;
-    int i, rc, nthreads = 1, nchunk;
+    search_task st;
+    nts_run run;
+    int i, rc, nthreads, nchunk;
     double t0 = wall_time(), t1;
 
     if (err != NULL) *err = nts_error_none();
@@ -103,10 +137,16 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
     if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
     memset(out, 0, sizeof *out);
-#if NTS_CONFIG_OPENMP
-    if (opt->threads > 1) nthreads = opt->threads;
-    if (nthreads > s->surface_count) nthreads = s->surface_count > 0 ? s->surface_count : 1;
-#endif
+    /* The workers: the host's (nts_context_set_parallel: the indices it
+     * gives are below its count), or the build's own on opt->threads, no
+     * more than there are slaves. */
+    if (ctx->host_set) {
+        run.backend = ctx->host;
+        run.workers = ctx->host.worker_count;
+    } else {
+        run = nts_run_stock(opt->threads < s->surface_count ? opt->threads : s->surface_count);
+    }
+    nthreads = run.workers;
 
     /* 1. Segments, and the median segment: a typical segment, not the
      * longest, sets the default search radius, so that one long wall does
@@ -115,7 +155,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
     rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
-                              (double*)(void*)ctx->scratch, nthreads, &ss);
+                              (double*)(void*)ctx->scratch, &run, &ss);
     if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count) {
         const int bad = ss.bad;
@@ -158,7 +198,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.qx = 0.25 * s->lx;
     env.qy = 0.25 * s->ly;
     if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
-        if ((rc = build_cells(ctx, s, &env, &ss, nthreads)) != NTS_OK)
+        if ((rc = build_cells(ctx, s, &env, &ss, &run)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         env.cells = &ctx->cells;
         env.keys = &ctx->keys;
@@ -208,35 +248,11 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         memset(ctx->forces, 0, sizeof(nts_vec2) * (size_t)s->node_count);
         env.forces = ctx->forces;
     }
-#if NTS_CONFIG_OPENMP
-#pragma omp parallel for num_threads(nthreads) if (nthreads > 1) schedule(dynamic, 1)
-#endif
-    for (i = 0; i < nchunk; ++i) {
-#if NTS_CONFIG_OPENMP
-        const int t = omp_get_thread_num();
-#else
-        const int t = 0;
-#endif
-        worker* w = &ctx->workers[t];
-        chunk_info* ch = &ctx->chunks[i];
-        const int begin = i * CHUNK_SLAVES, end = begin + CHUNK_SLAVES < s->surface_count ? begin + CHUNK_SLAVES
-                                                                                           : s->surface_count;
-        chunk_part* recs = &ch->part[STREAM_RECORDS];
-        chunk_part* items = &ch->part[STREAM_REACH];
-        ch->worker = t;
-        /* the chunk's own records and items, then kept in the pools */
-        w->rec_count = w->share_count = w->item_count = 0;
-        w->last_slave = w->first_slave = -1;
-        w->sums = &ch->sums;
-        if (w->status == NTS_OK) nts_search_range(&env, w, begin, end);
-        recs->count = env.shares ? w->share_count : w->rec_count;
-        items->count = w->item_count;
-        if (w->status == NTS_OK && recs->count > 0)
-            nts_chunk_keep(ctx, w, ch, STREAM_RECORDS, env.shares ? (const void*)w->shares : (const void*)w->recs,
-                           (size_t)recs->count * (env.shares ? sizeof(force_shares) : sizeof(candidate)));
-        if (w->status == NTS_OK && items->count > 0)
-            nts_chunk_keep(ctx, w, ch, STREAM_REACH, w->items, (size_t)items->count * sizeof(reach_item));
-    }
+    /* Each chunk taken by whichever worker is free (a worker that the
+     * machine slows down takes fewer). */
+    st.ctx = ctx;
+    st.env = &env;
+    nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
     {
         long long records = 0;
         int limited = 0, status = NTS_OK;
@@ -260,7 +276,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             return eval_fail(err, rc, -1, -1, "out of memory");
         /* The active contacts deeper than r, found (default radius) or
          * counted (an explicit one). */
-        rc = nts_reach_grow(ctx, &env, records, nthreads);
+        rc = nts_reach_grow(ctx, &env, records, &run);
         if (rc == NTS_ECANCELLED)
             return eval_fail(err, rc, -1, -1, "the evaluation was cancelled (a deadline passed, or the caller asked)");
         if (rc == NTS_ELIMIT) {
@@ -277,7 +293,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     t0 = t1;
 
     /* 4. Scatter and summary (scatter.c). */
-    if ((rc = nts_scatter(ctx, s, opt, &env, nthreads, out, err)) != NTS_OK) return rc;
+    if ((rc = nts_scatter(ctx, s, opt, &env, &run, out, err)) != NTS_OK) return rc;
     ctx->phase[3] = wall_time() - t0;
     return NTS_OK;
 }

@@ -95,21 +95,6 @@ typedef struct nts_boundary {
 int nts_boundary_from_triangles(int node_count, const int* tri, int tri_count, nts_boundary* out, nts_error* err);
 void nts_boundary_free(nts_boundary* b);
 
-/* A loop whose iterations touch only their own elements, run on `n` threads
- * when there are several (OpenMP); its result never depends on `n`. */
-#if NTS_CONFIG_OPENMP
-#define NTS_PRAGMA_(x) _Pragma(#x)
-#define NTS_PARALLEL_FOR(n) NTS_PRAGMA_(omp parallel for num_threads(n) if ((n) > 1) schedule(static))
-/* The same with a reduction clause (sums of integers, minima, maxima: exact,
- * so the result does not depend on `n` either). */
-#define NTS_PARALLEL_FOR_REDUCE(n, clause) \
-    NTS_PRAGMA_(omp parallel for num_threads(n) if ((n) > 1) schedule(static) clause)
-#else
-#define NTS_PRAGMA_(x)
-#define NTS_PARALLEL_FOR(n)
-#define NTS_PARALLEL_FOR_REDUCE(n, clause)
-#endif
-
 /* Growable triplet buffers of the tangent (stiffness.c). */
 typedef struct nts_kbuf {
     int* rows;

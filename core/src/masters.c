@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "parallel.h"
 #include "stages.h"
 
 /* The float keys' own round-off, in the scaled frame (coordinates in [0, 1],
@@ -102,56 +103,66 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, 
     return NTS_OK;
 }
 
-int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
-                      long long budget, int min_cells, int threads) {
+typedef struct bin_task {
+    nts_context* ctx;
+    const nts_scene* s;
+    int* cell_of;
+    double alpha, r, pad, fits;
+    long long nlong;
+    int slices, ncell;
+} bin_task;
+
+/* Each master's cell: -1 when its body offers nothing, -2 when its reach
+ * does not fit a cell (a long master, counted). */
+static void masters_bin(int begin, int end, int wi, void* p) {
+    bin_task* t = (bin_task*)p;
+    const nts_context* ctx = t->ctx;
+    const nts_scene* s = t->s;
     const nts_cells* cl = &ctx->cells;
-    const int n = s->surface_count, ncell = cl->nx * cl->ny;
-    /* A master is binned when its reach fits a cell with room for the
-     * round-off of binning (a cell's side is at least hcell); hcell = 0: all
-     * fit, the caller knows. */
-    const double fits = hcell * (1.0 - 1e-12), scale = cl->scale;
-    int* cell_of = ctx->scratch;
-    int e, u, nlong = 0, count, rc, slices;
-    master_keys* k = &ctx->keys;
-    NTS_PARALLEL_FOR_REDUCE(threads, reduction(+ : nlong))
-    for (e = 0; e < n; ++e) {
+    int e, nlong = 0;
+    (void)wi;
+    for (e = begin; e < end; ++e) {
         const seg_data* m = &ctx->seg[e];
         const int b = m->body;
         if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
-            cell_of[e] = -1;
+            t->cell_of[e] = -1;
             continue;
         }
-        if (hcell > 0.0 && !(reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
-            cell_of[e] = -2;
+        if (t->fits > 0.0 &&
+            !(reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, t->alpha)), t->r, t->pad) <= t->fits)) {
+            t->cell_of[e] = -2;
             ++nlong;
             continue;
         }
-        cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
+        t->cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
     }
-    /* Sorted by cell: each slice places its masters' keys, computed from
-     * the entries in entry order (a sequential read, scattered writes). */
-    /* Slices of the counting sort: one per thread, at most SORT_SLICES (each
-     * costs a count per cell; the sort is a small part of the work). */
-    slices = threads < SORT_SLICES ? threads : SORT_SLICES;
-    if (slices > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
-                                     slices * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
-        return rc;
-    nts_cells_offsets(&ctx->cells, cell_of, n, ctx->hist, slices, threads);
-    count = cl->cell_start[ncell];
-    if ((rc = keys_reserve(k, count)) != NTS_OK) return rc;
-    k->count = count;
-    NTS_PARALLEL_FOR(threads)
-    for (u = 0; u < slices; ++u) {
-        int* next = slices > 1 ? ctx->hist + (size_t)u * (size_t)ncell : cl->cell_start;
-        const int end = nts_slice_begin(n, slices, u + 1);
+    if (nlong > 0) nts_atomic_add_ll(&t->nlong, nlong);
+}
+
+/* Slice u places its masters' keys, computed from the entries in entry
+ * order (a sequential read, scattered writes). */
+static void masters_place(int begin, int end, int wi, void* p) {
+    const bin_task* t = (const bin_task*)p;
+    nts_context* ctx = t->ctx;
+    const nts_scene* s = t->s;
+    const nts_cells* cl = &ctx->cells;
+    master_keys* k = &ctx->keys;
+    const int n = s->surface_count, slices = t->slices;
+    const double scale = cl->scale;
+    const int* cell_of = t->cell_of;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u) {
+        int* next = slices > 1 ? ctx->hist + (size_t)u * (size_t)t->ncell : cl->cell_start;
+        const int last = nts_slice_begin(n, slices, u + 1);
         int j;
-        for (j = nts_slice_begin(n, slices, u); j < end; ++j) {
+        for (j = nts_slice_begin(n, slices, u); j < last; ++j) {
             const int cell = cell_of[j];
             const seg_data* m = &ctx->seg[j];
             nts_cell_place q;
             double R, Rs;
             int at;
-            if (j + KEY_AHEAD < end && cell_of[j + KEY_AHEAD] >= 0) {
+            if (j + KEY_AHEAD < last && cell_of[j + KEY_AHEAD] >= 0) {
                 /* Where a later master's key goes: four scattered lines. */
                 const int ahead = next[cell_of[j + KEY_AHEAD]];
                 NTS_PREFETCH_W(&k->x[ahead]);
@@ -162,7 +173,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             if (cell < 0) continue;
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, alpha)), r, pad);
+            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, t->alpha)), t->r, t->pad);
             Rs = R * scale + KEY_SLACK;
             k->x[at] = (float)(q.x * scale);
             k->y[at] = (float)(q.y * scale);
@@ -170,6 +181,42 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
             k->entry[at] = j;
         }
     }
+}
+
+int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
+                      long long budget, int min_cells, const nts_run* run) {
+    nts_cells* cl = &ctx->cells;
+    const int n = s->surface_count, ncell = cl->nx * cl->ny;
+    int e, nlong, count, rc, slices;
+    master_keys* k = &ctx->keys;
+    bin_task t;
+    t.ctx = ctx;
+    t.s = s;
+    t.cell_of = ctx->scratch;
+    t.alpha = alpha;
+    t.r = r;
+    t.pad = pad;
+    /* A master is binned when its reach fits a cell with room for the
+     * round-off of binning (a cell's side is at least hcell); hcell = 0: all
+     * fit, the caller knows. */
+    t.fits = hcell * (1.0 - 1e-12);
+    t.nlong = 0;
+    t.ncell = ncell;
+    nts_run_each(run, masters_bin, n, &t);
+    nlong = (int)t.nlong;
+    /* Sorted by cell. Slices of the counting sort: one per worker, at most
+     * SORT_SLICES (each costs a count per cell; the sort is a small part of
+     * the work). */
+    slices = run->workers < SORT_SLICES ? run->workers : SORT_SLICES;
+    t.slices = slices;
+    if (slices > 1 && (rc = nts_grow((void**)&ctx->hist, &ctx->hist_cap,
+                                     slices * (ncell > min_cells ? ncell : min_cells), sizeof(int))) != NTS_OK)
+        return rc;
+    nts_cells_offsets(cl, t.cell_of, n, ctx->hist, slices, run);
+    count = cl->cell_start[ncell];
+    if ((rc = keys_reserve(k, count)) != NTS_OK) return rc;
+    k->count = count;
+    nts_run_each(run, masters_place, slices, &t);
     if (slices == 1) { /* the starts were moved to the ends: back one cell */
         for (e = ncell; e > 0; --e) cl->cell_start[e] = cl->cell_start[e - 1];
         cl->cell_start[0] = 0;
@@ -183,7 +230,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     if (nlong == 0) return NTS_OK;
     if ((rc = nts_grow((void**)&ctx->long_m, &ctx->long_m_cap, nlong, sizeof(long_master))) != NTS_OK) return rc;
     for (e = 0; e < n; ++e) {
-        if (cell_of[e] == -2) {
+        if (t.cell_of[e] == -2) {
             long_master* lm = &ctx->long_m[ctx->long_count++];
             const double R =
                 reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, ctx->seg[e].body, alpha)), r, pad);

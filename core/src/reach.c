@@ -37,11 +37,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "stages.h"
 
-#if NTS_CONFIG_OPENMP
-#include <omp.h>
-#endif
 
 void nts_reach_free(nts_reach* r) {
     nts_free(r->queue);
@@ -437,12 +435,30 @@ static int deep_order(const void* pa, const void* pb) {
     return (a->body > b->body) - (a->body < b->body);
 }
 
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads) {
+typedef struct pairs_task {
+    nts_context* ctx;
+    const search_env* env;
+    int q0;
+} pairs_task;
+
+/* Queued pairs [q0 + begin, q0 + end), each answer its own. */
+static void search_pairs(int begin, int end, int wi, void* p) {
+    const pairs_task* t = (const pairs_task*)p;
+    nts_reach* r = &t->ctx->reach;
+    worker* wt = &t->ctx->workers[wi];
+    int q;
+    for (q = t->q0 + begin; q < t->q0 + end; ++q)
+        if (wt->status == NTS_OK) search_pair(t->env, wt, &r->queue[q], &r->hits[q]);
+}
+
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, const nts_run* run) {
     const nts_scene* s = env->s;
     nts_reach* r = &ctx->reach;
     worker* w = &ctx->workers[0];
     int c, i, k, q, q0, q1, rc;
-    (void)threads; /* without OpenMP */
+    pairs_task pt;
+    pt.ctx = ctx;
+    pt.env = env;
     r->queue_count = r->deep_count = r->seen_count = r->edge_count = 0;
     r->beyond = r->unresolved = 0;
     for (i = 0; i < r->seen_cap; ++i) r->seen[i].key = -1;
@@ -497,18 +513,11 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int
         if (found + r->deep_count > env->max_records) return NTS_ELIMIT;
         if (env->cancel != NULL && env->cancel(env->cancel_user)) return NTS_ECANCELLED;
         if ((rc = nts_grow((void**)&r->hits, &r->hits_cap, q1, sizeof(candidate))) != NTS_OK) return rc;
-#if NTS_CONFIG_OPENMP
-#pragma omp parallel for num_threads(threads) if (threads > 1 && q1 - q0 > 64) schedule(dynamic, 16)
-#endif
-        for (q = q0; q < q1; ++q) {
-#if NTS_CONFIG_OPENMP
-            worker* wt = &ctx->workers[omp_get_thread_num()];
-#else
-            worker* wt = w;
-#endif
-            if (wt->status == NTS_OK) search_pair(env, wt, &r->queue[q], &r->hits[q]);
-        }
-        for (i = 0; i < threads; ++i)
+        /* A round of a few pairs runs in the caller's thread (not worth the
+         * workers); else ranges of 16, taken by whichever worker is free. */
+        pt.q0 = q0;
+        nts_run_tasks(run, search_pairs, q1 - q0, q1 - q0 > 64 ? 16 : q1 - q0, &pt);
+        for (i = 0; i < run->workers; ++i)
             if (ctx->workers[i].status != NTS_OK) return ctx->workers[i].status;
         for (q = q0; q < q1 && rc == NTS_OK; ++q) {
             if (r->hits[q].kind >= 0) rc = settle(ctx, env, r->queue[q].slave, &r->hits[q], r->queue[q].from);

@@ -6,6 +6,7 @@
  * and adds, in record order, what every record gives them. */
 #include <math.h>
 
+#include "parallel.h"
 #include "stages.h"
 
 /* make_contact writes every field of a record instead of clearing it first:
@@ -129,6 +130,56 @@ static int forces_range(nts_context* ctx, int n0, int n1) {
     return forces_finite(F, n0, n1) ? 0 : 1;
 }
 
+typedef struct scatter_task {
+    nts_context* ctx;
+    const search_env* env;
+    int want_contacts, want_gaps, parts, bad;
+} scatter_task;
+
+static void sums_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    int c;
+    (void)wi;
+    for (c = begin; c < end; ++c) chunk_sums(t->env, &t->ctx->chunks[c]);
+}
+
+static void shares_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    int c;
+    (void)wi;
+    for (c = begin; c < end; ++c) chunk_shares(t->ctx, t->env, &t->ctx->chunks[c]);
+}
+
+/* Part u of the nodes gets its forces. */
+static void forces_task(int begin, int end, int wi, void* p) {
+    scatter_task* t = (scatter_task*)p;
+    const long long n = t->env->s->node_count;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u)
+        if (forces_range(t->ctx, (int)(n * u / t->parts), (int)(n * (u + 1) / t->parts))) nts_atomic_or(&t->bad, 1);
+}
+
+/* Each chunk's records with its deep contacts at their places in the arrays
+ * (slave order). */
+static void records_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    nts_context* ctx = t->ctx;
+    int c;
+    (void)wi;
+    for (c = begin; c < end; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        merged it = merged_begin(ctx, ch);
+        const candidate* rec;
+        int g = ch->gap_at, a = ch->contact_at;
+        while ((rec = merged_next(&it)) != NULL) {
+            const nts_contact cc = make_contact(t->env, rec);
+            if (t->want_gaps) ctx->gaps[g++] = cc;
+            if (t->want_contacts && cc.gap < 0.0) ctx->contacts[a++] = cc;
+        }
+    }
+}
+
 static int overflow_error(nts_error* err, const char* msg) {
     return eval_fail_option(err, NTS_ENONFINITE, "penalty", msg);
 }
@@ -146,7 +197,7 @@ static void set_warnings(nts_context* ctx, nts_result* out) {
     out->warning_count = n;
 }
 
-int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,
+int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, const nts_run* run,
                 nts_result* out, nts_error* err) {
     const int want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
     const int want_contacts = (opt->outputs & NTS_OUT_CONTACTS) != 0u;
@@ -160,11 +211,15 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     double energy = 0.0, maxpen = 0.0;
     nts_virial vir = {0.0, 0.0, 0.0};
     contact_sums deep;
+    scatter_task task;
 
-    if (!env->direct && !env->shares) { /* else the search summed them */
-        NTS_PARALLEL_FOR(nthreads)
-        for (c = 0; c < nchunk; ++c) chunk_sums(env, &ctx->chunks[c]);
-    }
+    memset(&task, 0, sizeof task);
+    task.ctx = ctx;
+    task.env = env;
+    task.want_contacts = want_contacts;
+    task.want_gaps = want_gaps;
+    if (!env->direct && !env->shares) /* else the search summed them */
+        nts_run_each(run, sums_task, nchunk, &task);
     /* The deep contacts (reach.c) of each chunk's slaves, and their sums. */
     memset(&deep, 0, sizeof deep);
     for (c = 0, k = 0; c < nchunk; ++c) {
@@ -185,7 +240,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         if (cs->maxpen > maxpen) maxpen = cs->maxpen;
         overflow |= cs->overflow;
     }
-    for (c = 0; c < nthreads; ++c) total += ctx->workers[c].gaps;
+    for (c = 0; c < run->workers; ++c) total += ctx->workers[c].gaps;
     total += reach->deep_count;
 
     if (want_forces) {
@@ -202,7 +257,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         /* Each thread adds the forces on its range of nodes, so every node's
          * sum runs in record order whatever the threads; the shares are
          * computed once, in parallel by chunk, not by every thread. */
-        int part, bad = 0, at = 0;
+        int at = 0;
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (env->shares) { /* the search kept them, chunk by chunk */
@@ -218,15 +273,12 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             }
             if ((rc = nts_grow((void**)&ctx->shares, &ctx->shares_cap, at, sizeof(force_shares))) != NTS_OK)
                 return eval_fail(err, rc, -1, -1, "out of memory");
-            NTS_PARALLEL_FOR(nthreads)
-            for (c = 0; c < nchunk; ++c) chunk_shares(ctx, env, &ctx->chunks[c]);
+            nts_run_each(run, shares_task, nchunk, &task);
         }
-        NTS_PARALLEL_FOR_REDUCE(nthreads, reduction(| : bad))
-        for (part = 0; part < nthreads; ++part) {
-            const long long n = s->node_count;
-            bad |= forces_range(ctx, (int)(n * part / nthreads), (int)(n * (part + 1) / nthreads));
-        }
-        overflow |= bad;
+        /* One part of the nodes per worker (any parts give the same bits). */
+        task.parts = run->workers;
+        nts_run_each(run, forces_task, task.parts, &task);
+        overflow |= task.bad;
     }
     /* Finite input can still overflow (a huge penalty or huge coordinates):
      * NaN and infinity never leave the library, the caller gets an error. */
@@ -249,18 +301,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             gap_at += chunk_count(ch) + ch->deep_count;
             contact_at += ch->sums.active + ch->deep_count;
         }
-        NTS_PARALLEL_FOR(nthreads)
-        for (c = 0; c < nchunk; ++c) {
-            const chunk_info* ch = &ctx->chunks[c];
-            merged it = merged_begin(ctx, ch);
-            const candidate* rec;
-            int g = ch->gap_at, a = ch->contact_at;
-            while ((rec = merged_next(&it)) != NULL) {
-                const nts_contact cc = make_contact(env, rec);
-                if (want_gaps) ctx->gaps[g++] = cc;
-                if (want_contacts && cc.gap < 0.0) ctx->contacts[a++] = cc;
-            }
-        }
+        nts_run_each(run, records_task, nchunk, &task);
     }
     if (want_stiffness) {
         /* The triplets in contact order, one block per active contact. */

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "stages.h"
 
 /* Room for n records, aligned to NTS_SEG_ALIGN whatever the allocator's
@@ -57,20 +58,34 @@ typedef struct kth_plan {
  * k-th is selected among the kept. Should the bracket miss (adversarial
  * lengths), every length is copied and selected: the answer is the same, only
  * slower. `sample`: NTS_SAMPLE doubles. */
-static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, int threads) {
+typedef struct sample_task {
+    const nts_scene* s;
+    double* sample;
+} sample_task;
+
+static void sample_lengths(int begin, int end, int wi, void* p) {
+    const sample_task* t = (const sample_task*)p;
+    const int n = t->s->surface_count;
+    int i;
+    (void)wi;
+    for (i = begin; i < end; ++i) {
+        const int e = (int)((long long)i * n / NTS_SAMPLE);
+        nts_vec2 tt;
+        t->sample[i] = segment_length(t->s, e, t->s->pos[t->s->surf_node[e]], &tt);
+    }
+}
+
+static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, const nts_run* run) {
     const int n = s->surface_count;
     kth_plan plan;
-    int i, rlo, rhi;
-    (void)threads; /* without OpenMP */
+    sample_task st;
+    int rlo, rhi;
     plan.bracket = k >= 0 && n > 4 * NTS_SAMPLE;
     plan.lo = plan.hi = 0.0;
     if (!plan.bracket) return plan;
-    NTS_PARALLEL_FOR(threads)
-    for (i = 0; i < NTS_SAMPLE; ++i) {
-        const int e = (int)((long long)i * n / NTS_SAMPLE);
-        nts_vec2 t;
-        sample[i] = segment_length(s, e, s->pos[s->surf_node[e]], &t);
-    }
+    st.s = s;
+    st.sample = sample;
+    nts_run_each(run, sample_lengths, NTS_SAMPLE, &st);
     /* The sample rank of the k-th, +- 256 (4 sqrt(NTS_SAMPLE)): an eighth of the lengths is kept. */
     rlo = (int)((double)k / (double)(n - 1) * (NTS_SAMPLE - 1)) - 256;
     rhi = rlo + 512;
@@ -106,24 +121,63 @@ static inline int bin_of(double x, double lo, double inv_w) {
  * threads) find the bin that holds the k-th, and only that bin's lengths are
  * gathered and selected, one in about BINS of those kept. `hist`: PARTS BINS
  * ints. */
-static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double lo, double hi, int* hist,
-                             int threads) {
-    const double inv_w = (double)BINS / (hi - lo);
-    int cnt_bin[SHARES];
-    int u, q, bin, below = 0;
-    long long at = 0;
-    (void)threads; /* without OpenMP */
-    if (!(hi > lo)) return lo; /* every kept length is lo */
-    NTS_PARALLEL_FOR(threads)
-    for (u = 0; u < PARTS; ++u) {
-        int* h = hist + u * BINS;
+typedef struct bracket_task {
+    double* v;
+    const int* cnt_in;
+    int* cnt_bin;
+    int* hist;
+    int n, bin;
+    double lo, inv_w;
+} bracket_task;
+
+/* Part u's histogram of the kept lengths of its shares. */
+static void bracket_histogram(int begin, int end, int wi, void* p) {
+    const bracket_task* t = (const bracket_task*)p;
+    int u;
+    (void)wi;
+    for (u = begin; u < end; ++u) {
+        int* h = t->hist + u * BINS;
         int qq, j;
         memset(h, 0, sizeof(int) * BINS);
         for (qq = u * SHARES / PARTS; qq < (u + 1) * SHARES / PARTS; ++qq) {
-            const int b = share_begin(n, qq);
-            for (j = b; j < b + cnt_in[qq]; ++j) ++h[bin_of(v[j], lo, inv_w)];
+            const int b = share_begin(t->n, qq);
+            for (j = b; j < b + t->cnt_in[qq]; ++j) ++h[bin_of(t->v[j], t->lo, t->inv_w)];
         }
     }
+}
+
+/* The bin's lengths to the front of each share's, without a branch. */
+static void bracket_gather(int begin, int end, int wi, void* p) {
+    const bracket_task* t = (const bracket_task*)p;
+    int q;
+    (void)wi;
+    for (q = begin; q < end; ++q) {
+        const int b = share_begin(t->n, q);
+        int j, m = 0;
+        for (j = b; j < b + t->cnt_in[q]; ++j) {
+            const double x = t->v[j];
+            t->v[b + m] = x;
+            m += bin_of(x, t->lo, t->inv_w) == t->bin;
+        }
+        t->cnt_bin[q] = m;
+    }
+}
+
+static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double lo, double hi, int* hist,
+                             const nts_run* run) {
+    int cnt_bin[SHARES];
+    int u, q, bin, below = 0;
+    long long at = 0;
+    bracket_task t;
+    if (!(hi > lo)) return lo; /* every kept length is lo */
+    t.v = v;
+    t.cnt_in = cnt_in;
+    t.cnt_bin = cnt_bin;
+    t.hist = hist;
+    t.n = n;
+    t.lo = lo;
+    t.inv_w = (double)BINS / (hi - lo);
+    nts_run_each(run, bracket_histogram, PARTS, &t);
     for (bin = 0; bin < BINS; ++bin) {
         int c = 0;
         for (u = 0; u < PARTS; ++u) c += hist[u * BINS + bin];
@@ -131,17 +185,8 @@ static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double 
         below += c;
     }
     assert(bin < BINS);
-    NTS_PARALLEL_FOR(threads)
-    for (q = 0; q < SHARES; ++q) { /* the bin's lengths to the front of the share's, without a branch */
-        const int b = share_begin(n, q);
-        int j, m = 0;
-        for (j = b; j < b + cnt_in[q]; ++j) {
-            const double x = v[j];
-            v[b + m] = x;
-            m += bin_of(x, lo, inv_w) == bin;
-        }
-        cnt_bin[q] = m;
-    }
+    t.bin = bin;
+    nts_run_each(run, bracket_gather, SHARES, &t);
     for (q = 0; q < SHARES; ++q) { /* to the front (each share's start is at or past where its go) */
         const int b = share_begin(n, q);
         if (at != b) memmove(v + at, v + b, sizeof(double) * (size_t)cnt_bin[q]);
@@ -153,35 +198,42 @@ static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double 
 /* Each segment is its own, so the loop runs in parallel; the reductions are
  * a minimum and maxima, exact whatever the threads. A segment of zero length
  * (possible after new positions) is reported, never divided by. */
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads,
-                         seg_summary* out) {
-    const int n = s->surface_count;
+/* What one share of the pass finds: its counts of the bracket, and its
+ * part of the summary (combined by the caller in share order). */
+typedef struct share_found {
+    int below, in, first_bad;
+    double lmax, amax, xmin, xmax, ymin, ymax;
+} share_found;
+
+typedef struct pass_task {
+    nts_context* ctx;
+    const nts_scene* s;
+    double* scratch;
     kth_plan plan;
-    int cnt_below[SHARES], cnt_in[SHARES];
-    int q, rc, bad = n;
-    long long below = 0, inside = 0;
-    double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
-    (void)threads; /* without OpenMP */
-    assert(k < n);
-    if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
-    plan = kth_prepare(s, k, scratch + n, threads);
-#if NTS_CONFIG_OPENMP
-#pragma omp parallel for num_threads(threads) if (threads > 1) schedule(dynamic, 1) reduction(min : bad, xmin, ymin) \
-    reduction(max : lmax, amax, xmax, ymax)
-#endif
-    for (q = 0; q < SHARES; ++q) {
+    share_found* found;
+} pass_task;
+
+static void segments_pass(int begin, int end, int wi, void* p) {
+    const pass_task* t = (const pass_task*)p;
+    const nts_scene* s = t->s;
+    const int n = s->surface_count;
+    int q;
+    (void)wi;
+    for (q = begin; q < end; ++q) {
         /* The share's own accumulators, in registers. */
         const int b = share_begin(n, q), e = share_begin(n, q + 1);
-        const int keep = plan.bracket;
-        const double lo = plan.lo, hi = plan.hi;
+        const int keep = t->plan.bracket;
+        const double lo = t->plan.lo, hi = t->plan.hi;
+        double* scratch = t->scratch;
         double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL;
         int i, cb = 0, ci = 0, first_bad = n;
+        share_found* f = &t->found[q];
         for (i = b; i < e; ++i) {
-            seg_data* sd = &ctx->seg[i];
-            const nts_vec2 p = s->pos[s->surf_node[i]];
+            seg_data* sd = &t->ctx->seg[i];
+            const nts_vec2 pp = s->pos[s->surf_node[i]];
             double len, a;
-            sd->p = p;
-            len = segment_length(s, i, p, &sd->t);
+            sd->p = pp;
+            len = segment_length(s, i, pp, &sd->t);
             sd->prev = s->surf_prev[i];
             sd->next = s->surf_next[i];
             sd->node = s->surf_node[i];
@@ -200,22 +252,55 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
                 ci += (len >= lo) & (len <= hi);
             }
             lm = len > lm ? len : lm;
-            a = fabs(p.x) > fabs(p.y) ? fabs(p.x) : fabs(p.y);
+            a = fabs(pp.x) > fabs(pp.y) ? fabs(pp.x) : fabs(pp.y);
             am = a > am ? a : am;
-            x0 = p.x < x0 ? p.x : x0;
-            x1 = p.x > x1 ? p.x : x1;
-            y0 = p.y < y0 ? p.y : y0;
-            y1 = p.y > y1 ? p.y : y1;
+            x0 = pp.x < x0 ? pp.x : x0;
+            x1 = pp.x > x1 ? pp.x : x1;
+            y0 = pp.y < y0 ? pp.y : y0;
+            y1 = pp.y > y1 ? pp.y : y1;
         }
-        cnt_below[q] = cb;
-        cnt_in[q] = ci;
-        if (first_bad < bad) bad = first_bad;
-        if (lm > lmax) lmax = lm;
-        if (am > amax) amax = am;
-        if (x0 < xmin) xmin = x0;
-        if (x1 > xmax) xmax = x1;
-        if (y0 < ymin) ymin = y0;
-        if (y1 > ymax) ymax = y1;
+        f->below = cb;
+        f->in = ci;
+        f->first_bad = first_bad;
+        f->lmax = lm;
+        f->amax = am;
+        f->xmin = x0;
+        f->xmax = x1;
+        f->ymin = y0;
+        f->ymax = y1;
+    }
+}
+
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_run* run,
+                         seg_summary* out) {
+    const int n = s->surface_count;
+    share_found found[SHARES];
+    pass_task t;
+    int cnt_below[SHARES], cnt_in[SHARES];
+    int q, rc, bad = n;
+    long long below = 0, inside = 0;
+    double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
+    assert(k < n);
+    if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
+    t.ctx = ctx;
+    t.s = s;
+    t.scratch = scratch;
+    t.plan = kth_prepare(s, k, scratch + n, run);
+    t.found = found;
+    /* Each share taken by whichever worker is free; the minima and maxima
+     * are exact, whatever the order they are taken in. */
+    nts_run_tasks(run, segments_pass, SHARES, 1, &t);
+    for (q = 0; q < SHARES; ++q) {
+        const share_found* f = &found[q];
+        cnt_below[q] = f->below;
+        cnt_in[q] = f->in;
+        if (f->first_bad < bad) bad = f->first_bad;
+        if (f->lmax > lmax) lmax = f->lmax;
+        if (f->amax > amax) amax = f->amax;
+        if (f->xmin < xmin) xmin = f->xmin;
+        if (f->xmax > xmax) xmax = f->xmax;
+        if (f->ymin < ymin) ymin = f->ymin;
+        if (f->ymax > ymax) ymax = f->ymax;
     }
     out->bad = bad;
     out->lmax = lmax;
@@ -226,15 +311,15 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     out->ymax = ymax;
     out->kth = 0.0;
     if (bad < n || k < 0) return NTS_OK;
-    if (plan.bracket) {
+    if (t.plan.bracket) {
         for (q = 0; q < SHARES; ++q) {
             below += cnt_below[q];
             inside += cnt_in[q];
         }
         if (below <= k && k < below + inside) {
             /* the sample's room holds the histograms now */
-            out->kth = kth_in_bracket(scratch, n, cnt_in, k - (int)below, plan.lo, plan.hi, (int*)(void*)(scratch + n),
-                                      threads);
+            out->kth = kth_in_bracket(scratch, n, cnt_in, k - (int)below, t.plan.lo, t.plan.hi,
+                                      (int*)(void*)(scratch + n), run);
             return NTS_OK;
         }
     }

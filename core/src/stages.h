@@ -14,6 +14,7 @@
 
 #include "corner.h"
 #include "internal.h"
+#include "parallel.h"
 
 #if defined(__GNUC__)
 #define NTS_ALWAYS_INLINE __attribute__((always_inline))
@@ -118,7 +119,7 @@ static inline int nts_slice_begin(int n, int slices, int u) { return (int)((long
 /* At most this many slices: each costs a count per cell (the sort is a
  * small part of the work). */
 enum { SORT_SLICES = 4 };
-void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, int threads);
+void nts_cells_offsets(nts_cells* c, const int* cell_of, int n, int* hist, int slices, const nts_run* run);
 void nts_cells_free(nts_cells* c);
 
 /* The masters a slave in one cell visits: the key ranges of the 3 x 3 cells
@@ -384,6 +385,8 @@ struct nts_context {
     nts_reach reach;
     nts_warning warnings[NTS_WARN_COUNT_]; /* the last result's (nts_result.warnings) */
     double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
+    nts_parallel host;  /* the host's backend (nts_context_set_parallel), when host_set */
+    int host_set;
 };
 
 /* Everything the local search reads, copied once (hot loop locals). */
@@ -562,7 +565,7 @@ enum { NTS_SAMPLE = 4096 };
 /* The segment data, the summary, and the k-th smallest segment length
  * (0-based, exactly; k < 0: none) found in the same pass. `scratch` holds
  * surface_count + NTS_SAMPLE doubles. */
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, int threads,
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_run* run,
                          seg_summary* out);
 /* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
@@ -573,7 +576,7 @@ double nts_select_kth(double* v, int n, int k);
  * cells' buffers. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT when
  * the long lists would exceed `budget` entries (the caller coarsens). */
 int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
-                      long long budget, int min_cells, int threads);
+                      long long budget, int min_cells, const nts_run* run);
 
 /* context.c: `count` workers with a body slot map of at least body_count
  * entries, and room for `chunks` chunks. */
@@ -607,7 +610,7 @@ void nts_search_wide_done(worker* w);
  * when env->grow, else counted in ctx->reach.beyond. The widened searches
  * run on `threads` workers. NTS_OK, NTS_ENOMEM, NTS_ELIMIT (more than
  * env->max_records closest points with `found`) or NTS_ECANCELLED. */
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, int threads);
+int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, const nts_run* run);
 size_t nts_reach_memory_bytes(const nts_reach* r);
 /* shape.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
  * until then): a circle around its nodes, centre relative to its first node
@@ -619,7 +622,7 @@ int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x);
 void nts_reach_free(nts_reach* r);
 
 /* scatter.c: the chunks' records, in slave order, into *out. */
-int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, int nthreads,
+int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, const nts_run* run,
                 nts_result* out, nts_error* err);
 
 #endif

@@ -13,4 +13,5 @@ void register_stiffness_suite(void);
 void register_alloc_suite(void);
 void register_parallel_suite(void);
 void register_reach_suite(void);
+void register_backend_suite(void);
 #endif

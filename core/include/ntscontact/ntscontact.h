@@ -301,6 +301,31 @@ NTS_API size_t nts_context_memory_bytes(const nts_context* ctx);
  * them. */
 NTS_API void nts_context_trim(nts_context* ctx);
 
+/* The host's threads (as Box2D's b2WorldDef enqueueTask / finishTask /
+ * workerCount). Every parallel loop of an evaluation is one task over the
+ * items [0, count): the host calls `task` on ranges [begin, end) that cover
+ * [0, count) exactly once, each of at least `min_range` items (the last may
+ * be shorter), in any order, on any of its threads at once, each call with a
+ * worker index in [0, worker_count) that no other call running at the same
+ * time has. `enqueue` may run the task itself and return NULL; otherwise it
+ * returns a handle, and `finish(handle, user)` returns once every range is
+ * done. Results are bitwise identical for any backend, order and worker
+ * count. Without a host backend the build's own runs the loops (OpenMP on
+ * nts_options.threads threads, or serial; docs/architecture.md). */
+typedef void nts_task_fn(int begin, int end, int worker, void* task_context);
+typedef void* nts_enqueue_fn(nts_task_fn* task, int count, int min_range, void* task_context, void* user);
+typedef void nts_finish_fn(void* handle, void* user);
+typedef struct nts_parallel {
+    nts_enqueue_fn* enqueue;
+    nts_finish_fn* finish;
+    int worker_count; /* >= 1; the context's evaluations use this many workers (nts_options.threads is not read) */
+    void* user;
+} nts_parallel;
+/* Run the context's evaluations on the host's threads; NULL gives the loops
+ * back to the build's own backend. NTS_OK, or NTS_EINVALID_ARGUMENT when
+ * enqueue or finish is NULL or worker_count < 1. */
+NTS_API int nts_context_set_parallel(nts_context* ctx, const nts_parallel* backend);
+
 /* Evaluate contact. Returns 0 or a negative status (with *err filled when not
  * NULL); on success fills *out. A context's buffers are sized by what the
  * scene needs (its records, the largest chunk of slaves, the most candidates

@@ -1,0 +1,268 @@
+/* Backend suite (issue 24 §1): the evaluation's parallel loops go through
+ * the host's backend (nts_context_set_parallel) when it has one, and give
+ * bitwise the serial result whatever it does within its contract: ranges in
+ * reverse or random order, deferred until finish, worker indices handed out
+ * in any pattern, or real threads of its own (no OpenMP). Every output is
+ * compared, for the three paths of the scatter (records, shares, direct),
+ * on scenes that run every loop (the segment bracket of a large scene, the
+ * sorted masters, the reach's growth of deep contacts, periodic boxes). */
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+/* What a test backend does with a task: its ranges of min_range items. */
+enum { ORDER_REVERSE = 0, ORDER_RANDOM = 1, ORDER_DEFERRED = 2, ORDER_THREADS = 3 };
+
+typedef struct test_backend {
+    int order;
+    int workers;
+    test_rng rng;
+    long long tasks, ranges; /* how many the core handed over (the seam is used) */
+    int bad_range;           /* a range the core asked for broke the contract */
+    /* ORDER_DEFERRED: the task waiting for finish */
+    nts_task_fn* task;
+    void* tc;
+    int count, min_range;
+} test_backend;
+
+static int range_count(int count, int min_range) { return (count + min_range - 1) / min_range; }
+
+/* Ranges q in the order `perm`, range q on worker q % workers (sequential:
+ * no two run at once). */
+static void run_ranges(test_backend* b, nts_task_fn* task, int count, int min_range, void* tc) {
+    const int n = range_count(count, min_range);
+    int* perm = (int*)malloc(sizeof(int) * (size_t)n);
+    int q;
+    for (q = 0; q < n; ++q) perm[q] = b->order == ORDER_REVERSE ? n - 1 - q : q;
+    if (b->order != ORDER_REVERSE)
+        for (q = n - 1; q > 0; --q) { /* Fisher-Yates */
+            const int k = (int)(rng_uniform(&b->rng) * (q + 1)), t = perm[q];
+            perm[q] = perm[k];
+            perm[k] = t;
+        }
+    for (q = 0; q < n; ++q) {
+        const int begin = perm[q] * min_range, end = begin + min_range < count ? begin + min_range : count;
+        /* the worker index: scattered, never the range's own */
+        task(begin, end, (perm[q] * 7 + 3) % b->workers, tc);
+        ++b->ranges;
+    }
+    free(perm);
+}
+
+/* ORDER_THREADS: `workers` pthreads, each taking the next range from the
+ * end (a mutex), with its own index. */
+typedef struct thread_job {
+    test_backend* b;
+    nts_task_fn* task;
+    void* tc;
+    int count, min_range, next;
+    pthread_mutex_t lock;
+} thread_job;
+typedef struct thread_arg {
+    thread_job* job;
+    int index;
+} thread_arg;
+
+static void* thread_main(void* p) {
+    thread_arg* a = (thread_arg*)p;
+    thread_job* j = a->job;
+    for (;;) {
+        int q, begin, end;
+        pthread_mutex_lock(&j->lock);
+        q = --j->next;
+        if (q >= 0) ++j->b->ranges;
+        pthread_mutex_unlock(&j->lock);
+        if (q < 0) return NULL;
+        begin = q * j->min_range;
+        end = begin + j->min_range < j->count ? begin + j->min_range : j->count;
+        j->task(begin, end, a->index, j->tc);
+    }
+}
+
+static void* test_enqueue(nts_task_fn* task, int count, int min_range, void* tc, void* user) {
+    test_backend* b = (test_backend*)user;
+    ++b->tasks;
+    if (count < 1 || min_range < 1) b->bad_range = 1;
+    if (b->order == ORDER_DEFERRED) { /* run nothing now: finish will */
+        b->task = task;
+        b->tc = tc;
+        b->count = count;
+        b->min_range = min_range;
+        return b;
+    }
+    if (b->order == ORDER_THREADS) {
+        thread_job j;
+        pthread_t th[8];
+        thread_arg args[8];
+        int k;
+        j.b = b;
+        j.task = task;
+        j.tc = tc;
+        j.count = count;
+        j.min_range = min_range;
+        j.next = range_count(count, min_range);
+        pthread_mutex_init(&j.lock, NULL);
+        for (k = 0; k < b->workers; ++k) {
+            args[k].job = &j;
+            args[k].index = k;
+            pthread_create(&th[k], NULL, thread_main, &args[k]);
+        }
+        for (k = 0; k < b->workers; ++k) pthread_join(th[k], NULL);
+        pthread_mutex_destroy(&j.lock);
+        return NULL;
+    }
+    run_ranges(b, task, count, min_range, tc);
+    return NULL;
+}
+
+static void test_finish(void* handle, void* user) {
+    test_backend* b = (test_backend*)user;
+    if (handle != b) b->bad_range = 1;
+    b->order = ORDER_RANDOM; /* runs the deferred task's ranges in random order */
+    run_ranges(b, b->task, b->count, b->min_range, b->tc);
+    b->order = ORDER_DEFERRED;
+}
+
+/* Every output of two results, bitwise. */
+static int same_result(const nts_scene* s, const nts_result* a, const nts_result* b) {
+    if (memcmp(&a->summary, &b->summary, sizeof a->summary) != 0) return 0;
+    if (a->gap_count != b->gap_count || a->contact_count != b->contact_count) return 0;
+    if (a->gap_count > 0 && memcmp(a->gaps, b->gaps, sizeof(nts_contact) * (size_t)a->gap_count) != 0) return 0;
+    if (a->contact_count > 0 && memcmp(a->contacts, b->contacts, sizeof(nts_contact) * (size_t)a->contact_count) != 0)
+        return 0;
+    if (a->stiffness.count != b->stiffness.count) return 0;
+    if (a->stiffness.count > 0 &&
+        (memcmp(a->stiffness.rows, b->stiffness.rows, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
+         memcmp(a->stiffness.cols, b->stiffness.cols, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
+         memcmp(a->stiffness.values, b->stiffness.values, sizeof(double) * (size_t)a->stiffness.count) != 0))
+        return 0;
+    if ((a->forces == NULL) != (b->forces == NULL)) return 0;
+    return a->forces == NULL || memcmp(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0;
+}
+
+/* A scene's serial result against every backend, worker count 1 to 4, and
+ * OpenMP's 1 to 4 threads, for all the outputs (records) and the default
+ * ones (direct with one worker, shares with several). */
+static void check_backends(const nts_scene* s, double alpha, double radius, int want_deep) {
+    const unsigned outs[2] = {NTS_OUT_ALL, 0u};
+    int o_i, order, workers;
+    for (o_i = 0; o_i < 2; ++o_i) {
+        nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+        nts_options o = nts_default_options();
+        nts_result r0, r1;
+        nts_error err;
+        CU_ASSERT_FATAL(c0 != NULL && c1 != NULL);
+        o.alpha = alpha;
+        o.search_radius = radius;
+        if (o_i == 0) o.outputs = outs[0];
+        CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
+        CU_ASSERT(r0.summary.contacts > 20);
+        if (want_deep) CU_ASSERT(r0.summary.deep_contacts > 0);
+        for (order = ORDER_REVERSE; order <= ORDER_THREADS; ++order)
+            for (workers = 1; workers <= 4; ++workers) {
+                test_backend tb;
+                nts_parallel p;
+                int same;
+                memset(&tb, 0, sizeof tb);
+                tb.order = order;
+                tb.workers = workers;
+                tb.rng.s = 0x9e3779b97f4a7c15ull + (unsigned long long)(order * 8 + workers);
+                p.enqueue = test_enqueue;
+                p.finish = test_finish;
+                p.worker_count = workers;
+                p.user = &tb;
+                CU_ASSERT_FATAL(nts_context_set_parallel(c1, &p) == NTS_OK);
+                CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+                same = same_result(s, &r0, &r1);
+                if (!same)
+                    fprintf(stderr, "\n  backend order %d, %d workers, outputs %u differ from serial\n", order,
+                            workers, o.outputs);
+                CU_ASSERT(same);
+                CU_ASSERT(tb.bad_range == 0);
+                /* with several workers the loops went through the host */
+                if (workers > 1) CU_ASSERT(tb.tasks > 0 && tb.ranges >= tb.tasks);
+                if (workers == 1) CU_ASSERT(tb.tasks == 0);
+            }
+        /* Back to the build's own backend: OpenMP's threads (or serial). */
+        CU_ASSERT(nts_context_set_parallel(c1, NULL) == NTS_OK);
+        for (workers = 1; workers <= 4; ++workers) {
+            o.threads = workers;
+            CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+            CU_ASSERT(same_result(s, &r0, &r1));
+        }
+        nts_context_destroy(c0);
+        nts_context_destroy(c1);
+    }
+}
+
+static void test_backends_open_and_periodic(void) {
+    int periodic;
+    for (periodic = 0; periodic <= 1; ++periodic) {
+        test_packing p = make_packing(36, 40, 1.0, 1.93, periodic, 700 + (unsigned)periodic);
+        nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+        CU_ASSERT_FATAL(s != NULL);
+        check_backends(s, 0.2, -1.0, 0);
+        check_backends(s, 0.0, 0.05, 0);
+        nts_scene_destroy(s);
+        free_packing(&p);
+    }
+}
+
+/* Deep overlaps (spacing 1.7 for radius 1): contacts deeper than the default
+ * radius, found by the reach's growth in rounds run on the workers. */
+static void test_backends_deep_contacts(void) {
+    test_packing p = make_packing(25, 48, 1.0, 1.7, 0, 811);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    CU_ASSERT_FATAL(s != NULL);
+    check_backends(s, 0.2, -1.0, 1);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+/* More than 4 NTS_SAMPLE surface nodes: the segment pass brackets the median
+ * with a sample, in parallel shares and histogram parts. */
+static void test_backends_large_scene(void) {
+    test_packing p = make_packing(400, 48, 1.0, 1.93, 1, 4242);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    CU_ASSERT_FATAL(s != NULL);
+    CU_ASSERT(nts_scene_surface_node_count(s) > 4 * 4096);
+    check_backends(s, 0.2, -1.0, 0);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void* never(nts_task_fn* task, int count, int min_range, void* tc, void* user) {
+    (void)task, (void)count, (void)min_range, (void)tc, (void)user;
+    return NULL;
+}
+static void never_finish(void* h, void* user) { (void)h, (void)user; }
+
+static void test_backend_rejected(void) {
+    nts_context* c = nts_context_create();
+    nts_parallel p;
+    p.enqueue = never;
+    p.finish = never_finish;
+    p.worker_count = 0;
+    p.user = NULL;
+    CU_ASSERT(nts_context_set_parallel(c, &p) == NTS_EINVALID_ARGUMENT);
+    p.worker_count = 2;
+    p.enqueue = NULL;
+    CU_ASSERT(nts_context_set_parallel(c, &p) == NTS_EINVALID_ARGUMENT);
+    p.enqueue = never;
+    p.finish = NULL;
+    CU_ASSERT(nts_context_set_parallel(c, &p) == NTS_EINVALID_ARGUMENT);
+    CU_ASSERT(nts_context_set_parallel(NULL, NULL) == NTS_EINVALID_ARGUMENT);
+    CU_ASSERT(nts_context_set_parallel(c, NULL) == NTS_OK);
+    nts_context_destroy(c);
+}
+
+void register_backend_suite(void) {
+    CU_pSuite s = CU_add_suite("backend", NULL, NULL);
+    ADD_TEST(s, test_backends_open_and_periodic);
+    ADD_TEST(s, test_backends_deep_contacts);
+    ADD_TEST(s, test_backends_large_scene);
+    ADD_TEST(s, test_backend_rejected);
+}
