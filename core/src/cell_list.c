@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "parallel.h"
-#include "stages.h"
+#include "context.h"
 
 
 void nts_cells_free(nts_cells* c) {

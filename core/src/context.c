@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "stages.h"
+#include "context.h"
 
 nts_profile nts_context_profile(const nts_context* ctx) {
     nts_profile p;

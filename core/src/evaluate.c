@@ -1,5 +1,6 @@
 /* nts_evaluate: segment data -> cells and masters -> local search ->
- * scatter -> summary. Each stage is its own file (stages.h); this one sizes
+ * scatter -> summary. Each stage is its own file with its own header (segments.h, cells.h, masters.h,
+ * search.h, reach.h, scatter.h, context.h; docs/architecture.md); this one sizes
  * the search (radius, cell side) and runs the stages in order, timing each
  * for nts_context_profile. */
 #include <float.h>
@@ -9,7 +10,7 @@
 #include <string.h>
 
 #include "parallel.h"
-#include "stages.h"
+#include "scatter.h"
 
 /* Wall clock for the phase profile (nts_context_profile): monotonic, with
  * or without OpenMP (clock() would count the CPU time of the process). */

@@ -95,6 +95,21 @@ typedef struct nts_boundary {
 int nts_boundary_from_triangles(int node_count, const int* tri, int tri_count, nts_boundary* out, nts_error* err);
 void nts_boundary_free(nts_boundary* b);
 
+/* A hint to load a line that will be read (written) soon. */
+#if defined(__GNUC__)
+#define NTS_PREFETCH(p) __builtin_prefetch(p)
+#define NTS_PREFETCH_W(p) __builtin_prefetch(p, 1)
+#else
+#define NTS_PREFETCH(p) ((void)0)
+#define NTS_PREFETCH_W(p) ((void)0)
+#endif
+/* Inlined whatever the optimiser's estimate (the search's hot helpers). */
+#if defined(__GNUC__)
+#define NTS_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define NTS_ALWAYS_INLINE
+#endif
+
 /* Growable triplet buffers of the tangent (stiffness.c). */
 typedef struct nts_kbuf {
     int* rows;

@@ -3,9 +3,10 @@
  * the long masters listed in every cell their reach box overlaps. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "parallel.h"
-#include "stages.h"
+#include "context.h"
 
 /* The float keys' own round-off, in the scaled frame (coordinates in [0, 1],
  * a slave shifted by at most one box, so |values| <= 2): converting the

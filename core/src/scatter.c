@@ -5,9 +5,10 @@
  * chunks' sums are added in chunk order; each thread owns a range of nodes
  * and adds, in record order, what every record gives them. */
 #include <math.h>
+#include <string.h>
 
 #include "parallel.h"
-#include "stages.h"
+#include "scatter.h"
 
 /* make_contact writes every field of a record instead of clearing it first:
  * that gives the same bytes only while nts_contact has no padding. */
@@ -39,8 +40,8 @@ static nts_contact make_contact(const search_env* env, const candidate* b) {
     c.virial.xx = c.virial.yy = c.virial.xy = 0.0;
     if (c.gap < 0.0) {
         const double eg = c.penalty * c.gap;
-        c.force = nts_scale(-eg, c.normal); /* f_s = -eps g n (docs/model.md §6) */
-        if (env->want_virial) c.virial = record_virial(eg, c.gap, c.normal);
+        c.force = law_slave_force(eg, c.normal);
+        if (env->want_virial) c.virial = law_virial(eg, c.gap, c.normal);
     }
     return c;
 }
@@ -251,7 +252,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         for (k = 0; k < reach->deep_count; ++k) ctx->reach.shares[k] = contact_shares(env, &reach->deep[k]);
     }
     if (want_forces && env->direct) {
-        for (k = 0; k < reach->deep_count; ++k) add_shares(ctx->forces, &reach->shares[k]);
+        for (k = 0; k < reach->deep_count; ++k) law_add_shares(ctx->forces, &reach->shares[k]);
         overflow |= !forces_finite(ctx->forces, 0, s->node_count);
     } else if (want_forces) {
         /* Each thread adds the forces on its range of nodes, so every node's

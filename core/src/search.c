@@ -13,7 +13,7 @@
 #include <math.h>
 
 #include "corner.h"
-#include "stages.h"
+#include "scatter.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -216,31 +216,6 @@ static inline int near_keys(const master_keys* k, float sx, float sy, int own0, 
 #endif
 
 
-/* The direct path adds a contact's forces FORCE_DELAY contacts after it was
- * found, in the order found (first in, first out: the same sums, the same
- * bits), and asks for the nodes' forces when it is found: they are scattered
- * over the whole node array, and the additions would otherwise wait on
- * memory one after another. */
-static void forces_delayed(const search_env* env, worker* w, const force_shares* sh) {
-    int q;
-    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) NTS_PREFETCH_W(&env->forces[sh->node[q]]);
-    if (w->fifo_count == FORCE_DELAY) {
-        add_shares(env->forces, &w->fifo[w->fifo_head]);
-        w->fifo[w->fifo_head] = *sh;
-        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
-    } else {
-        w->fifo[(w->fifo_head + w->fifo_count++) % FORCE_DELAY] = *sh;
-    }
-}
-
-static void forces_drain(const search_env* env, worker* w) {
-    for (; w->fifo_count > 0; --w->fifo_count) {
-        add_shares(env->forces, &w->fifo[w->fifo_head]);
-        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
-    }
-    w->fifo_head = 0;
-}
-
 /* Keep an item for the reach's growth (reach.c), growing the worker's room
  * when needed; NULL when that fails (w->status is NTS_ENOMEM). */
 static reach_item* push_item(worker* w, int kind, int slave, int body, int from, double value) {
@@ -372,19 +347,10 @@ static void flush_slave(const search_env* env, worker* w, int i, int end) {
             w->slot[b->body] = -1;
             if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
             b->slave = i;
-            if (env->direct) {
-                /* What the scatter would do with the record, in the same order. */
-                contact_sum(env, b, w->sums);
-                if (env->forces != NULL) {
-                    const force_shares sh = contact_shares(env, b);
-                    forces_delayed(env, w, &sh);
-                }
-            } else if (env->shares) {
-                contact_sum(env, b, w->sums);
-                if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
-            } else {
-                w->recs[w->rec_count++] = *b;
-            }
+            /* One of the scatter's three paths (scatter.h). */
+            if (env->direct) scatter_direct(env, w, b);
+            else if (env->shares) scatter_share(env, w, b);
+            else scatter_record(w, b);
         }
     }
     reach_neighbours(env, w, i, end);
@@ -540,7 +506,7 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end) {
         if (periodic) search_brute(env, w, begin, end, 1);
         else search_brute(env, w, begin, end, 0);
     }
-    if (env->direct && env->forces != NULL) forces_drain(env, w);
+    if (env->direct && env->forces != NULL) scatter_direct_drain(env, w);
 }
 
 /* A widened search tries master j of body b (not the slave's own, offering

@@ -8,7 +8,7 @@
 #include <string.h>
 
 #include "parallel.h"
-#include "stages.h"
+#include "context.h"
 
 /* Room for n records, aligned to NTS_SEG_ALIGN whatever the allocator's
  * alignment (nts_set_allocator): the block has one alignment more. The

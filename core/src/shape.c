@@ -5,7 +5,7 @@
  * it, and the reach uses the search. */
 #include <math.h>
 
-#include "stages.h"
+#include "context.h"
 
 /* What the reach asks of a body's shape, from its nodes (the scene's
  * positions, 16 bytes a node, each as its minimum image from the body's first

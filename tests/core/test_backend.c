@@ -234,6 +234,61 @@ static void test_backends_large_scene(void) {
     free_packing(&p);
 }
 
+/* The scatter's three paths (scatter.h) agree bitwise on everything they
+ * share: records (contacts asked: every closest point kept, scattered after
+ * the search), direct (one worker, default outputs) and shares (several
+ * workers, default outputs): forces, energy, virial and the whole summary. */
+static void check_paths(const nts_scene* s, double alpha) {
+    nts_context *cr = nts_context_create(), *cp = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result rec, other;
+    nts_error err;
+    int workers, order;
+    o.alpha = alpha;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_CONTACTS;
+    CU_ASSERT_FATAL(nts_evaluate(cr, s, &o, &rec, &err) == 0);
+    CU_ASSERT(rec.contact_count > 20);
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+    for (order = ORDER_REVERSE; order <= ORDER_THREADS; order += ORDER_THREADS - ORDER_REVERSE)
+        for (workers = 1; workers <= 3; ++workers) {
+            test_backend tb;
+            nts_parallel p;
+            memset(&tb, 0, sizeof tb);
+            tb.order = order;
+            tb.workers = workers;
+            tb.rng.s = 77;
+            p.enqueue = test_enqueue;
+            p.finish = test_finish;
+            p.worker_count = workers;
+            p.user = &tb;
+            CU_ASSERT_FATAL(nts_context_set_parallel(cp, &p) == NTS_OK);
+            CU_ASSERT_FATAL(nts_evaluate(cp, s, &o, &other, &err) == 0);
+            if (memcmp(&rec.summary, &other.summary, sizeof rec.summary) != 0 ||
+                memcmp(rec.forces, other.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) != 0) {
+                fprintf(stderr, "\n  the %s path differs from the records path (%d workers)\n",
+                        workers == 1 ? "direct" : "shares", workers);
+                CU_FAIL("paths differ");
+            }
+        }
+    nts_context_destroy(cr);
+    nts_context_destroy(cp);
+}
+
+static void test_scatter_paths_agree(void) {
+    test_packing p = make_packing(25, 48, 1.0, 1.7, 0, 811);   /* deep contacts too */
+    test_packing q = make_packing(36, 40, 1.0, 1.93, 1, 701);  /* periodic */
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_scene* t = make_scene(q.bodies, q.count, q.lx, q.ly);
+    CU_ASSERT_FATAL(s != NULL && t != NULL);
+    check_paths(s, 0.2);
+    check_paths(s, 0.0);
+    check_paths(t, 0.2);
+    nts_scene_destroy(s);
+    nts_scene_destroy(t);
+    free_packing(&p);
+    free_packing(&q);
+}
+
 static void* never(nts_task_fn* task, int count, int min_range, void* tc, void* user) {
     (void)task, (void)count, (void)min_range, (void)tc, (void)user;
     return NULL;
@@ -265,4 +320,5 @@ void register_backend_suite(void) {
     ADD_TEST(s, test_backends_deep_contacts);
     ADD_TEST(s, test_backends_large_scene);
     ADD_TEST(s, test_backend_rejected);
+    ADD_TEST(s, test_scatter_paths_agree);
 }

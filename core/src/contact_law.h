@@ -1,0 +1,99 @@
+/* The contact law: what one active contact gives, in one place (docs/model.md
+ * §6, §7, §10). Every path of the scatter (scatter.h: direct, shares,
+ * records) and the tangent call these and nothing else, so that they give
+ * the same bits and a new law (friction) changes this file and the state it
+ * reads, not the paths.
+ *
+ * A contact is active when its gap g < 0; n is the unit normal at the
+ * closest point X, Xs - X = g n; the master nodes k carry the weights N_k of
+ * the feature (the segment's two ends, the corner's three nodes, or the
+ * vertex). `eg` below is eps g. */
+#ifndef NTSCONTACT_CONTACT_LAW_H
+#define NTSCONTACT_CONTACT_LAW_H
+
+#include <math.h>
+
+#include "internal.h"
+
+/* The slave's penalty (§10): per node, or per unit of the node's tributary
+ * length (a pressure stiffness). */
+static inline double law_penalty(double eps, int per_length, double trib) { return per_length ? eps * trib : eps; }
+
+/* The energy (9): eps g^2 / 2. */
+static inline double law_energy(double eps, double g) { return 0.5 * eps * g * g; }
+
+/* The forces (10): f_s = -eps g n on the slave, f_k = eps g N_k n on master
+ * node k. */
+static inline nts_vec2 law_slave_force(double eg, nts_vec2 n) { return nts_scale(-eg, n); }
+static inline nts_vec2 law_master_force(double eg, double w, nts_vec2 n) { return nts_scale(eg * w, n); }
+
+/* The virial (11): -sum_k f_k (X_k - Xs) over the contact's nodes is
+ * -eps g n (X - Xs) with X the closest point, and Xs - X = g n there, so it
+ * is eps g^2 n n: no node positions needed. */
+static inline nts_virial law_virial(double eg, double g, nts_vec2 n) {
+    const double e2 = eg * g;
+    nts_virial v;
+    v.xx = e2 * n.x * n.x;
+    v.yy = e2 * n.y * n.y;
+    v.xy = e2 * n.x * n.y;
+    return v;
+}
+
+/* What active contacts add up to: their count, energy (9), virial (11) and
+ * largest penetration, and whether one overflowed a double. */
+typedef struct contact_sums {
+    double energy, vxx, vyy, vxy, maxpen;
+    int active, overflow;
+} contact_sums;
+
+/* An active record's forces (10), node by node: f_s = -eps g n on the slave
+ * (node[0]), f_k = eps g N_k n on master node k (node[1..3], -1 past the
+ * last). Kept as eps g, n and the N_k, one 64-byte line: share_force makes
+ * each node's force by the same products wherever it runs (the same bits). */
+typedef struct force_shares {
+    int node[4];
+    double eg;
+    nts_vec2 n;
+    double w[3];
+} force_shares;
+
+typedef char nts_force_shares_are_one_line[sizeof(force_shares) == 64 ? 1 : -1];
+
+static inline nts_vec2 share_force(const force_shares* sh, int q) {
+    return q == 0 ? law_slave_force(sh->eg, sh->n) : law_master_force(sh->eg, sh->w[q - 1], sh->n);
+}
+
+/* Add an active contact of penalty eps, gap g and normal n to the sums. */
+static inline void law_sum(contact_sums* cs, double eps, double g, nts_vec2 n, int want_virial) {
+    ++cs->active;
+    cs->energy += law_energy(eps, g);
+    if (-g > cs->maxpen) cs->maxpen = -g;
+    cs->overflow |= !isfinite(eps * g);
+    if (want_virial) {
+        const nts_virial v = law_virial(eps * g, g, n);
+        cs->overflow |= !isfinite(v.xx + v.yy + v.xy);
+        cs->vxx += v.xx;
+        cs->vyy += v.yy;
+        cs->vxy += v.xy;
+    }
+}
+
+/* Add a contact's force shares into F, node by node in order (every path
+ * adds them the same way: the same bits). */
+static inline void law_add_shares(nts_vec2* F, const force_shares* sh) {
+    int q;
+    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) F[sh->node[q]] = nts_add(F[sh->node[q]], share_force(sh, q));
+}
+
+/* The tangent (§7) of one active contact: its 2(m+1) x 2(m+1) dense block
+ * over (slave, master nodes), with `alpha` the master body's; node[] are
+ * global node indices, k[2 a + i][2 b + j] the entry of node a's component i
+ * and node b's component j (contact_law.c). */
+typedef struct law_block {
+    int m;       /* master nodes: 1 to 3 */
+    int node[4]; /* slave, then the master nodes */
+    double k[8][8];
+} law_block;
+void nts_law_tangent(const nts_scene* s, const nts_contact* c, double alpha, law_block* out);
+
+#endif

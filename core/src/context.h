@@ -1,0 +1,102 @@
+/* The evaluation context (context.c): its buffers (they only grow), its
+ * workers and the chunks of slaves they run, and the failures of an
+ * evaluation. */
+#ifndef NTSCONTACT_CONTEXT_H
+#define NTSCONTACT_CONTEXT_H
+
+#include "reach.h"
+
+/* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
+ * whichever thread is free (so a thread that the machine slows down takes
+ * fewer); a chunk's records go to one pool for all the chunks, wherever they
+ * ran, and the scatter reads the chunks in order: slave order, whoever ran
+ * them. The scatter also leaves each chunk's partial sums here, added in
+ * chunk order: the same bits for any number of threads. */
+enum { CHUNK_SLAVES = 1024 };
+
+/* One stream of one chunk: how many items, and where they are. */
+typedef struct chunk_part {
+    int count;
+    int spilled;              /* 1: in workers[worker].spill[stream] at `at` */
+    size_t at;                /* the byte where they are, in the pool or the spill */
+    const void* data;         /* once the search is over (nts_chunks_settle) */
+} chunk_part;
+
+typedef struct chunk_info {
+    int worker;               /* who ran it */
+    chunk_part part[STREAMS]; /* its records (force shares with search_env.shares), its reach items */
+    int gap_at, contact_at;   /* the first places of its records in the gaps and contacts */
+    int deep_at, deep_count;  /* the deep contacts of its slaves (ctx->reach.deep) */
+    int share_at;             /* the first place of its active records' force shares in ctx->shares */
+    const force_shares* sh;   /* its force shares (sums.active of them), wherever they are */
+    contact_sums sums;        /* of its active contacts */
+} chunk_info;
+
+struct nts_context {
+    seg_data* seg;    /* aligned to NTS_SEG_ALIGN inside seg_block */
+    void* seg_block;
+    int seg_cap;
+    nts_cells cells;
+    master_keys keys;
+    long_master* long_m;
+    int long_m_cap, long_count;
+    int* long_start;   /* cells + 1 */
+    int long_start_cap;
+    int* long_items;   /* into long_m, by cell */
+    int long_items_cap;
+    /* Two ints per surface entry, lent to one phase at a time: the order
+     * statistics' values, then the cells of the masters. */
+    int* scratch;
+    int scratch_cap;
+    int* hist;         /* per-slice cell counts of the counting sort */
+    int hist_cap;
+    worker* workers;
+    int worker_count, slot_cap;
+    /* Per stream, the chunks' items (records or force shares; reach items),
+     * each chunk's in one piece. */
+    char* pool[STREAMS];
+    size_t pool_cap[STREAMS], pool_at[STREAMS];
+    chunk_info* chunks;
+    int chunk_cap, chunk_count;
+    nts_vec2* forces;
+    int forces_cap;
+    force_shares* shares; /* each active record's forces, computed once (records kept) */
+    int shares_cap;
+    nts_contact* contacts;
+    int contacts_cap;
+    nts_contact* gaps;
+    int gaps_cap;
+    nts_kbuf stiffness; /* the tangent's triplets (NTS_OUT_STIFFNESS) */
+    nts_reach reach;
+    nts_warning warnings[NTS_WARN_COUNT_]; /* the last result's (nts_result.warnings) */
+    double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
+    nts_parallel host;  /* the host's backend (nts_context_set_parallel), when host_set */
+    int host_set;
+};
+
+/* A failed evaluation: the error record filled, the status returned. */
+static inline int eval_fail(nts_error* err, int code, int body, int node, const char* msg) {
+    return nts_error_set(err, code, nts_at(body, -1, -1, node), "%s", msg);
+}
+
+/* eval_fail for a fault of an option or limit, which err->option names. */
+static inline int eval_fail_option(nts_error* err, int code, const char* option, const char* msg) {
+    return nts_error_set(err, code, nts_naming(nts_at(-1, -1, -1, -1), option), "%s", msg);
+}
+
+/* context.c: `count` workers with a body slot map of at least body_count
+ * entries, and room for `chunks` chunks. */
+int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks);
+/* context.c: chunk ch, just run by worker w, keeps its `bytes` of records
+ * or reach items (`stream`) from `staged`: in that stream's pool when it has room
+ * (any thread may call it at once), else in w's spill (w->status is
+ * NTS_ENOMEM if that fails). */
+void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, const void* staged, size_t bytes);
+/* context.c: once the search is over, every chunk's records and items in
+ * their pools, in chunk order when a pool had to grow, and room kept for the
+ * next evaluation to allocate nothing whoever runs which chunk: the pools
+ * for all the items, each worker for the largest chunk and the most
+ * candidates of a slave. Sets each chunk's parts' `data`. */
+int nts_chunks_settle(nts_context* ctx, int nthreads, int shares);
+
+#endif
