@@ -1,13 +1,15 @@
 /* nts_bench: speed against error for the ntscontact core (issue 6).
  *
- *   nts_bench --out DIR [--quick] [--sections LIST] [--threads N]
+ *   nts_bench --out DIR [--quick] [--sections LIST] [--threads N] [--evals N]
  *
- * Sections (comma separated, default all): disks, packing, errors, smooth,
- * scaling, threads, peer. Every section writes one CSV into DIR (the file name
- * is prefixed with the variant, "after" for the current core and "before" for
- * nts_bench_before, the first core's search). Times are medians of repeated
- * evaluations on a warm context, in nanoseconds per surface node.
- * bench/report.py runs both binaries and turns the CSVs into docs/benchmarks.md. */
+ * Sections (comma separated, default all): digest, disks, packing, errors,
+ * smooth, scaling, threads, peer, hard; profile and profile_open (a fixed
+ * workload for profilers) only when named. Every section writes one CSV into
+ * DIR, named after_SECTION.csv (bench/report.py renames the previous
+ * release's, built from git, to before_SECTION.csv). Times are medians of
+ * repeated evaluations on a warm context, in nanoseconds per surface node.
+ * bench/report.py turns the CSVs into docs/benchmarks.md and docs/hard-cases.md
+ * (bench/README.md: which section feeds which table). */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -24,11 +26,8 @@
 #endif
 
 /* Seconds per phase of the last evaluation (segment data, cell list, local
- * search, scatter): the public profile, or the first core's private hook when
- * this program is built against an older release (bench/report.py --before). */
-#ifdef NTS_BENCH_OLD_PROFILE
-void nts_context_phase_times(const nts_context* ctx, double out[4]);
-#else
+ * search, scatter), from the public profile. (The previous release is timed
+ * by its own nts_bench, built from git: this file is never built against it.) */
 static void nts_context_phase_times(const nts_context* ctx, double out[4]) {
     nts_profile p = nts_context_profile(ctx);
     out[0] = p.segments;
@@ -36,7 +35,6 @@ static void nts_context_phase_times(const nts_context* ctx, double out[4]) {
     out[2] = p.search;
     out[3] = p.scatter;
 }
-#endif
 
 static const double PI = 3.14159265358979323846;
 
@@ -1032,7 +1030,7 @@ int main(int argc, char** argv) {
         else if (strcmp(argv[i], "--threads") == 0 && i + 1 < argc) max_threads = atoi(argv[++i]);
         else if (strcmp(argv[i], "--evals") == 0 && i + 1 < argc) g_profile_evals = atoi(argv[++i]);
         else {
-            fprintf(stderr, "usage: %s [--quick] [--out DIR] [--sections disks,packing,errors,smooth,scaling,threads,peer] [--threads N]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--quick] [--out DIR] [--sections LIST] [--threads N] [--evals N]\n", argv[0]);
             return 2;
         }
     }

@@ -185,10 +185,11 @@ def run_benchmarks(args):
             raise SystemExit("failed: %s" % " ".join(cmd))
 
     # "before" first, then "after", on the same scenes in the same run. The
-    # previous release's program writes after_*.csv: they become before_*.csv.
+    # previous release's program writes after_*.csv: they become before_*.csv
+    # (the sections a table compares with: digest, packing, scaling, threads).
     prev = build_previous(args, log)
     tmp = tempfile.mkdtemp(prefix="nts-before-")
-    run([prev, "--out", tmp, "--sections", "digest,disks,packing,scaling" + ("" if args.quick else ",threads")] + quick)
+    run([prev, "--out", tmp, "--sections", "digest,packing,scaling" + ("" if args.quick else ",threads")] + quick)
     for name in os.listdir(tmp):
         if name.startswith("after_") and name.endswith(".csv"):
             shutil.move(os.path.join(tmp, name), os.path.join(res, "before_" + name[len("after_"):]))
@@ -213,6 +214,11 @@ def run_benchmarks(args):
     except ImportError as e:
         log.append("shapely_peer: skipped (%s)" % e)
     run_cli(args, res, log)
+    # The peer's scenes and gaps (30 MB at 1e4 particles) served the peer and
+    # the CLI runs above; only the CSVs the report reads stay in the results.
+    for name in os.listdir(res):
+        if name.startswith(("peer_scene_", "peer_gaps_")):
+            os.remove(os.path.join(res, name))
     meta = {
         "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "commit": sh("git rev-parse --short HEAD"),
@@ -487,7 +493,7 @@ def report(res, made):
     if thr:
         allsame = all(r["bitwise_identical"] == "1" for r in thr)
         two = [r for r in thr if r["threads"] == "2"]
-        cores = [float(r.get("cores_available", "nan")) for r in two]
+        cores = [float(r["cores_available"]) for r in two]
         L.append("- Threads: results bitwise identical for 1..%s threads in every case: **%s**. Speed-up with 2 "
                  "threads on this machine's %s cores: %s from median wall times, %s from the median of each "
                  "round's paired ratio (1 and 2 threads timed back to back), %s from the best times (the "
@@ -497,10 +503,10 @@ def report(res, made):
                  % (max(int(r["threads"]) for r in thr), "yes" if allsame else "NO", meta.get("nproc", "?"),
                     "-".join([fnum(min(float(r["speedup"]) for r in two)), fnum(max(float(r["speedup"])
                                                                                      for r in two))]),
-                    "-".join([fnum(min(float(r.get("speedup_paired", "nan")) for r in two)),
-                              fnum(max(float(r.get("speedup_paired", "nan")) for r in two))]),
-                    "-".join([fnum(min(float(r.get("speedup_best", "nan")) for r in two)),
-                              fnum(max(float(r.get("speedup_best", "nan")) for r in two))]),
+                    "-".join([fnum(min(float(r["speedup_paired"]) for r in two)),
+                              fnum(max(float(r["speedup_paired"]) for r in two))]),
+                    "-".join([fnum(min(float(r["speedup_best"]) for r in two)),
+                              fnum(max(float(r["speedup_best"]) for r in two))]),
                     "-".join([fnum(min(cores)), fnum(max(cores))])))
         thr_b = read_csv(os.path.join(res, "after_threads_bound.csv"))
         two_b = [r for r in thr_b if r["threads"] == "2"]
@@ -539,7 +545,7 @@ def report(res, made):
         c = [r for r in cli_all if r["solver"] == "closed_form" and float(r["alpha"]) == 0.2][-1]
         L.append("- Through the CLI (JSON in, JSON out), %s surface nodes, default options: %s ns per node wall, "
                  "%s CPU, against the evaluation alone above: JSON dominates." %
-                 (c["surface_nodes"], fnum(c["cli_ns_per_node"]), fnum(c.get("cli_cpu_ns_per_node", ""))))
+                 (c["surface_nodes"], fnum(c["cli_ns_per_node"]), fnum(c["cli_cpu_ns_per_node"])))
     if peer:
         p = peer[-1]
         L.append("- Shapely/GEOS peer, %s particles (alpha 0): gaps agree to %s (max abs difference), %s of %s "
@@ -594,7 +600,7 @@ def report(res, made):
         L.append(table(["particles", "surface nodes", "solver", "alpha", "CLI ns per node (wall)",
                         "CLI ns per node (CPU)", "input bytes", "output bytes"],
                        [[r["particles"], r["surface_nodes"], r["solver"], r["alpha"], fnum(r["cli_ns_per_node"]),
-                         fnum(r.get("cli_cpu_ns_per_node", "")), r["input_bytes"], r["output_bytes"]]
+                         fnum(r["cli_cpu_ns_per_node"]), r["input_bytes"], r["output_bytes"]]
                         for r in cli]))
     else:
         L.append("Missing: the CLI was not built in this run.")
@@ -702,8 +708,7 @@ def report(res, made):
                         "contacts before", "contacts"],
                        [[r["surface_nodes"], r["alpha"], fnum(r["before_eval_cpu_ns"]), fnum(r["after_eval_cpu_ns"]),
                          fnum(r["speedup"]),
-                         "%s-%s" % (fnum(r["speedup_round_min"]), fnum(r["speedup_round_max"]))
-                         if r.get("speedup_round_min") else "",
+                         "%s-%s" % (fnum(r["speedup_round_min"]), fnum(r["speedup_round_max"])),
                          r["before_contacts"], r["after_contacts"]] for r in cross]))
         L.append("")
         same = all(r["before_contacts"] == r["after_contacts"] for r in cross)
@@ -754,8 +759,7 @@ def report(res, made):
                         "before: eval"],
                        [[r["surface_nodes"], r["solver"], r["alpha"], r["threads"], fnum(r["eval_ns"]),
                          fnum(r["eval_min_ns"]), fnum(r["eval_cpu_ns"]), fnum(r["speedup"]),
-                         fnum(r.get("speedup_paired", "")),
-                         fnum(r.get("speedup_best", "")), r.get("cores_available", ""),
+                         fnum(r["speedup_paired"]), fnum(r["speedup_best"]), r["cores_available"],
                          "yes" if r["bitwise_identical"] == "1" else "NO",
                          fnum(thb[(r["solver"], r["alpha"], r["threads"])]["eval_ns"])
                          if (r["solver"], r["alpha"], r["threads"]) in thb else ""] for r in thr]))
@@ -775,8 +779,8 @@ def report(res, made):
             L.append(table(["surface nodes", "solver", "alpha", "threads", "eval (wall)", "eval best", "speed-up",
                             "speed-up (paired)", "speed-up (best)", "cores available", "bitwise identical"],
                            [[r["surface_nodes"], r["solver"], r["alpha"], r["threads"], fnum(r["eval_ns"]),
-                             fnum(r["eval_min_ns"]), fnum(r["speedup"]), fnum(r.get("speedup_paired", "")),
-                             fnum(r.get("speedup_best", "")), r.get("cores_available", ""),
+                             fnum(r["eval_min_ns"]), fnum(r["speedup"]), fnum(r["speedup_paired"]),
+                             fnum(r["speedup_best"]), r["cores_available"],
                              "yes" if r["bitwise_identical"] == "1" else "NO"] for r in thr_b]))
             L.append("")
     if peer:
@@ -807,102 +811,6 @@ def report(res, made):
                          fnum(r["ours_cpu_ns_per_node_gaps"]), fnum(r["shapely_cpu_ns_per_node"]),
                          fnum(r["speed_ratio_cpu"]), fnum(r["speed_ratio"])] for r in peer]))
         L.append("")
-    L.append("### What the profile showed, and what changed")
-    L.append("")
-    L.append("The core issue (issue 13) asked for 3x the speed of 0.1, at most 150 ns per node at 1e6, 1.8x on "
-             "2 cores with every phase parallel, and at most 200 bytes per node. The steps, with the periodic "
-             "packing of 998,254 nodes (alpha 0.2, 1 thread, CPU ns per node; development runs on this machine, "
-             "where 0.1 took 424 to 439 ns):")
-    L.append("")
-    L.append(table(["step", "ns per node at 1e6"], [
-        ["the core as 0.2 shipped it (df1867c)", "279"],
-        ["masters binned by the middle of their segment (a smaller reach, so smaller cells: 15 masters visited "
-         "per slave instead of 30); float keys in a power-of-two frame, 4 at a time with SSE2, widened by every "
-         "round-off so that they keep whatever the exact test could; the exact median segment from a sampled "
-         "bracket; a parallel counting sort; chunks of 1,024 slaves; the scatter in parallel", "228"],
-        ["the corner solve inline, Halley on a monotone F for both solvers (the general solvers only when F "
-         "may have several roots); the stencil of an inner cell without the wrap logic", "199"],
-        ["one thread and no records asked for: the search sums and scatters each slave's contacts itself; the "
-         "virial in closed form (eps g^2 n n)", "190"],
-        ["the keys placed from a sequential pass over the entries (scattered writes, not gathers)", "178"],
-        ["Halley's converged step taken before the bracket test; one pass over all the stencil's ranges; no "
-         "per-body alpha lookup when no body has its own", "167"],
-        ["the typical reach from 1,024 sampled masters; no reach test per master when the longest reach sets "
-         "the cell side", "165"],
-        ["the kept masters' segment data prefetched (1e5: 152 to 142)", "165"],
-        ["Halley from the linear part's root refined once (2.0 steps a solve instead of 2.9; 208 to 164 cycles "
-         "a solve)", "160"],
-        ["a segment's record is one aligned 64-byte line with its entry's topology (previous, next, node, "
-         "body): a kept master costs one prefetched line, not misses on four scene arrays (A/B: 158 to 148; "
-         "alpha 0: 134 to 124)", "148"],
-        ["the median segment found in the segment pass (a sample of the positions brackets it first) instead "
-         "of two more passes over the segments (segments + cells: 31 to 27 ns)", "145"],
-        ["16-byte keys: a body's entries are consecutive, so the screen tells the slave's own body by its "
-         "entry range; one scattered store less per master in the counting sort (A/B: 141 to 137)", "137"],
-        ["each kept master's previous segment line prefetched with its own (the corner and vertex tests read "
-         "it at once; A/B: 141 to 136)", "136"],
-        ["the 1-thread path adds each contact's forces 8 contacts after finding it, first in first out (the "
-         "same order, the same bits), the nodes' force lines asked for when it is found: the additions, "
-         "scattered over the node array, no longer wait on memory one by one (A/B: 137 to 131; alpha 0: 114 "
-         "to 107)", "131"],
-        ["the binning asks for the lines of the key it will write 48 masters ahead (cells phase: 14.5 to "
-         "13.2 ns)", "130"],
-    ]))
-    L.append("")
-    mem_1e6 = float(sa[-1]["bytes_per_node"]) if sa else None
-    L.append("Bytes per node at 1e6 went from 267 to " + (f"{mem_1e6:.0f}" if mem_1e6 else "(not run)") +
-             " (no records with one thread, no cell-ordered copy of the masters, 16-byte keys, 64-byte segment "
-             "records). Every phase runs in parallel: segments, the order statistics' passes, "
-             "the binning, the keys, the search (chunks taken by whichever thread is free) and the scatter (each chunk "
-             "its own sums, added in chunk order; each thread a range of nodes, adding every record's share in "
-             "record order), with the same bits for any number of threads. With several threads and no "
-             "records asked for, each chunk sums its contacts and keeps their force shares as the search goes "
-             "(the scatter at 2 threads, 1.9e5 nodes: 7.5 to 3 ns per node), and the median segment is "
-             "selected among the sampled bracket's lengths by parallel histograms of 1,024 bins, then among "
-             "the one bin that holds it (the serial selection among an eighth of the lengths took 1.4 ns per "
-             "node). The search's chunks and the segment pass's slices go to whichever thread is free, so a "
-             "thread slowed by another process takes fewer (with a busy loop on one of the 2 cores: 81-88 ns "
-             "per node instead of 95-132 at 1.9e5 nodes). Since any thread may run any chunk, a finished "
-             "chunk's records (or force shares, 64 bytes an active contact) move from the thread's own "
-             "buffer, a chunk's worth, to one pool for all the chunks, which a warm context has the room for: "
-             "the memory does not grow with the threads, and no evaluation allocates once warm. With 2 "
-             "threads and the default outputs the context holds 186 bytes per node at 1.9e5 nodes, against "
-             "148 with one (no records at all).")
-    L.append("")
-    L.append("Where the time goes now. At 1e4 nodes the evaluation is bound by instructions and branches: about "
-             "1,100 instructions per node (callgrind) and 4 mispredicted branches per slave (cachegrind's "
-             "simulator), half of them in the exact tests of masters that the float screen kept but that offer "
-             "nothing (1.94 tries per slave, 0.52 offers). At 1e6 (`perf`, alpha 0.2): the search 56% (its "
-             "largest stalls the first pass's loop over ranges longer than 8 keys and the kept masters' lines), "
-             "the corner solves 13% (0.24 a node, 89% of them give a candidate), the forces added after each "
-             "slave 7% before they were delayed and prefetched (the master's forces, another body's, are "
-             "rarely in cache), the counting sort of the "
-             "keys 9%, the segment pass with the median 6%. Measured and dropped: the first "
-             "pass 8 keys at a time with AVX2 (chosen at run time; no faster: the screen is not the bottleneck); "
-             "a compact copy of the lengths for the order statistics; the masters' records copied in cell order "
-             "(one 64-byte line each, with the previous segment: the search no faster, the cells phase 15 ns "
-             "slower); software prefetch of the stencil's keys 8 to 16 slaves ahead; keys as 16-byte structs "
-             "(1 to 2% faster at 1e6, 5 to 8% slower at 1e4); the two passes of consecutive slaves pipelined "
-             "(tried twice; the second time 2% faster at 1e6, 6% slower at 1e4); the slaves visited in cell "
-             "order instead of slave order (no faster at 1e6, slower at 1e4, and the records would need sorting "
-             "back for the brute force's bits); transparent huge pages; the keys staged in entry order by the "
-             "binning pass so that the sort reads 16 bytes a master instead of its segment (no faster, 8 bytes "
-             "more per node); a third group of 4 keys read unconditionally per range (slower at every size); "
-             "prefetching the forces of the slave or of an active master just before they are added (no "
-             "faster: too late; the queue above asks 8 contacts ahead); gathering the sample's nodes in a "
-             "separate loop from their lengths (no faster); a queue of 16 contacts instead of 8 (the same); "
-             "the segment records streamed around the cache at 1e6 (non-temporal stores: the pass slower); "
-             "prefetching the force lines in the 2-thread scatter (slower). "
-             "A screen that applies the flat and node conditions in single precision (each key 32 bytes: "
-             "the middle, the unit tangent, the flat half length, the node's reach) did halve the tries, "
-             "1.94 to 1.01 per slave, as an exact replay had predicted, but the whole evaluation was 12 to 15% "
-             "slower at 1e4 to 1e6 (the screen's extra work on every key of the stencil, about 30 a slave, "
-             "costs more than 0.9 tries; the cells phase 4 ns slower with the wider keys): dropped. "
-             "Left to try: that test on the survivors of the distance screen only (about 2 a slave); the "
-             "cells phase with "
-             "2 threads (1.2 to 1.6x: the counting sort's two slices count twice the cells, and the keys' "
-             "scattered stores share the memory bandwidth).")
-    L.append("")
     if dig_a:
         L.append("### Bitwise equality before/after")
         L.append("")
@@ -920,7 +828,7 @@ def report(res, made):
                      "same contacts and forces within 1e-13 of the largest. Within this release the digests "
                      "compare thread counts and searches (`tests/core/test_parallel.c`, `test_search.c`).")
         L.append("")
-    L.append("Run log: " + "; ".join(shown_paths(s) for s in meta.get("steps", [])))
+    L.append("Run log: " + "; ".join(meta.get("steps", [])))
     return "\n".join(L)
 
 
@@ -1126,12 +1034,6 @@ def shown(arg):
     if "/bench/" in real:  # the results of another checkout
         return real[real.index("/bench/") + 1:]
     return os.path.basename(real)
-
-
-def shown_paths(text):
-    """Every absolute path of a run log line through shown() (logs written
-    before it kept them)."""
-    return re.sub(r"(?<![\w.$])/[^\s:;,]+", lambda m: shown(m.group(0)), text)
 
 
 def main():

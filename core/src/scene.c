@@ -161,279 +161,335 @@ static int check_point(nts_vec2 p, int body, int node, const char* option, nts_e
 }
 static int check_node(nts_vec2 p, int body, int node, nts_error* err) { return check_point(p, body, node, "", err); }
 
-nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
-    nts_scene* s = NULL;
-    nts_boundary* bnd = NULL; /* per body, when given by triangles */
-    int* mark = NULL;         /* per node of the body being checked: loop place + 1 */
-    int* loop_tmp = NULL;
-    double* area2 = NULL;
-    long long total_nodes = 0, total_surf = 0, total_loops = 0;
-    int b, max_body_nodes = 0, rc = NTS_OK;
+/* nts_scene_create in passes. Each pass establishes what the next relies on;
+ * a pass that fails has written its error and returns its code, and the
+ * caller frees what was built (scene_build_free, nts_scene_destroy). */
 
-    if (err != NULL) *err = nts_error_none();
-    if (def == NULL || def->bodies == NULL || def->body_count <= 0) {
-        fail(err, NTS_EEMPTY_SCENE, -1, -1, -1, -1, "scene has no bodies");
-        return NULL;
+/* The working state of one nts_scene_create: the caller's definition, the
+ * boundaries extracted from triangle meshes, the totals pass 1 counts and the
+ * scratch of pass 2. */
+typedef struct scene_build {
+    const nts_scene_def* def;
+    nts_boundary* bnd;  /* per body, when given by triangles */
+    int* mark;          /* per node of the body being checked: on a loop already */
+    int* loop_tmp;      /* the loop being checked, in input order */
+    double* area2;      /* per loop: twice its signed area in input order */
+    long long total_nodes, total_surf, total_loops;
+    int max_body_nodes;
+} scene_build;
+
+static void scene_build_free(scene_build* sb) {
+    int b;
+    nts_free(sb->mark);
+    nts_free(sb->area2);
+    nts_free(sb->loop_tmp);
+    if (sb->bnd != NULL) {
+        for (b = 0; b < sb->def->body_count; ++b) nts_boundary_free(&sb->bnd[b]);
+        nts_free(sb->bnd);
     }
+}
+
+/* Pass 0, the scene as a whole: it has bodies, its periodic box (if any) is
+ * valid and inside the supported range (docs/model.md §8), and the body
+ * count is within max_bodies. Nothing of a body is read yet. */
+static int check_scene_def(const nts_scene_def* def, nts_error* err) {
+    if (def == NULL || def->bodies == NULL || def->body_count <= 0)
+        return fail(err, NTS_EEMPTY_SCENE, -1, -1, -1, -1, "scene has no bodies");
     if (!(def->lx >= 0.0 && def->ly >= 0.0) || !nts_is_valid_double(def->lx) || !nts_is_valid_double(def->ly) ||
-        ((def->lx > 0.0) != (def->ly > 0.0))) {
-        fail_naming(err, NTS_EINVALID_OPTION, -1, "periodic", "periodic box needs lx > 0 and ly > 0, finite");
-        return NULL;
-    }
-    if (def->lx > NTS_COORD_MAX || def->ly > NTS_COORD_MAX) {
-        fail_naming(err, NTS_EOUT_OF_RANGE, -1, "periodic", "periodic box beyond 1e100 (rescale the scene)");
-        return NULL;
-    }
-    if (def->limits.max_bodies > 0 && def->body_count > def->limits.max_bodies) {
-        fail_naming(err, NTS_ELIMIT, -1, "max_bodies", "scene has %d bodies, more than the limit of %d bodies",
-                    def->body_count, def->limits.max_bodies);
-        return NULL;
-    }
+        ((def->lx > 0.0) != (def->ly > 0.0)))
+        return fail_naming(err, NTS_EINVALID_OPTION, -1, "periodic", "periodic box needs lx > 0 and ly > 0, finite");
+    if (def->lx > NTS_COORD_MAX || def->ly > NTS_COORD_MAX)
+        return fail_naming(err, NTS_EOUT_OF_RANGE, -1, "periodic", "periodic box beyond 1e100 (rescale the scene)");
+    if (def->limits.max_bodies > 0 && def->body_count > def->limits.max_bodies)
+        return fail_naming(err, NTS_ELIMIT, -1, "max_bodies", "scene has %d bodies, more than the limit of %d bodies",
+                           def->body_count, def->limits.max_bodies);
+    return NTS_OK;
+}
 
-    /* Pass 1: counts, limits, finiteness, boundary extraction. */
-    bnd = (nts_boundary*)nts_alloc(sizeof(nts_boundary) * (size_t)def->body_count);
-    if (bnd == NULL) { fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory"); return NULL; }
-    memset(bnd, 0, sizeof(nts_boundary) * (size_t)def->body_count);
-    for (b = 0; b < def->body_count; ++b) {
-        const nts_body_def* bd = &def->bodies[b];
-        int i;
-        if (bd->node_count <= 0 || bd->nodes == NULL) {
-            rc = fail(err, NTS_ENO_NODES, b, -1, -1, -1, "body %d has no nodes", b);
-            goto fail;
-        }
-        if (bd->role != NTS_ROLE_BOTH && bd->role != NTS_ROLE_MASTER && bd->role != NTS_ROLE_SLAVE) {
-            rc = fail_naming(err, NTS_EINVALID_OPTION, b, "role", "body %d: role must be both, master or slave", b);
-            goto fail;
-        }
-        if (bd->has_alpha && !(bd->alpha >= 0.0 && bd->alpha <= 0.5)) {
-            rc = fail_naming(err, NTS_EINVALID_OPTION, b, "alpha", "body %d: alpha must be in [0, 0.5]", b);
-            goto fail;
-        }
-        if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body) {
-            rc = fail_naming(err, NTS_ELIMIT, b, "max_nodes_per_body",
-                             "body %d has %d nodes, more than the limit of %d nodes per body", b, bd->node_count,
-                             def->limits.max_nodes_per_body);
-            goto fail;
-        }
-        total_nodes += bd->node_count;
-        if (def->limits.max_nodes > 0 && total_nodes > def->limits.max_nodes) {
-            rc = fail_naming(err, NTS_ELIMIT, b, "max_nodes", "scene has more than the limit of %lld nodes",
-                             def->limits.max_nodes);
-            goto fail;
-        }
-        if (total_nodes > 0x3fffffff) {
-            rc = fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than 2^30 nodes");
-            goto fail;
-        }
-        for (i = 0; i < bd->node_count; ++i)
-            if ((rc = check_node(bd->nodes[i], b, i, err)) != NTS_OK) goto fail;
-        for (i = 0; bd->reference != NULL && i < bd->node_count; ++i)
-            if ((rc = check_point(bd->reference[i], b, i, "reference", err)) != NTS_OK) goto fail;
-        if (bd->node_count > max_body_nodes) max_body_nodes = bd->node_count;
-        if (bd->triangles != NULL && bd->triangle_count > 0) {
-            rc = nts_boundary_from_triangles(bd->node_count, bd->triangles, bd->triangle_count, &bnd[b], err);
-            if (rc != NTS_OK) {
-                if (err != NULL) err->body = b;
-                goto fail;
-            }
-            total_loops += bnd[b].loop_count;
-            total_surf += bnd[b].loop_start[bnd[b].loop_count];
-        } else if (bd->loop_count > 0) {
-            if (bd->loop_nodes == NULL || bd->loop_start == NULL) {
-                rc = fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
-                goto fail;
-            }
-            total_loops += bd->loop_count;
-            total_surf += bd->loop_start[bd->loop_count] - bd->loop_start[0];
-        } else {
-            total_loops += 1;
-            total_surf += bd->node_count;
-        }
-    }
-    if (total_surf > 0x3fffffff || total_loops > 0x3fffffff) {
-        rc = fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has more than 2^30 loop places");
-        goto fail;
-    }
+/* Pass 1 for body b: its options are valid (docs/model.md §10), its node
+ * count keeps the body and the running total within the limits and 2^30
+ * (so every index fits an int), and every coordinate, of its nodes and of its
+ * reference, is finite and inside the supported range (§2). Adds its nodes to
+ * sb->total_nodes. */
+static int count_body_nodes(scene_build* sb, int b, nts_error* err) {
+    const nts_scene_def* def = sb->def;
+    const nts_body_def* bd = &def->bodies[b];
+    int i, rc;
+    if (bd->node_count <= 0 || bd->nodes == NULL)
+        return fail(err, NTS_ENO_NODES, b, -1, -1, -1, "body %d has no nodes", b);
+    if (bd->role != NTS_ROLE_BOTH && bd->role != NTS_ROLE_MASTER && bd->role != NTS_ROLE_SLAVE)
+        return fail_naming(err, NTS_EINVALID_OPTION, b, "role", "body %d: role must be both, master or slave", b);
+    if (bd->has_alpha && !(bd->alpha >= 0.0 && bd->alpha <= 0.5))
+        return fail_naming(err, NTS_EINVALID_OPTION, b, "alpha", "body %d: alpha must be in [0, 0.5]", b);
+    if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body)
+        return fail_naming(err, NTS_ELIMIT, b, "max_nodes_per_body",
+                           "body %d has %d nodes, more than the limit of %d nodes per body", b, bd->node_count,
+                           def->limits.max_nodes_per_body);
+    sb->total_nodes += bd->node_count;
+    if (def->limits.max_nodes > 0 && sb->total_nodes > def->limits.max_nodes)
+        return fail_naming(err, NTS_ELIMIT, b, "max_nodes", "scene has more than the limit of %lld nodes",
+                           def->limits.max_nodes);
+    if (sb->total_nodes > 0x3fffffff) return fail(err, NTS_ELIMIT, b, -1, -1, -1, "scene has more than 2^30 nodes");
+    for (i = 0; i < bd->node_count; ++i)
+        if ((rc = check_node(bd->nodes[i], b, i, err)) != NTS_OK) return rc;
+    for (i = 0; bd->reference != NULL && i < bd->node_count; ++i)
+        if ((rc = check_point(bd->reference[i], b, i, "reference", err)) != NTS_OK) return rc;
+    if (bd->node_count > sb->max_body_nodes) sb->max_body_nodes = bd->node_count;
+    return NTS_OK;
+}
 
-    s = (nts_scene*)nts_alloc(sizeof *s);
-    if (s == NULL) { rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory"); goto fail; }
+/* Pass 1 for body b, after count_body_nodes: its loops exist, extracted from
+ * its triangles when it is a mesh (docs/model.md §1: into sb->bnd[b], the
+ * error naming the body), given as arrays, or implied (one loop through all
+ * nodes). Adds its loops and loop places to the totals; the places are not
+ * checked yet (pass 2). */
+static int count_body_loops(scene_build* sb, int b, nts_error* err) {
+    const nts_body_def* bd = &sb->def->bodies[b];
+    if (bd->triangles != NULL && bd->triangle_count > 0) {
+        int rc = nts_boundary_from_triangles(bd->node_count, bd->triangles, bd->triangle_count, &sb->bnd[b], err);
+        if (rc != NTS_OK) {
+            if (err != NULL) err->body = b;
+            return rc;
+        }
+        sb->total_loops += sb->bnd[b].loop_count;
+        sb->total_surf += sb->bnd[b].loop_start[sb->bnd[b].loop_count];
+    } else if (bd->loop_count > 0) {
+        if (bd->loop_nodes == NULL || bd->loop_start == NULL)
+            return fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
+        sb->total_loops += bd->loop_count;
+        sb->total_surf += bd->loop_start[bd->loop_count] - bd->loop_start[0];
+    } else {
+        sb->total_loops += 1;
+        sb->total_surf += bd->node_count;
+    }
+    return NTS_OK;
+}
+
+/* Pass 1: counts, limits, finiteness, boundary extraction, body by body
+ * (each body's errors before the next body's), then the scene's loop places
+ * within 2^30. Afterwards the totals size every array of pass 2. */
+static int count_scene(scene_build* sb, nts_error* err) {
+    int b, rc;
+    sb->bnd = (nts_boundary*)nts_alloc(sizeof(nts_boundary) * (size_t)sb->def->body_count);
+    if (sb->bnd == NULL) return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+    memset(sb->bnd, 0, sizeof(nts_boundary) * (size_t)sb->def->body_count);
+    for (b = 0; b < sb->def->body_count; ++b) {
+        if ((rc = count_body_nodes(sb, b, err)) != NTS_OK) return rc;
+        if ((rc = count_body_loops(sb, b, err)) != NTS_OK) return rc;
+    }
+    if (sb->total_surf > 0x3fffffff || sb->total_loops > 0x3fffffff)
+        return fail(err, NTS_ELIMIT, -1, -1, -1, -1, "scene has more than 2^30 loop places");
+    return NTS_OK;
+}
+
+/* The scene's arrays, sized by pass 1's totals, and the scratch of pass 2.
+ * The scene is returned zeroed but for its counts and box, or NULL (out of
+ * memory, written to err) with *out set to whatever was allocated, for
+ * nts_scene_destroy to free. */
+static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
+    const nts_scene_def* def = sb->def;
+    size_t nodes = (size_t)sb->total_nodes, surf = (size_t)sb->total_surf, loops = (size_t)sb->total_loops;
+    size_t bodies = (size_t)def->body_count, scratch = (size_t)sb->max_body_nodes;
+    nts_scene* s = (nts_scene*)nts_alloc(sizeof *s);
+    *out = s;
+    if (s == NULL) return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
     memset(s, 0, sizeof *s);
     s->body_count = def->body_count;
-    s->node_count = (int)total_nodes;
-    s->surface_count = (int)total_surf;
-    s->loop_total = (int)total_loops;
+    s->node_count = (int)sb->total_nodes;
+    s->surface_count = (int)sb->total_surf;
+    s->loop_total = (int)sb->total_loops;
     s->lx = def->lx;
     s->ly = def->ly;
-    s->pos = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)total_nodes);
-    s->body_node_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
-    s->body_loop_start = (int*)nts_alloc(sizeof(int) * (size_t)(def->body_count + 1));
-    s->loop_start = (int*)nts_alloc(sizeof(int) * (size_t)(total_loops + 1));
-    s->surf_node = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
-    s->surf_local = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
-    s->surf_prev = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
-    s->surf_next = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
-    s->surf_body = (int*)nts_alloc(sizeof(int) * (size_t)total_surf);
-    s->loop_reversed = (unsigned char*)nts_alloc((size_t)total_loops);
-    s->body_outer = (int*)nts_alloc(sizeof(int) * (size_t)def->body_count);
-    s->body_role = (unsigned char*)nts_alloc((size_t)def->body_count);
-    s->body_mesh = (unsigned char*)nts_alloc((size_t)def->body_count);
-    s->body_alpha = (double*)nts_alloc(sizeof(double) * (size_t)def->body_count);
-    s->surf_trib = (double*)nts_alloc(sizeof(double) * (size_t)total_surf);
-    s->loop_piece = (int*)nts_alloc(sizeof(int) * (size_t)total_loops);
-    s->piece_area2 = (double*)nts_alloc(sizeof(double) * (size_t)total_loops);
-    mark = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
-    area2 = (double*)nts_alloc(sizeof(double) * (size_t)(total_loops + 1));
-    loop_tmp = (int*)nts_alloc(sizeof(int) * (size_t)max_body_nodes);
+    s->pos = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * nodes);
+    s->body_node_start = (int*)nts_alloc(sizeof(int) * (bodies + 1));
+    s->body_loop_start = (int*)nts_alloc(sizeof(int) * (bodies + 1));
+    s->loop_start = (int*)nts_alloc(sizeof(int) * (loops + 1));
+    s->surf_node = (int*)nts_alloc(sizeof(int) * surf);
+    s->surf_local = (int*)nts_alloc(sizeof(int) * surf);
+    s->surf_prev = (int*)nts_alloc(sizeof(int) * surf);
+    s->surf_next = (int*)nts_alloc(sizeof(int) * surf);
+    s->surf_body = (int*)nts_alloc(sizeof(int) * surf);
+    s->loop_reversed = (unsigned char*)nts_alloc(loops);
+    s->body_outer = (int*)nts_alloc(sizeof(int) * bodies);
+    s->body_role = (unsigned char*)nts_alloc(bodies);
+    s->body_mesh = (unsigned char*)nts_alloc(bodies);
+    s->body_alpha = (double*)nts_alloc(sizeof(double) * bodies);
+    s->surf_trib = (double*)nts_alloc(sizeof(double) * surf);
+    s->loop_piece = (int*)nts_alloc(sizeof(int) * loops);
+    s->piece_area2 = (double*)nts_alloc(sizeof(double) * loops);
+    sb->mark = (int*)nts_alloc(sizeof(int) * scratch);
+    sb->area2 = (double*)nts_alloc(sizeof(double) * (loops + 1));
+    sb->loop_tmp = (int*)nts_alloc(sizeof(int) * scratch);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
         !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
         !s->body_role || !s->body_mesh || !s->body_alpha || !s->surf_trib || !s->loop_piece || !s->piece_area2 ||
-        !mark || !area2 || !loop_tmp) {
-        rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
-        goto fail;
-    }
+        !sb->mark || !sb->area2 || !sb->loop_tmp)
+        return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+    return NTS_OK;
+}
 
-    /* Pass 2: copy, check topology and geometry, normalise orientation. */
-    {
-        int node_off = 0, loop_i = 0, surf = 0;
-        for (b = 0; b < def->body_count; ++b) {
-            const nts_body_def* bd = &def->bodies[b];
-            const int* ln;
-            const int* ls;
-            int nl, l, i, implicit = 0, outer = -1;
-            double outer_abs = -1.0;
-            int body_loop0 = loop_i;
-            s->body_node_start[b] = node_off;
-            s->body_loop_start[b] = loop_i;
-            memcpy(s->pos + node_off, bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
-            if (bnd[b].loop_nodes != NULL) {
-                ln = bnd[b].loop_nodes; ls = bnd[b].loop_start; nl = bnd[b].loop_count;
-            } else if (bd->loop_count > 0) {
-                ln = bd->loop_nodes; ls = bd->loop_start; nl = bd->loop_count;
-            } else {
-                ln = NULL; ls = NULL; nl = 1; implicit = 1;
-            }
-            for (i = 0; i < bd->node_count; ++i) mark[i] = 0;
-            for (l = 0; l < nl; ++l) {
-                int n = implicit ? bd->node_count : ls[l + 1] - ls[l];
-                int k;
-                if (n < 3) {
-                    rc = fail(err, NTS_ELOOP_TOO_SHORT, b, implicit ? -1 : l, -1, -1,
-                              "body %d loop %d has %d nodes (at least 3 needed)", b, l, n);
-                    goto fail;
-                }
-                for (k = 0; k < n; ++k) {
-                    int v = implicit ? k : ln[ls[l] + k];
-                    if (v < 0 || v >= bd->node_count) {
-                        rc = fail(err, NTS_EINDEX_RANGE, b, l, k, -1,
-                                  "body %d loop %d place %d: node index %d out of range [0, %d)", b, l, k, v,
-                                  bd->node_count);
-                        goto fail;
-                    }
-                    if (mark[v] != 0) {
-                        rc = fail(err, NTS_ENODE_REUSED, b, l, k, v,
-                                  "body %d loop %d place %d: node %d is already on a loop", b, l, k, v);
-                        goto fail;
-                    }
-                    mark[v] = 1;
-                    loop_tmp[k] = v;
-                }
-                rc = check_loop(s, s->pos, b, l, loop_tmp, n, 0, node_off, &area2[loop_i], err);
-                if (rc != NTS_OK) {
-                    if (implicit && err != NULL) err->loop = err->loop_pos = -1;
-                    goto fail;
-                }
-                if (fabs(area2[loop_i]) > outer_abs) { outer_abs = fabs(area2[loop_i]); outer = loop_i; }
-                s->loop_start[loop_i] = surf;
-                for (k = 0; k < n; ++k) {
-                    s->surf_local[surf + k] = loop_tmp[k];
-                    s->surf_body[surf + k] = b;
-                }
-                surf += n;
-                ++loop_i;
-            }
-            /* Orientation: the loop with the largest |area| is the outer one and
-             * runs counter-clockwise; holes run clockwise. A loop the wrong way is
-             * reversed keeping its first node. A triangle mesh's loops come
-             * oriented by its connectivity, piece by piece: each piece is
-             * turned over as a whole when its own outer loop (the largest |area|
-             * of the piece) runs clockwise, so each piece of a mesh in several
-             * pieces keeps its own outer loop counter-clockwise and its holes
-             * clockwise (not counted in loops_reversed: a mesh gives no loops). */
-            s->body_outer[b] = outer;
-            s->body_mesh[b] = (unsigned char)(bnd[b].loop_nodes != NULL);
-            s->body_role[b] = (unsigned char)bd->role;
-            s->body_alpha[b] = bd->has_alpha ? bd->alpha : -1.0;
-            for (l = body_loop0; l < loop_i; ++l) {
-                s->loop_piece[l] = s->body_mesh[b] ? body_loop0 + bnd[b].loop_piece[l - body_loop0] : -1;
-                if (s->body_mesh[b]) piece_outer(s->piece_area2, s->loop_piece[l], l, area2[l]);
-            }
-            for (l = body_loop0; l < loop_i; ++l) {
-                int want_ccw = (l == outer);
-                int first = s->loop_start[l], n = surf - first, k;
-                if (l + 1 < loop_i) n = s->loop_start[l + 1] - first;
-                if (s->body_mesh[b])
-                    s->loop_reversed[l] = (unsigned char)(s->piece_area2[s->loop_piece[l]] < 0.0);
-                else
-                    s->loop_reversed[l] = (unsigned char)((area2[l] > 0.0) != want_ccw);
-                if (s->loop_reversed[l]) {
-                    for (k = 1; k < n - k; ++k) {
-                        int t = s->surf_local[first + k];
-                        s->surf_local[first + k] = s->surf_local[first + n - k];
-                        s->surf_local[first + n - k] = t;
-                    }
-                    if (!s->body_mesh[b]) ++s->loops_reversed;
-                }
-                for (k = 0; k < n; ++k) {
-                    s->surf_node[first + k] = node_off + s->surf_local[first + k];
-                    s->surf_prev[first + k] = first + (k + n - 1) % n;
-                    s->surf_next[first + k] = first + (k + 1) % n;
-                }
-            }
-            node_off += bd->node_count;
+/* Pass 2 for body b, whose nodes start at s->body_node_start[b] and loops at
+ * s->body_loop_start[b]: its positions are copied, each loop has at least 3
+ * places, indices in range and no node twice in the body (docs/model.md §1),
+ * and passes check_loop (§2) in the caller's order. Its loops are stored in
+ * input order (surf_local, surf_body, loop_start, sb->area2), its outer loop
+ * (the largest |area|, the first of equals) in body_outer, and the ends of
+ * its ranges in body_node_start[b + 1], body_loop_start[b + 1] and the
+ * loop_start after its last loop (the next body starts there). */
+static int copy_body(scene_build* sb, nts_scene* s, int b, nts_error* err) {
+    const nts_body_def* bd = &sb->def->bodies[b];
+    const nts_boundary* bnd = &sb->bnd[b];
+    const int* ln = NULL;
+    const int* ls = NULL;
+    int node_off = s->body_node_start[b], loop_i = s->body_loop_start[b], surf = s->loop_start[loop_i];
+    int nl = 1, l, i, implicit = 0, outer = -1, rc;
+    double outer_abs = -1.0;
+    memcpy(s->pos + node_off, bd->nodes, sizeof(nts_vec2) * (size_t)bd->node_count);
+    if (bnd->loop_nodes != NULL) {
+        ln = bnd->loop_nodes; ls = bnd->loop_start; nl = bnd->loop_count;
+    } else if (bd->loop_count > 0) {
+        ln = bd->loop_nodes; ls = bd->loop_start; nl = bd->loop_count;
+    } else {
+        implicit = 1;
+    }
+    for (i = 0; i < bd->node_count; ++i) sb->mark[i] = 0;
+    for (l = 0; l < nl; ++l) {
+        int n = implicit ? bd->node_count : ls[l + 1] - ls[l];
+        int k;
+        if (n < 3)
+            return fail(err, NTS_ELOOP_TOO_SHORT, b, implicit ? -1 : l, -1, -1,
+                        "body %d loop %d has %d nodes (at least 3 needed)", b, l, n);
+        for (k = 0; k < n; ++k) {
+            int v = implicit ? k : ln[ls[l] + k];
+            if (v < 0 || v >= bd->node_count)
+                return fail(err, NTS_EINDEX_RANGE, b, l, k, -1,
+                            "body %d loop %d place %d: node index %d out of range [0, %d)", b, l, k, v,
+                            bd->node_count);
+            if (sb->mark[v] != 0)
+                return fail(err, NTS_ENODE_REUSED, b, l, k, v,
+                            "body %d loop %d place %d: node %d is already on a loop", b, l, k, v);
+            sb->mark[v] = 1;
+            sb->loop_tmp[k] = v;
         }
-        s->body_node_start[def->body_count] = node_off;
-        s->body_loop_start[def->body_count] = loop_i;
+        rc = check_loop(s, s->pos, b, l, sb->loop_tmp, n, 0, node_off, &sb->area2[loop_i], err);
+        if (rc != NTS_OK) {
+            /* an implied loop is the body itself: the error names no loop */
+            if (implicit && err != NULL) err->loop = err->loop_pos = -1;
+            return rc;
+        }
+        if (fabs(sb->area2[loop_i]) > outer_abs) { outer_abs = fabs(sb->area2[loop_i]); outer = loop_i; }
         s->loop_start[loop_i] = surf;
-        assert(surf == s->surface_count && loop_i == s->loop_total);
-        /* Tributary lengths in each body's reference configuration (the
-         * nodes as given unless nts_body_def.reference says otherwise): half
-         * of the two segments at each node. A loop stored reversed has the
-         * same two segments at each node, so the same lengths, bit for bit. */
-        for (b = 0; b < s->surface_count; ++b) {
-            const nts_body_def* bd = &def->bodies[s->surf_body[b]];
-            const nts_vec2* ref = bd->reference != NULL ? bd->reference : bd->nodes;
-            nts_vec2 x = ref[s->surf_local[b]];
-            double lp = nts_length(nts_scene_diff(s, x, ref[s->surf_local[s->surf_prev[b]]]));
-            double lq = nts_length(nts_scene_diff(s, ref[s->surf_local[s->surf_next[b]]], x));
-            s->surf_trib[b] = 0.5 * (lp + lq);
-            if (!(s->surf_trib[b] > 0.0)) {
-                nts_where at = nts_at(s->surf_body[b], -1, -1, s->surf_local[b]);
-                at.option = "reference";
-                rc = nts_error_set(err, NTS_EDEGENERATE_SEGMENT, at,
-                                   "body %d node %d: both of its segments have length 0 in the reference "
-                                   "configuration (no tributary length)", s->surf_body[b], s->surf_local[b]);
-                goto fail;
+        for (k = 0; k < n; ++k) {
+            s->surf_local[surf + k] = sb->loop_tmp[k];
+            s->surf_body[surf + k] = b;
+        }
+        surf += n;
+        ++loop_i;
+    }
+    s->body_outer[b] = outer;
+    s->body_node_start[b + 1] = node_off + bd->node_count;
+    s->body_loop_start[b + 1] = loop_i;
+    s->loop_start[loop_i] = surf;
+    return NTS_OK;
+}
+
+/* Pass 2 for body b, after copy_body: its options are stored, and its loops
+ * are oriented (docs/model.md §2): the loop with the largest |area| is the
+ * outer one and runs counter-clockwise; holes run clockwise. A loop the wrong
+ * way is reversed keeping its first node. A triangle mesh's loops come
+ * oriented by its connectivity, piece by piece: each piece is turned over as
+ * a whole when its own outer loop (the largest |area| of the piece) runs
+ * clockwise, so each piece of a mesh in several pieces keeps its own outer
+ * loop counter-clockwise and its holes clockwise (not counted in
+ * loops_reversed: a mesh gives no loops). Then each place knows its global
+ * node and its neighbours on the loop (surf_node, surf_prev, surf_next). */
+static void orient_body(const scene_build* sb, nts_scene* s, int b) {
+    const nts_body_def* bd = &sb->def->bodies[b];
+    int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1], node_off = s->body_node_start[b], l;
+    s->body_mesh[b] = (unsigned char)(sb->bnd[b].loop_nodes != NULL);
+    s->body_role[b] = (unsigned char)bd->role;
+    s->body_alpha[b] = bd->has_alpha ? bd->alpha : -1.0;
+    for (l = l0; l < l1; ++l) {
+        s->loop_piece[l] = s->body_mesh[b] ? l0 + sb->bnd[b].loop_piece[l - l0] : -1;
+        if (s->body_mesh[b]) piece_outer(s->piece_area2, s->loop_piece[l], l, sb->area2[l]);
+    }
+    for (l = l0; l < l1; ++l) {
+        int first = s->loop_start[l], n = s->loop_start[l + 1] - first, k;
+        if (s->body_mesh[b])
+            s->loop_reversed[l] = (unsigned char)(s->piece_area2[s->loop_piece[l]] < 0.0);
+        else
+            s->loop_reversed[l] = (unsigned char)((sb->area2[l] > 0.0) != (l == s->body_outer[b]));
+        if (s->loop_reversed[l]) {
+            for (k = 1; k < n - k; ++k) {
+                int t = s->surf_local[first + k];
+                s->surf_local[first + k] = s->surf_local[first + n - k];
+                s->surf_local[first + n - k] = t;
             }
+            if (!s->body_mesh[b]) ++s->loops_reversed;
+        }
+        for (k = 0; k < n; ++k) {
+            s->surf_node[first + k] = node_off + s->surf_local[first + k];
+            s->surf_prev[first + k] = first + (k + n - 1) % n;
+            s->surf_next[first + k] = first + (k + 1) % n;
         }
     }
-    nts_free(mark);
-    nts_free(area2);
-    nts_free(loop_tmp);
-    for (b = 0; b < def->body_count; ++b) nts_boundary_free(&bnd[b]);
-    nts_free(bnd);
-    return s;
+}
 
-fail:
-    (void)rc;
-    nts_free(mark);
-    nts_free(area2);
-    nts_free(loop_tmp);
-    if (bnd != NULL) {
-        for (b = 0; b < def->body_count; ++b) nts_boundary_free(&bnd[b]);
-        nts_free(bnd);
+/* Pass 3, on the stored loops: tributary lengths in each body's reference
+ * configuration (the nodes as given unless nts_body_def.reference says
+ * otherwise; docs/model.md §10): half of the two segments at each node, which
+ * must not both be 0. A loop stored reversed has the same two segments at
+ * each node, so the same lengths, bit for bit. */
+static int tributary_lengths(const nts_scene_def* def, nts_scene* s, nts_error* err) {
+    int e;
+    for (e = 0; e < s->surface_count; ++e) {
+        const nts_body_def* bd = &def->bodies[s->surf_body[e]];
+        const nts_vec2* ref = bd->reference != NULL ? bd->reference : bd->nodes;
+        nts_vec2 x = ref[s->surf_local[e]];
+        double lp = nts_length(nts_scene_diff(s, x, ref[s->surf_local[s->surf_prev[e]]]));
+        double lq = nts_length(nts_scene_diff(s, ref[s->surf_local[s->surf_next[e]]], x));
+        s->surf_trib[e] = 0.5 * (lp + lq);
+        if (!(s->surf_trib[e] > 0.0)) {
+            nts_where at = nts_at(s->surf_body[e], -1, -1, s->surf_local[e]);
+            at.option = "reference";
+            return nts_error_set(err, NTS_EDEGENERATE_SEGMENT, at,
+                                 "body %d node %d: both of its segments have length 0 in the reference "
+                                 "configuration (no tributary length)", s->surf_body[e], s->surf_local[e]);
+        }
     }
-    nts_scene_destroy(s);
-    return NULL;
+    return NTS_OK;
+}
+
+nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
+    scene_build sb;
+    nts_scene* s = NULL;
+    int b, rc;
+
+    if (err != NULL) *err = nts_error_none();
+    if (check_scene_def(def, err) != NTS_OK) return NULL;
+    memset(&sb, 0, sizeof sb);
+    sb.def = def;
+    rc = count_scene(&sb, err);
+    if (rc == NTS_OK) rc = alloc_scene(&sb, &s, err);
+    if (rc == NTS_OK) {
+        /* Body by body: each body is checked and oriented before the next is
+         * read, so the first error is the first body's at fault. */
+        s->body_node_start[0] = s->body_loop_start[0] = s->loop_start[0] = 0;
+        for (b = 0; b < def->body_count && rc == NTS_OK; ++b)
+            if ((rc = copy_body(&sb, s, b, err)) == NTS_OK) orient_body(&sb, s, b);
+    }
+    if (rc == NTS_OK) {
+        assert(s->loop_start[s->loop_total] == s->surface_count &&
+               s->body_loop_start[def->body_count] == s->loop_total &&
+               s->body_node_start[def->body_count] == s->node_count);
+        rc = tributary_lengths(def, s, err);
+    }
+    scene_build_free(&sb);
+    if (rc != NTS_OK) {
+        nts_scene_destroy(s);
+        return NULL;
+    }
+    return s;
 }
 
 int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_error* err) {

@@ -15,7 +15,7 @@ import pytest
 from conftest import BUILD, REPO
 
 DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md")), REPO / "deploy" / "README.md",
-        REPO / "clients" / "python" / "README.md"]
+        REPO / "clients" / "python" / "README.md", REPO / "bench" / "README.md"]
 
 
 def section(text, title):
