@@ -83,16 +83,26 @@ unsigned ntsj_output_flag(const char* name, size_t n) {
     return 0;
 }
 
+/* The solver's names are NTS_SOLVER_NAMES (tables.h). */
+#define NTSJ_SOLVER_FROM_(value, text) else if (strcmp(name, text) == 0) *out = value;
+const char* ntsj_output_name(unsigned flag) {
+    size_t i;
+    for (i = 0; i < sizeof output_names / sizeof output_names[0]; ++i)
+        if (output_names[i].flag == flag) return output_names[i].name;
+    return NULL;
+}
+
 int ntsj_solver_from_name(const char* name, nts_solver* out) {
     if (!name) return -1;
-    if (strcmp(name, "closed_form") == 0) *out = NTS_SOLVER_CLOSED_FORM;
-    else if (strcmp(name, "newton") == 0) *out = NTS_SOLVER_NEWTON;
+    NTS_SOLVER_NAMES(NTSJ_SOLVER_FROM_)
     else return -1;
     return 0;
 }
 
+#define NTSJ_SOLVER_NAME_(value, text) if (solver == value) return text;
 const char* ntsj_solver_name(nts_solver solver) {
-    return solver == NTS_SOLVER_NEWTON ? "newton" : "closed_form";
+    NTS_SOLVER_NAMES(NTSJ_SOLVER_NAME_)
+    return "closed_form";
 }
 
 int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,

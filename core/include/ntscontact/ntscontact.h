@@ -11,6 +11,7 @@
 #include "base.h"
 #include "geometry.h"
 #include "math_functions.h"
+#include "tables.h"
 
 #ifdef __cplusplus
 extern "C" {
