@@ -99,13 +99,7 @@ static void print_option(int id) {
     } else if (r->kind == NTS_OPTION_KIND_ENUM) {
         nts_option_names_text(id, tail, sizeof tail);
     } else if (r->kind == NTS_OPTION_KIND_OUTPUTS) {
-        size_t n = 0;
-        unsigned bit;
-        for (bit = 1; bit & (unsigned)NTS_OUT_ALL; bit <<= 1) {
-            int w = snprintf(tail + n, sizeof tail - n, "%s%s", n ? "," : "", ntsj_output_name(bit));
-            if (w < 0 || (size_t)w >= sizeof tail - n) break;
-            n += (size_t)w;
-        }
+        ntsj_output_names_text(NULL, tail, sizeof tail);
     }
     snprintf(help, sizeof help, "%s%s%s%s", r->help, *r->help && *tail ? " " : "", tail,
              r->kind == NTS_OPTION_KIND_OUTPUTS ? "\n(empty: the summary only)" : "");
@@ -524,13 +518,7 @@ static int set_option(ntsj_config* cfg, int id, const char* val) {
     }
     case NTS_OPTION_KIND_OUTPUTS:
         if (ntsj_output_list(val, NTSJ_LIST_DUPLICATES_OK, &v.flags, &bad, &n) != 0) {
-            unsigned bit;
-            size_t len = 0;
-            for (bit = 1; bit & (unsigned)NTS_OUT_ALL; bit <<= 1) {
-                int w = snprintf(names + len, sizeof names - len, "%s%s", len ? "," : "", ntsj_output_name(bit));
-                if (w < 0 || (size_t)w >= sizeof names - len) break;
-                len += (size_t)w;
-            }
+            ntsj_output_names_text(NULL, names, sizeof names);
             return usage_error("%s takes a comma-separated list of %s, not '%s'", r->flag, names, val);
         }
         break;

@@ -64,7 +64,11 @@ int ntsj_decode_outputs(const cJSON* v, const char* ptr, unsigned* out, ntsj_fau
         snprintf(p, sizeof p, "%.60s/%d", ptr, i++);
         if (!cJSON_IsString(e)) return fault(f, ntsj_code_name(NTSJ_INVALID_TYPE), p, "expected %s, got %s", "an output name (a string)", ntsj_json_type_name(e));
         fl = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
-        if (!fl) return fault(f, ntsj_code_name(NTSJ_INVALID_VALUE), p, "%s%s", "unknown output (expected forces, energy, virial, contacts, gaps or stiffness)", "");
+        if (!fl) {
+            char names[160];
+            ntsj_output_names_text(" or ", names, sizeof names);
+            return fault(f, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown output (expected %s)%s", names, "");
+        }
         if (flags & fl) return fault(f, ntsj_code_name(NTSJ_INVALID_VALUE), p, "%s%s", "output listed twice", "");
         flags |= fl;
     }

@@ -385,7 +385,7 @@ static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result*
  * within it (the configured one when smaller). 1 when it is the bound's. */
 static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_options* eo) {
     long long budget, fits;
-    if (cfg->step_memory == 0 || !(eo->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS))) return 0;
+    if (cfg->step_memory == 0 || !(eo->outputs & (unsigned)NTS_OUT_RECORDS_)) return 0;
     budget = eo->max_candidates > 0 ? eo->max_candidates
                                     : 64LL * nts_scene_surface_node_count(ss->scene) + 1000000; /* the core's default */
     fits = (long long)(cfg->step_memory / NTSJ_STEP_BYTES_PER_CANDIDATE);
@@ -396,11 +396,20 @@ static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_op
 
 /* A step over config->step_memory: limit_exceeded, naming the bound. */
 static int step_too_large(ntsj_response* out, const ntsj_config* cfg, const char* what, int pretty) {
-    char msg[400];
+    char msg[400], records[96];
+    size_t n = 0;
+    unsigned bit;
+    for (bit = 1; bit & (unsigned)NTS_OUT_ALL; bit <<= 1) { /* the outputs that keep records */
+        int w;
+        if (!(bit & (unsigned)NTS_OUT_RECORDS_)) continue;
+        w = snprintf(records + n, sizeof records - n, "%s%s", n ? ", " : "", ntsj_output_name(bit));
+        if (w < 0 || (size_t)w >= sizeof records - n) break;
+        n += (size_t)w;
+    }
     snprintf(msg, sizeof msg,
              "this step's %s would need more than the %zu bytes its session may still take (%s); ask fewer "
-             "outputs (contacts, gaps, stiffness) or a smaller search_radius",
-             what, cfg->step_memory, cfg->step_memory_name ? cfg->step_memory_name : "step_memory");
+             "outputs (%s) or a smaller search_radius",
+             what, cfg->step_memory, cfg->step_memory_name ? cfg->step_memory_name : "step_memory", records);
     return ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", pretty);
 }
 

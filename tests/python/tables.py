@@ -94,3 +94,11 @@ def options() -> List[Dict[str, str]]:
 def enum_names(macro: str) -> Dict[str, str]:
     """{C enumerator: JSON name} of a NTS_*_NAMES table."""
     return {row[0]: row[1] for row in macro_rows("core/include/ntscontact/tables.h", macro)}
+
+
+OUTPUT_COLUMNS = ["id", "bit", "name", "result", "records"]
+
+
+def outputs() -> List[Dict[str, str]]:
+    return [dict(zip(OUTPUT_COLUMNS, row)) for row in
+            macro_rows("core/include/ntscontact/tables.h", "NTS_OUTPUT_MAP")]

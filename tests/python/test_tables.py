@@ -137,3 +137,66 @@ def test_a_bad_enum_value_is_refused_at_every_door(row, tmp_path):
     proc = subprocess.run([str(CLI), str(path)], capture_output=True, text=True, timeout=30)
     assert proc.returncode == 3
     assert proc.stderr.startswith(f'ntscontact: invalid_value at "/options/{row["json"]}"')
+
+
+# ------------------------------------------------------------------ outputs
+
+OUTPUTS = tables.outputs()
+
+
+def test_the_output_table_is_in_bit_order():
+    assert [int(r["bit"]) for r in OUTPUTS] == list(range(len(OUTPUTS)))
+    assert [r["name"] for r in OUTPUTS][:3] == ["forces", "energy", "virial"]
+
+
+def test_the_schemas_output_names_are_the_tables(schemas):
+    names = [r["name"] for r in OUTPUTS]
+    assert schemas["scene"]["$defs"]["output"]["enum"] == names
+    step = schemas["session"]["$defs"]["overrides"]["properties"]["outputs"]
+    assert step["items"]["enum"] == names
+
+
+def test_the_python_client_knows_the_tables_outputs():
+    from ntscontact.scene import OUTPUTS as PY_OUTPUTS
+    assert list(PY_OUTPUTS) == [r["name"] for r in OUTPUTS]
+
+
+@pytest.mark.parametrize("row", OUTPUTS, ids=lambda r: r["name"])
+def test_each_output_has_its_place_in_the_result_schema(schemas, row):
+    defs = schemas["result"]["$defs"]
+    node = defs["result"]
+    for part in row["result"].split("/"):
+        props = node.get("properties", {})
+        assert part in props, (row["name"], row["result"])
+        node = props[part]
+        while "$ref" in node:
+            node = defs[node["$ref"].split("/")[-1]]
+        if node.get("type") == "array" and "items" in node and "properties" in node["items"]:
+            node = node["items"]
+
+
+@pytest.mark.parametrize("row", OUTPUTS, ids=lambda r: r["name"])
+def test_each_output_is_answered_where_the_table_says(row):
+    proc = subprocess.run([str(CLI), "--outputs", row["name"], str(REPO / "examples" / "two_disks.json")],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(proc.stdout)
+    node: Any = doc
+    for part in row["result"].split("/"):
+        node = node[0] if isinstance(node, list) else node
+        assert part in node, (row["name"], row["result"])
+        node = node[part]
+    # an output not asked for is not there (the summary's are always there)
+    if not row["result"].startswith("summary/"):
+        other = subprocess.run([str(CLI), "--outputs", "", str(REPO / "examples" / "two_disks.json")],
+                               capture_output=True, text=True, timeout=60)
+        top = row["result"].split("/")[0]
+        if top == "bodies":
+            assert all(row["result"].split("/")[1] not in b for b in json.loads(other.stdout).get("bodies", []))
+        else:
+            assert top not in json.loads(other.stdout)
+
+
+def test_the_cli_help_lists_the_tables_outputs():
+    text = subprocess.run([str(CLI), "--help"], capture_output=True, text=True, timeout=30).stdout
+    assert "comma-separated: " + ",".join(r["name"] for r in OUTPUTS) in text

@@ -207,6 +207,10 @@ NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, cons
  * "stiffness") to its flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
  * "newton", returning 0 or -1. */
 NTS_API unsigned ntsj_output_flag(const char* name, size_t n);
+/* Every output's name, in bit order (NTS_OUTPUT_MAP): "forces,energy,...",
+ * or with `last_sep` " or " as prose, "forces, energy, ... or stiffness".
+ * Returns the length. */
+NTS_API int ntsj_output_names_text(const char* last_sep, char* out, size_t size);
 /* The name of one NTS_OUT_* flag, NULL if none. */
 NTS_API const char* ntsj_output_name(unsigned flag);
 /* A comma-separated list of output names (a CLI flag, a query parameter) into

@@ -23,6 +23,24 @@
 extern "C" {
 #endif
 
+/* The outputs a caller may ask for (nts_options.outputs, a scene's "outputs",
+ * the CLI's --outputs, a step's ?outputs=): one row each, in their bit order.
+ *
+ * XX(ID, bit, name, result, records)
+ *   ID       NTS_OUT_<ID> = 1u << bit (ntscontact.h)
+ *   name     its JSON name (the schemas' "output" enum)
+ *   result   where the result document carries it (result.schema.json's
+ *            result: "contacts", or "bodies/forces", "summary/energy")
+ *   records  1 when it needs every contact's record kept (memory per
+ *            candidate: a session step's budget, NTS_OUT_RECORDS_) */
+#define NTS_OUTPUT_MAP(XX)                          \
+    XX(FORCES, 0, "forces", "bodies/forces", 0)     \
+    XX(ENERGY, 1, "energy", "summary/energy", 0)    \
+    XX(VIRIAL, 2, "virial", "summary/virial", 0)    \
+    XX(CONTACTS, 3, "contacts", "contacts", 1)      \
+    XX(GAPS, 4, "gaps", "gaps", 1)                  \
+    XX(STIFFNESS, 5, "stiffness", "stiffness", 1)
+
 /* The names of an enumerated option's values: XX(C enumerator, JSON name). */
 #define NTS_SOLVER_NAMES(XX) XX(NTS_SOLVER_CLOSED_FORM, "closed_form") XX(NTS_SOLVER_NEWTON, "newton")
 #define NTS_SEARCH_NAMES(XX) XX(NTS_SEARCH_CELLS, "cells") XX(NTS_SEARCH_BRUTE_FORCE, "brute_force")
