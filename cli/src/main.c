@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,54 +19,124 @@ enum { EXIT_DONE = 0, EXIT_INTERNAL = 1, EXIT_USAGE = 2, EXIT_INVALID = 3 };
 
 static void put_escaped(FILE* f, const char* s, int quote);
 
-static const char usage_text[] =
-    "usage: ntscontact [options] SCENE.json\n"
-    "       ntscontact [options] -            (read the scene from standard input)\n"
-    "       ntscontact [options] --frames FRAMES.bin SCENE.json\n"
-    "\n"
-    "Evaluate node-to-segment contact for a scene (schemas/scene.schema.json) and\n"
-    "write the result (schemas/result.schema.json) as JSON.\n"
-    "\n"
-    "options (they override the scene's own \"options\"):\n"
-    "  --alpha A            smoothing fraction in [0, 0.5]\n"
-    "  --penalty EPS        penalty stiffness > 0\n"
-    "  --search-radius R    search radius >= 0\n"
-    "  --solver NAME        closed_form or newton\n"
-    "  --outputs LIST       comma-separated: forces,energy,virial,contacts,gaps,stiffness\n"
-    "                       (empty: the summary only)\n"
-    "  --validate           check the scene only; print a validation summary\n"
-    "  --pretty             indent the output\n"
-    "  -o, --output FILE    write to FILE instead of standard output (- for it)\n"
-    "  --frames FILE        evaluate the scene's topology at many positions without\n"
-    "                       parsing it again: FILE (- for standard input) holds frames\n"
-    "                       of 16 N bytes each, N the scene's nodes, little-endian\n"
-    "                       float64 x then y for every node (bodies in scene order,\n"
-    "                       nodes in body order); one result per frame, one line\n"
-    "                       each (JSON Lines), as POST /v1/scenes/{id}/contact gives\n"
-    "  --vtk FILE.vtu       also write the result for ParaView (VTK XML unstructured\n"
-    "                       grid: surfaces, forces, contacts with gaps and normals);\n"
-    "                       with --frames, FILE_000000.vtu, ... and a FILE.pvd series\n"
-    "\n"
-    "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
-    "too_deep, the message naming the limit; counts take k, M, G suffixes):\n"
-    "  --max-bytes N        largest request (default 64M)\n"
-    "  --max-depth N        JSON nesting depth (default 32)\n"
-    "  --max-bodies N       bodies in a scene (default 1000000)\n"
-    "  --max-nodes N        nodes in a scene, all bodies (default 50000000)\n"
-    "  --max-nodes-per-body N  nodes in one body (default 10000000)\n"
-    "  --max-seconds S      wall-clock budget of the request, 0 = none (default 0);\n"
-    "                       the evaluation itself is stopped when it passes\n"
-    "  --max-candidates N   closest points within the search radius kept (default\n"
-    "                       64 per surface node + 1000000): bounds the memory of\n"
-    "                       bodies piled on one spot\n"
-    "  -h, --help           print this help and exit\n"
-    "  -V, --version        print the version and exit\n"
-    "\n"
-    "Every option with a value takes it as '--name VALUE' or '--name=VALUE';\n"
-    "names are written in full. '--' ends the options.\n"
-    "\n"
-    "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
-    "error: code, JSON pointer, message), 1 internal error\n";
+/* The CLI's own flags, each once: XX(ID, name, short, value, metavar, section, help). Its
+ * options (--alpha ...) are NTS_OPTION_MAP's rows with a flag (tables.h);
+ * both make the getopt table and --help (print_usage). */
+#define CLI_FLAG_MAP(XX)                                                                                       \
+    XX(VALIDATE, "validate", 0, 0, "", OPTIONS, "check the scene only; print a validation summary")            \
+    XX(PRETTY, "pretty", 0, 0, "", OPTIONS, "indent the output")                                                \
+    XX(OUTPUT, "output", 'o', 1, "FILE", OPTIONS, "write to FILE instead of standard output (- for it)")        \
+    XX(FRAMES, "frames", 0, 1, "FILE", OPTIONS,                                                                 \
+       "evaluate the scene's topology at many positions without\n"                                              \
+       "parsing it again: FILE (- for standard input) holds frames\n"                                           \
+       "of 16 N bytes each, N the scene's nodes, little-endian\n"                                               \
+       "float64 x then y for every node (bodies in scene order,\n"                                              \
+       "nodes in body order); one result per frame, one line\n"                                                 \
+       "each (JSON Lines), as POST /v1/scenes/{id}/contact gives")                                              \
+    XX(VTK, "vtk", 0, 1, "FILE.vtu", OPTIONS,                                                                   \
+       "also write the result for ParaView (VTK XML unstructured\n"                                             \
+       "grid: surfaces, forces, contacts with gaps and normals);\n"                                             \
+       "with --frames, FILE_000000.vtu, ... and a FILE.pvd series")                                             \
+    XX(MAX_BYTES, "max-bytes", 0, 1, "N", LIMITS, "largest request (default 64M)")                              \
+    XX(MAX_DEPTH, "max-depth", 0, 1, "N", LIMITS, "JSON nesting depth (default 32)")                            \
+    XX(MAX_BODIES, "max-bodies", 0, 1, "N", LIMITS, "bodies in a scene (default 1000000)")                      \
+    XX(MAX_NODES, "max-nodes", 0, 1, "N", LIMITS, "nodes in a scene, all bodies (default 50000000)")            \
+    XX(MAX_NODES_PER_BODY, "max-nodes-per-body", 0, 1, "N", LIMITS, "nodes in one body (default 10000000)")     \
+    XX(MAX_SECONDS, "max-seconds", 0, 1, "S", LIMITS,                                                           \
+       "wall-clock budget of the request, 0 = none (default 0);\n"                                              \
+       "the evaluation itself is stopped when it passes")                                                       \
+    XX(MAX_CANDIDATES, "max-candidates", 0, 1, "N", LIMITS,                                                     \
+       "closest points within the search radius kept (default\n"                                                \
+       "64 per surface node + 1000000): bounds the memory of\n"                                                 \
+       "bodies piled on one spot")                                                                              \
+    XX(HELP, "help", 'h', 0, "", LIMITS, "print this help and exit")                                             \
+    XX(VERSION, "version", 'V', 0, "", LIMITS, "print the version and exit")
+
+enum cli_section { SECTION_OPTIONS, SECTION_LIMITS };
+
+static const struct cli_flag {
+    const char* name;
+    int short_name, value;
+    const char* metavar;
+    enum cli_section section;
+    const char* help;
+} cli_flags[] = {
+#define CLI_XX_(ID, name, short_name, value, meta, section, help) {name, short_name, value, meta, SECTION_##section, help},
+    CLI_FLAG_MAP(CLI_XX_)
+#undef CLI_XX_
+};
+enum {
+#define CLI_XX_(ID, name, short_name, value, meta, section, help) FLAG_##ID,
+    CLI_FLAG_MAP(CLI_XX_)
+#undef CLI_XX_
+    FLAG_COUNT
+};
+
+/* One entry of --help: "  --name META" (with "-x, " before a short name),
+ * the help from column 23, continuation lines indented to it. */
+static void print_entry(int short_name, const char* name, const char* meta, const char* help) {
+    char head[64];
+    const char* line = help;
+    if (short_name) snprintf(head, sizeof head, "-%c, --%s%s%s", short_name, name, *meta ? " " : "", meta);
+    else snprintf(head, sizeof head, "--%s%s%s", name, *meta ? " " : "", meta);
+    printf(strlen(head) > 20 ? "  %s  " : "  %-20s ", head);
+    for (;;) {
+        size_t n = strcspn(line, "\n");
+        printf("%.*s\n", (int)n, line);
+        if (line[n] == '\0') break;
+        line += n + 1;
+        printf("%23s", "");
+    }
+}
+
+/* An option's help: its words, then its range or its value names. */
+static void print_option(int id) {
+    const nts_option_info* r = nts_option_info_of(id);
+    char help[256], tail[160];
+    tail[0] = '\0';
+    if (r->kind == NTS_OPTION_KIND_NUMBER) {
+        nts_option_range_text(id, tail, sizeof tail);
+    } else if (r->kind == NTS_OPTION_KIND_ENUM) {
+        nts_option_names_text(id, tail, sizeof tail);
+    } else if (r->kind == NTS_OPTION_KIND_OUTPUTS) {
+        ntsj_output_names_text(NULL, tail, sizeof tail);
+    }
+    snprintf(help, sizeof help, "%s%s%s%s", r->help, *r->help && *tail ? " " : "", tail,
+             r->kind == NTS_OPTION_KIND_OUTPUTS ? "\n(empty: the summary only)" : "");
+    print_entry(0, r->flag + 2, r->metavar, help);
+}
+
+static void print_usage(void) {
+    int k;
+    fputs("usage: ntscontact [options] SCENE.json\n"
+          "       ntscontact [options] -            (read the scene from standard input)\n"
+          "       ntscontact [options] --frames FRAMES.bin SCENE.json\n"
+          "\n"
+          "Evaluate node-to-segment contact for a scene (schemas/scene.schema.json) and\n"
+          "write the result (schemas/result.schema.json) as JSON.\n"
+          "\n"
+          "options (they override the scene's own \"options\"):\n",
+          stdout);
+    for (k = 0; k < NTS_OPT_COUNT_; ++k)
+        if (nts_option_info_of(k)->doors & NTS_OPTION_DOOR_CLI) print_option(k);
+    for (k = 0; k < FLAG_COUNT; ++k)
+        if (cli_flags[k].section == SECTION_OPTIONS)
+            print_entry(cli_flags[k].short_name, cli_flags[k].name, cli_flags[k].metavar, cli_flags[k].help);
+    fputs("\n"
+          "limits (a scene past one exits 3 with limit_exceeded, payload_too_large or\n"
+          "too_deep, the message naming the limit; counts take k, M, G suffixes):\n",
+          stdout);
+    for (k = 0; k < FLAG_COUNT; ++k)
+        if (cli_flags[k].section == SECTION_LIMITS)
+            print_entry(cli_flags[k].short_name, cli_flags[k].name, cli_flags[k].metavar, cli_flags[k].help);
+    fputs("\n"
+          "Every option with a value takes it as '--name VALUE' or '--name=VALUE';\n"
+          "names are written in full. '--' ends the options.\n"
+          "\n"
+          "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
+          "error: code, JSON pointer, message), 1 internal error\n",
+          stdout);
+}
 
 /* One line on standard error: [frame K: ]code at "pointer": message. */
 /* What a result may lack, one line on standard error per warning (the
@@ -137,9 +208,12 @@ static const char* mesh_kind(const char* name, const char* data, size_t length) 
     return NULL;
 }
 
-static int usage_error(const char* fmt, const char* arg) {
+static int usage_error(const char* fmt, ...) {
+    va_list ap;
     fprintf(stderr, "ntscontact: ");
-    fprintf(stderr, fmt, arg);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
     fprintf(stderr, "\nTry 'ntscontact --help' for more information.\n");
     return EXIT_USAGE;
 }
@@ -180,25 +254,6 @@ static int parse_count(const char* s, long long lo, long long hi, long long* out
     unsigned long long v;
     if (ntsj_parse_count(s, 1, (unsigned long long)lo, (unsigned long long)hi, &v) != 0) return -1;
     *out = (long long)v;
-    return 0;
-}
-
-static int parse_outputs(const char* s, unsigned* out) {
-    unsigned flags = 0;
-    const char* p = s;
-    while (*p) {
-        const char* comma = strchr(p, ',');
-        size_t n = comma ? (size_t)(comma - p) : strlen(p);
-        unsigned f = ntsj_output_flag(p, n);
-        if (!f) return -1;
-        flags |= f;
-        p += n;
-        if (*p == ',') {
-            ++p;
-            if (!*p) return -1; /* trailing comma */
-        }
-    }
-    *out = flags;
     return 0;
 }
 
@@ -411,35 +466,68 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     return status;
 }
 
-/* The options, each with one name; getopt_long takes "--name VALUE" and
- * "--name=VALUE" alike. */
-enum {
-    OPT_ALPHA = 256, OPT_PENALTY, OPT_SEARCH_RADIUS, OPT_SOLVER, OPT_OUTPUTS, OPT_VALIDATE, OPT_PRETTY,
-    OPT_FRAMES, OPT_VTK, OPT_MAX_BYTES, OPT_MAX_DEPTH, OPT_MAX_BODIES, OPT_MAX_NODES, OPT_MAX_NODES_PER_BODY,
-    OPT_MAX_SECONDS, OPT_MAX_CANDIDATES
-};
+/* getopt_long's table, from the two tables: an option of NTS_OPTION_MAP
+ * returns OPTION_CODE + its id, a flag its short name or FLAG_CODE + its
+ * index. getopt_long takes "--name VALUE" and "--name=VALUE" alike. */
+enum { OPTION_CODE = 256, FLAG_CODE = 512 };
+static struct option long_options[NTS_OPT_COUNT_ + FLAG_COUNT + 1];
 
-static const struct option long_options[] = {
-    {"alpha", required_argument, NULL, OPT_ALPHA},
-    {"penalty", required_argument, NULL, OPT_PENALTY},
-    {"search-radius", required_argument, NULL, OPT_SEARCH_RADIUS},
-    {"solver", required_argument, NULL, OPT_SOLVER},
-    {"outputs", required_argument, NULL, OPT_OUTPUTS},
-    {"validate", no_argument, NULL, OPT_VALIDATE},
-    {"pretty", no_argument, NULL, OPT_PRETTY},
-    {"output", required_argument, NULL, 'o'},
-    {"frames", required_argument, NULL, OPT_FRAMES},
-    {"vtk", required_argument, NULL, OPT_VTK},
-    {"max-bytes", required_argument, NULL, OPT_MAX_BYTES},
-    {"max-depth", required_argument, NULL, OPT_MAX_DEPTH},
-    {"max-bodies", required_argument, NULL, OPT_MAX_BODIES},
-    {"max-nodes", required_argument, NULL, OPT_MAX_NODES},
-    {"max-nodes-per-body", required_argument, NULL, OPT_MAX_NODES_PER_BODY},
-    {"max-seconds", required_argument, NULL, OPT_MAX_SECONDS},
-    {"max-candidates", required_argument, NULL, OPT_MAX_CANDIDATES},
-    {"help", no_argument, NULL, 'h'},
-    {"version", no_argument, NULL, 'V'},
-    {NULL, 0, NULL, 0}};
+static void make_long_options(void) {
+    int k, n = 0;
+    for (k = 0; k < NTS_OPT_COUNT_; ++k) {
+        const nts_option_info* r = nts_option_info_of(k);
+        if (!(r->doors & NTS_OPTION_DOOR_CLI)) continue;
+        long_options[n].name = r->flag + 2;
+        long_options[n].has_arg = required_argument;
+        long_options[n].flag = NULL;
+        long_options[n++].val = OPTION_CODE + k;
+    }
+    for (k = 0; k < FLAG_COUNT; ++k) {
+        long_options[n].name = cli_flags[k].name;
+        long_options[n].has_arg = cli_flags[k].value ? required_argument : no_argument;
+        long_options[n].flag = NULL;
+        long_options[n++].val = cli_flags[k].short_name ? cli_flags[k].short_name : FLAG_CODE + k;
+    }
+    memset(&long_options[n], 0, sizeof long_options[n]);
+}
+
+/* An option of the table from its flag's text, into the overrides; 0, or
+ * EXIT_USAGE after the message naming the flag. */
+static int set_option(ntsj_config* cfg, int id, const char* val) {
+    const nts_option_info* r = nts_option_info_of(id);
+    nts_option_value v;
+    char names[160];
+    const char* bad;
+    size_t n;
+    memset(&v, 0, sizeof v);
+    switch (r->kind) {
+    case NTS_OPTION_KIND_NUMBER:
+        if (parse_double(val, &v.number) != 0) {
+            return usage_error("%s needs a number, not '%s'", r->flag, val);
+        }
+        break;
+    case NTS_OPTION_KIND_ENUM: {
+        int k;
+        for (k = 0; k < r->name_count && strcmp(val, r->names[k]) != 0; ++k) {}
+        if (k == r->name_count) {
+            nts_option_names_text(id, names, sizeof names);
+            return usage_error("%s must be %s, not '%s'", r->flag, names, val);
+        }
+        v.enumerated = r->values[k];
+        break;
+    }
+    case NTS_OPTION_KIND_OUTPUTS:
+        if (ntsj_output_list(val, NTSJ_LIST_DUPLICATES_OK, &v.flags, &bad, &n) != 0) {
+            ntsj_output_names_text(NULL, names, sizeof names);
+            return usage_error("%s takes a comma-separated list of %s, not '%s'", r->flag, names, val);
+        }
+        break;
+    default:
+        return usage_error("unknown option '%s'", r->flag);
+    }
+    ntsj_override_set(&cfg->overrides, id, &v);
+    return 0;
+}
 
 /* The option at argv[at] as written, up to any '=': "--name" (or "-x"). */
 static const char* option_name(const char* arg, char* buf, size_t cap) {
@@ -451,41 +539,90 @@ static const char* option_name(const char* arg, char* buf, size_t cap) {
     return buf;
 }
 
-/* A count limit: [1, hi], k/M/G suffixes. */
+/* A count limit: [1, hi], k/M/G suffixes; 0, or EXIT_USAGE after the message. */
 static int limit_value(const char* name, const char* val, long long hi, long long* out) {
     if (parse_count(val, 1, hi, out) == 0) return 0;
-    fprintf(stderr, "ntscontact: %s needs a positive count, not '%s'\nTry 'ntscontact --help' for more information.\n",
+    fprintf(stderr, "ntscontact: --%s needs a positive count, not '%s'\nTry 'ntscontact --help' for more information.\n",
             name, val);
-    return -1;
+    return EXIT_USAGE;
 }
 
-int main(int argc, char** argv) {
-    ntsj_config cfg = ntsj_default_config();
-    ntsj_response resp;
-    const char* input = NULL;
-    const char* output = NULL;
-    const char* frames = NULL;
-    const char* vtk = NULL;
-    FILE* in;
-    FILE* out;
-    char* data;
-    size_t length = 0;
-    int status, read_errno = 0;
+/* What the command line asked for besides the codec's configuration. */
+typedef struct cli_args {
+    const char* input;
+    const char* output;
+    const char* frames;
+    const char* vtk;
+} cli_args;
 
+/* One flag of CLI_FLAG_MAP and its value: 0, EXIT_USAGE after a message, or
+ * -1 for --help and --version (done: exit 0). */
+static int apply_flag(int k, const char* val, ntsj_config* cfg, cli_args* a) {
+    const char* name = cli_flags[k].name;
+    long long n = 0;
+    int rc = 0;
+    switch (k) {
+    case FLAG_HELP: print_usage(); return -1;
+    case FLAG_VERSION: printf("ntscontact %s\n", NTS_VERSION_STRING); return -1;
+    case FLAG_PRETTY: cfg->pretty = 1; break;
+    case FLAG_VALIDATE: cfg->mode = NTSJ_VALIDATE; break;
+    case FLAG_OUTPUT: a->output = val; break;
+    case FLAG_FRAMES: a->frames = val; break;
+    case FLAG_VTK: {
+        size_t len = strlen(val);
+        if (len < 5 || strcmp(val + len - 4, ".vtu") != 0)
+            return usage_error("--vtk needs a file name ending in .vtu, not '%s'", val);
+        a->vtk = val;
+        cfg->vtk = 1;
+        break;
+    }
+    case FLAG_MAX_SECONDS: {
+        double sec;
+        if (parse_double(val, &sec) != 0 || sec < 0.0)
+            return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
+        cfg->max_seconds = sec;
+        break;
+    }
+    case FLAG_MAX_BYTES:
+        if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->max_bytes = (size_t)n;
+        break;
+    case FLAG_MAX_DEPTH:
+        if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->max_depth = (int)n;
+        break;
+    case FLAG_MAX_BODIES:
+        if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->limits.max_bodies = (int)n;
+        break;
+    case FLAG_MAX_NODES:
+        if ((rc = limit_value(name, val, 1LL << 40, &n)) == 0) cfg->limits.max_nodes = n;
+        break;
+    case FLAG_MAX_NODES_PER_BODY:
+        if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->limits.max_nodes_per_body = (int)n;
+        break;
+    case FLAG_MAX_CANDIDATES:
+        if ((rc = limit_value(name, val, 1LL << 40, &n)) == 0) cfg->max_candidates = n;
+        break;
+    default: break;
+    }
+    return rc;
+}
+
+/* Read the command line into cfg and a: 0, EXIT_USAGE after a message, or -1
+ * when --help or --version answered. */
+static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
+    make_long_options();
     /* "-": non-options come back in order as code 1, so a scene may come
      * before or after the options whatever POSIXLY_CORRECT says; ":": a
      * missing value is ':' and not '?'. */
     opterr = 0;
     for (;;) {
         const int at = optind; /* argv[at]: the option getopt_long reads now */
-        int index = -1, c = getopt_long(argc, argv, "-:ho:V", long_options, &index);
+        int index = -1, c = getopt_long(argc, argv, "-:ho:V", long_options, &index), k, rc;
         const char* val = optarg;
         char name[64];
-        long long n = 0;
         if (c == -1) break;
         if (c == 1) {
-            if (input) return usage_error("more than one scene given ('%s')", val);
-            input = val;
+            if (a->input) return usage_error("more than one scene given ('%s')", val);
+            a->input = val;
             continue;
         }
         if (c == '?') {
@@ -505,99 +642,47 @@ int main(int argc, char** argv) {
         /* Names in full: getopt_long would take an unambiguous abbreviation. */
         if (index >= 0 && strcmp(option_name(argv[at], name, sizeof name) + 2, long_options[index].name) != 0)
             return usage_error("unknown option '%s'", name);
-        switch (c) {
-        case 'h':
-            fputs(usage_text, stdout);
-            return EXIT_DONE;
-        case 'V':
-            printf("ntscontact %s\n", NTS_VERSION_STRING);
-            return EXIT_DONE;
-        case OPT_PRETTY:
-            cfg.pretty = 1;
-            break;
-        case OPT_VALIDATE:
-            cfg.mode = NTSJ_VALIDATE;
-            break;
-        case OPT_ALPHA:
-            if (parse_double(val, &cfg.overrides.alpha) != 0) return usage_error("--alpha needs a number, not '%s'", val);
-            cfg.overrides.has_alpha = 1;
-            break;
-        case OPT_PENALTY:
-            if (parse_double(val, &cfg.overrides.penalty) != 0) return usage_error("--penalty needs a number, not '%s'", val);
-            cfg.overrides.has_penalty = 1;
-            break;
-        case OPT_SEARCH_RADIUS:
-            if (parse_double(val, &cfg.overrides.search_radius) != 0)
-                return usage_error("--search-radius needs a number, not '%s'", val);
-            cfg.overrides.has_search_radius = 1;
-            break;
-        case OPT_SOLVER:
-            if (ntsj_solver_from_name(val, &cfg.overrides.solver) != 0)
-                return usage_error("--solver must be closed_form or newton, not '%s'", val);
-            cfg.overrides.has_solver = 1;
-            break;
-        case OPT_OUTPUTS:
-            if (parse_outputs(val, &cfg.overrides.outputs) != 0)
-                return usage_error("--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps,stiffness, not '%s'", val);
-            cfg.overrides.has_outputs = 1;
-            break;
-        case OPT_MAX_SECONDS: {
-            double sec;
-            if (parse_double(val, &sec) != 0 || sec < 0.0)
-                return usage_error("--max-seconds needs a number of seconds >= 0, not '%s'", val);
-            cfg.max_seconds = sec;
-            break;
+        if (c >= OPTION_CODE && c < OPTION_CODE + NTS_OPT_COUNT_) {
+            if ((rc = set_option(cfg, c - OPTION_CODE, val)) != 0) return rc;
+            continue;
         }
-        case OPT_MAX_BYTES:
-            if (limit_value("--max-bytes", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
-            cfg.max_bytes = (size_t)n;
-            break;
-        case OPT_MAX_DEPTH:
-            if (limit_value("--max-depth", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
-            cfg.max_depth = (int)n;
-            break;
-        case OPT_MAX_BODIES:
-            if (limit_value("--max-bodies", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
-            cfg.limits.max_bodies = (int)n;
-            break;
-        case OPT_MAX_NODES:
-            if (limit_value("--max-nodes", val, 1LL << 40, &n) != 0) return EXIT_USAGE;
-            cfg.limits.max_nodes = n;
-            break;
-        case OPT_MAX_NODES_PER_BODY:
-            if (limit_value("--max-nodes-per-body", val, 0x7fffffffLL, &n) != 0) return EXIT_USAGE;
-            cfg.limits.max_nodes_per_body = (int)n;
-            break;
-        case OPT_MAX_CANDIDATES:
-            if (limit_value("--max-candidates", val, 1LL << 40, &n) != 0) return EXIT_USAGE;
-            cfg.max_candidates = n;
-            break;
-        case OPT_FRAMES:
-            frames = val;
-            break;
-        case OPT_VTK: {
-            size_t len = strlen(val);
-            if (len < 5 || strcmp(val + len - 4, ".vtu") != 0)
-                return usage_error("--vtk needs a file name ending in .vtu, not '%s'", val);
-            vtk = val;
-            cfg.vtk = 1;
-            break;
-        }
-        default: /* 'o' */
-            output = val;
-            break;
-        }
+        for (k = 0; k < FLAG_COUNT; ++k)
+            if (c == (cli_flags[k].short_name ? cli_flags[k].short_name : FLAG_CODE + k)) break;
+        if ((rc = apply_flag(k, val, cfg, a)) != 0) return rc;
     }
     for (; optind < argc; ++optind) { /* after "--": file names only */
-        if (input) return usage_error("more than one scene given ('%s')", argv[optind]);
-        input = argv[optind];
+        if (a->input) return usage_error("more than one scene given ('%s')", argv[optind]);
+        a->input = argv[optind];
     }
-    if (!input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
-    if (frames && strcmp(frames, "-") == 0 && strcmp(input, "-") == 0)
+    if (!a->input) return usage_error("%s", "no scene given (a file name, or - for standard input)");
+    if (a->frames && strcmp(a->frames, "-") == 0 && strcmp(a->input, "-") == 0)
         return usage_error("%s", "--frames - and a scene from standard input: only one can read it");
-    if (vtk && cfg.mode == NTSJ_VALIDATE) return usage_error("%s", "--vtk writes a result: not with --validate");
-    if (frames && (cfg.mode == NTSJ_VALIDATE || cfg.pretty))
+    if (a->vtk && cfg->mode == NTSJ_VALIDATE) return usage_error("%s", "--vtk writes a result: not with --validate");
+    if (a->frames && (cfg->mode == NTSJ_VALIDATE || cfg->pretty))
         return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
+    return 0;
+}
+
+int main(int argc, char** argv) {
+    ntsj_config cfg = ntsj_default_config();
+    ntsj_response resp;
+    cli_args args = {NULL, NULL, NULL, NULL};
+    const char* input;
+    const char* output;
+    const char* frames;
+    const char* vtk;
+    FILE* in;
+    FILE* out;
+    char* data;
+    size_t length = 0;
+    int status, read_errno = 0;
+
+    status = parse_args(argc, argv, &cfg, &args);
+    if (status != 0) return status < 0 ? EXIT_DONE : status;
+    input = args.input;
+    output = args.output;
+    frames = args.frames;
+    vtk = args.vtk;
 
     in = open_input(input);
     if (!in) return EXIT_USAGE;

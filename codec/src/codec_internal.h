@@ -145,7 +145,24 @@ typedef struct ntsj_deadline {
 void ntsj_arm_deadline(nts_options* opt, ntsj_deadline* d, const ntsj_config* cfg, double t0);
 /* 1 (with *f set to non_finite) when a finite input gave a result a double cannot hold. */
 int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f);
+/* The options' doors (codec/src/options.c, over NTS_OPTION_MAP). */
 /* Decode "outputs" (an array of names) at pointer `ptr`; 0 or -1 with *fault. */
 int ntsj_decode_outputs(const struct cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault);
+/* "an object", "a number", ...: what a JSON value is, for messages. */
+const char* ntsj_json_type_name(const struct cJSON* v);
+/* An option's value from JSON (a scene's or a step's "options") or from text
+ * (a query parameter), at pointer `ptr` ("/options/<name>"): 0, or -1 with
+ * *fault. Not for BOX rows (the scene's periodic box: decode.c). */
+int ntsj_option_json(int id, const struct cJSON* v, const char* ptr, nts_option_value* out, ntsj_fault* fault);
+int ntsj_option_text(int id, const char* text, const char* ptr, nts_option_value* out, ntsj_fault* fault);
+/* The JSON names of the options of a door (NTS_OPTION_DOOR_*), "a, b, c". */
+int ntsj_option_door_names(int door, char* out, size_t size);
+/* A number's range where the codec checks it (the table's CODEC rows): 0
+ * with out->number = v, or -1 with *fault. */
+int ntsj_option_number_check(int id, double v, const char* ptr, nts_option_value* out, ntsj_fault* fault);
+/* An override's value as a double (for the range checks). */
+double ntsj_override_number(const ntsj_overrides* ov, int id);
+/* Copy the overrides that are set into *o. */
+void ntsj_overrides_apply(const ntsj_overrides* ov, nts_options* o);
 
 #endif

@@ -71,8 +71,9 @@ static const struct {
     const char* name;
     unsigned flag;
 } output_names[] = {
-    {"forces", NTS_OUT_FORCES}, {"energy", NTS_OUT_ENERGY}, {"virial", NTS_OUT_VIRIAL},
-    {"contacts", NTS_OUT_CONTACTS}, {"gaps", NTS_OUT_GAPS}, {"stiffness", NTS_OUT_STIFFNESS},
+#define NTSJ_XX_(ID, bit, name, result, records) {name, NTS_OUT_##ID},
+    NTS_OUTPUT_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
 };
 
 unsigned ntsj_output_flag(const char* name, size_t n) {
@@ -83,16 +84,39 @@ unsigned ntsj_output_flag(const char* name, size_t n) {
     return 0;
 }
 
+/* The solver's names are NTS_SOLVER_NAMES (tables.h). */
+#define NTSJ_SOLVER_FROM_(value, text) else if (strcmp(name, text) == 0) *out = value;
+int ntsj_output_names_text(const char* last_sep, char* out, size_t size) {
+    size_t i, n = 0, count = sizeof output_names / sizeof output_names[0];
+    if (size == 0) return 0;
+    out[0] = '\0';
+    for (i = 0; i < count; ++i) {
+        const char* sep = i == 0 ? "" : i + 1 == count && last_sep ? last_sep : last_sep ? ", " : ",";
+        int w = snprintf(out + n, size - n, "%s%s", sep, output_names[i].name);
+        if (w < 0 || (size_t)w >= size - n) break;
+        n += (size_t)w;
+    }
+    return (int)n;
+}
+
+const char* ntsj_output_name(unsigned flag) {
+    size_t i;
+    for (i = 0; i < sizeof output_names / sizeof output_names[0]; ++i)
+        if (output_names[i].flag == flag) return output_names[i].name;
+    return NULL;
+}
+
 int ntsj_solver_from_name(const char* name, nts_solver* out) {
     if (!name) return -1;
-    if (strcmp(name, "closed_form") == 0) *out = NTS_SOLVER_CLOSED_FORM;
-    else if (strcmp(name, "newton") == 0) *out = NTS_SOLVER_NEWTON;
+    NTS_SOLVER_NAMES(NTSJ_SOLVER_FROM_)
     else return -1;
     return 0;
 }
 
+#define NTSJ_SOLVER_NAME_(value, text) if (solver == value) return text;
 const char* ntsj_solver_name(nts_solver solver) {
-    return solver == NTS_SOLVER_NEWTON ? "newton" : "closed_form";
+    NTS_SOLVER_NAMES(NTSJ_SOLVER_NAME_)
+    return "closed_form";
 }
 
 int ntsj_parse_count(const char* text, int suffixes, unsigned long long lo, unsigned long long hi,

@@ -47,15 +47,7 @@ static int fail(decoder* d, const char* code, const char* ptr, const char* msg) 
     return -1;
 }
 
-static const char* type_name(const cJSON* v) {
-    if (cJSON_IsObject(v)) return "an object";
-    if (cJSON_IsArray(v)) return "an array";
-    if (cJSON_IsString(v)) return "a string";
-    if (cJSON_IsNumber(v)) return "a number";
-    if (cJSON_IsBool(v)) return "a boolean";
-    if (cJSON_IsNull(v)) return "null";
-    return "an invalid value";
-}
+#define type_name ntsj_json_type_name
 
 static int fail_type(decoder* d, const char* ptr, const cJSON* v, const char* expected) {
     ntsj_fault_set(d->fault, ntsj_code_name(NTSJ_INVALID_TYPE), ptr, "expected %s, got %s", expected, type_name(v));
@@ -132,9 +124,12 @@ static int array_size(const cJSON* a) {
 
 /* ----------------------------------------------------------- options */
 
-static const char* const option_fields[] = {"alpha", "penalty", "search_radius", "periodic",
-                                            "solver", "outputs", "search", "penalty_scaling"};
-enum { OPT_ALPHA, OPT_PENALTY, OPT_RADIUS, OPT_PERIODIC, OPT_SOLVER, OPT_OUTPUTS, OPT_SEARCH, OPT_SCALING, OPT_COUNT };
+/* The names of a scene's options, in the table's order (NTS_OPTION_MAP). */
+static const char* const option_fields[NTS_OPT_COUNT_] = {
+#define NTSJ_XX_(ID, field, json, flag, meta, kind, ctype, def, lo, hi, bound, check, presence, doors, names, help) json,
+    NTS_OPTION_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
+};
 
 static int decode_periodic(decoder* d, const cJSON* v) {
     static const char* const names[] = {"lx", "ly"};
@@ -156,67 +151,27 @@ static int decode_periodic(decoder* d, const cJSON* v) {
     return 0;
 }
 
-static int decode_outputs(decoder* d, const cJSON* v, const char* ptr, unsigned* out) {
-    const cJSON* e;
-    unsigned flags = 0;
-    int i = 0;
-    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of output names");
-    cJSON_ArrayForEach(e, v) {
-        char p[80];
-        unsigned f;
-        snprintf(p, sizeof p, "%.60s/%d", ptr, i++);
-        if (!cJSON_IsString(e)) return fail_type(d, p, e, "an output name (a string)");
-        f = ntsj_output_flag(e->valuestring, strlen(e->valuestring));
-        if (!f) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown output (expected forces, energy, virial, contacts, gaps or stiffness)");
-        if (flags & f) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "output listed twice");
-        flags |= f;
-    }
-    *out = flags;
-    return 0;
-}
-
-int ntsj_decode_outputs(const cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault) {
-    decoder d;
-    memset(&d, 0, sizeof d);
-    d.fault = fault;
-    return decode_outputs(&d, v, ptr, out);
-}
-
-static int decode_options(decoder* d, const cJSON* v, int* has_penalty) {
-    const cJSON* f[OPT_COUNT];
-    nts_options* o = &d->scene->options;
+/* A scene's "options": every row of the table, in its order; `given` gets a
+ * bit for each option present (the required ones are checked with the
+ * overrides, which may supply them). */
+static int decode_options(decoder* d, const cJSON* v, unsigned* given) {
+    const cJSON* f[NTS_OPT_COUNT_];
+    int id;
     if (!cJSON_IsObject(v)) return fail_type(d, "/options", v, "an object");
-    if (take_fields(d, v, "/options", option_fields, OPT_COUNT, f) != 0) return -1;
-    if (f[OPT_ALPHA] && get_number(d, f[OPT_ALPHA], "/options/alpha", &o->alpha) != 0) return -1;
-    if (f[OPT_PENALTY]) {
-        if (get_number(d, f[OPT_PENALTY], "/options/penalty", &o->penalty) != 0) return -1;
-        *has_penalty = 1;
-    }
-    if (f[OPT_RADIUS]) {
-        if (get_number(d, f[OPT_RADIUS], "/options/search_radius", &o->search_radius) != 0) return -1;
-        /* The core reads a negative radius as "the median segment"; JSON says so by omitting it. */
-        if (o->search_radius < 0.0) return fail(d, nts_status_name(NTS_EINVALID_OPTION), "/options/search_radius", "search_radius must be >= 0");
-    }
-    if (f[OPT_PERIODIC] && decode_periodic(d, f[OPT_PERIODIC]) != 0) return -1;
-    if (f[OPT_SOLVER]) {
-        if (!cJSON_IsString(f[OPT_SOLVER])) return fail_type(d, "/options/solver", f[OPT_SOLVER], "a string");
-        if (ntsj_solver_from_name(f[OPT_SOLVER]->valuestring, &o->solver) != 0)
-            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/solver", "unknown solver (expected closed_form or newton)");
-    }
-    if (f[OPT_OUTPUTS] && decode_outputs(d, f[OPT_OUTPUTS], "/options/outputs", &o->outputs) != 0) return -1;
-    if (f[OPT_SCALING]) {
-        const cJSON* s = f[OPT_SCALING];
-        if (!cJSON_IsString(s)) return fail_type(d, "/options/penalty_scaling", s, "a string");
-        if (strcmp(s->valuestring, "node") == 0) o->penalty_scaling = NTS_PENALTY_PER_NODE;
-        else if (strcmp(s->valuestring, "length") == 0) o->penalty_scaling = NTS_PENALTY_PER_LENGTH;
-        else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/penalty_scaling", "unknown penalty_scaling (expected node or length)");
-    }
-    if (f[OPT_SEARCH]) {
-        const cJSON* s = f[OPT_SEARCH];
-        if (!cJSON_IsString(s)) return fail_type(d, "/options/search", s, "a string");
-        if (strcmp(s->valuestring, "cells") == 0) o->search = NTS_SEARCH_CELLS;
-        else if (strcmp(s->valuestring, "brute_force") == 0) o->search = NTS_SEARCH_BRUTE_FORCE;
-        else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/options/search", "unknown search (expected cells or brute_force)");
+    if (take_fields(d, v, "/options", option_fields, NTS_OPT_COUNT_, f) != 0) return -1;
+    for (id = 0; id < NTS_OPT_COUNT_; ++id) {
+        char ptr[64];
+        nts_option_value val;
+        if (!f[id]) continue;
+        *given |= 1u << id;
+        if (nts_option_info_of(id)->kind == NTS_OPTION_KIND_BOX) {
+            if (decode_periodic(d, f[id]) != 0) return -1;
+            continue;
+        }
+        snprintf(ptr, sizeof ptr, "/options/%s", option_fields[id]);
+        memset(&val, 0, sizeof val);
+        if (ntsj_option_json(id, f[id], ptr, &val, d->fault) != 0) return -1;
+        nts_option_store(&d->scene->options, id, &val);
     }
     return 0;
 }
@@ -605,7 +560,8 @@ static int decode_root(decoder* d, const cJSON* root) {
     const cJSON* body;
     ntsj_scene* s = d->scene;
     const ntsj_overrides* ov = &d->cfg->overrides;
-    int has_penalty = 0, n, b = 0;
+    unsigned given = 0;
+    int n, b = 0, id;
     long long total = 0;
 
     if (!cJSON_IsObject(root)) return fail_type(d, "", root, "a scene (an object)");
@@ -617,19 +573,27 @@ static int decode_root(decoder* d, const cJSON* root) {
     if (f[ROOT_SCHEMA] && !cJSON_IsString(f[ROOT_SCHEMA])) return fail_type(d, "/$schema", f[ROOT_SCHEMA], "a string");
 
     s->options = nts_default_options();
-    if (f[ROOT_OPTIONS] && decode_options(d, f[ROOT_OPTIONS], &has_penalty) != 0) return -1;
-    if (ov->has_alpha) s->options.alpha = ov->alpha;
-    if (ov->has_penalty) s->options.penalty = ov->penalty;
-    if (ov->has_search_radius) s->options.search_radius = ov->search_radius;
-    if (ov->has_solver) s->options.solver = ov->solver;
-    if (ov->has_outputs) s->options.outputs = ov->outputs;
+    if (f[ROOT_OPTIONS] && decode_options(d, f[ROOT_OPTIONS], &given) != 0) return -1;
+    ntsj_overrides_apply(ov, &s->options);
     s->options.threads = d->cfg->threads;
-    if (!has_penalty && !ov->has_penalty)
-        return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), f[ROOT_OPTIONS] ? "/options/penalty" : "/options",
-                    f[ROOT_OPTIONS] ? "options need \"penalty\" (the penalty stiffness)"
-                                    : "a scene needs \"options\" with at least \"penalty\"");
-    if (ov->has_search_radius && !(ov->search_radius >= 0.0))
-        return fail(d, nts_status_name(NTS_EINVALID_OPTION), "/options/search_radius", "search_radius must be >= 0");
+    for (id = 0; id < NTS_OPT_COUNT_; ++id) {
+        const nts_option_info* r = nts_option_info_of(id);
+        char ptr[64], msg[128];
+        if (!r->required || (given & (1u << id)) || ntsj_override_given(ov, id)) continue;
+        snprintf(ptr, sizeof ptr, "/options/%s", r->json);
+        if (f[ROOT_OPTIONS]) snprintf(msg, sizeof msg, "options need \"%s\" (the %s)", r->json, r->help);
+        else snprintf(msg, sizeof msg, "a scene needs \"options\" with at least \"%s\"", r->json);
+        return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), f[ROOT_OPTIONS] ? ptr : "/options", msg);
+    }
+    /* An override through a range the codec checks (the CLI's --search-radius -1). */
+    for (id = 0; id < NTS_OPT_COUNT_; ++id) {
+        const nts_option_info* r = nts_option_info_of(id);
+        nts_option_value val;
+        char ptr[64];
+        if (r->check != NTS_OPTION_CHECK_CODEC || r->kind != NTS_OPTION_KIND_NUMBER || !ntsj_override_given(ov, id)) continue;
+        snprintf(ptr, sizeof ptr, "/options/%s", r->json);
+        if (ntsj_option_number_check(id, ntsj_override_number(ov, id), ptr, &val, d->fault) != 0) return -1;
+    }
 
     if (!f[ROOT_BODIES]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), "/bodies", "a scene needs \"bodies\"");
     if (!cJSON_IsArray(f[ROOT_BODIES])) return fail_type(d, "/bodies", f[ROOT_BODIES], "an array of bodies");

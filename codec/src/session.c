@@ -265,31 +265,16 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
 
 /* ----------------------------------------------------------------- options */
 
-static const char* const step_option_names[] = {"penalty", "alpha", "search_radius", "solver", "outputs"};
-enum { SO_PENALTY, SO_ALPHA, SO_RADIUS, SO_SOLVER, SO_OUTPUTS, SO_COUNT };
-
-static int option_index(const char* name) {
-    int i;
-    for (i = 0; i < SO_COUNT; ++i)
-        if (strcmp(name, step_option_names[i]) == 0) return i;
+/* A step overrides the options of the table's STEP door (NTS_OPTION_MAP):
+ * the row of `name`, or -1 with *f set to unknown_field naming them. */
+static int step_option(const char* name, const char* ptr, const char* what, ntsj_fault* f) {
+    int id = nts_option_find(name, strlen(name));
+    char names[160];
+    if (id >= 0 && (nts_option_info_of(id)->doors & NTS_OPTION_DOOR_STEP)) return id;
+    ntsj_option_door_names(NTS_OPTION_DOOR_STEP, names, sizeof names);
+    ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr, "unknown %s \"%.64s\" (a step overrides %s)", what, name,
+                   names);
     return -1;
-}
-
-/* A numeric option; `ptr` is "/options/<name>". */
-static int set_number(double* dst, double v, const char* ptr, ntsj_fault* f) {
-    const char* name = ptr + 9;
-    if (!isfinite(v)) {
-        ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), ptr, "%s is not a finite number", name);
-        return -1;
-    }
-    /* The core reads a negative radius as "the median segment"; a step says so
-     * by not overriding it. */
-    if (strcmp(name, "search_radius") == 0 && !(v >= 0.0)) {
-        ntsj_fault_set(f, nts_status_name(NTS_EINVALID_OPTION), ptr, "search_radius must be >= 0");
-        return -1;
-    }
-    *dst = v;
-    return 0;
 }
 
 static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
@@ -301,36 +286,19 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
     }
     cJSON_ArrayForEach(m, v) {
         const char* key = m->string ? m->string : "";
-        int i = option_index(key);
         char ptr[96];
+        nts_option_value val;
+        int i;
         snprintf(ptr, sizeof ptr, "/options/%.64s", key);
-        if (i < 0) {
-            ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr,
-                           "unknown option \"%.64s\" (a step overrides penalty, alpha, search_radius, solver, outputs)",
-                           key);
-            return -1;
-        }
+        if ((i = step_option(key, ptr, "option", f)) < 0) return -1;
         if (seen & (1u << i)) {
             ntsj_fault_set(f, ntsj_code_name(NTSJ_DUPLICATE_KEY), ptr, "key \"%.64s\" appears more than once", key);
             return -1;
         }
         seen |= 1u << i;
-        if (i == SO_OUTPUTS) {
-            if (ntsj_decode_outputs(m, ptr, &o->outputs, f) != 0) return -1;
-        } else if (i == SO_SOLVER) {
-            if (!cJSON_IsString(m) || ntsj_solver_from_name(m->valuestring, &o->solver) != 0) {
-                ntsj_fault_set(f, cJSON_IsString(m) ? ntsj_code_name(NTSJ_INVALID_VALUE) : ntsj_code_name(NTSJ_INVALID_TYPE), ptr,
-                               "expected a solver name (closed_form or newton)");
-                return -1;
-            }
-        } else {
-            double* dst = i == SO_PENALTY ? &o->penalty : i == SO_ALPHA ? &o->alpha : &o->search_radius;
-            if (!cJSON_IsNumber(m)) {
-                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_TYPE), ptr, "expected a number");
-                return -1;
-            }
-            if (set_number(dst, m->valuedouble, ptr, f) != 0) return -1;
-        }
+        memset(&val, 0, sizeof val);
+        if (ntsj_option_json(i, m, ptr, &val, f) != 0) return -1;
+        nts_option_store(o, i, &val);
     }
     return 0;
 }
@@ -341,46 +309,14 @@ static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
     for (k = 0; k < st->param_count; ++k) {
         const char* name = st->param_names[k] ? st->param_names[k] : "";
         const char* val = st->param_values[k] ? st->param_values[k] : "";
-        int i = option_index(name);
         char ptr[96];
+        nts_option_value v;
+        int i;
         snprintf(ptr, sizeof ptr, "/options/%.64s", name);
-        if (i < 0) {
-            ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr,
-                           "unknown query parameter \"%.64s\" (a step overrides penalty, alpha, search_radius, "
-                           "solver, outputs)", name);
-            return -1;
-        }
-        if (i == SO_OUTPUTS) {
-            unsigned flags = 0;
-            const char* p = val;
-            while (*p) {
-                size_t n = strcspn(p, ",");
-                unsigned fl = ntsj_output_flag(p, n);
-                if (!fl || (flags & fl)) {
-                    ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "outputs=%.64s: %s \"%.*s\"", val,
-                                   fl ? "output listed twice:" : "unknown output", (int)(n > 32 ? 32 : n), p);
-                    return -1;
-                }
-                flags |= fl;
-                p += n;
-                if (*p == ',') ++p;
-            }
-            o->outputs = flags;
-        } else if (i == SO_SOLVER) {
-            if (ntsj_solver_from_name(val, &o->solver) != 0) {
-                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "unknown solver \"%.32s\" (expected closed_form or newton)", val);
-                return -1;
-            }
-        } else {
-            double* dst = i == SO_PENALTY ? &o->penalty : i == SO_ALPHA ? &o->alpha : &o->search_radius;
-            char* end = NULL;
-            double v = strtod(val, &end);
-            if (*val == '\0' || end == NULL || *end != '\0') {
-                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "query parameter %.64s=%.32s is not a number", name, val);
-                return -1;
-            }
-            if (set_number(dst, v, ptr, f) != 0) return -1;
-        }
+        if ((i = step_option(name, ptr, "query parameter", f)) < 0) return -1;
+        memset(&v, 0, sizeof v);
+        if (ntsj_option_text(i, val, ptr, &v, f) != 0) return -1;
+        nts_option_store(o, i, &v);
     }
     return 0;
 }
@@ -449,7 +385,7 @@ static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result*
  * within it (the configured one when smaller). 1 when it is the bound's. */
 static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_options* eo) {
     long long budget, fits;
-    if (cfg->step_memory == 0 || !(eo->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS))) return 0;
+    if (cfg->step_memory == 0 || !(eo->outputs & (unsigned)NTS_OUT_RECORDS_)) return 0;
     budget = eo->max_candidates > 0 ? eo->max_candidates
                                     : 64LL * nts_scene_surface_node_count(ss->scene) + 1000000; /* the core's default */
     fits = (long long)(cfg->step_memory / NTSJ_STEP_BYTES_PER_CANDIDATE);
@@ -460,11 +396,20 @@ static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_op
 
 /* A step over config->step_memory: limit_exceeded, naming the bound. */
 static int step_too_large(ntsj_response* out, const ntsj_config* cfg, const char* what, int pretty) {
-    char msg[400];
+    char msg[400], records[96];
+    size_t n = 0;
+    unsigned bit;
+    for (bit = 1; bit & (unsigned)NTS_OUT_ALL; bit <<= 1) { /* the outputs that keep records */
+        int w;
+        if (!(bit & (unsigned)NTS_OUT_RECORDS_)) continue;
+        w = snprintf(records + n, sizeof records - n, "%s%s", n ? ", " : "", ntsj_output_name(bit));
+        if (w < 0 || (size_t)w >= sizeof records - n) break;
+        n += (size_t)w;
+    }
     snprintf(msg, sizeof msg,
              "this step's %s would need more than the %zu bytes its session may still take (%s); ask fewer "
-             "outputs (contacts, gaps, stiffness) or a smaller search_radius",
-             what, cfg->step_memory, cfg->step_memory_name ? cfg->step_memory_name : "step_memory");
+             "outputs (%s) or a smaller search_radius",
+             what, cfg->step_memory, cfg->step_memory_name ? cfg->step_memory_name : "step_memory", records);
     return ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", pretty);
 }
 

@@ -20,13 +20,19 @@ typedef enum ntsj_mode {
     NTSJ_VALIDATE = 1  /* POST /v1/validate, `ntscontact --validate SCENE` */
 } ntsj_mode;
 
-/* Options that override the scene's own (CLI flags). `has_*` says which are set. */
+/* Options that override the scene's own (CLI flags): a value and `has_<name>`
+ * for every option of NTS_OPTION_MAP that the CLI sets (doors ALL), as
+ * has_alpha and alpha, has_outputs and outputs (NTS_OUT_*). */
 typedef struct ntsj_overrides {
-    int has_alpha, has_penalty, has_search_radius, has_solver, has_outputs;
-    double alpha, penalty, search_radius;
-    nts_solver solver;
-    unsigned outputs; /* NTS_OUT_* */
+#define NTSJ_XX_(ID, field, json, flag, meta, kind, ctype, def, lo, hi, bound, check, presence, doors, names, help) \
+    NTS_OPT_IS_##doors(int has_##field; ctype field;)
+    NTS_OPTION_MAP(NTSJ_XX_)
+#undef NTSJ_XX_
 } ntsj_overrides;
+/* Set an override from a parsed value (nts_option_value): 0, or -1 when the
+ * option is not one the CLI sets. `ntsj_override_given` says whether it is set. */
+NTS_API int ntsj_override_set(ntsj_overrides* overrides, int option_id, const nts_option_value* value);
+NTS_API int ntsj_override_given(const ntsj_overrides* overrides, int option_id);
 
 typedef struct ntsj_config {
     ntsj_mode mode;
@@ -201,6 +207,20 @@ NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, cons
  * "stiffness") to its flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
  * "newton", returning 0 or -1. */
 NTS_API unsigned ntsj_output_flag(const char* name, size_t n);
+/* Every output's name, in bit order (NTS_OUTPUT_MAP): "forces,energy,...",
+ * or with `last_sep` " or " as prose, "forces, energy, ... or stiffness".
+ * Returns the length. */
+NTS_API int ntsj_output_names_text(const char* last_sep, char* out, size_t size);
+/* The name of one NTS_OUT_* flag, NULL if none. */
+NTS_API const char* ntsj_output_name(unsigned flag);
+/* A comma-separated list of output names (a CLI flag, a query parameter) into
+ * NTS_OUT_* flags: 0, or NTSJ_LIST_UNKNOWN / NTSJ_LIST_DUPLICATE with *bad and
+ * *bad_length the item at fault. `policy`: NTSJ_LIST_DUPLICATES_OK (the CLI
+ * has always taken "forces,forces"), NTSJ_LIST_TRAILING_COMMA_OK (a query
+ * has always taken "forces,"). "" is no outputs. */
+enum { NTSJ_LIST_UNKNOWN = 1, NTSJ_LIST_DUPLICATE = 2 };
+enum { NTSJ_LIST_DUPLICATES_OK = 1, NTSJ_LIST_TRAILING_COMMA_OK = 2 };
+NTS_API int ntsj_output_list(const char* text, int policy, unsigned* out, const char** bad, size_t* bad_length);
 NTS_API int ntsj_solver_from_name(const char* name, nts_solver* out);
 NTS_API const char* ntsj_solver_name(nts_solver solver);
 /* The shortest text of a finite double that reads back bitwise equal with

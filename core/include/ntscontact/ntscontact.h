@@ -11,6 +11,7 @@
 #include "base.h"
 #include "geometry.h"
 #include "math_functions.h"
+#include "tables.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -114,14 +115,19 @@ NTS_API const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all node
 
 /* -------------------------------------------------------------- options */
 
+/* NTS_OUT_FORCES ... from NTS_OUTPUT_MAP (tables.h); NTS_OUT_STIFFNESS is the
+ * tangent K = d2E/dx2 = -df/dx (nts_result.stiffness). */
 enum nts_output_flags {
-    NTS_OUT_FORCES = 1u << 0,
-    NTS_OUT_ENERGY = 1u << 1,
-    NTS_OUT_VIRIAL = 1u << 2,
-    NTS_OUT_CONTACTS = 1u << 3,
-    NTS_OUT_GAPS = 1u << 4,
-    NTS_OUT_STIFFNESS = 1u << 5, /* the tangent K = d2E/dx2 = -df/dx (nts_result.stiffness) */
-    NTS_OUT_ALL = 0x3fu
+#define NTS_XX_(ID, bit, name, result, records) NTS_OUT_##ID = 1u << (bit),
+    NTS_OUTPUT_MAP(NTS_XX_)
+#undef NTS_XX_
+#define NTS_XX_(ID, bit, name, result, records) | (1u << (bit))
+    NTS_OUT_ALL = 0u NTS_OUTPUT_MAP(NTS_XX_),
+#undef NTS_XX_
+    /* the outputs that keep every contact's record (tables.h's records column) */
+#define NTS_XX_(ID, bit, name, result, records) | ((records) ? 1u << (bit) : 0u)
+    NTS_OUT_RECORDS_ = 0u NTS_OUTPUT_MAP(NTS_XX_)
+#undef NTS_XX_
 };
 
 /* The penalty of a slave node (docs/model.md §6): eps itself, or
