@@ -284,6 +284,55 @@ typedef struct nts_result {
     nts_triplets stiffness;
 } nts_result;
 
+/* ------------------------------------------------------- contact state */
+
+/* A contact's key (as Box2D's b2ManifoldPoint.id): the slave node, the
+ * master body and the master feature, its kind and the master node it sits
+ * at (a segment's first node, a corner's middle node X3, a vertex's node).
+ * A scene has at most one contact per (slave node, master body) pair. */
+typedef struct nts_contact_key {
+    int slave_body, slave_node, master_body;
+    nts_kind kind;
+    int feature_node;
+} nts_contact_key;
+NTS_API nts_contact_key nts_contact_key_of(const nts_contact* c);
+
+/* The previous step's contacts, kept by the caller across evaluations (a
+ * session, a solver's loop), and each new contact matched to them by key:
+ * what friction's anchors and kept candidate lists start from. The
+ * evaluation knows nothing of it: a caller that keeps no contacts pays
+ * nothing. One per sequence of steps of one scene; not thread-safe. */
+typedef struct nts_contact_memory nts_contact_memory;
+/* A contact's match among the previous step's: `previous` is the index of
+ * the previous contact of the same slave node and master body (-1: the
+ * contact is new), `persisted` 1 when its whole key is equal too (the same
+ * feature; 0: the contact moved to another feature of the body). */
+typedef struct nts_contact_match {
+    int previous;
+    int persisted;
+} nts_contact_match;
+/* What a step did to the contacts: kept (same key), moved (same pair, other
+ * feature), new, and ended (previous contacts with no match). */
+typedef struct nts_contact_changes {
+    int persisted, moved, added, ended;
+} nts_contact_changes;
+NTS_API nts_contact_memory* nts_contact_memory_create(void);
+NTS_API void nts_contact_memory_destroy(nts_contact_memory* memory);
+/* Match the active contacts of `result` (evaluated with NTS_OUT_CONTACTS) to
+ * the kept ones, then keep them as the new previous step. *match (may be
+ * NULL) gets result->contact_count matches, owned by the memory and valid
+ * until its next step; *changes (may be NULL) the counts. O(n log n) in the
+ * contacts. NTS_OK, NTS_ENOMEM (the memory is then as before the call), or
+ * NTS_EINVALID_ARGUMENT (no memory or result, or contacts not asked for
+ * while some are active). */
+NTS_API int nts_contact_memory_step(nts_contact_memory* memory, const nts_result* result,
+                                    const nts_contact_match** match, nts_contact_changes* changes);
+/* The contacts that the last step's matches point into (its previous step),
+ * and how many. */
+NTS_API const nts_contact* nts_contact_memory_previous(const nts_contact_memory* memory, int* count);
+/* Forget every kept contact (the next step's are all new). */
+NTS_API void nts_contact_memory_clear(nts_contact_memory* memory);
+
 /* ------------------------------------------------------------- context */
 
 typedef struct nts_context nts_context;
