@@ -87,6 +87,14 @@ typedef struct ntsj_scene {
     nts_options options;
     double lx, ly;
     int has_periodic;
+    /* "session": {"keep_contacts": true}: a session keeps each step's contacts
+     * and matches the next step's to them (nts_contact_memory); a stateless
+     * request may not ask (handle.c). */
+    int has_session, keep_contacts;
+    /* While a session encodes a step that keeps contacts: each contact's
+     * match and the step's changes (encode.c); NULL otherwise. */
+    const nts_contact_match* match;
+    const nts_contact_changes* changes;
 } ntsj_scene;
 
 struct cJSON;

@@ -552,8 +552,25 @@ static void* alloc_zero(size_t count, size_t size) {
     return p;
 }
 
-static const char* const root_fields[] = {"version", "options", "bodies", "$schema"};
-enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_COUNT };
+static const char* const root_fields[] = {"version", "options", "bodies", "$schema", "session"};
+enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_SESSION, ROOT_COUNT };
+
+/* "session": what a session keeps between its steps (docs/sessions.md). */
+static const char* const session_fields[] = {"keep_contacts"};
+enum { SESSION_KEEP_CONTACTS, SESSION_COUNT };
+
+static int decode_session(decoder* d, const cJSON* v) {
+    const cJSON* f[SESSION_COUNT];
+    if (!cJSON_IsObject(v)) return fail_type(d, "/session", v, "an object {\"keep_contacts\"}");
+    if (take_fields(d, v, "/session", session_fields, SESSION_COUNT, f) != 0) return -1;
+    d->scene->has_session = 1;
+    if (f[SESSION_KEEP_CONTACTS]) {
+        if (!cJSON_IsBool(f[SESSION_KEEP_CONTACTS]))
+            return fail_type(d, "/session/keep_contacts", f[SESSION_KEEP_CONTACTS], "true or false");
+        d->scene->keep_contacts = cJSON_IsTrue(f[SESSION_KEEP_CONTACTS]);
+    }
+    return 0;
+}
 
 static int decode_root(decoder* d, const cJSON* root) {
     const cJSON* f[ROOT_COUNT];
@@ -571,6 +588,7 @@ static int decode_root(decoder* d, const cJSON* root) {
         if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/version", "unsupported version (this codec reads version 1)");
     }
     if (f[ROOT_SCHEMA] && !cJSON_IsString(f[ROOT_SCHEMA])) return fail_type(d, "/$schema", f[ROOT_SCHEMA], "a string");
+    if (f[ROOT_SESSION] && decode_session(d, f[ROOT_SESSION]) != 0) return -1;
 
     s->options = nts_default_options();
     if (f[ROOT_OPTIONS] && decode_options(d, f[ROOT_OPTIONS], &given) != 0) return -1;

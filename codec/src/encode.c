@@ -130,7 +130,9 @@ static const char* kind_name(nts_kind k) {
     }
 }
 
-static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int full) {
+/* `m`: the contact's match to the session's previous step (keep_contacts),
+ * or NULL. */
+static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int full, const nts_contact_match* m) {
     int i;
     w_open(w, '{', 0);
     w_key(w, "slave");
@@ -176,6 +178,14 @@ static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int 
         w_key(w, "virial");
         w_virial(w, c->virial);
     }
+    if (m != NULL) {
+        /* the previous step's contact of the same pair (its index in that
+         * step's contacts), and whether it is at the same feature */
+        w_key(w, "previous");
+        w_int(w, m->previous);
+        w_key(w, "persisted");
+        w_bool(w, m->persisted);
+    }
     w_close(w, '}');
 }
 
@@ -219,6 +229,19 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     w_double(&w, sm->cell_size);
     w_key(&w, "elapsed_ms");
     w_double(&w, elapsed_ms);
+    if (s->changes != NULL) { /* a session that keeps contacts: this step's against the last */
+        w_key(&w, "contact_changes");
+        w_open(&w, '{', 1);
+        w_key(&w, "persisted");
+        w_int(&w, s->changes->persisted);
+        w_key(&w, "moved");
+        w_int(&w, s->changes->moved);
+        w_key(&w, "added");
+        w_int(&w, s->changes->added);
+        w_key(&w, "ended");
+        w_int(&w, s->changes->ended);
+        w_close(&w, '}');
+    }
     w_close(&w, '}');
     /* What the result may lack, always there (empty: nothing). */
     w_key(&w, "warnings");
@@ -255,7 +278,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     if ((outputs & NTS_OUT_CONTACTS) && r->contacts) {
         w_key(&w, "contacts");
         w_open(&w, '[', 0);
-        for (i = 0; i < r->contact_count; ++i) w_contact(&w, s, &r->contacts[i], 1);
+        for (i = 0; i < r->contact_count; ++i) w_contact(&w, s, &r->contacts[i], 1, s->match != NULL ? &s->match[i] : NULL);
         w_close(&w, ']');
     } else if (outputs & NTS_OUT_CONTACTS) {
         w_key(&w, "contacts");
@@ -265,7 +288,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     if ((outputs & NTS_OUT_GAPS)) {
         w_key(&w, "gaps");
         w_open(&w, '[', 0);
-        for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0);
+        for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0, NULL);
         w_close(&w, ']');
     }
     if (outputs & NTS_OUT_STIFFNESS) {

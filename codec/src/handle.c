@@ -214,6 +214,14 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         ntsj_scene_free(&s);
         return rc;
     }
+    /* The stateless evaluation stays stateless: only a session keeps
+     * anything between requests (a scene may still be validated with it). */
+    if (s.has_session && cfg.mode == NTSJ_EVALUATE) {
+        ntsj_scene_free(&s);
+        return ntsj_respond_error(out, ntsj_code_name(NTSJ_INVALID_VALUE),
+                                  "\"session\" is for a session (POST /v1/scenes): a single evaluation keeps nothing",
+                                  "/session", pretty);
+    }
 
     if (nts_options_validate(&s.options, &err) != 0) {
         rc = ntsj_respond_core(out, &s, &err, NTS_EINVALID_OPTION, pretty);

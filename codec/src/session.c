@@ -31,6 +31,7 @@ struct ntsj_session {
     int limits_set;
     nts_limits limits;
     unsigned long long steps;
+    nts_contact_memory* memory; /* "session": {"keep_contacts": true}; else NULL */
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
@@ -55,7 +56,8 @@ ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
     i.surface_nodes = nts_scene_surface_node_count(ss->scene);
     i.steps = ss->steps;
     i.memory_bytes = sizeof *ss + decoded_bytes(&ss->js) + nts_scene_memory_bytes(ss->scene) +
-                     nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2);
+                     nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2) +
+                     nts_contact_memory_bytes(ss->memory);
     return i;
 }
 
@@ -66,6 +68,7 @@ void ntsj_session_trim(ntsj_session* ss) {
 void ntsj_session_destroy(ntsj_session* ss) {
     if (ss == NULL) return;
     nts_context_destroy(ss->ctx);
+    nts_contact_memory_destroy(ss->memory);
     nts_scene_destroy(ss->scene);
     nts_free(ss->next);
     ntsj_scene_free(&ss->js);
@@ -156,7 +159,8 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     }
     ss->ctx = nts_context_create();
     ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
-    if (ss->ctx == NULL || ss->next == NULL) {
+    if (ss->js.keep_contacts) ss->memory = nts_contact_memory_create();
+    if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL)) {
         ntsj_session_destroy(ss);
         return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
     }
@@ -422,6 +426,8 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     nts_result result;
     ntsj_fault fault;
     ntsj_buf b;
+    const nts_contact_match* match = NULL;
+    nts_contact_changes changes;
     int rc, pretty = cfg.pretty, have_positions = 0, capped;
     size_t held, grown = 0;
 
@@ -486,6 +492,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         nts_options eo = eval_options(opt, st->answer_binary, cfg.vtk);
         ntsj_deadline deadline;
         ntsj_arm_deadline(&eo, &deadline, &cfg, t0);
+        if (ss->memory != NULL) eo.outputs |= NTS_OUT_CONTACTS; /* what the memory keeps */
         capped = cap_candidates(ss, &cfg, &eo);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
@@ -498,6 +505,14 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (nts_context_memory_bytes(ss->ctx) > held) grown = nts_context_memory_bytes(ss->ctx) - held;
     if (cfg.step_memory > 0 && grown >= cfg.step_memory) return step_too_large(out, &cfg, "records", pretty);
 
+    /* The contacts kept, and this step's matched to them: a step that
+     * evaluated counts, whatever its answer's fate. */
+    if (ss->memory != NULL) {
+        if (nts_contact_memory_step(ss->memory, &result, &match, &changes) != NTS_OK)
+            return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
+        ss->js.match = match;
+        ss->js.changes = &changes;
+    }
     ntsj_buf_init(&b);
     if (cfg.step_memory > 0) b.max = cfg.step_memory - grown; /* the answer: what is left */
     if (st->answer_binary) {
@@ -510,6 +525,8 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         ss->js.options = keep;
     }
     if (cfg.vtk && ntsj_attach_vtk(out, &ss->js, ss->scene, &result) != 0) b.oom = 1;
+    ss->js.match = NULL;
+    ss->js.changes = NULL;
     if (b.over) {
         ntsj_buf_free(&b);
         nts_free(out->vtk);

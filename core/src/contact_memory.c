@@ -68,6 +68,12 @@ void nts_contact_memory_destroy(nts_contact_memory* m) {
     nts_free(m);
 }
 
+size_t nts_contact_memory_bytes(const nts_contact_memory* m) {
+    if (m == NULL) return 0;
+    return sizeof *m + ((size_t)m->kept_cap + (size_t)m->prev_cap) * sizeof(nts_contact) +
+           ((size_t)m->order_cap + (size_t)m->spare_cap) * sizeof(int) + (size_t)m->match_cap * sizeof(nts_contact_match);
+}
+
 void nts_contact_memory_clear(nts_contact_memory* m) {
     if (m == NULL) return;
     m->kept_count = m->prev_count = 0;

@@ -330,6 +330,8 @@ NTS_API int nts_contact_memory_step(nts_contact_memory* memory, const nts_result
 /* The contacts that the last step's matches point into (its previous step),
  * and how many. */
 NTS_API const nts_contact* nts_contact_memory_previous(const nts_contact_memory* memory, int* count);
+/* Bytes the memory holds, for budgets (0 for NULL). */
+NTS_API size_t nts_contact_memory_bytes(const nts_contact_memory* memory);
 /* Forget every kept contact (the next step's are all new). */
 NTS_API void nts_contact_memory_clear(nts_contact_memory* memory);
 
