@@ -151,3 +151,19 @@ def test_the_cli_keeps_nothing(paths, tmp_path):
     proc = subprocess.run([str(paths.bin / "ntscontact"), str(f)], capture_output=True, timeout=60)
     assert proc.returncode != 0
     assert b"/session" in proc.stderr
+
+
+def test_python_client_keeps_contacts(daemon, paths):
+    import ntscontact
+    doc = scene(paths, None)
+    client = ntscontact.Client(daemon.url(""))
+    with client.session(doc, keep_contacts=True) as s:
+        first = s.contact(outputs=["forces", "contacts"])
+        again = s.contact(outputs=["forces", "contacts"])
+    assert all(c.previous == -1 and c.persisted is False for c in first.contacts)
+    assert [c.previous for c in again.contacts] == list(range(len(again.contacts)))
+    assert all(c.persisted for c in again.contacts)
+    assert again.summary.extra["contact_changes"]["persisted"] == len(again.contacts) > 0
+    with client.session(doc) as s:
+        plain = s.contact(outputs=["forces", "contacts"])
+    assert all(c.previous is None and c.persisted is None for c in plain.contacts)

@@ -119,11 +119,14 @@ class Client:
             result._scene = (scene, scene.positions())  # the topology, and the positions evaluated
         return result.warn()
 
-    def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Session:
+    def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None,
+                keep_contacts: bool = False) -> Session:
         """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for
         a solver loop (``with client.session(scene) as s: s.contact(x)``). The
-        session is deleted when the ``with`` block ends (or on ``close()``)."""
-        return Session(self, scene, timeout=timeout)
+        session is deleted when the ``with`` block ends (or on ``close()``).
+        ``keep_contacts``: each step's contacts carry ``previous`` and ``persisted``
+        (their match to the last step's), the summary ``contact_changes``."""
+        return Session(self, scene, timeout=timeout, keep_contacts=keep_contacts)
 
     def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
         """``POST /v1/validate``: the service's check of a scene without evaluating it.

@@ -51,6 +51,10 @@ class Contact:
     point: Vec2
     force: Vec2
     virial: Tuple[float, float, float]
+    #: Sessions that keep contacts: the index of the last step's contact of the
+    #: same pair (-1: new), and whether it was at the same feature. None otherwise.
+    previous: Optional[int] = None
+    persisted: Optional[bool] = None
 
     @property
     def virial_tensor(self) -> FloatArray:
@@ -74,6 +78,8 @@ class Contact:
             point=_vec(d.get("point")),
             force=_vec(d.get("force")),
             virial=(float(v.get("xx", 0.0)), float(v.get("yy", 0.0)), float(v.get("xy", 0.0))),
+            previous=int(d["previous"]) if "previous" in d else None,
+            persisted=bool(d["persisted"]) if "persisted" in d else None,
         )
 
 

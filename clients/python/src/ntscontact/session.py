@@ -49,7 +49,7 @@ class Session:
     """
 
     def __init__(self, client: Any, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
-                 timeout: Optional[Any] = None) -> None:
+                 timeout: Optional[Any] = None, keep_contacts: bool = False) -> None:
         self.client = client
         self.timeout = timeout
         if isinstance(scene, Scene):
@@ -61,6 +61,8 @@ class Session:
             doc = json.loads(scene)
         else:
             raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")
+        if keep_contacts:  # each step's contacts matched to the last's (docs/sessions.md)
+            doc["session"] = {**(doc.get("session") or {}), "keep_contacts": True}
         bodies = doc.get("bodies")
         if not isinstance(bodies, list) or not bodies:
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
