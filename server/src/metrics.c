@@ -14,23 +14,30 @@
 static const double latency_bounds[NTSD_LATENCY_BUCKETS] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05,
                                                             0.1,    0.25,  0.5,    1.0,   2.5,  5.0,  10.0};
 
+/* The route labels: each row's of NTSD_ROUTE_MAP (routes.h), "other" for no route. */
+#define ROUTE_LABEL_(id, pattern, methods, param, body, auth, handler, label, evaluates) label,
+static const char* const route_labels[NTSD_ROUTE_KINDS] = {"other", NTSD_ROUTE_MAP(ROUTE_LABEL_)};
+#undef ROUTE_LABEL_
+
 const char* ntsd_route_label(ntsd_route_kind kind) {
-    switch (kind) {
-    case NTSD_ROUTE_CONTACT: return "/v1/contact";
-    case NTSD_ROUTE_VALIDATE: return "/v1/validate";
-    case NTSD_ROUTE_HEALTH: return "/v1/health";
-    case NTSD_ROUTE_METRICS: return "/metrics";
-    case NTSD_ROUTE_ASSET: return "/v1/schemas";
-    case NTSD_ROUTE_SCENES: return "/v1/scenes";
-    case NTSD_ROUTE_SCENE: return "/v1/scenes/{id}";
-    case NTSD_ROUTE_SCENE_CONTACT: return "/v1/scenes/{id}/contact";
-    default: return "other";
-    }
+    int k = (int)kind;
+    return k > 0 && k < NTSD_ROUTE_KINDS ? route_labels[k] : route_labels[0];
+}
+
+/* The counters' slot of a route: the first route with its label. Routes that
+ * share a label (the two asset paths) count as one series; two series with
+ * the same labels would be one Prometheus series written twice. */
+static int label_slot(int k) {
+    int j;
+    for (j = 0; j < k; ++j)
+        if (strcmp(route_labels[j], route_labels[k]) == 0) return j;
+    return k;
 }
 
 void ntsd_metrics_request(ntsd_metrics* m, ntsd_route_kind kind, int status, double seconds, const char* refusal) {
     int k = (int)kind, b;
     if (k < 0 || k >= NTSD_ROUTE_KINDS) k = NTSD_ROUTE_NONE;
+    k = label_slot(k);
     if (status >= 100 && status < 600) m->requests[k][status - 100]++;
     for (b = 0; b < NTSD_LATENCY_BUCKETS && seconds > latency_bounds[b]; ++b) {
     }

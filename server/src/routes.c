@@ -8,26 +8,34 @@
 #include "assets.h"
 #include "server.h"
 
-/* The methods of each kind of path, and its Allow header: those and OPTIONS
- * (a CORS preflight, answered for an Origin of --allow-origin). */
-#define METHODS_POST "POST"
-#define METHODS_GET "GET, HEAD"
-#define METHODS_SCENE "GET, HEAD, DELETE"
+/* The routes' matching and headers come from NTSD_ROUTE_MAP (routes.h): a
+ * row's methods are its Allow header with OPTIONS (a CORS preflight, answered
+ * for an Origin of --allow-origin) added. */
 #define WITH_OPTIONS ", OPTIONS"
 
-static int method_in(const char* method, const char* methods) {
-    if (strcmp(methods, METHODS_POST) == 0) return strcmp(method, "POST") == 0;
-    if (strcmp(method, "DELETE") == 0) return strcmp(methods, METHODS_SCENE) == 0;
-    return strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
-}
+/* One row of the table as the router uses it. */
+typedef struct route_row {
+    const char* pattern;
+    const char* methods;
+    const char* allow;
+    int (*bind)(const char* segment, size_t n, ntsd_route* r);
+    ntsd_body_kind body;
+    ntsd_auth_kind auth;
+    int evaluates;
+} route_row;
 
-static void set_methods(ntsd_route* r, const char* methods, const char* allow) {
-    r->methods = methods;
-    r->allow = allow;
+/* `method` is one of the comma-separated `methods` ("GET, HEAD"). */
+static int method_in(const char* method, const char* methods) {
+    size_t m = strlen(method);
+    const char* p = methods;
+    while (*p != '\0') {
+        size_t n = strcspn(p, ",");
+        if (n == m && strncmp(p, method, m) == 0) return 1;
+        p += n;
+        while (*p == ',' || *p == ' ') p++;
+    }
+    return 0;
 }
-#define ROUTE_POST(r) set_methods(&(r), METHODS_POST, METHODS_POST WITH_OPTIONS)
-#define ROUTE_GET(r) set_methods(&(r), METHODS_GET, METHODS_GET WITH_OPTIONS)
-#define ROUTE_SCENE(r) set_methods(&(r), METHODS_SCENE, METHODS_SCENE WITH_OPTIONS)
 
 /* The {id} of /v1/scenes/{id}[/contact]: 32 to 64 URL-safe characters (the
  * store's own ids, or a proxy's); anything else names no session. */
@@ -56,54 +64,93 @@ static int find_asset(const char* name) {
     return -1;
 }
 
-ntsd_route ntsd_route_find(const char* path, const char* method) {
-    static const char schemas[] = "/v1/schemas/";
-    ntsd_route r;
-    r.kind = NTSD_ROUTE_NONE;
-    r.allow = r.methods = "";
-    r.method_ok = 0;
-    r.asset = -1;
-    r.scene_id[0] = '\0';
-    if (strcmp(path, "/v1/contact") == 0) {
-        r.kind = NTSD_ROUTE_CONTACT;
-        ROUTE_POST(r);
-    } else if (strcmp(path, "/v1/validate") == 0) {
-        r.kind = NTSD_ROUTE_VALIDATE;
-        ROUTE_POST(r);
-    } else if (strcmp(path, "/v1/scenes") == 0) {
-        r.kind = NTSD_ROUTE_SCENES;
-        ROUTE_POST(r);
-    } else if (strncmp(path, "/v1/scenes/", 11) == 0 && path[11] != '\0') {
-        static const char tail[] = "/contact";
-        const char* id = path + 11;
-        size_t n = strcspn(id, "/");
-        if (id[n] == '\0') {
-            r.kind = NTSD_ROUTE_SCENE;
-            ROUTE_SCENE(r);
-            take_scene_id(id, n, &r);
-        } else if (strcmp(id + n, tail) == 0) {
-            r.kind = NTSD_ROUTE_SCENE_CONTACT;
-            ROUTE_POST(r);
-            take_scene_id(id, n, &r);
-        }
-    } else if (strcmp(path, "/metrics") == 0) {
-        r.kind = NTSD_ROUTE_METRICS;
-        ROUTE_GET(r);
-    } else if (strcmp(path, "/v1/health") == 0) {
-        r.kind = NTSD_ROUTE_HEALTH;
-        ROUTE_GET(r);
-    } else if (strcmp(path, "/v1/openapi.json") == 0) {
-        r.kind = NTSD_ROUTE_ASSET;
-        ROUTE_GET(r);
-        r.asset = find_asset("openapi");
-    } else if (strncmp(path, schemas, sizeof schemas - 1) == 0) {
-        const char* name = path + sizeof schemas - 1;
-        if (strcmp(name, "openapi") != 0 && (r.asset = find_asset(name)) >= 0) {
-            r.kind = NTSD_ROUTE_ASSET;
-            ROUTE_GET(r);
+/* The binders of a route's {name} segment (the `param` column): 0 when the
+ * segment names nothing this route serves (then no route: 404). */
+static int bind_NONE(const char* segment, size_t n, ntsd_route* r) {
+    (void)segment, (void)n, (void)r;
+    return 1;
+}
+
+/* A session id binds even when malformed (scene_id stays ""): the path is a
+ * scene's, its methods apply (405), and an unknown scene answers 404. */
+static int bind_SESSION(const char* segment, size_t n, ntsd_route* r) {
+    take_scene_id(segment, n, r);
+    return 1;
+}
+
+/* One of the embedded schemas; openapi is served at /v1/openapi.json only. */
+static int bind_SCHEMA(const char* segment, size_t n, ntsd_route* r) {
+    char name[64];
+    if (n == 0 || n >= sizeof name) return 0;
+    memcpy(name, segment, n);
+    name[n] = '\0';
+    if (strcmp(name, "openapi") == 0) return 0;
+    return (r->asset = find_asset(name)) >= 0;
+}
+
+static int bind_OPENAPI(const char* segment, size_t n, ntsd_route* r) {
+    (void)segment, (void)n;
+    r->asset = find_asset("openapi");
+    return 1;
+}
+
+#define ROUTE_ROW_(id, pattern, methods, param, body, auth, handler, label, evaluates) \
+    {pattern, methods, methods WITH_OPTIONS, bind_##param, NTSD_BODY_##body, NTSD_AUTH_##auth, evaluates},
+static const route_row rows[NTSD_ROUTE_KINDS] = {{"", "", "", bind_NONE, NTSD_BODY_NONE, NTSD_AUTH_TOKEN, 0},
+                                                 NTSD_ROUTE_MAP(ROUTE_ROW_)};
+#undef ROUTE_ROW_
+
+/* `path` against a template: literal text alike, and a {name} taking one
+ * segment (the text up to the next '/'), which may be empty only when more of
+ * the path follows ("/v1/scenes//contact" is a scene's step with a malformed
+ * id; "/v1/scenes/" is no scene: a trailing slash). On a match, *segment and
+ * *n are the {name}'s text (n = 0 and segment NULL without one). */
+static int match(const char* pattern, const char* path, const char** segment, size_t* n) {
+    *segment = NULL;
+    *n = 0;
+    while (*pattern != '\0') {
+        if (*pattern == '{') {
+            size_t k = strcspn(path, "/");
+            if (k == 0 && *path == '\0') return 0;
+            *segment = path;
+            *n = k;
+            path += k;
+            pattern = strchr(pattern, '}');
+            if (pattern == NULL) return 0;
+            pattern++;
+        } else if (*pattern++ != *path++) {
+            return 0;
         }
     }
-    if (r.kind != NTSD_ROUTE_NONE) r.method_ok = method_in(method, r.methods);
+    return *path == '\0';
+}
+
+ntsd_route ntsd_route_find(const char* path, const char* method) {
+    ntsd_route r;
+    int k;
+    memset(&r, 0, sizeof r);
+    r.kind = NTSD_ROUTE_NONE;
+    r.allow = r.methods = "";
+    r.body = NTSD_BODY_NONE;
+    r.auth = NTSD_AUTH_TOKEN;
+    r.asset = -1;
+    for (k = 1; k < NTSD_ROUTE_KINDS; ++k) {
+        const char* segment;
+        size_t n;
+        if (!match(rows[k].pattern, path, &segment, &n)) continue;
+        if (!rows[k].bind(segment, n, &r)) {
+            r.asset = -1;
+            continue;
+        }
+        r.kind = (ntsd_route_kind)k;
+        r.methods = rows[k].methods;
+        r.allow = rows[k].allow;
+        r.body = rows[k].body;
+        r.auth = rows[k].auth;
+        r.evaluates = rows[k].evaluates;
+        r.method_ok = method_in(method, r.methods);
+        break;
+    }
     return r;
 }
 

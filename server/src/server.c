@@ -198,20 +198,20 @@ static enum MHD_Result answer_metrics(struct MHD_Connection* c, ntsd_request* r)
     return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "text/plain; version=0.0.4; charset=utf-8", NULL, 0);
 }
 
-static enum MHD_Result answer_get(struct MHD_Connection* c, ntsd_request* r) {
-    if (r->route.kind == NTSD_ROUTE_SCENE) return answer_scene(c, r);
-    if (r->route.kind == NTSD_ROUTE_METRICS) return answer_metrics(c, r);
-    if (r->route.kind == NTSD_ROUTE_HEALTH) {
-        size_t n = 0;
-        ntsd_stats st = ntsd_server_stats(r->server);
-        ntsd_sessions_stats ss = ntsd_sessions_get_stats(&r->server->sessions);
-        char* doc = ntsd_health_document(&r->server->config, &st, &ss, r->authorized, &n);
-        if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
-        return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
-    } else {
-        const ntsd_asset* a = &ntsd_assets[r->route.asset];
-        return reply(c, r, MHD_HTTP_OK, "ok", (char*)a->data, a->size, NULL, a->content_type, NULL, 0);
-    }
+/* GET /v1/health: open without a token, which then says only whether it is up. */
+static enum MHD_Result answer_health(struct MHD_Connection* c, ntsd_request* r) {
+    size_t n = 0;
+    ntsd_stats st = ntsd_server_stats(r->server);
+    ntsd_sessions_stats ss = ntsd_sessions_get_stats(&r->server->sessions);
+    char* doc = ntsd_health_document(&r->server->config, &st, &ss, r->authorized, &n);
+    if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
+    return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
+}
+
+/* GET /v1/openapi.json, /v1/schemas/{name}: an embedded file (the router bound it). */
+static enum MHD_Result answer_asset(struct MHD_Connection* c, ntsd_request* r) {
+    const ntsd_asset* a = &ntsd_assets[r->route.asset];
+    return reply(c, r, MHD_HTTP_OK, "ok", (char*)a->data, a->size, NULL, a->content_type, NULL, 0);
 }
 
 /* At most config.threads evaluations at once (per-connection threads would
@@ -394,33 +394,49 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     budget_answer(r);
 }
 
-/* Run the codec on the whole body, on the connection's own thread: fills
- * r->resp and r->rc, frees the body. At most --threads at once (the gate). */
-static void evaluate(ntsd_request* r) {
+/* The work of each body route, on the codec's configuration for this request. */
+typedef void (*route_work)(ntsd_request* r, ntsj_config* jc);
+
+/* POST /v1/contact: the whole scene evaluated. */
+static void work_contact(ntsd_request* r, ntsj_config* jc) {
+    int large = r->body.length >= NTSD_LARGE_BYTES;
+    gate_enter(r->server, large);
+    r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, jc, &r->resp);
+    gate_leave(r->server, large);
+}
+
+/* POST /v1/validate: the same, checked only. */
+static void work_validate(ntsd_request* r, ntsj_config* jc) {
+    jc->mode = NTSJ_VALIDATE;
+    work_contact(r, jc);
+}
+
+/* POST /v1/scenes: a session made. */
+static void work_create(ntsd_request* r, ntsj_config* jc) {
+    int large = r->body.length >= NTSD_LARGE_BYTES;
+    gate_enter(r->server, large);
+    evaluate_create(r, jc);
+    gate_leave(r->server, large);
+}
+
+/* POST /v1/scenes/{id}/contact: it waits for the session before taking an
+ * evaluation slot (evaluate_step): a step queued behind another on the same
+ * session must not hold one. */
+static void work_step(ntsd_request* r, ntsj_config* jc) { evaluate_step(r, jc); }
+
+/* Run the route's work on the whole body, on the connection's own thread:
+ * fills r->resp and r->rc, frees the body. At most --threads at once (the gate). */
+static void evaluate(ntsd_request* r, route_work work) {
     ntsd_server* s = r->server;
     ntsj_config jc = s->config.codec;
-    int large;
-    jc.mode = r->route.kind == NTSD_ROUTE_VALIDATE ? NTSJ_VALIDATE : NTSJ_EVALUATE;
+    jc.mode = NTSJ_EVALUATE;
     jc.pretty = r->pretty;
     if (r->link != NULL) { /* the work stops when its client leaves */
         jc.cancel = ntsd_conn_client_left;
         jc.cancel_user = r->link;
     }
     memset(&r->resp, 0, sizeof r->resp);
-    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
-        /* Wait for the session before taking an evaluation slot: a step queued
-         * behind another on the same session must not hold one. */
-        evaluate_step(r, &jc);
-        ntsd_body_free(&r->body);
-        return;
-    }
-    large = r->body.length >= NTSD_LARGE_BYTES;
-    gate_enter(s, large);
-    if (r->route.kind == NTSD_ROUTE_SCENES)
-        evaluate_create(r, &jc);
-    else
-        r->rc = ntsj_handle(r->body.data ? r->body.data : "", r->body.length, &jc, &r->resp);
-    gate_leave(s, large);
+    work(r, &jc);
     ntsd_body_free(&r->body);
 }
 
@@ -541,7 +557,7 @@ static enum MHD_Result collect_param(void* cls, enum MHD_ValueKind kind, const c
     return MHD_YES;
 }
 
-static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
+static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r, route_work work) {
     ntsd_server* s = r->server;
     size_t need = work_estimate(r);
     if (!budget_reserve(s, r, need)) {
@@ -550,17 +566,36 @@ static enum MHD_Result answer_post(struct MHD_Connection* c, ntsd_request* r) {
     }
     r->pretty = query_flag(c, "pretty");
     r->t_body = ntsd_now();
-    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT)
+    if (r->route.body == NTSD_BODY_STEP) /* a step's query carries its options */
         MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, collect_param, r);
-    evaluate(r);
+    evaluate(r, work);
     return reply_evaluated(c, r);
 }
 
+/* The body routes' handlers (NTSD_ROUTE_MAP), once the body is in. */
+static enum MHD_Result answer_contact(struct MHD_Connection* c, ntsd_request* r) {
+    return answer_post(c, r, work_contact);
+}
+static enum MHD_Result answer_validate(struct MHD_Connection* c, ntsd_request* r) {
+    return answer_post(c, r, work_validate);
+}
+static enum MHD_Result answer_create(struct MHD_Connection* c, ntsd_request* r) {
+    return answer_post(c, r, work_create);
+}
+static enum MHD_Result answer_step(struct MHD_Connection* c, ntsd_request* r) { return answer_post(c, r, work_step); }
+
+/* Each route's handler, by kind, from NTSD_ROUTE_MAP (routes.h). */
+typedef enum MHD_Result (*route_handler)(struct MHD_Connection* c, ntsd_request* r);
+#define ROUTE_HANDLER_(id, pattern, methods, param, body, auth, handler, label, evaluates) handler,
+static const route_handler route_handlers[NTSD_ROUTE_KINDS] = {NULL, NTSD_ROUTE_MAP(ROUTE_HANDLER_)};
+#undef ROUTE_HANDLER_
+
 /* ------------------------------------------------------------- callbacks */
 
+/* The request is one whose route reads a body (the table's body column; such
+ * routes take POST only), with an allowed method. */
 static int is_post_route(const ntsd_request* r) {
-    return r->route.method_ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_VALIDATE ||
-                                  r->route.kind == NTSD_ROUTE_SCENES || r->route.kind == NTSD_ROUTE_SCENE_CONTACT);
+    return r->route.method_ok && r->route.body != NTSD_BODY_NONE;
 }
 
 /* Accept names application/octet-stream (a session step's binary answer). */
@@ -600,7 +635,7 @@ static enum MHD_Result answer_preflight(struct MHD_Connection* c, ntsd_request* 
  * it); otherwise from the last call, so the connection stays alive. */
 static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r) {
     if (r->preflight) return answer_preflight(c, r);
-    if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH) return reply_unauthorized(c, r, 0);
+    if (!r->authorized && r->route.auth != NTSD_AUTH_OPEN) return reply_unauthorized(c, r, 0);
     if (r->route.kind == NTSD_ROUTE_NONE)
         return reply_error(c, r, ntsj_code_name(NTSJ_NOT_FOUND), "no such resource", NULL, 0);
     if (!r->route.method_ok) {
@@ -608,7 +643,7 @@ static enum MHD_Result answer_bodiless(struct MHD_Connection* c, ntsd_request* r
         snprintf(msg, sizeof msg, "method not allowed; allowed: %s", r->route.allow);
         return reply_error(c, r, ntsj_code_name(NTSJ_METHOD_NOT_ALLOWED), msg, r->route.allow, 0);
     }
-    return answer_get(c, r);
+    return route_handlers[r->route.kind](c, r);
 }
 
 /* The Host header names one of --allow-host (the port aside): a page whose
@@ -749,7 +784,7 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         ntsd_client_key(&s->config, r->peer, MHD_lookup_connection_value(c, MHD_HEADER_KIND, "X-Forwarded-For"),
                         token, r->client);
         pthread_rwlock_unlock(&s->tokens_lock);
-        if (!r->authorized && r->route.kind != NTSD_ROUTE_HEALTH && (has_body || is_post_route(r)))
+        if (!r->authorized && r->route.auth != NTSD_AUTH_OPEN && (has_body || is_post_route(r)))
             return reply_unauthorized(c, r, 1);
     }
     if (!is_post_route(r)) return has_body ? answer_bodiless(c, r) : MHD_YES;
@@ -760,7 +795,7 @@ static enum MHD_Result first_call(ntsd_server* s, struct MHD_Connection* c, ntsd
         const char* given = MHD_lookup_connection_value(c, MHD_HEADER_KIND, s->config.session_id_header);
         if (given != NULL && ntsd_is_session_id(given, strlen(given))) copy_str(r->given_id, sizeof r->given_id, given);
     }
-    if (r->route.kind == NTSD_ROUTE_SCENE_CONTACT) {
+    if (r->route.body == NTSD_BODY_STEP) {
         /* A step: JSON positions, raw float64 positions, or nothing at all. */
         const char* accept = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
         r->answer_binary = accepts_octet_stream(accept);
@@ -857,7 +892,7 @@ static enum MHD_Result on_request(void* cls, struct MHD_Connection* c, const cha
         return reply_error(c, r, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE),
                            "the request body is larger than --max-bytes", NULL, 1);
     if (r->over_budget) return reply_over_budget(c, r, r->received, 1);
-    return answer_post(c, r);
+    return route_handlers[r->route.kind](c, r);
 }
 
 static const char* termination_name(enum MHD_RequestTerminationCode toe) {
@@ -950,7 +985,7 @@ static void on_completed(void* cls, struct MHD_Connection* c, void** con_cls, en
     pthread_mutex_lock(&s->lock);
     s->in_flight--;
     ntsd_metrics_request(&s->metrics, r->route.kind, ok ? r->status : 0, t_end - r->t0, refusal_of(r, ok));
-    if (ok && r->resp.ok && (r->route.kind == NTSD_ROUTE_CONTACT || r->route.kind == NTSD_ROUTE_SCENE_CONTACT)) {
+    if (ok && r->resp.ok && r->route.evaluates) {
         s->metrics.evaluations++;
         s->metrics.surface_nodes += (unsigned long long)r->resp.summary.surface_nodes;
         s->metrics.contacts += (unsigned long long)r->resp.summary.contacts;

@@ -2,6 +2,7 @@
  * shared state and one request's state. One file per concept:
  *   args.c     command line          log.c     one line per request, the clock
  *   body.c     capped body buffer    routes.c  URL + method -> route (no state)
+ *   routes.h   the routes table (NTSD_ROUTE_MAP), what all the rest route by
  *   health.c   GET /v1/health from a snapshot of the counters
  *   sessions.c the scene-session store (ids, LRU, TTL, memory budget)
  *   server.c   libmicrohttpd callbacks, counters, start/stop
@@ -22,6 +23,8 @@
 #include <microhttpd.h>
 
 #include <ntscontact/codec.h>
+
+#include "routes.h"
 
 /* ------------------------------------------------------------------ args */
 
@@ -224,18 +227,15 @@ int ntsd_sessions_describe(ntsd_sessions* st, const char* id, const char* client
 #define NTSD_SESSION_TAG_LEN 9
 void ntsd_session_tag(const char* id, size_t n, char out[NTSD_SESSION_TAG_LEN + 1]);
 
+/* A route's kind: NONE (no route: 404), then one per row of NTSD_ROUTE_MAP
+ * (routes.h), in its order; it indexes the metrics' counters. */
+#define NTSD_ROUTE_ENUM_(id, pattern, methods, param, body, auth, handler, label, evaluates) NTSD_ROUTE_##id,
 typedef enum ntsd_route_kind {
     NTSD_ROUTE_NONE = 0,
-    NTSD_ROUTE_CONTACT,
-    NTSD_ROUTE_VALIDATE,
-    NTSD_ROUTE_HEALTH,
-    NTSD_ROUTE_ASSET,
-    NTSD_ROUTE_SCENES,        /* POST /v1/scenes */
-    NTSD_ROUTE_SCENE,         /* GET, HEAD, DELETE /v1/scenes/{id} */
-    NTSD_ROUTE_SCENE_CONTACT, /* POST /v1/scenes/{id}/contact */
-    NTSD_ROUTE_METRICS,       /* GET /metrics */
+    NTSD_ROUTE_MAP(NTSD_ROUTE_ENUM_)
     NTSD_ROUTE_KINDS
 } ntsd_route_kind;
+#undef NTSD_ROUTE_ENUM_
 
 /* ---------------------------------------------------------------- server */
 
@@ -375,7 +375,10 @@ typedef struct ntsd_route {
     const char* methods; /* the methods of the path ("POST", "GET, HEAD", "GET, HEAD, DELETE") */
     const char* allow;   /* its Allow header: those and OPTIONS ("POST, OPTIONS") */
     int method_ok;       /* the method is one of `methods` (OPTIONS is not: a preflight) */
-    int asset;           /* index in ntsd_assets for NTSD_ROUTE_ASSET */
+    ntsd_body_kind body; /* what the route reads (NONE for no route) */
+    ntsd_auth_kind auth; /* whether it needs the token (TOKEN for no route: 401 before 404) */
+    int evaluates;       /* a success counts as an evaluation in the metrics */
+    int asset;           /* index in ntsd_assets for NTSD_ROUTE_OPENAPI and NTSD_ROUTE_SCHEMA */
     char scene_id[NTSD_SESSION_ID_MAX + 1]; /* the {id} of a scene route ("" when malformed: 404) */
 } ntsd_route;
 

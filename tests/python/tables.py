@@ -102,3 +102,12 @@ OUTPUT_COLUMNS = ["id", "bit", "name", "result", "records"]
 def outputs() -> List[Dict[str, str]]:
     return [dict(zip(OUTPUT_COLUMNS, row)) for row in
             macro_rows("core/include/ntscontact/tables.h", "NTS_OUTPUT_MAP")]
+
+
+ROUTE_COLUMNS = ["id", "pattern", "methods", "param", "body", "auth", "handler", "label", "evaluates"]
+
+
+def routes() -> List[Dict[str, str]]:
+    """The daemon's routes (server/src/routes.h), one dict a row; `methods`
+    stays the Allow header's text ("GET, HEAD")."""
+    return [dict(zip(ROUTE_COLUMNS, row)) for row in macro_rows("server/src/routes.h", "NTSD_ROUTE_MAP")]

@@ -2,7 +2,10 @@
 the options (NTS_OPTION_MAP, core/include/ntscontact/tables.h) against
 scene.schema.json's options, session.schema.json's step overrides and the
 query parameters of POST /v1/scenes/{id}/contact in openapi.json, and the
-CLI's --help against the table. The error codes have the same test in
+CLI's --help against the table; the daemon's routes (NTSD_ROUTE_MAP,
+server/src/routes.h) against openapi.json's paths and operations, the Python
+client's requests, and what a running daemon answers (Allow, 401, 404) and
+counts in GET /metrics. The error codes have the same test in
 test_cli.py (test_error_codes_are_the_core_and_codec_tables)."""
 import json
 import re
@@ -200,3 +203,116 @@ def test_each_output_is_answered_where_the_table_says(row):
 def test_the_cli_help_lists_the_tables_outputs():
     text = subprocess.run([str(CLI), "--help"], capture_output=True, text=True, timeout=30).stdout
     assert "comma-separated: " + ",".join(r["name"] for r in OUTPUTS) in text
+
+
+# ------------------------------------------------------------------ routes
+
+ROUTES = tables.routes()
+# The metrics label of a route is its path template, but for the two asset
+# paths: both count as "/v1/schemas", as before the table (dashboards keep
+# their series). Written here by hand, apart from the table.
+SHARED_LABELS = {"/v1/openapi.json": "/v1/schemas", "/v1/schemas/{name}": "/v1/schemas"}
+SID = "A" * 43  # a well-formed session id (none such is held)
+
+
+def deref(node: Dict[str, Any]) -> Dict[str, Any]:
+    while "$ref" in node:
+        ref = node["$ref"].removeprefix("#/").split("/")
+        node = OPENAPI
+        for part in ref:
+            node = node[part]
+    return node
+
+
+def operations(methods: str) -> set:
+    """The OpenAPI operations of an Allow list: HEAD is not one (the server
+    answers it wherever GET is, as HTTP says), and OPTIONS is not in the table."""
+    return {m.strip().lower() for m in methods.split(",")} - {"head"}
+
+
+def example_path(pattern: str) -> str:
+    return pattern.replace("{id}", SID).replace("{name}", "scene")
+
+
+def test_the_route_table_is_read():
+    assert [r["pattern"] for r in ROUTES][:2] == ["/v1/contact", "/v1/validate"]
+    assert len({r["id"] for r in ROUTES}) == len(ROUTES) == len({r["pattern"] for r in ROUTES})
+
+
+def test_openapi_has_exactly_the_tables_routes_and_methods():
+    table = {(r["pattern"], op) for r in ROUTES for op in operations(r["methods"])}
+    spec = {(path, op) for path, item in OPENAPI["paths"].items() for op in item if op != "parameters"}
+    assert table == spec, {"only in the table": table - spec, "only in openapi.json": spec - table}
+
+
+@pytest.mark.parametrize("row", ROUTES, ids=lambda r: r["pattern"])
+def test_each_route_keeps_the_servers_conventions(row):
+    methods = [m.strip() for m in row["methods"].split(",")]
+    assert "OPTIONS" not in methods  # added to Allow by the server, for the preflight
+    assert ("GET" in methods) == ("HEAD" in methods)
+    assert row["body"] == "NONE" or methods == ["POST"]  # a body is read by POST routes only
+    assert row["label"] == SHARED_LABELS.get(row["pattern"], row["pattern"])
+
+
+@pytest.mark.parametrize("row", ROUTES, ids=lambda r: r["pattern"])
+def test_each_routes_body_and_path_parameter_are_openapis(row):
+    item = OPENAPI["paths"][row["pattern"]]
+    for op in operations(row["methods"]):
+        body = deref(item[op]["requestBody"]) if "requestBody" in item[op] else None
+        types = set(body["content"]) if body else set()
+        assert types == {"NONE": set(), "JSON": {"application/json"},
+                         "STEP": {"application/json", "application/octet-stream"}}[row["body"]], (op, types)
+        if row["body"] == "JSON":
+            assert body.get("required") is True  # the server refuses a JSON route's request without one
+        params = [deref(p) for p in item.get("parameters", []) + item[op].get("parameters", [])]
+        in_path = {p["name"] for p in params if p["in"] == "path"}
+        assert in_path == set(re.findall(r"\{(\w+)\}", row["pattern"])), op
+        assert (row["param"] != "NONE" and row["param"] != "OPENAPI") == bool(in_path)
+
+
+def test_the_python_client_uses_the_tables_routes():
+    src = "".join((REPO / "clients/python/src/ntscontact" / f).read_text() for f in ("client.py", "session.py"))
+    used = re.findall(r'_request\(\s*"([A-Z]+)",\s*f?"([^"]+)"', src)
+    assert len(used) >= 8
+    for method, path in used:
+        pattern = re.sub(r"\{self\.id\}", "{id}", path)
+        rows = [r for r in ROUTES if r["pattern"] == pattern]
+        assert rows and method in rows[0]["methods"], (method, path)
+
+
+def test_the_daemon_routes_as_the_table_says(paths, tmp_path):
+    """Each row's path, from a running daemon with a token: a method it does
+    not take gets 405 with the row's Allow; no token gets 401 unless the row
+    is OPEN; the schemas openapi.json names are served, and no other name.
+    Then GET /metrics counts each row under its label, and no route else."""
+    import requests
+    from conftest import start_daemon
+
+    tokens = tmp_path / "tokens"
+    tokens.write_text("route-token-1\n")
+    auth = {"Authorization": "Bearer route-token-1"}
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--token-file", str(tokens))
+    try:
+        for row in ROUTES:
+            url = d.url(example_path(row["pattern"]))
+            r = requests.request("PUT", url, headers=auth, timeout=10)
+            assert r.status_code == 405, (row["pattern"], r.status_code, r.text)
+            assert r.headers["Allow"] == row["methods"] + ", OPTIONS"
+            assert r.json()["error"]["code"] == "method_not_allowed"
+            method = row["methods"].split(",")[0]
+            r = requests.request(method, url, timeout=10)
+            assert r.status_code == (401 if row["auth"] == "TOKEN" else 200), (row["pattern"], r.status_code)
+        names = deref(OPENAPI["paths"]["/v1/schemas/{name}"]["get"]["parameters"][0])["schema"]["enum"]
+        for name in names:
+            assert requests.get(d.url(f"/v1/schemas/{name}"), headers=auth, timeout=10).status_code == 200, name
+        for name in ("openapi", "nowhere", ""):
+            assert requests.get(d.url(f"/v1/schemas/{name}"), headers=auth, timeout=10).status_code == 404, name
+        assert requests.get(d.url("/v1/openapi.json"), headers=auth, timeout=10).json()["paths"].keys() == OPENAPI["paths"].keys()
+        text = requests.get(d.url("/metrics"), headers=auth, timeout=10).text
+    finally:
+        d.stop()
+    labels = set(re.findall(r'^ntscontactd_requests_total\{route="([^"]*)"', text, re.M))
+    assert labels == {r["label"] for r in ROUTES} | {"other"}  # "other": the 404s of the unknown names
+    for row in ROUTES:
+        assert re.search(rf'^ntscontactd_requests_total\{{route="{re.escape(row["label"])}",status="405"\}}', text,
+                         re.M), row["pattern"]
