@@ -14,4 +14,5 @@ void register_alloc_suite(void);
 void register_parallel_suite(void);
 void register_reach_suite(void);
 void register_backend_suite(void);
+void register_pressure_suite(void);
 #endif
