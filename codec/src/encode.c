@@ -196,8 +196,12 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     unsigned outputs = s->options.outputs;
     int i, k;
     w_init(&w, b, pretty);
-    /* Reserve roughly what the forces will take up front: fewer regrowths. */
-    if (outputs & NTS_OUT_FORCES) ntsj_buf_hint(b, (size_t)nts_scene_node_count(scene) * 48u + 512u);
+    /* Reserve roughly what the forces and the pressure will take up front:
+     * fewer regrowths. */
+    {
+        const size_t per_node = ((outputs & NTS_OUT_FORCES) ? 48u : 0u) + ((outputs & NTS_OUT_PRESSURE) ? 24u : 0u);
+        if (per_node > 0) ntsj_buf_hint(b, (size_t)nts_scene_node_count(scene) * per_node + 512u);
+    }
     w_open(&w, '{', 0);
     w_key(&w, "version");
     w_int(&w, 1);
@@ -258,7 +262,10 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     }
     w_close(&w, ']');
 
-    if ((outputs & NTS_OUT_FORCES) && r->forces) {
+    if (((outputs & NTS_OUT_FORCES) && r->forces) || ((outputs & NTS_OUT_PRESSURE) && r->pressure)) {
+        /* Per body, per node: the forces and the pressure asked for. */
+        const int forces = (outputs & NTS_OUT_FORCES) && r->forces;
+        const int pressure = (outputs & NTS_OUT_PRESSURE) && r->pressure;
         w_key(&w, "bodies");
         w_open(&w, '[', 0);
         for (i = 0; i < s->body_count; ++i) {
@@ -267,10 +274,18 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
             w_open(&w, '{', 0);
             w_key(&w, "id");
             w_id(&w, &s->ids[i]);
-            w_key(&w, "forces");
-            w_open(&w, '[', 0);
-            for (k = 0; k < n; ++k) w_vec2(&w, r->forces[off + k]);
-            w_close(&w, ']');
+            if (forces) {
+                w_key(&w, "forces");
+                w_open(&w, '[', 0);
+                for (k = 0; k < n; ++k) w_vec2(&w, r->forces[off + k]);
+                w_close(&w, ']');
+            }
+            if (pressure) {
+                w_key(&w, "pressure");
+                w_open(&w, '[', 1);
+                for (k = 0; k < n; ++k) w_double(&w, r->pressure[off + k]);
+                w_close(&w, ']');
+            }
             w_close(&w, '}');
         }
         w_close(&w, ']');

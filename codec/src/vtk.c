@@ -7,6 +7,8 @@
  *            interior on the left), then every active contact (a VTK_LINE from
  *            the slave node to its PCA);
  *   point data  force (the contact force on each node; 0 on PCA points),
+ *               pressure (the node's contact pressure, docs/model.md (21),
+ *               when outputs has pressure, else 0; 0 on PCA points),
  *               body (body index; a PCA point has its master body);
  *   cell data   kind (0 segment, 1 contact), body (the segment's body, the
  *               contact's slave body), master_body (-1 for segments),
@@ -126,6 +128,13 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
     open_array(b, "Float64", "force", 3);
     for (i = 0; i < n; ++i) put_vec3(b, r->forces ? r->forces[i] : nts_v2(0.0, 0.0));
     for (i = 0; i < nc; ++i) ntsj_buf_puts(b, "0 0 0\n");
+    close_array(b);
+    open_array(b, "Float64", "pressure", 1);
+    for (i = 0; i < n; ++i) {
+        put_double(b, r->pressure ? r->pressure[i] : 0.0);
+        ntsj_buf_putc(b, '\n');
+    }
+    for (i = 0; i < nc; ++i) ntsj_buf_puts(b, "0\n");
     close_array(b);
     open_array(b, "Int32", "body", 1);
     for (body = 0; body < nb; ++body) {

@@ -26,6 +26,9 @@ static inline double law_energy(double eps, double g) { return 0.5 * eps * g * g
  * node k. */
 static inline nts_vec2 law_slave_force(double eg, nts_vec2 n) { return nts_scale(-eg, n); }
 static inline nts_vec2 law_master_force(double eg, double w, nts_vec2 n) { return nts_scale(eg * w, n); }
+/* The slave's force along n as a magnitude, -eps g >= 0: what the pressure
+ * (21) sums. */
+static inline double law_slave_normal(double eg) { return -eg; }
 
 /* The virial (11): -sum_k f_k (X_k - Xs) over the contact's nodes is
  * -eps g n (X - Xs) with X the closest point, and Xs - X = g n there, so it

@@ -27,7 +27,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
         (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) +
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
-        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
+        (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->pressure_cap * sizeof(double) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double)) +
         ctx->pool_cap[STREAM_RECORDS] + ctx->pool_cap[STREAM_REACH] + nts_reach_memory_bytes(&ctx->reach);
     for (i = 0; i < ctx->worker_count; ++i) {
@@ -91,6 +91,7 @@ static void buffers_free(nts_context* ctx) {
     workers_free(ctx);
     nts_free(ctx->chunks);
     nts_free(ctx->forces);
+    nts_free(ctx->pressure);
     nts_free(ctx->shares);
     nts_free(ctx->pool[STREAM_RECORDS]);
     nts_free(ctx->pool[STREAM_REACH]);

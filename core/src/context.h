@@ -60,6 +60,8 @@ struct nts_context {
     int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
+    double* pressure;  /* NTS_OUT_PRESSURE (pressure.c) */
+    int pressure_cap;
     force_shares* shares; /* each active record's forces, computed once (records kept) */
     int shares_cap;
     nts_contact* contacts;

@@ -186,7 +186,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     else if (s->surface_count > 0) env.r = ss.kth; /* the median segment, exactly */
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
-    env.keep_all = (opt->outputs & (NTS_OUT_CONTACTS | NTS_OUT_GAPS | NTS_OUT_STIFFNESS)) != 0u;
+    env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u; /* tables.h's records column */
     h = ss.lmax + env.r; /* every feature lies within L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];

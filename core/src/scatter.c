@@ -1,6 +1,6 @@
 /* The scatter (docs/model.md §6, §7): the chunks' records, read in chunk
  * order (slave order), become forces, energy, virial, contacts and the
- * tangent. Every phase runs in parallel and gives the same bits for any
+ * tangent (and the pressure: pressure.c). Every phase runs in parallel and gives the same bits for any
  * number of threads: each chunk sums its own energy and virial and the
  * chunks' sums are added in chunk order; each thread owns a range of nodes
  * and adds, in record order, what every record gives them. */
@@ -53,12 +53,6 @@ static int forces_finite(const nts_vec2* F, int n0, int n1) {
     return 1;
 }
 
-/* A chunk's records (none, and maybe no buffer, when it found nothing). */
-static inline const candidate* chunk_recs(const chunk_info* ch) {
-    return (const candidate*)ch->part[STREAM_RECORDS].data;
-}
-static inline int chunk_count(const chunk_info* ch) { return ch->part[STREAM_RECORDS].count; }
-
 /* A chunk's active contacts and their sums. */
 static void chunk_sums(const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ch);
@@ -66,33 +60,6 @@ static void chunk_sums(const search_env* env, chunk_info* ch) {
     memset(&ch->sums, 0, sizeof ch->sums);
     for (k = 0; k < chunk_count(ch); ++k)
         if (rec[k].gap < 0.0) contact_sum(env, &rec[k], &ch->sums);
-}
-
-/* The records of chunk ch and its deep contacts (reach.c), merged by slave
- * then master body (each pair is in one of them only): the order of the
- * contacts and gaps, and of the tangent's blocks, the order a radius large
- * enough for every contact would give. */
-typedef struct merged {
-    const candidate *rec, *deep;
-    int i, n, j, m;
-} merged;
-
-static merged merged_begin(const nts_context* ctx, const chunk_info* ch) {
-    merged it;
-    it.rec = chunk_recs(ch);
-    it.n = chunk_count(ch);
-    it.deep = ch->deep_count > 0 ? ctx->reach.deep + ch->deep_at : NULL; /* (no deep contact: maybe no buffer) */
-    it.m = ch->deep_count;
-    it.i = it.j = 0;
-    return it;
-}
-
-/* The next record in the merged order, NULL after the last. */
-static const candidate* merged_next(merged* it) {
-    if (it->i < it->n && (it->j == it->m || it->rec[it->i].slave < it->deep[it->j].slave ||
-                          (it->rec[it->i].slave == it->deep[it->j].slave && it->rec[it->i].body < it->deep[it->j].body)))
-        return &it->rec[it->i++];
-    return it->j < it->m ? &it->deep[it->j++] : NULL;
 }
 
 /* A chunk's active records' force shares, from its place on (none, and
@@ -204,6 +171,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     const int want_contacts = (opt->outputs & NTS_OUT_CONTACTS) != 0u;
     const int want_gaps = (opt->outputs & NTS_OUT_GAPS) != 0u;
     const int want_stiffness = (opt->outputs & NTS_OUT_STIFFNESS) != 0u;
+    const int want_pressure = (opt->outputs & NTS_OUT_PRESSURE) != 0u;
     const int nchunk = ctx->chunk_count;
     const nts_reach* reach = &ctx->reach;
     nts_summary* sum = &out->summary;
@@ -330,6 +298,12 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         out->stiffness.size = 2 * s->node_count;
     }
 
+    if (want_pressure) {
+        rc = nts_pressure(ctx, env, run);
+        if (rc == NTS_ENONFINITE) return overflow_error(err, "the pressure overflows a double (penalty too large)");
+        if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    }
+
     sum->bodies = s->body_count;
     sum->surface_nodes = s->surface_count;
     sum->contacts = ncontact;
@@ -342,6 +316,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     sum->search_radius = env->r;
     sum->cell_size = env->cells != NULL ? (ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy) : 0.0;
     out->forces = want_forces ? ctx->forces : NULL;
+    out->pressure = want_pressure ? ctx->pressure : NULL;
     out->contacts = want_contacts ? ctx->contacts : NULL;
     out->contact_count = want_contacts ? ncontact : 0;
     out->gaps = want_gaps ? ctx->gaps : NULL;

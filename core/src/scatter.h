@@ -11,9 +11,11 @@
  *   shares   several workers, no records asked: each chunk sums its active
  *            contacts and keeps their force shares (scatter_share), added
  *            node range by node range after the search (scatter.c);
- *   records  contacts, gaps or the tangent asked: every closest point is
- *            kept (scatter_record), and scatter.c sums, shares and makes
- *            the contacts of the chunks' records after the search. */
+ *   records  an output that keeps records asked (contacts, gaps, the
+ *            tangent, the pressure: NTS_OUT_RECORDS_): every closest point
+ *            is kept (scatter_record), and scatter.c sums, shares and makes
+ *            the contacts of the chunks' records after the search
+ *            (pressure.c the pressure). */
 #ifndef NTSCONTACT_SCATTER_H
 #define NTSCONTACT_SCATTER_H
 
@@ -86,8 +88,49 @@ static inline void scatter_share(const search_env* env, worker* w, const candida
  * contacts by scatter.c, after the search, in the same order) ---- */
 static inline void scatter_record(worker* w, const candidate* b) { w->recs[w->rec_count++] = *b; }
 
+/* ---- the records after the search (scatter.c, pressure.c) ---- */
+
+/* A chunk's records (none, and maybe no buffer, when it found nothing). */
+static inline const candidate* chunk_recs(const chunk_info* ch) {
+    return (const candidate*)ch->part[STREAM_RECORDS].data;
+}
+static inline int chunk_count(const chunk_info* ch) { return ch->part[STREAM_RECORDS].count; }
+
+/* The records of chunk ch and its deep contacts (reach.c), merged by slave
+ * then master body (each pair is in one of them only): the order of the
+ * contacts and gaps, and of the tangent's blocks and the pressure, the order a radius large
+ * enough for every contact would give. */
+typedef struct merged {
+    const candidate *rec, *deep;
+    int i, n, j, m;
+} merged;
+
+static inline merged merged_begin(const nts_context* ctx, const chunk_info* ch) {
+    merged it;
+    it.rec = chunk_recs(ch);
+    it.n = chunk_count(ch);
+    it.deep = ch->deep_count > 0 ? ctx->reach.deep + ch->deep_at : NULL; /* (no deep contact: maybe no buffer) */
+    it.m = ch->deep_count;
+    it.i = it.j = 0;
+    return it;
+}
+
+/* The next record in the merged order, NULL after the last. */
+static inline const candidate* merged_next(merged* it) {
+    if (it->i < it->n && (it->j == it->m || it->rec[it->i].slave < it->deep[it->j].slave ||
+                          (it->rec[it->i].slave == it->deep[it->j].slave && it->rec[it->i].body < it->deep[it->j].body)))
+        return &it->rec[it->i++];
+    return it->j < it->m ? &it->deep[it->j++] : NULL;
+}
+
 /* The chunks' records, in slave order, into *out. */
 int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, const search_env* env, const nts_run* run,
                 nts_result* out, nts_error* err);
+
+/* pressure.c: the pressure (docs/model.md (21)) of every node into
+ * ctx->pressure from the chunks' records and deep contacts (the records
+ * path: NTS_OUT_PRESSURE keeps them). NTS_OK, NTS_ENOMEM, or NTS_ENONFINITE
+ * when a node's pressure overflows a double. */
+int nts_pressure(nts_context* ctx, const search_env* env, const nts_run* run);
 
 #endif

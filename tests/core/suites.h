@@ -15,4 +15,5 @@ void register_parallel_suite(void);
 void register_reach_suite(void);
 void register_backend_suite(void);
 void register_contact_memory_suite(void);
+void register_pressure_suite(void);
 #endif

@@ -139,6 +139,9 @@ static int same_result(const nts_scene* s, const nts_result* a, const nts_result
          memcmp(a->stiffness.cols, b->stiffness.cols, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
          memcmp(a->stiffness.values, b->stiffness.values, sizeof(double) * (size_t)a->stiffness.count) != 0))
         return 0;
+    if ((a->pressure == NULL) != (b->pressure == NULL)) return 0;
+    if (a->pressure != NULL && memcmp(a->pressure, b->pressure, sizeof(double) * (size_t)nts_scene_node_count(s)) != 0)
+        return 0;
     if ((a->forces == NULL) != (b->forces == NULL)) return 0;
     return a->forces == NULL || memcmp(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0;
 }

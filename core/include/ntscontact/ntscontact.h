@@ -116,7 +116,8 @@ NTS_API const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all node
 /* -------------------------------------------------------------- options */
 
 /* NTS_OUT_FORCES ... from NTS_OUTPUT_MAP (tables.h); NTS_OUT_STIFFNESS is the
- * tangent K = d2E/dx2 = -df/dx (nts_result.stiffness). */
+ * tangent K = d2E/dx2 = -df/dx (nts_result.stiffness); NTS_OUT_PRESSURE the
+ * normal contact traction on each slave node (nts_result.pressure). */
 enum nts_output_flags {
 #define NTS_XX_(ID, bit, name, result, records) NTS_OUT_##ID = 1u << (bit),
     NTS_OUTPUT_MAP(NTS_XX_)
@@ -274,6 +275,11 @@ typedef struct nts_result {
     const nts_warning* warnings;
     int warning_count;
     const nts_vec2* forces;     /* global node order (see nts_scene_body_node_offset), or NULL if not asked */
+    /* The normal contact traction on each node as a slave (docs/model.md
+     * (21)): the sum of -eps g over its active contacts divided by its
+     * tributary length; 0 for a node in no contact or on no surface. Global
+     * node order, or NULL unless NTS_OUT_PRESSURE. */
+    const double* pressure;
     const nts_contact* contacts;/* active contacts, slave order; NULL unless NTS_OUT_CONTACTS */
     int contact_count;
     const nts_contact* gaps;    /* all closest points within r and the deep contacts, slave order;

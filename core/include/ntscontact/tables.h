@@ -39,7 +39,8 @@ extern "C" {
     XX(VIRIAL, 2, "virial", "summary/virial", 0)    \
     XX(CONTACTS, 3, "contacts", "contacts", 1)      \
     XX(GAPS, 4, "gaps", "gaps", 1)                  \
-    XX(STIFFNESS, 5, "stiffness", "stiffness", 1)
+    XX(STIFFNESS, 5, "stiffness", "stiffness", 1)   \
+    XX(PRESSURE, 6, "pressure", "bodies/pressure", 1)
 
 /* The names of an enumerated option's values: XX(C enumerator, JSON name). */
 #define NTS_SOLVER_NAMES(XX) XX(NTS_SOLVER_CLOSED_FORM, "closed_form") XX(NTS_SOLVER_NEWTON, "newton")

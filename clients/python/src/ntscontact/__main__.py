@@ -12,6 +12,7 @@ from typing import List, Optional
 
 from . import __version__
 from .errors import InvalidScene, NtsError
+from .scene import OUTPUTS
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -74,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--search-radius", type=float, help="options.search_radius")
     c.add_argument("--periodic", type=float, nargs=2, metavar=("LX", "LY"), help="periodic box")
     c.add_argument("--solver", choices=("closed_form", "newton"))
-    c.add_argument("--outputs", help="comma-separated: forces,energy,virial,contacts,gaps,stiffness")
+    c.add_argument("--outputs", help="comma-separated: " + ",".join(OUTPUTS))
     c.add_argument("--tag", help="cell_data field naming the body of each cell (default: gmsh:physical if present)")
     c.add_argument("--no-tags", action="store_true", help="ignore tags: bodies are connected components")
     c.add_argument("--loops", action="store_true", help="write boundary loops instead of triangles")

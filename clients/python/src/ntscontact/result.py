@@ -186,7 +186,10 @@ class Result:
     """The answer of ``POST /v1/contact``.
 
     ``forces`` maps each body id to an ``(n, 2)`` float64 array aligned with the
-    nodes that were sent (empty when ``forces`` was not asked for); ``energy`` and
+    nodes that were sent (empty when ``forces`` was not asked for); ``pressure``
+    maps each body id to an ``(n,)`` float64 array of the normal contact
+    traction on each node as a slave (docs/model.md (21); empty when
+    ``pressure`` was not asked for); ``energy`` and
     ``virial`` (2x2) come from the summary; ``contacts`` and ``gaps`` are lists,
     empty unless asked for in ``outputs``; ``warnings`` says what the result
     may lack (empty: nothing); ``raw`` is the parsed JSON.
@@ -198,6 +201,7 @@ class Result:
     gaps: List[Gap]
     raw: Dict[str, Any] = field(repr=False)
     warnings: List[ResultWarning] = field(default_factory=list)
+    pressure: Dict[BodyId, FloatArray] = field(default_factory=dict)
     #: A binary session answer's (N, 2) forces; ``forces`` holds views into it.
     _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
     #: The tangent's triplets (rows, cols, values, size) of a binary answer.
@@ -255,6 +259,15 @@ class Result:
         if not ids:
             return np.zeros((0, 2), dtype=np.float64)
         return np.concatenate([self.forces[i] for i in ids], axis=0)
+
+    def pressure_array(self, order: Optional[Sequence[BodyId]] = None) -> FloatArray:
+        """All pressures stacked into one ``(N,)`` array, bodies in ``order``
+        (default: the order of the answer). Raises ``KeyError`` when ``outputs``
+        did not ask for pressure."""
+        if not self.pressure:
+            raise KeyError("this result has no pressure: ask for outputs=[..., 'pressure']")
+        ids = list(self.pressure) if order is None else list(order)
+        return np.concatenate([self.pressure[i] for i in ids], axis=0)
 
     def contact_arrays(self) -> Dict[str, npt.NDArray[Any]]:
         """Contacts as columns, for vectorised work over them: ``slave_body`` and
@@ -325,7 +338,11 @@ class Result:
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> "Result":
         forces: Dict[BodyId, FloatArray] = {}
+        pressure: Dict[BodyId, FloatArray] = {}
         for b in doc.get("bodies") or []:
+            p = b.get("pressure")
+            if p is not None:
+                pressure[b["id"]] = np.array(p, dtype=np.float64).reshape(-1)
             f = b.get("forces")
             if f is None:
                 continue
@@ -338,6 +355,7 @@ class Result:
             gaps=[Gap.from_dict(g) for g in doc.get("gaps") or []],
             raw=dict(doc),
             warnings=[ResultWarning.from_dict(w) for w in doc.get("warnings") or []],
+            pressure=pressure,
         )
 
     def warn(self) -> "Result":

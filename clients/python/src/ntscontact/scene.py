@@ -30,7 +30,7 @@ IntArray = npt.NDArray[np.int64]
 LoopsLike = Union[Sequence[ArrayLike], npt.NDArray[Any]]
 
 #: The outputs a scene may ask for (``options.outputs``).
-OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps", "stiffness")
+OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps", "stiffness", "pressure")
 #: The corner solvers of the service (``options.solver``).
 SOLVERS: Tuple[str, ...] = ("closed_form", "newton")
 

@@ -4,8 +4,9 @@ of the C tool's ``ntscontact --vtk`` (codec/src/vtk.c):
 - points: every node (global order, z = 0), then each active contact's closest point;
 - cells: each surface segment (a line, interior on the left), then each active
   contact (a line from the slave node to its closest point);
-- point data ``force`` and ``body``; cell data ``kind`` (0 segment, 1 contact),
-  ``body``, ``master_body``, ``gap``, ``normal``, ``contact_kind``, ``contact_force``;
+- point data ``force``, ``pressure`` (0 when not asked for) and ``body``; cell
+  data ``kind`` (0 segment, 1 contact), ``body``, ``master_body``, ``gap``,
+  ``normal``, ``contact_kind``, ``contact_force``;
 - field data ``energy``, ``virial``, ``contacts``, ``max_penetration``.
 
 Written with the standard library and numpy only (no VTK or meshio needed);
@@ -84,6 +85,7 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     contacts = list(result.contacts)
     c = len(contacts)
     forces = result.force_array() if result.forces else np.zeros((n, 2))
+    pressure = result.pressure_array() if getattr(result, "pressure", None) else np.zeros(n)
     pts = np.vstack([x, np.array([ct.point for ct in contacts]).reshape(c, 2)])
     seg_arr = np.array([(a, b) for a, b, _ in segs], dtype=np.int64).reshape(-1, 2)
     t = x[seg_arr[:, 1]] - x[seg_arr[:, 0]] if len(segs) else np.zeros((0, 2))
@@ -110,6 +112,7 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     _array(lines, "UInt8", "types", 1, np.full(len(conn), 3))
     lines += ["</Cells>", '<PointData Vectors="force">']
     _array(lines, "Float64", "force", 3, np.c_[np.vstack([forces, np.zeros((c, 2))]), np.zeros(n + c)])
+    _array(lines, "Float64", "pressure", 1, np.concatenate([pressure, np.zeros(c)]))
     _array(lines, "Int32", "body", 1, np.concatenate([body_of_node,
                                                       [index[(type(ct.master_body), ct.master_body)] for ct in contacts]]))
     lines += ["</PointData>", '<CellData Normals="normal">']
