@@ -120,22 +120,25 @@ static void masters_bin(int begin, int end, int wi, void* p) {
     const nts_context* ctx = t->ctx;
     const nts_scene* s = t->s;
     const nts_cells* cl = &ctx->cells;
+    const seg_data* seg = ctx->seg;
+    int* cell_of = t->cell_of;
+    /* the task's fields in locals: the loop keeps them in registers */
+    const double alpha = t->alpha, r = t->r, pad = t->pad, fits = t->fits;
     int e, nlong = 0;
     (void)wi;
     for (e = begin; e < end; ++e) {
-        const seg_data* m = &ctx->seg[e];
+        const seg_data* m = &seg[e];
         const int b = m->body;
         if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
-            t->cell_of[e] = -1;
+            cell_of[e] = -1;
             continue;
         }
-        if (t->fits > 0.0 &&
-            !(reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, t->alpha)), t->r, t->pad) <= t->fits)) {
-            t->cell_of[e] = -2;
+        if (fits > 0.0 && !(reach_allowed(reach_at_middle(seg, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
+            cell_of[e] = -2;
             ++nlong;
             continue;
         }
-        t->cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
+        cell_of[e] = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t)).cell;
     }
     if (nlong > 0) nts_atomic_add_ll(&t->nlong, nlong);
 }
@@ -149,7 +152,7 @@ static void masters_place(int begin, int end, int wi, void* p) {
     const nts_cells* cl = &ctx->cells;
     master_keys* k = &ctx->keys;
     const int n = s->surface_count, slices = t->slices;
-    const double scale = cl->scale;
+    const double scale = cl->scale, alpha = t->alpha, r = t->r, pad = t->pad;
     const int* cell_of = t->cell_of;
     int u;
     (void)wi;
@@ -174,7 +177,7 @@ static void masters_place(int begin, int end, int wi, void* p) {
             if (cell < 0) continue;
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, t->alpha)), t->r, t->pad);
+            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, alpha)), r, pad);
             Rs = R * scale + KEY_SLACK;
             k->x[at] = (float)(q.x * scale);
             k->y[at] = (float)(q.y * scale);
