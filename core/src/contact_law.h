@@ -1,5 +1,5 @@
 /* The contact law: what one active contact gives, in one place (docs/model.md
- * §6, §7, §10). Every path of the scatter (scatter.h: direct, shares,
+ * §6, §7, §10). Every path of the scatter (search.h: direct, shares,
  * records) and the tangent call these and nothing else, so that they give
  * the same bits and a new law (friction) changes this file and the state it
  * reads, not the paths.

@@ -101,4 +101,39 @@ void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, con
  * candidates of a slave. Sets each chunk's parts' `data`. */
 int nts_chunks_settle(nts_context* ctx, int nthreads, int shares);
 
+/* ---- the records after the search (scatter.c, pressure.c) ---- */
+
+/* A chunk's records (none, and maybe no buffer, when it found nothing). */
+static inline const candidate* chunk_recs(const chunk_info* ch) {
+    return (const candidate*)ch->part[STREAM_RECORDS].data;
+}
+static inline int chunk_count(const chunk_info* ch) { return ch->part[STREAM_RECORDS].count; }
+
+/* The records of chunk ch and its deep contacts (reach.c), merged by slave
+ * then master body (each pair is in one of them only): the order of the
+ * contacts and gaps, and of the tangent's blocks and the pressure, the order a radius large
+ * enough for every contact would give. */
+typedef struct merged {
+    const candidate *rec, *deep;
+    int i, n, j, m;
+} merged;
+
+static inline merged merged_begin(const nts_context* ctx, const chunk_info* ch) {
+    merged it;
+    it.rec = chunk_recs(ch);
+    it.n = chunk_count(ch);
+    it.deep = ch->deep_count > 0 ? ctx->reach.deep + ch->deep_at : NULL; /* (no deep contact: maybe no buffer) */
+    it.m = ch->deep_count;
+    it.i = it.j = 0;
+    return it;
+}
+
+/* The next record in the merged order, NULL after the last. */
+static inline const candidate* merged_next(merged* it) {
+    if (it->i < it->n && (it->j == it->m || it->rec[it->i].slave < it->deep[it->j].slave ||
+                          (it->rec[it->i].slave == it->deep[it->j].slave && it->rec[it->i].body < it->deep[it->j].body)))
+        return &it->rec[it->i++];
+    return it->j < it->m ? &it->deep[it->j++] : NULL;
+}
+
 #endif

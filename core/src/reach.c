@@ -38,7 +38,7 @@
 #include <string.h>
 
 #include "parallel.h"
-#include "scatter.h"
+#include "context.h"
 
 
 void nts_reach_free(nts_reach* r) {

@@ -13,7 +13,7 @@
 #include <math.h>
 
 #include "corner.h"
-#include "scatter.h"
+#include "reach.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -347,7 +347,7 @@ static void flush_slave(const search_env* env, worker* w, int i, int end) {
             w->slot[b->body] = -1;
             if (w->status != NTS_OK || !(env->keep_all || b->gap < 0.0)) continue;
             b->slave = i;
-            /* One of the scatter's three paths (scatter.h). */
+            /* One of the scatter's three paths (search.h). */
             if (env->direct) scatter_direct(env, w, b);
             else if (env->shares) scatter_share(env, w, b);
             else scatter_record(w, b);

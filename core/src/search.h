@@ -9,7 +9,7 @@
  *      closest point within r (docs/model.md §4: gap, parameter, normal,
  *      point, feature); which of them it keeps is the path's (search_env:
  *      every record, the active ones' sums and force shares, or sums and
- *      forces directly; scatter.h), and the items the reach's growth needs
+ *      forces directly: the three paths below), and the items the reach's growth needs
  *      (reach_item). The result depends on nothing but the positions and the
  *      options: not on the order of the masters visited, nor on which worker
  *      ran which range. */
@@ -184,5 +184,95 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end);
  * of them); nts_search_wide_done clears them. */
 void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* shape);
 void nts_search_wide_done(worker* w);
+
+
+/* ---------------------------------------------- the scatter's three paths
+ *
+ * What becomes of each active candidate the search finds (docs/model.md §6,
+ * §7), by one of three paths, side by side here, chosen by nts_evaluate for
+ * what is asked. Each calls the contact law (contact_law.h) for each active
+ * contact in the same order, slave order then master body, and adds the
+ * same terms in the same order, so the three give the same bits
+ * (test_backend.c: the paths). They live with the search, which runs them:
+ * the scatter (scatter.h) reads what they leave, never the reverse.
+ *
+ *   direct   one worker, no records asked: the search sums each slave's
+ *            active contacts into its chunk's sums and adds their forces as
+ *            it goes (scatter_direct, scatter_direct_drain);
+ *   shares   several workers, no records asked: each chunk sums its active
+ *            contacts and keeps their force shares (scatter_share), added
+ *            node range by node range after the search (scatter.c);
+ *   records  an output that keeps records asked (contacts, gaps, the
+ *            tangent, the pressure: NTS_OUT_RECORDS_): every closest point
+ *            is kept (scatter_record), and scatter.c sums, shares and makes
+ *            the contacts of the chunks' records after the search
+ *            (pressure.c the pressure), with the same functions. */
+
+/* The slave's penalty (docs/model.md §10) for record b. */
+static inline double record_penalty(const search_env* env, const candidate* b) {
+    return law_penalty(env->eps, env->per_length, env->s->surf_trib[b->slave]);
+}
+
+/* Add active record b to the sums. */
+static inline void contact_sum(const search_env* env, const candidate* b, contact_sums* cs) {
+    law_sum(cs, record_penalty(env, b), b->gap, b->normal, env->want_virial);
+}
+
+/* Active record b's forces, node by node (10). */
+static inline force_shares contact_shares(const search_env* env, const candidate* b) {
+    force_shares sh;
+    int entry[3], q, m;
+    sh.eg = record_penalty(env, b) * b->gap;
+    sh.n = b->normal;
+    sh.node[0] = env->seg[b->slave].node;
+    m = record_masters(env, b, entry, sh.w);
+    for (q = 0; q < 3; ++q) {
+        sh.node[q + 1] = q < m ? env->seg[entry[q]].node : -1;
+        if (q >= m) sh.w[q] = 0.0;
+    }
+    return sh;
+}
+
+/* ---- path 1: direct ---- */
+
+/* The direct path adds a contact's forces FORCE_DELAY contacts after it was
+ * found, in the order found (first in, first out: the same sums, the same
+ * bits), and asks for the nodes' forces when it is found: they are scattered
+ * over the whole node array, and the additions would otherwise wait on
+ * memory one after another. */
+static inline void scatter_direct(const search_env* env, worker* w, const candidate* b) {
+    force_shares sh;
+    int q;
+    contact_sum(env, b, w->sums);
+    if (env->forces == NULL) return;
+    sh = contact_shares(env, b);
+    for (q = 0; q < 4 && sh.node[q] >= 0; ++q) NTS_PREFETCH_W(&env->forces[sh.node[q]]);
+    if (w->fifo_count == FORCE_DELAY) {
+        law_add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->fifo[w->fifo_head] = sh;
+        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
+    } else {
+        w->fifo[(w->fifo_head + w->fifo_count++) % FORCE_DELAY] = sh;
+    }
+}
+
+/* The forces still delayed, at the end of the worker's range. */
+static inline void scatter_direct_drain(const search_env* env, worker* w) {
+    for (; w->fifo_count > 0; --w->fifo_count) {
+        law_add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
+    }
+    w->fifo_head = 0;
+}
+
+/* ---- path 2: shares (the room is the caller's: flush_slave) ---- */
+static inline void scatter_share(const search_env* env, worker* w, const candidate* b) {
+    contact_sum(env, b, w->sums);
+    if (env->want_forces) w->shares[w->share_count++] = contact_shares(env, b);
+}
+
+/* ---- path 3: records (every closest point: summed, shared and made into
+ * contacts by scatter.c, after the search, in the same order) ---- */
+static inline void scatter_record(worker* w, const candidate* b) { w->recs[w->rec_count++] = *b; }
 
 #endif

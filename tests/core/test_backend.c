@@ -237,7 +237,7 @@ static void test_backends_large_scene(void) {
     free_packing(&p);
 }
 
-/* The scatter's three paths (scatter.h) agree bitwise on everything they
+/* The scatter's three paths (search.h) agree bitwise on everything they
  * share: records (contacts asked: every closest point kept, scattered after
  * the search), direct (one worker, default outputs) and shares (several
  * workers, default outputs): forces, energy, virial and the whole summary. */
