@@ -505,10 +505,10 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (nts_context_memory_bytes(ss->ctx) > held) grown = nts_context_memory_bytes(ss->ctx) - held;
     if (cfg.step_memory > 0 && grown >= cfg.step_memory) return step_too_large(out, &cfg, "records", pretty);
 
-    /* The contacts kept, and this step's matched to them: a step that
-     * evaluated counts, whatever its answer's fate. */
+    /* This step's contacts matched to the last answered step's; they become
+     * the kept ones only once this step is answered (below). */
     if (ss->memory != NULL) {
-        if (nts_contact_memory_step(ss->memory, &result, &match, &changes) != NTS_OK)
+        if (nts_contact_memory_match(ss->memory, &result, &match, &changes) != NTS_OK)
             return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         ss->js.match = match;
         ss->js.changes = &changes;
@@ -536,6 +536,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     }
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) {
+        if (ss->memory != NULL) (void)nts_contact_memory_commit(ss->memory); /* pending: cannot fail */
         ss->steps++;
         out->binary = st->answer_binary;
         out->triplets = st->answer_binary ? result.stiffness.count : 0;

@@ -10,15 +10,21 @@
 
 #include "internal.h"
 
-struct nts_contact_memory {
-    nts_contact* kept;   /* the last step's contacts (what the next step matches) */
-    int kept_count, kept_cap;
-    nts_contact* prev;   /* the step before it (what the last matches point into) */
-    int prev_count, prev_cap;
-    int* order;          /* kept contacts' indices, sorted by pair */
+/* A step's contacts, and their indices sorted by pair (for the lookup). */
+typedef struct contact_set {
+    nts_contact* c;
+    int count, cap;
+    int* order;
     int order_cap;
-    int* spare_order;
-    int spare_cap;
+} contact_set;
+
+/* Three sets, rotated: the committed step's (what the next match is against),
+ * the one before it (what the matches of the last commit point into), and the
+ * last match's, pending until committed (a trial step: an implicit solver's
+ * Newton iterations; a session's step whose answer is refused). */
+struct nts_contact_memory {
+    contact_set kept, prev, pending;
+    int has_pending;
     nts_contact_match* match;
     int match_cap;
 };
@@ -58,38 +64,50 @@ nts_contact_memory* nts_contact_memory_create(void) {
     return m;
 }
 
+static void set_free(contact_set* cs) {
+    nts_free(cs->c);
+    nts_free(cs->order);
+}
+
 void nts_contact_memory_destroy(nts_contact_memory* m) {
     if (m == NULL) return;
-    nts_free(m->kept);
-    nts_free(m->prev);
-    nts_free(m->order);
-    nts_free(m->spare_order);
+    set_free(&m->kept);
+    set_free(&m->prev);
+    set_free(&m->pending);
     nts_free(m->match);
     nts_free(m);
 }
 
+static size_t set_bytes(const contact_set* cs) {
+    return (size_t)cs->cap * sizeof(nts_contact) + (size_t)cs->order_cap * sizeof(int);
+}
+
 size_t nts_contact_memory_bytes(const nts_contact_memory* m) {
     if (m == NULL) return 0;
-    return sizeof *m + ((size_t)m->kept_cap + (size_t)m->prev_cap) * sizeof(nts_contact) +
-           ((size_t)m->order_cap + (size_t)m->spare_cap) * sizeof(int) + (size_t)m->match_cap * sizeof(nts_contact_match);
+    return sizeof *m + set_bytes(&m->kept) + set_bytes(&m->prev) + set_bytes(&m->pending) +
+           (size_t)m->match_cap * sizeof(nts_contact_match);
 }
 
 void nts_contact_memory_clear(nts_contact_memory* m) {
     if (m == NULL) return;
-    m->kept_count = m->prev_count = 0;
+    m->kept.count = m->prev.count = m->pending.count = 0;
+    m->has_pending = 0;
 }
 
 const nts_contact* nts_contact_memory_previous(const nts_contact_memory* m, int* count) {
-    if (count != NULL) *count = m != NULL ? m->prev_count : 0;
-    return m != NULL && m->prev_count > 0 ? m->prev : NULL;
+    /* the base of the last match: the committed step while it is pending,
+     * the one before once committed */
+    const contact_set* cs = m == NULL ? NULL : (m->has_pending ? &m->kept : &m->prev);
+    if (count != NULL) *count = cs != NULL ? cs->count : 0;
+    return cs != NULL && cs->count > 0 ? cs->c : NULL;
 }
 
-/* The kept contact of c's pair, or -1. */
-static int find_pair(const nts_contact_memory* m, const nts_contact* c) {
-    int lo = 0, hi = m->kept_count - 1;
+/* The committed contact of c's pair, or -1. */
+static int find_pair(const contact_set* kept, const nts_contact* c) {
+    int lo = 0, hi = kept->count - 1;
     while (lo <= hi) {
-        const int mid = lo + (hi - lo) / 2, k = m->order[mid];
-        const int d = pair_cmp(&m->kept[k], c);
+        const int mid = lo + (hi - lo) / 2, k = kept->order[mid];
+        const int d = pair_cmp(&kept->c[k], c);
         if (d == 0) return k;
         if (d < 0) lo = mid + 1;
         else hi = mid - 1;
@@ -97,26 +115,29 @@ static int find_pair(const nts_contact_memory* m, const nts_contact* c) {
     return -1;
 }
 
-int nts_contact_memory_step(nts_contact_memory* m, const nts_result* r, const nts_contact_match** match,
-                            nts_contact_changes* changes) {
+int nts_contact_memory_match(nts_contact_memory* m, const nts_result* r, const nts_contact_match** match,
+                             nts_contact_changes* changes) {
     const int n = r != NULL ? r->contact_count : 0;
+    contact_set* pd;
     sort_item* items = NULL;
-    nts_contact* t;
-    int k, cap, *ti, matched = 0;
+    int k, matched = 0;
     nts_contact_changes ch;
     if (match != NULL) *match = NULL;
     if (m == NULL || r == NULL) return NTS_EINVALID_ARGUMENT;
     if (r->contacts == NULL && r->summary.contacts > 0) return NTS_EINVALID_ARGUMENT;
-    /* Room first, so that a failure leaves the memory as it was. */
-    if (nts_grow((void**)&m->prev, &m->prev_cap, n, sizeof(nts_contact)) != NTS_OK ||
-        nts_grow((void**)&m->spare_order, &m->spare_cap, n, sizeof(int)) != NTS_OK ||
+    pd = &m->pending;
+    /* Room first, so that a failure leaves the memory as it was (a pending
+     * match is replaced by this one in any case). */
+    m->has_pending = 0;
+    if (nts_grow((void**)&pd->c, &pd->cap, n, sizeof(nts_contact)) != NTS_OK ||
+        nts_grow((void**)&pd->order, &pd->order_cap, n, sizeof(int)) != NTS_OK ||
         nts_grow((void**)&m->match, &m->match_cap, n, sizeof(nts_contact_match)) != NTS_OK)
         return NTS_ENOMEM;
     if (n > 0 && (items = (sort_item*)nts_alloc(sizeof(sort_item) * (size_t)n)) == NULL) return NTS_ENOMEM;
     memset(&ch, 0, sizeof ch);
     for (k = 0; k < n; ++k) {
         const nts_contact* c = &r->contacts[k];
-        const int p = find_pair(m, c);
+        const int p = find_pair(&m->kept, c);
         m->match[k].previous = p;
         m->match[k].persisted = 0;
         if (p < 0) {
@@ -126,37 +147,43 @@ int nts_contact_memory_step(nts_contact_memory* m, const nts_result* r, const nt
         ++matched;
         {
             /* the pair is equal: the key is when the feature is */
-            const nts_contact_key a = nts_contact_key_of(&m->kept[p]), b = nts_contact_key_of(c);
+            const nts_contact_key a = nts_contact_key_of(&m->kept.c[p]), b = nts_contact_key_of(c);
             m->match[k].persisted = a.kind == b.kind && a.feature_node == b.feature_node;
         }
         if (m->match[k].persisted) ++ch.persisted;
         else ++ch.moved;
     }
-    ch.ended = m->kept_count - matched;
-    /* The kept become the previous; the result's contacts the kept. */
-    t = m->prev;
-    m->prev = m->kept;
-    m->kept = t;
-    cap = m->prev_cap;
-    m->prev_cap = m->kept_cap;
-    m->kept_cap = cap;
-    m->prev_count = m->kept_count;
-    m->kept_count = n;
-    if (n > 0) memcpy(m->kept, r->contacts, sizeof(nts_contact) * (size_t)n);
+    ch.ended = m->kept.count - matched;
+    pd->count = n;
+    if (n > 0) memcpy(pd->c, r->contacts, sizeof(nts_contact) * (size_t)n);
     for (k = 0; k < n; ++k) {
-        items[k].c = &m->kept[k];
+        items[k].c = &pd->c[k];
         items[k].index = k;
     }
     if (n > 1) qsort(items, (size_t)n, sizeof(sort_item), item_cmp);
-    for (k = 0; k < n; ++k) m->spare_order[k] = items[k].index;
+    for (k = 0; k < n; ++k) pd->order[k] = items[k].index;
     nts_free(items);
-    ti = m->order;
-    m->order = m->spare_order;
-    m->spare_order = ti;
-    cap = m->order_cap;
-    m->order_cap = m->spare_cap;
-    m->spare_cap = cap;
+    m->has_pending = 1;
     if (match != NULL) *match = n > 0 ? m->match : NULL;
     if (changes != NULL) *changes = ch;
     return NTS_OK;
+}
+
+int nts_contact_memory_commit(nts_contact_memory* m) {
+    contact_set t;
+    if (m == NULL || !m->has_pending) return NTS_EINVALID_ARGUMENT;
+    /* prev <- kept <- pending, the old prev's buffers the next pending's */
+    t = m->prev;
+    m->prev = m->kept;
+    m->kept = m->pending;
+    m->pending = t;
+    m->pending.count = 0;
+    m->has_pending = 0;
+    return NTS_OK;
+}
+
+int nts_contact_memory_step(nts_contact_memory* m, const nts_result* r, const nts_contact_match** match,
+                            nts_contact_changes* changes) {
+    const int rc = nts_contact_memory_match(m, r, match, changes);
+    return rc != NTS_OK ? rc : nts_contact_memory_commit(m);
 }

@@ -136,6 +136,57 @@ static void test_same_positions_persist(void) {
     free_packing(&p);
 }
 
+/* Trial steps (an implicit solver's Newton iterations): each is matched
+ * against the committed step, not against the trial before it; a commit
+ * makes the last match the committed step. */
+static void test_trial_and_commit(void) {
+    test_packing p = make_packing(16, 40, 1.0, 1.93, 0, 314);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context* ctx = nts_context_create();
+    nts_contact_memory* mem = nts_contact_memory_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    const nts_contact_match* match;
+    nts_contact_changes ch, first;
+    const nts_contact* base;
+    nts_vec2* x;
+    int n = nts_scene_node_count(s), i, committed, count;
+    CU_ASSERT_FATAL(s != NULL && ctx != NULL && mem != NULL);
+    x = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    o.outputs = NTS_OUT_CONTACTS;
+    CU_ASSERT(nts_contact_memory_commit(mem) == NTS_EINVALID_ARGUMENT); /* nothing pending */
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT_FATAL(nts_contact_memory_step(mem, &r, NULL, NULL) == NTS_OK);
+    committed = r.contact_count;
+    /* Trial 1: every node pushed outward by 0.02; trial 2 from the same committed step. */
+    memcpy(x, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+    for (i = 0; i < n; ++i) x[i].x *= 1.01;
+    CU_ASSERT_FATAL(nts_scene_update_positions(s, x, &err) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT_FATAL(nts_contact_memory_match(mem, &r, &match, &first) == NTS_OK);
+    base = nts_contact_memory_previous(mem, &count);
+    ASSERT_INT_EQ(count, committed);
+    CU_ASSERT(base != NULL);
+    CU_ASSERT_FATAL(nts_contact_memory_match(mem, &r, &match, &ch) == NTS_OK);
+    CU_ASSERT(memcmp(&ch, &first, sizeof ch) == 0); /* the same base: the same answer */
+    ASSERT_INT_EQ(ch.persisted + ch.moved + ch.ended, committed);
+    /* Commit: the trial's contacts are the committed step; matched again, all persist. */
+    CU_ASSERT(nts_contact_memory_commit(mem) == NTS_OK);
+    CU_ASSERT(nts_contact_memory_commit(mem) == NTS_EINVALID_ARGUMENT);
+    (void)nts_contact_memory_previous(mem, &count);
+    ASSERT_INT_EQ(count, committed); /* the last match's base, until the next match */
+    CU_ASSERT_FATAL(nts_contact_memory_match(mem, &r, &match, &ch) == NTS_OK);
+    ASSERT_INT_EQ(ch.persisted, r.contact_count);
+    (void)nts_contact_memory_previous(mem, &count);
+    ASSERT_INT_EQ(count, r.contact_count);
+    free(x);
+    nts_contact_memory_destroy(mem);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 /* Keys: a corner is keyed at its middle node, a segment and a vertex at
  * their first. */
 static void test_keys(void) {
@@ -163,4 +214,5 @@ void register_contact_memory_suite(void) {
     ADD_TEST(s, test_keys);
     ADD_TEST(s, test_same_positions_persist);
     ADD_TEST(s, test_random_walk);
+    ADD_TEST(s, test_trial_and_commit);
 }

@@ -325,16 +325,24 @@ typedef struct nts_contact_changes {
 NTS_API nts_contact_memory* nts_contact_memory_create(void);
 NTS_API void nts_contact_memory_destroy(nts_contact_memory* memory);
 /* Match the active contacts of `result` (evaluated with NTS_OUT_CONTACTS) to
- * the kept ones, then keep them as the new previous step. *match (may be
- * NULL) gets result->contact_count matches, owned by the memory and valid
- * until its next step; *changes (may be NULL) the counts. O(n log n) in the
- * contacts. NTS_OK, NTS_ENOMEM (the memory is then as before the call), or
+ * the committed ones, and hold them pending: a trial step (an implicit
+ * solver's Newton iteration) matches again from the same committed step;
+ * nts_contact_memory_commit makes the pending contacts the committed ones.
+ * *match (may be NULL) gets result->contact_count matches, owned by the
+ * memory and valid until its next match; *changes (may be NULL) the counts.
+ * O(n log n) in the contacts. NTS_OK, NTS_ENOMEM (nothing pending then), or
  * NTS_EINVALID_ARGUMENT (no memory or result, or contacts not asked for
  * while some are active). */
+NTS_API int nts_contact_memory_match(nts_contact_memory* memory, const nts_result* result,
+                                     const nts_contact_match** match, nts_contact_changes* changes);
+/* The last match's contacts become the committed step (the next matches are
+ * against them). NTS_OK, or NTS_EINVALID_ARGUMENT when nothing is pending. */
+NTS_API int nts_contact_memory_commit(nts_contact_memory* memory);
+/* Match and commit: an explicit solver's step. */
 NTS_API int nts_contact_memory_step(nts_contact_memory* memory, const nts_result* result,
                                     const nts_contact_match** match, nts_contact_changes* changes);
-/* The contacts that the last step's matches point into (its previous step),
- * and how many. */
+/* The contacts that the last match's `previous` indices point into (the
+ * committed step it was matched against), and how many. */
 NTS_API const nts_contact* nts_contact_memory_previous(const nts_contact_memory* memory, int* count);
 /* Bytes the memory holds, for budgets (0 for NULL). */
 NTS_API size_t nts_contact_memory_bytes(const nts_contact_memory* memory);
