@@ -536,7 +536,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     }
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) {
-        if (ss->memory != NULL) (void)nts_contact_memory_commit(ss->memory); /* pending: cannot fail */
+        if (ss->memory != NULL && !st->defer_commit) (void)nts_contact_memory_commit(ss->memory);
         ss->steps++;
         out->binary = st->answer_binary;
         out->triplets = st->answer_binary ? result.stiffness.count : 0;
@@ -544,6 +544,11 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
     }
     return rc;
+}
+
+void ntsj_session_commit(ntsj_session* ss) {
+    /* nothing pending (a failed step, no memory): NTS_EINVALID_ARGUMENT, ignored */
+    if (ss != NULL && ss->memory != NULL) (void)nts_contact_memory_commit(ss->memory);
 }
 
 /* What a step grew in the context is kept for the next steps, which need the

@@ -377,6 +377,7 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     st.param_count = r->param_count;
     st.param_names = r->param_names;
     st.param_values = r->param_values;
+    st.defer_commit = 1; /* until the answer is within the budget (below) */
     sc.step_memory_name = "--session-memory";
     pthread_mutex_lock(&e->step_lock);
     large = r->body.length >= NTSD_LARGE_BYTES || ntsj_session_get_info(e->session).nodes >= NTSD_LARGE_NODES;
@@ -389,9 +390,12 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
         ntsj_session_trim(e->session);
         ntsd_sessions_settle(&s->sessions, e, ntsj_session_get_info(e->session).memory_bytes, 0, 1);
     }
+    /* The answer within --max-memory (else refused): only then are the
+     * step's contacts the ones the next step is matched against. */
+    budget_answer(r);
+    if (r->resp.ok) ntsj_session_commit(e->session);
     pthread_mutex_unlock(&e->step_lock);
     ntsd_sessions_release(&s->sessions, e);
-    budget_answer(r);
 }
 
 /* The work of each body route, on the codec's configuration for this request. */

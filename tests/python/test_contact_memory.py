@@ -167,3 +167,38 @@ def test_python_client_keeps_contacts(daemon, paths):
     with client.session(doc) as s:
         plain = s.contact(outputs=["forces", "contacts"])
     assert all(c.previous is None and c.persisted is None for c in plain.contacts)
+
+
+def test_a_refused_step_is_not_the_previous_one(paths, tmp_path):
+    """A step whose answer is refused after its evaluation (over --max-memory)
+    does not become the step the next one is matched against."""
+    import math
+    k, m = 8, 16
+    bodies = [{"id": f"b{i}_{j}", "nodes": [[i + 0.45 * math.cos(2 * math.pi * t / m),
+                                             j + 0.45 * math.sin(2 * math.pi * t / m)] for t in range(m)]}
+              for i in range(k) for j in range(k)]
+    doc = {"version": 1, "options": {"penalty": 10.0, "outputs": ["forces", "contacts"]}, "bodies": bodies,
+           "session": {"keep_contacts": True}}
+    apart = positions_of(doc)
+    # the centres 0.85 apart, the radii 0.45: neighbours overlap
+    shift = np.repeat([[-0.15 * i, -0.15 * j] for i in range(k) for j in range(k)], m, axis=0)
+    pressed = apart + shift
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--max-memory", "2M")
+    try:
+        r = requests.post(d.url("/v1/scenes"), json=doc, timeout=60)
+        assert r.status_code == 201, r.text
+        url = d.url(f"/v1/scenes/{r.json()['id']}/contact")
+        a = requests.post(url, json={"positions": pressed.tolist()}, timeout=60)
+        assert a.status_code == 200, a.text
+        n = len(a.json()["contacts"])
+        assert n > 50 and a.json()["summary"]["contact_changes"]["added"] == n
+        # Apart (no contact), and an answer of every gap: refused after the evaluation.
+        b = requests.post(url + "?outputs=forces,gaps,contacts&search_radius=16", json={"positions": apart.tolist()},
+                          timeout=120)
+        assert b.status_code == 413, b.status_code
+        c = requests.post(url, json={"positions": pressed.tolist()}, timeout=60)
+        assert c.status_code == 200, c.text
+        # Matched against the answered step a, not the refused b (which had none).
+        assert c.json()["summary"]["contact_changes"] == {"persisted": n, "moved": 0, "added": 0, "ended": 0}
+    finally:
+        assert d.stop() == 0

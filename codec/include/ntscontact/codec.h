@@ -176,6 +176,11 @@ typedef struct ntsj_step {
     int param_count;
     const char* const* param_names;
     const char* const* param_values;
+    /* A session that keeps contacts ("session": {"keep_contacts": true}) makes
+     * an answered step's contacts the ones the next step is matched against.
+     * 0: at once; 1: only at ntsj_session_commit, for a caller that may still
+     * refuse the answer (the daemon's memory budget). */
+    int defer_commit;
 } ntsj_step;
 
 /* Decode and build a session from a scene document (the schema of ntsj_handle),
@@ -201,6 +206,10 @@ NTS_API void ntsj_session_trim(ntsj_session* session);
  * (ntsj_session_trim). */
 #define NTSJ_STEP_BYTES_PER_CANDIDATE 256 /* a record (64) and its gap (sizeof(nts_contact)), rounded up */
 NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, const ntsj_config* config, ntsj_response* out);
+/* After a step with defer_commit whose answer is sent: its contacts become the
+ * kept ones (nothing to do for a session that keeps none, or after a failed
+ * step). */
+NTS_API void ntsj_session_commit(ntsj_session* session);
 
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
  * an output's name (n bytes: one of the NTS_OUT_* flags' names, "forces" to
