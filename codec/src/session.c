@@ -359,34 +359,28 @@ static void put_le64(char* p, double d) {
 }
 
 /* The forces (16 N bytes), then with the tangent its triplets: count int32
- * rows, count int32 cols, count float64 values, all little-endian
- * (docs/sessions.md, "Binary layout"). */
+ * rows, count int32 cols, count float64 values; then with the pressure its N
+ * float64 (docs/model.md (21)); all little-endian (docs/sessions.md). */
 static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result* r) {
     int n = nts_scene_node_count(scene), k;
     size_t bytes = (size_t)n * 16u, tb = (size_t)r->stiffness.count * 16u;
-    if (ntsj_buf_reserve(b, bytes + tb + 1) != 0) return;
+    size_t pb = r->pressure != NULL ? (size_t)n * 8u : 0u; /* the pressure, when asked: after the tangent */
+    if (ntsj_buf_reserve(b, bytes + tb + pb + 1) != 0) return;
     if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
         memcpy(b->data, r->forces, bytes);
     } else {
-        for (k = 0; k < 2 * n; ++k) {
-            double d = k % 2 ? r->forces[k / 2].y : r->forces[k / 2].x;
-            uint64_t u;
-            int i;
-            memcpy(&u, &d, sizeof u);
-            for (i = 0; i < 8; ++i) b->data[8 * (size_t)k + (size_t)i] = (char)(unsigned char)(u >> (8 * i));
-        }
+        for (k = 0; k < 2 * n; ++k) put_le64(b->data + 8 * (size_t)k, k % 2 ? r->forces[k / 2].y : r->forces[k / 2].x);
     }
     for (k = 0; k < r->stiffness.count; ++k) {
         put_le32(b->data + bytes + 4 * (size_t)k, r->stiffness.rows[k]);
         put_le32(b->data + bytes + 4 * ((size_t)r->stiffness.count + (size_t)k), r->stiffness.cols[k]);
         put_le64(b->data + bytes + 8 * (size_t)r->stiffness.count + 8 * (size_t)k, r->stiffness.values[k]);
     }
-    b->len = bytes + tb;
+    for (k = 0; pb > 0 && k < n; ++k) put_le64(b->data + bytes + tb + 8 * (size_t)k, r->pressure[k]);
+    b->len = bytes + tb + pb;
     b->data[b->len] = '\0';
 }
 
-/* config->step_memory: a step that keeps records gets a candidate budget
- * within it (the configured one when smaller). 1 when it is the bound's. */
 static int cap_candidates(const ntsj_session* ss, const ntsj_config* cfg, nts_options* eo) {
     long long budget, fits;
     if (cfg->step_memory == 0 || !(eo->outputs & (unsigned)NTS_OUT_RECORDS_)) return 0;

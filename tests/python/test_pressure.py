@@ -91,8 +91,10 @@ def test_pressure_through_http_the_client_and_a_session(daemon, tmp_path):
     want = {b["id"]: np.array(b["pressure"]) for b in cli["bodies"]}
     with ntscontact.Client(daemon.base, timeout=30) as c, c.session(doc) as s:
         full = c.contact(ntscontact.Scene.from_dict(doc), outputs=["pressure"])
-        step = s.contact(s.positions(), outputs=["forces", "pressure"])  # a JSON answer: pressure is not binary
-        for res in (full, step):
+        step = s.contact(s.positions(), outputs=["forces", "pressure"])  # a binary answer
+        stiff = s.contact(s.positions(), outputs=["forces", "stiffness", "pressure"])  # after the triplets
+        assert len(stiff.stiffness_triplets()[2]) > 0
+        for res in (full, step, stiff):
             assert set(res.pressure) == {"a", "b"}
             for i, p in res.pressure.items():
                 assert p.dtype == np.float64 and np.array_equal(p, want[i])
@@ -111,3 +113,22 @@ def test_pressure_through_http_the_client_and_a_session(daemon, tmp_path):
         n = len(full.pressure_array())
         assert np.array_equal(a.point_data["pressure"].ravel()[:n], full.pressure_array())
         assert np.array_equal(b.point_data["pressure"].ravel()[:n], full.pressure_array())
+
+
+def test_a_binary_step_carries_the_pressure(daemon):
+    """Raw: 16 N bytes of forces, then N float64 pressures, equal bit for bit to
+    the JSON step's."""
+    doc = two_disks("length")
+    r = requests.post(daemon.url("/v1/scenes"), json=doc, timeout=30)
+    assert r.status_code == 201, r.text
+    url = daemon.url(f"/v1/scenes/{r.json()['id']}/contact")
+    js = requests.post(url + "?outputs=forces,pressure", timeout=30).json()
+    b = requests.post(url + "?outputs=forces,pressure", headers={"Accept": "application/octet-stream"}, timeout=30)
+    assert b.status_code == 200 and b.headers["Content-Type"] == "application/octet-stream"
+    n = sum(len(x["nodes"]) for x in doc["bodies"])
+    assert len(b.content) == 16 * n + 8 * n
+    p = np.frombuffer(b.content, dtype="<f8", offset=16 * n)
+    assert np.array_equal(p, np.concatenate([np.array(x["pressure"]) for x in js["bodies"]]))
+    assert p.max() > 0
+    plain = requests.post(url + "?outputs=forces", headers={"Accept": "application/octet-stream"}, timeout=30)
+    assert len(plain.content) == 16 * n

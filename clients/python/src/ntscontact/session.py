@@ -35,7 +35,7 @@ FloatArray = npt.NDArray[np.float64]
 PositionsLike = Union[npt.ArrayLike, Mapping[BodyId, npt.ArrayLike]]
 
 #: Outputs a binary answer carries (the forces, and the summary in headers).
-_BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness"))
+_BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness", "pressure"))
 _OCTET = "application/octet-stream"
 
 
@@ -209,19 +209,21 @@ class Session:
         if pos is not None:
             self._positions = pos.astype(np.float64, copy=True)
         self.steps += 1
-        result = self._binary_result(resp, "stiffness" in wanted) if binary else Result.from_dict(doc)
+        result = (self._binary_result(resp, "stiffness" in wanted, "pressure" in wanted) if binary
+                  else Result.from_dict(doc))
         result._scene = (self._scene_factory, self._positions.copy())
         return result.warn()
 
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
 
-    def _binary_result(self, resp: requests.Response, stiffness: bool) -> Result:
+    def _binary_result(self, resp: requests.Response, stiffness: bool, pressure: bool = False) -> Result:
         h = resp.headers
         body = resp.content
         count = int(h.get("NTS-Stiffness-Triplets", 0) or 0)
-        if len(body) != 16 * self.nodes + 16 * count:
-            raise ServerError(f"a binary answer of {len(body)} bytes, expected {16 * self.nodes + 16 * count}",
+        size = 16 * self.nodes + 16 * count + (8 * self.nodes if pressure else 0)
+        if len(body) != size:
+            raise ServerError(f"a binary answer of {len(body)} bytes, expected {size}",
                               code="bad_response", status=resp.status_code)
         forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
         triplets = None
@@ -251,8 +253,12 @@ class Session:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
                               status=resp.status_code) from exc
         per_body = {i: forces[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
+        per_body_p: Dict[BodyId, FloatArray] = {}
+        if pressure:  # after the forces and the tangent
+            p = np.frombuffer(body, dtype="<f8", count=self.nodes, offset=16 * self.nodes + 16 * count)
+            per_body_p = {i: p[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
         return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, warnings=warned,
-                      _force_array=forces, _triplets=triplets)
+                      _force_array=forces, _triplets=triplets, pressure=per_body_p)
 
     # ------------------------------------------------------------ HTTP
 
