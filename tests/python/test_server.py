@@ -600,6 +600,9 @@ def test_a_small_request_never_waits_for_large_ones(daemon_factory, example_bodi
         assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=60).json()["evaluations_running"] >= 1)
         r = requests.post(d.url("/v1/contact"), data=example_bodies["two_disks"], headers=JSON, timeout=60)
         assert r.status_code == 200 and r.json()["summary"]["contacts"] > 0
+        # The small one's completion is counted after its answer reached us (the
+        # daemon's completion callback): wait for it rather than race it.
+        assert wait_until(lambda: requests.get(d.url("/v1/health"), timeout=60).json()["requests_in_flight"] == 3)
         h = requests.get(d.url("/v1/health"), timeout=60).json()
         assert h["evaluations_running"] == 1 and h["requests_in_flight"] == 3, h  # one large waits
         assert not select.select(large, [], [], 0)[0]  # neither large one has been answered
