@@ -10,6 +10,15 @@ import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))).resolve()
+CLI = BUILD / "bin" / "ntscontact"
+
+
+def run_cli_json(doc, *flags):
+    """The CLI on a scene document given on stdin: its JSON answer (exit 0 asserted)."""
+    import subprocess
+    r = subprocess.run([str(CLI), *flags, "-"], input=json.dumps(doc).encode(), capture_output=True, timeout=60)
+    assert r.returncode == 0, r.stderr.decode()
+    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="session")

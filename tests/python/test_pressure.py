@@ -5,8 +5,6 @@ equal to |slave force| / l computed here from the contacts, -eps g at a node
 of one contact with "length" scaling, and the same through every door (CLI,
 HTTP, the Python client's Result.pressure, a session's JSON step, VTK)."""
 import json
-import os
-import pathlib
 import subprocess
 
 import jsonschema
@@ -14,16 +12,11 @@ import numpy as np
 import pytest
 import requests
 
+from conftest import CLI, run_cli_json
+
 ntscontact = pytest.importorskip("ntscontact")
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
-
-
-def run(doc, *flags):
-    r = subprocess.run([str(CLI), *flags, "-"], input=json.dumps(doc).encode(), capture_output=True, timeout=60)
-    assert r.returncode == 0, r.stderr.decode()
-    return json.loads(r.stdout)
+run = run_cli_json
 
 
 def two_disks(scaling="node"):

@@ -3,8 +3,6 @@ HTTP (full scene, session JSON and session binary), and `Result.stiffness` in
 Python; valid against result.schema.json, symmetric, the derivative of the
 forces, and the same triplets whichever door."""
 import json
-import os
-import pathlib
 import subprocess
 
 import jsonschema
@@ -12,17 +10,12 @@ import numpy as np
 import pytest
 import requests
 
+from conftest import CLI, run_cli_json
+
 ntscontact = pytest.importorskip("ntscontact")
 scipy_sparse = pytest.importorskip("scipy.sparse")
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
-
-
-def run(doc, *flags):
-    r = subprocess.run([str(CLI), *flags, "-"], input=json.dumps(doc).encode(), capture_output=True, timeout=60)
-    assert r.returncode == 0, r.stderr.decode()
-    return json.loads(r.stdout)
+run = run_cli_json
 
 
 def two_disks():
