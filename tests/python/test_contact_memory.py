@@ -202,3 +202,19 @@ def test_a_refused_step_is_not_the_previous_one(paths, tmp_path):
         assert c.json()["summary"]["contact_changes"] == {"persisted": n, "moved": 0, "added": 0, "ended": 0}
     finally:
         assert d.stop() == 0
+
+
+def test_the_cli_frames_keep_contacts_when_asked(paths, tmp_path):
+    doc = json.loads((paths.examples / "two_disks.json").read_text())
+    doc["session"] = {"keep_contacts": True}
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    pos = positions_of(doc)
+    (tmp_path / "f.bin").write_bytes(np.concatenate([pos, pos]).astype("<f8").tobytes())
+    proc = subprocess.run([str(paths.bin / "ntscontact"), "--frames", str(tmp_path / "f.bin"), "--outputs",
+                           "forces,contacts", str(tmp_path / "s.json")], capture_output=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr.decode()
+    first, second = [json.loads(line) for line in proc.stdout.decode().splitlines()]
+    n = len(first["contacts"])
+    assert n > 0 and first["summary"]["contact_changes"]["added"] == n
+    assert second["summary"]["contact_changes"] == {"persisted": n, "moved": 0, "added": 0, "ended": 0}
+    assert [c["previous"] for c in second["contacts"]] == list(range(n))
