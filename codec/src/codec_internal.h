@@ -84,6 +84,7 @@ typedef struct ntsj_scene {
     nts_vec2** nodes;   /* owned per body */
     int** ints;         /* owned per body: loop_nodes + loop_start, or triangles */
     nts_vec2** refs;    /* owned per body: its reference configuration ("reference"), or NULL */
+    int** surfs;        /* owned per body: its contact surface's pairs ("surface"), or NULL */
     nts_options options;
     double lx, ly;
     int has_periodic;

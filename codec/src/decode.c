@@ -209,8 +209,9 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
 }
 
 static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points",
-                                          "reference"};
-enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE, BODY_COUNT };
+                                          "reference", "surface"};
+enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE,
+       BODY_SURFACE, BODY_COUNT };
 
 /* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
  * the caller: the core does not use it). Checked: one non-negative integer per node. */
@@ -414,6 +415,57 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
     return 0;
 }
 
+/* "surface": the body's contact surface (docs/model.md §13), pairs [i, j]
+ * of node indices in range; whether each names a boundary segment, once, is
+ * the core's to say (a mesh's boundary is known there): the error's item
+ * maps back to /bodies/B/surface/K. */
+static int decode_surface(decoder* d, int b, const cJSON* v) {
+    char ptr[96];
+    const cJSON* pair;
+    int count, k = 0, *ints;
+    const int node_count = d->scene->defs[b].node_count;
+    snprintf(ptr, sizeof ptr, "/bodies/%d/surface", b);
+    if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of boundary segments [i, j]");
+    count = array_size(v);
+    /* each pair is a segment, each once: never more pairs than nodes */
+    if (count > node_count) {
+        ntsj_fault_set(d->fault, ntsj_code_name(NTSJ_INVALID_VALUE), ptr,
+                       "%d surface segments for a body of %d nodes (each boundary segment at most once)", count,
+                       node_count);
+        return -1;
+    }
+    if ((ints = (int*)nts_alloc(2 * (size_t)count * sizeof *ints + sizeof *ints)) == NULL) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->surfs[b] = ints;
+    d->scene->defs[b].surface = ints;
+    d->scene->defs[b].surface_count = count;
+    cJSON_ArrayForEach(pair, v) {
+        char p[112];
+        const cJSON* e;
+        int m = 0;
+        if (!cJSON_IsArray(pair)) {
+            snprintf(p, sizeof p, "%s/%d", ptr, k);
+            return fail_type(d, p, pair, "a boundary segment [i, j] (two node indices)");
+        }
+        cJSON_ArrayForEach(e, pair) {
+            if (m >= 2) {
+                snprintf(p, sizeof p, "%s/%d/%d", ptr, k, m);
+                return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a surface segment has exactly two node indices");
+            }
+            if (get_index(d, e, node_count, &ints[2 * k + m], b, "surface", k, m) != 0) return -1;
+            ++m;
+        }
+        if (m != 2) {
+            snprintf(p, sizeof p, "%s/%d", ptr, k);
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a surface segment has exactly two node indices");
+        }
+        ++k;
+    }
+    return 0;
+}
+
 static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
     const cJSON* f[BODY_COUNT];
     char ptr[64];
@@ -454,6 +506,7 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         else if (strcmp(r->valuestring, "slave") == 0) bd->role = NTS_ROLE_SLAVE;
         else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown role (expected both, master or slave)");
     }
+    if (f[BODY_SURFACE] && decode_surface(d, b, f[BODY_SURFACE]) != 0) return -1;
     if (f[BODY_LOOPS] && f[BODY_TRIANGLES]) {
         char p[80];
         snprintf(p, sizeof p, "%s/triangles", ptr);
@@ -536,6 +589,7 @@ void ntsj_scene_free(ntsj_scene* s) {
         if (s->nodes) nts_free(s->nodes[b]);
         if (s->ints) nts_free(s->ints[b]);
         if (s->refs) nts_free(s->refs[b]);
+        if (s->surfs) nts_free(s->surfs[b]);
     }
     nts_free(s->defs);
     nts_free(s->ids);
@@ -543,6 +597,7 @@ void ntsj_scene_free(ntsj_scene* s) {
     nts_free(s->nodes);
     nts_free(s->ints);
     nts_free(s->refs);
+    nts_free(s->surfs);
     memset(s, 0, sizeof *s);
 }
 
@@ -628,7 +683,8 @@ static int decode_root(decoder* d, const cJSON* root) {
     s->nodes = (nts_vec2**)alloc_zero((size_t)n, sizeof *s->nodes);
     s->ints = (int**)alloc_zero((size_t)n, sizeof *s->ints);
     s->refs = (nts_vec2**)alloc_zero((size_t)n, sizeof *s->refs);
-    if (!s->defs || !s->ids || !s->has_loops || !s->nodes || !s->ints || !s->refs) {
+    s->surfs = (int**)alloc_zero((size_t)n, sizeof *s->surfs);
+    if (!s->defs || !s->ids || !s->has_loops || !s->nodes || !s->ints || !s->refs || !s->surfs) {
         d->oom = 1;
         return -1;
     }
@@ -675,6 +731,10 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
         len = strlen(out);
         if (strcmp(err->option, "reference") == 0 && err->node >= 0 && len < size)
             snprintf(out + len, size - len, "/%d", err->node);
+        else if (strcmp(err->option, "surface") == 0 && err->item >= 0 && err->corner >= 0 && len < size)
+            snprintf(out + len, size - len, "/%d/%d", err->item, err->corner);
+        else if (strcmp(err->option, "surface") == 0 && err->item >= 0 && len < size)
+            snprintf(out + len, size - len, "/%d", err->item);
         return;
     }
     if (err->option[0]) {

@@ -35,7 +35,7 @@ struct ntsj_session {
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
-    size_t n = (size_t)s->body_count * (sizeof(nts_body_def) + sizeof(ntsj_id) + sizeof(int) + 3 * sizeof(void*));
+    size_t n = (size_t)s->body_count * (sizeof(nts_body_def) + sizeof(ntsj_id) + sizeof(int) + 4 * sizeof(void*));
     int b;
     for (b = 0; b < s->body_count; ++b) {
         const nts_body_def* d = &s->defs[b];
@@ -43,6 +43,7 @@ static size_t decoded_bytes(const ntsj_scene* s) {
         if (d->triangle_count > 0) n += 3 * (size_t)d->triangle_count * sizeof(int);
         else if (d->loop_count > 0) n += ((size_t)d->loop_start[d->loop_count] + (size_t)d->loop_count + 1) * sizeof(int);
         if (!s->ids[b].is_int && s->ids[b].sval) n += strlen(s->ids[b].sval) + 1;
+        if (d->surface != NULL) n += 2 * (size_t)d->surface_count * sizeof(int);
     }
     return n;
 }

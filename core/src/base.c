@@ -60,6 +60,7 @@ int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...) 
         err->node = at.node;
         err->triangle = at.triangle;
         err->corner = at.corner;
+        err->item = at.item;
         snprintf(err->option, sizeof err->option, "%s", at.option ? at.option : "");
         va_start(ap, fmt);
         vsnprintf(err->message, sizeof err->message, fmt, ap);
@@ -71,7 +72,7 @@ int nts_error_set(nts_error* err, int code, nts_where at, const char* fmt, ...) 
 nts_error nts_error_none(void) {
     nts_error e;
     memset(&e, 0, sizeof e);
-    e.body = e.loop = e.loop_pos = e.node = e.triangle = e.corner = -1;
+    e.body = e.loop = e.loop_pos = e.node = e.triangle = e.corner = e.item = -1;
     return e;
 }
 

@@ -32,7 +32,7 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     int i, count = 0;
     for (i = 0; i < m; ++i) {
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
-        if (s->body_role[b] == NTS_ROLE_SLAVE) continue;
+        if (s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, e)) continue;
         scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha)), r, pad);
         sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0)), r, pad);
     }
@@ -176,6 +176,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.seg = ctx->seg;
     env.alpha = opt->alpha;
     for (i = 0; i < s->body_count && !env.body_alphas; ++i) env.body_alphas = s->body_alpha[i] >= 0.0;
+    env.surf_flag = s->surf_flag;
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
     env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;

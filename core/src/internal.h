@@ -39,14 +39,35 @@ struct nts_scene {
     unsigned char* body_role;  /* nts_role */
     unsigned char* body_mesh;  /* 1: loops from triangles, each piece oriented by its outer loop */
     double* body_alpha;        /* the body's own alpha, or -1: the options' */
-    double* surf_trib;         /* surface entry -> tributary length in the reference configuration */
+    double* surf_trib;         /* surface entry -> tributary length in the reference configuration,
+                                  over the contact surface's segments (0 off the surface) */
+    /* The contact surfaces (nts_body_def.surface; docs/model.md §13): per
+     * surface entry, NTS_SF_* bits; NULL when no body names one (every
+     * segment is on, and nothing reads it). */
+    unsigned char* surf_flag;
 };
+
+/* A surface entry's flags (nts_scene.surf_flag): its own segment (from it to
+ * the next entry) is on the contact surface, the previous one is, the next
+ * one is. The entry's node is a slave when either of its segments is on; its
+ * segment is a master when SEG; its corner (or vertex) exists when SEG and
+ * PREV; its flat part reaches s = 0 without PREV and s = 1 without NEXT. */
+enum { NTS_SF_SEG = 1, NTS_SF_PREV = 2, NTS_SF_NEXT = 4, NTS_SF_ALL = 7, NTS_SF_NODE = NTS_SF_SEG | NTS_SF_PREV };
+
+/* Whether entry e's segment is on the contact surface (a master segment). */
+static inline int nts_on_surface(const struct nts_scene* s, int e) {
+    return s->surf_flag == NULL || (s->surf_flag[e] & NTS_SF_SEG) != 0;
+}
+/* Whether entry e's node is on the contact surface (may be a slave). */
+static inline int nts_node_on_surface(const struct nts_scene* s, int e) {
+    return s->surf_flag == NULL || (s->surf_flag[e] & NTS_SF_NODE) != 0;
+}
 
 /* Where an error is (nts_error's indices and option; -1 and "" when they do
  * not apply) and the one function that fills an error record: code, place and
  * a printf message. Returns `code`, so a caller writes `return nts_error_set(...)`. */
 typedef struct nts_where {
-    int body, loop, loop_pos, node, triangle, corner;
+    int body, loop, loop_pos, node, triangle, corner, item;
     const char* option;
 } nts_where;
 static inline nts_where nts_at(int body, int loop, int loop_pos, int node) {
@@ -55,7 +76,7 @@ static inline nts_where nts_at(int body, int loop, int loop_pos, int node) {
     w.loop = loop;
     w.loop_pos = loop_pos;
     w.node = node;
-    w.triangle = w.corner = -1;
+    w.triangle = w.corner = w.item = -1;
     w.option = "";
     return w;
 }

@@ -113,7 +113,8 @@ typedef struct bin_task {
     int slices, ncell;
 } bin_task;
 
-/* Each master's cell: -1 when its body offers nothing, -2 when its reach
+/* Each master's cell: -1 when it offers nothing (its body, or its segment
+ * off the contact surface, docs/model.md §13), -2 when its reach
  * does not fit a cell (a long master, counted). */
 static void masters_bin(int begin, int end, int wi, void* p) {
     bin_task* t = (bin_task*)p;
@@ -129,7 +130,7 @@ static void masters_bin(int begin, int end, int wi, void* p) {
     for (e = begin; e < end; ++e) {
         const seg_data* m = &seg[e];
         const int b = m->body;
-        if (s->body_role[b] == NTS_ROLE_SLAVE) { /* offers nothing */
+        if (s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, e)) { /* offers nothing */
             cell_of[e] = -1;
             continue;
         }

@@ -34,6 +34,7 @@ static void pressure_chunks(int begin, int end, int wi, void* p) {
             if (rec->gap < 0.0) P[s->surf_node[rec->slave]] += law_slave_normal(record_penalty(env, rec) * rec->gap);
         for (i = c * CHUNK_SLAVES; i < i1; ++i) {
             double* pi = &P[s->surf_node[i]];
+            if (*pi == 0.0) continue; /* in no contact (or on no surface: no tributary length) */
             *pi /= s->surf_trib[i];
             if (!isfinite(*pi)) nts_atomic_or(&t->bad, 1);
         }

@@ -144,6 +144,7 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
     const nts_scene* s = env->s;
     reach_seen* p;
     int fresh, rc;
+    if (!nts_node_on_surface(s, k)) return NTS_OK; /* no slave: off the contact surface (docs/model.md §13) */
     if ((p = seen_find(r, (long long)k * s->body_count + body, &fresh)) == NULL) return NTS_ENOMEM;
     if (!fresh) {
         if (p->at >= 0) r->queue[p->at].from |= from;
@@ -299,6 +300,7 @@ static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, dou
     const nts_cells* cl = env->cells;
     const double rho = (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad;
     int k, rc = NTS_OK;
+    if (!nts_node_on_surface(env->s, i)) return NTS_OK; /* no slave (docs/model.md §13) */
     if (cl != NULL && rho > 2.0 * (cl->hx > cl->hy ? cl->hx : cl->hy) && r->grid_built >= 0) {
         if (!r->grid_built && (rc = body_grid(r, env, 8LL * env->s->surface_count + 4096)) != NTS_OK) {
             if (rc != NTS_ELIMIT) return rc;

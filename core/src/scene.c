@@ -47,6 +47,7 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->surf_trib);
     nts_free(s->loop_piece);
     nts_free(s->piece_area2);
+    nts_free(s->surf_flag);
     nts_free(s);
 }
 
@@ -435,21 +436,92 @@ static void orient_body(const scene_build* sb, nts_scene* s, int b) {
     }
 }
 
-/* Pass 3, on the stored loops: tributary lengths in each body's reference
+/* An error of pair k of body b's surface (err->option "surface", err->item
+ * k; `place` 0 or 1 names one of its node indices, -1 the pair). */
+static int fail_surface(nts_error* err, int code, int b, int k, int place, const char* fmt, int x, int y) {
+    nts_where at = nts_naming(nts_at(b, -1, -1, -1), "surface");
+    at.item = k;
+    at.corner = place;
+    return nts_error_set(err, code, at, fmt, b, k, x, y);
+}
+
+/* Pass 3, on the stored loops: the contact surfaces (docs/model.md §13).
+ * Each pair of a body's surface names one segment of its loops, either
+ * direction (the loops may have been reversed: a pair is a segment whatever
+ * its order), each segment once; the flags of every entry follow from its
+ * two segments and the next one's. A body without a surface has every
+ * segment on. No body with a surface: no flags at all (nothing reads them).
+ * `entry_of`: scratch of max_body_nodes ints. */
+static int mark_surfaces(const nts_scene_def* def, nts_scene* s, int* entry_of, nts_error* err) {
+    int b, e, k, any = 0;
+    for (b = 0; b < def->body_count; ++b) any |= def->bodies[b].surface != NULL;
+    if (!any) return NTS_OK;
+    if ((s->surf_flag = (unsigned char*)nts_alloc((size_t)s->surface_count + 1)) == NULL)
+        return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+    for (b = 0; b < def->body_count; ++b) {
+        const nts_body_def* bd = &def->bodies[b];
+        const int e0 = s->loop_start[s->body_loop_start[b]], e1 = s->loop_start[s->body_loop_start[b + 1]];
+        if (bd->surface == NULL) {
+            memset(s->surf_flag + e0, NTS_SF_SEG, (size_t)(e1 - e0));
+            continue;
+        }
+        memset(s->surf_flag + e0, 0, (size_t)(e1 - e0));
+        if (bd->surface_count < 0)
+            return fail_naming(err, NTS_EINVALID_ARGUMENT, b, "surface", "body %d: surface_count is negative", b);
+        for (k = 0; k < bd->node_count; ++k) entry_of[k] = -1;
+        for (e = e0; e < e1; ++e) entry_of[s->surf_local[e]] = e;
+        for (k = 0; k < bd->surface_count; ++k) {
+            const int i = bd->surface[2 * k], j = bd->surface[2 * k + 1];
+            int seg = -1, place;
+            for (place = 0; place < 2; ++place) {
+                const int v = bd->surface[2 * k + place];
+                if (v < 0 || v >= bd->node_count)
+                    return fail_surface(err, NTS_EINDEX_RANGE, b, k, place,
+                                        "body %d surface pair %d: node index %d out of range [0, %d)", v,
+                                        bd->node_count);
+            }
+            e = entry_of[i];
+            if (e >= 0 && i != j) {
+                if (s->surf_local[s->surf_next[e]] == j) seg = e;
+                else if (s->surf_local[s->surf_prev[e]] == j) seg = s->surf_prev[e];
+            }
+            if (seg < 0)
+                return fail_surface(err, NTS_EINVALID_SURFACE, b, k, -1,
+                                    "body %d surface pair %d: nodes %d and %d are not the ends of a segment of its "
+                                    "boundary", i, j);
+            if (s->surf_flag[seg] & NTS_SF_SEG)
+                return fail_surface(err, NTS_EINVALID_SURFACE, b, k, -1,
+                                    "body %d surface pair %d: the segment from node %d to node %d is on the surface "
+                                    "already (each segment once)", s->surf_local[seg], s->surf_local[s->surf_next[seg]]);
+            s->surf_flag[seg] |= NTS_SF_SEG;
+        }
+    }
+    for (e = 0; e < s->surface_count; ++e) {
+        if (s->surf_flag[s->surf_prev[e]] & NTS_SF_SEG) s->surf_flag[e] |= NTS_SF_PREV;
+        if (s->surf_flag[s->surf_next[e]] & NTS_SF_SEG) s->surf_flag[e] |= NTS_SF_NEXT;
+    }
+    return NTS_OK;
+}
+
+/* Pass 4, on the stored loops: tributary lengths in each body's reference
  * configuration (the nodes as given unless nts_body_def.reference says
- * otherwise; docs/model.md §10): half of the two segments at each node, which
- * must not both be 0. A loop stored reversed has the same two segments at
- * each node, so the same lengths, bit for bit. */
+ * otherwise; docs/model.md §10): half of the two segments at each node that
+ * are on the contact surface (§13), which must not both be 0 on a node of
+ * the surface. A loop stored reversed has the same two segments at each
+ * node, so the same lengths, bit for bit. */
 static int tributary_lengths(const nts_scene_def* def, nts_scene* s, nts_error* err) {
     int e;
     for (e = 0; e < s->surface_count; ++e) {
         const nts_body_def* bd = &def->bodies[s->surf_body[e]];
         const nts_vec2* ref = bd->reference != NULL ? bd->reference : bd->nodes;
+        const unsigned f = s->surf_flag != NULL ? s->surf_flag[e] : (unsigned)NTS_SF_ALL;
         nts_vec2 x = ref[s->surf_local[e]];
         double lp = nts_length(nts_scene_diff(s, x, ref[s->surf_local[s->surf_prev[e]]]));
         double lq = nts_length(nts_scene_diff(s, ref[s->surf_local[s->surf_next[e]]], x));
+        if (!(f & NTS_SF_PREV)) lp = 0.0;
+        if (!(f & NTS_SF_SEG)) lq = 0.0;
         s->surf_trib[e] = 0.5 * (lp + lq);
-        if (!(s->surf_trib[e] > 0.0)) {
+        if ((f & NTS_SF_NODE) && !(s->surf_trib[e] > 0.0)) {
             nts_where at = nts_at(s->surf_body[e], -1, -1, s->surf_local[e]);
             at.option = "reference";
             return nts_error_set(err, NTS_EDEGENERATE_SEGMENT, at,
@@ -482,7 +554,8 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         assert(s->loop_start[s->loop_total] == s->surface_count &&
                s->body_loop_start[def->body_count] == s->loop_total &&
                s->body_node_start[def->body_count] == s->node_count);
-        rc = tributary_lengths(def, s, err);
+        rc = mark_surfaces(def, s, sb.mark, err);
+        if (rc == NTS_OK) rc = tributary_lengths(def, s, err);
     }
     scene_build_free(&sb);
     if (rc != NTS_OK) {
@@ -563,7 +636,8 @@ size_t nts_scene_memory_bytes(const nts_scene* s) {
     return sizeof *s + (size_t)s->node_count * sizeof(nts_vec2) +
            (size_t)s->surface_count * (5 * sizeof(int) + sizeof(double)) +
            (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total * (1 + sizeof(int) + sizeof(double)) +
-           (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + sizeof(double));
+           (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + sizeof(double)) +
+           (s->surf_flag != NULL ? (size_t)s->surface_count + 1 : 0);
 }
 
 int nts_scene_body_count(const nts_scene* s) { return s->body_count; }
@@ -582,4 +656,8 @@ int nts_scene_body_loop(const nts_scene* s, int body, int loop, const int** out)
     return s->loop_start[l + 1] - s->loop_start[l];
 }
 int nts_scene_loops_reversed(const nts_scene* s) { return s->loops_reversed; }
+int nts_scene_on_surface(const nts_scene* s, int body, int loop, int k) {
+    return nts_on_surface(s, s->loop_start[s->body_loop_start[body] + loop] + k);
+}
+int nts_scene_has_surfaces(const nts_scene* s) { return s->surf_flag != NULL; }
 const nts_vec2* nts_scene_positions(const nts_scene* s) { return s->pos; }

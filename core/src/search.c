@@ -76,13 +76,25 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
     const nts_vec2 pj = m->p;
     nts_vec2 d = search_diff(env, xs, pj, periodic); /* Xs - X0 (or Xs - X3): subtract first */
-    double sj_param;
+    double sj_param, lo = alpha, hi = 1.0 - alpha;
+    int corner = 1;
     candidate c;
 
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
+    if (env->surf_flag != NULL) {
+        /* A contact surface (docs/model.md §13): no corner across its ends,
+         * where the flat part reaches the end node instead. */
+        const unsigned f = env->surf_flag[j];
+        assert(f & NTS_SF_SEG); /* only the surface's segments are masters */
+        if (!(f & NTS_SF_PREV)) {
+            lo = 0.0;
+            corner = 0;
+        }
+        if (!(f & NTS_SF_NEXT)) hi = 1.0;
+    }
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
-    if (sj_param >= alpha && sj_param <= 1.0 - alpha) {
+    if (sj_param >= lo && sj_param <= hi) {
         double g = nts_dot(d, seg_normal(m->t, m->len));
         if (fabs(g) <= r) {
             c.gap = g;
@@ -95,7 +107,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             offer(env->s, w, &c);
         }
     }
-    if (sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
+    if (!corner || sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
     {
         const nts_scene* s = env->s;
         const int jp = m->prev;
@@ -357,6 +369,15 @@ static void flush_slave(const search_env* env, worker* w, int i, int end) {
 }
 
 
+/* A node off the contact surface (docs/model.md §13) is no slave: the
+ * reach's comparisons along the loop see it as a slave with nothing found
+ * (and never ask for it: reach.c). */
+static inline void not_a_slave(worker* w, const search_env* env, int i) {
+    w->last_slave = i;
+    w->last_count = 0;
+    if (env->seg[i].prev != i - 1) w->first_slave = i;
+}
+
 /* The masters the first pass keeps: every key of the stencil's ranges and 4
  * lanes past each, or a batch of keys of one range and 4 past it. */
 enum { KEPT = 512 };
@@ -386,6 +407,10 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
             break;
         }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
+        if (env->surf_flag != NULL && !(env->surf_flag[i] & NTS_SF_NODE)) { /* off the contact surface: as nothing found */
+            not_a_slave(w, env, i);
+            continue;
+        }
         xs = env->seg[i].p;
         at = nts_cells_place(cl, xs);
         if (at.cx >= 1 && at.cx + 1 < cl->nx && at.cy >= 1 && at.cy + 1 < cl->ny) {
@@ -478,11 +503,15 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             break;
         }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
+        if (env->surf_flag != NULL && !(env->surf_flag[i] & NTS_SF_NODE)) {
+            not_a_slave(w, env, i);
+            continue;
+        }
         for (j = 0; j < s->surface_count; ++j) {
             const int b = s->surf_body[j];
             nts_vec2 d;
             double R;
-            if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE) continue;
+            if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, j)) continue;
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
                               env->brute_pad);
@@ -519,7 +548,8 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
     const int b = m->body;
     double rb = rho, R, d2;
     nts_vec2 d;
-    if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE) return;
+    if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(env->s, j))
+        return;
     if (body < 0) {
         const double depth = nts_body_shape(env, shape, b)[3] * (1.0 + 1e-9) + env->wide_pad; /* with round-off */
         if (nts_outside_circle(env, shape, b, xs)) return; /* outside the body: no active contact there */
@@ -619,7 +649,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
             const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
             const double d2 = d.x * d.x + d.y * d.y;
             double R;
-            if (d2 > Rmax2) continue;
+            if (d2 > Rmax2 || !nts_on_surface(s, j)) continue;
             R = reach_allowed(reach_at_node(env->seg, j, alpha), rho, env->wide_pad);
             if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic);
         }

@@ -111,6 +111,7 @@ typedef struct search_env {
     const int* long_items;
     double alpha, r, eps;    /* alpha: the options' (a body may have its own) */
     int body_alphas;         /* some body has its own alpha */
+    const unsigned char* surf_flag; /* the contact surfaces' flags (nts_scene.surf_flag), or NULL */
     double brute_pad;        /* brute force: the round-off allowance of its reach test */
     double wide_pad;         /* the widened searches' round-off allowance (reach.c) */
     double wide_lmax;        /* the longest reach around a node: L_max (alpha <= 1/2, reach_at_node) */

@@ -16,4 +16,5 @@ void register_reach_suite(void);
 void register_backend_suite(void);
 void register_contact_memory_suite(void);
 void register_pressure_suite(void);
+void register_surfaces_suite(void);
 #endif

@@ -48,7 +48,8 @@ extern "C" {
     XX(INTERNAL, -18, "internal_error", "internal error")                                  \
     XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")                 \
     XX(OUT_OF_RANGE, -20, "out_of_range", "coordinate beyond the supported range (1e100)")      \
-    XX(CANCELLED, -21, "cancelled", "the evaluation was cancelled (deadline or caller)")
+    XX(CANCELLED, -21, "cancelled", "the evaluation was cancelled (deadline or caller)")            \
+    XX(INVALID_SURFACE, -22, "invalid_surface", "a contact surface pair is not a boundary segment, or repeats one")
 
 typedef enum nts_status {
     NTS_OK = 0,
@@ -69,7 +70,9 @@ NTS_API const char* nts_strerror(int status);
  * position inside the loop's index list, `node` the body's node index,
  * `triangle` the triangle index of a body given by a mesh and `corner` the
  * place (0, 1, 2) inside that triangle. `option` names the option at fault
- * ("alpha", "penalty", ...), or is empty. */
+ * ("alpha", "penalty", ...), or is empty. `item` is the index of the entry at
+ * fault in the list that `option` names (a pair of nts_body_def.surface, with
+ * `corner` its place 0 or 1 when one node index of it is at fault). */
 typedef struct nts_error {
     int code;
     int body;
@@ -78,6 +81,7 @@ typedef struct nts_error {
     int node;
     int triangle;
     int corner;
+    int item;
     char option[32];
     char message[192];
 } nts_error;

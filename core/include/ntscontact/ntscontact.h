@@ -58,6 +58,18 @@ typedef struct nts_body_def {
      * as nodes are (finite, within +-1e100; err->option "reference"), and
      * every surface node's tributary length in it must be positive. */
     const nts_vec2* reference;
+    /* The contact surface (docs/model.md §13, a side set): `surface_count`
+     * pairs of node indices, surface[2k], surface[2k + 1], each a segment of
+     * one of the body's loops (either direction, each segment once). Only
+     * the surface's segments are masters and only their nodes are slaves; an
+     * end of the surface is a sharp end (no corner across it, the end
+     * segment's flat part reaches its end node). NULL: the whole boundary
+     * (surface_count is not read); a non-NULL pointer with surface_count 0:
+     * no surface (the body takes part in nothing). A pair out of range is
+     * NTS_EINDEX_RANGE, one that is not a boundary segment or repeats one
+     * NTS_EINVALID_SURFACE (err->option "surface", err->item the pair). */
+    const int* surface;
+    int surface_count;
 } nts_body_def;
 
 typedef struct nts_limits {
@@ -110,6 +122,12 @@ NTS_API int nts_scene_body_node_count(const nts_scene* scene, int body);
 NTS_API int nts_scene_body_loop_count(const nts_scene* scene, int body);
 /* The normalised loop (node indices of the body), its length returned; `out` may be NULL. */
 NTS_API int nts_scene_body_loop(const nts_scene* scene, int body, int loop, const int** out);
+/* 1 when segment k of the normalised loop (from its place k to k + 1, as
+ * nts_scene_body_loop gives it) is on the body's contact surface
+ * (nts_body_def.surface; every segment of a body without one). */
+NTS_API int nts_scene_on_surface(const nts_scene* scene, int body, int loop, int k);
+/* 1 when some body of the scene names a contact surface. */
+NTS_API int nts_scene_has_surfaces(const nts_scene* scene);
 NTS_API int nts_scene_loops_reversed(const nts_scene* scene);
 NTS_API const nts_vec2* nts_scene_positions(const nts_scene* scene); /* all nodes, global order */
 
