@@ -11,7 +11,9 @@
  *               when outputs has pressure, else 0; 0 on PCA points),
  *               body (body index; a PCA point has its master body);
  *   cell data   kind (0 segment, 1 contact), body (the segment's body, the
- *               contact's slave body), master_body (-1 for segments),
+ *               contact's slave body), surface (1 for a segment on its
+ *               body's contact surface, docs/model.md §13, 0 off it, -1 for
+ *               contacts), master_body (-1 for segments),
  *               gap (0 for segments), normal (outward unit normal of the
  *               segment, or of the master at the PCA), contact_kind (-1,
  *               or 0 segment, 1 corner, 2 vertex), contact_force (force on
@@ -168,6 +170,15 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
         ntsj_buf_int(b, r->contacts[i].slave_body);
         ntsj_buf_putc(b, '\n');
     }
+    close_array(b);
+    open_array(b, "Int32", "surface", 1);
+    for (body = 0; body < nb; ++body) {
+        for (l = 0; l < nts_scene_body_loop_count(scene, body); ++l) {
+            int m = nts_scene_body_loop(scene, body, l, NULL);
+            for (k = 0; k < m; ++k) ntsj_buf_puts(b, nts_scene_on_surface(scene, body, l, k) ? "1\n" : "0\n");
+        }
+    }
+    for (i = 0; i < nc; ++i) ntsj_buf_puts(b, "-1\n");
     close_array(b);
     open_array(b, "Int32", "master_body", 1);
     for (i = 0; i < segs; ++i) ntsj_buf_puts(b, "-1\n");
