@@ -70,7 +70,7 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
  * Each test is exact on its own: which masters get here decides nothing but
  * the time. */
 static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, const double r,
-                                                const int periodic) {
+                                                const int periodic, const int surfaces) {
     const seg_data* m = &env->seg[j];
     const int body = m->body;
     const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
@@ -81,7 +81,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     candidate c;
 
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
-    if (env->surf_flag != NULL) {
+    if (surfaces) {
         /* A contact surface (docs/model.md §13): no corner across its ends,
          * where the flat part reaches the end node instead. */
         const unsigned f = env->surf_flag[j];
@@ -387,7 +387,7 @@ enum { KEPT = 512 };
  * wraps and clips, only when the cell changes (consecutive slaves of a loop
  * mostly share it). */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
-                                                  const int periodic) {
+                                                  const int periodic, const int surfaces) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
     const master_keys* keys = env->keys;
@@ -407,7 +407,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
             break;
         }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue; /* an obstacle's nodes are never slaves */
-        if (env->surf_flag != NULL && !(env->surf_flag[i] & NTS_SF_NODE)) { /* off the contact surface: as nothing found */
+        if (surfaces && !(env->surf_flag[i] & NTS_SF_NODE)) { /* off the contact surface: as nothing found */
             not_a_slave(w, env, i);
             continue;
         }
@@ -454,7 +454,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 NTS_PREFETCH(&env->seg[j]);
                 NTS_PREFETCH(&env->seg[j - (j > 0)]);
             }
-            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->r, periodic);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->r, periodic, surfaces);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
@@ -464,7 +464,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                     const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                     int k;
-                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], env->r, periodic);
+                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], env->r, periodic, surfaces);
                     e0 = e1;
                 }
             }
@@ -476,7 +476,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 const long_master* lm = &env->long_m[env->long_items[e]];
                 const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, env->r, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, env->r, periodic, surfaces);
             }
         }
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
@@ -515,7 +515,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
                               env->brute_pad);
-            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic);
+            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic, env->surf_flag != NULL);
         }
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
@@ -529,8 +529,15 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
 void nts_search_range(const search_env* env, worker* w, int begin, int end) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
     if (env->cells != NULL) {
-        if (periodic) search_cells(env, w, begin, end, 1);
-        else search_cells(env, w, begin, end, 0);
+        /* Instantiated for an open or periodic box, with or without contact
+         * surfaces: a scene without surfaces pays nothing for them. */
+        if (env->surf_flag != NULL) {
+            if (periodic) search_cells(env, w, begin, end, 1, 1);
+            else search_cells(env, w, begin, end, 0, 1);
+        } else {
+            if (periodic) search_cells(env, w, begin, end, 1, 0);
+            else search_cells(env, w, begin, end, 0, 0);
+        }
     } else {
         if (periodic) search_brute(env, w, begin, end, 1);
         else search_brute(env, w, begin, end, 0);
@@ -562,7 +569,7 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
     R = reach_allowed(env->wide_lmax, rb, env->wide_pad);
     if (d2 > R * R) return;
     R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(env->s, b, env->alpha)), rb, env->wide_pad);
-    if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic);
+    if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic, env->surf_flag != NULL);
 }
 
 /* The entries of body b: consecutive. */
@@ -651,7 +658,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
             double R;
             if (d2 > Rmax2 || !nts_on_surface(s, j)) continue;
             R = reach_allowed(reach_at_node(env->seg, j, alpha), rho, env->wide_pad);
-            if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic);
+            if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic, env->surf_flag != NULL);
         }
     }
 }
