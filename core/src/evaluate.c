@@ -25,7 +25,7 @@ static double wall_time(void) {
  * cell side, never a result, so a sample is as good as all. 0 when no body
  * offers a surface. `scratch`: 2 REACH_SAMPLE doubles. */
 enum { REACH_SAMPLE = 1024 };
-static void typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double r, double pad,
+static void typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double ext, double r, double pad,
                           double* scratch, double* typical, double* finest) {
     const int n = s->surface_count, m = n < REACH_SAMPLE ? n : REACH_SAMPLE;
     double* sharp = scratch + REACH_SAMPLE;
@@ -33,8 +33,8 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
     for (i = 0; i < m; ++i) {
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
         if (s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, e)) continue;
-        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha)), r, pad);
-        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0)), r, pad);
+        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha), ext), r, pad);
+        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0), ext), r, pad);
     }
     *typical = *finest = 0.0;
     if (count == 0) return;
@@ -63,15 +63,15 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
     /* The round-off of the grid's frame, relative to the size of the
      * coordinates (not of the cells): it widens every reach. */
     const double pad = 1e-12 * (ss->coord_max + (ss->xmax - ss->xmin) + (ss->ymax - ss->ymin) + s->lx + s->ly);
-    /* Every reach around the middle is at most (1/2 + alpha) L_max. */
+    /* Every reach around the middle is at most (1/2 + ext + alpha) L_max. */
     const double hmax =
-        reach_allowed((0.5 + largest_alpha(s, env->alpha)) * ss->lmax, env->r, pad) * (1.0 + 1e-11);
+        reach_allowed((0.5 + env->ext + largest_alpha(s, env->alpha)) * ss->lmax, env->r, pad) * (1.0 + 1e-11);
     double hc = 0.0;
     int round, rc, min_cells = 0;
     for (round = 0;; ++round) {
         if (round == 0) {
             double typical, finest;
-            typical_reach(ctx, s, env->alpha, env->r, pad, (double*)(void*)ctx->scratch, &typical, &finest);
+            typical_reach(ctx, s, env->alpha, env->ext, env->r, pad, (double*)(void*)ctx->scratch, &typical, &finest);
             /* The cells are smaller with a smaller alpha (the corners reach
              * less): room for the grid of alpha = 0, so that a warm context
              * allocates nothing when only the options' alpha changes. */
@@ -82,7 +82,7 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
         }
         if ((rc = nts_cells_shape(&ctx->cells, s, ss, hc, min_cells)) != NTS_OK) return rc;
         /* At hmax every master fits (hmax bounds every reach). */
-        rc = nts_masters_build(ctx, s, env->alpha, env->r, hc < hmax ? hc : 0.0, pad, budget, min_cells, run);
+        rc = nts_masters_build(ctx, s, env->alpha, env->ext, env->r, hc < hmax ? hc : 0.0, pad, budget, min_cells, run);
         if (rc != NTS_ELIMIT) return rc;
         /* Every master fits at hmax: no long lists, no NTS_ELIMIT. */
         assert(hc < hmax && round < 64);
@@ -177,6 +177,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.alpha = opt->alpha;
     for (i = 0; i < s->body_count && !env.body_alphas; ++i) env.body_alphas = s->body_alpha[i] >= 0.0;
     env.surf_flag = s->surf_flag;
+    env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0; /* no surface's end: nothing to extend */
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
     env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;
@@ -188,7 +189,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
     env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u; /* tables.h's records column */
-    h = ss.lmax + env.r; /* every feature lies within L_max + r of its master node */
+    h = (1.0 + env.ext) * ss.lmax + env.r; /* every feature lies within (1 + ext) L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];
         snprintf(msg, sizeof msg, "periodic box %.6g x %.6g must exceed twice the search reach %.6g", s->lx, s->ly, h);
@@ -219,10 +220,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
      * radius beyond which an image could be nearer than the minimum one. */
     env.grow = opt->search_radius < 0.0;
     env.coarse = 2.0 * env.r;
-    env.wide_lmax = ss.lmax;
+    env.wide_lmax = (1.0 + env.ext) * ss.lmax;
     env.wide_pad = 1e-12 * (ss.coord_max + (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) + s->lx + s->ly);
     if (s->lx > 0.0)
-        env.reach_max = 0.5 * (s->lx < s->ly ? s->lx : s->ly) - ss.lmax * (1.0 + 1e-9) - env.wide_pad;
+        env.reach_max = 0.5 * (s->lx < s->ly ? s->lx : s->ly) - env.wide_lmax * (1.0 + 1e-9) - env.wide_pad;
     else
         env.reach_max = sqrt((ss.xmax - ss.xmin) * (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) * (ss.ymax - ss.ymin)) *
                             (1.0 + 1e-9) + env.wide_pad;

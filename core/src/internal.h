@@ -45,6 +45,7 @@ struct nts_scene {
      * surface entry, NTS_SF_* bits; NULL when no body names one (every
      * segment is on, and nothing reads it). */
     unsigned char* surf_flag;
+    int surf_ends;             /* entries at an end of a contact surface (no end: no extension) */
 };
 
 /* A surface entry's flags (nts_scene.surf_flag): its own segment (from it to

@@ -55,15 +55,17 @@ static int cell_span(double lo, double hi, double inv_h, int n, int periodic, in
     return (int)(fhi - flo) + 1;
 }
 
-static long long long_box(const nts_context* ctx, const nts_scene* s, int j, double alpha, double R, int* cx0,
-                          int* ncx, int* cy0, int* ncy) {
+static long long long_box(const nts_context* ctx, const nts_scene* s, int j, double alpha, double ext, double R,
+                          int* cx0, int* ncx, int* cy0, int* ncy) {
     const nts_cells* cl = &ctx->cells;
     const seg_data* m = &ctx->seg[j];
     const nts_vec2 tp = ctx->seg[m->prev].t, t = m->t;
     const nts_cell_place q = nts_cells_place(cl, m->p);
     const double a = alpha_of_body(s, m->body, alpha);
-    const double xlo = fmin(fmin(0.0, t.x), -a * tp.x), xhi = fmax(fmax(0.0, t.x), -a * tp.x);
-    const double ylo = fmin(fmin(0.0, t.y), -a * tp.y), yhi = fmax(fmax(0.0, t.y), -a * tp.y);
+    /* the flat part from X_j - ext t_j to X_j + (1 + ext) t_j (ext 0: from X_j to X_{j+1}) */
+    const double x0 = -ext * t.x, x1 = (1.0 + ext) * t.x, y0 = -ext * t.y, y1 = (1.0 + ext) * t.y;
+    const double xlo = fmin(fmin(x0, x1), -a * tp.x), xhi = fmax(fmax(x0, x1), -a * tp.x);
+    const double ylo = fmin(fmin(y0, y1), -a * tp.y), yhi = fmax(fmax(y0, y1), -a * tp.y);
     *ncx = cell_span(q.x + xlo - R, q.x + xhi + R, cl->inv_hx, cl->nx, cl->periodic, cx0);
     *ncy = cell_span(q.y + ylo - R, q.y + yhi + R, cl->inv_hy, cl->ny, cl->periodic, cy0);
     return (long long)*ncx * (long long)*ncy;
@@ -71,7 +73,8 @@ static long long long_box(const nts_context* ctx, const nts_scene* s, int j, dou
 
 /* List every long master in every cell its reach box overlaps (CSR by cell,
  * masters in entry order within a cell). */
-static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double R, long long budget) {
+static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, double ext, double R,
+                            long long budget) {
     const nts_cells* cl = &ctx->cells;
     const int ncell = cl->nx * cl->ny;
     long long total = 0;
@@ -81,20 +84,20 @@ static int build_long_lists(nts_context* ctx, const nts_scene* s, double alpha, 
     memset(ctx->long_start, 0, sizeof(int) * (size_t)(ncell + 1));
     for (i = 0; i < ctx->long_count; ++i) {
         int cx0, ncx, cy0, ncy;
-        total += long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
+        total += long_box(ctx, s, ctx->long_m[i].entry, alpha, ext, R, &cx0, &ncx, &cy0, &ncy);
         if (total > budget) return NTS_ELIMIT;
     }
     if ((rc = nts_grow((void**)&ctx->long_items, &ctx->long_items_cap, (int)total, sizeof(int))) != NTS_OK) return rc;
     for (i = 0; i < ctx->long_count; ++i) { /* counts */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, ctx->long_m[i].entry, alpha, ext, R, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
             for (a = 0; a < ncx; ++a) ++ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx + 1];
     }
     for (i = 0; i < ncell; ++i) ctx->long_start[i + 1] += ctx->long_start[i];
     for (i = 0; i < ctx->long_count; ++i) { /* fill, in entry order */
         int cx0, ncx, cy0, ncy, a, b;
-        long_box(ctx, s, ctx->long_m[i].entry, alpha, R, &cx0, &ncx, &cy0, &ncy);
+        long_box(ctx, s, ctx->long_m[i].entry, alpha, ext, R, &cx0, &ncx, &cy0, &ncy);
         for (b = 0; b < ncy; ++b)
             for (a = 0; a < ncx; ++a)
                 ctx->long_items[ctx->long_start[((cy0 + b) % cl->ny) * cl->nx + (cx0 + a) % cl->nx]++] = i;
@@ -108,7 +111,7 @@ typedef struct bin_task {
     nts_context* ctx;
     const nts_scene* s;
     int* cell_of;
-    double alpha, r, pad, fits;
+    double alpha, ext, r, pad, fits;
     long long nlong;
     int slices, ncell;
 } bin_task;
@@ -124,7 +127,7 @@ static void masters_bin(int begin, int end, int wi, void* p) {
     const seg_data* seg = ctx->seg;
     int* cell_of = t->cell_of;
     /* the task's fields in locals: the loop keeps them in registers */
-    const double alpha = t->alpha, r = t->r, pad = t->pad, fits = t->fits;
+    const double alpha = t->alpha, ext = t->ext, r = t->r, pad = t->pad, fits = t->fits;
     int e, nlong = 0;
     (void)wi;
     for (e = begin; e < end; ++e) {
@@ -134,7 +137,7 @@ static void masters_bin(int begin, int end, int wi, void* p) {
             cell_of[e] = -1;
             continue;
         }
-        if (fits > 0.0 && !(reach_allowed(reach_at_middle(seg, e, alpha_of_body(s, b, alpha)), r, pad) <= fits)) {
+        if (fits > 0.0 && !(reach_allowed(reach_at_middle(seg, e, alpha_of_body(s, b, alpha), ext), r, pad) <= fits)) {
             cell_of[e] = -2;
             ++nlong;
             continue;
@@ -153,7 +156,7 @@ static void masters_place(int begin, int end, int wi, void* p) {
     const nts_cells* cl = &ctx->cells;
     master_keys* k = &ctx->keys;
     const int n = s->surface_count, slices = t->slices;
-    const double scale = cl->scale, alpha = t->alpha, r = t->r, pad = t->pad;
+    const double scale = cl->scale, alpha = t->alpha, ext = t->ext, r = t->r, pad = t->pad;
     const int* cell_of = t->cell_of;
     int u;
     (void)wi;
@@ -178,7 +181,7 @@ static void masters_place(int begin, int end, int wi, void* p) {
             if (cell < 0) continue;
             at = next[cell]++;
             q = nts_cells_place(cl, nts_mul_add(m->p, 0.5, m->t));
-            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, alpha)), r, pad);
+            R = reach_allowed(reach_at_middle(ctx->seg, j, alpha_of_body(s, m->body, alpha), ext), r, pad);
             Rs = R * scale + KEY_SLACK;
             k->x[at] = (float)(q.x * scale);
             k->y[at] = (float)(q.y * scale);
@@ -188,8 +191,8 @@ static void masters_place(int begin, int end, int wi, void* p) {
     }
 }
 
-int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
-                      long long budget, int min_cells, const nts_run* run) {
+int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double ext, double r, double hcell,
+                      double pad, long long budget, int min_cells, const nts_run* run) {
     nts_cells* cl = &ctx->cells;
     const int n = s->surface_count, ncell = cl->nx * cl->ny;
     int e, nlong, count, rc, slices;
@@ -199,6 +202,7 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
     t.s = s;
     t.cell_of = ctx->scratch;
     t.alpha = alpha;
+    t.ext = ext;
     t.r = r;
     t.pad = pad;
     /* A master is binned when its reach fits a cell with room for the
@@ -238,11 +242,11 @@ int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double
         if (t.cell_of[e] == -2) {
             long_master* lm = &ctx->long_m[ctx->long_count++];
             const double R =
-                reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, ctx->seg[e].body, alpha)), r, pad);
+                reach_allowed(reach_at_node(ctx->seg, e, alpha_of_body(s, ctx->seg[e].body, alpha), ext), r, pad);
             lm->reach2 = R * R;
             lm->entry = e;
             lm->pad = 0;
         }
     }
-    return build_long_lists(ctx, s, alpha, reach_allowed(0.0, r, pad), budget);
+    return build_long_lists(ctx, s, alpha, ext, reach_allowed(0.0, r, pad), budget);
 }

@@ -44,28 +44,31 @@ static inline double reach_allowed(double reach, double r, double pad) { return 
 /* The reach of master j around X_j: its features lie within r + max(|t_j|,
  * alpha |t_{j-1}|) of X_j (the flat part of segment j within |t_j| + r, the
  * corner within r + alpha max(|t_{j-1}|, |t_j|), the vertex within r), with
- * alpha the master body's. */
-static inline double reach_at_node(const seg_data* seg, int j, double alpha) {
-    double lp = alpha * seg[seg[j].prev].len, lj = seg[j].len;
+ * alpha the master body's; `ext` the contact surfaces' end extension (the
+ * flat part of an end segment reaches ext |t_j| past its ends,
+ * docs/model.md §13; 0 without surfaces, and then the same bits). */
+static inline double reach_at_node(const seg_data* seg, int j, double alpha, double ext) {
+    double lp = alpha * seg[seg[j].prev].len, lj = (1.0 + ext) * seg[j].len;
     return lj > lp ? lj : lp;
 }
 
 /* The reach of master j around the middle M_j = X_j + t_j / 2 of its segment,
- * which the cells bin: the flat part lies within |t_j| / 2 of M_j, and the
- * corner in the triangle X_j, X_j + alpha t_j, X_j - alpha t_{j-1}, within
- * |t_j| / 2 + alpha |t_{j-1}|; so every feature within r of a slave puts the
- * slave within r + this of M_j. Smaller than the reach around X_j, so the
- * cells are smaller and fewer masters pass the first test. */
-static inline double reach_at_middle(const seg_data* seg, int j, double alpha) {
-    return 0.5 * seg[j].len + alpha * seg[seg[j].prev].len;
+ * which the cells bin: the flat part lies within (1/2 + ext) |t_j| of M_j,
+ * and the corner in the triangle X_j, X_j + alpha t_j, X_j - alpha t_{j-1},
+ * within |t_j| / 2 + alpha |t_{j-1}|; so every feature within r of a slave
+ * puts the slave within r + this of M_j. Smaller than the reach around X_j,
+ * so the cells are smaller and fewer masters pass the first test. */
+static inline double reach_at_middle(const seg_data* seg, int j, double alpha, double ext) {
+    return (0.5 + ext) * seg[j].len + alpha * seg[seg[j].prev].len;
 }
 
 /* Bin the masters that reach at most `hcell` (with their round-off
  * allowance `pad`; every master when hcell = 0) and fill their keys in cell order; list the others in the
- * long lists of the cells they reach. `min_cells`: the room to keep for the
+ * long lists of the cells they reach (`ext`: the surfaces' end extension,
+ * reach_at_node). `min_cells`: the room to keep for the
  * cells' buffers. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT when
  * the long lists would exceed `budget` entries (the caller coarsens). */
-int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double r, double hcell, double pad,
-                      long long budget, int min_cells, const nts_run* run);
+int nts_masters_build(nts_context* ctx, const nts_scene* s, double alpha, double ext, double r, double hcell,
+                      double pad, long long budget, int min_cells, const nts_run* run);
 
 #endif

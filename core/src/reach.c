@@ -86,7 +86,8 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
     /* In a periodic box, nodes a quarter of a side or more away may not be
      * the body's nearest images: nothing is ruled out. */
     if (s->lx > 0.0 && !(ax < 0.25 * s->lx && ay < 0.25 * s->ly)) return 0;
-    return top < -1e-6 * (ax + ay);
+    /* A contact surface's end reaches up to ext L_max past the hull (docs/model.md §13). */
+    return top < -1e-6 * (ax + ay) - env->ext * env->wide_lmax;
 }
 
 /* ----------------------------------------------------------- the pairs */

@@ -499,6 +499,8 @@ static int mark_surfaces(const nts_scene_def* def, nts_scene* s, int* entry_of, 
     for (e = 0; e < s->surface_count; ++e) {
         if (s->surf_flag[s->surf_prev[e]] & NTS_SF_SEG) s->surf_flag[e] |= NTS_SF_PREV;
         if (s->surf_flag[s->surf_next[e]] & NTS_SF_SEG) s->surf_flag[e] |= NTS_SF_NEXT;
+        if ((s->surf_flag[e] & NTS_SF_SEG) && (s->surf_flag[e] & (NTS_SF_PREV | NTS_SF_NEXT)) != (NTS_SF_PREV | NTS_SF_NEXT))
+            ++s->surf_ends;
     }
     return NTS_OK;
 }

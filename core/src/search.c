@@ -83,14 +83,16 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
     if (surfaces) {
         /* A contact surface (docs/model.md §13): no corner across its ends,
-         * where the flat part reaches the end node instead. */
+         * where the flat part reaches the end node and ext of the segment
+         * beyond, so that a slave flush with the end is in contact whatever
+         * its round-off. */
         const unsigned f = env->surf_flag[j];
         assert(f & NTS_SF_SEG); /* only the surface's segments are masters */
         if (!(f & NTS_SF_PREV)) {
-            lo = 0.0;
+            lo = -env->ext;
             corner = 0;
         }
-        if (!(f & NTS_SF_NEXT)) hi = 1.0;
+        if (!(f & NTS_SF_NEXT)) hi = 1.0 + env->ext;
     }
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
@@ -513,7 +515,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             double R;
             if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, j)) continue;
             d = search_diff(env, xs, env->seg[j].p, periodic);
-            R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha)), env->r,
+            R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha), env->ext), env->r,
                               env->brute_pad);
             if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic, env->surf_flag != NULL);
         }
@@ -568,7 +570,7 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
      * masters are out of that first. */
     R = reach_allowed(env->wide_lmax, rb, env->wide_pad);
     if (d2 > R * R) return;
-    R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(env->s, b, env->alpha)), rb, env->wide_pad);
+    R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(env->s, b, env->alpha), env->ext), rb, env->wide_pad);
     if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic, env->surf_flag != NULL);
 }
 
@@ -657,7 +659,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
             const double d2 = d.x * d.x + d.y * d.y;
             double R;
             if (d2 > Rmax2 || !nts_on_surface(s, j)) continue;
-            R = reach_allowed(reach_at_node(env->seg, j, alpha), rho, env->wide_pad);
+            R = reach_allowed(reach_at_node(env->seg, j, alpha, env->ext), rho, env->wide_pad);
             if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic, env->surf_flag != NULL);
         }
     }

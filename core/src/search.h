@@ -112,9 +112,10 @@ typedef struct search_env {
     double alpha, r, eps;    /* alpha: the options' (a body may have its own) */
     int body_alphas;         /* some body has its own alpha */
     const unsigned char* surf_flag; /* the contact surfaces' flags (nts_scene.surf_flag), or NULL */
+    double ext;              /* their ends' extension (nts_options.surface_extension; 0 without ends) */
     double brute_pad;        /* brute force: the round-off allowance of its reach test */
     double wide_pad;         /* the widened searches' round-off allowance (reach.c) */
-    double wide_lmax;        /* the longest reach around a node: L_max (alpha <= 1/2, reach_at_node) */
+    double wide_lmax;        /* the longest reach around a node: (1 + ext) L_max (alpha <= 1/2, reach_at_node) */
     double reach_max;        /* the largest radius a widened search may take */
     double coarse;           /* 2 r: a slave next to a longer segment is searched widened (reach.c) */
     int grow;                /* default radius: the active contacts deeper than r are kept (reach.c) */

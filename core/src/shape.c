@@ -81,5 +81,10 @@ int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x) 
     const double* c = nts_body_shape(env, shape, b);
     const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
     const double dx = q.x - c[0], dy = q.y - c[1];
+    if (env->ext > 0.0) {
+        /* a contact surface's ends reach up to ext L_max past the nodes (docs/model.md §13) */
+        const double R = sqrt(c[2]) * (1.0 + 1e-9) + env->ext * env->wide_lmax + 2.0 * env->wide_pad;
+        return dx * dx + dy * dy > R * R;
+    }
     return dx * dx + dy * dy > c[2] * (1.0 + 1e-9) + 4.0 * env->wide_pad * env->wide_pad;
 }

@@ -160,6 +160,51 @@ static void test_patch_uniform_traction(void) {
                               solver ? NTS_SOLVER_NEWTON : NTS_SOLVER_CLOSED_FORM, threads);
 }
 
+/* Flush up to round-off (docs/model.md §13): the upper block moved 1e-9 to
+ * the left, its left corner node lies past the lower block's surface end by
+ * that much; with the default extension (0.01 of the end segment) it is in
+ * contact as the others are, with none (0) it is not, and past the
+ * extension (a 2% overhang) it is not either. */
+static void test_flush_up_to_round_off(void) {
+    static const double shifts[] = {-1e-9, -1e-9, -0.02 * 0.25};
+    static const double exts[] = {0.01, 0.0, 0.01};
+    int k;
+    for (k = 0; k < 3; ++k) {
+        block lo, up;
+        nts_body_def defs[2];
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        nts_options o = nts_default_options();
+        nts_result r;
+        nts_error err;
+        int i, left = 0;
+        make_block(&lo, 0.0, 0.0, 1.0, 1.0, 2, 0, 5); /* top segments 0.25 */
+        make_block(&up, shifts[k], 0.99, 1.0, 1.0, 7, 0, 2);
+        defs[0] = block_def(&lo, lo.top, lo.ntop, NTS_ROLE_MASTER);
+        defs[1] = block_def(&up, up.bottom, up.nbottom, NTS_ROLE_BOTH);
+        s = scene_of(defs, 2, &err);
+        CU_ASSERT_FATAL(s != NULL);
+        ASSERT_NEAR(o.surface_extension, 0.01, 0.0); /* the default */
+        o.surface_extension = exts[k];
+        o.penalty = 100.0;
+        o.penalty_scaling = NTS_PENALTY_PER_LENGTH;
+        o.outputs = NTS_OUT_CONTACTS | NTS_OUT_PRESSURE;
+        CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+        for (i = 0; i < r.contact_count; ++i) {
+            left += r.contacts[i].slave_node == 0;
+            ASSERT_NEAR(r.contacts[i].gap, -0.01, 1e-12);
+        }
+        ASSERT_INT_EQ(left, k == 0 ? 1 : 0);
+        ASSERT_INT_EQ(r.contact_count, k == 0 ? 7 : 6);
+        if (k == 0) {
+            CU_ASSERT(r.contacts[0].param > 1.0 && r.contacts[0].param < 1.0 + 1e-8); /* in the extension */
+            ASSERT_NEAR(r.pressure[nts_scene_body_node_offset(s, 1)], 1.0, 1e-12);
+        }
+        nts_scene_destroy(s);
+        nts_context_destroy(ctx);
+    }
+}
+
 /* Without surfaces (docs/model.md §13, "A flush stack"): two stacked unit
  * squares 0.01 into each other. At alpha 0 each penetrating corner node lies
  * exactly on the other body's side segment: that side is its closest
@@ -220,8 +265,8 @@ static void test_flush_stack_without_surfaces(void) {
 
 /* The closest point of a slave on one master body's surface, feature by
  * feature as docs/model.md §4, §5 and §13 state them: the flat part of each
- * surface segment on [alpha, 1 - alpha], or up to s = 0 (1) at a start (end)
- * of the surface; the corner (alpha > 0) or vertex (alpha = 0) of each node
+ * surface segment on [alpha, 1 - alpha], or up to s = -ext (1 + ext) at a
+ * start (end) of the surface; the corner (alpha > 0) or vertex (alpha = 0) of each node
  * whose two segments are on, in its zone; the root nearest to the slave from
  * the long-double reference; ties to the smaller node, segment first, then
  * (corner roots) the smaller xi. Explicit radius r. Open scenes. */
@@ -230,7 +275,7 @@ typedef struct ref_hit {
     double gap;
 } ref_hit;
 
-static ref_hit reference_pair(const nts_scene* s, nts_vec2 xs, int body, double alpha, double r) {
+static ref_hit reference_pair(const nts_scene* s, nts_vec2 xs, int body, double alpha, double ext, double r) {
     const nts_vec2* x = nts_scene_positions(s) + nts_scene_body_node_offset(s, body);
     ref_hit best;
     int l, k;
@@ -250,7 +295,7 @@ static ref_hit reference_pair(const nts_scene* s, nts_vec2 xs, int body, double 
             ref_hit c;
             c.found = 0;
             if (!on) continue;
-            if (sj >= (on_prev ? alpha : 0.0) && sj <= (on_next ? 1.0 - alpha : 1.0)) {
+            if (sj >= (on_prev ? alpha : -ext) && sj <= (on_next ? 1.0 - alpha : 1.0 + ext)) {
                 const nts_vec2 n = nts_v2(t.y / nts_length(t), -t.x / nts_length(t));
                 c.found = 1;
                 c.gap = nts_dot(d, n);
@@ -351,6 +396,8 @@ static int same_bits(const void* a, const void* b, size_t n) { return n == 0 || 
 static void assert_same_result(const nts_result* a, const nts_result* b, int nodes) {
     CU_ASSERT(same_bits(&a->summary.energy, &b->summary.energy, sizeof(double)));
     CU_ASSERT(same_bits(&a->summary.virial, &b->summary.virial, sizeof(nts_virial)));
+    CU_ASSERT(same_bits(&a->summary.search_radius, &b->summary.search_radius, sizeof(double)));
+    ASSERT_INT_EQ(a->summary.deep_contacts, b->summary.deep_contacts);
     ASSERT_INT_EQ(a->contact_count, b->contact_count);
     ASSERT_INT_EQ(a->gap_count, b->gap_count);
     CU_ASSERT(same_bits(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nodes));
@@ -385,6 +432,7 @@ static void test_partial_surfaces_against_reference(void) {
             s = scene_of(p.defs, p.x.body_count, &err);
             CU_ASSERT_FATAL(s != NULL && c0 != NULL && c1 != NULL);
             o.alpha = alphas[a];
+            o.surface_extension = a == 0 ? 0.0 : (a == 1 ? 0.01 : 0.3); /* none, the default, large */
             o.search_radius = 0.3;
             o.penalty = 100.0;
             o.outputs = NTS_OUT_ALL;
@@ -409,7 +457,7 @@ static void test_partial_surfaces_against_reference(void) {
                         for (q = 0; q < p.x.body_count; ++q) {
                             ref_hit h;
                             if (q == b) continue;
-                            h = reference_pair(s, xs, q, o.alpha, o.search_radius);
+                            h = reference_pair(s, xs, q, o.alpha, o.surface_extension, o.search_radius);
                             if (!h.found) continue;
                             CU_ASSERT_FATAL(k < r0.gap_count);
                             ASSERT_INT_EQ(r0.gaps[k].slave_body, b);
@@ -481,6 +529,7 @@ static void test_whole_surface_is_the_default(void) {
                 CU_ASSERT_FATAL(nts_evaluate(c1, s1, &o, &r1, &err) == 0);
                 CU_ASSERT(r0.summary.contacts > 20);
                 assert_same_result(&r0, &r1, nts_scene_node_count(s0));
+                CU_ASSERT(same_bits(&r0.summary.cell_size, &r1.summary.cell_size, sizeof(double)));
                 nts_context_destroy(c0);
                 nts_context_destroy(c1);
             }
@@ -743,6 +792,7 @@ static void test_bad_surfaces_refused(void) {
 void register_surfaces_suite(void) {
     CU_pSuite s = CU_add_suite("surfaces", NULL, NULL);
     ADD_TEST(s, test_patch_uniform_traction);
+    ADD_TEST(s, test_flush_up_to_round_off);
     ADD_TEST(s, test_flush_stack_without_surfaces);
     ADD_TEST(s, test_partial_surfaces_against_reference);
     ADD_TEST(s, test_whole_surface_is_the_default);

@@ -191,6 +191,12 @@ typedef struct nts_options {
     long long max_candidates;
     int (*cancel)(void* user);
     void* cancel_user;
+    /* How far the flat part of a contact surface's end segment reaches past
+     * its end node, as a fraction of that segment (docs/model.md §13): a
+     * slave node flush with the end (a block stacked on a block of the same
+     * width) is in contact whatever the round-off of its position. In
+     * [0, 0.5]; default 0.01; read only for bodies with a surface. */
+    double surface_extension;
 } nts_options;
 NTS_API nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */

@@ -91,7 +91,9 @@ extern "C" {
     XX(PENALTY_SCALING, penalty_scaling, "penalty_scaling", "", "", ENUM, nts_penalty_scaling,                     \
        NTS_PENALTY_PER_NODE, 0.0, 0.0, NONE, CORE, OPTIONAL, SCENE, NTS_PENALTY_SCALING_NAMES, "")                \
     XX(SEARCH, search, "search", "", "", ENUM, nts_search, NTS_SEARCH_CELLS, 0.0, 0.0, NONE, CORE, OPTIONAL,       \
-       SCENE, NTS_SEARCH_NAMES, "")
+       SCENE, NTS_SEARCH_NAMES, "")                                                                                \
+    XX(SURFACE_EXTENSION, surface_extension, "surface_extension", "", "", NUMBER, double, 0.01, 0.0, 0.5, CLOSED,  \
+       CORE, OPTIONAL, SCENE, NTS_NO_NAMES, "how far a contact surface's end segment reaches past its end node")
 
 typedef enum nts_option_id {
 #define NTS_XX_(ID, field, json, flag, meta, kind, ctype, def, lo, hi, bound, check, presence, doors, names, help) \
