@@ -528,17 +528,37 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
     }
 }
 
+/* The cell search's four instances (an open or periodic box, with or
+ * without contact surfaces), each a function of its own, so that one's code
+ * does not change how the compiler treats another's: a scene without
+ * surfaces pays nothing for them. */
+#if defined(__GNUC__)
+#define NTS_NOINLINE __attribute__((noinline))
+#else
+#define NTS_NOINLINE
+#endif
+static NTS_NOINLINE void cells_open(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 0, 0);
+}
+static NTS_NOINLINE void cells_periodic(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 1, 0);
+}
+static NTS_NOINLINE void cells_open_surfaces(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 0, 1);
+}
+static NTS_NOINLINE void cells_periodic_surfaces(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 1, 1);
+}
+
 void nts_search_range(const search_env* env, worker* w, int begin, int end) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
     if (env->cells != NULL) {
-        /* Instantiated for an open or periodic box, with or without contact
-         * surfaces: a scene without surfaces pays nothing for them. */
         if (env->surf_flag != NULL) {
-            if (periodic) search_cells(env, w, begin, end, 1, 1);
-            else search_cells(env, w, begin, end, 0, 1);
+            if (periodic) cells_periodic_surfaces(env, w, begin, end);
+            else cells_open_surfaces(env, w, begin, end);
         } else {
-            if (periodic) search_cells(env, w, begin, end, 1, 0);
-            else search_cells(env, w, begin, end, 0, 0);
+            if (periodic) cells_periodic(env, w, begin, end);
+            else cells_open(env, w, begin, end);
         }
     } else {
         if (periodic) search_brute(env, w, begin, end, 1);
