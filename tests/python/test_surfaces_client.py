@@ -461,3 +461,20 @@ def test_a_line_two_bodies_share(tmp_path):
         surfaces_from_mesh(path, bodies_from_mesh(path), ["contact_lower"])
     assert ei.value.code == "invalid_surface"
     assert "bodies 'lower', 'upper'" in str(ei.value) and "share" in str(ei.value)
+
+
+def test_plot_draws_the_surfaces_as_the_core_sees_them(tmp_path):
+    """A body with a surface: its outline dotted, the surface solid with its
+    inner corners smoothed and its ends sharp (at the end nodes themselves)."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    scene = stacked_scene()
+    ax = ntscontact.plot(scene)
+    styles = [(ln.get_linestyle(), len(ln.get_xydata())) for ln in ax.lines]
+    # per body: the dotted outline, one solid piece, the node markers
+    assert [s for s, _ in styles] == [":", "-", "None"] * 2
+    lower, upper = ax.lines[1].get_xydata(), ax.lines[4].get_xydata()
+    assert lower[0].tolist() == [1.0, 1.0] and lower[-1].tolist() == [0.0, 1.0]  # nodes 3 and 7
+    assert upper[0].tolist() == [0.0, 0.99] and upper[-1].tolist() == [1.0, 0.99]  # nodes 0 and 5
+    assert len(lower) == 2 + 3 * 8 and len(upper) == 2 + 4 * 8  # each inner corner sampled
+    ax.figure.savefig(tmp_path / "p.png")
