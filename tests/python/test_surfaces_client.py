@@ -188,6 +188,10 @@ def test_triangle_bodies_are_checked_by_the_service(daemon):
                 c.contact(s)
         assert (ei.value.code, ei.value.pointer, ei.value.status) == ("invalid_surface", f"/bodies/0/surface/{k}", 400)
         assert cli_fault(s.to_dict()) == ("invalid_surface", f"/bodies/0/surface/{k}")
+        with Client(daemon.base, timeout=30) as c:  # a session is refused alike (POST /v1/scenes)
+            with pytest.raises(InvalidScene) as ei:
+                c.session(s)
+        assert (ei.value.code, ei.value.pointer, ei.value.status) == ("invalid_surface", f"/bodies/0/surface/{k}", 400)
 
 
 # ------------------------------------------------------------ over HTTP
@@ -362,8 +366,9 @@ def test_convert_surface_journey(model, loops):
         np.testing.assert_allclose(p[iface], want, rtol=1e-9)
         assert not np.delete(p, iface).any()
     # The Python function gives the same scene.
-    scene = scene_from_mesh(model, penalty=PENALTY, penalty_scaling="length", outputs=["forces", "pressure", "contacts"],
-                            surfaces=["contact_upper", "contact_lower"], boundary="loops" if loops else "triangles")
+    scene = scene_from_mesh(model, penalty=PENALTY, penalty_scaling="length",
+                            outputs=["forces", "pressure", "contacts"], surfaces=["contact_upper", "contact_lower"],
+                            boundary="loops" if loops else "triangles")
     assert scene.to_dict() == doc
 
 

@@ -590,8 +590,8 @@ def surfaces_from_mesh(mesh: Any, bodies: Sequence[MeshBody], names: Sequence[st
     loops = [b.loops() for b in bodies]
     for k, (b, body_loops) in enumerate(zip(bodies, loops)):
         for lp in body_loops:
-            p, q = b.point_index[lp], b.point_index[np.roll(lp, -1)]
-            for e in zip(np.minimum(p, q).tolist(), np.maximum(p, q).tolist()):
+            ends = b.point_index[lp], b.point_index[np.roll(lp, -1)]
+            for e in zip(np.minimum(*ends).tolist(), np.maximum(*ends).tolist()):
                 owner.setdefault(e, []).append(k)
     chosen: Dict[int, Set[Tuple[int, int]]] = {}
     for name in dict.fromkeys(names):  # each name once, in order
