@@ -10,6 +10,7 @@ import pathlib
 import subprocess
 import sys
 
+import jsonschema
 import numpy as np
 import pytest
 import requests
@@ -43,7 +44,7 @@ def stacked_scene(surfaces=True, overlap=0.01, reference=False):
 # ------------------------------------------------------------ the Scene
 
 
-def test_scene_round_trip_keeps_surfaces():
+def test_scene_round_trip_keeps_surfaces(schemas):
     pts, tri = ntscontact.mesh.disk_mesh(0.3, 2, 2.5, 0.5)
     s = stacked_scene()
     s.add_body(pts, triangles=tri, id="disk", surface=np.array([[7, 8], [9, 8]], dtype=np.int32))
@@ -62,7 +63,8 @@ def test_scene_round_trip_keeps_surfaces():
         assert (a.surface is None) == (b.surface is None)
         if a.surface is not None:
             assert np.array_equal(a.surface, b.surface) and a.surface.dtype == np.int64
-    # the service takes it (and a scene without surfaces reads and writes as before)
+    # the contract's and the service's (and a scene without surfaces reads and writes as before)
+    jsonschema.validate(doc, schemas["scene"])
     assert run_cli_json(doc)["summary"]["bodies"] == 5
     plain = Scene(penalty=1.0)
     plain.add_body(SQUARE)
