@@ -11,6 +11,7 @@ import pytest
 
 ntscontact = pytest.importorskip("ntscontact")
 meshio = pytest.importorskip("meshio")
+from ntscontact.mesh import disk_mesh  # noqa: E402
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 CLI = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build"))) / "bin" / "ntscontact"
@@ -23,11 +24,33 @@ def client(daemon):
         yield c
 
 
-@pytest.mark.parametrize("name", EXAMPLES)
+def partial_surfaces_scene():
+    """Contact surfaces (docs/model.md §13) of every kind: two loop bodies
+    pressed together, each with part of its boundary (the upper one given
+    clockwise: the service turns it), a triangle mesh with two segments of its
+    boundary, a body with an empty surface and one with none."""
+    s = ntscontact.Scene(penalty=100.0, alpha=0.2, penalty_scaling="length")
+    s.add_body([[0, 0], [1, 0], [1, 0.5], [1, 1], [0.5, 1], [0, 1], [0, 0.5]], id="low",
+               surface=[[2, 3], [3, 4], [5, 4]])
+    s.add_body([[0, 2], [1, 2], [1, 0.98], [0.5, 0.98], [0, 0.98]], id="up", surface=[[2, 3], [4, 3]])
+    pts, tri = disk_mesh(0.3, 2, 1.25, 0.5)
+    s.add_body(pts, triangles=tri, id="disk", surface=[[13, 14], [15, 14]])
+    s.add_body([[3, 0], [4, 0], [4, 1], [3, 1]], id="none", surface=[])
+    s.add_body([[1.05, 1.0], [1.6, 1.0], [1.6, 1.3]], id="whole")
+    return s
+
+
+@pytest.mark.parametrize("name", EXAMPLES + ["partial_surfaces"])
 def test_to_vtk_equals_the_c_tool(client, tmp_path, name):
-    path = REPO / "examples" / f"{name}.json"
+    if name == "partial_surfaces":
+        path = tmp_path / "scene.json"
+        partial_surfaces_scene().save(path)
+    else:
+        path = REPO / "examples" / f"{name}.json"
     scene = ntscontact.Scene.load(path)
     res = client.contact(scene, outputs=["forces", "contacts"])
+    if name == "partial_surfaces":
+        assert res.summary.contacts > 0
     res.to_vtk(tmp_path / "py.vtu")
     r = subprocess.run([str(CLI), "--vtk", str(tmp_path / "c.vtu"), "--outputs", "forces,contacts", str(path)],
                        capture_output=True, timeout=60)
@@ -45,6 +68,16 @@ def test_to_vtk_equals_the_c_tool(client, tmp_path, name):
     assert {tuple(x) for x in la[:surf]} == {tuple(x) for x in lb[:surf]}
     assert np.array_equal(la[surf:], lb[surf:])
     assert np.allclose(np.concatenate(a.cell_data["normal"])[surf:], np.concatenate(b.cell_data["normal"])[surf:])
+    # each segment on its body's contact surface (1) or off it (0), as the C tool says; -1 for contacts
+    fa, fb = np.concatenate(a.cell_data["surface"]).ravel(), np.concatenate(b.cell_data["surface"]).ravel()
+    assert {(*x, f) for x, f in zip(map(tuple, la[:surf]), fa[:surf])} == \
+           {(*x, f) for x, f in zip(map(tuple, lb[:surf]), fb[:surf])}
+    assert (fa[surf:] == -1).all() and (fb[surf:] == -1).all()
+    on = int(fb[:surf].sum())
+    if name == "partial_surfaces":
+        assert 0 < on == 3 + 2 + 2 + 0 + 3 < surf
+    else:
+        assert on == surf
 
 
 def test_session_results_know_their_positions(client, tmp_path):

@@ -18,12 +18,17 @@ from .scene import OUTPUTS
 def _convert(args: argparse.Namespace) -> int:
     from .mesh import scene_from_mesh
 
+    if args.other_bodies != "whole" and not args.surface:
+        print("ntscontact: --other-bodies needs --surface", file=sys.stderr)
+        return 2
     periodic = tuple(args.periodic) if args.periodic else None
     tag = False if args.no_tags else args.tag
     try:
         scene = scene_from_mesh(args.mesh, penalty=args.penalty, alpha=args.alpha, search_radius=args.search_radius,
                                 periodic=periodic, solver=args.solver, outputs=args.outputs, tag=tag,
-                                boundary="loops" if args.loops else "triangles")
+                                boundary="loops" if args.loops else "triangles",
+                                penalty_scaling=args.penalty_scaling, surfaces=args.surface,
+                                other_bodies=args.other_bodies)
     except OSError as exc:  # the file cannot be opened: a usage error, as in the C CLI
         print(f"ntscontact: cannot open '{args.mesh}': {exc.strerror or exc}", file=sys.stderr)
         return 2
@@ -35,6 +40,15 @@ def _convert(args: argparse.Namespace) -> int:
             fh.write(text)
     nodes = sum(b.node_count for b in scene)
     print(f"convert: {len(scene)} bodies, {nodes} nodes from {args.mesh}", file=sys.stderr)
+    if args.surface:
+        named = [f"{b.id!r} {len(b.surface)} segments" for b in scene if b.surface is not None and len(b.surface)]
+        rest = [repr(b.id) for b in scene if b.surface is None]
+        off = [repr(b.id) for b in scene if b.surface is not None and not len(b.surface)]
+        told = "; ".join(part for part in (
+            "contact surfaces: " + ", ".join(named),
+            "whole boundary: " + ", ".join(rest) if rest else "",
+            "no surface: " + ", ".join(off) if off else "") if part)
+        print(f"convert: {told}", file=sys.stderr)
     return 0
 
 
@@ -76,6 +90,14 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--periodic", type=float, nargs=2, metavar=("LX", "LY"), help="periodic box")
     c.add_argument("--solver", choices=("closed_form", "newton"))
     c.add_argument("--outputs", help="comma-separated: " + ",".join(OUTPUTS))
+    c.add_argument("--penalty-scaling", choices=("node", "length"),
+                   help="options.penalty_scaling (length: a node's force is eps g times its tributary length)")
+    c.add_argument("--surface", action="append", metavar="NAME",
+                   help="a gmsh physical curve (1D physical group, by name) whose line elements make the contact "
+                        "surface of the body that owns them (repeat for several: their union)")
+    c.add_argument("--other-bodies", choices=("whole", "none"), default="whole",
+                   help="with --surface, what a body that owns none of the named curves gets: whole (default: its "
+                        "whole boundary) or none (it takes part in nothing)")
     c.add_argument("--tag", help="cell_data field naming the body of each cell (default: gmsh:physical if present)")
     c.add_argument("--no-tags", action="store_true", help="ignore tags: bodies are connected components")
     c.add_argument("--loops", action="store_true", help="write boundary loops instead of triangles")

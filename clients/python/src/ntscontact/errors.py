@@ -85,7 +85,7 @@ class RequestRejected(NtsError):
     """Any other 4xx (404 unknown path, 405 method, 415 content type)."""
 
 
-_POINTER_BODY = re.compile(r"^/bodies/(\d+)(?:/(nodes|loops|triangles|id)(?:/(\d+)(?:/(\d+))?)?)?")
+_POINTER_BODY = re.compile(r"^/bodies/(\d+)(?:/(nodes|loops|triangles|surface|id)(?:/(\d+)(?:/(\d+))?)?)?")
 
 
 def _unescape(token: str) -> str:
@@ -112,6 +112,8 @@ def describe_pointer(pointer: str, bodies: Optional[Sequence[Any]] = None) -> st
         return f"{name}, loop {a}" + (f", position {b}" if b is not None else "")
     if field == "triangles" and a is not None:
         return f"{name}, triangle {a}"
+    if field == "surface":
+        return f"{name}, surface" + (f" pair {a}" if a is not None else "")
     if field == "id":
         return f"{name}, id"
     return name

@@ -7,6 +7,10 @@ is a 3D mesh and refused; each connected piece is oriented as the core orients
 it (through its shared edges, its outer loop counter-clockwise, holes
 clockwise; a triangle turned over inside is no fault).
 
+Contact surfaces (docs/model.md §13) come from gmsh physical curves: the line
+elements of the named 1D physical groups, each an edge of one body's boundary
+(:func:`surfaces_from_mesh`, ``scene_from_mesh(..., surfaces=[...])``).
+
 Each body is checked by the core's own rule for a triangle mesh
 (``core/src/triangles.c``, :func:`check_triangles`), so a mesh that converts is
 one the core accepts as triangles, and one it would refuse is refused here
@@ -21,7 +25,7 @@ import math
 import os
 import re
 from dataclasses import dataclass
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Set, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -33,6 +37,7 @@ __all__ = [
     "MeshBody",
     "check_triangles",
     "bodies_from_mesh",
+    "surfaces_from_mesh",
     "scene_from_mesh",
     "orient_ccw",
     "boundary_loops",
@@ -47,6 +52,8 @@ IntArray = npt.NDArray[np.int64]
 #: Cell types taken as (split into) linear triangles; higher-order cells keep their corners.
 _TRIANGLE_CORNERS = {"triangle": 3, "triangle6": 3, "triangle7": 3}
 _QUAD_CORNERS = {"quad": 4, "quad8": 4, "quad9": 4}
+#: Line cells (``line``, ``line3``, ...): a higher-order line keeps its two end points.
+_LINE = re.compile(r"^line\d*$")
 #: Cell types of a 3D mesh (volumes): a mesh that has them is not ntscontact's.
 _VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid")
 #: cell_data fields tried, in this order, when no tag is named.
@@ -510,6 +517,110 @@ def bodies_from_mesh(mesh: Any, *, tag: Union[str, None, bool] = None) -> List[M
     return bodies
 
 
+def _physical_curve(mesh: Any, name: str) -> int:
+    """The tag of the 1D physical group ``name`` (gmsh ``field_data``: name ->
+    [tag, dim]); a name the mesh lacks, or a group of another dimension, is an
+    :class:`InvalidScene` (``invalid_surface``) naming it and the curves there are."""
+    field = {str(k): np.asarray(v).reshape(-1) for k, v in (getattr(mesh, "field_data", {}) or {}).items()}
+    curves = sorted(k for k, v in field.items() if v.size >= 2 and int(v[1]) == 1)
+    there = f"its physical curves: {', '.join(map(repr, curves))}" if curves else "it names no physical curve"
+    where = f"physical group {name!r}"
+    if name not in field:
+        raise InvalidScene(f"the mesh has no physical group {name!r} ({there})", code="invalid_surface", where=where)
+    v = field[name]
+    if v.size < 2:
+        raise InvalidScene(f"{name!r} is not a gmsh physical group ([tag, dim]: {v.tolist()}) ({there})",
+                           code="invalid_surface", where=where)
+    if int(v[1]) != 1:
+        raise InvalidScene(f"physical group {name!r} is {int(v[1])}D, not a curve: a contact surface is made of "
+                           f"line elements, a 1D physical group ({there})", code="invalid_surface", where=where)
+    return int(v[0])
+
+
+def _curve_lines(mesh: Any, name: str, tag: int) -> IntArray:
+    """The end points (mesh points, (k, 2)) of the line elements of physical
+    curve ``name`` (tag ``tag``): meshio's ``cell_sets[name]`` when it has them
+    (MSH 4.1: every physical group of an entity, even when an entity is in
+    several), else the line cells whose ``gmsh:physical`` is ``tag`` (MSH 2.2)."""
+    blocks = list(mesh.cells)
+    sets = (getattr(mesh, "cell_sets", {}) or {}).get(name)
+    physical = (getattr(mesh, "cell_data", {}) or {}).get("gmsh:physical")
+    lines: List[IntArray] = []
+    for bi, block in enumerate(blocks):
+        if not _LINE.match(block.type):
+            continue
+        data = np.asarray(block.data, dtype=np.int64)[:, :2]
+        if sets is not None and len(sets) == len(blocks):
+            pick = np.asarray(sets[bi] if sets[bi] is not None else [], dtype=np.int64).reshape(-1)
+            lines.append(data[pick])
+        elif physical is not None and len(physical) == len(blocks):
+            lines.append(data[np.asarray(physical[bi]).reshape(-1) == tag])
+        else:
+            raise InvalidScene(f"cannot tell which line elements are in physical curve {name!r}: the mesh has no "
+                               "gmsh:physical tag (or cell set) for each of its cell blocks", code="invalid_surface",
+                               where=f"physical curve {name!r}")
+    out = np.concatenate(lines) if lines else np.zeros((0, 2), dtype=np.int64)
+    if out.shape[0] == 0:
+        raise InvalidScene(f"physical curve {name!r} (tag {tag}) has no line elements in the mesh",
+                           code="invalid_surface", where=f"physical curve {name!r}")
+    return out
+
+
+def surfaces_from_mesh(mesh: Any, bodies: Sequence[MeshBody], names: Sequence[str]) -> Dict[int, IntArray]:
+    """The contact surfaces named by gmsh physical curves (docs/model.md §13).
+
+    ``mesh`` is a path or a ``meshio.Mesh``, ``bodies`` its bodies
+    (:func:`bodies_from_mesh`), ``names`` the physical curves (1D physical
+    groups, by their names in the file's ``$PhysicalNames``, meshio's
+    ``field_data``). Every line element of these curves must be an edge of
+    exactly one body's boundary (its two mesh points map to that body's nodes
+    through ``point_index``). Returns, for each body (by its place in
+    ``bodies``) that owns some of these edges, its surface: the ``(m, 2)``
+    node pairs (the body's numbering), along its boundary loops, each edge
+    once however often the curves name it. Bodies that own none are absent.
+    A name the mesh lacks, a group that is not 1D, a curve with no line
+    elements, or a line on no body's boundary (or on two bodies', sharing its
+    points) is an :class:`InvalidScene` (``invalid_surface``) naming the curve,
+    the line's mesh points and where they are."""
+    if isinstance(names, str):
+        names = [names]
+    m = _read(mesh)
+    points = np.asarray(m.points, dtype=np.float64)
+    owner: Dict[Tuple[int, int], List[int]] = {}
+    loops = [b.loops() for b in bodies]
+    for k, (b, body_loops) in enumerate(zip(bodies, loops)):
+        for lp in body_loops:
+            ends = b.point_index[lp], b.point_index[np.roll(lp, -1)]
+            for e in zip(np.minimum(*ends).tolist(), np.maximum(*ends).tolist()):
+                owner.setdefault(e, []).append(k)
+    chosen: Dict[int, Set[Tuple[int, int]]] = {}
+    for name in dict.fromkeys(names):  # each name once, in order
+        tag = _physical_curve(m, name)
+        for li, (p, q) in enumerate(_curve_lines(m, name, tag).tolist()):
+            who = owner.get((min(p, q), max(p, q)), [])
+            if len(who) != 1:
+                at = f"mesh points {p} {tuple(points[p, :2].tolist())} and {q} {tuple(points[q, :2].tolist())}"
+                if not who:
+                    what = "is not an edge of any body's boundary"
+                else:
+                    what = (f"is an edge of the boundaries of bodies {', '.join(repr(bodies[k].id) for k in who)}, "
+                            "which share these points: give each body its own nodes and curve")
+                raise InvalidScene(f"physical curve {name!r}: line element {li} ({at}) {what}",
+                                   code="invalid_surface", where=f"physical curve {name!r}, line element {li}")
+            chosen.setdefault(who[0], set()).add((min(p, q), max(p, q)))
+    out: Dict[int, IntArray] = {}
+    for k, edges in chosen.items():
+        pairs = []
+        for lp in loops[k]:
+            nxt = np.roll(lp, -1)
+            for a, c in zip(lp.tolist(), nxt.tolist()):
+                p, q = int(bodies[k].point_index[a]), int(bodies[k].point_index[c])
+                if (min(p, q), max(p, q)) in edges:
+                    pairs.append((a, c))
+        out[k] = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    return out
+
+
 def scene_from_mesh(
     mesh: Any,
     *,
@@ -521,6 +632,9 @@ def scene_from_mesh(
     outputs: Optional[Sequence[str]] = None,
     tag: Union[str, None, bool] = None,
     boundary: str = "triangles",
+    penalty_scaling: Optional[str] = None,
+    surfaces: Optional[Sequence[str]] = None,
+    other_bodies: str = "whole",
 ) -> Scene:
     """A :class:`Scene` from a mesh file or a ``meshio.Mesh``.
 
@@ -530,18 +644,41 @@ def scene_from_mesh(
     ``boundary="triangles"`` sends each body as its (counter-clockwise) triangles,
     so forces come back for every node of the mesh body (interior nodes get zero);
     ``boundary="loops"`` sends only the boundary nodes, with their loops.
+
+    ``penalty_scaling`` is ``options.penalty_scaling`` (``"length"``: a
+    node's force is eps g times its tributary length, so its pressure is eps g).
+
+    ``surfaces``: names of gmsh physical curves that make the bodies' contact
+    surfaces (docs/model.md §13, :func:`surfaces_from_mesh`): a body that owns
+    line elements of these curves gets them as its ``surface``, in either
+    numbering. A body that owns none keeps its whole boundary
+    (``other_bodies="whole"``, the default: naming the contact sides of some
+    bodies leaves the others as they were), or takes part in nothing
+    (``other_bodies="none"``).
     """
     if boundary not in ("triangles", "loops"):
         raise ValueError("boundary is 'triangles' or 'loops'")
+    if other_bodies not in ("whole", "none"):
+        raise ValueError("other_bodies is 'whole' or 'none'")
+    if other_bodies == "none" and not surfaces:
+        raise ValueError("other_bodies='none' needs surfaces: without them no body would take part in contact")
+    if isinstance(surfaces, str):
+        surfaces = [surfaces]
+    m = _read(mesh)
     scene = Scene(penalty=penalty, alpha=alpha, search_radius=search_radius, periodic=periodic, solver=solver,
-                  outputs=outputs)
-    for b in bodies_from_mesh(mesh, tag=tag):
+                  outputs=outputs, penalty_scaling=penalty_scaling)
+    bodies = bodies_from_mesh(m, tag=tag)
+    named = surfaces_from_mesh(m, bodies, surfaces) if surfaces else {}
+    rest: Optional[IntArray] = np.zeros((0, 2), dtype=np.int64) if other_bodies == "none" else None
+    for k, b in enumerate(bodies):
+        surface = named.get(k, rest)
         if boundary == "triangles":
-            scene.add_body(b.nodes, triangles=b.triangles, id=b.id, mesh_points=b.point_index)
+            scene.add_body(b.nodes, triangles=b.triangles, id=b.id, mesh_points=b.point_index, surface=surface)
         else:
             loops = b.loops()
             on = np.unique(np.concatenate(loops))
             local = np.full(b.nodes.shape[0], -1, dtype=np.int64)
             local[on] = np.arange(on.size, dtype=np.int64)
-            scene.add_body(b.nodes[on], loops=[local[lp] for lp in loops], id=b.id, mesh_points=b.point_index[on])
+            scene.add_body(b.nodes[on], loops=[local[lp] for lp in loops], id=b.id, mesh_points=b.point_index[on],
+                           surface=None if surface is None else local[surface])
     return scene

@@ -4,7 +4,8 @@ A :class:`Scene` is the request of ``scene.schema.json``: options and bodies. A 
 has nodes (an ``(n, 2)`` array) and either ``loops`` (lists of node indices,
 counter-clockwise outer loops) or ``triangles`` (an ``(m, 3)`` linear triangle
 mesh whose boundary the service extracts), or neither (one loop through all
-nodes in order).
+nodes in order), and optionally a ``surface``: the boundary segments (node
+pairs) that take part in contact (docs/model.md §13; default the whole boundary).
 """
 
 from __future__ import annotations
@@ -56,6 +57,108 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
                        pointer=pointer, where=_where(index, body_id))
 
 
+def _is_pair_list(value: Any) -> bool:
+    """What the service reads as a JSON array: a list, a tuple or a 1-D numpy array."""
+    return isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 1)
+
+
+def _surface_index(value: Any, n: int, pointer: str, where: str) -> int:
+    """One node index of a surface pair, refused as the service refuses it: not
+    a number (a boolean included) ``invalid_type``, not an integer
+    ``invalid_value``, outside ``[0, n)`` ``index_out_of_range``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InvalidScene(f"expected an integer node index, got {type(value).__name__}", code="invalid_type",
+                           pointer=pointer, where=where)
+    if isinstance(value, (float, np.floating)) and not (math.isfinite(value) and value == math.floor(value)):
+        raise InvalidScene(f"a node index must be an integer, got {value!r}", code="invalid_value", pointer=pointer,
+                           where=where)
+    if not 0 <= value < n:
+        raise InvalidScene(f"node index {value!r} is out of range [0, {n})", code="index_out_of_range",
+                           pointer=pointer, where=where)
+    return int(value)
+
+
+def as_surface(surface: Any, n: int, index: int = 0, body_id: Any = None) -> IntArray:
+    """A body's contact surface as an ``(m, 2)`` int64 array of node pairs,
+    refused with the code and JSON pointer the service gives (``codec/src/decode.c``,
+    in its order): not a list ``invalid_type`` at ``/bodies/B/surface``; more
+    pairs than the body has nodes ``invalid_value`` there; pair K not a list
+    ``invalid_type`` at ``.../K``, not two entries ``invalid_value`` (at
+    ``.../K/2`` for a third one); an entry C not an integer node index in
+    ``[0, n)`` ``invalid_type``, ``invalid_value`` or ``index_out_of_range`` at
+    ``.../K/C``. Whether each pair is a boundary segment is
+    :func:`check_surface_segments`'s."""
+    where = _where(index, body_id)
+    pointer = f"/bodies/{index}/surface"
+    if isinstance(surface, np.ndarray) and surface.ndim == 2 and surface.shape[1] == 2 and \
+            surface.dtype.kind in "iuf":  # the fast path: numbers in the right shape
+        if surface.shape[0] > n:
+            raise InvalidScene(f"{surface.shape[0]} surface segments for a body of {n} nodes (each boundary segment "
+                               "at most once)", code="invalid_value", pointer=pointer, where=where)
+        arr = surface.astype(np.float64) if surface.dtype.kind == "f" else surface
+        integral = np.isfinite(arr) & (arr == np.floor(arr)) if arr.dtype.kind == "f" else np.ones(arr.shape, bool)
+        bad = ~integral | (arr < 0) | (arr >= n)
+        if bad.any():
+            k, c = divmod(int(np.flatnonzero(bad.ravel())[0]), 2)
+            v = surface[k, c]
+            _surface_index(v.item(), n, f"{pointer}/{k}/{c}", f"{where}, surface pair {k}")
+        return surface.astype(np.int64)
+    if isinstance(surface, np.ndarray):
+        surface = surface.tolist()
+    if not _is_pair_list(surface):
+        raise InvalidScene(f"surface must be a list of boundary segments [i, j], got {type(surface).__name__}",
+                           code="invalid_type", pointer=pointer, where=where)
+    pairs = list(surface)
+    if len(pairs) > n:
+        raise InvalidScene(f"{len(pairs)} surface segments for a body of {n} nodes (each boundary segment at most "
+                           "once)", code="invalid_value", pointer=pointer, where=where)
+    out = np.empty((len(pairs), 2), dtype=np.int64)
+    for k, pair in enumerate(pairs):
+        ptr, at = f"{pointer}/{k}", f"{where}, surface pair {k}"
+        if not _is_pair_list(pair):
+            raise InvalidScene(f"a surface segment is a pair [i, j] of node indices, got {type(pair).__name__}",
+                               code="invalid_type", pointer=ptr, where=at)
+        count = 0
+        for c, v in enumerate(pair):
+            if c >= 2:
+                raise InvalidScene("a surface segment has exactly two node indices", code="invalid_value",
+                                   pointer=f"{ptr}/{c}", where=at)
+            out[k, c] = _surface_index(v.item() if isinstance(v, np.generic) else v, n, f"{ptr}/{c}", at)
+            count += 1
+        if count != 2:
+            raise InvalidScene("a surface segment has exactly two node indices", code="invalid_value", pointer=ptr,
+                               where=at)
+    return out
+
+
+def check_surface_segments(surface: IntArray, loops: Sequence[IntArray], n: int, index: int = 0,
+                           body_id: Any = None) -> None:
+    """Each pair of ``surface`` is a segment of ``loops`` (either direction), each
+    segment once: the core's rule (``mark_surfaces`` in ``core/src/scene.c``),
+    with its code and pointer: the first pair that is not a segment, or repeats
+    an earlier one, is ``invalid_surface`` at ``/bodies/B/surface/K``."""
+    if surface.shape[0] == 0:
+        return
+    ends = np.concatenate([np.stack([lp, np.roll(lp, -1)], axis=1) for lp in loops]).astype(np.int64)
+    segs = np.unique(np.minimum(ends[:, 0], ends[:, 1]) * n + np.maximum(ends[:, 0], ends[:, 1]))
+    lo, hi = np.minimum(surface[:, 0], surface[:, 1]), np.maximum(surface[:, 0], surface[:, 1])
+    codes = lo * n + hi
+    pos = np.minimum(np.searchsorted(segs, codes), segs.size - 1)
+    is_seg = (segs[pos] == codes) & (lo != hi)
+    _, first = np.unique(codes, return_index=True)
+    repeat = np.ones(codes.size, dtype=bool)
+    repeat[first] = False
+    bad = ~is_seg | repeat
+    if not bad.any():
+        return
+    k = int(np.flatnonzero(bad)[0])
+    i, j = int(surface[k, 0]), int(surface[k, 1])
+    what = (f"nodes {i} and {j} are not the ends of a segment of its boundary" if not is_seg[k] else
+            f"the segment from node {i} to node {j} is on the surface already (each segment once)")
+    raise InvalidScene(f"surface pair {k}: {what}", code="invalid_surface", pointer=f"/bodies/{index}/surface/{k}",
+                       where=f"{_where(index, body_id)}, surface pair {k}")
+
+
 def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None, field: str = "nodes") -> FloatArray:
     """An ``(n, 2)`` C-contiguous float64 copy of ``nodes``, checked for shape and
     finiteness; the error names the body and the first bad node. ``field`` is
@@ -84,7 +187,9 @@ def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None, field: str =
 class Body:
     """One body: ``nodes`` ``(n, 2)`` float64, and ``loops`` or ``triangles`` (or neither).
     ``reference`` (``(n, 2)``, or None for the nodes themselves) is where the
-    tributary lengths of ``penalty_scaling="length"`` are measured."""
+    tributary lengths of ``penalty_scaling="length"`` are measured. ``surface``
+    (``(m, 2)`` int64 node pairs, or None for the whole boundary) is the body's
+    contact surface."""
 
     id: BodyId
     nodes: FloatArray
@@ -94,6 +199,7 @@ class Body:
     role: Optional[str] = None
     mesh_points: Optional[IntArray] = None
     reference: Optional[FloatArray] = None
+    surface: Optional[IntArray] = None
 
     @property
     def node_count(self) -> int:
@@ -113,6 +219,8 @@ class Body:
             out["mesh_points"] = self.mesh_points.tolist()
         if self.reference is not None:
             out["reference"] = self.reference.tolist()
+        if self.surface is not None:
+            out["surface"] = self.surface.tolist()
         return out
 
 
@@ -209,6 +317,7 @@ class Scene:
         role: Optional[str] = None,
         mesh_points: Optional[ArrayLike] = None,
         reference: Optional[ArrayLike] = None,
+        surface: Optional[ArrayLike] = None,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
@@ -220,6 +329,13 @@ class Scene:
         lengths are measured there, not at ``nodes``; give the first positions
         when sending the scene again at new ones in a solver loop, so that the
         same positions always give the same answer (a session keeps its own).
+        ``surface`` is the body's contact surface (a side set, docs/model.md
+        §13): an ``(m, 2)`` array of node pairs, each a segment of the body's
+        boundary in either direction, each once; only these segments are
+        masters and only their nodes slaves. None (default): the whole
+        boundary; empty: the body takes part in nothing. For a body given by
+        loops (or neither), whether each pair is a boundary segment is checked
+        here; for a triangle mesh the service checks it.
         Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
         naming the body and the node at fault.
         """
@@ -306,9 +422,14 @@ class Scene:
             if ref.shape != arr.shape:
                 raise InvalidScene(f"reference has shape {ref.shape}, the nodes {arr.shape} (one point per node)",
                                    code="invalid_value", pointer=f"/bodies/{index}/reference", where=where)
+        surf: Optional[IntArray] = None
+        if surface is not None:
+            surf = as_surface(surface, n, index, id)
+            if tri is None:
+                check_surface_segments(surf, loop_list if loop_list is not None else [np.arange(n)], n, index, id)
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
                                  alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp,
-                                 reference=ref))
+                                 reference=ref, surface=surf))
         self._index[key] = index
         return id
 
@@ -423,7 +544,7 @@ class Scene:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
             scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
                            alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"),
-                           reference=b.get("reference"))
+                           reference=b.get("reference"), surface=b.get("surface"))
         return scene
 
     @classmethod

@@ -5,8 +5,10 @@ of the C tool's ``ntscontact --vtk`` (codec/src/vtk.c):
 - cells: each surface segment (a line, interior on the left), then each active
   contact (a line from the slave node to its closest point);
 - point data ``force``, ``pressure`` (0 when not asked for) and ``body``; cell
-  data ``kind`` (0 segment, 1 contact), ``body``, ``master_body``, ``gap``,
-  ``normal``, ``contact_kind``, ``contact_force``;
+  data ``kind`` (0 segment, 1 contact), ``body``, ``surface`` (1 for a segment
+  on its body's contact surface, docs/model.md §13, 0 off it, -1 for
+  contacts), ``master_body``, ``gap``, ``normal``, ``contact_kind``,
+  ``contact_force``;
 - field data ``energy``, ``virial``, ``contacts``, ``max_penetration``.
 
 Written with the standard library and numpy only (no VTK or meshio needed);
@@ -20,7 +22,7 @@ from typing import Any, List, Tuple, Union
 
 import numpy as np
 
-__all__ = ["surface_loops", "write_vtu"]
+__all__ = ["surface_loops", "on_surface", "write_vtu"]
 
 _KINDS = {"segment": 0, "corner": 1, "vertex": 2}
 
@@ -53,6 +55,23 @@ def surface_loops(scene: Any) -> List[List[np.ndarray]]:
     return out
 
 
+def on_surface(body: Any, loops: List[np.ndarray]) -> List[np.ndarray]:
+    """For each of ``loops`` (a body's, as :func:`surface_loops` gives them), a
+    boolean per segment (from place k to k + 1): whether it is on the body's
+    contact surface (``body.surface``; every segment when it has none)."""
+    surface = getattr(body, "surface", None)
+    if surface is None:
+        return [np.ones(len(lp), dtype=bool) for lp in loops]
+    n = body.node_count
+    pairs = np.asarray(surface, dtype=np.int64).reshape(-1, 2)
+    named = np.minimum(pairs[:, 0], pairs[:, 1]) * n + np.maximum(pairs[:, 0], pairs[:, 1])
+    out = []
+    for lp in loops:
+        a, b = np.asarray(lp, dtype=np.int64), np.roll(np.asarray(lp, dtype=np.int64), -1)
+        out.append(np.isin(np.minimum(a, b) * n + np.maximum(a, b), named))
+    return out
+
+
 def _fmt(v: float) -> str:
     return repr(float(v))
 
@@ -78,10 +97,13 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     offsets = np.concatenate([[0], np.cumsum([b.node_count for b in scene])]).astype(np.int64)
     body_of_node = np.repeat(np.arange(len(ids)), np.diff(offsets))
     segs: List[Tuple[int, int, int]] = []
-    for b, loops in enumerate(surface_loops(scene)):
+    flags: List[np.ndarray] = []
+    for b, (body, loops) in enumerate(zip(scene, surface_loops(scene))):
+        flags += on_surface(body, loops)
         for lp in loops:
             g = lp + offsets[b]
             segs += [(int(g[k]), int(g[(k + 1) % len(g)]), b) for k in range(len(g))]
+    seg_surface = np.concatenate(flags).astype(np.int64) if flags else np.zeros(0, dtype=np.int64)
     contacts = list(result.contacts)
     c = len(contacts)
     forces = result.force_array() if result.forces else np.zeros((n, 2))
@@ -119,6 +141,7 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     _array(lines, "Int32", "kind", 1, [0] * len(segs) + [1] * c)
     _array(lines, "Int32", "body", 1, [b for _, _, b in segs] +
            [index[(type(ct.slave_body), ct.slave_body)] for ct in contacts])
+    _array(lines, "Int32", "surface", 1, np.concatenate([seg_surface, np.full(c, -1, dtype=np.int64)]))
     _array(lines, "Int32", "master_body", 1, [-1] * len(segs) +
            [index[(type(ct.master_body), ct.master_body)] for ct in contacts])
     _array(lines, "Float64", "gap", 1, [0.0] * len(segs) + [ct.gap for ct in contacts])
