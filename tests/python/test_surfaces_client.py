@@ -485,3 +485,15 @@ def test_plot_draws_the_surfaces_as_the_core_sees_them(tmp_path):
     assert upper[0].tolist() == [0.0, 0.99] and upper[-1].tolist() == [1.0, 0.99]  # nodes 0 and 5
     assert len(lower) == 2 + 3 * 8 and len(upper) == 2 + 4 * 8  # each inner corner sampled
     ax.figure.savefig(tmp_path / "p.png")
+
+
+def test_surface_extension_is_an_option_of_the_scene():
+    """Scene(surface_extension=...) is sent as options.surface_extension, read
+    back by from_dict, and checked for its range as the core checks it."""
+    scene = ntscontact.Scene(penalty=10.0, surface_extension=0.05)
+    assert scene.options_dict()["surface_extension"] == 0.05
+    back = ntscontact.Scene.from_dict(scene.to_dict())
+    assert back.surface_extension == 0.05 and "surface_extension" not in back.extra_options
+    with pytest.raises(ntscontact.InvalidScene) as e:
+        ntscontact.Scene(penalty=10.0, surface_extension=0.6)
+    assert e.value.pointer == "/options/surface_extension"

@@ -246,12 +246,17 @@ class Scene:
         solver: Optional[str] = None,
         outputs: Optional[Sequence[str]] = None,
         penalty_scaling: Optional[str] = None,
+        surface_extension: Optional[float] = None,
         extra_options: Optional[Mapping[str, Any]] = None,
     ) -> None:
         if penalty_scaling not in (None, "node", "length"):
             raise InvalidScene(f"penalty_scaling is 'node' or 'length', not {penalty_scaling!r}",
                                code="invalid_value", pointer="/options/penalty_scaling")
+        if surface_extension is not None and not (0.0 <= float(surface_extension) <= 0.5):
+            raise InvalidScene(f"surface_extension {surface_extension!r} is not in [0, 0.5]", code="invalid_option",
+                               pointer="/options/surface_extension")
         self.penalty_scaling = penalty_scaling
+        self.surface_extension = None if surface_extension is None else float(surface_extension)
         self.penalty = penalty
         self.alpha = alpha
         self.search_radius = search_radius
@@ -301,6 +306,8 @@ class Scene:
             opts["outputs"] = list(self.outputs)
         if self.penalty_scaling is not None:
             opts["penalty_scaling"] = self.penalty_scaling
+        if self.surface_extension is not None:
+            opts["surface_extension"] = self.surface_extension
         opts.update(self.extra_options)
         return opts
 
@@ -534,6 +541,7 @@ class Scene:
             solver=opts.pop("solver", None),
             outputs=opts.pop("outputs", None),
             penalty_scaling=opts.pop("penalty_scaling", None),
+            surface_extension=opts.pop("surface_extension", None),
             extra_options=opts,
         )
         bodies = doc.get("bodies")
