@@ -372,11 +372,44 @@ static int decode_loops(decoder* d, int b, const cJSON* v) {
     return 0;
 }
 
+/* Fill out[] (room for `size` indices per item) with the index tuples of
+ * array `v`, each an array of exactly `size` node indices in range, named
+ * under /bodies/B/<list>/I/K; `item` and `exactly` say what an item is, for
+ * the messages ("a triangle [i, j, k]", "a triangle has exactly three node
+ * indices"). */
+static int decode_tuples(decoder* d, int b, const cJSON* v, const char* list, int size, int* out, const char* item,
+                         const char* exactly) {
+    const cJSON* t;
+    const int node_count = d->scene->defs[b].node_count;
+    int i = 0;
+    cJSON_ArrayForEach(t, v) {
+        char p[112];
+        const cJSON* e;
+        int k = 0;
+        if (!cJSON_IsArray(t)) {
+            snprintf(p, sizeof p, "/bodies/%d/%s/%d", b, list, i);
+            return fail_type(d, p, t, item);
+        }
+        cJSON_ArrayForEach(e, t) {
+            if (k >= size) {
+                snprintf(p, sizeof p, "/bodies/%d/%s/%d/%d", b, list, i, k);
+                return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, exactly);
+            }
+            if (get_index(d, e, node_count, &out[size * i + k], b, list, i, k) != 0) return -1;
+            ++k;
+        }
+        if (k != size) {
+            snprintf(p, sizeof p, "/bodies/%d/%s/%d", b, list, i);
+            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, exactly);
+        }
+        ++i;
+    }
+    return 0;
+}
+
 static int decode_triangles(decoder* d, int b, const cJSON* v) {
     char ptr[96];
-    const cJSON* t;
-    int count, i = 0, *tri;
-    int node_count = d->scene->defs[b].node_count;
+    int count, *tri;
     snprintf(ptr, sizeof ptr, "/bodies/%d/triangles", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of triangles [i, j, k]");
     count = array_size(v);
@@ -390,29 +423,7 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
     d->scene->ints[b] = tri;
     d->scene->defs[b].triangles = tri;
     d->scene->defs[b].triangle_count = count;
-    cJSON_ArrayForEach(t, v) {
-        char p[112];
-        const cJSON* e;
-        int k = 0;
-        if (!cJSON_IsArray(t)) {
-            snprintf(p, sizeof p, "%s/%d", ptr, i);
-            return fail_type(d, p, t, "a triangle [i, j, k]");
-        }
-        cJSON_ArrayForEach(e, t) {
-            if (k >= 3) {
-                snprintf(p, sizeof p, "%s/%d/%d", ptr, i, k);
-                return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a triangle has exactly three node indices");
-            }
-            if (get_index(d, e, node_count, &tri[3 * i + k], b, "triangles", i, k) != 0) return -1;
-            ++k;
-        }
-        if (k != 3) {
-            snprintf(p, sizeof p, "%s/%d", ptr, i);
-            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a triangle has exactly three node indices");
-        }
-        ++i;
-    }
-    return 0;
+    return decode_tuples(d, b, v, "triangles", 3, tri, "a triangle [i, j, k]", "a triangle has exactly three node indices");
 }
 
 /* "surface": the body's contact surface (docs/model.md §13), pairs [i, j]
@@ -421,8 +432,7 @@ static int decode_triangles(decoder* d, int b, const cJSON* v) {
  * maps back to /bodies/B/surface/K. */
 static int decode_surface(decoder* d, int b, const cJSON* v) {
     char ptr[96];
-    const cJSON* pair;
-    int count, k = 0, *ints;
+    int count, *ints;
     const int node_count = d->scene->defs[b].node_count;
     snprintf(ptr, sizeof ptr, "/bodies/%d/surface", b);
     if (!cJSON_IsArray(v)) return fail_type(d, ptr, v, "an array of boundary segments [i, j]");
@@ -441,29 +451,8 @@ static int decode_surface(decoder* d, int b, const cJSON* v) {
     d->scene->surfs[b] = ints;
     d->scene->defs[b].surface = ints;
     d->scene->defs[b].surface_count = count;
-    cJSON_ArrayForEach(pair, v) {
-        char p[112];
-        const cJSON* e;
-        int m = 0;
-        if (!cJSON_IsArray(pair)) {
-            snprintf(p, sizeof p, "%s/%d", ptr, k);
-            return fail_type(d, p, pair, "a boundary segment [i, j] (two node indices)");
-        }
-        cJSON_ArrayForEach(e, pair) {
-            if (m >= 2) {
-                snprintf(p, sizeof p, "%s/%d/%d", ptr, k, m);
-                return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a surface segment has exactly two node indices");
-            }
-            if (get_index(d, e, node_count, &ints[2 * k + m], b, "surface", k, m) != 0) return -1;
-            ++m;
-        }
-        if (m != 2) {
-            snprintf(p, sizeof p, "%s/%d", ptr, k);
-            return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "a surface segment has exactly two node indices");
-        }
-        ++k;
-    }
-    return 0;
+    return decode_tuples(d, b, v, "surface", 2, ints, "a boundary segment [i, j] (two node indices)",
+                         "a surface segment has exactly two node indices");
 }
 
 static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
