@@ -683,6 +683,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     def log(s: str) -> None:
         print(s, flush=True)
 
+    where = machine()         # the commit the run starts from
     t0 = time.perf_counter()
     with service(args.url, args.build_dir) as client:
         qf, qruns = quick(client)
@@ -697,7 +698,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     full_s = time.perf_counter() - t0
     args.img.mkdir(parents=True, exist_ok=True)
     names = plots(runs, args.img)
-    args.doc.write_text(report(runs, qf, qruns, quick_s, full_s, names, machine()))
+    args.doc.write_text(report(runs, qf, qruns, quick_s, full_s, names, where))
     log(f"wrote {args.doc} and {len(names)} plots in {args.img} ({full_s:.0f} s)")
     return 0 if all(ok for _, _, ok in results) else 1
 
