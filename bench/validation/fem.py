@@ -109,6 +109,24 @@ def block_mesh(x0: float, y0: float, width: float, height: float, nx: int, ny: i
     return MeshTri.init_tensor(np.linspace(x0, x0 + width, nx + 1), np.linspace(y0, y0 + height, ny + 1))
 
 
+def boundary_segments(m: MeshTri, where: Optional[Any] = None) -> IntArray:
+    """The boundary edges of a mesh as node-index pairs (i, j) running counter-clockwise
+    (the body to the left), those whose midpoint satisfies `where(x, y)` (all when None):
+    e.g. the top of a block, `lambda x, y: np.isclose(y, y_top)`. What a body's contact
+    surface field (`"surface": [[i, j], ...]`, coming in the core) will list."""
+    f = m.boundary_facets()
+    e = m.facets[:, f]
+    t = m.t[:, m.f2t[0, f]]
+    third = t.sum(axis=0) - e[0] - e[1]                   # the element's node off the edge
+    p0, p1, p2 = m.p[:, e[0]], m.p[:, e[1]], m.p[:, third]
+    left = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p1[1] - p0[1]) * (p2[0] - p0[0]) > 0
+    pairs = np.where(left, e, e[::-1]).T.astype(np.int64)
+    if where is not None:
+        mid = 0.5 * (m.p[:, pairs[:, 0]] + m.p[:, pairs[:, 1]])
+        pairs = pairs[np.asarray(where(mid[0], mid[1]), dtype=bool)]
+    return pairs
+
+
 def regular_polygon(radius: float, sides: int, centre: Tuple[float, float] = (0.0, 0.0),
                     vertex_angle: float = 90.0) -> Array:
     """The `sides` vertices of a regular polygon, counter-clockwise, one at `vertex_angle` degrees."""

@@ -691,10 +691,12 @@ coming **contact surfaces** (a body field `"surface": [[i, j], ...]`, the
 boundary segments that form its contact surface: the blocks' sides and free
 edges must be neither slaves nor masters, or the corners of the lower block
 catch the upper one). The harness is ready for it: `fem.block_mesh` makes each
-block (scikit-fem `init_tensor`, any `nx x ny`), and an `Elastic` body's
-`fields` go into its scene body as they are, so the patch test passes
-`fields={{"surface": [...], "alpha": 0}}` and uses `Model`, `Loads`, `newton` as
-the cases above do.
+block (scikit-fem `init_tensor`, any `nx x ny`), `fem.boundary_segments(mesh,
+where)` lists a mesh's boundary edges as node pairs running counter-clockwise
+(those whose midpoint satisfies `where(x, y)`: the interface sides), and an
+`Elastic` body's `fields` go into its scene body as they are, so the patch test
+passes `fields={{"surface": boundary_segments(...).tolist(), "alpha": 0}}` and
+uses `Model`, `Loads`, `newton` as the cases above do.
 
 ## The quick suite (tests/python/test_validation.py)
 

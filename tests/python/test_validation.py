@@ -38,3 +38,21 @@ def test_every_figure_has_a_bound_or_is_reported(figures):
     """The bounds name figures that exist (a renamed figure would otherwise never be checked)."""
     missing = [b.key for b in validation.BOUNDS if b.key not in figures]
     assert not missing, missing
+
+
+def test_boundary_segments_run_counter_clockwise():
+    """fem.boundary_segments (the patch test's contact surfaces, docs/validation.md §4):
+    a 2 x 1 block's boundary edges with the body to their left, and the top selected."""
+    import numpy as np
+
+    from fem import block_mesh, boundary_segments
+
+    m = block_mesh(0.0, 0.0, 2.0, 1.0, 2, 1)
+    p = m.p.T
+    segs = boundary_segments(m)
+    assert len(segs) == 6
+    for i, j in segs:   # the outward normal (t_y, -t_x) points away from the centre (1, 0.5)
+        t, mid = p[j] - p[i], 0.5 * (p[i] + p[j])
+        assert np.dot([t[1], -t[0]], mid - [1.0, 0.5]) > 0
+    top = boundary_segments(m, lambda x, y: np.isclose(y, 1.0))
+    assert sorted(map(tuple, p[top][:, :, 0].tolist())) == [(1.0, 0.0), (2.0, 1.0)]
