@@ -3,7 +3,7 @@
 purpose (a few dozen nodes) so that libFuzzer mutates them quickly: every way
 a body can be given (implicit loop, explicit loops with a hole, triangle mesh),
 a clockwise body, a periodic box, both solvers, every output, string and
-integer ids. fuzz/corpus/cat-*.json: every case of the CLI's malformed
+integer ids, contact surfaces. fuzz/corpus/cat-*.json: every case of the CLI's malformed
 catalogue (tests/python/malformed/cases.json) given by its bytes (the
 generated ones, a huge file and deep nesting, are left to the fuzzer).
 Re-run after changing the contract or the catalogue; the files are committed."""
@@ -65,6 +65,15 @@ def seeds():
                     "periodic": {"lx": 7.6, "ly": 7.6},
                     "outputs": ["forces", "energy", "virial", "contacts", "gaps"]},
         "bodies": bodies}
+    lower, _ = grid_mesh(0.0, 0.0, 0.25, 4, 1)
+    upper = [[0.0, 0.24], [0.5, 0.24], [1.0, 0.24], [1.0, 0.74], [0.0, 0.74]]
+    yield "surfaces", {
+        "version": 1,
+        "options": {"penalty": 100.0, "alpha": 0.2, "penalty_scaling": "length", "surface_extension": 0.01,
+                    "outputs": ["forces", "energy", "contacts", "pressure"]},
+        "bodies": [{"id": "lower", "nodes": lower, "loops": [[0, 1, 2, 3, 4, 9, 8, 7, 6, 5]],
+                    "surface": [[9, 8], [8, 7], [6, 7], [5, 6]], "role": "master"},
+                   {"id": "upper", "nodes": upper, "surface": [[0, 1], [1, 2]]}]}
     yield "minimal", {"version": 1, "options": {"penalty": 1},
                       "bodies": [{"id": 0, "nodes": [[0, 0], [1, 0], [0, 1]]}]}
 
