@@ -73,7 +73,8 @@ def oracle(cli, name, body):
     m = CLI_ERROR.match(line[0]) if line else None
     if proc.returncode != 3 or m is None:
         raise RuntimeError(f"the CLI failed on {name}: exit {proc.returncode}: {proc.stderr[:500]!r}")
-    return Case(name, body, False, code=m.group(1), pointer=m.group(2))
+    # the CLI writes the pointer as a JSON string's contents (a newline in a key as \u000a)
+    return Case(name, body, False, code=m.group(1), pointer=json.loads('"' + m.group(2) + '"'))
 
 
 def jitter(scene, rng, amount):
