@@ -95,7 +95,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
         if (!(f & NTS_SF_NEXT)) hi = 1.0 + env->ext;
     }
 
-    /* Flat candidate of segment j (alpha <= s <= 1 - alpha). */
+    /* Flat candidate of segment j (alpha <= s <= 1 - alpha; at a surface's end (22)). */
     if (sj_param >= lo && sj_param <= hi) {
         double g = nts_dot(d, seg_normal(m->t, m->len));
         if (fabs(g) <= r) {
