@@ -39,14 +39,31 @@ static inline nts_virial law_virial(double eg, double g, nts_vec2 n) {
     v.xx = e2 * n.x * n.x;
     v.yy = e2 * n.y * n.y;
     v.xy = e2 * n.x * n.y;
+    v.yx = v.xy;
+    return v;
+}
+
+/* The virial of a contact whose slave force f has a tangential part
+ * (docs/model.md (28)): -sum_k f_k (X_k - Xs) = f (X - Xs) = -g f n, no
+ * longer symmetric. */
+static inline nts_virial law_virial_force(double g, nts_vec2 f, nts_vec2 n) {
+    nts_virial v;
+    v.xx = -g * f.x * n.x;
+    v.yy = -g * f.y * n.y;
+    v.xy = -g * f.x * n.y;
+    v.yx = -g * f.y * n.x;
     return v;
 }
 
 /* What active contacts add up to: their count, energy (9), virial (11) and
- * largest penetration, and whether one overflowed a double. */
+ * largest penetration, and whether one overflowed a double; with friction
+ * (§14) the virial's yx, the dissipation (27) and the sticking and slipping
+ * contacts. */
 typedef struct contact_sums {
     double energy, vxx, vyy, vxy, maxpen;
     int active, overflow;
+    double vyx, dissipation;
+    int sticking, slipping;
 } contact_sums;
 
 /* An active record's forces (10), node by node: f_s = -eps g n on the slave
@@ -61,6 +78,10 @@ typedef struct force_shares {
 } force_shares;
 
 typedef char nts_force_shares_are_one_line[sizeof(force_shares) == 64 ? 1 : -1];
+
+/* With friction (§14) a record's shares carry its whole slave force f as
+ * eg = 1 and n = -f: share_force then gives f on the slave and -N_k f on
+ * master node k exactly (a product by 1 and a sign change lose nothing). */
 
 static inline nts_vec2 share_force(const force_shares* sh, int q) {
     return q == 0 ? law_slave_force(sh->eg, sh->n) : law_master_force(sh->eg, sh->w[q - 1], sh->n);
@@ -78,6 +99,29 @@ static inline void law_sum(contact_sums* cs, double eps, double g, nts_vec2 n, i
         cs->vxx += v.xx;
         cs->vyy += v.yy;
         cs->vxy += v.xy;
+        cs->vyx += v.yx;
+    }
+}
+
+/* Add an active contact with friction (§14): f the whole force on the
+ * slave, energy_t its tangential spring's energy (26), the dissipation
+ * (27) and its state. */
+static inline void law_sum_friction(contact_sums* cs, double eps, double g, nts_vec2 n, nts_vec2 f, double energy_t,
+                                    double dissipation, int state, int want_virial) {
+    ++cs->active;
+    cs->energy += law_energy(eps, g) + energy_t;
+    cs->dissipation += dissipation;
+    cs->sticking += state == NTS_STICK;
+    cs->slipping += state == NTS_SLIP;
+    if (-g > cs->maxpen) cs->maxpen = -g;
+    cs->overflow |= !isfinite(eps * g) || !isfinite(f.x + f.y) || !isfinite(energy_t + dissipation);
+    if (want_virial) {
+        const nts_virial v = law_virial_force(g, f, n);
+        cs->overflow |= !isfinite(v.xx + v.yy + v.xy + v.yx);
+        cs->vxx += v.xx;
+        cs->vyy += v.yy;
+        cs->vxy += v.xy;
+        cs->vyx += v.yx;
     }
 }
 

@@ -29,6 +29,8 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->pressure_cap * sizeof(double) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double)) +
+        (size_t)(ctx->fric_cap + ctx->fric_deep_cap) * sizeof(friction_out) +
+        (size_t)ctx->anchors_cap * sizeof(nts_anchor) +
         ctx->pool_cap[STREAM_RECORDS] + ctx->pool_cap[STREAM_REACH] + nts_reach_memory_bytes(&ctx->reach);
     for (i = 0; i < ctx->worker_count; ++i) {
         const worker* w = &ctx->workers[i];
@@ -99,6 +101,9 @@ static void buffers_free(nts_context* ctx) {
     nts_free(ctx->contacts);
     nts_free(ctx->gaps);
     nts_kbuf_free(&ctx->stiffness);
+    nts_free(ctx->fric);
+    nts_free(ctx->fric_deep);
+    nts_free(ctx->anchors);
 }
 
 void nts_context_destroy(nts_context* ctx) {

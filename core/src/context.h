@@ -4,6 +4,7 @@
 #ifndef NTSCONTACT_CONTEXT_H
 #define NTSCONTACT_CONTEXT_H
 
+#include "friction.h"
 #include "reach.h"
 
 /* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
@@ -69,6 +70,15 @@ struct nts_context {
     nts_contact* gaps;
     int gaps_cap;
     nts_kbuf stiffness; /* the tangent's triplets (NTS_OUT_STIFFNESS) */
+    /* Friction (friction.h): each active record's friction (chunks' records
+     * at their share_at, the deep contacts' apart), and the result's anchors
+     * in contact order. */
+    friction_out* fric;
+    int fric_cap;
+    friction_out* fric_deep;
+    int fric_deep_cap;
+    nts_anchor* anchors;
+    int anchors_cap;
     nts_reach reach;
     nts_warning warnings[NTS_WARN_COUNT_]; /* the last result's (nts_result.warnings) */
     double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */

@@ -189,6 +189,18 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
     env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u; /* tables.h's records column */
+    /* Friction (docs/model.md §14): on when some pair can rub; then the
+     * records path (each active record's friction is computed once, after
+     * the search, and read by the sums, the forces, the contacts and the
+     * tangent). Off, nothing of it runs: today's bits. */
+    env.friction = opt->friction > 0.0;
+    for (i = 0; i < s->body_count && !env.friction; ++i) env.friction = s->body_friction[i] > 0.0;
+    if (env.friction) {
+        env.mu = opt->friction;
+        env.eps_t = opt->tangential_penalty > 0.0 ? opt->tangential_penalty : opt->penalty;
+        env.history = opt->history;
+        env.keep_all = 1;
+    }
     h = (1.0 + env.ext) * ss.lmax + env.r; /* every feature lies within (1 + ext) L_max + r of its master node */
     if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) {
         char msg[160];

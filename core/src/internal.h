@@ -39,6 +39,7 @@ struct nts_scene {
     unsigned char* body_role;  /* nts_role */
     unsigned char* body_mesh;  /* 1: loops from triangles, each piece oriented by its outer loop */
     double* body_alpha;        /* the body's own alpha, or -1: the options' */
+    double* body_friction;     /* the body's own friction coefficient, or -1: the options' */
     double* surf_trib;         /* surface entry -> tributary length in the reference configuration,
                                   over the contact surface's segments (0 off the surface) */
     /* The contact surfaces (nts_body_def.surface; docs/model.md §13): per
@@ -143,6 +144,8 @@ typedef struct nts_kbuf {
  * with `alpha` the master body's. 0 or NTS_ENOMEM. */
 int nts_stiffness_add(nts_kbuf* k, const nts_scene* s, const nts_contact* c, double alpha);
 void nts_kbuf_free(nts_kbuf* k);
+/* Room for `extra` more triplets. 0 or NTS_ENOMEM. */
+int nts_kbuf_reserve(nts_kbuf* k, int extra);
 
 
 

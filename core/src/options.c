@@ -165,5 +165,8 @@ int nts_options_validate(const nts_options* o, nts_error* err) {
         return option_error(err, "search_radius", "must be finite (negative means the median segment)");
     if (o->threads < 0 || o->threads > 1024) return option_error(err, "threads", "must be in [0, 1024]");
     if (o->max_candidates < 0) return option_error(err, "max_candidates", "must be >= 0 (0: the default)");
+    if (!(o->friction >= 0.0 && o->friction <= 10.0)) return option_error(err, "friction", "must be in [0, 10]");
+    if (!(o->tangential_penalty >= 0.0) || !nts_is_valid_double(o->tangential_penalty))
+        return option_error(err, "tangential_penalty", "must be a finite number >= 0 (0: the penalty)");
     return NTS_OK;
 }

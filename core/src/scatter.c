@@ -12,11 +12,12 @@
 
 /* make_contact writes every field of a record instead of clearing it first:
  * that gives the same bytes only while nts_contact has no padding. */
-typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 8 * sizeof(int) + 15 * sizeof(double) ? 1 : -1];
+typedef char nts_contact_has_no_padding[sizeof(nts_contact) == 10 * sizeof(int) + 19 * sizeof(double) ? 1 : -1];
 
 /* The full record of candidate b: master nodes and their weights, the
- * slave's penalty, force and virial. */
-static nts_contact make_contact(const search_env* env, const candidate* b) {
+ * slave's penalty, force and virial; with friction (fo, for an active
+ * record) the whole force, its tangential part, the slip and the state. */
+static nts_contact make_contact(const search_env* env, const candidate* b, const friction_out* fo) {
     const nts_scene* s = env->s;
     const int i = b->slave;
     int entry[3], q;
@@ -37,13 +38,54 @@ static nts_contact make_contact(const search_env* env, const candidate* b) {
     c.slave_node = s->surf_local[i];
     c.penalty = record_penalty(env, b);
     c.force = nts_v2(0.0, 0.0);
-    c.virial.xx = c.virial.yy = c.virial.xy = 0.0;
-    if (c.gap < 0.0) {
+    c.virial.xx = c.virial.yy = c.virial.xy = c.virial.yx = 0.0;
+    c.tangential_force = nts_v2(0.0, 0.0);
+    c.slip = 0.0;
+    c.state = NTS_FRICTIONLESS;
+    c.reserved = 0;
+    if (c.gap < 0.0 && fo != NULL) {
+        c.force = fo->f;
+        c.tangential_force = nts_scale(fo->t, fo->tau);
+        c.slip = fo->slip;
+        c.state = fo->state;
+        if (env->want_virial) c.virial = law_virial_force(c.gap, fo->f, c.normal);
+    } else if (c.gap < 0.0) {
         const double eg = c.penalty * c.gap;
         c.force = law_slave_force(eg, c.normal);
         if (env->want_virial) c.virial = law_virial(eg, c.gap, c.normal);
     }
     return c;
+}
+
+/* ---- friction (friction.h, docs/model.md §14): each active record's
+ * friction_out, computed once (chunk by chunk, in record order), then read
+ * by the sums, the force shares, the contacts, the anchors and the tangent. */
+
+/* Active record b's force shares with its whole slave force (contact_law.h). */
+static force_shares friction_shares(const search_env* env, const candidate* b, const friction_out* fo) {
+    force_shares sh = contact_shares(env, b);
+    sh.eg = 1.0;
+    sh.n = nts_neg(fo->f);
+    return sh;
+}
+
+static void friction_sum(const search_env* env, const candidate* b, const friction_out* fo, contact_sums* cs) {
+    law_sum_friction(cs, record_penalty(env, b), b->gap, b->normal, fo->f, fo->energy_t, fo->dissipation, fo->state,
+                     env->want_virial);
+}
+
+/* A chunk's active records' friction and its sums. */
+static void chunk_friction(nts_context* ctx, const search_env* env, chunk_info* ch) {
+    const candidate* rec = chunk_recs(ch);
+    friction_out* fo = ctx->fric + ch->share_at;
+    int k;
+    memset(&ch->sums, 0, sizeof ch->sums);
+    for (k = 0; k < chunk_count(ch); ++k)
+        if (rec[k].gap < 0.0) {
+            nts_friction_eval(env, &rec[k], fo);
+            friction_sum(env, &rec[k], fo, &ch->sums);
+            ++fo;
+        }
 }
 
 static int forces_finite(const nts_vec2* F, int n0, int n1) {
@@ -72,6 +114,12 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
     if (ch->sums.active == 0) return;
     out = ctx->shares + ch->share_at;
     ch->sh = out;
+    if (env->friction) {
+        const friction_out* fo = ctx->fric + ch->share_at;
+        for (k = 0; k < chunk_count(ch); ++k)
+            if (rec[k].gap < 0.0) *out++ = friction_shares(env, &rec[k], fo++);
+        return;
+    }
     for (k = 0; k < chunk_count(ch); ++k)
         if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
 }
@@ -103,6 +151,55 @@ typedef struct scatter_task {
     const search_env* env;
     int want_contacts, want_gaps, parts, bad;
 } scatter_task;
+
+/* Each chunk's active records, counted (friction: where each chunk's friction goes). */
+static void count_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    int c, k;
+    (void)wi;
+    for (c = begin; c < end; ++c) {
+        chunk_info* ch = &t->ctx->chunks[c];
+        const candidate* rec = chunk_recs(ch);
+        int n = 0;
+        for (k = 0; k < chunk_count(ch); ++k) n += rec[k].gap < 0.0;
+        ch->sums.active = n;
+    }
+}
+
+static void friction_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    int c;
+    (void)wi;
+    for (c = begin; c < end; ++c) chunk_friction(t->ctx, t->env, &t->ctx->chunks[c]);
+}
+
+/* The friction_out of the merged iterator's last record, when active: a
+ * chunk record's (k_rec counts the chunk's active records so far) or a deep
+ * contact's. */
+static const friction_out* merged_friction(const nts_context* ctx, const chunk_info* ch, const merged* it,
+                                           const candidate* rec, int* k_rec) {
+    if (!(rec->gap < 0.0)) return NULL;
+    if (it->deep != NULL && it->j > 0 && rec == &it->deep[it->j - 1]) return &ctx->fric_deep[ch->deep_at + it->j - 1];
+    return &ctx->fric[ch->share_at + (*k_rec)++];
+}
+
+/* Each chunk's active contacts' anchors, in contact order. */
+static void anchors_task(int begin, int end, int wi, void* p) {
+    const scatter_task* t = (const scatter_task*)p;
+    nts_context* ctx = t->ctx;
+    int c;
+    (void)wi;
+    for (c = begin; c < end; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        merged it = merged_begin(ctx, ch);
+        const candidate* rec;
+        int a = ch->contact_at, k_rec = 0;
+        while ((rec = merged_next(&it)) != NULL) {
+            const friction_out* fo = merged_friction(ctx, ch, &it, rec, &k_rec);
+            if (fo != NULL) ctx->anchors[a++] = fo->anchor;
+        }
+    }
+}
 
 static void sums_task(int begin, int end, int wi, void* p) {
     const scatter_task* t = (const scatter_task*)p;
@@ -139,9 +236,10 @@ static void records_task(int begin, int end, int wi, void* p) {
         const chunk_info* ch = &ctx->chunks[c];
         merged it = merged_begin(ctx, ch);
         const candidate* rec;
-        int g = ch->gap_at, a = ch->contact_at;
+        int g = ch->gap_at, a = ch->contact_at, k_rec = 0;
         while ((rec = merged_next(&it)) != NULL) {
-            const nts_contact cc = make_contact(t->env, rec);
+            const friction_out* fo = t->env->friction ? merged_friction(ctx, ch, &it, rec, &k_rec) : NULL;
+            const nts_contact cc = make_contact(t->env, rec, fo);
             if (t->want_gaps) ctx->gaps[g++] = cc;
             if (t->want_contacts && cc.gap < 0.0) ctx->contacts[a++] = cc;
         }
@@ -176,9 +274,9 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     const nts_reach* reach = &ctx->reach;
     nts_summary* sum = &out->summary;
     long long total = 0;
-    int ncontact = 0, c, k, rc, overflow = 0;
-    double energy = 0.0, maxpen = 0.0;
-    nts_virial vir = {0.0, 0.0, 0.0};
+    int ncontact = 0, c, k, rc, overflow = 0, sticking = 0, slipping = 0;
+    double energy = 0.0, maxpen = 0.0, dissipation = 0.0;
+    nts_virial vir = {0.0, 0.0, 0.0, 0.0};
     contact_sums deep;
     scatter_task task;
 
@@ -187,8 +285,21 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     task.env = env;
     task.want_contacts = want_contacts;
     task.want_gaps = want_gaps;
-    if (!env->direct && !env->shares) /* else the search summed them */
+    if (env->friction) {
+        /* Each chunk's active records' friction at its place (share_at), and
+         * the chunk's sums from it. */
+        int at = 0;
+        nts_run_each(run, count_task, nchunk, &task);
+        for (c = 0; c < nchunk; ++c) {
+            ctx->chunks[c].share_at = at;
+            at += ctx->chunks[c].sums.active;
+        }
+        if ((rc = nts_grow((void**)&ctx->fric, &ctx->fric_cap, at, sizeof(friction_out))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        nts_run_each(run, friction_task, nchunk, &task);
+    } else if (!env->direct && !env->shares) { /* else the search summed them */
         nts_run_each(run, sums_task, nchunk, &task);
+    }
     /* The deep contacts (reach.c) of each chunk's slaves, and their sums. */
     memset(&deep, 0, sizeof deep);
     for (c = 0, k = 0; c < nchunk; ++c) {
@@ -197,7 +308,17 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         while (k < reach->deep_count && reach->deep[k].slave < (c + 1) * CHUNK_SLAVES) ++k;
         ch->deep_count = k - ch->deep_at;
     }
-    for (k = 0; k < reach->deep_count; ++k) contact_sum(env, &reach->deep[k], &deep);
+    if (env->friction) {
+        if ((rc = nts_grow((void**)&ctx->fric_deep, &ctx->fric_deep_cap, reach->deep_count, sizeof(friction_out))) !=
+            NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        for (k = 0; k < reach->deep_count; ++k) {
+            nts_friction_eval(env, &reach->deep[k], &ctx->fric_deep[k]);
+            friction_sum(env, &reach->deep[k], &ctx->fric_deep[k], &deep);
+        }
+    } else {
+        for (k = 0; k < reach->deep_count; ++k) contact_sum(env, &reach->deep[k], &deep);
+    }
     /* In chunk order, then the deep contacts: the same order in every path. */
     for (c = 0; c <= nchunk; ++c) {
         const contact_sums* cs = c < nchunk ? &ctx->chunks[c].sums : &deep;
@@ -206,6 +327,10 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         vir.xx += cs->vxx;
         vir.yy += cs->vyy;
         vir.xy += cs->vxy;
+        vir.yx += cs->vyx;
+        dissipation += cs->dissipation;
+        sticking += cs->sticking;
+        slipping += cs->slipping;
         if (cs->maxpen > maxpen) maxpen = cs->maxpen;
         overflow |= cs->overflow;
     }
@@ -217,7 +342,9 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         if ((rc = nts_grow((void**)&ctx->reach.shares, &ctx->reach.shares_cap, reach->deep_count,
                            sizeof(force_shares))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
-        for (k = 0; k < reach->deep_count; ++k) ctx->reach.shares[k] = contact_shares(env, &reach->deep[k]);
+        for (k = 0; k < reach->deep_count; ++k)
+            ctx->reach.shares[k] = env->friction ? friction_shares(env, &reach->deep[k], &ctx->fric_deep[k])
+                                                 : contact_shares(env, &reach->deep[k]);
     }
     if (want_forces && env->direct) {
         for (k = 0; k < reach->deep_count; ++k) law_add_shares(ctx->forces, &reach->shares[k]);
@@ -251,18 +378,15 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     }
     /* Finite input can still overflow (a huge penalty or huge coordinates):
      * NaN and infinity never leave the library, the caller gets an error. */
-    overflow |= !isfinite(energy) || !isfinite(vir.xx) || !isfinite(vir.yy) || !isfinite(vir.xy);
+    /* (vir.yx is vir.xy without friction: one test covers it) */
+    overflow |= !isfinite(energy) || !isfinite(vir.xx) || !isfinite(vir.yy) || !isfinite(vir.xy) ||
+                !isfinite(vir.yx) || !isfinite(dissipation);
     if (overflow) return overflow_error(err, "the result overflows a double (penalty or coordinates too large)");
 
-    if (want_contacts || want_gaps) {
+    if (want_contacts || want_gaps || env->friction) {
         /* Each chunk's records with its deep contacts at their places in the
          * arrays (slave order). */
         int gap_at = 0, contact_at = 0;
-        if (want_gaps && (rc = nts_grow((void**)&ctx->gaps, &ctx->gaps_cap, (int)total, sizeof(nts_contact))) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
-        if (want_contacts &&
-            (rc = nts_grow((void**)&ctx->contacts, &ctx->contacts_cap, ncontact, sizeof(nts_contact))) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
         for (c = 0; c < nchunk; ++c) {
             chunk_info* ch = &ctx->chunks[c];
             ch->contact_at = contact_at;
@@ -270,6 +394,19 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             gap_at += chunk_count(ch) + ch->deep_count;
             contact_at += ch->sums.active + ch->deep_count;
         }
+    }
+    if (env->friction) {
+        /* The anchors after this step, in contact order: what a commit keeps. */
+        if ((rc = nts_grow((void**)&ctx->anchors, &ctx->anchors_cap, ncontact, sizeof(nts_anchor))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        nts_run_each(run, anchors_task, nchunk, &task);
+    }
+    if (want_contacts || want_gaps) {
+        if (want_gaps && (rc = nts_grow((void**)&ctx->gaps, &ctx->gaps_cap, (int)total, sizeof(nts_contact))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        if (want_contacts &&
+            (rc = nts_grow((void**)&ctx->contacts, &ctx->contacts_cap, ncontact, sizeof(nts_contact))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
         nts_run_each(run, records_task, nchunk, &task);
     }
     if (want_stiffness) {
@@ -277,14 +414,20 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         int i;
         ctx->stiffness.count = 0;
         for (c = 0; c < nchunk; ++c) {
-            merged it = merged_begin(ctx, &ctx->chunks[c]);
+            const chunk_info* ch = &ctx->chunks[c];
+            merged it = merged_begin(ctx, ch);
             const candidate* rec;
+            int k_rec = 0;
             while ((rec = merged_next(&it)) != NULL) {
+                const friction_out* fo = env->friction ? merged_friction(ctx, ch, &it, rec, &k_rec) : NULL;
                 nts_contact cc;
                 if (!(rec->gap < 0.0)) continue;
-                cc = make_contact(env, rec);
+                cc = make_contact(env, rec, fo);
                 if ((rc = nts_stiffness_add(&ctx->stiffness, s, &cc, alpha_of_body(s, cc.master_body, env->alpha))) !=
                     NTS_OK)
+                    return eval_fail(err, rc, -1, -1, "out of memory");
+                /* friction's part, not symmetric (docs/model.md §14) */
+                if (fo != NULL && (rc = nts_friction_tangent_add(&ctx->stiffness, env, rec, fo)) != NTS_OK)
                     return eval_fail(err, rc, -1, -1, "out of memory");
             }
         }
@@ -315,6 +458,11 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     sum->loops_reversed = s->loops_reversed;
     sum->search_radius = env->r;
     sum->cell_size = env->cells != NULL ? (ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy) : 0.0;
+    sum->dissipation = dissipation;
+    sum->sticking = sticking;
+    sum->slipping = slipping;
+    out->anchors = env->friction ? ctx->anchors : NULL;
+    out->anchor_count = env->friction ? ncontact : 0;
     out->forces = want_forces ? ctx->forces : NULL;
     out->pressure = want_pressure ? ctx->pressure : NULL;
     out->contacts = want_contacts ? ctx->contacts : NULL;

@@ -113,6 +113,12 @@ typedef struct search_env {
     int body_alphas;         /* some body has its own alpha */
     const unsigned char* surf_flag; /* the contact surfaces' flags (nts_scene.surf_flag), or NULL */
     double ext;              /* their ends' extension (nts_options.surface_extension; 0 without ends) */
+    /* Friction (friction.h, docs/model.md §14): on when some pair's
+     * coefficient is positive; then every record is kept (the records path)
+     * and each active one gets its friction_out before it is summed. */
+    int friction;
+    double mu, eps_t;        /* the options' coefficient and tangential penalty (the normal one when 0) */
+    const nts_history* history;
     double brute_pad;        /* brute force: the round-off allowance of its reach test */
     double wide_pad;         /* the widened searches' round-off allowance (reach.c) */
     double wide_lmax;        /* the longest reach around a node: (1 + ext) L_max (alpha <= 1/2, reach_at_node) */

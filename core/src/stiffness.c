@@ -7,7 +7,7 @@
 #include "contact_law.h"
 #include "internal.h"
 
-static int kbuf_reserve(nts_kbuf* k, int extra) {
+int nts_kbuf_reserve(nts_kbuf* k, int extra) {
     int need = k->count + extra, cap = k->cap, rc;
     if (need <= k->cap) return NTS_OK;
     if ((rc = nts_grow((void**)&k->rows, &cap, need, sizeof(int))) != NTS_OK) return rc;
@@ -30,7 +30,7 @@ int nts_stiffness_add(nts_kbuf* kb, const nts_scene* s, const nts_contact* c, do
     law_block blk;
     int k, l, a, b, rc;
     nts_law_tangent(s, c, alpha, &blk);
-    if ((rc = kbuf_reserve(kb, 4 * (blk.m + 1) * (blk.m + 1))) != NTS_OK) return rc;
+    if ((rc = nts_kbuf_reserve(kb, 4 * (blk.m + 1) * (blk.m + 1))) != NTS_OK) return rc;
     for (k = 0; k <= blk.m; ++k)
         for (l = 0; l <= blk.m; ++l)
             for (a = 0; a < 2; ++a)

@@ -17,4 +17,5 @@ void register_backend_suite(void);
 void register_contact_memory_suite(void);
 void register_pressure_suite(void);
 void register_surfaces_suite(void);
+void register_friction_suite(void);
 #endif

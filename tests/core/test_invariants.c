@@ -124,7 +124,7 @@ static void test_virial_identities(void) {
         nts_options o = opts(alphas[ia], NTS_SOLVER_NEWTON);
         nts_result r;
         nts_context* ctx;
-        nts_virial sum = {0, 0, 0};
+        nts_virial sum = {0, 0, 0, 0};
         const nts_vec2* pos;
         int i, q;
         CU_ASSERT_FATAL(s != NULL);

@@ -14,9 +14,11 @@ typedef struct nts_vec2 {
     double x, y;
 } nts_vec2;
 
-/* A symmetric 2x2 tensor: the virial (Kirkwood) terms xx, yy, xy. */
+/* The virial (Kirkwood) terms xx, yy, xy and yx: symmetric (yx = xy)
+ * without friction; with friction the tangential forces make it not
+ * (docs/model.md §14). */
 typedef struct nts_virial {
-    double xx, yy, xy;
+    double xx, yy, xy, yx;
 } nts_virial;
 
 static inline nts_vec2 nts_v2(double x, double y) { nts_vec2 v = {x, y}; return v; }

@@ -70,6 +70,11 @@ typedef struct nts_body_def {
      * NTS_EINVALID_SURFACE (err->option "surface", err->item the pair). */
     const int* surface;
     int surface_count;
+    /* This body's own Coulomb friction coefficient instead of
+     * nts_options.friction (docs/model.md §14): a pair of bodies rubs with
+     * the smaller of their two coefficients. In [0, 10]. */
+    int has_friction;
+    double friction;
 } nts_body_def;
 
 typedef struct nts_limits {
@@ -159,6 +164,38 @@ typedef enum nts_penalty_scaling {
     NTS_PENALTY_PER_LENGTH = 1
 } nts_penalty_scaling;
 
+/* ------------------------------------------------------------ friction */
+
+/* A friction anchor (docs/model.md §14): the material point of the master
+ * surface that a sticking contact is tied to, by its feature and its
+ * convective coordinate, so that it moves with the master's nodes. Keyed by
+ * (slave body, slave node, master body): a scene has at most one contact per
+ * key. `nodes` are node indices inside the master body: a segment's two ends
+ * (X = (1 - s) X0 + s X1, `param` s), a corner's three (X2, X3, X4, eq. (2),
+ * `param` xi, with the master body's alpha), a vertex's one. */
+typedef struct nts_anchor {
+    int slave_body, slave_node, master_body;
+    nts_kind kind;
+    int nodes[3];   /* -1 past the feature's own */
+    double param;
+} nts_anchor;
+
+/* The committed anchors of a sequence of steps (a session, a solver's loop),
+ * kept by the caller and read by nts_evaluate through nts_options.history:
+ * each step is a trial from them; nts_history_commit makes a result's
+ * anchors the new ones (an implicit solver commits at convergence, an
+ * explicit one every step). Not thread-safe; may be read by any number of
+ * evaluations at once while nobody commits. */
+typedef struct nts_history nts_history;
+/* (nts_history_create ... below nts_result.) */
+
+/* A contact's friction state. */
+typedef enum nts_friction_state {
+    NTS_FRICTIONLESS = 0, /* friction is off for this pair (coefficient 0) */
+    NTS_STICK = 1,
+    NTS_SLIP = 2
+} nts_friction_state;
+
 typedef enum nts_search {
     NTS_SEARCH_CELLS = 0,      /* cell list (Verlet buckets), O(N) */
     NTS_SEARCH_BRUTE_FORCE = 1 /* every surface node against every other body: for tests */
@@ -197,6 +234,15 @@ typedef struct nts_options {
      * width) is in contact whatever the round-off of its position. In
      * [0, 0.5]; default 0.01; read only for bodies with a surface. */
     double surface_extension;
+    /* Coulomb friction (docs/model.md §14): the coefficient mu of every pair
+     * whose bodies give none of their own (0, the default: frictionless,
+     * today's answer bit for bit; at most 10), the tangential penalty eps_T
+     * (0, the default: the normal penalty; scaled per length as the normal
+     * one), and the committed anchors each contact starts from (NULL: every
+     * contact is new and starts sticking where it is). */
+    double friction;
+    double tangential_penalty;
+    const nts_history* history;
 } nts_options;
 NTS_API nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
@@ -220,6 +266,13 @@ typedef struct nts_contact {
     nts_virial virial;            /* -sum f_i (X_i - Xs), = eps g^2 n n */
     double penalty;               /* the eps of this contact: nts_options.penalty, times the slave's
                                      tributary length with NTS_PENALTY_PER_LENGTH */
+    /* Friction (docs/model.md §14; zero and NTS_FRICTIONLESS without): the
+     * tangential force on the slave (`force` is the whole: normal plus
+     * tangential), the slip of this step (0 in stick), the state. */
+    nts_vec2 tangential_force;
+    double slip;
+    int state;                    /* nts_friction_state */
+    int reserved;
 } nts_contact;
 
 typedef struct nts_summary {
@@ -234,6 +287,11 @@ typedef struct nts_summary {
     int loops_reversed;
     double search_radius;  /* the radius used */
     double cell_size;      /* the bucket side used (0 for brute force) */
+    /* Friction (docs/model.md §14): the work the slipping contacts turned
+     * into heat this step (>= 0), and the active contacts sticking and
+     * slipping. The energy above includes the tangential springs'. */
+    double dissipation;
+    int sticking, slipping;
 } nts_summary;
 
 /* A sparse matrix as triplets (COO): entry k is (rows[k], cols[k], values[k]);
@@ -310,9 +368,37 @@ typedef struct nts_result {
                                    NULL unless NTS_OUT_GAPS */
     int gap_count;
     /* The consistent tangent of the active contacts (docs/model.md, "Tangent
-     * stiffness"): symmetric, duplicates summed. Empty unless NTS_OUT_STIFFNESS. */
+     * stiffness"): duplicates summed; symmetric without friction (with
+     * friction it is not: §14). Empty unless NTS_OUT_STIFFNESS. */
     nts_triplets stiffness;
+    /* With friction on (some pair's coefficient > 0): each active contact's
+     * anchor after this step (its returned anchor when slipping), in contact
+     * order, whatever the outputs: what nts_history_commit keeps. */
+    const nts_anchor* anchors;
+    int anchor_count;
 } nts_result;
+
+/* ------------------------------------------------------------ history */
+
+/* The friction anchors of a sequence of steps (nts_history above). */
+NTS_API nts_history* nts_history_create(void);
+NTS_API void nts_history_destroy(nts_history* history);
+/* Set the anchors from a list (a stateless request's "history"), checked
+ * against the scene: bodies and nodes in range, the feature's nodes those of
+ * one segment, corner or vertex of the master body's loops, a finite param,
+ * each key once. 0, NTS_ENOMEM, or NTS_EINVALID_ARGUMENT naming the entry
+ * (err->option "history", err->item). */
+NTS_API int nts_history_set(nts_history* history, const nts_scene* scene, const nts_anchor* anchors, int count,
+                            nts_error* err);
+/* The result's anchors (one per active contact, nts_result.anchors) become
+ * the committed ones; contacts that opened are forgotten. Allocates only
+ * when the history grows. 0 or NTS_ENOMEM (the history is then unchanged). */
+NTS_API int nts_history_commit(nts_history* history, const nts_result* result);
+/* The committed anchors, sorted by key (slave body, slave node, master body). */
+NTS_API const nts_anchor* nts_history_anchors(const nts_history* history, int* count);
+NTS_API void nts_history_clear(nts_history* history);
+/* Bytes held, for budgets (0 for NULL). */
+NTS_API size_t nts_history_bytes(const nts_history* history);
 
 /* ------------------------------------------------------- contact state */
 

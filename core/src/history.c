@@ -1,0 +1,146 @@
+/* The committed friction anchors of a sequence of steps (nts_history,
+ * docs/model.md §14): kept by the caller, read by the evaluation, replaced
+ * by a result's anchors on commit. Sorted by key, looked up by bisection. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "friction.h"
+
+nts_history* nts_history_create(void) {
+    nts_history* h = (nts_history*)nts_alloc(sizeof *h);
+    if (h != NULL) memset(h, 0, sizeof *h);
+    return h;
+}
+
+void nts_history_destroy(nts_history* h) {
+    if (h == NULL) return;
+    nts_free(h->a);
+    nts_free(h);
+}
+
+void nts_history_clear(nts_history* h) {
+    if (h != NULL) h->count = 0;
+}
+
+size_t nts_history_bytes(const nts_history* h) {
+    return h == NULL ? 0 : sizeof *h + (size_t)h->cap * sizeof(nts_anchor);
+}
+
+const nts_anchor* nts_history_anchors(const nts_history* h, int* count) {
+    if (count != NULL) *count = h != NULL ? h->count : 0;
+    return h != NULL ? h->a : NULL;
+}
+
+static int key_cmp(const nts_anchor* a, int sb, int sn, int mb) {
+    if (a->slave_body != sb) return a->slave_body < sb ? -1 : 1;
+    if (a->slave_node != sn) return a->slave_node < sn ? -1 : 1;
+    return (a->master_body > mb) - (a->master_body < mb);
+}
+
+static int anchor_order(const void* pa, const void* pb) {
+    const nts_anchor* b = (const nts_anchor*)pb;
+    return key_cmp((const nts_anchor*)pa, b->slave_body, b->slave_node, b->master_body);
+}
+
+const nts_anchor* nts_history_find(const nts_history* h, int sb, int sn, int mb) {
+    int lo = 0, hi = h->count;
+    while (lo < hi) {
+        const int mid = lo + (hi - lo) / 2;
+        const int c = key_cmp(&h->a[mid], sb, sn, mb);
+        if (c == 0) return &h->a[mid];
+        if (c < 0) lo = mid + 1;
+        else hi = mid;
+    }
+    return NULL;
+}
+
+/* Room for n anchors (the contents kept). */
+static int reserve(nts_history* h, int n) {
+    return n <= h->cap ? NTS_OK : nts_grow((void**)&h->a, &h->cap, n, sizeof(nts_anchor));
+}
+
+int nts_history_commit(nts_history* h, const nts_result* r) {
+    int rc;
+    if (h == NULL || r == NULL || r->anchor_count < 0 || (r->anchor_count > 0 && r->anchors == NULL))
+        return NTS_EINVALID_ARGUMENT;
+    if ((rc = reserve(h, r->anchor_count)) != NTS_OK) return rc;
+    if (r->anchor_count > 0) memcpy(h->a, r->anchors, sizeof(nts_anchor) * (size_t)r->anchor_count);
+    h->count = r->anchor_count;
+    /* The result's are in contact order (slave entries); the keys are unique. */
+    qsort(h->a, (size_t)h->count, sizeof(nts_anchor), anchor_order);
+    return NTS_OK;
+}
+
+/* Whether nodes u, v are consecutive on one of body b's loops (either way). */
+static int consecutive(const nts_scene* s, const int* entry_of, int b, int u, int v) {
+    const int e = entry_of[s->body_node_start[b] + u];
+    if (e < 0) return 0;
+    return s->surf_local[s->surf_next[e]] == v || s->surf_local[s->surf_prev[e]] == v;
+}
+
+static int fail_anchor(nts_error* err, int k, const char* what) {
+    nts_where at = nts_naming(nts_at(-1, -1, -1, -1), "history");
+    at.item = k;
+    return nts_error_set(err, NTS_EINVALID_ARGUMENT, at, "history entry %d: %s", k, what);
+}
+
+int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, int count, nts_error* err) {
+    int* entry_of = NULL;
+    int k, e, rc = NTS_OK;
+    if (err != NULL) *err = nts_error_none();
+    if (h == NULL || s == NULL || count < 0 || (count > 0 && in == NULL))
+        return nts_error_set(err, NTS_EINVALID_ARGUMENT, nts_at(-1, -1, -1, -1), "null argument");
+    if (count > 0 && (entry_of = (int*)nts_alloc(sizeof(int) * (size_t)s->node_count)) == NULL)
+        return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
+    for (k = 0; k < s->node_count && count > 0; ++k) entry_of[k] = -1;
+    for (e = 0; e < s->surface_count && count > 0; ++e) entry_of[s->surf_node[e]] = e;
+    for (k = 0; k < count && rc == NTS_OK; ++k) {
+        const nts_anchor* a = &in[k];
+        const int need = a->kind == NTS_KIND_SEGMENT ? 2 : a->kind == NTS_KIND_CORNER ? 3 : 1;
+        int q, n;
+        if (a->slave_body < 0 || a->slave_body >= s->body_count || a->master_body < 0 ||
+            a->master_body >= s->body_count || a->master_body == a->slave_body) {
+            rc = fail_anchor(err, k, "no such pair of bodies");
+            break;
+        }
+        if (a->slave_node < 0 || a->slave_node >= nts_scene_body_node_count(s, a->slave_body)) {
+            rc = fail_anchor(err, k, "slave node out of range");
+            break;
+        }
+        if (a->kind != NTS_KIND_SEGMENT && a->kind != NTS_KIND_CORNER && a->kind != NTS_KIND_VERTEX) {
+            rc = fail_anchor(err, k, "unknown kind");
+            break;
+        }
+        if (!nts_is_valid_double(a->param) || fabs(a->param) > 1e6) {
+            rc = fail_anchor(err, k, "param is not a finite number of moderate size");
+            break;
+        }
+        n = nts_scene_body_node_count(s, a->master_body);
+        for (q = 0; q < 3 && rc == NTS_OK; ++q) {
+            const int v = a->nodes[q];
+            if (q < need ? (v < 0 || v >= n || entry_of[s->body_node_start[a->master_body] + v] < 0) : v != -1)
+                rc = fail_anchor(err, k, q < need ? "a node that is not on the master body's boundary"
+                                                  : "more nodes than its kind has (-1 past them)");
+        }
+        if (rc != NTS_OK) break;
+        if ((need >= 2 && !consecutive(s, entry_of, a->master_body, a->nodes[0], a->nodes[1])) ||
+            (need == 3 && !consecutive(s, entry_of, a->master_body, a->nodes[1], a->nodes[2])) ||
+            (need == 3 && a->nodes[0] == a->nodes[2])) {
+            rc = fail_anchor(err, k, "its nodes are not a segment or a corner of the master body's boundary");
+            break;
+        }
+    }
+    nts_free(entry_of);
+    if (rc != NTS_OK) return rc;
+    if ((rc = reserve(h, count)) != NTS_OK)
+        return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
+    if (count > 0) memcpy(h->a, in, sizeof(nts_anchor) * (size_t)count);
+    h->count = count;
+    qsort(h->a, (size_t)h->count, sizeof(nts_anchor), anchor_order);
+    for (k = 1; k < h->count; ++k)
+        if (anchor_order(&h->a[k - 1], &h->a[k]) == 0) {
+            h->count = 0;
+            return fail_anchor(err, -1, "a key (slave body, slave node, master body) appears twice");
+        }
+    return NTS_OK;
+}
