@@ -88,7 +88,7 @@ static nts_anchor anchor_returned(const search_env* env, const candidate* b, nts
 
 /* -------------------------------------------------------- the law (24)-(27) */
 
-void nts_friction_eval(const search_env* env, const candidate* b, friction_out* out) {
+void nts_friction_eval(const search_env* env, const candidate* b, friction_out* out, int* hint) {
     const nts_scene* s = env->s;
     const int i = b->slave, sb = s->surf_body[i], sn = s->surf_local[i];
     const double alpha = alpha_of_body(s, b->body, env->alpha);
@@ -105,7 +105,7 @@ void nts_friction_eval(const search_env* env, const candidate* b, friction_out* 
     out->f = law_slave_force(eg, n);
     out->state = out->mu > 0.0 ? NTS_STICK : NTS_FRICTIONLESS;
     if (!(out->mu > 0.0)) return;
-    a = env->history != NULL ? nts_history_find(env->history, sb, sn, b->body) : NULL;
+    a = env->history != NULL ? nts_history_find(env->history, sb, sn, b->body, hint) : NULL;
     if (a == NULL) return; /* new: sticking where it is, g_T = 0 */
     out->found = 1;
     out->from = *a;

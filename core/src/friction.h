@@ -38,15 +38,19 @@ typedef struct friction_out {
     nts_anchor anchor; /* the anchor after the step (returned in slip) */
 } friction_out;
 
-/* The friction of active record b (gap < 0) of slave entry b->slave. */
-void nts_friction_eval(const search_env* env, const candidate* b, friction_out* out);
+/* The friction of active record b (gap < 0) of slave entry b->slave;
+ * *hint: nts_history_find's, kept by the caller across its records. */
+void nts_friction_eval(const search_env* env, const candidate* b, friction_out* out, int* hint);
 
 /* Append the friction tangent -d f_T / dx of active record b (its
  * tangential forces on the slave and the master nodes, over the slave, the
  * master nodes and the anchor's nodes). 0 or NTS_ENOMEM. */
 int nts_friction_tangent_add(nts_kbuf* kb, const search_env* env, const candidate* b, const friction_out* fo);
 
-/* The committed anchor of key (slave body, slave node, master body), or NULL. */
-const nts_anchor* nts_history_find(const nts_history* h, int slave_body, int slave_node, int master_body);
+/* The committed anchor of key (slave body, slave node, master body), or NULL.
+ * *hint (may be NULL; start at 0) is where the last lookup ended: the
+ * records come in slave order, so the next key is mostly just after it, and
+ * a few steps forward find it before a bisection would. */
+const nts_anchor* nts_history_find(const nts_history* h, int slave_body, int slave_node, int master_body, int* hint);
 
 #endif

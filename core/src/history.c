@@ -42,15 +42,30 @@ static int anchor_order(const void* pa, const void* pb) {
     return key_cmp((const nts_anchor*)pa, b->slave_body, b->slave_node, b->master_body);
 }
 
-const nts_anchor* nts_history_find(const nts_history* h, int sb, int sn, int mb) {
-    int lo = 0, hi = h->count;
+const nts_anchor* nts_history_find(const nts_history* h, int sb, int sn, int mb, int* hint) {
+    int lo = 0, hi = h->count, k;
+    if (hint != NULL && *hint >= 0) {
+        /* a few steps forward from the last place (slave order) */
+        for (k = *hint; k < h->count && k < *hint + 4; ++k) {
+            const int c = key_cmp(&h->a[k], sb, sn, mb);
+            if (c == 0) {
+                *hint = k + 1;
+                return &h->a[k];
+            }
+            if (c > 0) break;
+        }
+    }
     while (lo < hi) {
         const int mid = lo + (hi - lo) / 2;
         const int c = key_cmp(&h->a[mid], sb, sn, mb);
-        if (c == 0) return &h->a[mid];
+        if (c == 0) {
+            if (hint != NULL) *hint = mid + 1;
+            return &h->a[mid];
+        }
         if (c < 0) lo = mid + 1;
         else hi = mid;
     }
+    if (hint != NULL) *hint = lo;
     return NULL;
 }
 

@@ -78,11 +78,11 @@ static void friction_sum(const search_env* env, const candidate* b, const fricti
 static void chunk_friction(nts_context* ctx, const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ch);
     friction_out* fo = ctx->fric + ch->share_at;
-    int k;
+    int k, hint = 0;
     memset(&ch->sums, 0, sizeof ch->sums);
     for (k = 0; k < chunk_count(ch); ++k)
         if (rec[k].gap < 0.0) {
-            nts_friction_eval(env, &rec[k], fo);
+            nts_friction_eval(env, &rec[k], fo, &hint);
             friction_sum(env, &rec[k], fo, &ch->sums);
             ++fo;
         }
@@ -313,7 +313,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         for (k = 0; k < reach->deep_count; ++k) {
-            nts_friction_eval(env, &reach->deep[k], &ctx->fric_deep[k]);
+            nts_friction_eval(env, &reach->deep[k], &ctx->fric_deep[k], NULL);
             friction_sum(env, &reach->deep[k], &ctx->fric_deep[k], &deep);
         }
     } else {
