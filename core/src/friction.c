@@ -54,6 +54,7 @@ static nts_anchor anchor_here(const search_env* env, const candidate* b) {
     nts_anchor a;
     int entry[3], q, m;
     double w[3];
+    memset(&a, 0, sizeof a); /* its padding too: results are compared byte for byte */
     a.slave_body = s->surf_body[b->slave];
     a.slave_node = s->surf_local[b->slave];
     a.master_body = b->body;
