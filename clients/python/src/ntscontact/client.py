@@ -104,12 +104,16 @@ class Client:
         scene: SceneLike,
         outputs: Optional[Union[str, Sequence[str]]] = None,
         *,
+        history: Optional[Sequence[Mapping[str, Any]]] = None,
         timeout: Optional[TimeoutLike] = None,
     ) -> Result:
         """``POST /v1/contact``. ``scene`` is a :class:`Scene` (checked before it is
         sent), a dict, or JSON text sent as it is. ``outputs`` (e.g.
-        ``["forces", "contacts"]``) overrides the scene's ``options.outputs``."""
-        body, ids = self._encode(scene, normalize_outputs(outputs))
+        ``["forces", "contacts"]``) overrides the scene's ``options.outputs``.
+        ``history``: with friction, the anchors a previous result ended with
+        (:attr:`Result.history`), from which this evaluation goes on
+        (docs/model.md §14); the result's own history is the next call's."""
+        body, ids = self._encode(scene, normalize_outputs(outputs), history)
         doc = self._request("POST", "/v1/contact", body=body, timeout=timeout, body_ids=ids)
         if not isinstance(doc.get("summary"), dict):
             raise ServerError(f"POST {self.base_url}/v1/contact: the answer has no summary", code="bad_response",
@@ -149,7 +153,8 @@ class Client:
     # ------------------------------------------------------------ internals
 
     @staticmethod
-    def _encode(scene: SceneLike, outputs: Optional[Sequence[str]]) -> Tuple[bytes, Optional[List[Any]]]:
+    def _encode(scene: SceneLike, outputs: Optional[Sequence[str]],
+                history: Optional[Sequence[Mapping[str, Any]]] = None) -> Tuple[bytes, Optional[List[Any]]]:
         if isinstance(scene, Scene):
             scene.check()
             doc: Any = scene.to_dict()
@@ -160,7 +165,7 @@ class Client:
                 if isinstance(doc.get("bodies"), list) else None
         elif isinstance(scene, (str, bytes, bytearray)):
             raw = scene.encode("utf-8") if isinstance(scene, str) else bytes(scene)
-            if outputs is None:
+            if outputs is None and history is None:
                 return raw, None
             doc = json.loads(raw)
             ids = None
@@ -169,6 +174,8 @@ class Client:
         if outputs is not None:
             doc = dict(doc)
             doc["options"] = dict(doc.get("options") or {}, outputs=list(outputs))
+        if history is not None:
+            doc = dict(doc, history=[dict(a) for a in history])
         return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8"), ids
 
     def _request(

@@ -19,10 +19,13 @@ Vec2 = Tuple[float, float]
 
 
 def virial_matrix(v: Optional[Mapping[str, Any]]) -> FloatArray:
-    """``{"xx", "yy", "xy"}`` to a symmetric 2x2 float64 array (zeros when absent)."""
+    """``{"xx", "yy", "xy", "yx"}`` to a 2x2 float64 array ``[[xx, xy], [yx, yy]]``
+    (zeros when absent; ``yx`` is ``xy`` when the answer has none: without
+    friction the virial is symmetric, docs/model.md (28))."""
     v = v or {}
     xx, yy, xy = (float(v.get(k, 0.0)) for k in ("xx", "yy", "xy"))
-    return np.array([[xx, xy], [xy, yy]], dtype=np.float64)
+    yx = float(v.get("yx", xy))
+    return np.array([[xx, xy], [yx, yy]], dtype=np.float64)
 
 
 def _vec(v: Any) -> Vec2:
@@ -55,6 +58,13 @@ class Contact:
     #: same pair (-1: new), and whether it was at the same feature. None otherwise.
     previous: Optional[int] = None
     persisted: Optional[bool] = None
+    #: Friction (docs/model.md §14; None without): the tangential part of
+    #: ``force``, ``"stick"``, ``"slip"`` or ``"frictionless"``, this step's
+    #: slip, and the anchor after the step (``{"kind", "nodes", "param"}``).
+    tangential_force: Optional[Vec2] = None
+    state: Optional[str] = None
+    slip: Optional[float] = None
+    anchor: Optional[Mapping[str, Any]] = None
 
     @property
     def virial_tensor(self) -> FloatArray:
@@ -80,6 +90,10 @@ class Contact:
             virial=(float(v.get("xx", 0.0)), float(v.get("yy", 0.0)), float(v.get("xy", 0.0))),
             previous=int(d["previous"]) if "previous" in d else None,
             persisted=bool(d["persisted"]) if "persisted" in d else None,
+            tangential_force=_vec(d["tangential_force"]) if "tangential_force" in d else None,
+            state=str(d["state"]) if "state" in d else None,
+            slip=float(d["slip"]) if "slip" in d else None,
+            anchor=d.get("anchor"),
         )
 
 
@@ -158,11 +172,17 @@ class Summary:
     #: Of the active contacts, those deeper than the (default) search radius.
     deep_contacts: int = 0
     extra: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    #: Friction (docs/model.md §14; 0 without): the work the slipping contacts
+    #: turned into heat this step, and the active contacts sticking and slipping.
+    dissipation: float = 0.0
+    sticking: int = 0
+    slipping: int = 0
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
         known = ("bodies", "nodes", "surface_nodes", "contacts", "gaps", "energy", "virial", "max_penetration",
-                 "loops_reversed", "search_radius", "cell_size", "elapsed_ms", "deep_contacts")
+                 "loops_reversed", "search_radius", "cell_size", "elapsed_ms", "deep_contacts", "dissipation",
+                 "sticking", "slipping")
         return cls(
             bodies=int(d.get("bodies", 0)),
             nodes=int(d.get("nodes", 0)),
@@ -178,6 +198,9 @@ class Summary:
             elapsed_ms=float(d.get("elapsed_ms", 0.0)),
             deep_contacts=int(d.get("deep_contacts", 0)),
             extra={k: v for k, v in d.items() if k not in known},
+            dissipation=float(d.get("dissipation", 0.0)),
+            sticking=int(d.get("sticking", 0)),
+            slipping=int(d.get("slipping", 0)),
         )
 
 
@@ -235,6 +258,23 @@ class Result:
                               "Result.stiffness_triplets())") from exc
         rows, cols, values, size = self.stiffness_triplets()
         return scipy.sparse.csr_matrix((values, (rows, cols)), shape=(size, size))
+
+    @property
+    def history(self) -> Optional[List[Dict[str, Any]]]:
+        """With friction (docs/model.md §14): the anchors after this step, as
+        the service gives them (``[{"slave": {"body", "node"}, "master",
+        "kind", "nodes", "param"}, ...]``); pass it back as a stateless call's
+        ``history`` (``Client.contact(scene, history=...)``) to go on from this
+        step. None without friction, and for a binary session answer (a
+        session keeps its own)."""
+        h = self.raw.get("history")
+        return list(h) if isinstance(h, list) else None
+
+    def tangential_forces(self) -> FloatArray:
+        """The contacts' tangential forces (on the slave), ``(m, 2)`` in contact
+        order (zeros without friction; needs ``contacts`` in ``outputs``)."""
+        return np.array([c.tangential_force or (0.0, 0.0) for c in self.contacts],
+                        dtype=np.float64).reshape(len(self.contacts), 2)
 
     @property
     def energy(self) -> float:

@@ -183,6 +183,34 @@ def as_nodes(nodes: ArrayLike, index: int = 0, body_id: Any = None, field: str =
     return arr
 
 
+def _friction_option(value: Optional[Union[float, Mapping[str, Any]]]) -> Optional[Dict[str, float]]:
+    """The scene's ``friction`` option (docs/model.md §14) as the service takes
+    it, ``{"coefficient": mu[, "tangential_penalty": eps_T]}``, from a number
+    (the coefficient) or such a mapping; checked as the service checks it."""
+    if value is None:
+        return None
+    doc: Dict[str, Any] = {"coefficient": value} if not isinstance(value, Mapping) else dict(value)
+    unknown = set(doc) - {"coefficient", "tangential_penalty"}
+    if unknown:
+        raise InvalidScene(f"unknown friction field {sorted(unknown)[0]!r}", code="unknown_field",
+                           pointer=f"/options/friction/{sorted(unknown)[0]}")
+    for name, lo, hi in (("coefficient", 0.0, 10.0), ("tangential_penalty", 0.0, math.inf)):
+        if name not in doc:
+            if name == "coefficient":
+                raise InvalidScene("friction needs a coefficient", code="missing_field",
+                                   pointer="/options/friction/coefficient")
+            continue
+        v = doc[name]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InvalidScene(f"friction {name} must be a number", code="invalid_type",
+                               pointer=f"/options/friction/{name}")
+        if not (lo <= float(v) <= hi) or not math.isfinite(float(v)):
+            raise InvalidScene(f"friction {name} {v!r} is out of range", code="invalid_option",
+                               pointer=f"/options/friction/{name}")
+        doc[name] = float(v)
+    return doc
+
+
 @dataclass
 class Body:
     """One body: ``nodes`` ``(n, 2)`` float64, and ``loops`` or ``triangles`` (or neither).
@@ -200,6 +228,7 @@ class Body:
     mesh_points: Optional[IntArray] = None
     reference: Optional[FloatArray] = None
     surface: Optional[IntArray] = None
+    friction: Optional[float] = None
 
     @property
     def node_count(self) -> int:
@@ -221,6 +250,8 @@ class Body:
             out["reference"] = self.reference.tolist()
         if self.surface is not None:
             out["surface"] = self.surface.tolist()
+        if self.friction is not None:
+            out["friction"] = float(self.friction)
         return out
 
 
@@ -247,6 +278,7 @@ class Scene:
         outputs: Optional[Sequence[str]] = None,
         penalty_scaling: Optional[str] = None,
         surface_extension: Optional[float] = None,
+        friction: Optional[Union[float, Mapping[str, Any]]] = None,
         extra_options: Optional[Mapping[str, Any]] = None,
     ) -> None:
         if penalty_scaling not in (None, "node", "length"):
@@ -257,6 +289,7 @@ class Scene:
                                pointer="/options/surface_extension")
         self.penalty_scaling = penalty_scaling
         self.surface_extension = None if surface_extension is None else float(surface_extension)
+        self.friction = _friction_option(friction)
         self.penalty = penalty
         self.alpha = alpha
         self.search_radius = search_radius
@@ -308,6 +341,8 @@ class Scene:
             opts["penalty_scaling"] = self.penalty_scaling
         if self.surface_extension is not None:
             opts["surface_extension"] = self.surface_extension
+        if self.friction is not None:
+            opts["friction"] = dict(self.friction)
         opts.update(self.extra_options)
         return opts
 
@@ -325,6 +360,7 @@ class Scene:
         mesh_points: Optional[ArrayLike] = None,
         reference: Optional[ArrayLike] = None,
         surface: Optional[ArrayLike] = None,
+        friction: Optional[float] = None,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
@@ -342,7 +378,9 @@ class Scene:
         masters and only their nodes slaves. None (default): the whole
         boundary; empty: the body takes part in nothing. For a body given by
         loops (or neither), whether each pair is a boundary segment is checked
-        here; for a triangle mesh the service checks it.
+        here; for a triangle mesh the service checks it. ``friction`` is this
+        body's own Coulomb coefficient (docs/model.md §14; a pair rubs with the
+        smaller of its two bodies', each the body's own or the scene's).
         Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
         naming the body and the node at fault.
         """
@@ -434,9 +472,13 @@ class Scene:
             surf = as_surface(surface, n, index, id)
             if tri is None:
                 check_surface_segments(surf, loop_list if loop_list is not None else [np.arange(n)], n, index, id)
+        if friction is not None and not (isinstance(friction, (int, float)) and not isinstance(friction, bool)
+                                         and 0.0 <= float(friction) <= 10.0):
+            raise InvalidScene(f"body friction {friction!r} is not a number in [0, 10]", code="invalid_option",
+                               pointer=f"/bodies/{index}/friction", where=f"body index {index}")
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
                                  alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp,
-                                 reference=ref, surface=surf))
+                                 reference=ref, surface=surf, friction=None if friction is None else float(friction)))
         self._index[key] = index
         return id
 
@@ -542,6 +584,7 @@ class Scene:
             outputs=opts.pop("outputs", None),
             penalty_scaling=opts.pop("penalty_scaling", None),
             surface_extension=opts.pop("surface_extension", None),
+            friction=opts.pop("friction", None),
             extra_options=opts,
         )
         bodies = doc.get("bodies")
@@ -552,7 +595,7 @@ class Scene:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
             scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
                            alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"),
-                           reference=b.get("reference"), surface=b.get("surface"))
+                           reference=b.get("reference"), surface=b.get("surface"), friction=b.get("friction"))
         return scene
 
     @classmethod

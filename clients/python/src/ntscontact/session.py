@@ -19,6 +19,7 @@ session is created again from the scene it holds and the step retried once.
 from __future__ import annotations
 
 import json
+import warnings as _warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -26,7 +27,7 @@ import numpy.typing as npt
 import requests
 
 from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
-from .result import Result, ResultWarning, Summary, virial_matrix
+from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
 from .scene import BodyId, Scene, normalize_outputs
 
 __all__ = ["Session", "PositionsLike"]
@@ -73,6 +74,10 @@ class Session:
         self._index = {(type(i), i): k for k, i in enumerate(self.body_ids)}
         options = doc.get("options") if isinstance(doc.get("options"), Mapping) else {}
         self._scene_outputs = frozenset(options.get("outputs", ("forces", "energy", "virial")))
+        # Friction keeps a history in the session (docs/model.md §14): a
+        # session the service lost and the client re-creates starts it anew.
+        self._friction = bool(options.get("friction")) or any(
+            isinstance(b, Mapping) and b.get("friction") for b in bodies)
         self.nodes = int(self._offsets[-1])
         # The client's copy of the stored positions: what a re-created session
         # must be sent to go on where the lost one was.
@@ -164,11 +169,16 @@ class Session:
         alpha: Optional[float] = None,
         search_radius: Optional[float] = None,
         solver: Optional[str] = None,
+        commit: bool = True,
         timeout: Optional[Any] = None,
     ) -> Result:
         """One step at ``positions`` ((N, 2) in global order, or ``{body_id:
         (n_b, 2)}`` for the bodies that moved), or at the stored positions when
-        None. The options override the scene's for this step only."""
+        None. The options override the scene's for this step only.
+        ``commit`` (friction, docs/model.md §14): whether this step's anchors
+        become the session's history; an implicit solver iterates Newton with
+        ``commit=False`` and commits the converged step, an explicit one
+        commits every step (the default)."""
         if self._closed:
             raise NtsError("the session is closed", code="closed")
         pos = self._as_positions(positions) if positions is not None else None
@@ -181,6 +191,8 @@ class Session:
                 params[name] = repr(float(value))
         if solver is not None:
             params["solver"] = str(solver)
+        if not commit:
+            params["commit"] = "false"
         # The binary answer when everything asked for fits in it (the forces
         # and the summary): the step's outputs, else the scene's.
         wanted = set(outs) if outs is not None else set(self._scene_outputs)
@@ -204,6 +216,10 @@ class Session:
                 if attempt < 2 and exc.status == 404 and exc.code == "unknown_scene":
                     self._create()
                     self.recreated += 1
+                    if self._friction:
+                        _warnings.warn(f"session {self.id}: the service lost it and the client created it anew: "
+                                       "its friction history is lost (every contact starts sticking where it is)",
+                                       IncompleteResultWarning, stacklevel=2)
                     continue
                 raise
         if pos is not None:
@@ -213,6 +229,10 @@ class Session:
                   else Result.from_dict(doc))
         result._scene = (self._scene_factory, self._positions.copy())
         return result.warn()
+
+    def step(self, positions: Optional[PositionsLike] = None, *, commit: bool = True, **kw: Any) -> Result:
+        """A solver's step: :meth:`contact` with ``commit`` (friction's history)."""
+        return self.contact(positions, commit=commit, **kw)
 
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
@@ -240,14 +260,19 @@ class Session:
             triplets = (rows, cols, values, 2 * self.nodes)
         try:
             virial = [float(v) for v in h["NTS-Virial"].split(",")]
+            vd = {"xx": virial[0], "yy": virial[1], "xy": virial[2]}
+            if len(virial) > 3:  # friction: yx (docs/model.md (28))
+                vd["yx"] = virial[3]
             summary = Summary(
                 bodies=len(self.body_ids), nodes=self.nodes, surface_nodes=self.surface_nodes,
                 contacts=int(h["NTS-Contacts"]), gaps=int(h.get("NTS-Gaps", 0)), energy=float(h["NTS-Energy"]),
-                virial=virial_matrix({"xx": virial[0], "yy": virial[1], "xy": virial[2]}),
+                virial=virial_matrix(vd),
                 max_penetration=float(h["NTS-Max-Penetration"]),
                 loops_reversed=int(h.get("NTS-Loops-Reversed", 0)),
                 search_radius=float(h.get("NTS-Search-Radius", 0.0)), cell_size=float(h.get("NTS-Cell-Size", 0.0)),
-                elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)), deep_contacts=int(h.get("NTS-Deep-Contacts", 0)))
+                elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)), deep_contacts=int(h.get("NTS-Deep-Contacts", 0)),
+                dissipation=float(h.get("NTS-Dissipation", 0.0)), sticking=int(h.get("NTS-Sticking", 0)),
+                slipping=int(h.get("NTS-Slipping", 0)))
             warned = ResultWarning.from_header(h.get("NTS-Warnings", ""))
         except (KeyError, ValueError, IndexError) as exc:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
