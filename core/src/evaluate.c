@@ -193,8 +193,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
      * records path (each active record's friction is computed once, after
      * the search, and read by the sums, the forces, the contacts and the
      * tangent). Off, nothing of it runs: today's bits. */
-    env.friction = opt->friction > 0.0;
-    for (i = 0; i < s->body_count && !env.friction; ++i) env.friction = s->body_friction[i] > 0.0;
+    env.friction = nts_friction_on(s, opt);
     if (env.friction) {
         env.mu = opt->friction;
         env.eps_t = opt->tangential_penalty > 0.0 ? opt->tangential_penalty : opt->penalty;

@@ -96,7 +96,7 @@ static int consecutive(const nts_scene* s, const int* entry_of, int b, int u, in
 static int fail_anchor(nts_error* err, int k, const char* what) {
     nts_where at = nts_naming(nts_at(-1, -1, -1, -1), "history");
     at.item = k;
-    return nts_error_set(err, NTS_EINVALID_ARGUMENT, at, "history entry %d: %s", k, what);
+    return nts_error_set(err, NTS_EINVALID_HISTORY, at, "history entry %d: %s", k, what);
 }
 
 int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, int count, nts_error* err) {
@@ -154,8 +154,22 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
     qsort(h->a, (size_t)h->count, sizeof(nts_anchor), anchor_order);
     for (k = 1; k < h->count; ++k)
         if (anchor_order(&h->a[k - 1], &h->a[k]) == 0) {
+            /* name the list's second entry of the key (the sort lost the places) */
+            const nts_anchor key = h->a[k];
+            int seen = 0, at = -1;
+            for (e = 0; e < count && at < 0; ++e)
+                if (anchor_order(&in[e], &key) == 0 && seen++ == 1) at = e;
             h->count = 0;
-            return fail_anchor(err, -1, "a key (slave body, slave node, master body) appears twice");
+            return fail_anchor(err, at, "a key (slave body, slave node, master body) appears twice");
         }
     return NTS_OK;
+}
+
+int nts_friction_on(const nts_scene* s, const nts_options* o) {
+    int b;
+    if (s == NULL || o == NULL) return 0;
+    if (o->friction > 0.0) return 1;
+    for (b = 0; b < s->body_count; ++b)
+        if (s->body_friction[b] > 0.0) return 1;
+    return 0;
 }

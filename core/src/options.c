@@ -39,11 +39,11 @@ int nts_option_find(const char* json, size_t n) {
     return -1;
 }
 
-/* Each kind's store: a field of its C type (a BOX is the scene's, not here). */
+/* Each kind's store: a field of its C type (an OBJECT is the decoder's). */
 #define NTS_STORE_NUMBER(o, field, ctype, v) (o)->field = (v)->number
 #define NTS_STORE_ENUM(o, field, ctype, v) (o)->field = (ctype)(v)->enumerated
 #define NTS_STORE_OUTPUTS(o, field, ctype, v) (o)->field = (v)->flags
-#define NTS_STORE_BOX(o, field, ctype, v) (void)(v)
+#define NTS_STORE_OBJECT(o, field, ctype, v) (void)(v)
 
 void nts_option_store(nts_options* o, int id, const nts_option_value* v) {
     switch (id) {

@@ -623,7 +623,7 @@ static void test_history_set_refuses_bad_anchors(void) {
     CU_ASSERT_FATAL(s != NULL && h != NULL);
     for (k = 0; k < 8; ++k) {
         nts_anchor good = {1, 0, 0, NTS_KIND_SEGMENT, {9, 10, -1}, 0.5};
-        int want = NTS_EINVALID_ARGUMENT;
+        int want = NTS_EINVALID_HISTORY;
         a[0] = good;
         switch (k) {
         case 0: want = NTS_OK; break;
@@ -647,7 +647,8 @@ static void test_history_set_refuses_bad_anchors(void) {
         int count;
         a[0] = good;
         a[1] = good;
-        ASSERT_INT_EQ(nts_history_set(h, s, a, 2, &err), NTS_EINVALID_ARGUMENT);
+        ASSERT_INT_EQ(nts_history_set(h, s, a, 2, &err), NTS_EINVALID_HISTORY);
+        ASSERT_INT_EQ(err.item, 1); /* the second entry of the key */
         a[1].slave_node = 1;
         ASSERT_INT_EQ(nts_history_set(h, s, a, 2, &err), NTS_OK);
         CU_ASSERT(nts_history_anchors(h, &count) != NULL);

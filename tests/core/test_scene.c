@@ -388,7 +388,7 @@ static void test_options_validated(void) {
         int k;
         for (k = 0; k < NTS_E_COUNT_; ++k) CU_ASSERT(strcmp(nts_status_name(-k), "unknown_error") != 0);
         CU_ASSERT(strcmp(nts_status_name(-NTS_E_COUNT_), "unknown_error") == 0);
-        ASSERT_INT_EQ(NTS_E_COUNT_, 1 - NTS_EINVALID_SURFACE); /* the last row of the table */
+        ASSERT_INT_EQ(NTS_E_COUNT_, 1 - NTS_EINVALID_HISTORY); /* the last row of the table */
     }
 }
 

@@ -49,7 +49,8 @@ extern "C" {
     XX(RESHAPED, -19, "reshaped", "new positions change the scene's normalisation")                 \
     XX(OUT_OF_RANGE, -20, "out_of_range", "coordinate beyond the supported range (1e100)")      \
     XX(CANCELLED, -21, "cancelled", "the evaluation was cancelled (deadline or caller)")            \
-    XX(INVALID_SURFACE, -22, "invalid_surface", "a contact surface pair is not a boundary segment, or repeats one")
+    XX(INVALID_SURFACE, -22, "invalid_surface", "a contact surface pair is not a boundary segment, or repeats one") \
+    XX(INVALID_HISTORY, -23, "invalid_history", "a friction history entry is not an anchor of this scene")
 
 typedef enum nts_status {
     NTS_OK = 0,

@@ -399,6 +399,10 @@ NTS_API const nts_anchor* nts_history_anchors(const nts_history* history, int* c
 NTS_API void nts_history_clear(nts_history* history);
 /* Bytes held, for budgets (0 for NULL). */
 NTS_API size_t nts_history_bytes(const nts_history* history);
+/* Whether an evaluation of `scene` with `options` has friction on (some
+ * pair's coefficient may be > 0: the options' or a body's own, §14): then
+ * the result carries anchors, the summary dissipation, the virial yx. */
+NTS_API int nts_friction_on(const nts_scene* scene, const nts_options* options);
 
 /* ------------------------------------------------------- contact state */
 

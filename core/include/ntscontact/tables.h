@@ -54,13 +54,18 @@ extern "C" {
  * XX(ID, field, json, flag, metavar, kind, ctype, default, min, max, bound, check, presence, doors, names, help)
  *
  *   ID        NTS_OPT_<ID>, the row's index (nts_option_id)
- *   field     the nts_options member (none for kind BOX: the scene holds it)
+ *   field     the nts_options member (kind OBJECT: the codec's decoder sets
+ *             the fields itself: the scene holds the periodic box, friction
+ *             is nts_options.friction and tangential_penalty)
  *   json      its name in a scene's "options", a step's "options" and a
  *             binary step's query (?alpha=0.1)
  *   flag      the CLI flag ("" when the CLI does not set it), metavar its
  *             value in --help
  *   kind      NUMBER (a finite double), ENUM (one of `names`), OUTPUTS (a
- *             list of NTS_OUTPUT_MAP names), BOX (the periodic box object)
+ *             list of NTS_OUTPUT_MAP names), OBJECT (an object decoded by hand:
+ *             the periodic box {lx, ly}, friction {coefficient,
+ *             tangential_penalty}; min, max, bound of friction are its
+ *             coefficient's)
  *   ctype     the C type of the field
  *   default   nts_default_options()'s value (search_radius -1: the median
  *             segment, which JSON says by leaving it out)
@@ -81,7 +86,7 @@ extern "C" {
        NTS_NO_NAMES, "penalty stiffness")                                                                          \
     XX(SEARCH_RADIUS, search_radius, "search_radius", "--search-radius", "R", NUMBER, double, -1.0, 0.0, 0.0,      \
        FROM, CODEC, OPTIONAL, ALL, NTS_NO_NAMES, "search radius")                                                  \
-    XX(PERIODIC, periodic, "periodic", "", "", BOX, double, 0.0, 0.0, 0.0, NONE, NONE, OPTIONAL, SCENE,            \
+    XX(PERIODIC, periodic, "periodic", "", "", OBJECT, double, 0.0, 0.0, 0.0, NONE, NONE, OPTIONAL, SCENE,            \
        NTS_NO_NAMES, "periodic box")                                                                               \
     XX(SOLVER, solver, "solver", "--solver", "NAME", ENUM, nts_solver, NTS_SOLVER_CLOSED_FORM, 0.0, 0.0, NONE,     \
        CORE, OPTIONAL, ALL, NTS_SOLVER_NAMES, "")                                                                  \
@@ -93,7 +98,9 @@ extern "C" {
     XX(SEARCH, search, "search", "", "", ENUM, nts_search, NTS_SEARCH_CELLS, 0.0, 0.0, NONE, CORE, OPTIONAL,       \
        SCENE, NTS_SEARCH_NAMES, "")                                                                                \
     XX(SURFACE_EXTENSION, surface_extension, "surface_extension", "", "", NUMBER, double, 0.01, 0.0, 0.5, CLOSED,  \
-       CORE, OPTIONAL, SCENE, NTS_NO_NAMES, "how far a contact surface's end segment reaches past its end node")
+       CORE, OPTIONAL, SCENE, NTS_NO_NAMES, "how far a contact surface's end segment reaches past its end node")   \
+    XX(FRICTION, friction, "friction", "", "", OBJECT, double, 0.0, 0.0, 10.0, CLOSED, CORE, OPTIONAL, SCENE,       \
+       NTS_NO_NAMES, "Coulomb friction {coefficient, tangential_penalty}")
 
 typedef enum nts_option_id {
 #define NTS_XX_(ID, field, json, flag, meta, kind, ctype, def, lo, hi, bound, check, presence, doors, names, help) \
@@ -105,7 +112,7 @@ typedef enum nts_option_id {
 
 /* The table at run time, for the loops of the parsers and the help. */
 typedef enum nts_option_kind {
-    NTS_OPTION_KIND_NUMBER, NTS_OPTION_KIND_ENUM, NTS_OPTION_KIND_OUTPUTS, NTS_OPTION_KIND_BOX
+    NTS_OPTION_KIND_NUMBER, NTS_OPTION_KIND_ENUM, NTS_OPTION_KIND_OUTPUTS, NTS_OPTION_KIND_OBJECT
 } nts_option_kind;
 typedef enum nts_option_bound {
     NTS_OPTION_BOUND_NONE, NTS_OPTION_BOUND_CLOSED, NTS_OPTION_BOUND_ABOVE, NTS_OPTION_BOUND_FROM
@@ -147,7 +154,7 @@ struct nts_options;
 
 /* The row of an option (NULL when out of range), the row named `json` (-1
  * when none), and the store of a value into its nts_options field (nothing
- * for BOX). */
+ * for OBJECT). */
 NTS_API const nts_option_info* nts_option_info_of(int id);
 NTS_API int nts_option_find(const char* json, size_t n);
 NTS_API void nts_option_store(struct nts_options* o, int id, const nts_option_value* v);
@@ -167,7 +174,7 @@ NTS_API int nts_option_in_range(int id, double v);
 #define NTS_OPT_HAS_FIELD_NUMBER(x) x
 #define NTS_OPT_HAS_FIELD_ENUM(x) x
 #define NTS_OPT_HAS_FIELD_OUTPUTS(x) x
-#define NTS_OPT_HAS_FIELD_BOX(x)
+#define NTS_OPT_HAS_FIELD_OBJECT(x)
 
 #ifdef __cplusplus
 }
