@@ -37,6 +37,14 @@ static void put_escaped(FILE* f, const char* s, int quote);
        "also write the result for ParaView (VTK XML unstructured\n"                                             \
        "grid: surfaces, forces, contacts with gaps and normals);\n"                                             \
        "with --frames, FILE_000000.vtu, ... and a FILE.pvd series")                                             \
+    XX(HISTORY_IN, "history-in", 0, 1, "FILE", OPTIONS,                                                        \
+       "friction: go on from the anchors of FILE's \"history\" (a\n"                                               \
+       "previous result, or a --history-out file) instead of the\n"                                             \
+       "scene's own (docs/model.md 14)")                                                                         \
+    XX(HISTORY_OUT, "history-out", 0, 1, "FILE", OPTIONS,                                                      \
+       "friction: write the anchors after the evaluation to FILE\n"                                              \
+       "as {\"history\": [...]} (with --frames: the committed ones\n"                                           \
+       "after the last frame; every frame commits)")                                                            \
     XX(MAX_BYTES, "max-bytes", 0, 1, "N", LIMITS, "largest request (default 64M)")                              \
     XX(MAX_DEPTH, "max-depth", 0, 1, "N", LIMITS, "JSON nesting depth (default 32)")                            \
     XX(MAX_BODIES, "max-bodies", 0, 1, "N", LIMITS, "bodies in a scene (default 1000000)")                      \
@@ -375,9 +383,17 @@ static int write_pvd(const char* vtk, long long frames) {
     return bad ? -1 : 0;
 }
 
+/* --history-out: the anchors after the evaluation ({"history": []} when
+ * friction is off: a frictionless contact has none). */
+static int write_history(const char* path, const ntsj_response* resp) {
+    static const char none[] = "{\"history\":[]}\n";
+    return resp->history != NULL ? write_file(path, resp->history, resp->history_length)
+                                 : write_file(path, none, sizeof none - 1);
+}
+
 /* --frames: one session (the scene parsed once), one step per frame. */
 static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, const char* frames,
-                      const char* output, const char* vtk) {
+                      const char* output, const char* vtk, const char* history_out) {
     ntsj_session* ss = NULL;
     ntsj_response resp;
     ntsj_step step;
@@ -439,6 +455,12 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         if (fwrite(resp.body, 1, resp.length, out) != resp.length) write_failed = 1;
         print_warnings(&resp, k);
         if (vtk && !write_failed && write_vtk_frame(vtk, k, &resp) != 0) {
+            ntsj_response_free(&resp);
+            status = EXIT_USAGE;
+            break;
+        }
+        /* the committed anchors after each frame: the last one's stays */
+        if (history_out && !write_failed && write_history(history_out, &resp) != 0) {
             ntsj_response_free(&resp);
             status = EXIT_USAGE;
             break;
@@ -553,6 +575,8 @@ typedef struct cli_args {
     const char* output;
     const char* frames;
     const char* vtk;
+    const char* history_in;
+    const char* history_out;
 } cli_args;
 
 /* One flag of CLI_FLAG_MAP and its value: 0, EXIT_USAGE after a message, or
@@ -568,6 +592,11 @@ static int apply_flag(int k, const char* val, ntsj_config* cfg, cli_args* a) {
     case FLAG_VALIDATE: cfg->mode = NTSJ_VALIDATE; break;
     case FLAG_OUTPUT: a->output = val; break;
     case FLAG_FRAMES: a->frames = val; break;
+    case FLAG_HISTORY_IN: a->history_in = val; break;
+    case FLAG_HISTORY_OUT:
+        a->history_out = val;
+        cfg->history_out = 1;
+        break;
     case FLAG_VTK: {
         size_t len = strlen(val);
         if (len < 5 || strcmp(val + len - 4, ".vtu") != 0)
@@ -658,6 +687,11 @@ static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
     if (a->frames && strcmp(a->frames, "-") == 0 && strcmp(a->input, "-") == 0)
         return usage_error("%s", "--frames - and a scene from standard input: only one can read it");
     if (a->vtk && cfg->mode == NTSJ_VALIDATE) return usage_error("%s", "--vtk writes a result: not with --validate");
+    if (a->history_out && cfg->mode == NTSJ_VALIDATE)
+        return usage_error("%s", "--history-out writes a result's anchors: not with --validate");
+    if (a->history_in && strcmp(a->history_in, "-") == 0 &&
+        ((a->input && strcmp(a->input, "-") == 0) || (a->frames && strcmp(a->frames, "-") == 0)))
+        return usage_error("%s", "--history-in - and another input from standard input: only one can read it");
     if (a->frames && (cfg->mode == NTSJ_VALIDATE || cfg->pretty))
         return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
     return 0;
@@ -666,7 +700,9 @@ static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
 int main(int argc, char** argv) {
     ntsj_config cfg = ntsj_default_config();
     ntsj_response resp;
-    cli_args args = {NULL, NULL, NULL, NULL};
+    cli_args args = {NULL, NULL, NULL, NULL, NULL, NULL};
+    char* history = NULL;
+    size_t history_length = 0;
     const char* input;
     const char* output;
     const char* frames;
@@ -709,13 +745,32 @@ int main(int argc, char** argv) {
             return EXIT_INVALID;
         }
     }
+    if (args.history_in) { /* the anchors to go on from (friction, §14) */
+        FILE* hf = open_input(args.history_in);
+        if (!hf) {
+            free(data);
+            return EXIT_USAGE;
+        }
+        history = read_all(hf, cfg.max_bytes, &history_length, &read_errno);
+        if (hf != stdin) fclose(hf);
+        if (!history) {
+            fprintf(stderr, "ntscontact: cannot read '%s': %s\n", args.history_in,
+                    read_errno ? strerror(read_errno) : "out of memory");
+            free(data);
+            return read_errno ? EXIT_USAGE : EXIT_INTERNAL;
+        }
+        cfg.history = history;
+        cfg.history_length = history_length;
+    }
     if (frames) {
-        status = run_frames(data, length, &cfg, frames, output, vtk);
+        status = run_frames(data, length, &cfg, frames, output, vtk, args.history_out);
+        free(history);
         free(data);
         return status;
     }
     status = ntsj_handle(data, length, &cfg, &resp);
     free(data);
+    free(history);
     if (status != 0 || !resp.body) {
         fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
         return EXIT_INTERNAL;
@@ -737,7 +792,8 @@ int main(int argc, char** argv) {
         out = stdout;
     }
     status = EXIT_DONE;
-    if (vtk && write_file(vtk, resp.vtk, resp.vtk_length) != 0) {
+    if ((vtk && write_file(vtk, resp.vtk, resp.vtk_length) != 0) ||
+        (args.history_out && write_history(args.history_out, &resp) != 0)) {
         if (out != stdout) fclose(out);
         ntsj_response_free(&resp);
         return EXIT_USAGE;

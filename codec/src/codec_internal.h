@@ -92,6 +92,12 @@ typedef struct ntsj_scene {
      * and matches the next step's to them (nts_contact_memory); a stateless
      * request may not ask (handle.c). */
     int has_session, keep_contacts;
+    /* "history" (friction, docs/model.md §14): the anchors a request goes on
+     * from, bodies as indices (handle.c and session.c hand them to
+     * nts_history_set, whose faults point at /history/K). */
+    int has_history;
+    nts_anchor* history;
+    int history_count;
     /* While a session encodes a step that keeps contacts: each contact's
      * match and the step's changes (encode.c); NULL otherwise. */
     const nts_contact_match* match;
@@ -116,6 +122,8 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
                         double elapsed_ms, int pretty);
 void ntsj_encode_validation(ntsj_buf* b, const nts_scene* scene, double elapsed_ms, int pretty);
 void ntsj_encode_error(ntsj_buf* b, const char* code, const char* message, const char* pointer, int pretty);
+/* {"history": [...]}: anchors as a request's "history" takes them (§14). */
+void ntsj_encode_history(ntsj_buf* b, const ntsj_scene* s, const nts_anchor* anchors, int count);
 /* The result as a VTK XML unstructured grid (vtk.c); needs forces and contacts. */
 void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, const nts_result* r);
 /* Attach the VTK document of a successful evaluation to `out` (when asked):
@@ -136,7 +144,7 @@ double ntsj_round_us(double ms);          /* rounded to whole microseconds */
 int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code);
 /* A successful evaluation's summary and warnings into the response (for a
  * binary answer's headers, the CLI's standard error, a front end's counters). */
-void ntsj_keep_summary(ntsj_response* out, const nts_result* r);
+void ntsj_keep_summary(ntsj_response* out, const nts_result* r, int friction);
 int ntsj_respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer, int pretty);
 int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty);
 /* A core error, with the JSON pointer of its place in the scene document. */
@@ -161,7 +169,7 @@ int ntsj_decode_outputs(const struct cJSON* v, const char* ptr, unsigned* out, n
 const char* ntsj_json_type_name(const struct cJSON* v);
 /* An option's value from JSON (a scene's or a step's "options") or from text
  * (a query parameter), at pointer `ptr` ("/options/<name>"): 0, or -1 with
- * *fault. Not for BOX rows (the scene's periodic box: decode.c). */
+ * *fault. Not for OBJECT rows (the periodic box, friction: decode.c). */
 int ntsj_option_json(int id, const struct cJSON* v, const char* ptr, nts_option_value* out, ntsj_fault* fault);
 int ntsj_option_text(int id, const char* text, const char* ptr, nts_option_value* out, ntsj_fault* fault);
 /* The JSON names of the options of a door (NTS_OPTION_DOOR_*), "a, b, c". */

@@ -25,6 +25,7 @@ typedef struct decoder {
     ntsj_fault* fault;
     ntsj_scene* scene;
     int oom;
+    int* order; /* the bodies in id order (check_unique_ids), for the history's lookups; or NULL */
 } decoder;
 
 /* ---------------------------------------------------------- pointers */
@@ -151,6 +152,27 @@ static int decode_periodic(decoder* d, const cJSON* v) {
     return 0;
 }
 
+/* "friction": {"coefficient": mu, "tangential_penalty": eps_T} (docs/model.md
+ * §14). The ranges are the core's (nts_options_validate), whose faults
+ * ntsj_pointer_of_error points back here. */
+static int decode_friction(decoder* d, const cJSON* v) {
+    static const char* const names[] = {"coefficient", "tangential_penalty"};
+    const cJSON* f[2];
+    double x[2] = {0.0, 0.0};
+    int i;
+    if (!cJSON_IsObject(v)) return fail_type(d, "/options/friction", v, "an object {\"coefficient\", \"tangential_penalty\"}");
+    if (take_fields(d, v, "/options/friction", names, 2, f) != 0) return -1;
+    if (!f[0]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), "/options/friction/coefficient", "friction needs a \"coefficient\" (Coulomb's mu)");
+    for (i = 0; i < 2; ++i) {
+        char p[64];
+        snprintf(p, sizeof p, "/options/friction/%s", names[i]);
+        if (f[i] && get_number(d, f[i], p, &x[i]) != 0) return -1;
+    }
+    d->scene->options.friction = x[0];
+    d->scene->options.tangential_penalty = x[1]; /* 0: the penalty */
+    return 0;
+}
+
 /* A scene's "options": every row of the table, in its order; `given` gets a
  * bit for each option present (the required ones are checked with the
  * overrides, which may supply them). */
@@ -164,8 +186,8 @@ static int decode_options(decoder* d, const cJSON* v, unsigned* given) {
         nts_option_value val;
         if (!f[id]) continue;
         *given |= 1u << id;
-        if (nts_option_info_of(id)->kind == NTS_OPTION_KIND_BOX) {
-            if (decode_periodic(d, f[id]) != 0) return -1;
+        if (nts_option_info_of(id)->kind == NTS_OPTION_KIND_OBJECT) {
+            if ((id == NTS_OPT_PERIODIC ? decode_periodic(d, f[id]) : decode_friction(d, f[id])) != 0) return -1;
             continue;
         }
         snprintf(ptr, sizeof ptr, "/options/%s", option_fields[id]);
@@ -209,9 +231,9 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
 }
 
 static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points",
-                                          "reference", "surface"};
+                                          "reference", "surface", "friction"};
 enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE,
-       BODY_SURFACE, BODY_COUNT };
+       BODY_SURFACE, BODY_FRICTION, BODY_COUNT };
 
 /* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
  * the caller: the core does not use it). Checked: one non-negative integer per node. */
@@ -484,6 +506,14 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         if (!(bd->alpha >= 0.0 && bd->alpha <= 0.5)) return fail(d, nts_status_name(NTS_EINVALID_OPTION), p, "alpha must be in [0, 0.5]");
         bd->has_alpha = 1;
     }
+    if (f[BODY_FRICTION]) {
+        /* The body's own Coulomb coefficient (§14; its range: the core's). */
+        char p[80];
+        nts_body_def* bd = &d->scene->defs[b];
+        snprintf(p, sizeof p, "%s/friction", ptr);
+        if (get_number(d, f[BODY_FRICTION], p, &bd->friction) != 0) return -1;
+        bd->has_friction = 1;
+    }
     if (f[BODY_ROLE]) {
         char p[80];
         const cJSON* r = f[BODY_ROLE];
@@ -558,7 +588,7 @@ static int check_unique_ids(decoder* d) {
             }
         }
     }
-    nts_free(idx);
+    d->order = idx; /* kept for body_of_id, freed by ntsj_decode */
     if (worst >= 0) {
         char p[64];
         snprintf(p, sizeof p, "/bodies/%d/id", worst);
@@ -587,6 +617,7 @@ void ntsj_scene_free(ntsj_scene* s) {
     nts_free(s->ints);
     nts_free(s->refs);
     nts_free(s->surfs);
+    nts_free(s->history);
     memset(s, 0, sizeof *s);
 }
 
@@ -596,8 +627,133 @@ static void* alloc_zero(size_t count, size_t size) {
     return p;
 }
 
-static const char* const root_fields[] = {"version", "options", "bodies", "$schema", "session"};
-enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_SESSION, ROOT_COUNT };
+static const char* const root_fields[] = {"version", "options", "bodies", "$schema", "session", "history"};
+enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_SESSION, ROOT_HISTORY, ROOT_COUNT };
+
+/* ---------------------------------------------------------- history */
+
+/* The body whose id is `v` (a string or an integer), by bisection of the ids
+ * in order (check_unique_ids): -1 when there is none. */
+static int body_of_id(const decoder* d, const cJSON* v) {
+    ntsj_id key;
+    int lo = 0, hi = d->scene->body_count;
+    memset(&key, 0, sizeof key);
+    if (cJSON_IsString(v)) {
+        key.sval = v->valuestring;
+    } else if (cJSON_IsNumber(v) && v->valuedouble == floor(v->valuedouble) && fabs(v->valuedouble) < 9007199254740992.0) {
+        key.is_int = 1;
+        key.ival = (long long)v->valuedouble;
+    } else {
+        return -1;
+    }
+    while (lo < hi) {
+        const int mid = lo + (hi - lo) / 2;
+        const int c = compare_ids(&d->scene->ids[d->order[mid]], &key);
+        if (c == 0) return d->order[mid];
+        if (c < 0) lo = mid + 1;
+        else hi = mid;
+    }
+    return -1;
+}
+
+/* A history entry's body id at `ptr`: its index, or -1 with the fault. */
+static int history_body(decoder* d, const cJSON* v, const char* ptr) {
+    int b;
+    if (!v) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), ptr, "a history entry needs this body's id");
+    if (!cJSON_IsString(v) && !cJSON_IsNumber(v)) return fail_type(d, ptr, v, "a body id (a string or an integer)");
+    if ((b = body_of_id(d, v)) < 0) return fail(d, nts_status_name(NTS_EINVALID_HISTORY), ptr, "no body of the scene has this id");
+    return b;
+}
+
+/* A node index of body b at `ptr`: 0, or -1 with the fault. */
+static int history_node(decoder* d, const cJSON* v, const char* ptr, int b, int* out) {
+    const int n = d->scene->defs[b].node_count;
+    if (!cJSON_IsNumber(v)) return fail_type(d, ptr, v, "a node index (an integer)");
+    if (v->valuedouble != floor(v->valuedouble)) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "a node index must be an integer");
+    if (!(v->valuedouble >= 0.0 && v->valuedouble < (double)n)) {
+        ntsj_fault_set(d->fault, nts_status_name(NTS_EINDEX_RANGE), ptr, "node index %.17g is out of range [0, %d)",
+                       v->valuedouble, n);
+        return -1;
+    }
+    *out = (int)v->valuedouble;
+    return 0;
+}
+
+static const char* const anchor_fields[] = {"slave", "master", "kind", "nodes", "param"};
+enum { ANCHOR_SLAVE, ANCHOR_MASTER, ANCHOR_KIND, ANCHOR_NODES, ANCHOR_PARAM, ANCHOR_COUNT };
+static const char* const slave_fields[] = {"body", "node"};
+
+/* One entry of "history" (result.schema.json's anchor): its fields, types
+ * and indices; whether it is an anchor of the scene (a segment, corner or
+ * vertex of the master's boundary, each key once) is nts_history_set's. */
+static int decode_anchor(decoder* d, int k, const cJSON* v, nts_anchor* a) {
+    const cJSON* f[ANCHOR_COUNT];
+    const cJSON* sf[2];
+    const cJSON* e;
+    char ptr[64], p[96];
+    int i, need;
+    snprintf(ptr, sizeof ptr, "/history/%d", k);
+    if (!cJSON_IsObject(v)) return fail_type(d, ptr, v, "an anchor {\"slave\", \"master\", \"kind\", \"nodes\", \"param\"}");
+    if (take_fields(d, v, ptr, anchor_fields, ANCHOR_COUNT, f) != 0) return -1;
+    for (i = 0; i < ANCHOR_COUNT; ++i)
+        if (!f[i]) {
+            snprintf(p, sizeof p, "%s/%s", ptr, anchor_fields[i]);
+            return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), p, "a history entry needs slave, master, kind, nodes and param");
+        }
+    memset(a, 0, sizeof *a);
+    snprintf(p, sizeof p, "%s/slave", ptr);
+    if (!cJSON_IsObject(f[ANCHOR_SLAVE])) return fail_type(d, p, f[ANCHOR_SLAVE], "an object {\"body\", \"node\"}");
+    if (take_fields(d, f[ANCHOR_SLAVE], p, slave_fields, 2, sf) != 0) return -1;
+    snprintf(p, sizeof p, "%s/slave/body", ptr);
+    if ((a->slave_body = history_body(d, sf[0], p)) < 0) return -1;
+    snprintf(p, sizeof p, "%s/slave/node", ptr);
+    if (!sf[1]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), p, "a history entry needs the slave's node");
+    if (history_node(d, sf[1], p, a->slave_body, &a->slave_node) != 0) return -1;
+    snprintf(p, sizeof p, "%s/master", ptr);
+    if ((a->master_body = history_body(d, f[ANCHOR_MASTER], p)) < 0) return -1;
+    snprintf(p, sizeof p, "%s/kind", ptr);
+    if (!cJSON_IsString(f[ANCHOR_KIND])) return fail_type(d, p, f[ANCHOR_KIND], "a feature kind (a string)");
+    if (strcmp(f[ANCHOR_KIND]->valuestring, "segment") == 0) a->kind = NTS_KIND_SEGMENT;
+    else if (strcmp(f[ANCHOR_KIND]->valuestring, "corner") == 0) a->kind = NTS_KIND_CORNER;
+    else if (strcmp(f[ANCHOR_KIND]->valuestring, "vertex") == 0) a->kind = NTS_KIND_VERTEX;
+    else return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), p, "unknown kind (expected segment, corner or vertex)");
+    need = a->kind == NTS_KIND_SEGMENT ? 2 : a->kind == NTS_KIND_CORNER ? 3 : 1;
+    snprintf(p, sizeof p, "%s/nodes", ptr);
+    if (!cJSON_IsArray(f[ANCHOR_NODES])) return fail_type(d, p, f[ANCHOR_NODES], "an array of the feature's node indices");
+    if (array_size(f[ANCHOR_NODES]) != need) {
+        ntsj_fault_set(d->fault, nts_status_name(NTS_EINVALID_HISTORY), p, "a %s has %d nodes", f[ANCHOR_KIND]->valuestring, need);
+        return -1;
+    }
+    a->nodes[0] = a->nodes[1] = a->nodes[2] = -1;
+    i = 0;
+    cJSON_ArrayForEach(e, f[ANCHOR_NODES]) {
+        snprintf(p, sizeof p, "%s/nodes/%d", ptr, i);
+        if (history_node(d, e, p, a->master_body, &a->nodes[i]) != 0) return -1;
+        ++i;
+    }
+    snprintf(p, sizeof p, "%s/param", ptr);
+    return get_number(d, f[ANCHOR_PARAM], p, &a->param);
+}
+
+/* "history": the anchors of a previous result (a stateless request's, or a
+ * session's start), after the bodies (it names them by id). */
+static int decode_history(decoder* d, const cJSON* v) {
+    const cJSON* e;
+    int n, k = 0;
+    if (!cJSON_IsArray(v)) return fail_type(d, "/history", v, "an array of anchors (a previous result's \"history\")");
+    n = array_size(v);
+    d->scene->history = (nts_anchor*)nts_alloc(sizeof(nts_anchor) * (size_t)(n > 0 ? n : 1));
+    if (d->scene->history == NULL) {
+        d->oom = 1;
+        return -1;
+    }
+    d->scene->has_history = 1;
+    cJSON_ArrayForEach(e, v) {
+        if (decode_anchor(d, k, e, &d->scene->history[k]) != 0) return -1;
+        d->scene->history_count = ++k;
+    }
+    return 0;
+}
 
 /* "session": what a session keeps between its steps (docs/sessions.md). */
 static const char* const session_fields[] = {"keep_contacts"};
@@ -614,6 +770,34 @@ static int decode_session(decoder* d, const cJSON* v) {
         d->scene->keep_contacts = cJSON_IsTrue(f[SESSION_KEEP_CONTACTS]);
     }
     return 0;
+}
+
+/* ntsj_config.history: a document whose "history" replaces the request's
+ * (the CLI's --history-in); its faults are named in it. */
+static int history_document(decoder* d) {
+    cJSON* root;
+    const cJSON* h = NULL;
+    const cJSON* m;
+    int rc;
+    if (d->cfg->max_bytes > 0 && d->cfg->history_length > d->cfg->max_bytes)
+        return fail(d, ntsj_code_name(NTSJ_PAYLOAD_TOO_LARGE), "", "the history document is more than max_bytes");
+    if (ntsj_scan(d->cfg->history, d->cfg->history_length, d->cfg->max_depth > 0 ? d->cfg->max_depth : 32, d->fault) != 0) {
+        char msg[sizeof d->fault->message];
+        snprintf(msg, sizeof msg, "the history document: %.200s", d->fault->message);
+        snprintf(d->fault->message, sizeof d->fault->message, "%s", msg);
+        return -1;
+    }
+    root = cJSON_ParseWithLengthOpts(d->cfg->history, d->cfg->history_length, NULL, 0);
+    if (root == NULL) {
+        d->oom = 1;
+        return -1;
+    }
+    cJSON_ArrayForEach(m, root) if (cJSON_IsObject(root) && m->string && strcmp(m->string, "history") == 0) h = m;
+    rc = h ? decode_history(d, h)
+           : fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), "/history",
+                  "the history document has no \"history\" (give a previous result, or a history written with it)");
+    cJSON_Delete(root);
+    return rc;
 }
 
 static int decode_root(decoder* d, const cJSON* root) {
@@ -682,7 +866,9 @@ static int decode_root(decoder* d, const cJSON* root) {
         if (decode_body(d, b, body, &total) != 0) return -1;
         ++b;
     }
-    return check_unique_ids(d);
+    if (check_unique_ids(d) != 0) return -1;
+    if (d->cfg->history != NULL) return history_document(d);
+    return f[ROOT_HISTORY] ? decode_history(d, f[ROOT_HISTORY]) : 0;
 }
 
 int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault) {
@@ -692,7 +878,12 @@ int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, n
     d.fault = fault;
     d.scene = out;
     d.oom = 0;
-    if (decode_root(&d, root) == 0) return 0;
+    d.order = NULL;
+    if (decode_root(&d, root) == 0) {
+        nts_free(d.order);
+        return 0;
+    }
+    nts_free(d.order);
     ntsj_scene_free(out);
     if (d.oom) {
         ntsj_fault_set(fault, nts_status_name(NTS_ENOMEM), "", "out of memory while decoding the request");
@@ -726,8 +917,17 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
             snprintf(out + len, size - len, "/%d", err->item);
         return;
     }
+    if (strcmp(err->option, "history") == 0) { /* nts_history_set: the entry */
+        if (err->item >= 0) snprintf(out, size, "/history/%d", err->item);
+        else snprintf(out, size, "/history");
+        return;
+    }
     if (err->option[0]) {
-        if (strcmp(err->option, "lx") == 0 || strcmp(err->option, "ly") == 0)
+        if (strcmp(err->option, "friction") == 0)
+            snprintf(out, size, "/options/friction/coefficient");
+        else if (strcmp(err->option, "tangential_penalty") == 0)
+            snprintf(out, size, "/options/friction/tangential_penalty");
+        else if (strcmp(err->option, "lx") == 0 || strcmp(err->option, "ly") == 0)
             snprintf(out, size, "/options/periodic/%s", err->option);
         else if (strcmp(err->option, "periodic") == 0 || strcmp(err->option, "box") == 0)
             snprintf(out, size, "/options/periodic");

@@ -98,7 +98,8 @@ static void w_vec2(writer* w, nts_vec2 v) {
     w_close(w, ']');
 }
 
-static void w_virial(writer* w, nts_virial v) {
+/* With friction the virial is not symmetric (docs/model.md (28)): yx too. */
+static void w_virial(writer* w, nts_virial v, int friction) {
     w_open(w, '{', 1);
     w_key(w, "xx");
     w_double(w, v.xx);
@@ -106,6 +107,10 @@ static void w_virial(writer* w, nts_virial v) {
     w_double(w, v.yy);
     w_key(w, "xy");
     w_double(w, v.xy);
+    if (friction) {
+        w_key(w, "yx");
+        w_double(w, v.yx);
+    }
     w_close(w, '}');
 }
 
@@ -130,9 +135,66 @@ static const char* kind_name(nts_kind k) {
     }
 }
 
+static const char* state_name(int state) {
+    switch (state) {
+    case NTS_STICK: return "stick";
+    case NTS_SLIP: return "slip";
+    default: return "frictionless";
+    }
+}
+
+/* A feature's nodes: a segment's two, a corner's three, a vertex's one. */
+static int kind_nodes(nts_kind k) { return k == NTS_KIND_SEGMENT ? 2 : k == NTS_KIND_CORNER ? 3 : 1; }
+
+/* An anchor's feature (§14, (23)): {"kind", "nodes", "param"}, members of an
+ * open object. */
+static void w_anchor_feature(writer* w, const nts_anchor* a) {
+    int i;
+    w_key(w, "kind");
+    w_string(w, kind_name(a->kind));
+    w_key(w, "nodes");
+    w_open(w, '[', 1);
+    for (i = 0; i < kind_nodes(a->kind); ++i) w_int(w, a->nodes[i]);
+    w_close(w, ']');
+    w_key(w, "param");
+    w_double(w, a->param);
+}
+
+/* One entry of "history": the key (slave body and node, master body) and
+ * the anchor's feature (result.schema.json's anchor). */
+static void w_history_entry(writer* w, const ntsj_scene* s, const nts_anchor* a) {
+    w_open(w, '{', 1);
+    w_key(w, "slave");
+    w_open(w, '{', 1);
+    w_key(w, "body");
+    w_id(w, &s->ids[a->slave_body]);
+    w_key(w, "node");
+    w_int(w, a->slave_node);
+    w_close(w, '}');
+    w_key(w, "master");
+    w_id(w, &s->ids[a->master_body]);
+    w_anchor_feature(w, a);
+    w_close(w, '}');
+}
+
+void ntsj_encode_history(ntsj_buf* b, const ntsj_scene* s, const nts_anchor* anchors, int count) {
+    writer w;
+    int i;
+    w_init(&w, b, 0);
+    ntsj_buf_hint(b, (size_t)count * 96u + 16u);
+    w_open(&w, '{', 0);
+    w_key(&w, "history");
+    w_open(&w, '[', 0);
+    for (i = 0; i < count; ++i) w_history_entry(&w, s, &anchors[i]);
+    w_close(&w, ']');
+    w_close(&w, '}');
+    w_finish(&w);
+}
+
 /* `m`: the contact's match to the session's previous step (keep_contacts),
- * or NULL. */
-static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int full, const nts_contact_match* m) {
+ * or NULL; `a`: its anchor after the step with friction on, or NULL. */
+static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int full, const nts_contact_match* m,
+                      const nts_anchor* a) {
     int i;
     w_open(w, '{', 0);
     w_key(w, "slave");
@@ -176,7 +238,19 @@ static void w_contact(writer* w, const ntsj_scene* s, const nts_contact* c, int 
         w_key(w, "force");
         w_vec2(w, c->force);
         w_key(w, "virial");
-        w_virial(w, c->virial);
+        w_virial(w, c->virial, a != NULL);
+    }
+    if (full && a != NULL) { /* friction (§14): the tangential part of `force`, the state, the slip, the anchor */
+        w_key(w, "tangential_force");
+        w_vec2(w, c->tangential_force);
+        w_key(w, "state");
+        w_string(w, state_name(c->state));
+        w_key(w, "slip");
+        w_double(w, c->slip);
+        w_key(w, "anchor");
+        w_open(w, '{', 1);
+        w_anchor_feature(w, a);
+        w_close(w, '}');
     }
     if (m != NULL) {
         /* the previous step's contact of the same pair (its index in that
@@ -194,6 +268,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     writer w;
     const nts_summary* sm = &r->summary;
     unsigned outputs = s->options.outputs;
+    const int friction = nts_friction_on(scene, &s->options) && (r->anchor_count == 0 || r->anchors != NULL);
     int i, k;
     w_init(&w, b, pretty);
     /* Reserve roughly what the forces and the pressure will take up front:
@@ -222,7 +297,15 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     w_key(&w, "energy");
     w_double(&w, sm->energy);
     w_key(&w, "virial");
-    w_virial(&w, sm->virial);
+    w_virial(&w, sm->virial, friction);
+    if (friction) { /* §14, (27) */
+        w_key(&w, "dissipation");
+        w_double(&w, sm->dissipation);
+        w_key(&w, "sticking");
+        w_int(&w, sm->sticking);
+        w_key(&w, "slipping");
+        w_int(&w, sm->slipping);
+    }
     w_key(&w, "max_penetration");
     w_double(&w, sm->max_penetration);
     w_key(&w, "loops_reversed");
@@ -293,7 +376,9 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     if ((outputs & NTS_OUT_CONTACTS) && r->contacts) {
         w_key(&w, "contacts");
         w_open(&w, '[', 0);
-        for (i = 0; i < r->contact_count; ++i) w_contact(&w, s, &r->contacts[i], 1, s->match != NULL ? &s->match[i] : NULL);
+        for (i = 0; i < r->contact_count; ++i)
+            w_contact(&w, s, &r->contacts[i], 1, s->match != NULL ? &s->match[i] : NULL,
+                      friction && i < r->anchor_count ? &r->anchors[i] : NULL);
         w_close(&w, ']');
     } else if (outputs & NTS_OUT_CONTACTS) {
         w_key(&w, "contacts");
@@ -303,7 +388,7 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
     if ((outputs & NTS_OUT_GAPS)) {
         w_key(&w, "gaps");
         w_open(&w, '[', 0);
-        for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0, NULL);
+        for (i = 0; r->gaps && i < r->gap_count; ++i) w_contact(&w, s, &r->gaps[i], 0, NULL, NULL);
         w_close(&w, ']');
     }
     if (outputs & NTS_OUT_STIFFNESS) {
@@ -328,6 +413,16 @@ void ntsj_encode_result(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene
         for (i = 0; i < t->count; ++i) w_double(&w, t->values[i]);
         w_close(&w, ']');
         w_close(&w, '}');
+    }
+    if (friction) {
+        /* The anchors after this step, whatever the outputs: what a session
+         * commits, and what the next stateless request may carry as its
+         * "history" to go on from here (§14). */
+        ntsj_buf_hint(b, (size_t)r->anchor_count * 96u + 16u);
+        w_key(&w, "history");
+        w_open(&w, '[', 0);
+        for (i = 0; i < r->anchor_count; ++i) w_history_entry(&w, s, &r->anchors[i]);
+        w_close(&w, ']');
     }
     w_close(&w, '}');
     w_finish(&w);

@@ -38,9 +38,10 @@ double ntsj_now_ms(void) {
 /* Elapsed wall time rounded to whole microseconds: the digits beyond are noise. */
 double ntsj_round_us(double ms) { return floor(ms * 1e3 + 0.5) / 1e3; }
 
-void ntsj_keep_summary(ntsj_response* out, const nts_result* r) {
+void ntsj_keep_summary(ntsj_response* out, const nts_result* r, int friction) {
     int k;
     out->summary = r->summary;
+    out->friction = friction;
     out->warning_count = r->warning_count < NTS_WARN_COUNT_ ? r->warning_count : NTS_WARN_COUNT_;
     for (k = 0; k < out->warning_count; ++k) out->warnings[k] = r->warnings[k];
 }
@@ -180,6 +181,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     nts_scene_def def;
     nts_scene* scene = NULL;
     nts_context* ctx = NULL;
+    nts_history* history = NULL;
     nts_result result;
     nts_error err = nts_error_none();
     cJSON* root;
@@ -246,10 +248,26 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         return rc;
     }
 
+    /* A previous result's anchors, checked against this scene (§14). */
+    if (s.has_history) {
+        history = nts_history_create();
+        if (history == NULL) rc = NTS_ENOMEM;
+        else rc = nts_history_set(history, scene, s.history, s.history_count, &err);
+        if (rc != 0) {
+            rc = rc == NTS_ENOMEM ? ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty)
+                                  : ntsj_respond_core(out, &s, &err, rc, pretty);
+            nts_history_destroy(history);
+            nts_scene_destroy(scene);
+            ntsj_scene_free(&s);
+            return rc;
+        }
+    }
+
     ntsj_buf_init(&b);
     {
         nts_options opt = s.options;
         ntsj_deadline deadline;
+        opt.history = history;
         /* The summary is always complete: energy and virial are always computed.
          * Validation evaluates too (with no arrays): faults that depend on the
          * options and the whole scene (a periodic box too small for the search
@@ -259,6 +277,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         ntsj_arm_deadline(&opt, &deadline, &cfg, t0);
         ctx = nts_context_create();
         if (!ctx) {
+            nts_history_destroy(history);
             nts_scene_destroy(scene);
             ntsj_scene_free(&s);
             return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
@@ -277,10 +296,19 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             ntsj_encode_validation(&b, scene, ntsj_round_us(elapsed), pretty);
         } else {
             ntsj_encode_result(&b, &s, scene, &result, ntsj_round_us(elapsed), pretty);
-            ntsj_keep_summary(&kept, &result);
+            ntsj_keep_summary(&kept, &result, nts_friction_on(scene, &s.options));
+            if (cfg.history_out && kept.friction) {
+                ntsj_buf h;
+                ntsj_buf_init(&h);
+                ntsj_encode_history(&h, &s, result.anchors, result.anchor_count);
+                if (h.oom || !h.data) b.oom = 1;
+                kept.history = h.data;
+                kept.history_length = h.len;
+            }
             if (cfg.vtk && ntsj_attach_vtk(out, &s, scene, &result) != 0) b.oom = 1;
         }
         nts_context_destroy(ctx);
+        nts_history_destroy(history);
         if (done) {
             ntsj_buf_free(&b);
             nts_scene_destroy(scene);
@@ -293,9 +321,14 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) { /* for the front end's counters and warnings */
         out->summary = kept.summary;
+        out->friction = kept.friction;
+        out->history = kept.history;
+        out->history_length = kept.history_length;
+        kept.history = NULL;
         out->warning_count = kept.warning_count;
         memcpy(out->warnings, kept.warnings, sizeof out->warnings);
     }
+    nts_free(kept.history);
     return rc;
 }
 
@@ -303,6 +336,9 @@ void ntsj_response_free(ntsj_response* response) {
     if (!response) return;
     nts_free(response->body);
     nts_free(response->vtk);
+    nts_free(response->history);
+    response->history = NULL;
+    response->history_length = 0;
     response->body = NULL;
     response->length = 0;
     response->vtk = NULL;

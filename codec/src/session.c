@@ -32,6 +32,12 @@ struct ntsj_session {
     nts_limits limits;
     unsigned long long steps;
     nts_contact_memory* memory; /* "session": {"keep_contacts": true}; else NULL */
+    /* Friction (docs/model.md §14; NULL without): the committed anchors each
+     * step is a trial from, and a committing step's anchors until the answer
+     * is sent (defer_commit: ntsj_session_commit swaps them in). */
+    nts_history* history;
+    nts_history* staged;
+    int staged_pending;
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
@@ -58,7 +64,8 @@ ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
     i.steps = ss->steps;
     i.memory_bytes = sizeof *ss + decoded_bytes(&ss->js) + nts_scene_memory_bytes(ss->scene) +
                      nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2) +
-                     nts_contact_memory_bytes(ss->memory);
+                     nts_contact_memory_bytes(ss->memory) + nts_history_bytes(ss->history) +
+                     nts_history_bytes(ss->staged);
     return i;
 }
 
@@ -70,6 +77,8 @@ void ntsj_session_destroy(ntsj_session* ss) {
     if (ss == NULL) return;
     nts_context_destroy(ss->ctx);
     nts_contact_memory_destroy(ss->memory);
+    nts_history_destroy(ss->history);
+    nts_history_destroy(ss->staged);
     nts_scene_destroy(ss->scene);
     nts_free(ss->next);
     ntsj_scene_free(&ss->js);
@@ -161,15 +170,32 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     ss->ctx = nts_context_create();
     ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
     if (ss->js.keep_contacts) ss->memory = nts_contact_memory_create();
-    if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL)) {
+    if (nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history) {
+        ss->history = nts_history_create();
+        ss->staged = nts_history_create();
+    }
+    if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL) ||
+        ((nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history) && (ss->history == NULL || ss->staged == NULL))) {
         ntsj_session_destroy(ss);
         return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
+    }
+    /* A scene that carries a "history" starts from it (a client that had to
+     * create its session anew gives the last committed anchors back). */
+    if (ss->js.has_history) {
+        rc = nts_history_set(ss->history, ss->scene, ss->js.history, ss->js.history_count, &err);
+        if (rc != 0) {
+            rc = rc == NTS_ENOMEM ? ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty)
+                                  : ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
+            ntsj_session_destroy(ss);
+            return rc;
+        }
     }
     /* "Valid" means "evaluates": faults that depend on the options and the
      * whole scene (a periodic box too small for the search reach) show now. */
     {
         nts_options opt = ss->js.options;
         opt.outputs = 0u;
+        opt.history = ss->history;
         rc = nts_evaluate(ss->ctx, ss->scene, &opt, &result, &err);
         if (rc != 0) {
             rc = ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
@@ -277,8 +303,8 @@ static int step_option(const char* name, const char* ptr, const char* what, ntsj
     char names[160];
     if (id >= 0 && (nts_option_info_of(id)->doors & NTS_OPTION_DOOR_STEP)) return id;
     ntsj_option_door_names(NTS_OPTION_DOOR_STEP, names, sizeof names);
-    ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr, "unknown %s \"%.64s\" (a step overrides %s)", what, name,
-                   names);
+    ntsj_fault_set(f, ntsj_code_name(NTSJ_UNKNOWN_FIELD), ptr, "unknown %s \"%.64s\" (a step overrides %s%s)", what, name,
+                   names, strcmp(what, "query parameter") == 0 ? "; and takes commit" : "");
     return -1;
 }
 
@@ -308,15 +334,26 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
     return 0;
 }
 
-/* Query parameters (binary steps): the same names, values as text. */
-static int query_options(const ntsj_step* st, nts_options* o, ntsj_fault* f) {
-    int k;
+/* Query parameters (binary steps): the same names, values as text; and
+ * "commit" (true or false: whether a step's friction anchors become the
+ * session's history, §14), which is not an option. */
+static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_fault* f) {
+    int k, seen_commit = 0;
     for (k = 0; k < st->param_count; ++k) {
         const char* name = st->param_names[k] ? st->param_names[k] : "";
         const char* val = st->param_values[k] ? st->param_values[k] : "";
         char ptr[96];
         nts_option_value v;
         int i;
+        if (strcmp(name, "commit") == 0) {
+            if (seen_commit++ || (strcmp(val, "true") != 0 && strcmp(val, "false") != 0)) {
+                ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "/commit",
+                               seen_commit > 1 ? "query parameter commit given twice" : "commit=%.32s: expected true or false", val);
+                return -1;
+            }
+            *commit = strcmp(val, "true") == 0;
+            continue;
+        }
         snprintf(ptr, sizeof ptr, "/options/%.64s", name);
         if ((i = step_option(name, ptr, "query parameter", f)) < 0) return -1;
         memset(&v, 0, sizeof v);
@@ -412,6 +449,17 @@ static int step_too_large(ntsj_response* out, const ntsj_config* cfg, const char
     return ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", pretty);
 }
 
+/* The staged anchors of the last answered step with commit become the
+ * history (a swap: nothing allocates). */
+static void commit_history(ntsj_session* ss) {
+    nts_history* h;
+    if (ss == NULL || !ss->staged_pending) return;
+    h = ss->history;
+    ss->history = ss->staged;
+    ss->staged = h;
+    ss->staged_pending = 0;
+}
+
 /* The step itself (ntsj_session_step gives back what a failed one grew). */
 static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config* config, ntsj_response* out) {
     ntsj_config cfg = config ? *config : ntsj_default_config();
@@ -423,12 +471,13 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     ntsj_buf b;
     const nts_contact_match* match = NULL;
     nts_contact_changes changes;
-    int rc, pretty = cfg.pretty, have_positions = 0, capped;
+    int rc, pretty = cfg.pretty, have_positions = 0, capped, commit = 1;
     size_t held, grown = 0;
 
     memset(out, 0, sizeof *out);
     memset(&fault, 0, sizeof fault);
     if (ss == NULL || st == NULL) return ntsj_respond_error(out, nts_status_name(NTS_EINTERNAL), "no session", "", pretty);
+    ss->staged_pending = 0; /* an answer refused after the last step (the daemon's budget): not committed */
     if (cfg.max_depth <= 0) cfg.max_depth = 32;
     held = nts_context_memory_bytes(ss->ctx);
     opt = ss->js.options;
@@ -437,7 +486,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         if (read_binary(ss, st->body, st->length, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
         have_positions = 1;
     } else if (st->kind == NTSJ_STEP_JSON && st->length > 0) {
-        static const char* const fields[] = {"positions", "options"};
+        static const char* const fields[] = {"positions", "options", "commit"};
         const cJSON* m;
         cJSON* root;
         unsigned seen = 0;
@@ -453,16 +502,26 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         rc = 0;
         cJSON_ArrayForEach(m, root) {
             const char* key = m->string ? m->string : "";
-            int i = strcmp(key, fields[0]) == 0 ? 0 : strcmp(key, fields[1]) == 0 ? 1 : -1;
+            int i = strcmp(key, fields[0]) == 0 ? 0 : strcmp(key, fields[1]) == 0 ? 1 : strcmp(key, fields[2]) == 0 ? 2 : -1;
             if (i < 0 || (seen & (1u << i))) {
                 ntsj_fault_set(&fault, i < 0 ? ntsj_code_name(NTSJ_UNKNOWN_FIELD) : ntsj_code_name(NTSJ_DUPLICATE_KEY), "",
-                               i < 0 ? "unknown field \"%.64s\" (a step has \"positions\" and \"options\")"
+                               i < 0 ? "unknown field \"%.64s\" (a step has \"positions\", \"options\" and \"commit\")"
                                      : "key \"%.64s\" appears more than once", key);
                 snprintf(fault.pointer, sizeof fault.pointer, "/%.64s", key);
                 rc = -1;
                 break;
             }
             seen |= 1u << i;
+            if (i == 2) { /* friction (§14): whether this step's anchors become the history */
+                if (!cJSON_IsBool(m)) {
+                    ntsj_fault_set(&fault, ntsj_code_name(NTSJ_INVALID_TYPE), "/commit", "expected true or false, got %s",
+                                   ntsj_json_type_name(m));
+                    rc = -1;
+                    break;
+                }
+                commit = cJSON_IsTrue(m);
+                continue;
+            }
             rc = i == 0 ? read_json_positions(ss, m, &fault) : json_options(m, &opt, &fault);
             if (rc != 0) break;
             if (i == 0) have_positions = 1;
@@ -470,7 +529,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         cJSON_Delete(root);
         if (rc != 0) return ntsj_respond_fault(out, &fault, pretty);
     }
-    if (query_options(st, &opt, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+    if (query_options(st, &opt, &commit, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
     if (nts_options_validate(&opt, &err) != 0)
         return ntsj_respond_core(out, &ss->js, &err, NTS_EINVALID_OPTION, pretty);
 
@@ -488,6 +547,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         ntsj_deadline deadline;
         ntsj_arm_deadline(&eo, &deadline, &cfg, t0);
         if (ss->memory != NULL) eo.outputs |= NTS_OUT_CONTACTS; /* what the memory keeps */
+        eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
         capped = cap_candidates(ss, &cfg, &eo);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
@@ -529,13 +589,34 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         out->vtk_length = 0;
         return step_too_large(out, &cfg, "answer", pretty);
     }
+    /* A committing step's anchors, staged (the history itself stays what
+     * this step was a trial from until the answer is sent). */
+    ss->staged_pending = 0;
+    if (ss->history != NULL && commit && b.data != NULL && !b.oom) {
+        if (nts_history_commit(ss->staged, &result) != NTS_OK) b.oom = 1;
+        else ss->staged_pending = 1;
+    }
     rc = ntsj_finish(out, &b, "ok");
     if (rc == 0) {
         if (ss->memory != NULL && !st->defer_commit) (void)nts_contact_memory_commit(ss->memory);
+        if (!st->defer_commit) commit_history(ss);
+        if (cfg.history_out && ss->history != NULL) { /* the committed anchors after this step */
+            ntsj_buf h;
+            int count = 0;
+            const nts_anchor* a = nts_history_anchors(ss->history, &count);
+            ntsj_buf_init(&h);
+            ntsj_encode_history(&h, &ss->js, a, count);
+            out->history = h.data;
+            out->history_length = h.len;
+            if (h.oom || !h.data) {
+                ntsj_response_free(out);
+                return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
+            }
+        }
         ss->steps++;
         out->binary = st->answer_binary;
         out->triplets = st->answer_binary ? result.stiffness.count : 0;
-        ntsj_keep_summary(out, &result);
+        ntsj_keep_summary(out, &result, ss->history != NULL && nts_friction_on(ss->scene, &opt));
         out->elapsed_ms = ntsj_round_us(ntsj_now_ms() - t0);
     }
     return rc;
@@ -544,6 +625,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
 void ntsj_session_commit(ntsj_session* ss) {
     /* nothing pending (a failed step, no memory): NTS_EINVALID_ARGUMENT, ignored */
     if (ss != NULL && ss->memory != NULL) (void)nts_contact_memory_commit(ss->memory);
+    commit_history(ss);
 }
 
 /* What a step grew in the context is kept for the next steps, which need the

@@ -17,8 +17,11 @@
  *               gap (0 for segments), normal (outward unit normal of the
  *               segment, or of the master at the PCA), contact_kind (-1,
  *               or 0 segment, 1 corner, 2 vertex), contact_force (force on
- *               the slave, 0 for segments);
- *   field data  energy, virial (xx, yy, xy), contacts, max_penetration.
+ *               the slave, 0 for segments); with friction on (docs/model.md
+ *               §14) also tangential_force (its tangential part) and
+ *               friction_state (-1 segments, 0 frictionless, 1 stick, 2 slip);
+ *   field data  energy, virial (xx, yy, xy), contacts, max_penetration; with
+ *               friction on, virial has yx too, and dissipation.
  *
  * Doubles are printed in their shortest round-trip form, so the file holds the
  * result exactly. Positions are as given: in a periodic box, a segment that
@@ -73,6 +76,7 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
     const nts_vec2* pos = nts_scene_positions(scene);
     int n = nts_scene_node_count(scene), segs = nts_scene_surface_node_count(scene);
     int nb = nts_scene_body_count(scene), nc = r->contacts ? r->contact_count : 0;
+    const int friction = nts_friction_on(scene, &s->options);
     int body, l, k, i;
     ntsj_buf_hint(b, (size_t)(n + nc) * 120u + (size_t)(segs + nc) * 160u + 4096u);
     ntsj_buf_puts(b, "<?xml version=\"1.0\"?>\n"
@@ -80,11 +84,13 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
                      "<UnstructuredGrid>\n<FieldData>\n");
     {
         double energy = r->summary.energy, pen = r->summary.max_penetration, contacts = r->summary.contacts;
-        double vir[3] = {r->summary.virial.xx, r->summary.virial.yy, r->summary.virial.xy};
+        double vir[4] = {r->summary.virial.xx, r->summary.virial.yy, r->summary.virial.xy, r->summary.virial.yx};
+        double dissipation = r->summary.dissipation;
         field_double(b, "energy", &energy, 1);
-        field_double(b, "virial", vir, 3);
+        field_double(b, "virial", vir, friction ? 4 : 3);
         field_double(b, "contacts", &contacts, 1);
         field_double(b, "max_penetration", &pen, 1);
+        if (friction) field_double(b, "dissipation", &dissipation, 1);
     }
     ntsj_buf_puts(b, "</FieldData>\n<Piece NumberOfPoints=\"");
     ntsj_buf_int(b, (long long)n + nc);
@@ -228,5 +234,18 @@ void ntsj_encode_vtk(ntsj_buf* b, const ntsj_scene* s, const nts_scene* scene, c
     for (i = 0; i < segs; ++i) ntsj_buf_puts(b, "0 0 0\n");
     for (i = 0; i < nc; ++i) put_vec3(b, r->contacts[i].force);
     close_array(b);
+    if (friction) {
+        open_array(b, "Float64", "tangential_force", 3);
+        for (i = 0; i < segs; ++i) ntsj_buf_puts(b, "0 0 0\n");
+        for (i = 0; i < nc; ++i) put_vec3(b, r->contacts[i].tangential_force);
+        close_array(b);
+        open_array(b, "Int32", "friction_state", 1);
+        for (i = 0; i < segs; ++i) ntsj_buf_puts(b, "-1\n");
+        for (i = 0; i < nc; ++i) {
+            ntsj_buf_int(b, (long long)r->contacts[i].state);
+            ntsj_buf_putc(b, '\n');
+        }
+        close_array(b);
+    }
     ntsj_buf_puts(b, "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
 }

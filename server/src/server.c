@@ -87,7 +87,7 @@ static void peer_name(struct MHD_Connection* c, char* out, size_t cap) {
 static const char cors_exposed[] =
     "Location, Retry-After, Allow, WWW-Authenticate, NTS-Energy, NTS-Virial, NTS-Contacts, NTS-Max-Penetration, "
     "NTS-Elapsed-Ms, NTS-Gaps, NTS-Loops-Reversed, NTS-Search-Radius, NTS-Cell-Size, NTS-Stiffness-Triplets, "
-    "NTS-Deep-Contacts, NTS-Warnings";
+    "NTS-Deep-Contacts, NTS-Warnings, NTS-Dissipation, NTS-Sticking, NTS-Slipping";
 
 /* Queue a response. `body` is freed with `free_fn` once sent (NULL: static
  * storage). `content_type` NULL: none. `close`: ask the client to close (the
@@ -115,7 +115,8 @@ static enum MHD_Result reply_headers(struct MHD_Connection* c, ntsd_request* r, 
     if (allow != NULL) MHD_add_response_header(resp, MHD_HTTP_HEADER_ALLOW, allow);
     if (status == MHD_HTTP_SERVICE_UNAVAILABLE) MHD_add_response_header(resp, MHD_HTTP_HEADER_RETRY_AFTER, "1");
     if (close) MHD_add_response_header(resp, MHD_HTTP_HEADER_CONNECTION, "close");
-    for (; extra != NULL && extra[0] != NULL; extra += 2) MHD_add_response_header(resp, extra[0], extra[1]);
+    for (; extra != NULL && extra[0] != NULL; extra += 2)
+        if (extra[0][0] != '\0') MHD_add_response_header(resp, extra[0], extra[1]); /* "": a header left out */
     ok = MHD_queue_response(c, status, resp);
     MHD_destroy_response(resp);
     if (ok == MHD_YES) {
@@ -456,12 +457,17 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         /* The forces as raw bytes, the summary in headers that read back bitwise. */
         const nts_summary* sm = &r->resp.summary;
         char energy[32], virial[100], contacts[24], pen[32], ms[32], gaps[24], reversed[24], radius[32], cell[32];
-        char triplets[24], deep[24], warnings[160];
-        /* What the result may lack: "code=count, ..." (NTS-Warnings, last: left out when there is none). */
+        char triplets[24], deep[24], warnings[160], dissipation[32], sticking[24], slipping[24];
+        /* Friction's (docs/model.md §14), only when it is on, then what the
+         * result may lack: "code=count, ..." (NTS-Warnings, left out when
+         * there is none). A NULL name ends the list. */
+        const int fr = r->resp.friction;
         const char* extra[] = {"NTS-Energy", energy, "NTS-Virial", virial, "NTS-Contacts", contacts,
                                "NTS-Max-Penetration", pen, "NTS-Elapsed-Ms", ms, "NTS-Gaps", gaps,
                                "NTS-Loops-Reversed", reversed, "NTS-Search-Radius", radius, "NTS-Cell-Size", cell,
                                "NTS-Stiffness-Triplets", triplets, "NTS-Deep-Contacts", deep,
+                               fr ? "NTS-Dissipation" : "", dissipation, fr ? "NTS-Sticking" : "", sticking,
+                               fr ? "NTS-Slipping" : "", slipping,
                                r->resp.warning_count > 0 ? "NTS-Warnings" : NULL, warnings, NULL};
         size_t k;
         int w;
@@ -475,7 +481,14 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
         virial[k++] = ',';
         k += (size_t)ntsj_format_double(virial + k, sm->virial.yy);
         virial[k++] = ',';
-        ntsj_format_double(virial + k, sm->virial.xy);
+        k += (size_t)ntsj_format_double(virial + k, sm->virial.xy);
+        if (fr) { /* not symmetric with friction (docs/model.md (28)): xx,yy,xy,yx */
+            virial[k++] = ',';
+            ntsj_format_double(virial + k, sm->virial.yx);
+        }
+        ntsj_format_double(dissipation, sm->dissipation);
+        snprintf(sticking, sizeof sticking, "%d", sm->sticking);
+        snprintf(slipping, sizeof slipping, "%d", sm->slipping);
         snprintf(contacts, sizeof contacts, "%d", sm->contacts);
         ntsj_format_double(pen, sm->max_penetration);
         ntsj_format_double(ms, r->resp.elapsed_ms);

@@ -46,7 +46,7 @@ def schema_of(row: Dict[str, str]) -> Dict[str, Any]:
     elif kind == "OUTPUTS":
         out["type"] = "array"
         out["default"] = [f.removeprefix("NTS_OUT_").lower() for f in re.split(r"\s*\|\s*", row["default"])]
-    elif kind == "BOX":
+    elif kind == "OBJECT":
         out["type"] = "object"
     return out
 
@@ -97,6 +97,8 @@ def test_a_binary_steps_query_parameters_are_the_tables_step_options():
     op = OPENAPI["paths"]["/v1/scenes/{id}/contact"]["post"]
     query = {p["name"]: p for p in op["parameters"] if p.get("in") == "query"}
     step = {r["json"]: r for r in OPTIONS if r["doors"] == "ALL"}
+    # commit (friction's history, docs/model.md §14) is a query parameter but not an option
+    assert query.pop("commit")["schema"] == {"enum": ["true", "false"]}
     assert set(query) == set(step)
     for name, p in query.items():
         want = schema_of(step[name])

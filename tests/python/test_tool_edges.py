@@ -71,6 +71,7 @@ CLI_VALUES = {  # a valid value of every option with one, and what to compare
     "--outputs": "forces,stiffness", "--output": "OUT", "--frames": "FRAMES", "--vtk": "VTK",
     "--max-bytes": "1M", "--max-depth": "40", "--max-bodies": "10", "--max-nodes": "1k",
     "--max-nodes-per-body": "1k", "--max-seconds": "30", "--max-candidates": "1M",
+    "--history-in": "HISTIN", "--history-out": "HISTOUT",
 }
 CLI_FLAGS = {"--validate", "--pretty", "--help", "--version"}
 
@@ -89,7 +90,9 @@ def test_every_cli_option_takes_both_forms(name, tmp_path):
     for form in ("space", "equals"):
         out = tmp_path / form
         out.mkdir()
-        value = {"OUT": str(out / "out.json"), "FRAMES": str(frames), "VTK": str(out / "r.vtu")}.get(
+        (tmp_path / "history.json").write_text('{"history": []}')
+        value = {"OUT": str(out / "out.json"), "FRAMES": str(frames), "VTK": str(out / "r.vtu"),
+                 "HISTIN": str(tmp_path / "history.json"), "HISTOUT": str(out / "h.json")}.get(
             CLI_VALUES[name], CLI_VALUES[name])
         args = [name, value] if form == "space" else [f"{name}={value}"]
         proc = run_cli(*args, TWO_DISKS)
@@ -106,6 +109,9 @@ def test_every_cli_option_takes_both_forms(name, tmp_path):
             got.append(without_elapsed(proc.stdout))
         if name == "--vtk":
             got.append((out / "r.vtu").read_bytes())
+        if name == "--history-out":  # the scene has no friction: no anchors
+            got.append(json.loads((out / "h.json").read_text()))
+            assert got[-1] == {"history": []}
     assert got[0] == got[len(got) // 2]
     if name == "--vtk":
         assert got[1] == got[3] and got[1].startswith(b"<?xml")

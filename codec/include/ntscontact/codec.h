@@ -61,6 +61,16 @@ typedef struct ntsj_config {
      * room --session-memory leaves the session, and that flag). */
     size_t step_memory;
     const char* step_memory_name;
+    /* Friction's history from outside the request (the CLI's --history-in,
+     * docs/model.md §14): a JSON document, a previous result or a
+     * `history_out` document, whose "history" the request goes on from
+     * instead of its own; NULL: none. Its faults point into it (/history/K). */
+    const char* history;
+    size_t history_length;
+    /* Also give the history after the evaluation (a session's: the committed
+     * one after the step) as {"history": [...]} in ntsj_response.history:
+     * the CLI's --history-out. */
+    int history_out;
 } ntsj_config;
 NTS_API ntsj_config ntsj_default_config(void);
 
@@ -73,6 +83,8 @@ typedef struct ntsj_response {
     size_t length;    /* strlen(body), or the bytes of a binary answer */
     int binary;       /* ok and body holds 16 N bytes: little-endian float64 forces, x then y per node */
     nts_summary summary; /* of a successful evaluation (for a binary answer's headers, a front end's counters) */
+    int friction;        /* friction was on (nts_friction_on): the summary's dissipation, sticking, slipping
+                          * and the virial's yx are the answer's (NTS-Dissipation, ... headers) */
     nts_warning warnings[NTS_WARN_COUNT_]; /* what the evaluation may have left out (nts_result.warnings) */
     int warning_count;
     double elapsed_ms;   /* of the request, rounded to whole microseconds */
@@ -80,6 +92,8 @@ typedef struct ntsj_response {
                           * (int32 rows, int32 cols, float64 values, little-endian), else 0 */
     char* vtk;           /* with ntsj_config.vtk, on success: the .vtu document (NUL-terminated) */
     size_t vtk_length;
+    char* history;       /* with ntsj_config.history_out, on success and friction on: {"history": [...]} */
+    size_t history_length;
 } ntsj_response;
 
 /* Decode, validate, evaluate and encode. Never crashes on any input bytes;

@@ -177,6 +177,8 @@ class Summary:
     dissipation: float = 0.0
     sticking: int = 0
     slipping: int = 0
+    #: Whether friction was on (the answer had these three and the virial's yx).
+    friction: bool = False
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
@@ -201,6 +203,7 @@ class Summary:
             dissipation=float(d.get("dissipation", 0.0)),
             sticking=int(d.get("sticking", 0)),
             slipping=int(d.get("slipping", 0)),
+            friction="dissipation" in d,
         )
 
 

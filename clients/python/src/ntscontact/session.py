@@ -272,7 +272,7 @@ class Session:
                 search_radius=float(h.get("NTS-Search-Radius", 0.0)), cell_size=float(h.get("NTS-Cell-Size", 0.0)),
                 elapsed_ms=float(h.get("NTS-Elapsed-Ms", 0.0)), deep_contacts=int(h.get("NTS-Deep-Contacts", 0)),
                 dissipation=float(h.get("NTS-Dissipation", 0.0)), sticking=int(h.get("NTS-Sticking", 0)),
-                slipping=int(h.get("NTS-Slipping", 0)))
+                slipping=int(h.get("NTS-Slipping", 0)), friction="NTS-Dissipation" in h)
             warned = ResultWarning.from_header(h.get("NTS-Warnings", ""))
         except (KeyError, ValueError, IndexError) as exc:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",

@@ -8,8 +8,11 @@ of the C tool's ``ntscontact --vtk`` (codec/src/vtk.c):
   data ``kind`` (0 segment, 1 contact), ``body``, ``surface`` (1 for a segment
   on its body's contact surface, docs/model.md §13, 0 off it, -1 for
   contacts), ``master_body``, ``gap``, ``normal``, ``contact_kind``,
-  ``contact_force``;
-- field data ``energy``, ``virial``, ``contacts``, ``max_penetration``.
+  ``contact_force``; with friction on (docs/model.md §14) also
+  ``tangential_force`` and ``friction_state`` (-1 segments, 0 frictionless,
+  1 stick, 2 slip);
+- field data ``energy``, ``virial``, ``contacts``, ``max_penetration``; with
+  friction on, ``virial`` has ``yx`` too, and ``dissipation``.
 
 Written with the standard library and numpy only (no VTK or meshio needed);
 doubles in their shortest round-trip form.
@@ -25,6 +28,7 @@ import numpy as np
 __all__ = ["surface_loops", "on_surface", "write_vtu"]
 
 _KINDS = {"segment": 0, "corner": 1, "vertex": 2}
+_STATES = {"frictionless": 0, "stick": 1, "slip": 2}  # nts_friction_state
 
 
 def _signed_area(p: np.ndarray) -> float:
@@ -122,8 +126,12 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian">', "<UnstructuredGrid>",
              "<FieldData>"]
-    for name, vals in (("energy", [s.energy]), ("virial", [s.virial[0, 0], s.virial[1, 1], s.virial[0, 1]]),
-                       ("contacts", [float(s.contacts)]), ("max_penetration", [s.max_penetration])):
+    virial = [s.virial[0, 0], s.virial[1, 1], s.virial[0, 1]] + ([s.virial[1, 0]] if s.friction else [])
+    fields: List[Tuple[str, List[float]]] = [("energy", [s.energy]), ("virial", virial), ("contacts", [float(s.contacts)]),
+                                             ("max_penetration", [s.max_penetration])]
+    if s.friction:
+        fields.append(("dissipation", [s.dissipation]))
+    for name, vals in fields:
         lines.append(f'<DataArray type="Float64" Name="{name}" NumberOfTuples="1" NumberOfComponents="{len(vals)}" '
                      f'format="ascii">' + " ".join(_fmt(v) for v in vals) + "</DataArray>")
     lines += ["</FieldData>", f'<Piece NumberOfPoints="{n + c}" NumberOfCells="{len(segs) + c}">', "<Points>"]
@@ -151,6 +159,11 @@ def write_vtu(path: Union[str, "os.PathLike[str]"], scene: Any, result: Any, pos
     _array(lines, "Float64", "contact_force", 3, np.c_[np.vstack([np.zeros((len(segs), 2)),
                                                                   np.array([ct.force for ct in contacts]).reshape(c, 2)]),
                                                        np.zeros(len(segs) + c)])
+    if s.friction:
+        tf = np.array([ct.tangential_force or (0.0, 0.0) for ct in contacts], dtype=np.float64).reshape(c, 2)
+        _array(lines, "Float64", "tangential_force", 3, np.c_[np.vstack([np.zeros((len(segs), 2)), tf]),
+                                                              np.zeros(len(segs) + c)])
+        _array(lines, "Int32", "friction_state", 1, [-1] * len(segs) + [_STATES.get(ct.state or "", 0) for ct in contacts])
     lines += ["</CellData>", "</Piece>", "</UnstructuredGrid>", "</VTKFile>", ""]
     with open(path, "w", encoding="ascii") as fh:
         fh.write("\n".join(lines))
