@@ -3,7 +3,7 @@
 purpose (a few dozen nodes) so that libFuzzer mutates them quickly: every way
 a body can be given (implicit loop, explicit loops with a hole, triangle mesh),
 a clockwise body, a periodic box, both solvers, every output, string and
-integer ids, contact surfaces. fuzz/corpus/cat-*.json: every case of the CLI's malformed
+integer ids, contact surfaces, friction with a history. fuzz/corpus/cat-*.json: every case of the CLI's malformed
 catalogue (tests/python/malformed/cases.json) given by its bytes (the
 generated ones, a huge file and deep nesting, are left to the fuzzer).
 Re-run after changing the contract or the catalogue; the files are committed."""
@@ -74,6 +74,21 @@ def seeds():
         "bodies": [{"id": "lower", "nodes": lower, "loops": [[0, 1, 2, 3, 4, 9, 8, 7, 6, 5]],
                     "surface": [[9, 8], [8, 7], [6, 7], [5, 6]], "role": "master"},
                    {"id": "upper", "nodes": upper, "surface": [[0, 1], [1, 2]]}]}
+    # friction with a history (docs/model.md §14): a segment, a corner and a
+    # vertex anchor, a body's own coefficient, the tangent (not symmetric)
+    yield "friction", {
+        "version": 1,
+        "options": {"penalty": 100.0, "alpha": 0.2, "friction": {"coefficient": 0.3, "tangential_penalty": 50.0},
+                    "outputs": ["forces", "contacts", "stiffness"]},
+        "bodies": [{"id": "flat", "nodes": [[-2, -1], [2, -1], [2, 0], [1, 0], [0, 0], [-1, 0], [-2, 0]],
+                    "friction": 0.5},
+                   {"id": 7, "nodes": [[-0.5, -0.01], [0, -0.01], [0.5, -0.01], [0.5, 1], [-0.5, 1]]}],
+        "history": [{"slave": {"body": 7, "node": 0}, "master": "flat", "kind": "segment", "nodes": [4, 5],
+                     "param": 0.49},
+                    {"slave": {"body": 7, "node": 1}, "master": "flat", "kind": "corner", "nodes": [3, 4, 5],
+                     "param": 0.1},
+                    {"slave": {"body": "flat", "node": 4}, "master": 7, "kind": "vertex", "nodes": [1],
+                     "param": 0.0}]}
     yield "minimal", {"version": 1, "options": {"penalty": 1},
                       "bodies": [{"id": 0, "nodes": [[0, 0], [1, 0], [0, 1]]}]}
 
