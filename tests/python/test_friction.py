@@ -377,3 +377,49 @@ def test_history_in_errors(tmp_path):
         assert code in r.stderr.decode() and (pointer is None or f'"{pointer}"' in r.stderr.decode())
     r = run_cli(scene, "--history-in", str(tmp_path / "missing.json"), check=False)
     assert r.returncode == 2
+
+
+# ------------------------------------------------------------ the Python client
+
+@pytest.mark.parametrize("friction,body_friction", [
+    (-0.1, None), (10.5, None), ("0.3", None), ({}, None), ({"coefficient": 0.3, "mu": 1}, None),
+    ({"coefficient": 0.3, "tangential_penalty": -1.0}, None), (0.3, -0.5), (0.3, 11.0),
+])
+def test_the_client_refuses_what_the_service_refuses(daemon, friction, body_friction):
+    """Scene(friction=...) and add_body(friction=...) raise InvalidScene with the
+    code and pointer the service gives for the same document."""
+    doc = block_scene()
+    doc["options"]["friction"] = friction if isinstance(friction, dict) else {"coefficient": friction}
+    if body_friction is not None:
+        doc["bodies"][1]["friction"] = body_friction
+    status, err = post(daemon, doc)
+    assert status == 400
+    with pytest.raises(ntscontact.InvalidScene) as exc:
+        s = ntscontact.Scene(penalty=1000.0, friction=friction)
+        s.add_body(doc["bodies"][0]["nodes"], id="flat")
+        s.add_body(doc["bodies"][1]["nodes"], id=7, friction=body_friction)
+    assert (exc.value.code, exc.value.pointer) == (err["error"]["code"], err["error"]["pointer"])
+
+
+def test_the_client_goes_on_from_a_history_and_commits(daemon):
+    """Client.contact(scene, history=...) is the stateless chain; Session.step
+    with commit=False leaves the history, as the service says."""
+    scene = block_scene()
+    xs = path_positions(scene)
+    chain = stateless_chain(daemon, scene, xs[:5])
+    client = ntscontact.Client(daemon.base)
+    history = None
+    for x, want in zip(xs[:5], chain):
+        res = client.contact(ntscontact.Scene.from_dict(with_positions(scene, x)), history=history)
+        assert np.array_equal(res.force_array(), np.concatenate([np.asarray(b["forces"]) for b in want["bodies"]]))
+        assert [c.state for c in res.contacts] == [c["state"] for c in want["contacts"]]
+        assert np.array_equal(res.tangential_forces(), np.array([c["tangential_force"] for c in want["contacts"]]))
+        assert res.summary.dissipation == want["summary"]["dissipation"]
+        history = res.history
+    with client.session(ntscontact.Scene.from_dict(scene)) as s:
+        for x in xs[:3]:
+            s.step(x)
+        trial = [s.step(xs[4], commit=False).force_array().copy() for _ in range(2)]
+        assert np.array_equal(trial[0], trial[1])
+        s.step(xs[3])
+        assert np.array_equal(s.step(xs[4]).force_array(), res.force_array())
