@@ -925,7 +925,7 @@ static void section_hard(const char* dir) {
     fclose(g);
 }
 
-/* Digest: an FNV-1a hash of every output byte (summary, forces, contacts, gaps;
+/* Digest: an FNV-1a hash of every output value (summary, forces, contacts, gaps;
  * then the summary and forces with the default outputs) for a set of scenes,
  * solvers, alphas, searches and thread counts. The "before" and "after"
  * binaries must print the same digests: the faster core changes no bit of any
@@ -934,6 +934,41 @@ static uint64_t fnv(uint64_t h, const void* p, size_t n) {
     const unsigned char* b = (const unsigned char*)p;
     size_t i;
     for (i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+/* Field by field, not the structs' bytes: a struct that grows (friction's
+ * fields, zero without it) or pads differently changes no digest; the values
+ * are what must not change. */
+static uint64_t fnv_int(uint64_t h, int v) { return fnv(h, &v, sizeof v); }
+static uint64_t fnv_double(uint64_t h, double v) { return fnv(h, &v, sizeof v); }
+static uint64_t fnv_virial(uint64_t h, nts_virial v) {
+    return fnv_double(fnv_double(fnv_double(fnv_double(h, v.xx), v.yy), v.xy), v.yx);
+}
+
+static uint64_t fnv_summary(uint64_t h, const nts_summary* m) {
+    h = fnv_int(fnv_int(fnv_int(fnv_int(fnv_int(h, m->bodies), m->surface_nodes), m->contacts), m->gaps),
+                m->deep_contacts);
+    h = fnv_virial(fnv_double(h, m->energy), m->virial);
+    h = fnv_int(fnv_double(h, m->max_penetration), m->loops_reversed);
+    h = fnv_double(h, m->search_radius); /* cell_size: how the search ran, not a result */
+    return fnv_int(fnv_int(fnv_double(h, m->dissipation), m->sticking), m->slipping);
+}
+
+static uint64_t fnv_contacts(uint64_t h, const nts_contact* c, int n) {
+    int i, k;
+    for (i = 0; i < n; ++i, ++c) {
+        h = fnv_int(fnv_int(fnv_int(fnv_int(fnv_int(h, c->slave_body), c->slave_node), c->master_body), (int)c->kind),
+                    c->master_count);
+        for (k = 0; k < 3; ++k) h = fnv_double(fnv_int(h, c->master_nodes[k]), c->weights[k]);
+        h = fnv_double(fnv_double(h, c->param), c->gap);
+        h = fnv(h, &c->normal, sizeof c->normal);
+        h = fnv(h, &c->point, sizeof c->point);
+        h = fnv(h, &c->force, sizeof c->force);
+        h = fnv_double(fnv_virial(h, c->virial), c->penalty);
+        h = fnv(h, &c->tangential_force, sizeof c->tangential_force);
+        h = fnv_int(fnv_double(h, c->slip), c->state);
+    }
     return h;
 }
 
@@ -965,18 +1000,16 @@ static void section_digest(const char* dir) {
                         o.outputs = NTS_OUT_ALL;
                         int gap_count;
                         eval_or_die(ctx, s, &o, &r);
-                        r.summary.cell_size = 0.0; /* how the search ran, not a result */
-                        h = fnv(h, &r.summary, sizeof r.summary);
+                        h = fnv_summary(h, &r.summary);
                         h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
-                        h = fnv(h, r.contacts, sizeof(nts_contact) * (size_t)r.contact_count);
-                        h = fnv(h, r.gaps, sizeof(nts_contact) * (size_t)r.gap_count);
+                        h = fnv_contacts(h, r.contacts, r.contact_count);
+                        h = fnv_contacts(h, r.gaps, r.gap_count);
                         gap_count = r.gap_count;
                         /* The default outputs too: the core keeps no per-candidate
                          * records for them, and must give the same bits. */
                         o.outputs = nts_default_options().outputs;
                         eval_or_die(ctx, s, &o, &r);
-                        r.summary.cell_size = 0.0;
-                        h = fnv(h, &r.summary, sizeof r.summary);
+                        h = fnv_summary(h, &r.summary);
                         h = fnv(h, r.forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s));
                         fprintf(f, "%s,%d,%d,%d,%s,%.2f,%s,%d,%d,%016llx\n", name, per, b.body_count, b.total,
                                 SOLVER_NAMES[sv], o.alpha, se ? "brute_force" : "cells", th, gap_count,
