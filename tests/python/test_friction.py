@@ -423,3 +423,31 @@ def test_the_client_goes_on_from_a_history_and_commits(daemon):
         assert np.array_equal(trial[0], trial[1])
         s.step(xs[3])
         assert np.array_equal(s.step(xs[4]).force_array(), res.force_array())
+
+
+def test_the_tangent_through_a_session_is_the_trials_derivative(daemon):
+    """In slip, the tangent a session answers (a general, non-symmetric scipy
+    matrix) is minus the derivative of the forces of trials with commit=False
+    from the same committed history, by central differences."""
+    pytest.importorskip("scipy")
+    scene = block_scene(outputs=("forces", "stiffness"))
+    xs = path_positions(scene)
+    client = ntscontact.Client(daemon.base)
+    with client.session(ntscontact.Scene.from_dict(scene)) as s:
+        for x in xs[:4]:
+            s.step(x)
+        x = xs[4]
+        res = s.step(x, commit=False, outputs=["forces", "stiffness", "contacts"])
+        assert res.summary.slipping > 0
+        K = res.stiffness.toarray()
+        assert np.abs(K - K.T).max() > 1e-3 * np.abs(K).max()   # not symmetric in slip
+        h = 1e-7
+        worst = 0.0
+        for j in range(2 * 7, 2 * 10):                          # the block's bottom nodes, x and y
+            e = np.zeros(x.size)
+            e[j] = h
+            fp = s.step(x + e.reshape(-1, 2), commit=False, outputs=["forces"]).force_array().ravel()
+            fm = s.step(x - e.reshape(-1, 2), commit=False, outputs=["forces"]).force_array().ravel()
+            col = -(fp - fm) / (2 * h)
+            worst = max(worst, float(np.abs(col - K[:, j]).max() / np.abs(K).max()))
+        assert worst < 1e-6, worst
