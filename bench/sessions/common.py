@@ -21,6 +21,17 @@ def start_daemon(max_body="512M"):
     return proc, int(line.rsplit(":", 1)[1])
 
 
+def request(conn, method, path, body=None, headers=None):
+    """One request on an http.client connection: (response, body); a status
+    of 300 or more ends the benchmark with it."""
+    conn.request(method, path, body=body, headers=headers or {})
+    r = conn.getresponse()
+    data = r.read()
+    if r.status >= 300:
+        raise SystemExit(f"{method} {path}: {r.status} {data[:300]!r}")
+    return r, data
+
+
 def replace_section(path, title, section):
     """Put `section` (starting with `title`) in the markdown file at `path`, in
     place of the section of that title, or at the end."""

@@ -38,21 +38,12 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import start_daemon, write_results  # noqa: E402
+from common import request, start_daemon, write_results  # noqa: E402
 
 NODES_PER_DISK = 64
 SECTION = "## Friction in a session step"
 JSON = {"Content-Type": "application/json"}
 BIN = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
-
-
-def request(conn, method, path, body=None, headers=None):
-    conn.request(method, path, body=body, headers=headers or {})
-    r = conn.getresponse()
-    data = r.read()
-    if r.status >= 300:
-        raise SystemExit(f"{method} {path}: {r.status} {data[:300]!r}")
-    return r, data
 
 
 def measure(port, side, rounds):

@@ -39,19 +39,10 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import start_daemon, write_results  # noqa: E402
+from common import request, start_daemon, write_results  # noqa: E402
 
 NODES_PER_DISK = 64
 SECTION = "## Sessions over HTTP"
-
-
-def request(conn, method, path, body=None, headers=None):
-    conn.request(method, path, body=body, headers=headers or {})
-    r = conn.getresponse()
-    data = r.read()
-    if r.status >= 300:
-        raise SystemExit(f"{method} {path}: {r.status} {data[:300]!r}")
-    return r, data
 
 
 def timed(fn, repeats):
