@@ -1,7 +1,7 @@
 """The FEM side of the validation cases, shared by all of them.
 
-- meshes: a disk graded towards a contact zone, a block (also the patch
-  test's), a regular polygon (a rigid obstacle);
+- meshes: a disk graded towards a contact zone (and a half-disk, the same
+  way), a block (also the patch test's), a regular polygon (a rigid obstacle);
 - bodies: `Elastic` (a scikit-fem P1 mesh, plane-strain linear elasticity
   assembled by scikit-fem) and `Rigid` (a loop of nodes, every dof held);
   each carries `fields`, extra members of its body in the scene document
@@ -10,10 +10,15 @@
   nodes in body order, dof 2 node + component), the elastic stiffness, the
   scene document;
 - `Contact`: one session of ntscontactd (binary steps) giving the contact
-  forces, energy, tangent and pressure at a displacement;
+  forces, energy, tangent and pressure at a displacement (with friction, a
+  trial step or a committed one);
 - `newton` (consistent tangent, backtracking line search on the total energy)
   and `fire` (forces only), both on Pi(u) = 1/2 u.K u - f.u + E_contact(X + u)
   with prescribed dofs held at their values;
+- `Tied` (groups of nodes moving as one rigid translation: a bonded platen)
+  and `newton_friction` (one load increment with friction: Newton with the
+  non-symmetric tangent, a line search on the residual, trial steps committed
+  at convergence);
 - `service`: ntscontactd started from the build directory on a free port.
 """
 
@@ -71,6 +76,16 @@ def graded_disk(radius: float, h: float, zone: float, depth: float, grading: flo
     # mesh (`turn` 0), around which the pattern is irregular (docs/validation.md §1).
     c, s = math.cos(math.radians(turn)), math.sin(math.radians(turn))
     m = MeshTri(np.array([[c, -s], [s, c]]) @ m.p, m.t)
+    m = _refine_towards_bottom(m, radius, h, zone, depth, grading, lambda p, b: b)
+    return MeshTri(m.p * radius + np.asarray(centre, dtype=float)[:, None], m.t)
+
+
+def _refine_towards_bottom(m: MeshTri, radius: float, h: float, zone: float, depth: float, grading: float,
+                           on_arc: Any) -> MeshTri:
+    """`graded_disk`'s local refinement of a mesh of the unit disk (or part of it) towards its
+    lowest point: every element larger than `h` whose distance to the fine zone is below
+    `grading` times its size is refined (conforming), and the new boundary nodes that
+    `on_arc(p, boundary_nodes)` selects are moved onto the unit circle after each pass."""
     th = math.asin(min(zone / radius, 1.0))
     end = np.array([radius * math.sin(th), -radius * math.cos(th)])
     while True:
@@ -84,11 +99,49 @@ def graded_disk(radius: float, h: float, zone: float, depth: float, grading: flo
         if marked.size == 0:
             break
         m = m.refined(marked)
-        b = m.boundary_nodes()
         p = m.p.copy()
+        b = on_arc(p, m.boundary_nodes())
         p[:, b] /= np.hypot(p[0, b], p[1, b])
         m = MeshTri(p, m.t)
+    return m
+
+
+def graded_half_disk(radius: float, levels: int, zone: float, depth: float, grading: float = 3.0,
+                     centre: Tuple[float, float] = (0.0, 0.0), background: int = 3) -> MeshTri:
+    """The lower half of a disk (its flat edge through `centre`, its arc below), meshed finely
+    towards its lowest point as `graded_disk` is, to `levels` bisections of the arc there.
+
+    The seed is three equilateral triangles (the centre and the arc's nodes at 0, -60, -120
+    and -180 degrees), refined uniformly `background` times (Laplacian smoothing, new arc
+    nodes moved onto the circle: scikit-fem's `init_circle` recipe), then locally. The lowest
+    point is made by bisecting the seed's middle arc, in the refinement's regular pattern
+    (not a corner of the seed: docs/validation.md §1 on the irregular node). The arc
+    spacing is exactly `half_disk_spacing(radius, L)` after L bisections. Element size is
+    measured as in `graded_disk` (the longest edge over sqrt 2), but these elements are
+    near-equilateral and those at the arc a little stretched by the projection: the size
+    threshold is set halfway between `levels` and `levels - 1` bisections."""
+    ang = np.radians([0.0, -60.0, -120.0, -180.0])
+    p = np.concatenate([[[0.0], [0.0]], np.stack([np.cos(ang), np.sin(ang)])], axis=1)
+    p[1, [1, 4]] = 0.0
+    m = MeshTri(p, np.array([[0, 2, 1], [0, 3, 2], [0, 4, 3]]).T)
+
+    def on_arc(q: Array, b: IntArray) -> IntArray:
+        return b[q[1, b] < -1e-12]          # the flat edge's nodes stay where bisection put them
+
+    for _ in range(background):
+        m = m.refined().smoothed()
+        q = m.p.copy()
+        b = on_arc(q, m.boundary_nodes())
+        q[:, b] /= np.hypot(q[0, b], q[1, b])
+        m = MeshTri(q, m.t)
+    h = 1.5 * half_disk_spacing(radius, levels) / (1.01 * math.sqrt(2.0))
+    m = _refine_towards_bottom(m, radius, h, zone, depth, grading, on_arc)
     return MeshTri(m.p * radius + np.asarray(centre, dtype=float)[:, None], m.t)
+
+
+def half_disk_spacing(radius: float, levels: int) -> float:
+    """The arc spacing of `graded_half_disk` after `levels` bisections of its seed's 60-degree arcs."""
+    return 2.0 * radius * math.sin(math.pi / (3 * 2 ** (levels + 1)))
 
 
 def surface_spacing(radius: float, levels: int) -> float:
@@ -264,21 +317,35 @@ class ContactState:
     K: Optional[sp.csr_matrix]            # contact tangent, 2N x 2N
     pressure: Optional[Array]             # docs/model.md (21), N
     contacts: int
+    # friction (docs/model.md §14): the step's dissipation (27) and the stick and slip counts
+    dissipation: float = 0.0
+    sticking: int = 0
+    slipping: int = 0
+    result: Optional[Any] = None          # the client's Result, when the contacts were asked for
 
 
 class Contact:
-    """The contact at a displacement u, through a binary session (one step per call)."""
+    """The contact at a displacement u, through a binary session (one step per call).
+
+    With friction (docs/model.md §14) every call is a trial from the session's committed
+    history, and `commit` makes its anchors the committed ones (the default, as a
+    frictionless scene does not care); `contacts` asks for the contacts (their stick or
+    slip state), which makes the answer JSON."""
 
     def __init__(self, session: Any, X: Array) -> None:
         self.session, self.X, self.calls = session, X, 0
 
-    def __call__(self, u: Array, stiffness: bool = True, pressure: bool = False) -> ContactState:
-        outputs = ["forces", "energy"] + (["stiffness"] if stiffness else []) + (["pressure"] if pressure else [])
-        res = self.session.contact(self.X + u.reshape(-1, 2), outputs=outputs)
+    def __call__(self, u: Array, stiffness: bool = True, pressure: bool = False, commit: bool = True,
+                 contacts: bool = False) -> ContactState:
+        outputs = (["forces", "energy"] + (["stiffness"] if stiffness else []) + (["pressure"] if pressure else [])
+                   + (["contacts"] if contacts else []))
+        res = self.session.contact(self.X + u.reshape(-1, 2), outputs=outputs, commit=commit)
         self.calls += 1
+        sm = res.summary
         return ContactState(res.force_array().ravel().copy(), float(res.energy),
                             res.stiffness.tocsr() if stiffness else None,
-                            res.pressure_array().copy() if pressure else None, int(res.summary.contacts))
+                            res.pressure_array().copy() if pressure else None, int(sm.contacts),
+                            float(sm.dissipation), int(sm.sticking), int(sm.slipping), res if contacts else None)
 
 
 # ------------------------------------------------------------------ solvers
@@ -390,6 +457,135 @@ def fire(model: Model, contact: Contact, loads: Loads, u0: Array, tol: float, ma
             history.append(float(np.abs(f).max()))
     history.append(float(np.abs(f).max()))
     return Solve(u, st, it, contact.calls - calls0, history, history[-1] < tol, _energy(model, loads, u, st.energy))
+
+
+class Tied:
+    """Reduced dofs v with u = T v: each group of nodes moves as one rigid translation (a
+    platen bonded to them that can neither turn nor stretch), every other dof is its own.
+    `col[d]` is the reduced dof of full dof d (a group's nodes share theirs); the non-tied
+    dofs come first, in order, then each group's (x, y)."""
+
+    def __init__(self, model: Model, groups: Sequence[npt.ArrayLike]) -> None:
+        n = 2 * model.n
+        col = np.full(n, -1, dtype=np.int64)
+        tied = np.concatenate([np.asarray(g, dtype=np.int64) for g in groups] or [np.zeros(0, np.int64)])
+        own = np.setdiff1d(np.arange(n), np.concatenate([2 * tied, 2 * tied + 1]))
+        col[own] = np.arange(len(own))
+        self.group_dofs: List[Tuple[int, int]] = []
+        for k, g in enumerate(groups):
+            g = np.asarray(g, dtype=np.int64)
+            x, y = len(own) + 2 * k, len(own) + 2 * k + 1
+            col[2 * g], col[2 * g + 1] = x, y
+            self.group_dofs.append((x, y))
+        self.col = col
+        self.m = len(own) + 2 * len(self.group_dofs)
+        self.T = sp.csr_matrix((np.ones(n), (np.arange(n), col)), shape=(n, self.m))
+
+    def reduced(self, u: Array) -> Array:
+        """v of a u that moves every group rigidly (each reduced dof takes one of its full dofs' values)."""
+        v = np.zeros(self.m)
+        v[self.col] = u
+        return v
+
+
+@dataclass
+class FrictionSolve:
+    v: Array                  # the reduced dofs
+    u: Array                  # T v
+    state: ContactState       # the committed step at u
+    reaction: Array           # the force the supports apply on each reduced dof (0 on free ones)
+    iterations: int
+    calls: int
+    history: List[float]
+    converged: bool
+
+
+def newton_friction(model: Model, contact: Contact, tied: Tied, loads: Loads, v0: Array, tol: float,
+                    max_iter: int = 60, contacts: bool = False) -> FrictionSolve:
+    """One load increment with friction (docs/model.md §14), in the reduced dofs of `tied`
+    (`loads` there too: its fixed dofs, values and forces are reduced ones).
+
+    Newton's method on the residual r(v) = T^T (K T v - f_contact(T v)) - f with the contact's
+    consistent tangent, which is not symmetric in slip (spsolve takes it as it is). There is no
+    energy to minimise (slip dissipates: the problem is path-dependent), so the line search is
+    on the residual (`_residual_line_search`). Every iteration is a trial from the session's
+    committed history (`commit=False`); at convergence the converged v is evaluated once more
+    with `commit=True`, which makes its anchors the history of the next increment (and asks for
+    the contacts when `contacts`). Converged when the largest free residual is below `tol`."""
+    calls0 = contact.calls
+    T = tied.T
+    Kr = (T.T @ model.K @ T).tocsr()
+    free = np.setdiff1d(np.arange(tied.m), loads.fixed)
+
+    def at(v: Array) -> Tuple[ContactState, Array]:
+        st = contact(T @ v, commit=False)
+        r = Kr @ v - T.T @ st.f - loads.f
+        r[loads.fixed] = 0.0
+        return st, r
+
+    v = _start(loads, v0)
+    st, r = at(v)
+    history: List[float] = []
+    for it in range(max_iter + 1):
+        norm = float(np.abs(r).max())
+        history.append(norm)
+        if norm < tol or it == max_iter:
+            break
+        assert st.K is not None
+        J = (Kr + T.T @ st.K @ T).tocsr()[free][:, free].tocsc()
+        dv = np.zeros_like(v)
+        dv[free] = spla.spsolve(J, -r[free])
+        v, st, r = _residual_line_search(at, v, dv, r)
+    st = contact(T @ v, stiffness=False, commit=True, contacts=contacts)
+    reaction = Kr @ v - T.T @ st.f - loads.f
+    reaction[free] = 0.0
+    return FrictionSolve(v, T @ v, st, reaction, len(history) - 1, contact.calls - calls0, history,
+                         history[-1] < tol)
+
+
+def _residual_line_search(at: Any, v: Array, dv: Array, r0: Array,
+                          max_evals: int = 12) -> Tuple[Array, ContactState, Array]:
+    """A step along Newton's direction dv judged by the residual r (free dofs; 0 on fixed ones).
+
+    The full step when it lowers |r| (2-norm, Armijo with Newton's slope -|r|^2). Else,
+    when the residual's component along the step, s(t) = dv . r(v + t dv), changes sign
+    between 0 and 1 (Crisfield's line search: for a conservative problem its root is the
+    energy's minimum on the line), its root by regula falsi (Illinois), to |s| <= |s(0)| / 2:
+    where a full step overshoots because contacts not yet in the tangent close (their
+    penalty forces jump in; |r| can be larger there, the next tangent has them). Else
+    halving until |r| falls."""
+    n0 = float(r0 @ r0)
+    s0 = float(dv @ r0)
+    st, r = at(v + dv)
+    if float(r @ r) <= (1.0 - 2e-4) * n0:
+        return v + dv, st, r
+    s1 = float(dv @ r)
+    if s0 < 0.0 < s1:
+        lo, slo, hi, shi, side = 0.0, s0, 1.0, s1, 0
+        for _ in range(max_evals):
+            t = (lo * shi - hi * slo) / (shi - slo)
+            st, r = at(v + t * dv)
+            s = float(dv @ r)
+            if abs(s) <= 0.5 * abs(s0):
+                return v + t * dv, st, r
+            if s < 0.0:
+                lo, slo = t, s
+                if side == -1:
+                    shi *= 0.5
+                side = -1
+            else:
+                hi, shi = t, s
+                if side == 1:
+                    slo *= 0.5
+                side = 1
+        return v + t * dv, st, r
+    t = 1.0
+    while t > 1e-8:
+        t *= 0.5
+        st, r = at(v + t * dv)
+        if float(r @ r) <= (1.0 - 2e-4 * t) * n0:
+            break
+    return v + t * dv, st, r
 
 
 # ------------------------------------------------------------------ the service

@@ -19,6 +19,28 @@ from fem import (Array, Elastic, Loads, Model, Rigid, coupled, graded_disk, mirr
                  surface_spacing)
 
 
+def e_star(kind: str, E: float, nu: float) -> float:
+    """1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2: a rigid flat ("flat") adds nothing, an equal
+    disk ("disks") as much again."""
+    e = E / (1.0 - nu ** 2)
+    return e if kind == "flat" else e / 2.0
+
+
+def r_star(kind: str, R: float) -> float:
+    """1/R* = 1/R1 + 1/R2: the flat's radius is infinite."""
+    return R if kind == "flat" else R / 2.0
+
+
+def load_for(a: float, R_star: float, E_star: float) -> float:
+    """The load P (per unit thickness) of half-width a: a = sqrt(4 P R* / (pi E*))."""
+    return math.pi * a * a * E_star / (4.0 * R_star)
+
+
+def peak(P: float, a: float) -> float:
+    """p0 = 2 P / (pi a): p(x) = p0 sqrt(1 - x^2 / a^2)."""
+    return 2.0 * P / (math.pi * a)
+
+
 @dataclass
 class HertzRun:
     kind: str                 # "flat" (disk on a rigid flat) or "disks" (two equal disks)
@@ -54,14 +76,11 @@ class HertzRun:
 
     @property
     def E_star(self) -> float:
-        """1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2: a rigid flat adds nothing, an equal disk as much again."""
-        e = self.E / (1.0 - self.nu ** 2)
-        return e if self.kind == "flat" else e / 2.0
+        return e_star(self.kind, self.E, self.nu)
 
     @property
     def R_star(self) -> float:
-        """1/R* = 1/R1 + 1/R2: the flat's radius is infinite."""
-        return self.R if self.kind == "flat" else self.R / 2.0
+        return r_star(self.kind, self.R)
 
     @property
     def a_h(self) -> float:
@@ -85,8 +104,8 @@ def solve(client: Any, run: HertzRun) -> HertzRun:
     R = run.R
     a = run.a_R * R
     run.a = a
-    run.P = math.pi * a * a * run.E_star / (4.0 * run.R_star)      # a = sqrt(4 P R* / (pi E*))
-    run.p0 = 2.0 * run.P / (math.pi * a)
+    run.P = load_for(a, run.R_star, run.E_star)
+    run.p0 = peak(run.P, a)
     eps = run.eps_ratio * run.E_star / a
     mesh = graded_disk(R, surface_spacing(R, run.levels), zone=run.zone * a, depth=run.depth * a, grading=run.grading,
                        background=run.background, turn=run.turn, centre=(0.0, R))
