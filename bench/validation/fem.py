@@ -543,49 +543,29 @@ def newton_friction(model: Model, contact: Contact, tied: Tied, loads: Loads, v0
                          history[-1] < tol)
 
 
-def _residual_line_search(at: Any, v: Array, dv: Array, r0: Array,
-                          max_evals: int = 12) -> Tuple[Array, ContactState, Array]:
-    """A step along Newton's direction dv judged by the residual r (free dofs; 0 on fixed ones).
+def _residual_line_search(at: Any, v: Array, dv: Array, r0: Array) -> Tuple[Array, ContactState, Array]:
+    """A step t dv along Newton's direction that lowers the residual's 2-norm (free dofs; r is 0
+    on fixed ones): Armijo with Newton's slope -|r|^2, |r(t)|^2 <= (1 - 2e-4 t) |r0|^2.
 
-    The full step when it lowers |r| (2-norm, Armijo with Newton's slope -|r|^2). Else,
-    when the residual's component along the step, s(t) = dv . r(v + t dv), changes sign
-    between 0 and 1 (Crisfield's line search: for a conservative problem its root is the
-    energy's minimum on the line), its root by regula falsi (Illinois), to |s| <= |s(0)| / 2:
-    where a full step overshoots because contacts not yet in the tangent close (their
-    penalty forces jump in; |r| can be larger there, the next tangent has them). Else
-    halving until |r| falls."""
+    The full step first. When it fails, backtracking starts from the root of the residual's
+    component along the step, s(t) = dv . r(v + t dv), interpolated between s(0) and s(1)
+    when they differ in sign (for a conservative problem, the energy's minimum on the line),
+    kept within [1/16, 1/2], then halves. That root is where a full step overshoots because
+    contacts not yet in the tangent close (their penalty forces jump in): there halving from
+    1 would take several contact calls to get down to it. It is only a starting point: the
+    step taken must lower |r| (accepting a rise there let Newton cycle between stick and
+    slip states of the same contacts)."""
     n0 = float(r0 @ r0)
-    s0 = float(dv @ r0)
     st, r = at(v + dv)
     if float(r @ r) <= (1.0 - 2e-4) * n0:
         return v + dv, st, r
-    s1 = float(dv @ r)
-    if s0 < 0.0 < s1:
-        lo, slo, hi, shi, side = 0.0, s0, 1.0, s1, 0
-        for _ in range(max_evals):
-            t = (lo * shi - hi * slo) / (shi - slo)
-            st, r = at(v + t * dv)
-            s = float(dv @ r)
-            if abs(s) <= 0.5 * abs(s0):
-                return v + t * dv, st, r
-            if s < 0.0:
-                lo, slo = t, s
-                if side == -1:
-                    shi *= 0.5
-                side = -1
-            else:
-                hi, shi = t, s
-                if side == 1:
-                    slo *= 0.5
-                side = 1
-        return v + t * dv, st, r
-    t = 1.0
-    while t > 1e-8:
-        t *= 0.5
+    s0, s1 = float(dv @ r0), float(dv @ r)
+    t = min(max(s0 / (s0 - s1), 1.0 / 16.0), 0.5) if s0 < 0.0 < s1 else 0.5
+    while True:
         st, r = at(v + t * dv)
-        if float(r @ r) <= (1.0 - 2e-4 * t) * n0:
-            break
-    return v + t * dv, st, r
+        if float(r @ r) <= (1.0 - 2e-4 * t) * n0 or t < 1e-8:
+            return v + t * dv, st, r
+        t *= 0.5
 
 
 # ------------------------------------------------------------------ the service
