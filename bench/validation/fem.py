@@ -501,7 +501,7 @@ class FrictionSolve:
 
 
 def newton_friction(model: Model, contact: Contact, tied: Tied, loads: Loads, v0: Array, tol: float,
-                    max_iter: int = 60, contacts: bool = False) -> FrictionSolve:
+                    max_iter: int = 60, contacts: bool = False, commit_anyway: bool = False) -> FrictionSolve:
     """One load increment with friction (docs/model.md §14), in the reduced dofs of `tied`
     (`loads` there too: its fixed dofs, values and forces are reduced ones).
 
@@ -511,7 +511,9 @@ def newton_friction(model: Model, contact: Contact, tied: Tied, loads: Loads, v0
     on the residual (`_residual_line_search`). Every iteration is a trial from the session's
     committed history (`commit=False`); at convergence the converged v is evaluated once more
     with `commit=True`, which makes its anchors the history of the next increment (and asks for
-    the contacts when `contacts`). Converged when the largest free residual is below `tol`."""
+    the contacts when `contacts`); without convergence nothing is committed (unless
+    `commit_anyway`: the last iterate then). Converged when the largest free residual is below
+    `tol`."""
     calls0 = contact.calls
     T = tied.T
     Kr = (T.T @ model.K @ T).tocsr()
@@ -536,11 +538,12 @@ def newton_friction(model: Model, contact: Contact, tied: Tied, loads: Loads, v0
         dv = np.zeros_like(v)
         dv[free] = spla.spsolve(J, -r[free])
         v, st, r = _residual_line_search(at, v, dv, r)
-    st = contact(T @ v, stiffness=False, commit=True, contacts=contacts)
+    converged = history[-1] < tol
+    if converged or commit_anyway:    # else nothing: the caller may cut the increment back
+        st = contact(T @ v, stiffness=False, commit=True, contacts=contacts)
     reaction = Kr @ v - T.T @ st.f - loads.f
     reaction[free] = 0.0
-    return FrictionSolve(v, T @ v, st, reaction, len(history) - 1, contact.calls - calls0, history,
-                         history[-1] < tol)
+    return FrictionSolve(v, T @ v, st, reaction, len(history) - 1, contact.calls - calls0, history, converged)
 
 
 def _residual_line_search(at: Any, v: Array, dv: Array, r0: Array) -> Tuple[Array, ContactState, Array]:
@@ -563,7 +566,7 @@ def _residual_line_search(at: Any, v: Array, dv: Array, r0: Array) -> Tuple[Arra
     t = min(max(s0 / (s0 - s1), 1.0 / 16.0), 0.5) if s0 < 0.0 < s1 else 0.5
     while True:
         st, r = at(v + t * dv)
-        if float(r @ r) <= (1.0 - 2e-4 * t) * n0 or t < 1e-8:
+        if float(r @ r) <= (1.0 - 2e-4 * t) * n0 or t < 1e-3:
             return v + t * dv, st, r
         t *= 0.5
 
