@@ -6,7 +6,7 @@
 
 Starts build/bin/ntscontactd on a free port (or uses --url). The FEM side (scikit-fem P1
 plane strain, Newton with the contact tangent, FIRE, the session coupling) is fem.py; the
-cases are hertz.py (§1, §2), smoothing.py (§3) and patch.py (§4). `quick()` and `check()` are what
+cases are hertz.py (§1, §2), smoothing.py (§3), patch.py (§4) and mindlin.py (§5). `quick()` and `check()` are what
 tests/python/test_validation.py asserts; the bounds are in BOUNDS, with their reasons.
 """
 
@@ -30,6 +30,7 @@ sys.path.insert(0, str(HERE))
 import numpy as np  # noqa: E402
 
 import hertz  # noqa: E402
+import mindlin  # noqa: E402
 import patch  # noqa: E402
 import smoothing  # noqa: E402
 from fem import REPO, service  # noqa: E402
@@ -43,7 +44,8 @@ Figures = Dict[str, Any]
 def quick(client: Any) -> Tuple[Figures, Dict[str, Any]]:
     """Small meshes: a disk on a rigid flat and two disks at a/h = 8, the penalty at eps a/E* =
     10 and 100 against 1e4, the drag over the 24-gon with a 20 x 5 block at alpha 0 and 0.2
-    (FIRE against Newton at d = 0).
+    (FIRE against Newton at d = 0), the patch test, and Cattaneo-Mindlin on two half-disks at
+    a/h = 12 (friction).
     Returns the figures (flat names) and the runs."""
     runs: Dict[str, Any] = {}
     flat = runs["flat"] = hertz.solve(client, hertz.HertzRun("flat", 0.1, 7, 1e4))
@@ -92,7 +94,33 @@ def quick(client: Any) -> Tuple[Figures, Dict[str, Any]]:
         f[f"patch_{key}_traction"] = r.traction_err
     f["patch_converged"] = all(r.converged for k, r in pt.items() if k != "no_surfaces")
     f["patch_no_surfaces_corner_min"] = min(pt["no_surfaces"].corner_traction)
+    cm = runs["mindlin"] = mindlin.solve(client, mindlin.MindlinRun("disks", QUICK_MINDLIN_LEVELS))
+    f.update(mindlin_figures(cm))
     return f, runs
+
+
+QUICK_MINDLIN_LEVELS = 9      # a/h = 12 at a/R = 0.025
+
+
+def mindlin_figures(r: mindlin.MindlinRun) -> Figures:
+    """The quick suite's Cattaneo-Mindlin figures (at Q/(mu P) = 0.6, and at full sliding)."""
+    pm = r.partial[0.6]
+    assert r.final is not None
+    return {
+        "mindlin_c_err": pm.c_state / pm.c_a - 1.0,
+        "mindlin_c_bracketed": pm.bracketed,
+        "mindlin_q_rms": pm.q_rms,
+        "mindlin_stick_fraction": pm.sticking / pm.contacts,
+        "mindlin_slide_ratio": r.final.interface_ratio - 1.0,
+        "mindlin_slide_all_slip": r.final.sticking == 0,
+        "mindlin_platen_ratio": r.final.ratio,
+        "mindlin_dissipation_min": r.dissipation_min,
+        "mindlin_energy_balance": (r.work - r.stored - r.springs - r.dissipation) / r.work,
+        "mindlin_Q_normal": r.Q_normal,
+        "mindlin_slip_normal": r.slip_normal,
+        "mindlin_newton_max": max(r.iterations),
+        "mindlin_converged": r.converged and r.cutbacks == 0,
+    }
 
 
 @dataclass
@@ -156,6 +184,26 @@ BOUNDS: List[Bound] = [
     Bound("patch_no_surfaces_corner_min", lambda v: v < 0.1, "without surfaces a corner node carries < 10% of p",
           "the flush stack's corner nodes find the other block's side (docs/model.md §13)"),
     Bound("patch_converged", bool, "Newton converged in every patch test with surfaces", ""),
+    Bound("mindlin_c_err", lambda v: abs(v) < 0.07, "Cattaneo-Mindlin, Q = 0.6 mu P: |c / c_CM - 1| < 7%",
+          "c from the states is halfway between the outermost sticking node and the next slipping one: within "
+          "h/2 = 6.5% of c at a/h = 12 when the stick zone ends where C-M's does; one node off is 10% or more"),
+    Bound("mindlin_c_bracketed", bool, "... and C-M's c lies between those two nodes on both sides", ""),
+    Bound("mindlin_q_rms", lambda v: v < 0.05, "RMS of (q - q_CM) / (mu p0) over the contact < 5%",
+          "measured 2.8% at a/h = 12: the nodes next to |x| = c and the contact's edges carry most of it"),
+    Bound("mindlin_stick_fraction", lambda v: 0.0 < v < 1.0, "partial slip: some contacts stick, some slip", ""),
+    Bound("mindlin_slide_all_slip", bool, "full sliding: every contact slips", ""),
+    Bound("mindlin_slide_ratio", lambda v: abs(v) < 1e-3, "full sliding: the interface's shear / (mu its load) "
+          "within 1e-3 of 1", "the tractions in the interface's own frame (docs/validation.md §5)"),
+    Bound("mindlin_platen_ratio", lambda v: 0.98 < v < 1.0, "full sliding: the platen's Q / (mu P) in (0.98, 1)",
+          "below 1 by the interface's tilt over mu (slope -0.0026 at a/R = 0.025: 0.991)"),
+    Bound("mindlin_dissipation_min", lambda v: v >= 0.0, "every committed step's dissipation >= 0", "eq. (27)"),
+    Bound("mindlin_energy_balance", lambda v: abs(v) < 0.01, "the platen's work = elastic + springs + dissipation "
+          "(to 1%)", "trapezoids over the increments: measured 0.06%"),
+    Bound("mindlin_Q_normal", lambda v: abs(v) < 1e-6, "the normal load alone: the platen's x reaction < 1e-6 mu P",
+          "beta = 0 and a symmetric mesh: no shear"),
+    Bound("mindlin_slip_normal", lambda v: v == 0, "the normal load alone: no contact slips", "beta = 0"),
+    Bound("mindlin_newton_max", lambda v: v <= 15, "<= 15 Newton iterations per increment", "measured 1 to 7"),
+    Bound("mindlin_converged", bool, "Newton converged at every increment, none cut back", ""),
 ]
 
 
@@ -219,6 +267,20 @@ def full(client: Any, log: Callable[[str], None]) -> Dict[str, Any]:
     runs["drag"] = {al: d(al) for al in (0.0, 0.2)}
     runs["drag_h"] = [d(0.0, nx=20, ny=5, fire_positions=0), runs["drag"][0.0], d(0.0, nx=80, ny=20, fire_positions=0),
                       d(0.0, penalty=1e4, fire_positions=0)]
+
+    def cm(kind: str, levels: int, **kw: Any) -> mindlin.MindlinRun:
+        r = mindlin.solve(client, mindlin.MindlinRun(kind, levels, **kw))
+        pm = r.partial[0.6]
+        log(f"  mindlin {kind} a/R {r.a_R} a/h {r.a_h:.1f} eps a/E* {r.eps_ratio:g}: c/c_CM(0.6) "
+            f"{pm.c_state / pm.c_a - 1:+.4f} q rms {pm.q_rms:.4f} slide {r.final.interface_ratio if r.final else 0:.6f} "
+            f"platen {r.final.ratio if r.final else 0:.4f} newton {r.iterations} cutbacks {r.cutbacks}")
+        return r
+
+    runs["mindlin"] = [cm("disks", L) for L in (8, 9, 10, 11)]
+    runs["mindlin_penalty"] = {e: cm("disks", 9, eps_ratio=e) for e in (100.0, 1e4)}
+    runs["mindlin_penalty"][1e3] = runs["mindlin"][1]
+    runs["mindlin_aR0.1"] = cm("disks", 7, a_R=0.1)
+    runs["mindlin_flat"] = cm("flat", 9)
     return runs
 
 
@@ -392,7 +454,292 @@ def plots(runs: Dict[str, Any], img: Path) -> Dict[str, str]:
     out["patch"] = "validation_patch.png"
     fig.savefig(img / out["patch"], dpi=110)
     plt.close(fig)
+    out.update(mindlin_plots(runs, img, plt))
     return out
+
+
+def mindlin_plots(runs: Dict[str, Any], img: Path, plt: Any) -> Dict[str, str]:
+    out: Dict[str, str] = {}
+    fine, flat, big = runs["mindlin"][-1], runs["mindlin_flat"], runs["mindlin_aR0.1"]
+    fig, axs = plt.subplots(1, 3, figsize=(16, 4.4))
+    xs = np.linspace(-1.0, 1.0, 801)
+    for ax, r, title in ((axs[0], fine, f"two half-disks (beta = 0), a/h = {fine.a_h:.0f}"),
+                         (axs[1], flat, f"half-disk on a rigid flat (beta != 0), a/h = {flat.a_h:.0f}")):
+        ax.plot(xs, np.sqrt(1 - xs ** 2), "k:", lw=0.8, label="mu p (Hertz)")
+        for (ratio, pt), c in zip(sorted(r.partial.items()), ("C0", "C1", "C2")):
+            cc = pt.c_a * r.a
+            ax.plot(xs, mindlin.mindlin_shear(xs * r.a, r.a, cc, r.p0, r.mu) / (r.mu * r.p0), "-", color=c, lw=0.9)
+            ax.plot(pt.x / r.a, pt.q / (r.mu * r.p0), "o", color=c, ms=2.5, label=f"Q = {ratio:g} mu P")
+            ax.plot(pt.stick_x / r.a, np.full(len(pt.stick_x), -0.04 - 0.03 * ratio), "|", color=c, ms=5)
+        ax.set_xlim(-1.15, 1.15)
+        ax.set_xlabel("x / a  (reference)")
+        ax.set_ylabel("q / (mu p0)")
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=7)
+    axs[0].text(0, -0.02, "sticking nodes", fontsize=7, ha="center", va="bottom")
+    for r, lab in ((fine, f"two half-disks, a/R {fine.a_R:g}"), (big, f"two half-disks, a/R {big.a_R:g}"),
+                   (flat, f"on a rigid flat, a/R {flat.a_R:g}")):
+        path = np.array(r.path)
+        axs[2].plot(path[:, 1], path[:, 0], ".-", ms=3, lw=0.8, label=lab)
+    axs[2].axhline(1.0, color="k", lw=0.5)
+    axs[2].set_xlabel("platen's x from Q = 0, / a")
+    axs[2].set_ylabel("Q / (mu P) on the platen")
+    axs[2].set_title("the load path (load steps, then pushed)", fontsize=9)
+    axs[2].legend(fontsize=7)
+    fig.tight_layout()
+    out["mindlin"] = "validation_mindlin.png"
+    fig.savefig(img / out["mindlin"], dpi=110)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    rs = runs["mindlin"]
+    ah = [r.a_h for r in rs]
+    for ratio, c in zip((0.3, 0.6, 0.9), ("C0", "C1", "C2")):
+        ax.loglog(ah, [r.partial[ratio].q_rms for r in rs], "o-", color=c, label=f"q RMS, Q = {ratio:g} mu P")
+        ax.loglog(ah, [r.partial[ratio].q_bulk for r in rs], "s--", color=c, mfc="none",
+                  label="q max away from c and a")
+        ax.loglog(ah, [max(abs(r.partial[ratio].c_state - r.partial[ratio].c_a), 1e-4) for r in rs], "^:",
+                  color=c, label="|c - c_CM| / a (states)")
+    ax.loglog(ah, [0.5 / x for x in ah], "k-", lw=0.6, label="h / (2a)")
+    ax.set_xlabel("a / h")
+    ax.set_ylabel("error (over mu p0, or a)")
+    ax.legend(fontsize=6, ncol=2)
+    ax.set_title("Cattaneo-Mindlin, two half-disks: mesh refinement", fontsize=9)
+    fig.tight_layout()
+    out["mindlin_convergence"] = "validation_mindlin_convergence.png"
+    fig.savefig(img / out["mindlin_convergence"], dpi=110)
+    plt.close(fig)
+    return out
+
+
+def mindlin_section(runs: Dict[str, Any], img_names: Dict[str, str], stamp: Callable[[], str]) -> str:
+    """docs/validation.md §5, from the full run's Cattaneo-Mindlin runs."""
+    rs: List[mindlin.MindlinRun] = runs["mindlin"]
+    fine, ref = rs[-1], rs[1]
+    pen, big, flat = runs["mindlin_penalty"], runs["mindlin_aR0.1"], runs["mindlin_flat"]
+
+    def partial_rows(r: mindlin.MindlinRun) -> List[List[str]]:
+        return [[f"{q:g}", f"{pt.c_a:.4f}", f"{pt.c_state:.4f}", f"{pt.c_lo:.3f} .. {pt.c_hi:.3f}",
+                 "yes" if pt.bracketed else "**no**", pct(pt.c_state / pt.c_a - 1, 1), f"{100 * pt.q_rms:.2f}%",
+                 f"{100 * pt.q_bulk:.2f}%", f"{100 * pt.q_max:.1f}%", f"{pt.sticking} / {pt.contacts}",
+                 f"{pt.interface_ratio:.4f}"] for q, pt in sorted(r.partial.items())]
+
+    phead = ["Q / (mu P)", "c/a C-M", "c/a measured", "outermost stick .. next slip, / a", "C-M's c between",
+             "c error", "q RMS", "q max away from c, a", "q max", "sticking / contacts", "interface's Q / (mu P)"]
+
+    def slide_row(name: str, r: mindlin.MindlinRun) -> List[str]:
+        f = r.final
+        assert f is not None
+        return [name, f"{r.a_h:.1f}", "yes" if f.sticking == 0 else f"**no** ({f.sticking} stick)",
+                f"{r.slide_shift:.4f}", f"{f.interface_ratio:.6f}", f"{f.resolved_ratio:.5f}", f"{f.ratio:.5f}",
+                f"{r.tilt:+.5f}", pct(max(t.new_share for t in r.slide), 2),
+                pct((r.work - r.stored - r.springs - r.dissipation) / r.work, 3)]
+
+    shead = ["run", "a/h", "every contact slips", "platen's push until then, / a", "interface: q / (mu p), summed",
+             "platen's (Q, P) on the mean slope", "platen's Q / (mu P)", "interface slope", "largest share of the "
+             "normal force on contacts new in a sliding step", "energy balance (W - U - E_springs - D) / W"]
+
+    def newton(r: mindlin.MindlinRun) -> str:
+        return (f"{min(r.iterations)} to {max(r.iterations)} (mean {np.mean(r.iterations):.1f}), {r.cutbacks} cut back"
+                + ("" if r.converged else ", **not all converged**"))
+
+    ref_rows = [[f"{r.a_h:.1f}", r.nodes] + [pct(r.partial[q].c_state / r.partial[q].c_a - 1, 1)
+                                            + ("" if r.partial[q].bracketed else " (outside)") for q in (0.3, 0.6, 0.9)]
+                + [f"{100 * r.partial[0.6].q_rms:.2f}%", f"{100 * r.partial[0.6].q_bulk:.2f}%",
+                   f"{100 * r.partial[0.6].q_max:.1f}%", newton(r), r.calls] for r in rs]
+    pen_rows = [[f"{e:g}", pct(pen[e].partial[0.6].c_state / pen[e].partial[0.6].c_a - 1, 1),
+                 f"{100 * pen[e].partial[0.6].q_rms:.2f}%", f"{100 * pen[e].partial[0.6].q_bulk:.2f}%",
+                 f"{pen[e].final.interface_ratio:.6f}" if pen[e].final else "-", f"{pen[e].a_fem / pen[e].a - 1:+.4f}",
+                 newton(pen[e])] for e in sorted(pen)]
+    beta = (1 - 2 * flat.nu) / (2 * (1 - flat.nu))
+    fb = flat.partial
+    gb = big.partial
+    return f"""## 5. Cattaneo-Mindlin: partial slip with Coulomb friction
+
+**Theory** (Johnson, *Contact Mechanics*, §7.1). Two cylinders pressed by `P`
+(per unit thickness), then sheared by a tangential load `Q < mu P` applied
+monotonically without rotation. When both are of the same material, Dundurs'
+`beta` is 0: the normal and tangential problems uncouple, the pressure stays
+Hertz's `p(x) = p0 sqrt(1 - x^2/a^2)` (§1), and the contact has a central stick
+zone `|x| < c` and a slip annulus:
+
+    c = a sqrt(1 - Q / (mu P))
+    q(x) = mu p0 [sqrt(1 - x^2/a^2) - (c/a) sqrt(1 - x^2/c^2)]    |x| < c
+    q(x) = mu p(x)                                                  c <= |x| <= a
+
+until `Q = mu P` slides the whole contact. The model is docs/model.md §14:
+penalty-regularised Coulomb friction, each contact's anchor a material point of
+the master surface (23), stick or slip with the anchor's return (25), forces on
+the slave and the master's nodes (26), dissipation (27), a consistent tangent
+that is not symmetric in slip.
+
+**Setup** (`bench/validation/mindlin.py`). Two equal half-disks (`R = 1`, `E = 1`,
+`nu = 0.3`, plane strain), the upper one's flat edge at `y = R`, its arc touching
+the lower one's (its mirror image) at the origin; each flat edge bonded to a rigid
+platen that translates without turning (`fem.Tied`: the edge's nodes share two
+dofs), the lower one held. Two-pass contact (both half-disks slaves and masters,
+their alpha 0.2 as in §1b), `mu = {fine.mu:g}`, the tangential penalty `eps_T = eps`
+and `eps = {fine.eps_ratio:g} E*/a` (the pair's `E*`; §2's rule, `eps >= 100 E*/a`, with
+margin; the penalty sweep below). `P` is Hertz's load for `a/R = {fine.a_R:g}`: C-M is a
+small-strain theory, and at §1's `a/R = 0.1` the interface tilts enough to matter
+(below). The load: `P` on the platen in {fine.normal_steps} increments with friction on and the
+platen's `x` held (a new contact sticks where it is with no tangential stiffness,
+§14: nothing else holds the upper body sideways then), then `Q` on the free platen
+`x` in steps of `mu P / {fine.q_steps}` up to `{(fine.q_steps - 1) / fine.q_steps:g} mu P`, then the platen's `x` pushed
+on by displacement steps until every contact slips, {fine.slide_steps} more and a last one of
+`1e-3` of a step (at `Q = mu P` no force-controlled equilibrium exists). The mesh:
+`fem.graded_half_disk`, three 60-degree arcs bisected `L` times (the contact's
+centre a bisection node, §1's regular pattern), refined towards the contact as in
+§1 with grading 6 (§1's 12 costs 2.4 times the nodes for 0.1% of `mu p0` in `q`).
+
+**Solver** (`fem.newton_friction`). There is no energy to minimise (slip
+dissipates; the answer depends on the path), so: Newton on the residual with the
+contact's consistent (non-symmetric) tangent (`spsolve`), a backtracking line
+search on the residual's 2-norm (Armijo; it starts from the root of the residual's
+component along the step when the full step overshoots), every iteration a trial
+step from the session's committed history (`commit=False`), and the converged
+state evaluated once more with `commit=True`, which makes its anchors the next
+increment's history. Each increment starts from the last solution plus the last
+increment's change (a predictor; from the last solution alone the first Newton step
+overshoots where contacts close). An increment Newton fails (30 iterations) is cut
+in two, from the last committed state (nothing is committed by a failed one).
+
+**Measuring.** Tractions from the upper body's nodal contact forces `F_i` (its own
+slave forces and the lower body's slaves' reactions, §1b) over the tributary
+lengths `l_i` (docs/model.md (21)), resolved on the upper surface's current
+tangent and normal at the node: `p_i = F_i . n / l_i`, `q_i = -F_i . tau / l_i`
+(not the global `x`, `y`: the interface tilts, below). `c` from the contacts' own
+states (both half-disks' slaves): on each side halfway between the outermost
+sticking slave and the next slipping one (a resolution of `h/2`), and whether C-M's
+`c` lies between those two nodes. The shear profile against C-M with Hertz's `a`
+and `p0`, over `mu p0`: RMS over `|x| < a`, the largest error anywhere, and the
+largest away from C-M's two singular points (`q`'s slope is infinite at `|x| = c`,
+`p`'s at the edge: nodes within `h` of `|x| = c` and of `|x| = a` left out). "The
+interface's Q / (mu P)" is `sum q_i l_i / (mu sum p_i l_i)`.
+
+### 5a. Two equal half-disks (beta = 0)
+
+At `a/h = {fine.a_h:.1f}` ({fine.nodes} nodes):
+
+{stamp()}
+
+{table(phead, partial_rows(fine))}
+
+![q against Cattaneo-Mindlin, and the load path](img/{img_names['mindlin']})
+
+Mesh refinement (`c` error at each `Q / (mu P)`; the profile errors at 0.6):
+
+{stamp()}
+
+{table(["a/h", "nodes", "c error, 0.3", "c error, 0.6", "c error, 0.9", "q RMS", "q max away from c, a", "q max",
+        "Newton iterations per increment", "contact calls"], ref_rows)}
+
+![errors against a/h](img/{img_names['mindlin_convergence']})
+
+- **The stick zone is where C-M puts it**: at every load and mesh above, C-M's
+  `c` lies between the outermost sticking slave and the next slipping one (the
+  table says where not), so the measured `c` is within `h/2` of C-M's; at
+  `a/h = {fine.a_h:.0f}` the error is {pct(fine.partial[0.6].c_state / fine.partial[0.6].c_a - 1, 1)} at `Q = 0.6 mu P`.
+  The states change one node at a time: the error does not fall smoothly, its
+  bound `h/(2c)` does.
+- **The shear profile follows C-M** ({100 * fine.partial[0.6].q_rms:.2f}% RMS of `mu p0` at `a/h = {fine.a_h:.0f}`, 0.6); what
+  error there is sits at the two singular points: at `|x| = c`, where the stick
+  correction's square root has an infinite slope, the node next to `c` reads up to
+  {100 * max(pt.q_max for pt in fine.partial.values()):.0f}% of `mu p0` off (a node that C-M has just inside the stick zone, nearly at
+  the Coulomb limit in the FEM, or the reverse; a P1 mesh smooths the square root
+  over an element), and at the contact's edge (a tributary length across the
+  pressure's edge, as in §1). Away from them the error is
+  {100 * fine.partial[0.6].q_bulk:.2f}% at 0.6 and falls with `h`.
+- **The interface carries slightly more than the applied `Q`**: {', '.join(f"{pt.interface_ratio:.4f}" for _, pt in sorted(fine.partial.items()))}
+  against 0.3, 0.6, 0.9. The shear tilts the interface (next paragraph), and `P`
+  has a component along the tilted interface.
+- **The normal load alone** leaves the platen's `x` reaction at
+  {ref.Q_normal:.1e} `mu P` and no contact slipping ({ref.slip_normal} of {ref.stick_normal + ref.slip_normal} at `a/h = {ref.a_h:.0f}`):
+  with `beta = 0` the two surfaces move alike under `p`, nothing to resist.
+
+### 5b. Full sliding
+
+{stamp()}
+
+{table(shead, [slide_row(f"two half-disks, a/R {r.a_R:g}", r) for r in rs]
+       + [slide_row(f"two half-disks, a/R {big.a_R:g}", big), slide_row(f"rigid flat, a/R {flat.a_R:g}", flat)])}
+
+- **Every contact slips and the interface carries `mu` times its load**: the
+  tractions in the interface's frame give `sum q l / (mu sum p l)` within
+  {max(abs(r.final.interface_ratio - 1) for r in rs if r.final):.1e} of 1 on every mesh (each contact's `|t| = mu |f_N|` exactly; the rest is the
+  nodes' frames against the contacts' own).
+- **The platen's `Q / (mu P)` is {fine.final.ratio if fine.final else 0:.4f}, not 1**: the interface is tilted, slope
+  {fine.tilt:+.4f}. Each half-disk's surface moves down on one side of the contact and
+  up on the other under the shear (for a half-plane the normal displacement's slope
+  is about `(1 - 2 nu)(1 + nu) q / E`); `beta = 0` makes the two surfaces move
+  alike, which keeps the gap, not the surfaces, from it. On the tilted interface
+  the contact forces' resultant leans by the slope `s`: `Q = P (mu + s) / (1 - mu s)`,
+  {((1 + fine.tilt / fine.mu) / (1 - fine.mu * fine.tilt)):.4f} with the measured slope; the platen's `(Q, P)` resolved on the mean
+  slope gives {fine.final.resolved_ratio if fine.final else 0:.5f}. It is a finite-rotation effect, of order `p0/E`: at
+  `a/R = {big.a_R:g}` the slope is {big.tilt:+.4f} and the platen's ratio {big.final.ratio if big.final else 0:.3f}; on the rigid flat
+  (nothing tilts) {flat.final.ratio if flat.final else 0:.6f}.
+- **A contact new in a step carries no tangential force in it** (§14: its anchor is
+  its closest point). While the contact slides, nodes close at the leading edge;
+  in a sliding step the normal force on such contacts was up to
+  {pct(max(max(t.new_share for t in r.slide) for r in rs + [big, flat]), 1)} of the total here
+  (the largest over every run above, the steps of a third of the
+  partial-slip push), frictionless for that step: the platen's ratio dips by as
+  much. The last step, `1e-3` of the others, closes none (the table's ratios). A
+  contact that closes in the middle of a step would, in a continuous history, have
+  slid after closing; an explicit solver's small steps make this small, an
+  implicit solver's large ones do not.
+- **Energy**: the platen's work (trapezoids over the increments) equals the elastic
+  energy plus the springs' (normal and tangential) plus the summed dissipation (27)
+  to the balance in the last column; every committed step's dissipation is `>= 0`
+  (smallest {min(r.dissipation_min for r in rs):.1e}).
+
+### 5c. The penalty
+
+`eps_T = eps`, at `a/h = {ref.a_h:.0f}`:
+
+{stamp()}
+
+{table(["eps a / E*", "c error, 0.6", "q RMS, 0.6", "q max away from c, a", "interface ratio at sliding",
+        "a (FEM) / a - 1", "Newton iterations per increment"], pen_rows)}
+
+The tangential penalty is a compliance in series with the bodies', as the normal
+one is (§2): `E* / (eps a)` of the stick zone's relative displacement.
+
+### 5d. An elastic half-disk on a rigid flat (beta != 0): C-M only approximate
+
+The same upper half-disk on a rigid flat (`role: master`, alpha 0, one-pass;
+Hertz's `E*` and `R*` of §1a), at `a/h = {flat.a_h:.0f}`. An elastic body on a rigid one has
+`|beta| = (1 - 2 nu) / (2 (1 - nu)) = {beta:.3f}`: the normal and tangential problems
+couple. Under the normal load alone the elastic surface moves inward against the
+flat and friction resists it (Spence's problem): the pressing leaves
+{flat.slip_normal} of {flat.slip_normal + flat.stick_normal} contacts slipping and a shear locked into the stick
+zone, and `a` is {pct(flat.a_fem / flat.a - 1, 1)} and `p0` {pct(flat.p0_fem / flat.p0 - 1, 1)} off Hertz (against -0.2% on the
+half-disks). C-M is then an approximation, reported as it is, with no tight
+bounds:
+
+{stamp()}
+
+{table(phead, partial_rows(flat))}
+
+The locked-in shear adds to `Q` on one side of the contact and subtracts on the
+other: the stick zone is not centred, `q` differs from C-M's by up to
+{100 * max(pt.q_max for pt in fb.values()):.0f}% of `mu p0`, and C-M's `c` is not the stick zone's edge. Full sliding is
+exact here (the flat cannot tilt): the platen's `Q / (mu P)` is {flat.final.ratio if flat.final else 0:.6f}. Newton:
+{newton(flat)} (the pressing, where edge contacts slip inward, takes the most).
+
+### 5e. Two half-disks at a/R = 0.1
+
+The same at §1's `a/R = 0.1` (`a/h = {big.a_h:.0f}`, `p0 / E = {big.p0 / big.E:.3f}`): the interface's
+`Q / (mu P)` in partial slip is {', '.join(f"{pt.interface_ratio:.4f}" for _, pt in sorted(gb.items()))} against 0.3, 0.6, 0.9 (at `a/R = {fine.a_R:g}`,
+{', '.join(f"{pt.interface_ratio:.4f}" for _, pt in sorted(fine.partial.items()))}), `c` errors {', '.join(pct(pt.c_state / pt.c_a - 1, 1) for _, pt in sorted(gb.items()))}, `q` RMS
+{', '.join(f"{100 * pt.q_rms:.1f}%" for _, pt in sorted(gb.items()))}, and the platen's ratio at sliding {big.final.ratio if big.final else 0:.3f}.
+Newton: {newton(big)}. While it slides, the contact sweeps over the half-disks'
+nodes (each step of the push moves it by `{big.slide_shift:.3f} a` relative to each body),
+and where a node closes at the leading edge, Newton stalls at a residual of about
+`1e-5 P`: the tangent is consistent there (central differences of
+`commit=False` trials agree to `1e-7`), but the node enters and leaves the
+contact from one iterate to the next. Cut in two, the increments converge, up to
+the depth of 3.
+"""
 
 
 def report(runs: Dict[str, Any], qf: Figures, quick_runs: Dict[str, Any], quick_s: float, full_s: float,
@@ -833,12 +1180,15 @@ where nodes of the two meshes face each other (10 / 14 cells and finer share
 nodes), as in §2: smooth both blocks, or give them alpha 0 and one-pass on
 matching meshes. docs/coupling.md §4 states both rules.
 
+{mindlin_section(runs, img_names, stamp)}
+
 ## The quick suite (tests/python/test_validation.py)
 
 {cmd_quick}: a disk on a flat and two disks at `a/h = 8`, the penalty at
 `eps a / E* = 10, 100` against `1e4`, the drag on a 20 x 5 block at both
 alphas (FIRE against Newton at `d = 0`), the patch test on 5 / 7 and 4 / 4
-cells. The test asserts every bound:
+cells, Cattaneo-Mindlin on two half-disks at `a/h = 12` (§5). The test asserts
+every bound:
 
 {stamp(cmd_quick)}
 
