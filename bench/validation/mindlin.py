@@ -28,9 +28,10 @@ solution plus the last increment's change (a predictor):
 2. Q = mu P k / q_steps, k = 1 .. q_steps - 1, a force on the free platen x
    (measured at the `ratios` of mu P);
 3. the platen's x pushed on by displacement steps until every contact slips (at
-   Q = mu P there is no static equilibrium under a force), `slide_steps` more, and a
-   last one of 1e-3 of a step (in which no contact closes: a contact new in a step carries
-   no tangential force that step, §14): there the interface carries mu times its load.
+   Q = mu P there is no static equilibrium under a force), then `slide_steps` more, and on
+   to the first one in which every contact slips (in some, a contact that closed at the
+   leading edge still sticks: a contact new in a step carries no tangential force in it,
+   §14): there the interface carries mu times its load.
 
 Measured: tractions from the upper body's nodal contact forces over their tributary lengths
 (docs/model.md (21)) resolved on the interface's current tangent and normal (`tractions`);
@@ -80,6 +81,7 @@ class Partial:
     q_max: float              # max |q_i - q_CM(x_i)| / (mu p0) over every node in contact
     q_bulk: float             # the same away from C-M's two singular points: |x| < a - h and ||x| - c| > h
     interface_ratio: float    # sum q_i l_i / (mu sum p_i l_i): the applied Q / (mu P) as the interface carries it
+    c_int: float              # C-M's c / a at that ratio
     sticking: int
     slipping: int
     contacts: int
@@ -92,6 +94,11 @@ class Partial:
     def bracketed(self) -> bool:
         """C-M's c lies between the outermost sticking slave and the next slipping one, on both sides."""
         return self.c_lo <= self.c_a <= self.c_hi
+
+    @property
+    def bracketed_int(self) -> bool:
+        """The same for C-M's c at the interface's own Q / (mu P)."""
+        return self.c_lo <= self.c_int <= self.c_hi
 
 
 @dataclass
@@ -141,7 +148,7 @@ class MindlinRun:
     path: List[Tuple[float, float, int, int]] = field(default_factory=list)  # (Q/(mu P), platen x / a, stick, slip)
     slide: List[SlideStep] = field(default_factory=list)
     slide_shift: float = 0.0  # the platen's x beyond the last partial-slip step when every contact first slipped, / a
-    final: Optional[SlideStep] = None   # a step of 1e-3 of the sliding steps after them: no contact closes in it
+    final: Optional[SlideStep] = None   # the first sliding step from `slide_steps` after that with every contact slipping
     tilt: float = 0.0         # the interface's slope then (least squares through the upper nodes in contact)
     dissipation: float = 0.0  # summed over the committed steps (eq. (27))
     dissipation_min: float = 0.0   # the smallest step's
@@ -150,6 +157,7 @@ class MindlinRun:
     springs: float = 0.0      # tangential): work = stored + springs + dissipation, to the trapezoids' error
     iterations: List[int] = field(default_factory=list)
     cutbacks: int = 0         # increments Newton failed and that were cut in two
+    unconverged: int = 0      # increments committed without convergence (cut in two 3 times deep)
     calls: int = 0
     converged: bool = True
 
@@ -279,7 +287,7 @@ def measure(run: MindlinRun, model: Model, s: FrictionSolve, Q: float) -> Partia
     bulk = (np.abs(tr.x) < a - run.h) & (np.abs(np.abs(tr.x) - c) > run.h)
     return Partial(Q / (mu * run.P), c / a, c_state / a, lo / a, hi / a,
                    float(np.sqrt(np.mean(err[inside] ** 2))), float(np.abs(err).max()),
-                   float(np.abs(err[bulk]).max()), tr.ratio(mu),
+                   float(np.abs(err[bulk]).max()), tr.ratio(mu), math.sqrt(max(1.0 - tr.ratio(mu), 0.0)),
                    int(s.state.sticking), int(s.state.slipping), int(s.state.contacts), tr.x, tr.p, tr.q, sx[stick])
 
 
@@ -326,6 +334,7 @@ def solve(client: Any, run: MindlinRun) -> MindlinRun:
         nonlocal v, v_prev, total
         run.iterations.append(s.iterations)
         run.converged = run.converged and s.converged
+        run.unconverged += 0 if s.converged else 1
         dissipations.append(s.state.dissipation)
         v, v_prev, total = s.v, v, f + s.reaction
         platen.append((total[[ux, uy]].copy(), v[[ux, uy]].copy()))
@@ -390,7 +399,7 @@ def solve(client: Any, run: MindlinRun) -> MindlinRun:
         # 1e-3 of that (no contact closes in it: a new one carries no tangential force, §14)
         du = (float(v[ux]) - ux0) / 3.0
         last = float(v[ux])
-        after = -1                # steps since every contact slipped
+        after = -1                # steps since every contact first slipped
         for k in range(40):
             s = step(contact, {**base, ux: float(v[ux]) + du}, 0.0, contacts=True, extrapolate=0.0 if k == 0 else 1.0)
             st = slide_step(run, model, s, (float(v[ux]) - last) / a, ux)
@@ -400,10 +409,12 @@ def solve(client: Any, run: MindlinRun) -> MindlinRun:
                 run.slide_shift, after = st.shift, 0
             elif after >= 0:
                 after += 1
-            if after >= run.slide_steps:
+            # measured at the first step from `slide_steps` on in which every contact slips: in
+            # some, a contact that closed in it (no tangential force, §14) or in the step before
+            # (its spring then stretched by one step only) still sticks
+            if after >= run.slide_steps and st.sticking == 0:
                 break
-        s = step(contact, {**base, ux: float(v[ux]) + 1e-3 * du}, 0.0, contacts=True, extrapolate=1e-3)
-        run.final = slide_step(run, model, s, (float(v[ux]) - last) / a, ux)
+        run.final = st
         run.tilt = tractions(model, s.u, s.state.f).slope
         run.calls = contact.calls
     run.dissipation = float(sum(dissipations))

@@ -269,15 +269,16 @@ def full(client: Any, log: Callable[[str], None]) -> Dict[str, Any]:
                       d(0.0, penalty=1e4, fire_positions=0)]
 
     def cm(kind: str, levels: int, **kw: Any) -> mindlin.MindlinRun:
+        t0 = time.perf_counter()
         r = mindlin.solve(client, mindlin.MindlinRun(kind, levels, **kw))
         pm = r.partial[0.6]
-        log(f"  mindlin {kind} a/R {r.a_R} a/h {r.a_h:.1f} eps a/E* {r.eps_ratio:g}: c/c_CM(0.6) "
+        log(f"  mindlin {kind} a/R {r.a_R} a/h {r.a_h:.1f} eps a/E* {r.eps_ratio:g} ({time.perf_counter() - t0:.0f} s): c/c_CM(0.6) "
             f"{pm.c_state / pm.c_a - 1:+.4f} q rms {pm.q_rms:.4f} slide {r.final.interface_ratio if r.final else 0:.6f} "
             f"platen {r.final.ratio if r.final else 0:.4f} newton {r.iterations} cutbacks {r.cutbacks}")
         return r
 
     runs["mindlin"] = [cm("disks", L) for L in (8, 9, 10, 11)]
-    runs["mindlin_penalty"] = {e: cm("disks", 9, eps_ratio=e) for e in (100.0, 1e4)}
+    runs["mindlin_penalty"] = {100.0: cm("disks", 9, eps_ratio=100.0)}
     runs["mindlin_penalty"][1e3] = runs["mindlin"][1]
     runs["mindlin_aR0.1"] = cm("disks", 7, a_R=0.1)
     runs["mindlin_flat"] = cm("flat", 9)
@@ -519,19 +520,22 @@ def mindlin_section(runs: Dict[str, Any], img_names: Dict[str, str], stamp: Call
 
     def partial_rows(r: mindlin.MindlinRun) -> List[List[str]]:
         return [[f"{q:g}", f"{pt.c_a:.4f}", f"{pt.c_state:.4f}", f"{pt.c_lo:.3f} .. {pt.c_hi:.3f}",
-                 "yes" if pt.bracketed else "**no**", pct(pt.c_state / pt.c_a - 1, 1), f"{100 * pt.q_rms:.2f}%",
-                 f"{100 * pt.q_bulk:.2f}%", f"{100 * pt.q_max:.1f}%", f"{pt.sticking} / {pt.contacts}",
-                 f"{pt.interface_ratio:.4f}"] for q, pt in sorted(r.partial.items())]
+                 "yes" if pt.bracketed else "**no**", pct(pt.c_state / pt.c_a - 1, 1),
+                 f"{pt.interface_ratio:.4f}", f"{pt.c_int:.4f}", "yes" if pt.bracketed_int else "**no**",
+                 f"{100 * pt.q_rms:.2f}%",
+                 f"{100 * pt.q_bulk:.2f}%", f"{100 * pt.q_max:.1f}%", f"{pt.sticking} / {pt.contacts}"]
+                for q, pt in sorted(r.partial.items())]
 
     phead = ["Q / (mu P)", "c/a C-M", "c/a measured", "outermost stick .. next slip, / a", "C-M's c between",
-             "c error", "q RMS", "q max away from c, a", "q max", "sticking / contacts", "interface's Q / (mu P)"]
+             "c error", "the interface's Q / (mu P)", "c/a C-M at that", "between", "q RMS", "q max away from c, a",
+             "q max", "sticking / contacts"]
 
     def slide_row(name: str, r: mindlin.MindlinRun) -> List[str]:
         f = r.final
         assert f is not None
         return [name, f"{r.a_h:.1f}", "yes" if f.sticking == 0 else f"**no** ({f.sticking} stick)",
                 f"{r.slide_shift:.4f}", f"{f.interface_ratio:.6f}", f"{f.resolved_ratio:.5f}", f"{f.ratio:.5f}",
-                f"{r.tilt:+.5f}", pct(max(t.new_share for t in r.slide), 2),
+                f"{r.tilt:+.5f}", f"{100 * max(t.new_share for t in r.slide):.2f}%",
                 pct((r.work - r.stored - r.springs - r.dissipation) / r.work, 3)]
 
     shead = ["run", "a/h", "every contact slips", "platen's push until then, / a", "interface: q / (mu p), summed",
@@ -540,7 +544,10 @@ def mindlin_section(runs: Dict[str, Any], img_names: Dict[str, str], stamp: Call
 
     def newton(r: mindlin.MindlinRun) -> str:
         return (f"{min(r.iterations)} to {max(r.iterations)} (mean {np.mean(r.iterations):.1f}), {r.cutbacks} cut back"
-                + ("" if r.converged else ", **not all converged**"))
+                + ("" if r.converged else f", **{r.unconverged} not converged**"))
+
+    out_applied = [f"a/h {r.a_h:.0f} at {q:g}" for r in rs for q, pt in sorted(r.partial.items()) if not pt.bracketed]
+    out_int = [f"a/h {r.a_h:.0f} at {q:g}" for r in rs for q, pt in sorted(r.partial.items()) if not pt.bracketed_int]
 
     ref_rows = [[f"{r.a_h:.1f}", r.nodes] + [pct(r.partial[q].c_state / r.partial[q].c_a - 1, 1)
                                             + ("" if r.partial[q].bracketed else " (outside)") for q in (0.3, 0.6, 0.9)]
@@ -585,8 +592,9 @@ small-strain theory, and at §1's `a/R = 0.1` the interface tilts enough to matt
 platen's `x` held (a new contact sticks where it is with no tangential stiffness,
 §14: nothing else holds the upper body sideways then), then `Q` on the free platen
 `x` in steps of `mu P / {fine.q_steps}` up to `{(fine.q_steps - 1) / fine.q_steps:g} mu P`, then the platen's `x` pushed
-on by displacement steps until every contact slips, {fine.slide_steps} more and a last one of
-`1e-3` of a step (at `Q = mu P` no force-controlled equilibrium exists). The mesh:
+on by displacement steps until every contact slips, {fine.slide_steps} more and
+on to the first step in which every contact slips (at `Q = mu P` no
+force-controlled equilibrium exists). The mesh:
 `fem.graded_half_disk`, three 60-degree arcs bisected `L` times (the contact's
 centre a bisection node, §1's regular pattern), refined towards the contact as in
 §1 with grading 6 (§1's 12 costs 2.4 times the nodes for 0.1% of `mu p0` in `q`).
@@ -601,7 +609,8 @@ state evaluated once more with `commit=True`, which makes its anchors the next
 increment's history. Each increment starts from the last solution plus the last
 increment's change (a predictor; from the last solution alone the first Newton step
 overshoots where contacts close). An increment Newton fails (30 iterations) is cut
-in two, from the last committed state (nothing is committed by a failed one).
+in two, from the last committed state (a failed one commits nothing), three times
+deep at most (there its last iterate is committed, and the tables say so).
 
 **Measuring.** Tractions from the upper body's nodal contact forces `F_i` (its own
 slave forces and the lower body's slaves' reactions, §1b) over the tributary
@@ -635,12 +644,13 @@ Mesh refinement (`c` error at each `Q / (mu P)`; the profile errors at 0.6):
 
 ![errors against a/h](img/{img_names['mindlin_convergence']})
 
-- **The stick zone is where C-M puts it**: at every load and mesh above, C-M's
-  `c` lies between the outermost sticking slave and the next slipping one (the
-  table says where not), so the measured `c` is within `h/2` of C-M's; at
-  `a/h = {fine.a_h:.0f}` the error is {pct(fine.partial[0.6].c_state / fine.partial[0.6].c_a - 1, 1)} at `Q = 0.6 mu P`.
-  The states change one node at a time: the error does not fall smoothly, its
-  bound `h/(2c)` does.
+- **The stick zone is where C-M puts it, to a node**: C-M's `c` lies between the
+  outermost sticking slave and the next slipping one everywhere but at
+  {', '.join(out_applied) or 'no load and mesh'}; C-M's `c` at the interface's own `Q / (mu P)` (the
+  next bullet) everywhere but at {', '.join(out_int) or 'no load and mesh'}. The measured `c` is then within
+  `h/2` of C-M's: at `a/h = {fine.a_h:.0f}` the error is {pct(fine.partial[0.6].c_state / fine.partial[0.6].c_a - 1, 1)} at `Q = 0.6 mu P`. The
+  states change one node at a time: the error does not fall smoothly, its bound
+  `h/(2c)` does.
 - **The shear profile follows C-M** ({100 * fine.partial[0.6].q_rms:.2f}% RMS of `mu p0` at `a/h = {fine.a_h:.0f}`, 0.6); what
   error there is sits at the two singular points: at `|x| = c`, where the stick
   correction's square root has an infinite slope, the node next to `c` reads up to
@@ -650,8 +660,9 @@ Mesh refinement (`c` error at each `Q / (mu P)`; the profile errors at 0.6):
   pressure's edge, as in §1). Away from them the error is
   {100 * fine.partial[0.6].q_bulk:.2f}% at 0.6 and falls with `h`.
 - **The interface carries slightly more than the applied `Q`**: {', '.join(f"{pt.interface_ratio:.4f}" for _, pt in sorted(fine.partial.items()))}
-  against 0.3, 0.6, 0.9. The shear tilts the interface (next paragraph), and `P`
-  has a component along the tilted interface.
+  of `mu` times its load against 0.3, 0.6, 0.9. The shear tilts the interface
+  (§5b), and `P` has a component along it; C-M at the interface's own ratio has a
+  `c` smaller by about a percent (the table's second `c/a`).
 - **The normal load alone** leaves the platen's `x` reaction at
   {ref.Q_normal:.1e} `mu P` and no contact slipping ({ref.slip_normal} of {ref.stick_normal + ref.slip_normal} at `a/h = {ref.a_h:.0f}`):
   with `beta = 0` the two surfaces move alike under `p`, nothing to resist.
@@ -680,13 +691,14 @@ Mesh refinement (`c` error at each `Q / (mu P)`; the profile errors at 0.6):
 - **A contact new in a step carries no tangential force in it** (§14: its anchor is
   its closest point). While the contact slides, nodes close at the leading edge;
   in a sliding step the normal force on such contacts was up to
-  {pct(max(max(t.new_share for t in r.slide) for r in rs + [big, flat]), 1)} of the total here
-  (the largest over every run above, the steps of a third of the
-  partial-slip push), frictionless for that step: the platen's ratio dips by as
-  much. The last step, `1e-3` of the others, closes none (the table's ratios). A
-  contact that closes in the middle of a step would, in a continuous history, have
-  slid after closing; an explicit solver's small steps make this small, an
-  implicit solver's large ones do not.
+  {100 * max(max(t.new_share for t in r.slide) for r in rs + [big, flat]):.2f}% of the total here
+  (the largest over every run above; steps of a third of the partial-slip push),
+  frictionless for that step, and in the next step such a contact still sticks (its
+  spring stretched by one step's slide only): the interface's ratio dips by as much
+  (to {min(min(t.interface_ratio for t in r.slide) for r in rs):.4f} on these meshes). The table's figures are at the first step,
+  {fine.slide_steps} or more steps after every contact first slipped, in which every contact slips. In a continuous history a contact
+  that closes in the middle of a step would have slid after closing; an explicit
+  solver's small steps make this small, an implicit solver's large ones do not.
 - **Energy**: the platen's work (trapezoids over the increments) equals the elastic
   energy plus the springs' (normal and tangential) plus the summed dissipation (27)
   to the balance in the last column; every committed step's dissipation is `>= 0`
@@ -733,12 +745,13 @@ The same at §1's `a/R = 0.1` (`a/h = {big.a_h:.0f}`, `p0 / E = {big.p0 / big.E:
 {', '.join(f"{pt.interface_ratio:.4f}" for _, pt in sorted(fine.partial.items()))}), `c` errors {', '.join(pct(pt.c_state / pt.c_a - 1, 1) for _, pt in sorted(gb.items()))}, `q` RMS
 {', '.join(f"{100 * pt.q_rms:.1f}%" for _, pt in sorted(gb.items()))}, and the platen's ratio at sliding {big.final.ratio if big.final else 0:.3f}.
 Newton: {newton(big)}. While it slides, the contact sweeps over the half-disks'
-nodes (each step of the push moves it by `{big.slide_shift:.3f} a` relative to each body),
+nodes (each step pushes the platen by `{big.slide[0].shift:.3f} a`, and the contact moves by half
+that relative to each body),
 and where a node closes at the leading edge, Newton stalls at a residual of about
 `1e-5 P`: the tangent is consistent there (central differences of
-`commit=False` trials agree to `1e-7`), but the node enters and leaves the
-contact from one iterate to the next. Cut in two, the increments converge, up to
-the depth of 3.
+`commit=False` trials agree to `1e-7`, checked while writing this), but the node enters
+and leaves the contact from one iterate to the next. Cut in two (up to 3 times),
+the increments converge{'' if big.converged else f', but for {big.unconverged}, committed at its last iterate'}.
 """
 
 

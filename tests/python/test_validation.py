@@ -1,7 +1,7 @@
 """bench/validation (docs/validation.md): the quick suite against scikit-fem FEM models,
 each bound of bench/validation/run.py's BOUNDS asserted on its own (Hertz a and p0 on a
 disk and two disks, the penalty rule, the drag over a 24-gon at alpha 0 and 0.2, Newton and
-FIRE converged). No timing is asserted."""
+FIRE converged, the patch test, Cattaneo-Mindlin with Coulomb friction). No timing is asserted."""
 import sys
 
 import pytest
