@@ -154,7 +154,7 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
         return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
     if (count > 0) memcpy(h->a, in, sizeof(nts_anchor) * (size_t)count);
     h->count = count;
-    qsort(h->a, (size_t)h->count, sizeof(nts_anchor), anchor_order);
+    if (count > 1) qsort(h->a, (size_t)h->count, sizeof(nts_anchor), anchor_order); /* h->a may be NULL at 0 */
     for (k = 1; k < h->count; ++k)
         if (anchor_order(&h->a[k - 1], &h->a[k]) == 0) {
             /* name the list's second entry of the key (the sort lost the places) */

@@ -655,6 +655,16 @@ static void test_history_set_refuses_bad_anchors(void) {
         ASSERT_INT_EQ(count, 2);
         CU_ASSERT(nts_history_bytes(h) >= 2 * sizeof(nts_anchor));
     }
+    {
+        /* an empty list on a fresh history (no buffer yet: the sanitizers see it) */
+        nts_history* e = nts_history_create();
+        int count = -1;
+        CU_ASSERT_FATAL(e != NULL);
+        ASSERT_INT_EQ(nts_history_set(e, s, NULL, 0, &err), NTS_OK);
+        (void)nts_history_anchors(e, &count);
+        ASSERT_INT_EQ(count, 0);
+        nts_history_destroy(e);
+    }
     nts_history_destroy(h);
     nts_scene_destroy(s);
 }
