@@ -181,3 +181,22 @@ def test_bad_positions_are_refused_before_sending(client, paths, daemon):
         with pytest.raises(InvalidScene) as e:
             s.contact(pos, alpha=0.9)
         assert e.value.code == "invalid_option" and e.value.pointer == "/options/alpha"
+
+
+def test_binary_answers_keep_one_connection(client, paths):
+    """A binary answer is read whole (one read of its Content-Length, not
+    requests' 10 kB chunks) and its connection goes back to the pool: 30
+    binary steps, a JSON one between, over one connection; the answer stays
+    the full call's."""
+    scene = json.loads((paths.examples / "two_disks.json").read_text())
+    with client.session(scene) as s:
+        x = s.positions()
+        for k in range(30):
+            res = s.contact(x + 1e-6 * k, outputs=["forces"])
+            assert res.raw == {}  # the binary answer
+            if k == 15:
+                s.contact(x, outputs=["forces", "contacts"])
+        full = client.contact(with_positions(scene, x + 1e-6 * 29), outputs=["forces"])
+        assert np.array_equal(res.force_array(), full.force_array())
+    pools = client.http.adapters["http://"].poolmanager.pools
+    assert [pools[k].num_connections for k in pools.keys()] == [1]
