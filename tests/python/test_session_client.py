@@ -200,3 +200,20 @@ def test_binary_answers_keep_one_connection(client, paths):
         assert np.array_equal(res.force_array(), full.force_array())
     pools = client.http.adapters["http://"].poolmanager.pools
     assert [pools[k].num_connections for k in pools.keys()] == [1]
+
+
+def test_a_binary_answers_per_body_forces(client, paths):
+    """res.forces of a binary answer: every body in scene order, each its rows
+    of force_array(), an unknown id a KeyError, as a JSON answer's dict."""
+    scene = json.loads((paths.examples / "jittered_packing.json").read_text())
+    ids = [b["id"] for b in scene["bodies"]]
+    with client.session(scene) as s:
+        res = s.contact(outputs=["forces"])
+        js = s.contact(outputs=["forces", "contacts"])
+    assert res.raw == {} and list(res.forces) == ids == list(js.forces) and len(res.forces) == len(ids)
+    for i in ids:
+        assert np.array_equal(res.forces[i], js.forces[i])
+    assert np.array_equal(np.concatenate([res.forces[i] for i in ids]), res.force_array())
+    with pytest.raises(KeyError):
+        res.forces["no such body"]
+    assert dict(res.forces).keys() == js.forces.keys()

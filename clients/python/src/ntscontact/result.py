@@ -222,12 +222,12 @@ class Result:
     """
 
     summary: Summary
-    forces: Dict[BodyId, FloatArray]
+    forces: Mapping[BodyId, FloatArray]
     contacts: List[Contact]
     gaps: List[Gap]
     raw: Dict[str, Any] = field(repr=False)
     warnings: List[ResultWarning] = field(default_factory=list)
-    pressure: Dict[BodyId, FloatArray] = field(default_factory=dict)
+    pressure: Mapping[BodyId, FloatArray] = field(default_factory=dict)
     #: A binary session answer's (N, 2) forces; ``forces`` holds views into it.
     _force_array: Optional[FloatArray] = field(default=None, repr=False, compare=False)
     #: The tangent's triplets (rows, cols, values, size) of a binary answer.

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import warnings as _warnings
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +39,29 @@ PositionsLike = Union[npt.ArrayLike, Mapping[BodyId, npt.ArrayLike]]
 #: Outputs a binary answer carries (the forces, and the summary in headers).
 _BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness", "pressure"))
 _OCTET = "application/octet-stream"
+
+
+class BodyArrays(Mapping[BodyId, FloatArray]):
+    """A binary answer's per-body arrays, ``{body_id: view}`` in scene order: each
+    body's view of the one array is cut when asked for (a dict of them all cost
+    a millisecond per step at 1,024 bodies)."""
+
+    def __init__(self, whole: FloatArray, offsets: Sequence[int], ids: Sequence[BodyId],
+                 index: Mapping[Tuple[type, BodyId], int]) -> None:
+        self._whole, self._offsets, self._ids, self._index = whole, offsets, ids, index
+
+    def __getitem__(self, body_id: BodyId) -> FloatArray:
+        k = self._index[(type(body_id), body_id)]
+        return self._whole[self._offsets[k]:self._offsets[k + 1]]
+
+    def __iter__(self) -> Iterator[BodyId]:
+        return iter(self._ids)
+
+    def __len__(self) -> int:
+        return len(self._ids)
+
+    def __repr__(self) -> str:
+        return f"BodyArrays({len(self._ids)} bodies)"
 
 
 class Session:
@@ -278,11 +301,11 @@ class Session:
         except (KeyError, ValueError, IndexError) as exc:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
                               status=resp.status_code) from exc
-        per_body = {i: forces[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
-        per_body_p: Dict[BodyId, FloatArray] = {}
+        per_body = BodyArrays(forces, self._offsets, self.body_ids, self._index)
+        per_body_p: Mapping[BodyId, FloatArray] = {}
         if pressure:  # after the forces and the tangent
             p = np.frombuffer(body, dtype="<f8", count=self.nodes, offset=16 * self.nodes + 16 * count)
-            per_body_p = {i: p[self._offsets[k]:self._offsets[k + 1]] for k, i in enumerate(self.body_ids)}
+            per_body_p = BodyArrays(p, self._offsets, self.body_ids, self._index)
         return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, warnings=warned,
                       _force_array=forces, _triplets=triplets, pressure=per_body_p)
 
