@@ -41,8 +41,33 @@ def peak(P: float, a: float) -> float:
     return 2.0 * P / (math.pi * a)
 
 
+class HertzGeometry:
+    """What a run's Hertz contact gives (kind, E, nu, R, the contact half-width
+    a and the element size h at it): E*, R* and a/h; HertzRun's and the
+    Cattaneo-Mindlin runs' (mindlin.py)."""
+
+    kind: str
+    E: float
+    nu: float
+    R: float
+    a: float
+    h: float
+
+    @property
+    def E_star(self) -> float:
+        return e_star(self.kind, self.E, self.nu)
+
+    @property
+    def R_star(self) -> float:
+        return r_star(self.kind, self.R)
+
+    @property
+    def a_h(self) -> float:
+        return self.a / self.h
+
+
 @dataclass
-class HertzRun:
+class HertzRun(HertzGeometry):
     kind: str                 # "flat" (disk on a rigid flat) or "disks" (two equal disks)
     a_R: float                # target a / R
     levels: int               # refinement levels of the graded disk: h = 2 R sin(pi / 2^(levels + 2))
@@ -73,18 +98,6 @@ class HertzRun:
     converged: bool = False
     x: Array = field(default_factory=lambda: np.zeros(0))
     p: Array = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def E_star(self) -> float:
-        return e_star(self.kind, self.E, self.nu)
-
-    @property
-    def R_star(self) -> float:
-        return r_star(self.kind, self.R)
-
-    @property
-    def a_h(self) -> float:
-        return self.a / self.h
 
     @property
     def err_a(self) -> float:

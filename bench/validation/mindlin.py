@@ -54,7 +54,7 @@ import numpy as np
 
 from fem import (Array, Contact, Elastic, FrictionSolve, IntArray, Loads, Model, Rigid, Tied, boundary_segments,
                  coupled, graded_half_disk, mirrored, newton_friction)
-from hertz import e_star, load_for, peak, r_star
+from hertz import HertzGeometry, load_for, peak
 
 
 def mindlin_shear(x: Array, a: float, c: float, p0: float, mu: float) -> Array:
@@ -116,7 +116,7 @@ class SlideStep:
 
 
 @dataclass
-class MindlinRun:
+class MindlinRun(HertzGeometry):
     kind: str                 # "disks" (two equal half-disks, beta = 0) or "flat" (a half-disk on a rigid flat)
     levels: int               # arc bisections: h = 2 R sin(pi / (3 2^(levels + 1)))
     a_R: float = 0.025        # target a / R (P from Hertz): small, C-M is a small-strain theory (see solve)
@@ -160,18 +160,6 @@ class MindlinRun:
     unconverged: int = 0      # increments committed without convergence (cut in two 3 times deep)
     calls: int = 0
     converged: bool = True
-
-    @property
-    def E_star(self) -> float:
-        return e_star(self.kind, self.E, self.nu)
-
-    @property
-    def R_star(self) -> float:
-        return r_star(self.kind, self.R)
-
-    @property
-    def a_h(self) -> float:
-        return self.a / self.h
 
     @property
     def eps(self) -> float:
