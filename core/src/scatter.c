@@ -183,24 +183,6 @@ static const friction_out* merged_friction(const nts_context* ctx, const chunk_i
     return &ctx->fric[ch->share_at + (*k_rec)++];
 }
 
-/* Each chunk's active contacts' anchors, in contact order. */
-static void anchors_task(int begin, int end, int wi, void* p) {
-    const scatter_task* t = (const scatter_task*)p;
-    nts_context* ctx = t->ctx;
-    int c;
-    (void)wi;
-    for (c = begin; c < end; ++c) {
-        const chunk_info* ch = &ctx->chunks[c];
-        merged it = merged_begin(ctx, ch);
-        const candidate* rec;
-        int a = ch->contact_at, k_rec = 0;
-        while ((rec = merged_next(&it)) != NULL) {
-            const friction_out* fo = merged_friction(ctx, ch, &it, rec, &k_rec);
-            if (fo != NULL) ctx->anchors[a++] = fo->anchor;
-        }
-    }
-}
-
 static void sums_task(int begin, int end, int wi, void* p) {
     const scatter_task* t = (const scatter_task*)p;
     int c;
@@ -226,7 +208,9 @@ static void forces_task(int begin, int end, int wi, void* p) {
 }
 
 /* Each chunk's records with its deep contacts at their places in the arrays
- * (slave order). */
+ * (slave order), as asked: the gaps, the contacts, and with friction each
+ * active contact's anchor after this step (what a commit keeps; contact
+ * order too, whatever the outputs). */
 static void records_task(int begin, int end, int wi, void* p) {
     const scatter_task* t = (const scatter_task*)p;
     nts_context* ctx = t->ctx;
@@ -236,10 +220,13 @@ static void records_task(int begin, int end, int wi, void* p) {
         const chunk_info* ch = &ctx->chunks[c];
         merged it = merged_begin(ctx, ch);
         const candidate* rec;
-        int g = ch->gap_at, a = ch->contact_at, k_rec = 0;
+        int g = ch->gap_at, a = ch->contact_at, k_anchor = ch->contact_at, k_rec = 0;
         while ((rec = merged_next(&it)) != NULL) {
             const friction_out* fo = t->env->friction ? merged_friction(ctx, ch, &it, rec, &k_rec) : NULL;
-            const nts_contact cc = make_contact(t->env, rec, fo);
+            nts_contact cc;
+            if (fo != NULL) ctx->anchors[k_anchor++] = fo->anchor;
+            if (!t->want_gaps && !(t->want_contacts && rec->gap < 0.0)) continue;
+            cc = make_contact(t->env, rec, fo);
             if (t->want_gaps) ctx->gaps[g++] = cc;
             if (t->want_contacts && cc.gap < 0.0) ctx->contacts[a++] = cc;
         }
@@ -395,17 +382,14 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             contact_at += ch->sums.active + ch->deep_count;
         }
     }
-    if (env->friction) {
-        /* The anchors after this step, in contact order: what a commit keeps. */
-        if ((rc = nts_grow((void**)&ctx->anchors, &ctx->anchors_cap, ncontact, sizeof(nts_anchor))) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
-        nts_run_each(run, anchors_task, nchunk, &task);
-    }
-    if (want_contacts || want_gaps) {
+    if (want_contacts || want_gaps || env->friction) {
         if (want_gaps && (rc = nts_grow((void**)&ctx->gaps, &ctx->gaps_cap, (int)total, sizeof(nts_contact))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (want_contacts &&
             (rc = nts_grow((void**)&ctx->contacts, &ctx->contacts_cap, ncontact, sizeof(nts_contact))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        if (env->friction &&
+            (rc = nts_grow((void**)&ctx->anchors, &ctx->anchors_cap, ncontact, sizeof(nts_anchor))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         nts_run_each(run, records_task, nchunk, &task);
     }
