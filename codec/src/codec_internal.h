@@ -147,6 +147,12 @@ int ntsj_finish(ntsj_response* out, ntsj_buf* b, const char* code);
 void ntsj_keep_summary(ntsj_response* out, const nts_result* r, int friction);
 int ntsj_respond_error(ntsj_response* out, const char* code, const char* message, const char* pointer, int pretty);
 int ntsj_respond_fault(ntsj_response* out, const ntsj_fault* f, int pretty);
+/* The request's "history" (s->has_history) into `h` (NULL: its allocation
+ * failed), checked against the scene (§14): 0, or 1 with *out the error
+ * (invalid_history at /history/K, out_of_memory) and *rc what answering it
+ * returned (0, or NTS_ENOMEM), as ntsj_over_budget does. */
+int ntsj_set_history(nts_history* h, const ntsj_scene* s, const nts_scene* scene, ntsj_response* out, int pretty,
+                     int* rc);
 /* A core error, with the JSON pointer of its place in the scene document. */
 int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* err, int status, int pretty);
 /* 1 (with *rc and *out set to limit_exceeded) when the request is over max_seconds. */

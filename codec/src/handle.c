@@ -174,6 +174,16 @@ static int is_blank(const char* p, size_t n) {
     return 1;
 }
 
+int ntsj_set_history(nts_history* h, const ntsj_scene* s, const nts_scene* scene, ntsj_response* out, int pretty,
+                     int* rc) {
+    nts_error err = nts_error_none();
+    const int code = h == NULL ? NTS_ENOMEM : nts_history_set(h, scene, s->history, s->history_count, &err);
+    if (code == 0) return 0;
+    *rc = code == NTS_ENOMEM ? ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty)
+                             : ntsj_respond_core(out, s, &err, code, pretty);
+    return 1;
+}
+
 int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj_response* out) {
     ntsj_config cfg = config ? *config : ntsj_default_config();
     ntsj_fault fault;
@@ -251,11 +261,7 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
     /* A previous result's anchors, checked against this scene (§14). */
     if (s.has_history) {
         history = nts_history_create();
-        if (history == NULL) rc = NTS_ENOMEM;
-        else rc = nts_history_set(history, scene, s.history, s.history_count, &err);
-        if (rc != 0) {
-            rc = rc == NTS_ENOMEM ? ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty)
-                                  : ntsj_respond_core(out, &s, &err, rc, pretty);
+        if (ntsj_set_history(history, &s, scene, out, pretty, &rc)) {
             nts_history_destroy(history);
             nts_scene_destroy(scene);
             ntsj_scene_free(&s);

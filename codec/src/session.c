@@ -112,7 +112,7 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     nts_result result;
     ntsj_fault fault;
     cJSON* root;
-    int rc, b;
+    int rc, b, keeps_history;
 
     *out = NULL;
     memset(error, 0, sizeof *error);
@@ -170,25 +170,21 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     ss->ctx = nts_context_create();
     ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
     if (ss->js.keep_contacts) ss->memory = nts_contact_memory_create();
-    if (nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history) {
+    keeps_history = nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history;
+    if (keeps_history) {
         ss->history = nts_history_create();
         ss->staged = nts_history_create();
     }
     if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL) ||
-        ((nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history) && (ss->history == NULL || ss->staged == NULL))) {
+        (keeps_history && (ss->history == NULL || ss->staged == NULL))) {
         ntsj_session_destroy(ss);
         return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
     }
     /* A scene that carries a "history" starts from it (a client that had to
      * create its session anew gives the last committed anchors back). */
-    if (ss->js.has_history) {
-        rc = nts_history_set(ss->history, ss->scene, ss->js.history, ss->js.history_count, &err);
-        if (rc != 0) {
-            rc = rc == NTS_ENOMEM ? ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty)
-                                  : ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
-            ntsj_session_destroy(ss);
-            return rc;
-        }
+    if (ss->js.has_history && ntsj_set_history(ss->history, &ss->js, ss->scene, error, cfg.pretty, &rc)) {
+        ntsj_session_destroy(ss);
+        return rc;
     }
     /* "Valid" means "evaluates": faults that depend on the options and the
      * whole scene (a periodic box too small for the search reach) show now. */
