@@ -111,6 +111,10 @@ void nts_chunk_keep(nts_context* ctx, worker* w, chunk_info* ch, int stream, con
  * candidates of a slave. Sets each chunk's parts' `data`. */
 int nts_chunks_settle(nts_context* ctx, int nthreads, int shares);
 
+/* evaluate.c: the cells for radius env->r (and env's pointers to them), when
+ * env has none yet: a widened search past the kept lists (reach.c). */
+int nts_cells_now(nts_context* ctx, search_env* env);
+
 /* ---- the records after the search (scatter.c, pressure.c) ---- */
 
 /* A chunk's records (none, and maybe no buffer, when it found nothing). */

@@ -89,6 +89,97 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
     }
 }
 
+/* The cells for radius env->r, built in the middle of an evaluation that
+ * replays kept lists, for a widened search that reaches past them (reach.c). */
+int nts_cells_now(nts_context* ctx, search_env* env) {
+    const nts_scene* s = env->s;
+    int rc;
+    if (env->cells != NULL) return NTS_OK;
+    if ((rc = build_cells(ctx, s, env, env->ss, env->run)) != NTS_OK) return rc;
+    env->cells = &ctx->cells;
+    env->keys = &ctx->keys;
+    if (ctx->long_count > 0) {
+        env->long_m = ctx->long_m;
+        env->long_start = ctx->long_start;
+        env->long_items = ctx->long_items;
+    }
+    if (env->kept != NULL) ++((nts_candidates*)(void*)env->kept)->cell_builds; /* the caller's object: a count */
+    return NTS_OK;
+}
+
+typedef struct collect_task {
+    const search_env* env;
+    nts_candidates* kc;
+} collect_task;
+
+/* Chunks [begin, end) of the kept lists; a chunk's failure in its count. */
+static void collect_chunks(int begin, int end, int t, void* p) {
+    const collect_task* ct = (const collect_task*)p;
+    int c;
+    (void)t;
+    for (c = begin; c < end; ++c) {
+        const int rc = nts_kept_collect(ct->env, ct->kc, c);
+        if (rc != NTS_OK) ct->kc->chunk_used[c] = rc;
+    }
+}
+
+/* Kept candidates (docs/model.md §15): the lists replayed when they hold
+ * (no cells: *cells 0), or built, from the cells of their outer radius,
+ * which then serve this evaluation's widened searches too (cells built for
+ * a larger radius hold every master the normal ones would). A build over
+ * its budget leaves the lists off for a while: the search from scratch, on
+ * those cells. */
+static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, int* cells) {
+    const nts_scene* s = env->s;
+    search_env wide;
+    collect_task ct;
+    double h;
+    int rc, c, nchunk;
+    *cells = 1;
+    ++kc->evaluations;
+    if (nts_kept_valid(kc, s, ctx->seg, env->alpha, env->ext, env->r, env->wide_pad)) {
+        env->kept = kc;
+        env->kept_reach = nts_kept_reach(kc, env->wide_pad);
+        *cells = 0;
+        return NTS_OK;
+    }
+    if (kc->backoff > 0) {
+        --kc->backoff;
+        return NTS_OK;
+    }
+    rc = nts_kept_begin(kc, s, env->alpha, largest_alpha(s, env->alpha), env->ext, env->r, env->wide_pad);
+    if (rc != NTS_OK) return rc;
+    /* In a periodic box the lists' reach must stay below half the box (the
+     * minimum image), as the search's does. */
+    h = (1.0 + env->ext) * env->ss->lmax + kc->outer;
+    if (s->lx > 0.0 && !(2.0 * h < s->lx && 2.0 * h < s->ly)) return NTS_OK;
+    wide = *env;
+    wide.r = kc->outer;
+    if ((rc = nts_cells_now(ctx, &wide)) != NTS_OK) return rc;
+    env->cells = wide.cells;
+    env->keys = wide.keys;
+    env->long_m = wide.long_m;
+    env->long_start = wide.long_start;
+    env->long_items = wide.long_items;
+    nchunk = (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK;
+    ct.env = &wide;
+    ct.kc = kc;
+    for (c = 0; c < nchunk; ++c) kc->chunk_used[c] = 0;
+    nts_run_tasks(env->run, collect_chunks, nchunk, 1, &ct);
+    for (c = 0; c < nchunk; ++c) {
+        if (kc->chunk_used[c] == NTS_ENOMEM) return NTS_ENOMEM;
+        if (kc->chunk_used[c] < 0) {
+            kc->backoff = 16; /* over budget: from scratch for the next 16 evaluations */
+            return NTS_OK;
+        }
+    }
+    nts_kept_end(kc, s, ctx->seg);
+    kc->cell_size = ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy;
+    env->kept = kc;
+    env->kept_reach = nts_kept_reach(kc, env->wide_pad);
+    return NTS_OK;
+}
+
 typedef struct search_task {
     nts_context* ctx;
     const search_env* env;
@@ -211,20 +302,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.ly = s->ly;
     env.qx = 0.25 * s->lx;
     env.qy = 0.25 * s->ly;
-    if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
-        if ((rc = build_cells(ctx, s, &env, &ss, &run)) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
-        env.cells = &ctx->cells;
-        env.keys = &ctx->keys;
-        if (ctx->long_count > 0) {
-            env.long_m = ctx->long_m;
-            env.long_start = ctx->long_start;
-            env.long_items = ctx->long_items;
-        }
-    } else {
-        /* The minimum image's round-off, for brute force's reach test. */
-        env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);
-    }
+    env.ss = &ss;
+    env.run = &run;
     /* The reach's growth (reach.c): the round-off of its tests (that of the
      * grid's frame, the larger), and its largest radius: the scene's
      * diagonal, within which every feature lies; in a periodic box, the
@@ -239,6 +318,15 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.reach_max = sqrt((ss.xmax - ss.xmin) * (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) * (ss.ymax - ss.ymin)) *
                             (1.0 + 1e-9) + env.wide_pad;
     if (env.reach_max < env.r) env.reach_max = env.r;
+    if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
+        int cells = 1;
+        if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    } else {
+        /* The minimum image's round-off, for brute force's reach test. */
+        env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);
+    }
     t1 = wall_time();
     ctx->phase[1] = t1 - t0;
     t0 = t1;

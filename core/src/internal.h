@@ -47,6 +47,9 @@ struct nts_scene {
      * segment is on, and nothing reads it). */
     unsigned char* surf_flag;
     int surf_ends;             /* entries at an end of a contact surface (no end: no extension) */
+    /* Which scene this is, among every scene the process made (a freed
+     * scene's address may come back): a kept candidate list is bound to one. */
+    unsigned long long serial;
 };
 
 /* A surface entry's flags (nts_scene.surf_flag): its own segment (from it to

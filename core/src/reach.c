@@ -280,6 +280,14 @@ static int body_grid(nts_reach* r, const search_env* env, long long budget) {
     return NTS_OK;
 }
 
+/* Kept candidates (docs/model.md §15): a widened search around slave k
+ * within rho that its kept list does not cover needs the cells, built now
+ * (once an evaluation). */
+static int cells_for(nts_context* ctx, search_env* env, int k, double rho) {
+    if (env->cells != NULL || env->kept == NULL || kept_covers(env, k, rho)) return NTS_OK;
+    return nts_cells_now(ctx, env);
+}
+
 /* A candidate of a long segment's end: deep, and not settled yet, it is. */
 static int coarse_hit(nts_context* ctx, const search_env* env, int i, const candidate* b) {
     reach_seen* p;
@@ -296,12 +304,14 @@ static int coarse_hit(nts_context* ctx, const search_env* env, int i, const cand
  * Against a segment far longer than the cells (a long wall's corners), the
  * bodies are those listed in its cell of the bodies' grid, each searched on
  * its own, rather than every cell within l. */
-static int coarse(nts_context* ctx, const search_env* env, worker* w, int i, double l) {
+static int coarse(nts_context* ctx, search_env* env, worker* w, int i, double l) {
     nts_reach* r = &ctx->reach;
-    const nts_cells* cl = env->cells;
+    const nts_cells* cl;
     const double rho = (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad;
     int k, rc = NTS_OK;
     if (!nts_node_on_surface(env->s, i)) return NTS_OK; /* no slave (docs/model.md §13) */
+    if ((rc = cells_for(ctx, env, i, rho)) != NTS_OK) return rc;
+    cl = env->cells;
     if (cl != NULL && rho > 2.0 * (cl->hx > cl->hy ? cl->hx : cl->hy) && r->grid_built >= 0) {
         if (!r->grid_built && (rc = body_grid(r, env, 8LL * env->s->surface_count + 4096)) != NTS_OK) {
             if (rc != NTS_ELIMIT) return rc;
@@ -416,8 +426,14 @@ static int inside_body(const search_env* env, int k, int b) {
  * nearest point of the surface: a slave beside a corner's region), up to
  * the largest radius the scene allows: its closest point on the body in
  * *hit, or hit->kind = -1 when there is none within that. */
+/* The first radius search_pair tries. */
+static double search_pair_rho(const search_env* env, const reach_request* q) {
+    const double rho = q->rho * (1.0 + 1e-9) + env->wide_pad;
+    return rho < env->reach_max ? rho : env->reach_max;
+}
+
 static void search_pair(const search_env* env, worker* w, const reach_request* q, candidate* hit) {
-    double rho = q->rho * (1.0 + 1e-9) + env->wide_pad;
+    double rho = search_pair_rho(env, q);
     hit->kind = -1;
     for (;;) {
         if (rho > env->reach_max) rho = env->reach_max;
@@ -454,7 +470,7 @@ static void search_pairs(int begin, int end, int wi, void* p) {
         if (wt->status == NTS_OK) search_pair(t->env, wt, &r->queue[q], &r->hits[q]);
 }
 
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, const nts_run* run) {
+int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts_run* run) {
     const nts_scene* s = env->s;
     nts_reach* r = &ctx->reach;
     worker* w = &ctx->workers[0];
@@ -518,6 +534,11 @@ int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, con
         if ((rc = nts_grow((void**)&r->hits, &r->hits_cap, q1, sizeof(candidate))) != NTS_OK) return rc;
         /* A round of a few pairs runs in the caller's thread (not worth the
          * workers); else ranges of 16, taken by whichever worker is free. */
+        /* (a pair that finds nothing at its rho tries twice it, past what the
+         * kept lists cover: wide() then tries the body's entries) */
+        for (q = q0; q < q1 && rc == NTS_OK; ++q)
+            rc = cells_for(ctx, env, r->queue[q].slave, search_pair_rho(env, &r->queue[q]));
+        if (rc != NTS_OK) return rc;
         pt.q0 = q0;
         nts_run_tasks(run, search_pairs, q1 - q0, q1 - q0 > 64 ? 16 : q1 - q0, &pt);
         for (i = 0; i < run->workers; ++i)

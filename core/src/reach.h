@@ -51,7 +51,7 @@ typedef struct nts_reach {
  * when env->grow, else counted in ctx->reach.beyond. The widened searches
  * run on `threads` workers. NTS_OK, NTS_ENOMEM, NTS_ELIMIT (more than
  * env->max_records closest points with `found`) or NTS_ECANCELLED. */
-int nts_reach_grow(nts_context* ctx, const search_env* env, long long found, const nts_run* run);
+int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts_run* run);
 size_t nts_reach_memory_bytes(const nts_reach* r);
 /* shape.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
  * until then): a circle around its nodes, centre relative to its first node

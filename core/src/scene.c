@@ -290,6 +290,17 @@ static int count_scene(scene_build* sb, nts_error* err) {
  * The scene is returned zeroed but for its counts and box, or NULL (out of
  * memory, written to err) with *out set to whatever was allocated, for
  * nts_scene_destroy to free. */
+/* A scene's serial (nts_scene.serial): the process's count of scenes made,
+ * taken atomically (scenes are made on any thread). */
+static unsigned long long next_serial(void) {
+    static unsigned long long count = 0;
+#if defined(__GNUC__)
+    return __atomic_add_fetch(&count, 1ULL, __ATOMIC_RELAXED);
+#else
+    return ++count;
+#endif
+}
+
 static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
     const nts_scene_def* def = sb->def;
     size_t nodes = (size_t)sb->total_nodes, surf = (size_t)sb->total_surf, loops = (size_t)sb->total_loops;
@@ -298,6 +309,7 @@ static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
     *out = s;
     if (s == NULL) return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
     memset(s, 0, sizeof *s);
+    s->serial = next_serial();
     s->body_count = def->body_count;
     s->node_count = (int)sb->total_nodes;
     s->surface_count = (int)sb->total_surf;

@@ -384,6 +384,34 @@ static inline void not_a_slave(worker* w, const search_env* env, int i) {
  * lanes past each, or a batch of keys of one range and 4 past it. */
 enum { KEPT = 512 };
 
+/* The stencil of a slave at `at`. Inside the grid: three rows of three
+ * cells, no shift, read again for every slave (cheaper than asking whether
+ * the cell changed, a branch that consecutive slaves take at random); a
+ * border cell's, with its wraps and clips, only when the cell changes
+ * (*last_cell). */
+static inline NTS_ALWAYS_INLINE void slave_stencil(const nts_cells* cl, nts_cell_place at, nts_stencil* st,
+                                                   int* last_cell) {
+    if (at.cx >= 1 && at.cx + 1 < cl->nx && at.cy >= 1 && at.cy + 1 < cl->ny) {
+        const int* cs = cl->cell_start + (at.cell - cl->nx - 1);
+        *last_cell = at.cell;
+        st->n = 3;
+        st->begin[0] = cs[0];
+        st->end[0] = cs[3];
+        cs += cl->nx;
+        st->begin[1] = cs[0];
+        st->end[1] = cs[3];
+        cs += cl->nx;
+        st->begin[2] = cs[0];
+        st->end[2] = cs[3];
+        st->shift_x[0] = st->shift_x[1] = st->shift_x[2] = 0.0;
+        st->shift_y[0] = st->shift_y[1] = st->shift_y[2] = 0.0;
+        st->keys = (st->end[0] - st->begin[0]) + (st->end[1] - st->begin[1]) + (st->end[2] - st->begin[2]);
+    } else if (at.cell != *last_cell) {
+        *last_cell = at.cell;
+        nts_cells_stencil(cl, at.cell, st);
+    }
+}
+
 /* The local search of slaves [begin, end) with the cell list, in slave order.
  * An inner cell's stencil is read for every slave; a border cell's, with its
  * wraps and clips, only when the cell changes (consecutive slaves of a loop
@@ -415,28 +443,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
         }
         xs = env->seg[i].p;
         at = nts_cells_place(cl, xs);
-        if (at.cx >= 1 && at.cx + 1 < cl->nx && at.cy >= 1 && at.cy + 1 < cl->ny) {
-            /* Inside the grid: three rows of three cells, no shift. Cheaper
-             * to read again than to ask whether the cell changed (a branch
-             * that consecutive slaves take at random). */
-            const int* cs = cl->cell_start + (at.cell - cl->nx - 1);
-            last_cell = at.cell;
-            st.n = 3;
-            st.begin[0] = cs[0];
-            st.end[0] = cs[3];
-            cs += cl->nx;
-            st.begin[1] = cs[0];
-            st.end[1] = cs[3];
-            cs += cl->nx;
-            st.begin[2] = cs[0];
-            st.end[2] = cs[3];
-            st.shift_x[0] = st.shift_x[1] = st.shift_x[2] = 0.0;
-            st.shift_y[0] = st.shift_y[1] = st.shift_y[2] = 0.0;
-            st.keys = (st.end[0] - st.begin[0]) + (st.end[1] - st.begin[1]) + (st.end[2] - st.begin[2]);
-        } else if (at.cell != last_cell) {
-            last_cell = at.cell;
-            nts_cells_stencil(cl, last_cell, &st);
-        }
+        slave_stencil(cl, at, &st, &last_cell);
         sx = at.x * scale;
         sy = at.y * scale;
         if (st.keys + 4 * st.n <= KEPT) {
@@ -488,6 +495,136 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
             if (env->seg[i].prev != i - 1) w->first_slave = i;
         }
     }
+}
+
+/* The local search of slaves [begin, end) from the kept lists (docs/model.md
+ * §15): each slave tries the masters its list holds within the inner radius,
+ * which hold every master the cells could give it (the list is valid:
+ * candidates.c), so the same candidates, the same records, bit for bit. */
+static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
+                                                 const int periodic, const int surfaces) {
+    const nts_scene* s = env->s;
+    const nts_candidates* kc = env->kept;
+    const int *lo = kept_lo(kc), *mid = kept_mid(kc);
+    int i, k;
+    for (i = begin; i < end && w->status == NTS_OK; ++i) {
+        const int bi = env->seg[i].body;
+        const int* items = kc->chunk[i / KEPT_CHUNK];
+        const nts_vec2 xs = env->seg[i].p;
+        if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
+            w->status = NTS_ECANCELLED;
+            break;
+        }
+        if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
+        if (surfaces && !(env->surf_flag[i] & NTS_SF_NODE)) {
+            not_a_slave(w, env, i);
+            continue;
+        }
+        /* scattered over memory: asked for before the first is needed (search_cells) */
+        for (k = lo[i]; k < mid[i]; ++k) {
+            NTS_PREFETCH(&env->seg[items[k]]);
+            NTS_PREFETCH(&env->seg[items[k] - (items[k] > 0)]);
+        }
+        for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces);
+        if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
+            flush_slave(env, w, i, end);
+        } else {
+            w->last_slave = i;
+            if (env->seg[i].prev != i - 1) w->first_slave = i;
+        }
+    }
+}
+
+/* Whether master j goes in the kept list of a slave at xs (eq. (30)): 2
+ * when its middle lies within its reach (around the middle, masters.h) plus
+ * the inner radius, 1 within the outer one, else 0. */
+static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts_vec2 xs, int j, const int periodic) {
+    const seg_data* m = &env->seg[j];
+    const double reach = reach_at_middle(env->seg, j, alpha_of_body(env->s, m->body, env->alpha), env->ext);
+    const nts_vec2 d = nts_mul_add(search_diff(env, xs, m->p, periodic), -0.5, m->t); /* Xs - M_j */
+    const double dist = sqrt(d.x * d.x + d.y * d.y);
+    if (dist <= reach_allowed(reach, kc->inner, kc->pad)) return 2;
+    return dist <= reach_allowed(reach, kc->outer, kc->pad);
+}
+
+/* Append master j in `ring` to the slave's list, buf[from .. *at), the inner
+ * ones first (up to *inner). */
+static inline int kept_add(int** buf, int* cap, int* at, int* inner, int j, int ring) {
+    if (ring == 0) return NTS_OK;
+    if (*at == *cap && nts_grow((void**)buf, cap, *at + 1, sizeof(int)) != NTS_OK) return NTS_ENOMEM;
+    (*buf)[*at] = j;
+    if (ring == 2) {
+        (*buf)[*at] = (*buf)[*inner];
+        (*buf)[(*inner)++] = j;
+    }
+    ++*at;
+    return NTS_OK;
+}
+
+static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_candidates* kc, int c, const int periodic,
+                                                 const int surfaces) {
+    const nts_scene* s = env->s;
+    const nts_cells* cl = env->cells;
+    const master_keys* keys = env->keys;
+    const int begin = c * KEPT_CHUNK, end = begin + KEPT_CHUNK < s->surface_count ? begin + KEPT_CHUNK : s->surface_count;
+    int* lo = kc->span;
+    int* mid = kc->span + s->surface_count;
+    int* hi = kc->span + 2 * s->surface_count;
+    int kept[KEPT];
+    nts_stencil st;
+    int last_cell = -1, i, q, at = 0;
+    st.n = 0;
+    for (i = begin; i < end; ++i) {
+        const int bi = env->seg[i].body;
+        const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
+        const nts_vec2 xs = env->seg[i].p;
+        nts_cell_place p;
+        int inner = at, e0;
+        lo[i] = mid[i] = at;
+        hi[i] = -1;
+        if (s->body_role[bi] == NTS_ROLE_MASTER || (surfaces && !(env->surf_flag[i] & NTS_SF_NODE))) continue;
+        p = nts_cells_place(cl, xs);
+        slave_stencil(cl, p, &st, &last_cell);
+        for (q = 0; q < st.n; ++q) {
+            const float fx = (float)(p.x * cl->scale - st.shift_x[q]), fy = (float)(p.y * cl->scale - st.shift_y[q]);
+            for (e0 = st.begin[q]; e0 < st.end[q];) {
+                const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
+                const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
+                int k;
+                for (k = 0; k < n; ++k) {
+                    const int j = keys->entry[kept[k]];
+                    if (kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j,
+                                 kept_ring(env, kc, xs, j, periodic)) != NTS_OK)
+                        return NTS_ENOMEM;
+                }
+                e0 = e1;
+            }
+        }
+        if (env->long_start != NULL) {
+            int e;
+            for (e = env->long_start[last_cell]; e < env->long_start[last_cell + 1]; ++e) {
+                const long_master* lm = &env->long_m[env->long_items[e]];
+                const int j = lm->entry;
+                const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && env->seg[j].body != bi &&
+                    kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j, kept_ring(env, kc, xs, j, periodic)) !=
+                        NTS_OK)
+                    return NTS_ENOMEM;
+            }
+        }
+        mid[i] = inner;
+        hi[i] = at;
+        if (at > KEPT_CHUNK_BUDGET) return NTS_ELIMIT;
+    }
+    kc->chunk_used[c] = at;
+    return NTS_OK;
+}
+
+int nts_kept_collect(const search_env* env, nts_candidates* kc, int c) {
+    const int periodic = env->lx > 0.0 || env->ly > 0.0;
+    assert(env->cells != NULL);
+    if (env->surf_flag != NULL) return periodic ? kept_collect(env, kc, c, 1, 1) : kept_collect(env, kc, c, 0, 1);
+    return periodic ? kept_collect(env, kc, c, 1, 0) : kept_collect(env, kc, c, 0, 0);
 }
 
 /* Brute force (for tests): every master of every other body, culled only by
@@ -549,10 +686,24 @@ static NTS_NOINLINE void cells_open_surfaces(const search_env* env, worker* w, i
 static NTS_NOINLINE void cells_periodic_surfaces(const search_env* env, worker* w, int begin, int end) {
     search_cells(env, w, begin, end, 1, 1);
 }
+static NTS_NOINLINE void kept_open(const search_env* env, worker* w, int begin, int end) {
+    search_kept(env, w, begin, end, 0, 0);
+}
+static NTS_NOINLINE void kept_periodic(const search_env* env, worker* w, int begin, int end) {
+    search_kept(env, w, begin, end, 1, 0);
+}
+static NTS_NOINLINE void kept_surfaces(const search_env* env, worker* w, int begin, int end) {
+    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, 1);
+    else search_kept(env, w, begin, end, 0, 1);
+}
 
 void nts_search_range(const search_env* env, worker* w, int begin, int end) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
-    if (env->cells != NULL) {
+    if (env->kept != NULL) {
+        if (env->surf_flag != NULL) kept_surfaces(env, w, begin, end);
+        else if (periodic) kept_periodic(env, w, begin, end);
+        else kept_open(env, w, begin, end);
+    } else if (env->cells != NULL) {
         if (env->surf_flag != NULL) {
             if (periodic) cells_periodic_surfaces(env, w, begin, end);
             else cells_open_surfaces(env, w, begin, end);
@@ -623,6 +774,16 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
     const int own = env->seg[k].body;
     const nts_vec2 xs = env->seg[k].p;
     int e0 = 0, e1 = s->surface_count, j;
+    if (kept_covers(env, k, rho)) {
+        /* The slave's kept list holds every master that could offer a
+         * feature within rho (eq. (30)): the same candidates as the cells. */
+        const nts_candidates* kc = env->kept;
+        const int* items = kc->chunk[k / KEPT_CHUNK];
+        const int hi = kept_hi(kc)[k];
+        for (j = kept_lo(kc)[k]; j < hi; ++j)
+            if (body < 0 || env->seg[items[j]].body == body) wide_try(env, w, xs, own, items[j], body, rho, shape, periodic);
+        return;
+    }
     if (body >= 0) body_entries(s, body, &e0, &e1);
     /* A body of few entries: all of them, without placing the cells. */
     if (cl != NULL && (body < 0 || e1 - e0 > 64)) {

@@ -16,6 +16,7 @@
 #ifndef NTSCONTACT_SEARCH_H
 #define NTSCONTACT_SEARCH_H
 
+#include "candidates.h"
 #include "contact_law.h"
 #include "corner.h"
 #include "masters.h"
@@ -143,7 +144,22 @@ typedef struct search_env {
      * asked, `want_forces`), in the order the scatter would compute them. */
     int shares;
     int want_forces;
+    /* Kept candidates (candidates.h, docs/model.md §15): the lists the
+     * search tries instead of screening the cells (NULL: the cells), and
+     * the largest radius a widened search may take from them now
+     * (kept_covers); without them, a widened search needs the cells, which
+     * nts_cells_now builds from the segment summary `ss` on `run`. */
+    const nts_candidates* kept;
+    double kept_reach;
+    const seg_summary* ss;
+    const nts_run* run;
 } search_env;
+
+/* Whether slave k's kept list holds every master that could offer it a
+ * feature within rho (eq. (30)). */
+static inline int kept_covers(const search_env* env, int k, double rho) {
+    return env->kept != NULL && kept_hi(env->kept)[k] >= 0 && rho <= env->kept_reach;
+}
 
 /* Whether a slave's neighbour |d| = l away along its loop, with no closest
  * point within r on a body where the slave has one at gap g, could lie
@@ -192,6 +208,11 @@ void nts_search_range(const search_env* env, worker* w, int begin, int end);
  * of them); nts_search_wide_done clears them. */
 void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* shape);
 void nts_search_wide_done(worker* w);
+/* Build the kept lists of chunk c's slaves into kc (candidates.h): the
+ * masters the cells (built for radius kc->outer) offer, whose middle lies
+ * within their reach plus kc->outer of the slave, those within kc->inner
+ * first. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT past KEPT_CHUNK_BUDGET. */
+int nts_kept_collect(const search_env* env, nts_candidates* kc, int c);
 
 
 /* ---------------------------------------------- the scatter's three paths

@@ -18,4 +18,5 @@ void register_contact_memory_suite(void);
 void register_pressure_suite(void);
 void register_surfaces_suite(void);
 void register_friction_suite(void);
+void register_candidates_suite(void);
 #endif

@@ -187,6 +187,7 @@ typedef struct nts_anchor {
  * explicit one every step). Not thread-safe; may be read by any number of
  * evaluations at once while nobody commits. */
 typedef struct nts_history nts_history;
+typedef struct nts_candidates nts_candidates; /* a kept candidate list (below) */
 /* (nts_history_create ... below nts_result.) */
 
 /* A contact's friction state. */
@@ -243,6 +244,10 @@ typedef struct nts_options {
     double friction;
     double tangential_penalty;
     const nts_history* history;
+    /* The kept candidate list of a solver's loop (nts_candidates below), or
+     * NULL (the default): every evaluation searches from scratch. The answer
+     * is the same bits either way. */
+    nts_candidates* candidates;
 } nts_options;
 NTS_API nts_options nts_default_options(void);
 /* 0 or NTS_EINVALID_OPTION with err->option naming the field. */
@@ -403,6 +408,36 @@ NTS_API size_t nts_history_bytes(const nts_history* history);
  * pair's coefficient may be > 0: the options' or a body's own, §14): then
  * the result carries anchors, the summary dissipation, the virial yx. */
 NTS_API int nts_friction_on(const nts_scene* scene, const nts_options* options);
+
+/* ------------------------------------------------------ kept candidates */
+
+/* A kept candidate list (a Verlet list) for a loop of evaluations of one
+ * scene whose nodes move a little between them (a solver's steps, a
+ * session): each slave node keeps the masters within its reach plus a
+ * skin, and the evaluations that follow try only those, until some node has
+ * moved far enough that the list could miss one; then the list is built
+ * again (docs/model.md §15). The answer is that of an evaluation from
+ * scratch, bit for bit, always; only the time differs. It keeps the
+ * surface nodes' positions at the last build and the lists (4 bytes a kept
+ * master). One per scene and loop; not thread-safe. */
+/* skin: the margin beyond the search radius, a length >= 0; negative: 0.3
+ * times the search radius at each build (the default). */
+NTS_API nts_candidates* nts_candidates_create(double skin);
+NTS_API void nts_candidates_destroy(nts_candidates* candidates);
+/* Forget the list (the next evaluation builds it). */
+NTS_API void nts_candidates_clear(nts_candidates* candidates);
+/* Bytes held, for budgets (0 for NULL). */
+NTS_API size_t nts_candidates_bytes(const nts_candidates* candidates);
+/* What the evaluations did with it: how many used it, how many of those
+ * built it, how many needed the cells of the deep contacts' search all the
+ * same, the largest displacement of a node since the last build, the skin
+ * of the last build and the masters it kept. */
+typedef struct nts_candidates_info {
+    long long evaluations, builds, cell_builds;
+    double moved, skin;
+    long long kept;
+} nts_candidates_info;
+NTS_API nts_candidates_info nts_candidates_get_info(const nts_candidates* candidates);
 
 /* ------------------------------------------------------- contact state */
 

@@ -1,0 +1,67 @@
+/* The kept candidate list (candidates.c, docs/model.md §15): per slave, the
+ * masters within its reach plus a skin at the last build, which the search
+ * tries instead of screening the cells, while no node has moved far enough
+ * that the list could miss a master the cells would give. */
+#ifndef NTSCONTACT_CANDIDATES_H
+#define NTSCONTACT_CANDIDATES_H
+
+#include "segments.h"
+
+/* The lists are built and read by chunks of this many slaves (the search's
+ * CHUNK_SLAVES: one build task per search chunk), each chunk's masters in
+ * one buffer of its own. */
+enum { KEPT_CHUNK = 1024 };
+/* At most this many masters kept per chunk (about 64 a slave): past it the
+ * bodies overlap far more than contact does, and the evaluation searches
+ * from scratch (the same answer; the list only saves time). */
+enum { KEPT_CHUNK_BUDGET = 64 * KEPT_CHUNK + 65536 };
+
+struct nts_candidates {
+    double skin_asked;         /* < 0: 0.3 r at each build */
+    /* The scene and options of the last build (built: the lists are valid
+     * for them, at positions x). */
+    const nts_scene* scene;
+    unsigned long long serial;
+    int built;
+    int surface_count;
+    double alpha, ext;
+    /* At the build: the search radius, the skin, the radii kept (inner =
+     * r + skin, which the search tries; outer = inner + r, which the
+     * widened searches of the deep contacts read), the round-off allowance
+     * of the frame, and the factor of the largest displacement in the test
+     * of validity (eq. (29)). */
+    double r, skin, inner, outer, pad, factor;
+    double moved;              /* the largest displacement since the build, at the last evaluation */
+    double cell_size;          /* the side of the cells the lists were built from (nts_summary.cell_size) */
+    nts_vec2* x;               /* surface entries' positions at the build */
+    int x_cap;
+    /* Slave e's masters: chunk[e / KEPT_CHUNK][lo[e] .. hi[e]), those within
+     * the inner radius first, up to mid[e]; hi[e] = -1: not a slave. */
+    int* span;                 /* lo, mid, hi: 3 surface_count */
+    int span_cap;
+    int** chunk;
+    int* chunk_cap;
+    int* chunk_used;
+    int chunk_slots;
+    long long evaluations, builds, cell_builds, kept;
+    int backoff;               /* evaluations left before a build is tried again (one was over budget) */
+};
+
+/* Whether the lists hold, for scene s at the positions of `seg`, every
+ * master the cells could give within radius r (eq. (29)); sets kc->moved.
+ * `pad`: the frame's round-off allowance now. */
+int nts_kept_valid(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double ext, double r,
+                   double pad);
+/* The largest radius of a widened search that the lists cover (eq. (30)). */
+double nts_kept_reach(const nts_candidates* kc, double pad);
+/* A build begins (room for scene s, the radii of search radius r) and ends
+ * (the positions of `seg` kept, the lists valid). */
+int nts_kept_begin(nts_candidates* kc, const nts_scene* s, double alpha, double alpha_max, double ext, double r,
+                   double pad);
+void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg);
+
+static inline const int* kept_lo(const nts_candidates* kc) { return kc->span; }
+static inline const int* kept_mid(const nts_candidates* kc) { return kc->span + kc->surface_count; }
+static inline const int* kept_hi(const nts_candidates* kc) { return kc->span + 2 * kc->surface_count; }
+
+#endif

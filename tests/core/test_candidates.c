@@ -1,0 +1,276 @@
+/* Kept candidates suite (issue 27, docs/model.md §15): an evaluation that
+ * replays a kept candidate list gives bit for bit the answer of an
+ * evaluation from scratch, every step of random walks of the positions:
+ * steps within the skin and steps just past it, bodies coming in from afar,
+ * nodes wrapping across a periodic box, deep contacts and long segments
+ * (the widened searches), friction, several threads; and the list is
+ * replayed while it holds and built again when it cannot. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+/* Every output bitwise the same, but the summary's cell_size (with a kept
+ * list: the side of the cells it was built from). */
+static int same_answer(const nts_scene* s, const nts_result* a, const nts_result* b) {
+    size_t nodes = (size_t)nts_scene_node_count(s);
+    nts_summary sa = a->summary, sb = b->summary;
+    sa.cell_size = sb.cell_size = 0.0;
+    if (memcmp(&sa, &sb, sizeof sa) != 0) return 0;
+    if (a->gap_count != b->gap_count || a->contact_count != b->contact_count) return 0;
+    if (a->gap_count > 0 && memcmp(a->gaps, b->gaps, sizeof(nts_contact) * (size_t)a->gap_count) != 0) return 0;
+    if (a->contact_count > 0 && memcmp(a->contacts, b->contacts, sizeof(nts_contact) * (size_t)a->contact_count) != 0)
+        return 0;
+    if (a->stiffness.count != b->stiffness.count) return 0;
+    if (a->stiffness.count > 0 &&
+        (memcmp(a->stiffness.rows, b->stiffness.rows, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
+         memcmp(a->stiffness.cols, b->stiffness.cols, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
+         memcmp(a->stiffness.values, b->stiffness.values, sizeof(double) * (size_t)a->stiffness.count) != 0))
+        return 0;
+    if (a->anchor_count != b->anchor_count ||
+        (a->anchor_count > 0 && memcmp(a->anchors, b->anchors, sizeof(nts_anchor) * (size_t)a->anchor_count) != 0))
+        return 0;
+    if ((a->forces == NULL) != (b->forces == NULL)) return 0;
+    return a->forces == NULL || memcmp(a->forces, b->forces, sizeof(nts_vec2) * nodes) == 0;
+}
+
+/* A loop of evaluations: one context replays the kept list, the other
+ * searches from scratch, on the same scene. */
+typedef struct walk {
+    nts_scene* s;
+    nts_vec2* pos;
+    int n;
+    nts_context *fresh, *kept;
+    nts_candidates* kc;
+    nts_options o;
+    int steps, differ;
+} walk;
+
+static void walk_open(walk* w, nts_scene* s, double alpha, double skin) {
+    memset(w, 0, sizeof *w);
+    w->s = s;
+    w->n = nts_scene_node_count(s);
+    w->pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)w->n);
+    memcpy(w->pos, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)w->n);
+    w->fresh = nts_context_create();
+    w->kept = nts_context_create();
+    w->kc = nts_candidates_create(skin);
+    w->o = nts_default_options();
+    w->o.alpha = alpha;
+    w->o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(w->pos != NULL && w->fresh != NULL && w->kept != NULL && w->kc != NULL);
+}
+
+/* The positions w->pos taken, both evaluated and compared. */
+static void walk_step(walk* w, int threads) {
+    nts_options ok = w->o;
+    nts_result a, b;
+    nts_error err;
+    int rc;
+    rc = nts_scene_update_positions(w->s, w->pos, &err);
+    if (rc != NTS_OK) fprintf(stderr, "\n  update: %s\n", err.message);
+    CU_ASSERT_FATAL(rc == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(w->fresh, w->s, &w->o, &a, &err) == NTS_OK);
+    ok.candidates = w->kc;
+    ok.threads = threads;
+    CU_ASSERT_FATAL(nts_evaluate(w->kept, w->s, &ok, &b, &err) == NTS_OK);
+    ++w->steps;
+    if (!same_answer(w->s, &a, &b)) {
+        if (w->differ++ == 0)
+            fprintf(stderr, "\n  step %d: the kept list's answer differs (contacts %d/%d gaps %d/%d energy %.17g/%.17g)\n",
+                    w->steps, a.contact_count, b.contact_count, a.gap_count, b.gap_count, a.summary.energy,
+                    b.summary.energy);
+    }
+}
+
+static void walk_close(walk* w) {
+    CU_ASSERT(w->differ == 0);
+    nts_candidates_destroy(w->kc);
+    nts_context_destroy(w->fresh);
+    nts_context_destroy(w->kept);
+    free(w->pos);
+}
+
+/* Every node by up to `amp` in each coordinate, at random. */
+static void jitter(walk* w, test_rng* g, double amp) {
+    int i;
+    for (i = 0; i < w->n; ++i) {
+        w->pos[i].x += amp * (2.0 * rng_uniform(g) - 1.0);
+        w->pos[i].y += amp * (2.0 * rng_uniform(g) - 1.0);
+    }
+}
+
+static void check_walk(int periodic, double alpha, double friction, int threads) {
+    test_packing p = make_packing(36, 40, 1.0, 1.93, periodic, 900 + (unsigned)periodic);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    test_rng g = {0x9e3779b97f4a7c15ULL + (unsigned long long)periodic};
+    nts_candidates_info info;
+    walk w;
+    int step;
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, alpha, -1.0);
+    w.o.friction = friction;
+    for (step = 0; step < 60; ++step) {
+        /* mostly small steps (a solver's), every 15th a kick of a tenth of a segment */
+        jitter(&w, &g, step % 15 == 14 ? 0.015 : 0.0008);
+        if (periodic) {
+            /* drift the whole packing a little and wrap every node back into
+             * the box (nodes cross its edges); every 5th step, a node in 7
+             * given as another image of itself */
+            int i;
+            for (i = 0; i < w.n; ++i) {
+                w.pos[i].x = fmod(w.pos[i].x + 0.003 + p.lx, p.lx);
+                w.pos[i].y = fmod(w.pos[i].y + 0.002 + p.ly, p.ly);
+                if (step % 5 == 4 && i % 7 == 3) {
+                    w.pos[i].x += p.lx;
+                    w.pos[i].y -= p.ly;
+                }
+            }
+        }
+        walk_step(&w, threads);
+    }
+    info = nts_candidates_get_info(w.kc);
+    ASSERT_INT_EQ(info.evaluations, 60);
+    if (!(info.builds >= 2 && info.builds <= 20)) fprintf(stderr, "\n  builds %lld (periodic %d)\n", info.builds, periodic);
+    /* replayed most steps, built again after the kicks */
+    CU_ASSERT(info.builds >= 2 && info.builds <= 20);
+    CU_ASSERT(info.kept > 0);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+static void test_random_walks_open(void) {
+    check_walk(0, 0.2, 0.0, 1);
+    check_walk(0, 0.0, 0.0, 1);
+}
+static void test_random_walks_periodic(void) {
+    check_walk(1, 0.2, 0.0, 1);
+    check_walk(1, 0.0, 0.0, 2);
+}
+static void test_random_walks_friction_threads(void) {
+    check_walk(0, 0.2, 0.4, 2);
+    check_walk(1, 0.2, 0.4, 3);
+}
+
+/* One body moved by u. */
+static void move(walk* w, int first, int count, nts_vec2 u) {
+    int i;
+    for (i = first; i < first + count; ++i) w->pos[i] = nts_add(w->pos[i], u);
+}
+
+/* A disk comes in from afar in steps, the last ones short of the skin and
+ * just past it; a coarse square (segments longer than twice the search
+ * radius) is pressed deep into a fine disk (the widened searches of the
+ * deep contacts, from the kept lists and past them). */
+static void test_bodies_from_afar_and_deep(void) {
+    test_body b[3];
+    nts_scene* s;
+    walk w;
+    nts_candidates_info before, after;
+    double skin, step;
+    int k;
+    make_polygon(&b[0], 64, 1.0, nts_v2(0.0, 0.0), 0.0);
+    make_polygon(&b[1], 4, 1.2, nts_v2(1.7, 0.0), 0.7853981633974483);
+    make_polygon(&b[2], 48, 0.8, nts_v2(-40.0, 0.0), 0.1);
+    s = make_scene(b, 3, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.2, -1.0);
+    walk_step(&w, 1);
+    /* from afar: big steps, each a new build */
+    for (k = 0; k < 5; ++k) {
+        move(&w, 68, 48, nts_v2(k < 4 ? 9.0 : 1.9, 0.0));
+        walk_step(&w, 1);
+    }
+    /* now 0.3 away: in steps of a third of the allowed move (eq. (29)), the
+     * disk comes into contact; the list is replayed while it holds */
+    before = nts_candidates_get_info(w.kc);
+    skin = before.skin;
+    step = 0.3 * skin / (3.0 + 2.0 * 0.2);
+    for (k = 0; k < 200 && w.pos[68].x < -0.93; ++k) {
+        move(&w, 68, 48, nts_v2(step, 0.0));
+        walk_step(&w, 1);
+    }
+    CU_ASSERT(w.pos[68].x >= -0.93); /* in contact */
+    after = nts_candidates_get_info(w.kc);
+    CU_ASSERT(after.builds - before.builds < (after.evaluations - before.evaluations) / 2);
+    /* press the square deep into the disk, in small steps */
+    for (k = 0; k < 30; ++k) {
+        move(&w, 64, 4, nts_v2(-0.02, 0.003));
+        walk_step(&w, 2);
+    }
+    walk_close(&w);
+    nts_scene_destroy(s);
+}
+
+/* A step just within what the list allows is replayed, one just past it
+ * builds again, and both answers are those from scratch. */
+static void test_step_at_the_skin(void) {
+    test_packing p = make_packing(16, 32, 1.0, 1.93, 0, 77);
+    nts_scene* s = make_scene(p.bodies, p.count, 0.0, 0.0);
+    nts_candidates_info i0, i1, i2;
+    walk w;
+    double allowed;
+    int nb = p.bodies[0].node_count;
+    walk_open(&w, s, 0.2, 0.05);
+    walk_step(&w, 1);
+    i0 = nts_candidates_get_info(w.kc);
+    ASSERT_INT_EQ(i0.builds, 1);
+    /* eq. (29), with the search radius as it is (no segment changes length:
+     * the body is translated) */
+    allowed = 0.05 / (3.0 + 2.0 * 0.2);
+    move(&w, 0, nb, nts_v2(0.999 * allowed, 0.0));
+    walk_step(&w, 1);
+    i1 = nts_candidates_get_info(w.kc);
+    ASSERT_INT_EQ(i1.builds, 1);
+    move(&w, 0, nb, nts_v2(0.002 * allowed, 0.0));
+    walk_step(&w, 1);
+    i2 = nts_candidates_get_info(w.kc);
+    ASSERT_INT_EQ(i2.builds, 2);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+/* A list is bound to its scene: another scene, or other options, build it
+ * again; clear forgets it. */
+static void test_bound_to_scene_and_options(void) {
+    test_packing p = make_packing(9, 24, 1.0, 1.93, 0, 5);
+    nts_scene* s1 = make_scene(p.bodies, p.count, 0.0, 0.0);
+    nts_scene* s2 = make_scene(p.bodies, p.count, 0.0, 0.0);
+    nts_candidates* kc = nts_candidates_create(-1.0);
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    o.candidates = kc;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s1, &o, &r, &err) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s1, &o, &r, &err) == NTS_OK);
+    ASSERT_INT_EQ(nts_candidates_get_info(kc).builds, 1);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s2, &o, &r, &err) == NTS_OK);
+    ASSERT_INT_EQ(nts_candidates_get_info(kc).builds, 2);
+    o.alpha = 0.1;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s2, &o, &r, &err) == NTS_OK);
+    ASSERT_INT_EQ(nts_candidates_get_info(kc).builds, 3);
+    nts_candidates_clear(kc);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s2, &o, &r, &err) == NTS_OK);
+    ASSERT_INT_EQ(nts_candidates_get_info(kc).builds, 4);
+    CU_ASSERT(nts_candidates_bytes(kc) > 0);
+    CU_ASSERT(nts_candidates_bytes(NULL) == 0);
+    nts_candidates_destroy(kc);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s1);
+    nts_scene_destroy(s2);
+    free_packing(&p);
+}
+
+void register_candidates_suite(void) {
+    CU_pSuite s = CU_add_suite("candidates", NULL, NULL);
+    ADD_TEST(s, test_random_walks_open);
+    ADD_TEST(s, test_random_walks_periodic);
+    ADD_TEST(s, test_random_walks_friction_threads);
+    ADD_TEST(s, test_bodies_from_afar_and_deep);
+    ADD_TEST(s, test_step_at_the_skin);
+    ADD_TEST(s, test_bound_to_scene_and_options);
+}
