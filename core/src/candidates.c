@@ -22,6 +22,7 @@ void nts_candidates_destroy(nts_candidates* kc) {
     nts_free(kc->chunk_cap);
     nts_free(kc->chunk_used);
     nts_free(kc->span);
+    nts_free(kc->ring);
     nts_free(kc->x);
     nts_free(kc);
 }
@@ -35,7 +36,7 @@ size_t nts_candidates_bytes(const nts_candidates* kc) {
     int c;
     if (kc == NULL) return 0;
     n = sizeof *kc + (size_t)kc->x_cap * sizeof(nts_vec2) + (size_t)kc->span_cap * sizeof(int) +
-        (size_t)kc->chunk_slots * (sizeof(int*) + 2 * sizeof(int));
+        (size_t)kc->chunk_slots * (sizeof(int*) + 2 * sizeof(int)) + (size_t)kc->ring_cap * sizeof(double);
     for (c = 0; c < kc->chunk_slots; ++c) n += (size_t)kc->chunk_cap[c] * sizeof(int);
     return n;
 }
@@ -53,28 +54,15 @@ nts_candidates_info nts_candidates_get_info(const nts_candidates* kc) {
     return i;
 }
 
-/* The largest displacement of a surface node since the build (the minimum
- * image in a periodic box: a node that wrapped moved by its image). */
-static double largest_move(const nts_candidates* kc, const nts_scene* s, const seg_data* seg) {
-    double m2 = 0.0;
-    int e;
-    for (e = 0; e < s->surface_count; ++e) {
-        double dx = seg[e].p.x - kc->x[e].x, dy = seg[e].p.y - kc->x[e].y, d2;
-        if (s->lx > 0.0) {
-            dx = nts_min_image_1(dx, s->lx);
-            dy = nts_min_image_1(dy, s->ly);
-        }
-        d2 = dx * dx + dy * dy;
-        if (d2 > m2) m2 = d2;
-    }
-    return sqrt(m2);
+const nts_vec2* nts_kept_since(const nts_candidates* kc, const nts_scene* s) {
+    return kc != NULL && kc->built && kc->scene == s && kc->serial == s->serial ? kc->x : NULL;
 }
 
-int nts_kept_valid(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double ext, double r,
+int nts_kept_valid(nts_candidates* kc, const nts_scene* s, double moved, double alpha, double ext, double r,
                    double pad) {
     double need;
     if (!kc->built || kc->scene != s || kc->serial != s->serial || kc->alpha != alpha || kc->ext != ext) return 0;
-    kc->moved = largest_move(kc, s, seg);
+    kc->moved = moved;
     /* Eq. (29): a master that offers a feature within r now lay within its
      * reach plus r + factor * moved at the build (each term with the
      * round-off allowance of reach_allowed). */
@@ -82,18 +70,18 @@ int nts_kept_valid(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
     return need <= kc->inner && kc->moved <= 1e300;
 }
 
-double nts_kept_reach(const nts_candidates* kc, double pad) {
-    /* Eq. (30): the largest rho with rho + factor * moved within the outer
-     * radius, with the same allowances. */
-    return (kc->outer - kc->pad - pad) / (1.0 + 1e-9) - kc->factor * kc->moved;
+double nts_kept_shift(const nts_candidates* kc, double pad) {
+    /* Eq. (30): rho + factor * moved within the ring, with the allowances of (29). */
+    return kc->factor * kc->moved * (1.0 + 1e-9) + kc->pad + pad;
 }
 
-int nts_kept_begin(nts_candidates* kc, const nts_scene* s, double alpha, double alpha_max, double ext, double r,
-                   double pad) {
+int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double alpha_max,
+                   double ext, double r, double pad) {
     const int chunks = (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK;
-    int c;
+    int c, e;
     kc->built = 0;
     if (nts_grow((void**)&kc->span, &kc->span_cap, 3 * s->surface_count, sizeof(int)) != NTS_OK ||
+        nts_grow((void**)&kc->ring, &kc->ring_cap, s->surface_count, sizeof(double)) != NTS_OK ||
         nts_grow((void**)&kc->x, &kc->x_cap, s->surface_count, sizeof(nts_vec2)) != NTS_OK)
         return NTS_ENOMEM;
     if (chunks > kc->chunk_slots) {
@@ -127,12 +115,23 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, double alpha, double 
     kc->r = r;
     kc->skin = kc->skin_asked >= 0.0 ? kc->skin_asked : 0.3 * r;
     kc->inner = r + kc->skin;
-    kc->outer = kc->inner + r;
     kc->pad = pad;
     /* Eq. (29): the slave and the master's middle each move at most `moved`,
      * and its reach grows at most (1 + 2 ext + 2 alpha) moved. */
     kc->factor = 3.0 + 2.0 * ext + 2.0 * alpha_max;
     kc->moved = 0.0;
+    /* Eq. (30): a widened search around e asks for at most r plus its
+     * longer segment (reach.c: a neighbour's gap and the segment between,
+     * or the long segment at a chain's end), which grows 2 moved while the
+     * list holds (moved <= skin / factor); past 2 r, reach.c tries the
+     * body's entries or builds the cells (the ring sizes the cells the
+     * lists are built from: every slave pays for the largest). */
+    kc->outer = kc->inner;
+    for (e = 0; e < s->surface_count; ++e) {
+        const double l = seg[seg[e].prev].len > seg[e].len ? seg[seg[e].prev].len : seg[e].len;
+        kc->ring[e] = kc->inner + (l < r ? r : (l > 2.0 * r ? 2.0 * r : l)) + 2.0 * kc->skin / kc->factor;
+        if (kc->ring[e] > kc->outer) kc->outer = kc->ring[e];
+    }
     return NTS_OK;
 }
 

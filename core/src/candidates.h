@@ -31,6 +31,11 @@ struct nts_candidates {
      * of the frame, and the factor of the largest displacement in the test
      * of validity (eq. (29)). */
     double r, skin, inner, outer, pad, factor;
+    /* Per surface entry, the radius of its list's outer ring (eq. (30)):
+     * inner + its longer segment (at least r, at most 4 r) + 2 skin / factor,
+     * enough for the widened searches that ask for it; outer the largest. */
+    double* ring;
+    int ring_cap;
     double moved;              /* the largest displacement since the build, at the last evaluation */
     double cell_size;          /* the side of the cells the lists were built from (nts_summary.cell_size) */
     nts_vec2* x;               /* surface entries' positions at the build */
@@ -47,17 +52,22 @@ struct nts_candidates {
     int backoff;               /* evaluations left before a build is tried again (one was over budget) */
 };
 
-/* Whether the lists hold, for scene s at the positions of `seg`, every
- * master the cells could give within radius r (eq. (29)); sets kc->moved.
+/* Whether the lists hold, for scene s whose nodes moved at most `moved`
+ * since the build (the segment pass's), every master the cells could give
+ * within radius r (eq. (29)); sets kc->moved.
  * `pad`: the frame's round-off allowance now. */
-int nts_kept_valid(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double ext, double r,
+int nts_kept_valid(nts_candidates* kc, const nts_scene* s, double moved, double alpha, double ext, double r,
                    double pad);
-/* The largest radius of a widened search that the lists cover (eq. (30)). */
-double nts_kept_reach(const nts_candidates* kc, double pad);
+/* The positions the segment pass measures the displacement from (its
+ * `since`): the last build's, when kc is built for scene s; else NULL. */
+const nts_vec2* nts_kept_since(const nts_candidates* kc, const nts_scene* s);
+/* What a widened search's radius rho must leave of a slave's ring to be
+ * covered, rho (1 + 1e-9) + this <= ring (eq. (30)). */
+double nts_kept_shift(const nts_candidates* kc, double pad);
 /* A build begins (room for scene s, the radii of search radius r) and ends
  * (the positions of `seg` kept, the lists valid). */
-int nts_kept_begin(nts_candidates* kc, const nts_scene* s, double alpha, double alpha_max, double ext, double r,
-                   double pad);
+int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double alpha_max,
+                   double ext, double r, double pad);
 void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg);
 
 static inline const int* kept_lo(const nts_candidates* kc) { return kc->span; }

@@ -137,9 +137,9 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     int rc, c, nchunk;
     *cells = 1;
     ++kc->evaluations;
-    if (nts_kept_valid(kc, s, ctx->seg, env->alpha, env->ext, env->r, env->wide_pad)) {
+    if (nts_kept_valid(kc, s, env->ss->moved, env->alpha, env->ext, env->r, env->wide_pad)) {
         env->kept = kc;
-        env->kept_reach = nts_kept_reach(kc, env->wide_pad);
+        env->kept_shift = nts_kept_shift(kc, env->wide_pad);
         *cells = 0;
         return NTS_OK;
     }
@@ -147,7 +147,7 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
         --kc->backoff;
         return NTS_OK;
     }
-    rc = nts_kept_begin(kc, s, env->alpha, largest_alpha(s, env->alpha), env->ext, env->r, env->wide_pad);
+    rc = nts_kept_begin(kc, s, ctx->seg, env->alpha, largest_alpha(s, env->alpha), env->ext, env->r, env->wide_pad);
     if (rc != NTS_OK) return rc;
     /* In a periodic box the lists' reach must stay below half the box (the
      * minimum image), as the search's does. */
@@ -176,7 +176,7 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     nts_kept_end(kc, s, ctx->seg);
     kc->cell_size = ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy;
     env->kept = kc;
-    env->kept_reach = nts_kept_reach(kc, env->wide_pad);
+    env->kept_shift = nts_kept_shift(kc, env->wide_pad);
     return NTS_OK;
 }
 
@@ -247,7 +247,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
     rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
-                              (double*)(void*)ctx->scratch, &run, &ss);
+                              (double*)(void*)ctx->scratch, nts_kept_since(opt->candidates, s), &run, &ss);
     if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count) {
         const int bad = ss.bad;

@@ -280,11 +280,17 @@ static int body_grid(nts_reach* r, const search_env* env, long long budget) {
     return NTS_OK;
 }
 
-/* Kept candidates (docs/model.md §15): a widened search around slave k
- * within rho that its kept list does not cover needs the cells, built now
- * (once an evaluation). */
-static int cells_for(nts_context* ctx, search_env* env, int k, double rho) {
+/* Kept candidates (docs/model.md §15): a widened search around slave k on
+ * `body` (every body: -1) within rho that its kept list does not cover
+ * tries the body's entries when they are few (wide() without cells), else
+ * needs the cells, built now (once an evaluation). */
+enum { KEPT_BODY_ENTRIES = 1024 };
+static int cells_for(nts_context* ctx, search_env* env, int k, int body, double rho) {
+    const nts_scene* s = env->s;
     if (env->cells != NULL || env->kept == NULL || kept_covers(env, k, rho)) return NTS_OK;
+    if (body >= 0 && s->loop_start[s->body_loop_start[body + 1]] - s->loop_start[s->body_loop_start[body]] <=
+                         KEPT_BODY_ENTRIES)
+        return NTS_OK;
     return nts_cells_now(ctx, env);
 }
 
@@ -310,7 +316,7 @@ static int coarse(nts_context* ctx, search_env* env, worker* w, int i, double l)
     const double rho = (l < env->reach_max ? l : env->reach_max) * (1.0 + 1e-9) + env->wide_pad;
     int k, rc = NTS_OK;
     if (!nts_node_on_surface(env->s, i)) return NTS_OK; /* no slave (docs/model.md §13) */
-    if ((rc = cells_for(ctx, env, i, rho)) != NTS_OK) return rc;
+    if ((rc = cells_for(ctx, env, i, -1, rho)) != NTS_OK) return rc;
     cl = env->cells;
     if (cl != NULL && rho > 2.0 * (cl->hx > cl->hy ? cl->hx : cl->hy) && r->grid_built >= 0) {
         if (!r->grid_built && (rc = body_grid(r, env, 8LL * env->s->surface_count + 4096)) != NTS_OK) {
@@ -534,10 +540,10 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
         if ((rc = nts_grow((void**)&r->hits, &r->hits_cap, q1, sizeof(candidate))) != NTS_OK) return rc;
         /* A round of a few pairs runs in the caller's thread (not worth the
          * workers); else ranges of 16, taken by whichever worker is free. */
-        /* (a pair that finds nothing at its rho tries twice it, past what the
-         * kept lists cover: wide() then tries the body's entries) */
+        /* (a pair that finds nothing at its rho tries twice it, maybe past
+         * what the kept lists cover: wide() then tries the body's entries) */
         for (q = q0; q < q1 && rc == NTS_OK; ++q)
-            rc = cells_for(ctx, env, r->queue[q].slave, search_pair_rho(env, &r->queue[q]));
+            rc = cells_for(ctx, env, r->queue[q].slave, r->queue[q].body, search_pair_rho(env, &r->queue[q]));
         if (rc != NTS_OK) return rc;
         pt.q0 = q0;
         nts_run_tasks(run, search_pairs, q1 - q0, q1 - q0 > 64 ? 16 : q1 - q0, &pt);

@@ -501,6 +501,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
  * §15): each slave tries the masters its list holds within the inner radius,
  * which hold every master the cells could give it (the list is valid:
  * candidates.c), so the same candidates, the same records, bit for bit. */
+enum { KEPT_AHEAD = 4 };
 static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
                                                  const int periodic, const int surfaces) {
     const nts_scene* s = env->s;
@@ -515,15 +516,27 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
             w->status = NTS_ECANCELLED;
             break;
         }
+        if (i == begin)
+            for (k = 1; k < KEPT_AHEAD && i + k < end; ++k) { /* the first slaves' masters */
+                const int a = i + k;
+                int q;
+                for (q = lo[a]; q < mid[a]; ++q) NTS_PREFETCH(&env->seg[kc->chunk[a / KEPT_CHUNK][q]]);
+            }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
         if (surfaces && !(env->surf_flag[i] & NTS_SF_NODE)) {
             not_a_slave(w, env, i);
             continue;
         }
-        /* scattered over memory: asked for before the first is needed (search_cells) */
-        for (k = lo[i]; k < mid[i]; ++k) {
-            NTS_PREFETCH(&env->seg[items[k]]);
-            NTS_PREFETCH(&env->seg[items[k] - (items[k] > 0)]);
+        /* The masters' segment data are scattered over memory (other
+         * bodies' entries): asked for KEPT_AHEAD slaves ahead, so that they
+         * arrive while the slaves between are searched. */
+        if (i + KEPT_AHEAD < end) {
+            const int a = i + KEPT_AHEAD;
+            const int* ahead = kc->chunk[a / KEPT_CHUNK];
+            for (k = lo[a]; k < mid[a]; ++k) {
+                NTS_PREFETCH(&env->seg[ahead[k]]);
+                NTS_PREFETCH(&env->seg[ahead[k] - (ahead[k] > 0)]);
+            }
         }
         for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
@@ -537,14 +550,31 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
 
 /* Whether master j goes in the kept list of a slave at xs (eq. (30)): 2
  * when its middle lies within its reach (around the middle, masters.h) plus
- * the inner radius, 1 within the outer one, else 0. */
-static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts_vec2 xs, int j, const int periodic) {
+ * the inner radius, 1 within the slave's ring, else 0. */
+static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts_vec2 xs, double ring, int j,
+                            const int periodic) {
     const seg_data* m = &env->seg[j];
     const double reach = reach_at_middle(env->seg, j, alpha_of_body(env->s, m->body, env->alpha), env->ext);
     const nts_vec2 d = nts_mul_add(search_diff(env, xs, m->p, periodic), -0.5, m->t); /* Xs - M_j */
     const double dist = sqrt(d.x * d.x + d.y * d.y);
     if (dist <= reach_allowed(reach, kc->inner, kc->pad)) return 2;
-    return dist <= reach_allowed(reach, kc->outer, kc->pad);
+    return dist <= reach_allowed(reach, ring, kc->pad);
+}
+
+/* kept_ring from master key e, for a slave at (fx, fy) in the keys' frame
+ * (masters.h), with the inner radius, the slave's ring and the cells'
+ * radius (kc->outer) in that frame: the key's reach is that radius plus
+ * the master's reach, widened, so the master's own reach plus either radius
+ * is the key's less the difference; 1e-6 (the frame is [0, 1]) covers the
+ * floats' round-off. Reads no segment data (scattered over memory): a
+ * master kept that the exact test would not keep costs a try, never an
+ * answer. */
+static inline int kept_ring_key(const master_keys* keys, int e, float fx, float fy, double inner, double ring,
+                                double outer) {
+    const double dx = (double)fx - (double)keys->x[e], dy = (double)fy - (double)keys->y[e];
+    const double d = sqrt(dx * dx + dy * dy), base = sqrt((double)keys->reach2[e]) - outer + 1e-6;
+    if (d <= base + inner) return 2;
+    return d <= base + ring;
 }
 
 /* Append master j in `ring` to the slave's list, buf[from .. *at), the inner
@@ -578,6 +608,7 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
         const int bi = env->seg[i].body;
         const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
         const nts_vec2 xs = env->seg[i].p;
+        const double inner_s = kc->inner * cl->scale, ring_s = kc->ring[i] * cl->scale, outer_s = kc->outer * cl->scale;
         nts_cell_place p;
         int inner = at, e0;
         lo[i] = mid[i] = at;
@@ -591,12 +622,10 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
                 const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                 const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                 int k;
-                for (k = 0; k < n; ++k) {
-                    const int j = keys->entry[kept[k]];
-                    if (kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j,
-                                 kept_ring(env, kc, xs, j, periodic)) != NTS_OK)
+                for (k = 0; k < n; ++k)
+                    if (kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, keys->entry[kept[k]],
+                                 kept_ring_key(keys, kept[k], fx, fy, inner_s, ring_s, outer_s)) != NTS_OK)
                         return NTS_ENOMEM;
-                }
                 e0 = e1;
             }
         }
@@ -607,7 +636,7 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
                 const int j = lm->entry;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
                 if (d.x * d.x + d.y * d.y <= lm->reach2 && env->seg[j].body != bi &&
-                    kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j, kept_ring(env, kc, xs, j, periodic)) !=
+                    kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j, kept_ring(env, kc, xs, kc->ring[i], j, periodic)) !=
                         NTS_OK)
                     return NTS_ENOMEM;
             }

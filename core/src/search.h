@@ -150,7 +150,7 @@ typedef struct search_env {
      * (kept_covers); without them, a widened search needs the cells, which
      * nts_cells_now builds from the segment summary `ss` on `run`. */
     const nts_candidates* kept;
-    double kept_reach;
+    double kept_shift;
     const seg_summary* ss;
     const nts_run* run;
 } search_env;
@@ -158,7 +158,7 @@ typedef struct search_env {
 /* Whether slave k's kept list holds every master that could offer it a
  * feature within rho (eq. (30)). */
 static inline int kept_covers(const search_env* env, int k, double rho) {
-    return env->kept != NULL && kept_hi(env->kept)[k] >= 0 && rho <= env->kept_reach;
+    return env->kept != NULL && kept_hi(env->kept)[k] >= 0 && rho * (1.0 + 1e-9) + env->kept_shift <= env->kept->ring[k];
 }
 
 /* Whether a slave's neighbour |d| = l away along its loop, with no closest
@@ -210,7 +210,7 @@ void nts_search_wide(const search_env* env, worker* w, int k, int body, double r
 void nts_search_wide_done(worker* w);
 /* Build the kept lists of chunk c's slaves into kc (candidates.h): the
  * masters the cells (built for radius kc->outer) offer, whose middle lies
- * within their reach plus kc->outer of the slave, those within kc->inner
+ * within their reach plus the slave's ring of the slave, those within kc->inner
  * first. NTS_OK, NTS_ENOMEM, or NTS_ELIMIT past KEPT_CHUNK_BUDGET. */
 int nts_kept_collect(const search_env* env, nts_candidates* kc, int c);
 

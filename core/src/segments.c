@@ -202,7 +202,7 @@ static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double 
  * part of the summary (combined by the caller in share order). */
 typedef struct share_found {
     int below, in, first_bad;
-    double lmax, amax, xmin, xmax, ymin, ymax;
+    double lmax, amax, xmin, xmax, ymin, ymax, moved2;
 } share_found;
 
 typedef struct pass_task {
@@ -211,6 +211,7 @@ typedef struct pass_task {
     double* scratch;
     kth_plan plan;
     share_found* found;
+    const nts_vec2* since;
 } pass_task;
 
 static void segments_pass(int begin, int end, int wi, void* p) {
@@ -225,7 +226,7 @@ static void segments_pass(int begin, int end, int wi, void* p) {
         const int keep = t->plan.bracket;
         const double lo = t->plan.lo, hi = t->plan.hi;
         double* scratch = t->scratch;
-        double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL;
+        double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL, m2 = 0.0;
         int i, cb = 0, ci = 0, first_bad = n;
         share_found* f = &t->found[q];
         for (i = b; i < e; ++i) {
@@ -233,6 +234,15 @@ static void segments_pass(int begin, int end, int wi, void* p) {
             const nts_vec2 pp = s->pos[s->surf_node[i]];
             double len, a;
             sd->p = pp;
+            if (t->since != NULL) {
+                double dx = pp.x - t->since[i].x, dy = pp.y - t->since[i].y, d2;
+                if (s->lx > 0.0) {
+                    dx = nts_min_image_1(dx, s->lx);
+                    dy = nts_min_image_1(dy, s->ly);
+                }
+                d2 = dx * dx + dy * dy;
+                m2 = d2 > m2 ? d2 : m2;
+            }
             len = segment_length(s, i, pp, &sd->t);
             sd->prev = s->surf_prev[i];
             sd->next = s->surf_next[i];
@@ -268,18 +278,19 @@ static void segments_pass(int begin, int end, int wi, void* p) {
         f->xmax = x1;
         f->ymin = y0;
         f->ymax = y1;
+        f->moved2 = m2;
     }
 }
 
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_run* run,
-                         seg_summary* out) {
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_vec2* since,
+                         const nts_run* run, seg_summary* out) {
     const int n = s->surface_count;
     share_found found[SHARES];
     pass_task t;
     int cnt_below[SHARES], cnt_in[SHARES];
     int q, rc, bad = n;
     long long below = 0, inside = 0;
-    double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
+    double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL, m2 = 0.0;
     assert(k < n);
     if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
     t.ctx = ctx;
@@ -287,6 +298,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     t.scratch = scratch;
     t.plan = kth_prepare(s, k, scratch + n, run);
     t.found = found;
+    t.since = since;
     /* Each share taken by whichever worker is free; the minima and maxima
      * are exact, whatever the order they are taken in. */
     nts_run_tasks(run, segments_pass, SHARES, 1, &t);
@@ -301,6 +313,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
         if (f->xmax > xmax) xmax = f->xmax;
         if (f->ymin < ymin) ymin = f->ymin;
         if (f->ymax > ymax) ymax = f->ymax;
+        if (f->moved2 > m2) m2 = f->moved2;
     }
     out->bad = bad;
     out->lmax = lmax;
@@ -310,6 +323,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     out->ymin = ymin;
     out->ymax = ymax;
     out->kth = 0.0;
+    out->moved = sqrt(m2);
     if (bad < n || k < 0) return NTS_OK;
     if (t.plan.bracket) {
         for (q = 0; q < SHARES; ++q) {

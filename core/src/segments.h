@@ -36,6 +36,7 @@ typedef struct seg_summary {
     double coord_max;
     double xmin, xmax, ymin, ymax;
     double kth;
+    double moved; /* the largest displacement of a node since `since` (nts_segments_compute), or 0 */
 } seg_summary;
 
 /* The outward unit normal of a segment (t_y, -t_x)/|t|, computed where it is
@@ -46,9 +47,11 @@ static inline nts_vec2 seg_normal(nts_vec2 t, double len) { return nts_v2(t.y / 
 enum { NTS_SAMPLE = 4096 };
 /* The segment data, the summary, and the k-th smallest segment length
  * (0-based, exactly; k < 0: none) found in the same pass. `scratch` holds
- * surface_count + NTS_SAMPLE doubles. */
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_run* run,
-                         seg_summary* out);
+ * surface_count + NTS_SAMPLE doubles. `since` (or NULL): positions of the
+ * surface entries, from which the pass finds the largest displacement (the
+ * minimum image in a periodic box: a kept candidate list's test, eq. (29)). */
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_vec2* since,
+                         const nts_run* run, seg_summary* out);
 /* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
 
