@@ -92,6 +92,11 @@ typedef struct ntsj_scene {
      * and matches the next step's to them (nts_contact_memory); a stateless
      * request may not ask (handle.c). */
     int has_session, keep_contacts;
+    /* "session": {"keep_candidates", "skin"}: a session keeps a candidate
+     * list (nts_candidates, docs/model.md §15; on unless false) with this
+     * skin (negative: the default, 0.3 times the search radius). */
+    int keep_candidates;
+    double skin;
     /* "history" (friction, docs/model.md §14): the anchors a request goes on
      * from, bodies as indices (handle.c and session.c hand them to
      * nts_history_set, whose faults point at /history/K). */

@@ -756,18 +756,29 @@ static int decode_history(decoder* d, const cJSON* v) {
 }
 
 /* "session": what a session keeps between its steps (docs/sessions.md). */
-static const char* const session_fields[] = {"keep_contacts"};
-enum { SESSION_KEEP_CONTACTS, SESSION_COUNT };
+static const char* const session_fields[] = {"keep_contacts", "keep_candidates", "skin"};
+enum { SESSION_KEEP_CONTACTS, SESSION_KEEP_CANDIDATES, SESSION_SKIN, SESSION_COUNT };
 
 static int decode_session(decoder* d, const cJSON* v) {
     const cJSON* f[SESSION_COUNT];
-    if (!cJSON_IsObject(v)) return fail_type(d, "/session", v, "an object {\"keep_contacts\"}");
+    int k;
+    if (!cJSON_IsObject(v))
+        return fail_type(d, "/session", v, "an object {\"keep_contacts\", \"keep_candidates\", \"skin\"}");
     if (take_fields(d, v, "/session", session_fields, SESSION_COUNT, f) != 0) return -1;
     d->scene->has_session = 1;
-    if (f[SESSION_KEEP_CONTACTS]) {
-        if (!cJSON_IsBool(f[SESSION_KEEP_CONTACTS]))
-            return fail_type(d, "/session/keep_contacts", f[SESSION_KEEP_CONTACTS], "true or false");
-        d->scene->keep_contacts = cJSON_IsTrue(f[SESSION_KEEP_CONTACTS]);
+    for (k = SESSION_KEEP_CONTACTS; k <= SESSION_KEEP_CANDIDATES; ++k)
+        if (f[k]) {
+            char p[48];
+            snprintf(p, sizeof p, "/session/%s", session_fields[k]);
+            if (!cJSON_IsBool(f[k])) return fail_type(d, p, f[k], "true or false");
+            if (k == SESSION_KEEP_CONTACTS) d->scene->keep_contacts = cJSON_IsTrue(f[k]);
+            else d->scene->keep_candidates = cJSON_IsTrue(f[k]);
+        }
+    if (f[SESSION_SKIN]) {
+        if (get_number(d, f[SESSION_SKIN], "/session/skin", &d->scene->skin) != 0) return -1;
+        if (!(d->scene->skin >= 0.0))
+            return fail(d, nts_status_name(NTS_EINVALID_OPTION), "/session/skin",
+                        "the skin is a length >= 0 (absent: 0.3 times the search radius)");
     }
     return 0;
 }
@@ -816,6 +827,8 @@ static int decode_root(decoder* d, const cJSON* root) {
         if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/version", "unsupported version (this codec reads version 1)");
     }
     if (f[ROOT_SCHEMA] && !cJSON_IsString(f[ROOT_SCHEMA])) return fail_type(d, "/$schema", f[ROOT_SCHEMA], "a string");
+    s->keep_candidates = 1; /* a session keeps a candidate list unless told not to */
+    s->skin = -1.0;
     if (f[ROOT_SESSION] && decode_session(d, f[ROOT_SESSION]) != 0) return -1;
 
     s->options = nts_default_options();

@@ -38,6 +38,10 @@ struct ntsj_session {
     nts_history* history;
     nts_history* staged;
     int staged_pending;
+    /* The kept candidate list (docs/model.md §15): every step replays it
+     * while it holds (the same answer, bit for bit); NULL with
+     * "session": {"keep_candidates": false}. */
+    nts_candidates* candidates;
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
@@ -65,7 +69,7 @@ ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
     i.memory_bytes = sizeof *ss + decoded_bytes(&ss->js) + nts_scene_memory_bytes(ss->scene) +
                      nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2) +
                      nts_contact_memory_bytes(ss->memory) + nts_history_bytes(ss->history) +
-                     nts_history_bytes(ss->staged);
+                     nts_history_bytes(ss->staged) + nts_candidates_bytes(ss->candidates);
     return i;
 }
 
@@ -79,6 +83,7 @@ void ntsj_session_destroy(ntsj_session* ss) {
     nts_contact_memory_destroy(ss->memory);
     nts_history_destroy(ss->history);
     nts_history_destroy(ss->staged);
+    nts_candidates_destroy(ss->candidates);
     nts_scene_destroy(ss->scene);
     nts_free(ss->next);
     ntsj_scene_free(&ss->js);
@@ -170,12 +175,14 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
     ss->ctx = nts_context_create();
     ss->next = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)nts_scene_node_count(ss->scene));
     if (ss->js.keep_contacts) ss->memory = nts_contact_memory_create();
+    if (ss->js.keep_candidates) ss->candidates = nts_candidates_create(ss->js.skin);
     keeps_history = nts_friction_on(ss->scene, &ss->js.options) || ss->js.has_history;
     if (keeps_history) {
         ss->history = nts_history_create();
         ss->staged = nts_history_create();
     }
     if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL) ||
+        (ss->js.keep_candidates && ss->candidates == NULL) ||
         (keeps_history && (ss->history == NULL || ss->staged == NULL))) {
         ntsj_session_destroy(ss);
         return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);
@@ -192,6 +199,7 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
         nts_options opt = ss->js.options;
         opt.outputs = 0u;
         opt.history = ss->history;
+        opt.candidates = ss->candidates;
         rc = nts_evaluate(ss->ctx, ss->scene, &opt, &result, &err);
         if (rc != 0) {
             rc = ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
@@ -475,7 +483,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (ss == NULL || st == NULL) return ntsj_respond_error(out, nts_status_name(NTS_EINTERNAL), "no session", "", pretty);
     ss->staged_pending = 0; /* an answer refused after the last step (the daemon's budget): not committed */
     if (cfg.max_depth <= 0) cfg.max_depth = 32;
-    held = nts_context_memory_bytes(ss->ctx);
+    held = nts_context_memory_bytes(ss->ctx) + nts_candidates_bytes(ss->candidates);
     opt = ss->js.options;
 
     if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
@@ -544,6 +552,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         ntsj_arm_deadline(&eo, &deadline, &cfg, t0);
         if (ss->memory != NULL) eo.outputs |= NTS_OUT_CONTACTS; /* what the memory keeps */
         eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
+        eo.candidates = ss->candidates; /* replayed while it holds (§15) */
         capped = cap_candidates(ss, &cfg, &eo);
         rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
     }
@@ -553,7 +562,8 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (rc != 0) return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
     if (ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (ntsj_result_overflows(&ss->js, ss->scene, &result, &fault)) return ntsj_respond_fault(out, &fault, pretty);
-    if (nts_context_memory_bytes(ss->ctx) > held) grown = nts_context_memory_bytes(ss->ctx) - held;
+    if (nts_context_memory_bytes(ss->ctx) + nts_candidates_bytes(ss->candidates) > held)
+        grown = nts_context_memory_bytes(ss->ctx) + nts_candidates_bytes(ss->candidates) - held;
     if (cfg.step_memory > 0 && grown >= cfg.step_memory) return step_too_large(out, &cfg, "records", pretty);
 
     /* This step's contacts matched to the last answered step's; they become

@@ -14,9 +14,8 @@ nts_candidates* nts_candidates_create(double skin) {
     return kc;
 }
 
-void nts_candidates_destroy(nts_candidates* kc) {
+void nts_kept_drop(nts_candidates* kc) {
     int c;
-    if (kc == NULL) return;
     for (c = 0; c < kc->chunk_slots; ++c) nts_free(kc->chunk[c]);
     nts_free(kc->chunk);
     nts_free(kc->chunk_cap);
@@ -24,6 +23,18 @@ void nts_candidates_destroy(nts_candidates* kc) {
     nts_free(kc->span);
     nts_free(kc->ring);
     nts_free(kc->x);
+    kc->chunk = NULL;
+    kc->chunk_cap = kc->chunk_used = kc->span = NULL;
+    kc->ring = NULL;
+    kc->x = NULL;
+    kc->chunk_slots = kc->span_cap = kc->ring_cap = kc->x_cap = 0;
+    kc->built = 0;
+    kc->kept = 0;
+}
+
+void nts_candidates_destroy(nts_candidates* kc) {
+    if (kc == NULL) return;
+    nts_kept_drop(kc);
     nts_free(kc);
 }
 

@@ -37,7 +37,6 @@ struct nts_candidates {
     double* ring;
     int ring_cap;
     double moved;              /* the largest displacement since the build, at the last evaluation */
-    double cell_size;          /* the side of the cells the lists were built from (nts_summary.cell_size) */
     nts_vec2* x;               /* surface entries' positions at the build */
     int x_cap;
     /* Slave e's masters: chunk[e / KEPT_CHUNK][lo[e] .. hi[e]), those within
@@ -69,6 +68,8 @@ double nts_kept_shift(const nts_candidates* kc, double pad);
 int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, double alpha, double alpha_max,
                    double ext, double r, double pad);
 void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg);
+/* Give back every buffer (a build over its budget: what it grew is not held). */
+void nts_kept_drop(nts_candidates* kc);
 
 static inline const int* kept_lo(const nts_candidates* kc) { return kc->span; }
 static inline const int* kept_mid(const nts_candidates* kc) { return kc->span + kc->surface_count; }

@@ -54,6 +54,12 @@ int nts_cells_count(const nts_scene* s, const seg_summary* sum, double h) {
     return c.nx * c.ny;
 }
 
+double nts_cells_side(const nts_scene* s, const seg_summary* sum, double h) {
+    nts_cells c;
+    cells_dims(&c, s, sum, h);
+    return c.hx > c.hy ? c.hx : c.hy;
+}
+
 int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h, int min_cells) {
     double extent;
     int e, need;

@@ -51,6 +51,8 @@ static inline nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
  * (h grows if needed, which the search allows). Room for at least
  * `min_cells` cells. NTS_OK or NTS_ENOMEM. */
 int nts_cells_shape(nts_cells* c, const nts_scene* s, const seg_summary* sum, double h, int min_cells);
+/* The longer side of the cells nts_cells_shape would make for side h. */
+double nts_cells_side(const nts_scene* s, const seg_summary* sum, double h);
 /* How many cells nts_cells_shape would make for side h. */
 int nts_cells_count(const nts_scene* s, const seg_summary* sum, double h);
 /* The first slice entry of slice u of `slices` equal slices of [0, n). */

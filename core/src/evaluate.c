@@ -56,27 +56,51 @@ static double largest_alpha(const nts_scene* s, double alpha) {
  * overlaps. When the longest reach is within half again the typical, it sets
  * the side itself and there are no long lists; when the long lists would be
  * too many, the side doubles, at most up to the longest reach. */
+/* The round-off of the grid's frame, relative to the size of the
+ * coordinates (not of the cells): it widens every reach. */
+static double frame_pad(const nts_scene* s, const seg_summary* ss) {
+    return 1e-12 * (ss->coord_max + (ss->xmax - ss->xmin) + (ss->ymax - ss->ymin) + s->lx + s->ly);
+}
+
+/* Every reach around the middle is at most (1/2 + ext + alpha) L_max. */
+static double longest_reach(const nts_scene* s, const search_env* env, const seg_summary* ss) {
+    return reach_allowed((0.5 + env->ext + largest_alpha(s, env->alpha)) * ss->lmax, env->r, frame_pad(s, ss)) *
+           (1.0 + 1e-11);
+}
+
+/* The cell side the grid starts from: the typical reach, or the longest
+ * when it is at most half again as much; `min_cells` the room for alpha = 0. */
+static double first_side(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
+                         int* min_cells) {
+    const double hmax = longest_reach(s, env, ss);
+    double typical, finest;
+    typical_reach(ctx, s, env->alpha, env->ext, env->r, frame_pad(s, ss), (double*)(void*)ctx->scratch, &typical,
+                  &finest);
+    /* The cells are smaller with a smaller alpha (the corners reach less):
+     * room for the grid of alpha = 0, so that a warm context allocates
+     * nothing when only the options' alpha changes. */
+    *min_cells = finest > 0.0 ? nts_cells_count(s, ss, finest) : 0;
+    return hmax <= 1.5 * typical || !(typical > 0.0) ? hmax : typical;
+}
+
+/* nts_summary.cell_size: the side of the cells a search from scratch
+ * starts from (first_side), with or without a kept list, so that every door
+ * gives the same summary (the long lists may coarsen the grid after). */
+static double summary_cell_side(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss) {
+    int min_cells;
+    return nts_cells_side(s, ss, first_side(ctx, s, env, ss, &min_cells));
+}
+
 static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
                        const nts_run* run) {
     /* At most this many (long master, cell) pairs: a few per surface node. */
     const long long budget = 4LL * s->surface_count + 4096;
-    /* The round-off of the grid's frame, relative to the size of the
-     * coordinates (not of the cells): it widens every reach. */
-    const double pad = 1e-12 * (ss->coord_max + (ss->xmax - ss->xmin) + (ss->ymax - ss->ymin) + s->lx + s->ly);
-    /* Every reach around the middle is at most (1/2 + ext + alpha) L_max. */
-    const double hmax =
-        reach_allowed((0.5 + env->ext + largest_alpha(s, env->alpha)) * ss->lmax, env->r, pad) * (1.0 + 1e-11);
+    const double pad = frame_pad(s, ss), hmax = longest_reach(s, env, ss);
     double hc = 0.0;
     int round, rc, min_cells = 0;
     for (round = 0;; ++round) {
         if (round == 0) {
-            double typical, finest;
-            typical_reach(ctx, s, env->alpha, env->ext, env->r, pad, (double*)(void*)ctx->scratch, &typical, &finest);
-            /* The cells are smaller with a smaller alpha (the corners reach
-             * less): room for the grid of alpha = 0, so that a warm context
-             * allocates nothing when only the options' alpha changes. */
-            if (finest > 0.0) min_cells = nts_cells_count(s, ss, finest);
-            hc = hmax <= 1.5 * typical || !(typical > 0.0) ? hmax : typical;
+            hc = first_side(ctx, s, env, ss, &min_cells);
         } else {
             hc = 2.0 * hc < hmax ? 2.0 * hc : hmax;
         }
@@ -169,12 +193,14 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     for (c = 0; c < nchunk; ++c) {
         if (kc->chunk_used[c] == NTS_ENOMEM) return NTS_ENOMEM;
         if (kc->chunk_used[c] < 0) {
-            kc->backoff = 16; /* over budget: from scratch for the next 16 evaluations */
+            /* over budget: from scratch for the next 16 evaluations, and
+             * what the build grew given back */
+            nts_kept_drop(kc);
+            kc->backoff = 16;
             return NTS_OK;
         }
     }
     nts_kept_end(kc, s, ctx->seg);
-    kc->cell_size = ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy;
     env->kept = kc;
     env->kept_shift = nts_kept_shift(kc, env->wide_pad);
     return NTS_OK;
@@ -323,6 +349,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+        env.cell_side = summary_cell_side(ctx, s, &env, &ss);
     } else {
         /* The minimum image's round-off, for brute force's reach test. */
         env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);

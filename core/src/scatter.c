@@ -441,9 +441,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     sum->max_penetration = maxpen;
     sum->loops_reversed = s->loops_reversed;
     sum->search_radius = env->r;
-    /* (with kept lists, the side of the cells they were built from) */
-    if (env->kept != NULL) sum->cell_size = env->kept->cell_size;
-    else sum->cell_size = env->cells != NULL ? (ctx->cells.hx > ctx->cells.hy ? ctx->cells.hx : ctx->cells.hy) : 0.0;
+    sum->cell_size = env->cell_side;
     sum->dissipation = dissipation;
     sum->sticking = sticking;
     sum->slipping = slipping;

@@ -151,6 +151,7 @@ typedef struct search_env {
      * nts_cells_now builds from the segment summary `ss` on `run`. */
     const nts_candidates* kept;
     double kept_shift;
+    double cell_side;        /* nts_summary.cell_size (evaluate.c: summary_cell_side) */
     const seg_summary* ss;
     const nts_run* run;
 } search_env;

@@ -532,3 +532,38 @@ def test_a_session_in_use_is_never_evicted(daemon_factory, paths, validators):
         sid = create(d, big, validators)["id"]
     assert saw_busy
     assert requests.post(d.url(f"/v1/scenes/{sid}/contact"), timeout=120).status_code == 200
+
+
+def test_kept_candidates_answer_as_a_session_without(daemon, paths, validators):
+    """A session keeps a candidate list by default (docs/model.md §15): a walk
+    of small steps (replayed), a step past the skin and steps back, answer bit
+    for bit as a session created with "keep_candidates": false, and as one
+    with a skin of 0 (built every step); a bad skin is a 400 naming it."""
+    scene = load(paths, "jittered_packing")
+    scene.setdefault("options", {})["outputs"] = ["forces", "energy", "virial", "contacts", "gaps"]
+    off = copy.deepcopy(scene)
+    off["session"] = {"keep_candidates": False}
+    thin = copy.deepcopy(scene)
+    thin["session"] = {"skin": 0.0}
+    ids = [create(daemon, s, validators)["id"] for s in (scene, off, thin)]
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(27)
+    scale = float(np.ptp(pos0[:, 0])) * 1e-4
+    pos = pos0.copy()
+    for step in range(12):
+        pos = pos + rng.normal(scale=scale if step != 6 else 100 * scale, size=pos.shape)
+        answers = []
+        for sid in ids:
+            r = step_json(daemon, sid, {"positions": pos.tolist()})
+            assert r.status_code == 200, r.text
+            answers.append(without_elapsed(r.json()))
+        assert answers[0] == answers[1] == answers[2], step
+        assert answers[0]["summary"]["contacts"] > 0
+    for bad, where in (({"skin": -1}, "/session/skin"), ({"skin": "x"}, "/session/skin"),
+                       ({"keep_candidates": 1}, "/session/keep_candidates")):
+        s = copy.deepcopy(scene)
+        s["session"] = bad
+        r = requests.post(daemon.url("/v1/scenes"), json=s, timeout=60)
+        assert r.status_code == 400, r.text
+        validators["error"].validate(r.json())
+        assert r.json()["error"]["pointer"] == where, r.text

@@ -291,8 +291,9 @@ typedef struct nts_summary {
     double max_penetration;/* max(-g) over active contacts, 0 if none */
     int loops_reversed;
     double search_radius;  /* the radius used */
-    double cell_size;      /* the bucket side used (0 for brute force; with a kept candidate list,
-                              the side of the cells it was built from) */
+    double cell_size;      /* the bucket side the cell search starts from (docs/model.md §9: long
+                              lists may coarsen it), with or without a kept candidate list;
+                              0 for brute force */
     /* Friction (docs/model.md §14): the work the slipping contacts turned
      * into heat this step (>= 0), and the active contacts sticking and
      * slipping. The energy above includes the tangential springs'. */
