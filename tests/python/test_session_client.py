@@ -217,3 +217,28 @@ def test_a_binary_answers_per_body_forces(client, paths):
     with pytest.raises(KeyError):
         res.forces["no such body"]
     assert dict(res.forces).keys() == js.forces.keys()
+
+
+def test_kept_candidates_options_reach_the_session(client, paths):
+    """keep_candidates and skin go into the scene's "session" object; a session
+    without a list, with a zero skin and with the default answer alike (the
+    list changes the time of a step, never its answer); a negative skin is
+    refused by the service, naming /session/skin."""
+    scene = load(paths, "jittered_packing")
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(5)
+    with client.session(scene) as a, client.session(scene, keep_candidates=False) as b, \
+            client.session(scene, skin=0.0) as c:
+        assert json.loads(b._body)["session"] == {"keep_candidates": False}
+        assert json.loads(c._body)["session"] == {"skin": 0.0}
+        assert "session" not in json.loads(a._body)
+        pos = pos0.copy()
+        for _ in range(5):
+            pos = pos + rng.normal(scale=2e-3, size=pos0.shape)
+            got = [s.contact(pos) for s in (a, b, c)]
+            for r in got[1:]:
+                assert np.array_equal(r.force_array(), got[0].force_array())
+                same_summary(r.summary, got[0].summary)
+    with pytest.raises(InvalidScene) as e:
+        client.session(scene, skin=-1.0)
+    assert e.value.pointer == "/session/skin"

@@ -124,13 +124,18 @@ class Client:
         return result.warn()
 
     def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None,
-                keep_contacts: bool = False) -> Session:
+                keep_contacts: bool = False, keep_candidates: bool = True,
+                skin: Optional[float] = None) -> Session:
         """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for
         a solver loop (``with client.session(scene) as s: s.contact(x)``). The
         session is deleted when the ``with`` block ends (or on ``close()``).
         ``keep_contacts``: each step's contacts carry ``previous`` and ``persisted``
-        (their match to the last step's), the summary ``contact_changes``."""
-        return Session(self, scene, timeout=timeout, keep_contacts=keep_contacts)
+        (their match to the last step's), the summary ``contact_changes``.
+        ``keep_candidates`` (default on) and ``skin`` (a length; default 0.3 times
+        the search radius): the session's kept candidate list (docs/sessions.md),
+        which changes the time of a step, never its answer."""
+        return Session(self, scene, timeout=timeout, keep_contacts=keep_contacts, keep_candidates=keep_candidates,
+                       skin=skin)
 
     def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
         """``POST /v1/validate``: the service's check of a scene without evaluating it.

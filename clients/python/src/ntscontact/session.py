@@ -74,7 +74,8 @@ class Session:
     """
 
     def __init__(self, client: Any, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
-                 timeout: Optional[Any] = None, keep_contacts: bool = False) -> None:
+                 timeout: Optional[Any] = None, keep_contacts: bool = False, keep_candidates: bool = True,
+                 skin: Optional[float] = None) -> None:
         self.client = client
         self.timeout = timeout
         if isinstance(scene, Scene):
@@ -88,6 +89,10 @@ class Session:
             raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")
         if keep_contacts:  # each step's contacts matched to the last's (docs/sessions.md)
             doc["session"] = {**(doc.get("session") or {}), "keep_contacts": True}
+        if not keep_candidates:  # the kept candidate list: time only, never the answer
+            doc["session"] = {**(doc.get("session") or {}), "keep_candidates": False}
+        if skin is not None:
+            doc["session"] = {**(doc.get("session") or {}), "skin": float(skin)}
         bodies = doc.get("bodies")
         if not isinstance(bodies, list) or not bodies:
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
