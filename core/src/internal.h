@@ -50,6 +50,9 @@ struct nts_scene {
     /* Which scene this is, among every scene the process made (a freed
      * scene's address may come back): a kept candidate list is bound to one. */
     unsigned long long serial;
+    /* nts_scene_update_positions' scratch: 3 doubles a node of its longest loop. */
+    double* steps;
+    int longest_loop;
 };
 
 /* A surface entry's flags (nts_scene.surf_flag): its own segment (from it to

@@ -49,6 +49,7 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->loop_piece);
     nts_free(s->piece_area2);
     nts_free(s->surf_flag);
+    nts_free(s->steps);
     nts_free(s);
 }
 
@@ -83,36 +84,38 @@ static double segment_tolerance(double l_prev, double l_next, nts_vec2 p, nts_ve
  * (global order), so new positions can be checked before they are taken
  * (nts_scene_update_positions). */
 static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loop, const int* nodes, int n,
-                      int reversed, int node0, double* area2_out, nts_error* err) {
-    double perim = 0.0, a2, l_first, l_prev, l_cur;
+                      int reversed, int node0, double* scratch, double* area2_out, nts_error* err) {
+    /* scratch: 3 n doubles, the steps d_k = X_{k+1} - X_k (minimum image)
+     * and their lengths, each computed once: the neighbours' step back is
+     * -d_{k-1}, exactly (a difference and the minimum image are odd), so
+     * every verdict below is what one would find from the positions. */
+    nts_vec2* d = (nts_vec2*)(void*)scratch;
+    double* len = scratch + 2 * n;
+    double perim = 0.0, a2;
     int k;
-#define NODE_AT(k) nodes[reversed ? (n - (k)) % n : (k)]
-#define SEG_LEN(k) nts_length(nts_scene_diff(s, pos[node0 + NODE_AT(((k) + 1) % n)], pos[node0 + NODE_AT(k)]))
-    l_first = SEG_LEN(0);
-    l_prev = SEG_LEN(n - 1);
-    l_cur = l_first;
+    /* input place k is stored place (n - k) mod n when reversed */
+#define NODE_AT(k) nodes[reversed && (k) > 0 ? n - (k) : (k)]
     for (k = 0; k < n; ++k) {
-        int a = NODE_AT(k), c = NODE_AT((k + 1) % n);
-        double l_next = k + 1 < n ? SEG_LEN(k + 1) : l_first;
-        double tol = segment_tolerance(l_prev, l_next, pos[node0 + a], pos[node0 + c]);
-        if (!(l_cur > tol))
+        const int next = k + 1 < n ? k + 1 : 0;
+        d[k] = nts_scene_diff(s, pos[node0 + NODE_AT(next)], pos[node0 + NODE_AT(k)]);
+        len[k] = nts_length(d[k]);
+    }
+    for (k = 0; k < n; ++k) {
+        const int next = k + 1 < n ? k + 1 : 0, a = NODE_AT(k), c = NODE_AT(next);
+        const double tol = segment_tolerance(len[k > 0 ? k - 1 : n - 1], len[next], pos[node0 + a], pos[node0 + c]);
+        if (!(len[k] > tol))
             return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, a,
                         "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g: 1e-12 of its "
                         "neighbours, the resolution of its coordinates, or 1e-100)",
-                        body, loop, a, c, l_cur, tol);
-        perim += l_cur;
-        l_prev = l_cur;
-        l_cur = l_next;
+                        body, loop, a, c, len[k], tol);
+        perim += len[k];
     }
-#undef SEG_LEN
     for (k = 0; k < n; ++k) {
         /* Zero-angle spike: both neighbours leave node k in the same direction,
          * so the corner tangent vanishes (docs/model.md §3). */
-        nts_vec2 p = pos[node0 + NODE_AT(k)];
-        nts_vec2 a = nts_scene_diff(s, pos[node0 + NODE_AT((k + n - 1) % n)], p);
-        nts_vec2 c = nts_scene_diff(s, pos[node0 + NODE_AT((k + 1) % n)], p);
-        double cr = nts_cross(a, c), la = nts_length(a), lc = nts_length(c);
-        if (nts_dot(a, c) > 0.0 && fabs(cr) <= 64.0 * DBL_EPSILON * la * lc)
+        const int prev = k > 0 ? k - 1 : n - 1;
+        const nts_vec2 a = nts_neg(d[prev]), c = d[k];
+        if (nts_dot(a, c) > 0.0 && fabs(nts_cross(a, c)) <= 64.0 * DBL_EPSILON * len[prev] * len[k])
             return fail(err, NTS_ESPIKE, body, loop, k, NODE_AT(k),
                         "body %d loop %d: zero-angle spike at node %d", body, loop, NODE_AT(k));
     }
@@ -123,8 +126,7 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
     {
         nts_vec2 cur = nts_v2(0.0, 0.0);
         for (k = 0; k < n; ++k) {
-            nts_vec2 step = nts_scene_diff(s, pos[node0 + NODE_AT((k + 1) % n)], pos[node0 + NODE_AT(k)]);
-            nts_vec2 next = nts_add(cur, step);
+            const nts_vec2 next = nts_add(cur, d[k]);
             a2 += nts_cross(cur, next);
             cur = next;
         }
@@ -175,6 +177,7 @@ typedef struct scene_build {
     nts_boundary* bnd;  /* per body, when given by triangles */
     int* mark;          /* per node of the body being checked: on a loop already */
     int* loop_tmp;      /* the loop being checked, in input order */
+    double* steps;      /* check_loop's scratch: 3 doubles a node of the largest body */
     double* area2;      /* per loop: twice its signed area in input order */
     long long total_nodes, total_surf, total_loops;
     int max_body_nodes;
@@ -185,6 +188,7 @@ static void scene_build_free(scene_build* sb) {
     nts_free(sb->mark);
     nts_free(sb->area2);
     nts_free(sb->loop_tmp);
+    nts_free(sb->steps);
     if (sb->bnd != NULL) {
         for (b = 0; b < sb->def->body_count; ++b) nts_boundary_free(&sb->bnd[b]);
         nts_free(sb->bnd);
@@ -337,10 +341,11 @@ static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
     sb->mark = (int*)nts_alloc(sizeof(int) * scratch);
     sb->area2 = (double*)nts_alloc(sizeof(double) * (loops + 1));
     sb->loop_tmp = (int*)nts_alloc(sizeof(int) * scratch);
+    sb->steps = (double*)nts_alloc(3 * sizeof(double) * scratch);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
         !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
         !s->body_role || !s->body_mesh || !s->body_alpha || !s->body_friction || !s->surf_trib || !s->loop_piece || !s->piece_area2 ||
-        !sb->mark || !sb->area2 || !sb->loop_tmp)
+        !sb->mark || !sb->area2 || !sb->loop_tmp || !sb->steps)
         return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
     return NTS_OK;
 }
@@ -388,7 +393,7 @@ static int copy_body(scene_build* sb, nts_scene* s, int b, nts_error* err) {
             sb->mark[v] = 1;
             sb->loop_tmp[k] = v;
         }
-        rc = check_loop(s, s->pos, b, l, sb->loop_tmp, n, 0, node_off, &sb->area2[loop_i], err);
+        rc = check_loop(s, s->pos, b, l, sb->loop_tmp, n, 0, node_off, sb->steps, &sb->area2[loop_i], err);
         if (rc != NTS_OK) {
             /* an implied loop is the body itself: the error names no loop */
             if (implicit && err != NULL) err->loop = err->loop_pos = -1;
@@ -576,6 +581,15 @@ nts_scene* nts_scene_create(const nts_scene_def* def, nts_error* err) {
         rc = mark_surfaces(def, s, sb.mark, err);
         if (rc == NTS_OK) rc = tributary_lengths(def, s, err);
     }
+    if (rc == NTS_OK) {
+        /* nts_scene_update_positions' scratch, for the longest loop */
+        int l, longest = 0;
+        for (l = 0; l < s->loop_total; ++l)
+            if (s->loop_start[l + 1] - s->loop_start[l] > longest) longest = s->loop_start[l + 1] - s->loop_start[l];
+        s->longest_loop = longest;
+        s->steps = (double*)nts_alloc(3 * sizeof(double) * (size_t)(longest > 0 ? longest : 1));
+        if (s->steps == NULL) rc = fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
+    }
     scene_build_free(&sb);
     if (rc != NTS_OK) {
         nts_scene_destroy(s);
@@ -618,7 +632,7 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
         for (l = l0; l < l1; ++l) {
             int first = s->loop_start[l], n = s->loop_start[l + 1] - first;
             rc = check_loop(s, pos, b, l - l0, s->surf_local + first, n, s->loop_reversed[l], s->body_node_start[b],
-                            &a2, err);
+                            s->steps, &a2, err);
             if (rc != NTS_OK) return rc;
             if (s->body_mesh[b]) {
                 /* a2 is in the piece's orientation by connectivity, as at creation */
@@ -656,7 +670,7 @@ size_t nts_scene_memory_bytes(const nts_scene* s) {
            (size_t)s->surface_count * (5 * sizeof(int) + sizeof(double)) +
            (size_t)(s->loop_total + 1) * sizeof(int) + (size_t)s->loop_total * (1 + sizeof(int) + sizeof(double)) +
            (size_t)(s->body_count + 1) * (3 * sizeof(int) + 2 + 2 * sizeof(double)) +
-           (s->surf_flag != NULL ? (size_t)s->surface_count + 1 : 0);
+           (s->surf_flag != NULL ? (size_t)s->surface_count + 1 : 0) + 3 * sizeof(double) * (size_t)s->longest_loop;
 }
 
 int nts_scene_body_count(const nts_scene* s) { return s->body_count; }
