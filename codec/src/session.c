@@ -298,6 +298,112 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
     return 0;
 }
 
+/* The JSON step a solver sends most: {"positions": [[x, y], ...]} and maybe
+ * "commit", read in one pass without a tree (cJSON makes three nodes a
+ * position). Only a document that is well formed (RFC 8259), holds nothing
+ * else, each key once, exactly the scene's node count of pairs of finite
+ * numbers, is taken (1); anything else (0) goes the general way, which
+ * answers the same positions, or the error naming its place. The numbers
+ * are converted by strtod, as cJSON converts them: the same bits. */
+typedef struct fast_reader {
+    const char *p, *end;
+} fast_reader;
+
+static void fast_ws(fast_reader* r) {
+    while (r->p < r->end && (*r->p == ' ' || *r->p == '\t' || *r->p == '\n' || *r->p == '\r')) ++r->p;
+}
+
+static int fast_char(fast_reader* r, char c) {
+    fast_ws(r);
+    if (r->p < r->end && *r->p == c) {
+        ++r->p;
+        return 1;
+    }
+    return 0;
+}
+
+/* A JSON number (RFC 8259's grammar, checked before strtod, which would take
+ * more: hex, inf, a leading '+' or '.'). */
+static int fast_number(fast_reader* r, double* out) {
+    const char* q = r->p;
+    char buf[64];
+    size_t n;
+    fast_ws(r);
+    q = r->p;
+    if (q < r->end && *q == '-') ++q;
+    if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
+    if (*q == '0') ++q;
+    else
+        while (q < r->end && *q >= '0' && *q <= '9') ++q;
+    if (q < r->end && *q == '.') {
+        ++q;
+        if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
+        while (q < r->end && *q >= '0' && *q <= '9') ++q;
+    }
+    if (q < r->end && (*q == 'e' || *q == 'E')) {
+        ++q;
+        if (q < r->end && (*q == '+' || *q == '-')) ++q;
+        if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
+        while (q < r->end && *q >= '0' && *q <= '9') ++q;
+    }
+    n = (size_t)(q - r->p);
+    if (n >= sizeof buf) return 0; /* (the general way takes it) */
+    memcpy(buf, r->p, n);
+    buf[n] = '\0';
+    *out = strtod(buf, NULL);
+    r->p = q;
+    return isfinite(*out) != 0;
+}
+
+static int fast_key(fast_reader* r, const char* key) {
+    const size_t n = strlen(key);
+    fast_ws(r);
+    if ((size_t)(r->end - r->p) < n + 2 || r->p[0] != '"' || memcmp(r->p + 1, key, n) != 0 || r->p[n + 1] != '"')
+        return 0;
+    r->p += n + 2;
+    return fast_char(r, ':');
+}
+
+static int fast_positions_step(ntsj_session* ss, const char* body, size_t length, int* commit) {
+    const int n = nts_scene_node_count(ss->scene);
+    fast_reader r;
+    int seen_positions = 0, seen_commit = 0, k, c = *commit;
+    r.p = body;
+    r.end = body + length;
+    if (!fast_char(&r, '{')) return 0;
+    do {
+        if (!seen_commit && fast_key(&r, "commit")) {
+            seen_commit = 1;
+            fast_ws(&r);
+            if ((size_t)(r.end - r.p) >= 4 && memcmp(r.p, "true", 4) == 0) {
+                c = 1;
+                r.p += 4;
+            } else if ((size_t)(r.end - r.p) >= 5 && memcmp(r.p, "false", 5) == 0) {
+                c = 0;
+                r.p += 5;
+            } else {
+                return 0;
+            }
+        } else if (!seen_positions && fast_key(&r, "positions")) {
+            seen_positions = 1;
+            if (!fast_char(&r, '[')) return 0;
+            for (k = 0; k < n; ++k) {
+                if ((k > 0 && !fast_char(&r, ',')) || !fast_char(&r, '[') || !fast_number(&r, &ss->next[k].x) ||
+                    !fast_char(&r, ',') || !fast_number(&r, &ss->next[k].y) || !fast_char(&r, ']'))
+                    return 0;
+            }
+            if (!fast_char(&r, ']')) return 0;
+        } else {
+            return 0;
+        }
+    } while (fast_char(&r, ','));
+    if (!fast_char(&r, '}') || !seen_positions) return 0;
+    fast_ws(&r);
+    if (r.p != r.end) return 0;
+    *commit = c;
+    return 1;
+}
+
 /* ----------------------------------------------------------------- options */
 
 /* A step overrides the options of the table's STEP door (NTS_OPTION_MAP):
@@ -488,6 +594,9 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
 
     if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
         if (read_binary(ss, st->body, st->length, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+        have_positions = 1;
+    } else if (st->kind == NTSJ_STEP_JSON && st->length > 0 && cfg.max_depth >= 3 &&
+               fast_positions_step(ss, st->body, st->length, &commit)) {
         have_positions = 1;
     } else if (st->kind == NTSJ_STEP_JSON && st->length > 0) {
         static const char* const fields[] = {"positions", "options", "commit"};

@@ -567,3 +567,56 @@ def test_kept_candidates_answer_as_a_session_without(daemon, paths, validators):
         assert r.status_code == 400, r.text
         validators["error"].validate(r.json())
         assert r.json()["error"]["pointer"] == where, r.text
+
+
+def test_json_positions_read_as_the_general_parser_does(daemon, paths, validators):
+    """The JSON step's own reader of {"positions": ..., "commit": ...} (one
+    pass, no tree) gives the positions the general parser gives: every JSON
+    spelling of a number (exponents, signs, -0, subnormals, the largest
+    double, whitespace anywhere, the keys in either order) answers as the
+    binary step with the same doubles; what is not JSON (01, +1, .5, 1., NaN,
+    a trailing comma, a duplicate key) is still a 400 naming its place."""
+    scene = load(paths, "two_disks")
+    doc = create(daemon, scene, validators)
+    pos = positions_of(scene).copy()
+    n = len(pos)
+    spellings = ["{:.17g}", "{:.17e}", "{:.17E}", "{!r}"]
+    for variant in range(4):
+        items = []
+        for k, (x, y) in enumerate(pos):
+            fx = spellings[(k + variant) % 4].format(float(x))
+            fy = spellings[(k + 2 * variant + 1) % 4].format(float(y)).replace("e-0", "e-").replace("e+", "E+")
+            items.append(f" [ {fx} ,\n{fy}\t] ")
+        body = "{\"positions\":[" + ",".join(items) + "]}" if variant % 2 == 0 else \
+            "{ \"commit\" : true ,\r\n \"positions\" : [" + ",".join(items) + "] }"
+        r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), data=body.encode(),
+                          headers={"Content-Type": "application/json"}, timeout=60)
+        assert r.status_code == 200, r.text
+        # (an "options" member: the general parser's way)
+        got = step_json(daemon, doc["id"], {"positions": pos.tolist(), "options": {}})
+        assert got.status_code == 200, got.text
+        assert without_elapsed(r.json()) == without_elapsed(got.json())
+    # exact doubles: -0, a subnormal, the largest, one past a tie
+    odd = pos.copy()
+    odd[0] = [-0.0, pos[0, 1]]
+    odd[1] = [pos[1, 0] + 5e-324, pos[1, 1]]
+    text = json.dumps({"positions": odd.tolist()})
+    r1 = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), data=text.encode(),
+                       headers={"Content-Type": "application/json"}, timeout=60)
+    r2 = step_json(daemon, doc["id"], {"positions": odd.tolist(), "commit": True, "options": {}})
+    assert r1.status_code == r2.status_code == 200
+    assert without_elapsed(r1.json()) == without_elapsed(r2.json())
+    first = json.dumps(pos[0].tolist())
+    for bad, where in (("01", "/positions/0/0"), ("+1", "/positions/0/0"), (".5", "/positions/0/0"),
+                       ("1.", "/positions/0/0"), ("NaN", "/positions/0/0")):
+        body = "{\"positions\": [[" + bad + ", 0]" + "".join(", " + json.dumps(p) for p in pos[1:].tolist()) + "]}"
+        r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), data=body.encode(),
+                          headers={"Content-Type": "application/json"}, timeout=60)
+        assert r.status_code == 400, (bad, r.text)
+        validators["error"].validate(r.json())
+    for body in ("{\"positions\": [" + first + "],}", "{\"commit\": true, \"commit\": true, \"positions\": []}",
+                 "{\"positions\": [" + ", ".join(json.dumps(p) for p in pos.tolist()) + "]} x"):
+        r = requests.post(daemon.url(f"/v1/scenes/{doc['id']}/contact"), data=body.encode(),
+                          headers={"Content-Type": "application/json"}, timeout=60)
+        assert r.status_code == 400, (body[:80], r.text)
+    assert n == len(pos)
