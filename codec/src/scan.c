@@ -10,6 +10,10 @@
 #include <stdio.h>
 #include <string.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "codec_internal.h"
 
 #define NTSJ_SCAN_MAX_DEPTH 512
@@ -309,8 +313,22 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
 size_t ntsj_memory_estimate(const char* json, size_t length) {
     /* Every value but the first follows a ',', a ':' or an opening bracket;
      * counting those (in strings too) can only over-count. */
-    size_t i, values = 1;
-    for (i = 0; i < length; ++i) {
+    size_t i = 0, values = 1;
+#if defined(__SSE2__)
+    /* 16 bytes at a time (a 4 MB step body is read once per request). */
+    {
+        const __m128i comma = _mm_set1_epi8(','), colon = _mm_set1_epi8(':'), bracket = _mm_set1_epi8('['),
+                      brace = _mm_set1_epi8('{');
+        for (; i + 16 <= length; i += 16) {
+            const __m128i v = _mm_loadu_si128((const __m128i*)(const void*)(json + i));
+            const __m128i hit = _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi8(v, comma), _mm_cmpeq_epi8(v, colon)),
+                                             _mm_or_si128(_mm_cmpeq_epi8(v, bracket), _mm_cmpeq_epi8(v, brace)));
+            unsigned m = (unsigned)_mm_movemask_epi8(hit);
+            for (; m != 0; m &= m - 1) ++values; /* (the bits set; no popcount instruction assumed) */
+        }
+    }
+#endif
+    for (; i < length; ++i) {
         char c = json[i];
         values += c == ',' || c == ':' || c == '[' || c == '{';
     }
