@@ -1,0 +1,101 @@
+/* threads_bench: one thread against two on the same evaluation, paired
+ * (docs/benchmarks.md, "Two threads").
+ *
+ *   threads_bench [--rounds N] [--sizes LIST]
+ *
+ * Periodic benchmark packings (ntsx_default_packing) of about 1e5 and 1e6
+ * surface nodes (--sizes in surface nodes), default options. Each round
+ * evaluates on a warm 1-thread context and then on a warm 2-thread context
+ * (the build's OpenMP backend; pin it with OMP_PROC_BIND=true); the speed-up
+ * of a round is the ratio of the two. Prints, per size, the medians of the
+ * rounds (ns per surface node), the median speed-up and its range, and each
+ * phase's median (nts_context_profile) with 1 and 2 threads. The results are
+ * checked equal bit for bit (energy and forces). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ntscontact/ntscontact.h>
+#include "nts_support.h"
+
+static void die(const char* what, const nts_error* err) {
+    fprintf(stderr, "threads_bench: %s: %s\n", what, err != NULL ? err->message : "");
+    exit(1);
+}
+
+enum { MAX_ROUNDS = 101 };
+
+int main(int argc, char** argv) {
+    int sizes[8] = {100000, 1000000}, nsizes = 2, rounds = 15, i, t, k, th;
+    for (i = 1; i < argc; ++i) {
+        if (strcmp(argv[i], "--rounds") == 0 && i + 1 < argc) rounds = atoi(argv[++i]);
+        else if (strcmp(argv[i], "--sizes") == 0 && i + 1 < argc) {
+            char* p = argv[++i];
+            for (nsizes = 0; nsizes < 8 && *p;) {
+                sizes[nsizes++] = (int)strtol(p, &p, 10);
+                if (*p == ',') ++p;
+            }
+        } else {
+            fprintf(stderr, "usage: %s [--rounds N] [--sizes N,N]\n", argv[0]);
+            return 2;
+        }
+    }
+    if (rounds < 3) rounds = 3;
+    if (rounds > MAX_ROUNDS) rounds = MAX_ROUNDS;
+    printf("| surface nodes | 1 thread ns/node | 2 threads ns/node | speed-up (median; range) | phases, 1 thread "
+           "(segments, cells, search, scatter) | phases, 2 threads |\n|---:|---:|---:|---|---|---|\n");
+    for (t = 0; t < nsizes; ++t) {
+        ntsx_scene b;
+        ntsx_packing_def d = ntsx_default_packing(sizes[t] / 48, 1, 2026u);
+        nts_context* c[2];
+        nts_options o[2];
+        nts_result r[2];
+        nts_error err;
+        nts_scene* s;
+        static double tm[2][MAX_ROUNDS], ratio[MAX_ROUNDS], ph[2][4][MAX_ROUNDS];
+        double lo, hi;
+        int n;
+        ntsx_packing(&b, &d);
+        if ((s = ntsx_scene_create(&b, &err)) == NULL) die("scene", &err);
+        n = nts_scene_surface_node_count(s);
+        for (th = 0; th < 2; ++th) {
+            c[th] = nts_context_create();
+            o[th] = nts_default_options();
+            o[th].threads = th + 1;
+            if (nts_evaluate(c[th], s, &o[th], &r[th], &err) != NTS_OK) die("evaluate", &err);
+        }
+        for (k = 0; k < rounds; ++k) {
+            for (th = 0; th < 2; ++th) {
+                const double t0 = ntsx_now();
+                nts_profile p;
+                if (nts_evaluate(c[th], s, &o[th], &r[th], &err) != NTS_OK) die("evaluate", &err);
+                tm[th][k] = 1e9 * (ntsx_now() - t0) / n;
+                p = nts_context_profile(c[th]);
+                ph[th][0][k] = 1e9 * p.segments / n;
+                ph[th][1][k] = 1e9 * p.cells / n;
+                ph[th][2][k] = 1e9 * p.search / n;
+                ph[th][3][k] = 1e9 * p.scatter / n;
+            }
+            ratio[k] = tm[0][k] / tm[1][k];
+            if (memcmp(&r[0].summary.energy, &r[1].summary.energy, sizeof(double)) != 0 ||
+                memcmp(r[0].forces, r[1].forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) != 0)
+                die("the same bits with 1 and 2 threads", NULL);
+        }
+        lo = hi = ratio[0];
+        for (k = 1; k < rounds; ++k) {
+            lo = ratio[k] < lo ? ratio[k] : lo;
+            hi = ratio[k] > hi ? ratio[k] : hi;
+        }
+        printf("| %d | %.1f | %.1f | %.3f (%.3f-%.3f) |", n, ntsx_median(tm[0], rounds), ntsx_median(tm[1], rounds),
+               ntsx_median(ratio, rounds), lo, hi);
+        for (th = 0; th < 2; ++th)
+            printf(" %.1f, %.1f, %.1f, %.1f |", ntsx_median(ph[th][0], rounds), ntsx_median(ph[th][1], rounds),
+                   ntsx_median(ph[th][2], rounds), ntsx_median(ph[th][3], rounds));
+        printf("\n");
+        fflush(stdout);
+        for (th = 0; th < 2; ++th) nts_context_destroy(c[th]);
+        nts_scene_destroy(s);
+        ntsx_scene_free(&b);
+    }
+    return 0;
+}
