@@ -213,6 +213,16 @@ def run_benchmarks(args):
         log.append("shapely_peer: %.1f s" % (time.time() - t0))
     except ImportError as e:
         log.append("shapely_peer: skipped (%s)" % e)
+    # The other peers (issue 27): a KD-tree on the same gaps, pymunk's step
+    # on the same packing (docs/benchmarks.md, "Peers: a KD-tree and pymunk").
+    for peer in ("kdtree_peer", "pymunk_peer"):
+        try:
+            module = __import__(peer)
+            t0 = time.time()
+            module.main([peer, res])
+            log.append("%s: %.1f s" % (peer, time.time() - t0))
+        except ImportError as e:
+            log.append("%s: skipped (%s)" % (peer, e))
     run_cli(args, res, log)
     # The peer's scenes and gaps (30 MB at 1e4 particles) served the peer and
     # the CLI runs above; only the CSVs the report reads stay in the results.

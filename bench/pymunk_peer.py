@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""The third peer: pymunk (Chipmunk2D) stepping the same packing as rigid
+convex polygons.
+
+Not the same question, and said so in every row: pymunk treats each body as
+a rigid convex polygon (`pymunk.Poly`, the convex hull of its nodes) and its
+step finds, for each overlapping pair, at most 2 contact points, then solves
+for impulses; ours evaluates every slave node of a deformable body against
+every other body (its closest point on the smoothed surface, gap, force,
+energy, virial), which is what an FEM or soft-particle code needs. The
+packing is the one of bench/shapely_peer.py (open, the particles convex
+polygons of many nodes overlapping a little), zero gravity, dt = 1e-3.
+
+Reported per size: pymunk's ns per surface node per `space.step` (median of
+the steps after the first, wall and CPU), its arbiters (overlapping pairs)
+and contact points, and, from the scene file, our evaluation's ns per node
+(default outputs; alpha 0 in that file) and our active contacts are not
+counted here (see nts_bench's peer section).
+
+Input: bench/results/peer_scene_N.txt (`nts_bench --sections peer`).
+Output: one row per size in peer_pymunk.csv.
+"""
+import csv
+import os
+import sys
+import time
+
+import numpy as np
+import pymunk
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from shapely_peer import read_scene  # noqa: E402
+
+
+def step_packing(bodies, steps=6, dt=1e-3):
+    space = pymunk.Space()
+    space.gravity = (0.0, 0.0)
+    rigid = []
+    for pts in bodies:
+        c = pts.mean(axis=0)
+        b = pymunk.Body(1.0, 1.0)
+        b.position = (float(c[0]), float(c[1]))
+        shape = pymunk.Poly(b, [(float(x - c[0]), float(y - c[1])) for x, y in pts])
+        space.add(b, shape)
+        rigid.append(b)
+    wall, cpu = [], []
+    for k in range(steps):
+        t0, c0 = time.perf_counter(), time.process_time()
+        space.step(dt)
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    arbiters, points = 0, 0
+    counted = []
+
+    def count(arb):
+        counted.append(len(arb.contact_point_set.points))
+
+    for b in rigid:
+        b.each_arbiter(count)
+    arbiters, points = len(counted) // 2, sum(counted) // 2  # each pair seen from both bodies
+    return float(np.median(wall[1:])), float(np.median(cpu[1:])), arbiters, points
+
+
+def main(argv):
+    import glob
+    results = argv[1] if len(argv) > 1 else "bench/results"
+    rows = []
+    for scene in sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),
+                        key=lambda p: int(p.rsplit("_", 1)[1].split(".")[0])):
+        bodies, r, ours_gaps_ns, ours_default_ns, total, _ = read_scene(scene)
+        wall, cpu, arbiters, points = step_packing(bodies)
+        rows.append({
+            "particles": len(bodies), "surface_nodes": total,
+            "pymunk_ns_per_node_step": 1e9 * wall / total, "pymunk_cpu_ns_per_node_step": 1e9 * cpu / total,
+            "pymunk_arbiters": arbiters, "pymunk_contact_points": points,
+            "ours_ns_per_node_default": ours_default_ns,
+            "pymunk_over_ours": (1e9 * wall / total) / ours_default_ns,
+            "pymunk_version": pymunk.version, "chipmunk_version": pymunk.chipmunk_version,
+            "what_pymunk_computes": "rigid convex hulls; <= 2 contact points per overlapping pair; impulses",
+            "what_we_compute": "every slave node: closest point on the smoothed surface, gap, force, energy, virial",
+        })
+        print(rows[-1], file=sys.stderr)
+    with open(os.path.join(results, "peer_pymunk.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main(sys.argv)
