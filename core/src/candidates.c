@@ -23,6 +23,9 @@ void nts_kept_drop(nts_candidates* kc) {
     nts_free(kc->span);
     nts_free(kc->ring);
     nts_free(kc->x);
+    nts_free(kc->key_base);
+    kc->key_base = NULL;
+    kc->key_base_cap = 0;
     kc->chunk = NULL;
     kc->chunk_cap = kc->chunk_used = kc->span = NULL;
     kc->ring = NULL;
@@ -47,7 +50,8 @@ size_t nts_candidates_bytes(const nts_candidates* kc) {
     int c;
     if (kc == NULL) return 0;
     n = sizeof *kc + (size_t)kc->x_cap * sizeof(nts_vec2) + (size_t)kc->span_cap * sizeof(int) +
-        (size_t)kc->chunk_slots * (sizeof(int*) + 2 * sizeof(int)) + (size_t)kc->ring_cap * sizeof(double);
+        (size_t)kc->chunk_slots * (sizeof(int*) + 2 * sizeof(int)) + (size_t)kc->ring_cap * sizeof(double) +
+        (size_t)kc->key_base_cap * sizeof(double);
     for (c = 0; c < kc->chunk_slots; ++c) n += (size_t)kc->chunk_cap[c] * sizeof(int);
     return n;
 }
@@ -153,4 +157,13 @@ void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg) {
     for (c = 0; c < (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK; ++c) kc->kept += kc->chunk_used[c];
     kc->built = 1;
     ++kc->builds;
+}
+
+int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale) {
+    const double outer = kc->outer * scale;
+    int e;
+    if (nts_grow((void**)&kc->key_base, &kc->key_base_cap, count > 0 ? count : 1, sizeof(double)) != NTS_OK)
+        return NTS_ENOMEM;
+    for (e = 0; e < count; ++e) kc->key_base[e] = sqrt((double)reach2[e]) - outer + 1e-6;
+    return NTS_OK;
 }

@@ -47,6 +47,8 @@ struct nts_candidates {
     int* chunk_cap;
     int* chunk_used;
     int chunk_slots;
+    double* key_base;          /* per master key of the build's cells: sqrt(reach2) - outer (scaled) + 1e-6 */
+    int key_base_cap;
     long long evaluations, builds, cell_builds, kept;
     int backoff;               /* evaluations left before a build is tried again (one was over budget) */
 };
@@ -70,6 +72,8 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
 void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg);
 /* Give back every buffer (a build over its budget: what it grew is not held). */
 void nts_kept_drop(nts_candidates* kc);
+/* key_base for the `count` keys of the build's cells (their frame's `scale`). */
+int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale);
 
 static inline const int* kept_lo(const nts_candidates* kc) { return kc->span; }
 static inline const int* kept_mid(const nts_candidates* kc) { return kc->span + kc->surface_count; }

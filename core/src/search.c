@@ -562,19 +562,19 @@ static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts
 }
 
 /* kept_ring from master key e, for a slave at (fx, fy) in the keys' frame
- * (masters.h), with the inner radius, the slave's ring and the cells'
- * radius (kc->outer) in that frame: the key's reach is that radius plus
- * the master's reach, widened, so the master's own reach plus either radius
- * is the key's less the difference; 1e-6 (the frame is [0, 1]) covers the
- * floats' round-off. Reads no segment data (scattered over memory): a
- * master kept that the exact test would not keep costs a try, never an
- * answer. */
-static inline int kept_ring_key(const master_keys* keys, int e, float fx, float fy, double inner, double ring,
-                                double outer) {
-    const double dx = (double)fx - (double)keys->x[e], dy = (double)fy - (double)keys->y[e];
-    const double d = sqrt(dx * dx + dy * dy), base = sqrt((double)keys->reach2[e]) - outer + 1e-6;
-    if (d <= base + inner) return 2;
-    return d <= base + ring;
+ * (masters.h), with the inner radius and the slave's ring in that frame:
+ * the key's reach is the cells' radius (kc->outer) plus the master's reach,
+ * widened, so the master's own reach plus either radius is the key's less
+ * the difference: base[e] (nts_kept_key_bases), with 1e-6 (the frame is
+ * [0, 1]) for the floats' round-off. Reads no segment data (scattered over
+ * memory), takes no square root: a master kept that the exact test would
+ * not keep costs a try, never an answer. */
+static inline int kept_ring_key(const master_keys* keys, const double* base, int e, float fx, float fy,
+                                double inner, double ring) {
+    const double dx = (double)fx - (double)keys->x[e], dy = (double)fy - (double)keys->y[e], d2 = dx * dx + dy * dy;
+    const double ri = base[e] + inner, ro = base[e] + ring; /* (ri <= ro) */
+    if (ri >= 0.0 && d2 <= ri * ri) return 2;
+    return ro >= 0.0 && d2 <= ro * ro;
 }
 
 /* Append master j in `ring` to the slave's list, buf[from .. *at), the inner
@@ -608,7 +608,7 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
         const int bi = env->seg[i].body;
         const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
         const nts_vec2 xs = env->seg[i].p;
-        const double inner_s = kc->inner * cl->scale, ring_s = kc->ring[i] * cl->scale, outer_s = kc->outer * cl->scale;
+        const double inner_s = kc->inner * cl->scale, ring_s = kc->ring[i] * cl->scale;
         nts_cell_place p;
         int inner = at, e0;
         lo[i] = mid[i] = at;
@@ -624,7 +624,7 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
                 int k;
                 for (k = 0; k < n; ++k)
                     if (kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, keys->entry[kept[k]],
-                                 kept_ring_key(keys, kept[k], fx, fy, inner_s, ring_s, outer_s)) != NTS_OK)
+                                 kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s)) != NTS_OK)
                         return NTS_ENOMEM;
                 e0 = e1;
             }
