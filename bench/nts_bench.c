@@ -718,9 +718,10 @@ static void section_peer(const char* dir) {
         if (f == NULL) { fprintf(stderr, "cannot write %s\n", path); exit(2); }
         /* header: bodies, search radius, ns per node with the gaps output (wall,
          * median), with the default outputs (wall), surface nodes, ns per node
-         * with the gaps output (CPU time, median) */
-        fprintf(f, "%d %.17g %.3f %.3f %d %.3f\n", b.body_count, r.summary.search_radius, tg.eval, t.eval, b.total,
-                tg.eval_cpu);
+         * with the gaps output (CPU time, median), active contacts (g < 0) of
+         * the evaluation with the default outputs (for bench/pymunk_peer.py) */
+        fprintf(f, "%d %.17g %.3f %.3f %d %.3f %d\n", b.body_count, r.summary.search_radius, tg.eval, t.eval,
+                b.total, tg.eval_cpu, t.contacts);
         for (k = 0; k < b.body_count; ++k) {
             fprintf(f, "%d\n", b.counts[k]);
             for (i = 0; i < b.counts[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);

@@ -13,9 +13,10 @@ polygons of many nodes overlapping a little), zero gravity, dt = 1e-3.
 
 Reported per size: pymunk's ns per surface node per `space.step` (median of
 the steps after the first, wall and CPU), its arbiters (overlapping pairs)
-and contact points, and, from the scene file, our evaluation's ns per node
-(default outputs; alpha 0 in that file) and our active contacts are not
-counted here (see nts_bench's peer section).
+and contact points, and, from the scene file's header, our evaluation's ns
+per node and our active contacts (g < 0; default outputs, alpha 0, the
+explicit search radius r of that file; empty when the file is older than the
+header's seventh field).
 
 Input: bench/results/peer_scene_N.txt (`nts_bench --sections peer`).
 Output: one row per size in peer_pymunk.csv.
@@ -30,6 +31,13 @@ import pymunk
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from shapely_peer import read_scene  # noqa: E402
+
+
+def ours_contacts(path):
+    """Our active contacts from the scene header's seventh field, or "" when absent."""
+    with open(path) as f:
+        head = f.readline().split()
+    return int(head[6]) if len(head) > 6 else ""
 
 
 def step_packing(bodies, steps=6, dt=1e-3):
@@ -73,7 +81,7 @@ def main(argv):
             "particles": len(bodies), "surface_nodes": total,
             "pymunk_ns_per_node_step": 1e9 * wall / total, "pymunk_cpu_ns_per_node_step": 1e9 * cpu / total,
             "pymunk_arbiters": arbiters, "pymunk_contact_points": points,
-            "ours_ns_per_node_default": ours_default_ns,
+            "ours_active_contacts": ours_contacts(scene), "ours_ns_per_node_default": ours_default_ns,
             "pymunk_over_ours": (1e9 * wall / total) / ours_default_ns,
             "pymunk_version": pymunk.version, "chipmunk_version": pymunk.chipmunk_version,
             "what_pymunk_computes": "rigid convex hulls; <= 2 contact points per overlapping pair; impulses",
