@@ -24,7 +24,7 @@ import scipy
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from shapely_peer import read_scene  # noqa: E402
+from shapely_peer import read_scene, run_peer  # noqa: E402
 
 
 def kdtree_gaps(bodies, r):
@@ -109,18 +109,7 @@ def compare(scene_path, gaps_path, repeats=3):
 
 
 def main(argv):
-    import glob
-    results = argv[1] if len(argv) > 1 else "bench/results"
-    rows = []
-    for scene in sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),
-                        key=lambda p: int(p.rsplit("_", 1)[1].split(".")[0])):
-        n = scene.rsplit("_", 1)[1].split(".")[0]
-        rows.append(compare(scene, os.path.join(results, "peer_gaps_%s.csv" % n)))
-        print(rows[-1], file=sys.stderr)
-    with open(os.path.join(results, "peer_kdtree.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    run_peer(argv, compare, "peer_kdtree.csv")
 
 
 if __name__ == "__main__":

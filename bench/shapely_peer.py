@@ -117,7 +117,10 @@ def compare(scene_path, gaps_path, repeats=3):
     }
 
 
-def main(argv):
+def run_peer(argv, compare_one, out_name):
+    """compare_one(scene, gaps) for each size nts_bench's peer section wrote
+    into the results directory (argv[1], else bench/results), smallest first;
+    the rows into out_name there. Shared by the peers of the same gaps."""
     import glob
     import os
     results = argv[1] if len(argv) > 1 else "bench/results"
@@ -125,12 +128,16 @@ def main(argv):
     for scene in sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),
                         key=lambda p: int(p.rsplit("_", 1)[1].split(".")[0])):
         n = scene.rsplit("_", 1)[1].split(".")[0]
-        rows.append(compare(scene, os.path.join(results, "peer_gaps_%s.csv" % n)))
+        rows.append(compare_one(scene, os.path.join(results, "peer_gaps_%s.csv" % n)))
         print(rows[-1], file=sys.stderr)
-    with open(os.path.join(results, "peer.csv"), "w", newline="") as f:
+    with open(os.path.join(results, out_name), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
+
+
+def main(argv):
+    run_peer(argv, compare, "peer.csv")
 
 
 if __name__ == "__main__":
