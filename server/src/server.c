@@ -454,49 +454,17 @@ static enum MHD_Result reply_evaluated(struct MHD_Connection* c, ntsd_request* r
     }
     r->resp.body = NULL; /* to libmicrohttpd without a copy, freed by nts_free */
     if (r->resp.ok && r->resp.binary) {
-        /* The forces as raw bytes, the summary in headers that read back bitwise. */
-        const nts_summary* sm = &r->resp.summary;
-        char energy[32], virial[100], contacts[24], pen[32], ms[32], gaps[24], reversed[24], radius[32], cell[32];
-        char triplets[24], deep[24], warnings[160], dissipation[32], sticking[24], slipping[24];
-        /* Friction's (docs/model.md §14), only when it is on, then what the
-         * result may lack: "code=count, ..." (NTS-Warnings, left out when
-         * there is none). A NULL name ends the list. */
-        const int fr = r->resp.friction;
-        const char* extra[] = {"NTS-Energy", energy, "NTS-Virial", virial, "NTS-Contacts", contacts,
-                               "NTS-Max-Penetration", pen, "NTS-Elapsed-Ms", ms, "NTS-Gaps", gaps,
-                               "NTS-Loops-Reversed", reversed, "NTS-Search-Radius", radius, "NTS-Cell-Size", cell,
-                               "NTS-Stiffness-Triplets", triplets, "NTS-Deep-Contacts", deep,
-                               fr ? "NTS-Dissipation" : "", dissipation, fr ? "NTS-Sticking" : "", sticking,
-                               fr ? "NTS-Slipping" : "", slipping,
-                               r->resp.warning_count > 0 ? "NTS-Warnings" : NULL, warnings, NULL};
-        size_t k;
-        int w;
-        warnings[0] = '\0';
-        for (w = 0, k = 0; w < r->resp.warning_count && k < sizeof warnings; ++w)
-            k += (size_t)snprintf(warnings + k, sizeof warnings - k, "%s%s=%lld", w > 0 ? ", " : "",
-                                  nts_warning_name(r->resp.warnings[w].code), r->resp.warnings[w].count);
-        snprintf(deep, sizeof deep, "%d", sm->deep_contacts);
-        ntsj_format_double(energy, sm->energy);
-        k = (size_t)ntsj_format_double(virial, sm->virial.xx);
-        virial[k++] = ',';
-        k += (size_t)ntsj_format_double(virial + k, sm->virial.yy);
-        virial[k++] = ',';
-        k += (size_t)ntsj_format_double(virial + k, sm->virial.xy);
-        if (fr) { /* not symmetric with friction (docs/model.md (28)): xx,yy,xy,yx */
-            virial[k++] = ',';
-            ntsj_format_double(virial + k, sm->virial.yx);
+        /* The forces as raw bytes, the summary in headers that read back
+         * bitwise (the codec's list, which the in-process engine reads too). */
+        ntsj_binary_headers h;
+        const char* extra[2 * NTSJ_BINARY_HEADERS_MAX + 1];
+        int k;
+        ntsj_binary_headers_of(&r->resp, &h);
+        for (k = 0; k < h.count; ++k) {
+            extra[2 * k] = h.names[k];
+            extra[2 * k + 1] = h.values[k];
         }
-        ntsj_format_double(dissipation, sm->dissipation);
-        snprintf(sticking, sizeof sticking, "%d", sm->sticking);
-        snprintf(slipping, sizeof slipping, "%d", sm->slipping);
-        snprintf(contacts, sizeof contacts, "%d", sm->contacts);
-        ntsj_format_double(pen, sm->max_penetration);
-        ntsj_format_double(ms, r->resp.elapsed_ms);
-        snprintf(gaps, sizeof gaps, "%d", sm->gaps);
-        snprintf(triplets, sizeof triplets, "%d", r->resp.triplets);
-        snprintf(reversed, sizeof reversed, "%d", sm->loops_reversed);
-        ntsj_format_double(radius, sm->search_radius);
-        ntsj_format_double(cell, sm->cell_size);
+        extra[2 * h.count] = NULL; /* a NULL name ends the list */
         return reply_headers(c, r, (unsigned)r->resp.http_status, "ok", body, r->resp.length, nts_free,
                              "application/octet-stream", NULL, 0, extra);
     }

@@ -225,6 +225,19 @@ NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, cons
  * step). */
 NTS_API void ntsj_session_commit(ntsj_session* session);
 
+/* The summary of a successful binary session answer as header pairs, in the
+ * daemon's order: NTS-Energy, NTS-Virial, NTS-Contacts, ..., friction's three
+ * when it is on, NTS-Warnings when something may be missing. Each value reads
+ * back bitwise (ntsj_format_double). The daemon sends them as HTTP headers; the
+ * in-process engine (engine.h) hands the same text to the same reader. */
+#define NTSJ_BINARY_HEADERS_MAX 16
+typedef struct ntsj_binary_headers {
+    int count;
+    const char* names[NTSJ_BINARY_HEADERS_MAX];
+    char values[NTSJ_BINARY_HEADERS_MAX][160];
+} ntsj_binary_headers;
+NTS_API void ntsj_binary_headers_of(const ntsj_response* response, ntsj_binary_headers* out);
+
 /* Names shared by the JSON options and the CLI flags. `ntsj_output_flag` maps
  * an output's name (n bytes: one of the NTS_OUT_* flags' names, "forces" to
  * "stiffness") to its flag, 0 if unknown; `ntsj_solver_from_name` maps "closed_form" and
