@@ -30,6 +30,8 @@ fi
 req=requirements-dev.txt
 stamp=.venv/.req-stamp
 if [ ! -f "$stamp" ] || ! cmp -s "$req" "$stamp"; then
-  .venv/bin/pip install -q --disable-pip-version-check -r "$req"
+  # NTSCONTACT_REQUIRE_ENGINE: the package must bundle the in-process engine
+  # (clients/python/setup.py builds it with this CMake; without it, a failure).
+  NTSCONTACT_REQUIRE_ENGINE=1 .venv/bin/pip install -q --disable-pip-version-check -r "$req"
   cp "$req" "$stamp"
 fi

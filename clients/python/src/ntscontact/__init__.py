@@ -24,10 +24,14 @@ from .scene import OUTPUTS, SOLVERS, Body, BodyId, Scene  # noqa: E402
 from .session import Session  # noqa: E402
 from .plot import plot  # noqa: E402
 from .client import DEFAULT_URL, USER_AGENT, Client  # noqa: E402
+from .engine import Engine, EngineSession, EngineUnavailable  # noqa: E402
 
 __all__ = [
     "__version__",
     "Client",
+    "Engine",
+    "EngineSession",
+    "EngineUnavailable",
     "Session",
     "plot",
     "DEFAULT_URL",

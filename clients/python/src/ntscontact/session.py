@@ -225,6 +225,20 @@ class Session:
         # and the summary): the step's outputs, else the scene's.
         wanted = set(outs) if outs is not None else set(self._scene_outputs)
         binary = wanted <= _BINARY_OUTPUTS
+        doc, headers, content = self._post_step(pos, params, binary, timeout)
+        if pos is not None:
+            self._positions = pos.astype(np.float64, copy=True)
+        self.steps += 1
+        result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted) if binary
+                  else Result.from_dict(doc))
+        # the stored positions are replaced, never written in place: shared, not copied
+        result._scene = (self._scene_factory, self._positions)
+        return result.warn()
+
+    def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
+                   timeout: Optional[Any]) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+        """``POST /v1/scenes/{id}/contact``: the JSON answer, or the binary
+        answer's headers and bytes."""
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
@@ -239,7 +253,7 @@ class Session:
             try:
                 doc, resp = self._request("POST", f"/v1/scenes/{self.id}/contact", data=data, headers=headers,
                                           params=params, timeout=timeout, expect_json=not binary)
-                break
+                return doc, resp.headers, resp.content
             except NtsError as exc:
                 if attempt < 2 and exc.status == 404 and exc.code == "unknown_scene":
                     self._create()
@@ -247,17 +261,10 @@ class Session:
                     if self._friction:
                         _warnings.warn(f"session {self.id}: the service lost it and the client created it anew: "
                                        "its friction history is lost (every contact starts sticking where it is)",
-                                       IncompleteResultWarning, stacklevel=2)
+                                       IncompleteResultWarning, stacklevel=3)
                     continue
                 raise
-        if pos is not None:
-            self._positions = pos.astype(np.float64, copy=True)
-        self.steps += 1
-        result = (self._binary_result(resp, "stiffness" in wanted, "pressure" in wanted) if binary
-                  else Result.from_dict(doc))
-        # the stored positions are replaced, never written in place: shared, not copied
-        result._scene = (self._scene_factory, self._positions)
-        return result.warn()
+        raise AssertionError("unreachable")  # the third attempt returns or raises
 
     def step(self, positions: Optional[PositionsLike] = None, *, commit: bool = True, **kw: Any) -> Result:
         """A solver's step: :meth:`contact` with ``commit`` (friction's history)."""
@@ -266,14 +273,15 @@ class Session:
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
 
-    def _binary_result(self, resp: requests.Response, stiffness: bool, pressure: bool = False) -> Result:
-        h = resp.headers
-        body = resp.content
+    def _binary_result(self, h: Mapping[str, str], body: Any, stiffness: bool, pressure: bool = False) -> Result:
+        """A binary answer read: ``body`` the bytes (any buffer: the daemon's
+        answer, or the in-process engine's memory, viewed without a copy), ``h``
+        the summary headers."""
         count = int(h.get("NTS-Stiffness-Triplets", 0) or 0)
         size = 16 * self.nodes + 16 * count + (8 * self.nodes if pressure else 0)
         if len(body) != size:
             raise ServerError(f"a binary answer of {len(body)} bytes, expected {size}",
-                              code="bad_response", status=resp.status_code)
+                              code="bad_response", status=200)
         forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
         triplets = None
         if stiffness and not count:
@@ -305,7 +313,7 @@ class Session:
             warned = ResultWarning.from_header(h.get("NTS-Warnings", ""))
         except (KeyError, ValueError, IndexError) as exc:
             raise ServerError(f"a binary answer without a readable summary ({exc})", code="bad_response",
-                              status=resp.status_code) from exc
+                              status=200) from exc
         per_body = BodyArrays(forces, self._offsets, self.body_ids, self._index)
         per_body_p: Mapping[BodyId, FloatArray] = {}
         if pressure:  # after the forces and the tangent

@@ -1,0 +1,275 @@
+"""The in-process engine (`ntscontact.Engine`) against the daemon: the same
+bytes for every bundled example and for random scenes (valid and not), the same
+session steps (binary and JSON, with friction's commit), the same errors, the
+forces as a view of the library's answer, and concurrent use.
+
+The library under test is the build's (`$NTS_BUILD_DIR/lib`), the one the
+daemon beside it was built with; tests/python/test_packaging.py checks the copy
+`pip install` bundles."""
+import json
+import os
+import re
+import threading
+
+import numpy as np
+import pytest
+
+from conftest import BUILD, positions_of, with_positions
+import requests
+
+ntscontact = pytest.importorskip("ntscontact")
+from ntscontact import Client, Engine, EngineSession, EngineUnavailable, InvalidScene  # noqa: E402
+
+LIBRARY = BUILD / "lib" / "libntscontact_engine.so"
+EXAMPLES = ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"]
+JSON = {"Content-Type": "application/json"}
+ALL_OUTPUTS = ["forces", "energy", "virial", "contacts", "gaps", "stiffness", "pressure"]
+
+
+@pytest.fixture(scope="module")
+def engine():
+    if not LIBRARY.is_file():
+        pytest.fail(f"{LIBRARY} is not built (NTS_BUILD_DIR={BUILD})")
+    with Engine(library=LIBRARY) as e:
+        yield e
+
+
+@pytest.fixture
+def client(daemon):
+    with Client(daemon.base, timeout=60) as c:
+        yield c
+
+
+def load(paths, name):
+    return json.loads((paths.examples / f"{name}.json").read_text())
+
+
+def daemon_text(daemon, doc):
+    r = requests.post(daemon.url("/v1/contact"), data=json.dumps(doc), timeout=60, headers=JSON)
+    return r.status_code, r.content
+
+
+def same_bytes_but_elapsed(a, b):
+    """The same text byte for byte, the summary's elapsed_ms cut out of both."""
+    cut = [re.sub(rb'"elapsed_ms": ?[-0-9.eE+]+', b'"elapsed_ms":_', t) for t in (a, b)]
+    assert cut[0].count(b'"elapsed_ms":_') == (1 if b'"summary"' in a else 0)
+    assert cut[0] == cut[1]
+
+
+def polygon(n, r, c, phase):
+    t = phase + 2 * np.pi * np.arange(n) / n
+    return np.stack([c[0] + r * np.cos(t), c[1] + r * np.sin(t)], axis=1)
+
+
+def random_scene(rng):
+    """A packing of polygons with random options: what the daemon's tests throw
+    at it, each output and option switched on somewhere."""
+    count = int(rng.integers(2, 7))
+    bodies = []
+    for k in range(count):
+        n = int(rng.integers(3, 40))
+        r = float(rng.uniform(0.5, 1.5))
+        c = rng.uniform(0, 4, size=2)
+        body = {"id": f"b{k}" if rng.random() < 0.7 else k, "nodes": polygon(n, r, c, rng.uniform(0, 6)).tolist()}
+        if rng.random() < 0.2:
+            body["alpha"] = float(rng.choice([0.0, 0.1, 0.4]))
+        if rng.random() < 0.15:
+            body["friction"] = float(rng.uniform(0, 0.8))
+        bodies.append(body)
+    options = {"penalty": float(rng.uniform(10, 1e4)), "alpha": float(rng.choice([0.0, 0.1, 0.2, 0.5])),
+               "search_radius": float(rng.uniform(0.05, 0.6)),
+               "outputs": [o for o in ALL_OUTPUTS if rng.random() < 0.6] or ["forces"]}
+    if rng.random() < 0.3:
+        options["solver"] = str(rng.choice(["closed_form", "newton"]))
+    if rng.random() < 0.25:
+        options["periodic"] = {"lx": 5.0, "ly": 5.0}
+    if rng.random() < 0.25:
+        options["friction"] = {"coefficient": float(rng.uniform(0.1, 0.6))}
+    doc = {"options": options, "bodies": bodies}
+    if rng.random() < 0.15:  # an invalid one: the same error document
+        fault = int(rng.integers(0, 4))
+        if fault == 0:
+            options["penalty"] = -1.0
+        elif fault == 1:
+            bodies[0]["nodes"][1] = bodies[0]["nodes"][0]
+        elif fault == 2:
+            options["outputs"] = ["forces", "nothing"]
+        else:
+            bodies[-1]["nodes"] = bodies[-1]["nodes"][:2]
+    return doc
+
+
+# ------------------------------------------------------------ stateless
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_examples_answer_the_daemons_bytes(engine, daemon, paths, name):
+    doc = load(paths, name)
+    for outputs in (None, ALL_OUTPUTS):
+        d = dict(doc, options=dict(doc["options"], outputs=outputs)) if outputs else doc
+        status, want = daemon_text(daemon, d)
+        assert status == 200
+        got = engine.contact_json(d)
+        same_bytes_but_elapsed(got, want)
+    # and as a Result: the Client's, field by field
+    r_e = engine.contact(doc, outputs=ALL_OUTPUTS)
+    with Client(daemon.base, timeout=60) as c:
+        r_c = c.contact(doc, outputs=ALL_OUTPUTS)
+    assert np.array_equal(r_e.force_array(), r_c.force_array())
+    assert r_e.contacts == r_c.contacts and r_e.gaps == r_c.gaps
+    assert (r_e.stiffness != r_c.stiffness).nnz == 0
+
+
+def test_random_scenes_answer_the_daemons_bytes(engine, daemon):
+    rng = np.random.default_rng(28)
+    errors = 0
+    for _ in range(60):
+        doc = random_scene(rng)
+        status, want = daemon_text(daemon, doc)
+        if status == 200:
+            same_bytes_but_elapsed(engine.contact_json(doc), want)
+            continue
+        errors += 1
+        err = json.loads(want)["error"]
+        with pytest.raises(ntscontact.NtsError) as info:
+            engine.contact(doc)
+        assert (info.value.status, info.value.code, info.value.pointer) == (status, err["code"], err["pointer"])
+        assert info.value.message == err["message"]
+    assert errors >= 3  # the invalid ones were exercised
+
+
+def test_validate_and_bad_json(engine, daemon, paths):
+    doc = load(paths, "two_disks")
+    r = requests.post(daemon.url("/v1/validate"), data=json.dumps(doc), timeout=60, headers=JSON)
+    got, want = engine.validate(doc), r.json()
+    assert got["summary"].pop("elapsed_ms") >= 0 and want["summary"].pop("elapsed_ms") >= 0
+    assert got == want and got["valid"] is True
+    with pytest.raises(InvalidScene) as info:
+        engine.contact('{"options": {"penalty": 1}, "bodies": [')
+    assert info.value.code == "invalid_json" and info.value.status == 400
+
+
+# ------------------------------------------------------------ sessions
+
+def walk(scene, steps, seed, scale=3e-4):
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(seed)
+    span = float(np.ptp(pos0[:, 0])) * scale
+    for _ in range(steps):
+        yield pos0 + rng.normal(scale=span, size=pos0.shape)
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_session_steps_equal_the_daemons(engine, client, paths, name):
+    scene = load(paths, name)
+    with engine.session(scene) as es, client.session(scene) as hs:
+        assert isinstance(es, EngineSession) and es.nodes == hs.nodes
+        assert es.surface_nodes == hs.surface_nodes
+        for k, pos in enumerate(walk(scene, 6, len(name))):
+            outs = ["forces", "energy", "virial", "stiffness"] if k % 3 else ["forces", "contacts", "gaps"]
+            got, want = es.contact(pos, outputs=outs), hs.contact(pos, outputs=outs)
+            f = got.force_array()
+            assert np.array_equal(f.view(np.uint64), want.force_array().view(np.uint64))
+            assert got.summary.energy == want.summary.energy
+            assert np.array_equal(got.summary.virial, want.summary.virial)
+            assert got.summary.contacts == want.summary.contacts and got.contacts == want.contacts
+            if "stiffness" in outs:
+                assert (got.stiffness != want.stiffness).nnz == 0
+            # and the stateless call at those positions
+            full = engine.contact(with_positions(scene, pos), outputs=outs)
+            assert np.array_equal(full.force_array(), f)
+        # a step at the stored positions, and with options of its own
+        got, want = es.contact(alpha=0.05, penalty=321.0), hs.contact(alpha=0.05, penalty=321.0)
+        assert np.array_equal(got.force_array(), want.force_array())
+        assert es.info()["steps"] == 7 and es.steps == 7
+
+
+def test_friction_trials_and_commits_equal_the_daemons(engine, client, paths):
+    scene = load(paths, "jittered_packing")
+    scene["options"]["friction"] = {"coefficient": 0.4}
+    with engine.session(scene) as es, client.session(scene) as hs:
+        for k, pos in enumerate(walk(scene, 6, 9, scale=4e-4)):
+            commit = k % 2 == 1
+            got = es.step(pos, commit=commit, outputs=["forces", "energy", "virial"])
+            want = hs.step(pos, commit=commit, outputs=["forces", "energy", "virial"])
+            assert np.array_equal(got.force_array(), want.force_array())
+            assert got.summary.dissipation == want.summary.dissipation
+            assert (got.summary.sticking, got.summary.slipping) == (want.summary.sticking, want.summary.slipping)
+            assert np.array_equal(got.summary.virial, want.summary.virial)
+
+
+def test_forces_are_a_read_only_view_of_the_answer(engine, paths):
+    scene = load(paths, "two_disks")
+    with engine.session(scene) as s:
+        pos = positions_of(scene)
+        binary = ["forces", "energy", "virial"]
+        f = s.contact(pos, outputs=binary).force_array()
+        assert not f.flags.owndata and not f.flags.writeable
+        want = engine.contact(with_positions(scene, pos)).force_array()
+        g = s.contact(pos + 1e-4, outputs=binary).force_array()  # the next answer does not overwrite this one
+        assert np.array_equal(f, want) and not np.array_equal(f, g)
+    assert np.array_equal(f, want)  # the view outlives its session
+
+
+def test_session_errors_are_the_daemons(engine, client, paths):
+    scene = load(paths, "two_disks")
+    with engine.session(scene) as es, client.session(scene) as hs:
+        pos = positions_of(scene)
+        for kw in ({"alpha": -1.0}, {"solver": "magic"}, {"outputs": "forces,nothing"}):
+            with pytest.raises(InvalidScene) as e_info:
+                es.contact(pos, **kw)
+            with pytest.raises(InvalidScene) as h_info:
+                hs.contact(pos, **kw)
+            assert (e_info.value.code, e_info.value.pointer, e_info.value.message) == \
+                   (h_info.value.code, h_info.value.pointer, h_info.value.message)
+        bad = pos.copy()
+        bad[5] = bad[4]  # a zero-length segment
+        with pytest.raises(InvalidScene) as e_info:
+            es.contact(bad)
+        with pytest.raises(InvalidScene) as h_info:
+            hs.contact(bad)
+        assert (e_info.value.code, e_info.value.pointer) == (h_info.value.code, h_info.value.pointer)
+        # the session goes on after a failed step
+        assert np.array_equal(es.contact(pos).force_array(), hs.contact(pos).force_array())
+    with pytest.raises(ntscontact.NtsError):
+        es.contact(pos)  # closed
+    with pytest.raises(InvalidScene):
+        engine.session({"options": {"penalty": -1}, "bodies": scene["bodies"]})
+
+
+def test_concurrent_steps_and_calls_give_each_its_own_answer(engine, paths):
+    scene = load(paths, "jittered_packing")
+    moves = list(walk(scene, 8, 3))
+    want = [engine.contact(with_positions(scene, p)).force_array() for p in moves]
+    got = {}
+    with engine.session(scene) as s:
+        def work(i):
+            for k in range(i, len(moves), 4):
+                got[k] = (s.contact(moves[k]).force_array(), engine.contact(with_positions(scene, moves[k])))
+        threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    for k, w in enumerate(want):
+        assert np.array_equal(got[k][0], w) and np.array_equal(got[k][1].force_array(), w)
+
+
+def test_threads_do_not_change_the_bits(paths):
+    scene = load(paths, "periodic_packing")
+    with Engine(threads=1, library=LIBRARY) as one, Engine(threads=3, library=LIBRARY) as three:
+        a = one.contact_json(scene, ALL_OUTPUTS)
+        b = three.contact_json(scene, ALL_OUTPUTS)
+    same_bytes_but_elapsed(a, b)
+
+
+def test_a_missing_library_says_how_to_get_it(monkeypatch, tmp_path):
+    monkeypatch.setenv("NTSCONTACT_LIBRARY", str(tmp_path / "nowhere.so"))
+    with pytest.raises(EngineUnavailable) as info:
+        Engine()
+    assert "NTSCONTACT_LIBRARY" in str(info.value) and info.value.code == "engine_unavailable"
+    not_ours = tmp_path / "libnotours.so"
+    not_ours.write_bytes(b"not a library")
+    with pytest.raises(EngineUnavailable):
+        Engine(library=not_ours)
+    assert issubclass(EngineUnavailable, ImportError)
+    assert os.environ["NTSCONTACT_LIBRARY"].endswith("nowhere.so")
