@@ -448,8 +448,9 @@ def test_cell_search_equals_brute_force():
 # ------------------------------------------------------------------ CLI
 
 def cmake_version():
-    """The version, written once: the top CMakeLists.txt's project()."""
-    return re.search(r"project\(ntscontact VERSION ([0-9.]+)", (REPO / "CMakeLists.txt").read_text()).group(1)
+    """The version, written once: VERSION, which the top CMakeLists.txt reads."""
+    assert "file(STRINGS \"${CMAKE_CURRENT_SOURCE_DIR}/VERSION\" NTS_VERSION" in (REPO / "CMakeLists.txt").read_text()
+    return (REPO / "VERSION").read_text().strip()
 
 
 def test_the_python_package_has_the_projects_version():

@@ -14,6 +14,7 @@ import subprocess
 import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
+VERSION = (REPO / "VERSION").read_text().strip()  # the one source (scripts/version.py)
 
 
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
@@ -35,7 +36,7 @@ def test_find_package_from_an_install_prefix(paths, tmp_path):
     assert r.returncode == 0, r.stdout + r.stderr
     out = subprocess.run([str(build / "consumer")], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stdout + out.stderr
-    assert "version 0.2.0" in out.stdout and "contacts " in out.stdout and "codec has energy" in out.stdout
+    assert f"version {VERSION}" in out.stdout and "contacts " in out.stdout and "codec has energy" in out.stdout
     assert int(out.stdout.split("contacts ")[1].split()[0]) > 0
 
 
@@ -62,7 +63,7 @@ def consumer_through_pkg_config(prefix, out, env):
 
 def check_consumer_output(out):
     assert out.returncode == 0, out.stdout + out.stderr
-    assert "version 0.2.0" in out.stdout and "codec has energy" in out.stdout
+    assert f"version {VERSION}" in out.stdout and "codec has energy" in out.stdout
     assert int(out.stdout.split("contacts ")[1].split()[0]) > 0
 
 

@@ -8,7 +8,7 @@
 ...     result.forces["a"]                                               # (4, 2) float64
 """
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 from .errors import (  # noqa: E402
     InvalidScene,
@@ -18,6 +18,7 @@ from .errors import (  # noqa: E402
     ServerError,
     ServiceUnavailable,
     Timeout,
+    TLSError,
 )
 from .result import Contact, Gap, IncompleteResultWarning, Result, ResultWarning, Summary  # noqa: E402
 from .scene import OUTPUTS, SOLVERS, Body, BodyId, Scene  # noqa: E402
@@ -54,4 +55,5 @@ __all__ = [
     "ServiceUnavailable",
     "Timeout",
     "RequestRejected",
+    "TLSError",
 ]
