@@ -7,12 +7,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
-from typing import List, Optional
+from typing import TYPE_CHECKING, List, Optional
 
 from . import __version__
 from .errors import InvalidScene, NtsError
 from .scene import OUTPUTS
+
+if TYPE_CHECKING:
+    from .client import Client
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -52,26 +56,66 @@ def _convert(args: argparse.Namespace) -> int:
     return 0
 
 
-def _contact(args: argparse.Namespace) -> int:
+def _client(args: argparse.Namespace) -> "Client":
+    """The Client of the command's --url, --timeout, --token/--token-file and --ca."""
     from .client import Client
+
+    token = args.token
+    if args.token_file:
+        with open(args.token_file, encoding="utf-8") as fh:
+            token = fh.read().strip()
+    if token is None:
+        token = os.environ.get("NTSCONTACT_TOKEN") or None
+    return Client(args.url, timeout=args.timeout, token=token, verify=args.ca if args.ca else True)
+
+
+def _contact(args: argparse.Namespace) -> int:
     from .scene import Scene
 
     with open(args.scene, "rb") if args.scene != "-" else sys.stdin.buffer as fh:
         scene = Scene.from_json(fh.read())
-    with Client(args.url, timeout=args.timeout) as client:
-        result = client.contact(scene, outputs=args.outputs)
+    if args.engine:  # in process, no daemon
+        from .engine import Engine
+
+        with Engine(threads=args.threads) as engine:
+            result = engine.contact(scene, outputs=args.outputs)
+    else:
+        with _client(args) as client:
+            result = client.contact(scene, outputs=args.outputs)
     json.dump(result.raw, sys.stdout, indent=2 if args.pretty else None)
     sys.stdout.write("\n")
     return 0
 
 
 def _health(args: argparse.Namespace) -> int:
-    from .client import Client
-
-    with Client(args.url, timeout=args.timeout) as client:
+    with _client(args) as client:
         json.dump(client.health(), sys.stdout, indent=2)
     sys.stdout.write("\n")
     return 0
+
+
+def _engine(args: argparse.Namespace) -> int:
+    """Where the in-process engine's library is, or why there is none."""
+    from .engine import Engine, EngineUnavailable
+
+    try:
+        with Engine() as engine:
+            print(f"engine: {engine.library}")
+    except EngineUnavailable as exc:
+        print(f"engine: none: {exc.message}")
+        return 1
+    return 0
+
+
+def _remote(p: argparse.ArgumentParser, timeout: float) -> None:
+    """The options of a command that talks to a daemon."""
+    p.add_argument("--url", default="http://127.0.0.1:8080")
+    p.add_argument("--timeout", type=float, default=timeout, help="seconds (default %(default)s)")
+    p.add_argument("--token", help="bearer token of the daemon's --token-file (default: $NTSCONTACT_TOKEN); "
+                                   "--token-file keeps it off the command line")
+    p.add_argument("--token-file", metavar="FILE", help="read the bearer token from FILE")
+    p.add_argument("--ca", metavar="FILE", help="for https: the daemon's certificate, or the CA that signed it "
+                                                "(default: the system's CAs)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -104,18 +148,21 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--pretty", action="store_true")
     c.set_defaults(func=_convert)
 
-    q = sub.add_parser("contact", help="evaluate a scene JSON on a running ntscontactd")
+    q = sub.add_parser("contact", help="evaluate a scene JSON on a running ntscontactd (or in process: --engine)")
     q.add_argument("scene", help="scene JSON file, or - for standard input")
-    q.add_argument("--url", default="http://127.0.0.1:8080")
-    q.add_argument("--timeout", type=float, default=30.0)
+    _remote(q, 30.0)
+    q.add_argument("--engine", action="store_true", help="evaluate in process (ntscontact.Engine), no daemon")
+    q.add_argument("--threads", type=int, default=0, help="with --engine: evaluation threads (0: serial)")
     q.add_argument("--outputs", help="comma-separated outputs")
     q.add_argument("--pretty", action="store_true")
     q.set_defaults(func=_contact)
 
     h = sub.add_parser("health", help="GET /v1/health of a running ntscontactd")
-    h.add_argument("--url", default="http://127.0.0.1:8080")
-    h.add_argument("--timeout", type=float, default=5.0)
+    _remote(h, 5.0)
     h.set_defaults(func=_health)
+
+    e = sub.add_parser("engine", help="where the in-process engine's library is (exit 1: none, and how to get it)")
+    e.set_defaults(func=_engine)
     return p
 
 

@@ -10,7 +10,7 @@ from requests.adapters import HTTPAdapter
 from urllib3.util.retry import Retry
 
 from . import __version__
-from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
+from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
 from .result import Result
 from .scene import Scene, normalize_outputs
 from .session import Session
@@ -199,6 +199,8 @@ class Client:
                                         timeout=self.timeout if timeout is None else timeout)
         except requests.Timeout as exc:
             raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
+        except requests.exceptions.SSLError as exc:  # a ConnectionError too: said as what it is
+            raise tls_error(method, url, exc) from exc
         except requests.ConnectionError as exc:
             raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
         except requests.RequestException as exc:

@@ -19,6 +19,7 @@ __all__ = [
     "ServiceUnavailable",
     "Timeout",
     "RequestRejected",
+    "TLSError",
     "describe_pointer",
 ]
 
@@ -79,6 +80,18 @@ class ServiceUnavailable(NtsError):
 
 class Timeout(NtsError, TimeoutError):
     """No complete answer within the client's timeout (connect or read)."""
+
+
+class TLSError(NtsError):
+    """The TLS handshake with an https daemon failed: most often its certificate
+    is not one the client trusts (give it, or its CA, as ``verify=`` /
+    ``--ca``), or the URL says https to a plain-HTTP daemon."""
+
+
+def tls_error(method: str, url: str, exc: BaseException) -> "TLSError":
+    """The error of a failed TLS handshake, saying what to check."""
+    return TLSError(f"{method} {url}: TLS failed ({exc}); check that the daemon serves https there and that its "
+                    "certificate or CA is the one given (verify= / --ca)", code="tls_failed")
 
 
 class RequestRejected(NtsError):

@@ -27,7 +27,8 @@ import numpy.typing as npt
 import requests
 import urllib3
 
-from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response
+from .errors import (InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response,
+                     tls_error)
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
 from .scene import BodyId, Scene, normalize_outputs
 
@@ -345,6 +346,8 @@ class Session:
             raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
         except urllib3.exceptions.HTTPError as exc:  # the whole-body read of a binary answer
             raise ServiceUnavailable(f"{method} {url}: the answer was cut ({exc})", code="unreachable") from exc
+        except requests.exceptions.SSLError as exc:  # a ConnectionError too: said as what it is
+            raise tls_error(method, url, exc) from exc
         except requests.ConnectionError as exc:
             raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
         except requests.RequestException as exc:
