@@ -273,3 +273,17 @@ def test_a_missing_library_says_how_to_get_it(monkeypatch, tmp_path):
         Engine(library=not_ours)
     assert issubclass(EngineUnavailable, ImportError)
     assert os.environ["NTSCONTACT_LIBRARY"].endswith("nowhere.so")
+
+
+def test_sessions_outlive_their_engine(paths):
+    scene = load(paths, "two_disks")
+    pos = positions_of(scene)
+    e = Engine(library=LIBRARY)
+    s = e.session(scene)
+    want = e.contact(with_positions(scene, pos)).force_array()
+    e.close()
+    with pytest.raises(ntscontact.NtsError):
+        e.contact(scene)
+    assert np.array_equal(s.contact(pos, outputs=["forces"]).force_array(), want)
+    s.close()
+    s.close()  # twice is fine

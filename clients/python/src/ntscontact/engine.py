@@ -196,7 +196,8 @@ class Engine:
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
-        """Free the engine (its sessions stay usable: they hold their own state)."""
+        """Free the engine: its calls then raise; its sessions go on (each holds
+        its own state and configuration) until they are closed."""
         if self._ptr:
             self._lib.ntsj_engine_destroy(self._ptr)
             self._ptr = None
@@ -268,12 +269,17 @@ class EngineSession(Session):
         self._lib = engine._lib
         self._handle: Optional[int] = None
         self._step_lock = threading.Lock()
+        # The session's own configuration (the engine's threads): it outlives
+        # Engine.close(), as the session's state does.
+        self._config = self._lib.ntsj_engine_create(engine.threads) if engine._engine() else None
+        if not self._config:
+            raise MemoryError("ntscontact: out of memory creating a session")
         super().__init__(engine, scene, **kw)
 
     def _create(self) -> None:
         out = ctypes.c_void_p()
         answer = _Answer(self._lib, self._lib.ntsj_engine_session_create(
-            self.engine._engine(), self._body, len(self._body), ctypes.byref(out)))
+            self._config, self._body, len(self._body), ctypes.byref(out)))
         answer.raise_for_error(self.body_ids)
         self._handle = out.value
         counts = self._counts()
@@ -296,9 +302,12 @@ class EngineSession(Session):
             if self._handle:
                 self._lib.ntsj_session_destroy(self._handle)
                 self._handle = None
+            if self._config:
+                self._lib.ntsj_engine_destroy(self._config)
+                self._config = None
 
     def __del__(self) -> None:
-        if getattr(self, "_handle", None):
+        if getattr(self, "_handle", None) or getattr(self, "_config", None):
             self.close()
 
     def info(self) -> Dict[str, Any]:
@@ -320,7 +329,7 @@ class EngineSession(Session):
             if self._closed:
                 raise NtsError("the session is closed", code="closed")
             answer = _Answer(self._lib, self._lib.ntsj_engine_step(
-                self.engine._engine(), self._handle, kind, data, length, int(binary), len(params), names, values))
+                self._config, self._handle, kind, data, length, int(binary), len(params), names, values))
         answer.raise_for_error(self.body_ids)
         if binary:
             return {}, answer.headers(), answer.view()
