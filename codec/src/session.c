@@ -130,7 +130,12 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
      * cases compared with what follows. */
     if (json == NULL || length > cfg.max_bytes || ntsj_scan(json, length, cfg.max_depth, &fault) != 0) {
         cfg.mode = NTSJ_VALIDATE;
-        return ntsj_handle(json, length, &cfg, error);
+        rc = ntsj_handle(json, length, &cfg, error);
+        if (rc == 0 && error->ok) { /* a valid document: the scan itself ran out of memory */
+            ntsj_response_free(error);
+            return ntsj_respond_fault(error, &fault, cfg.pretty);
+        }
+        return rc;
     }
     ss = (ntsj_session*)nts_alloc(sizeof *ss);
     if (ss == NULL) return ntsj_respond_error(error, nts_status_name(NTS_ENOMEM), "out of memory", "", cfg.pretty);

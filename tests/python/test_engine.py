@@ -17,6 +17,10 @@ import pytest
 from conftest import BUILD, positions_of, with_positions
 import requests
 
+if os.environ.get("NTS_SANITIZED") == "1":  # scripts/test-sanitize.sh
+    pytest.skip("a sanitized library cannot be loaded into an uninstrumented Python; ctest's `engine` "
+                "(tests/codec/test_engine.c) runs the engine's calls under the sanitizers", allow_module_level=True)
+
 ntscontact = pytest.importorskip("ntscontact")
 from ntscontact import Client, Engine, EngineSession, EngineUnavailable, InvalidScene  # noqa: E402
 
