@@ -1,0 +1,334 @@
+/* The C side of tests/fortran/test_fortran.f90.
+ *
+ * Reads a bundled example scene (a JSON file of examples/) with cJSON into plain
+ * arrays that the Fortran program builds its scene from, and evaluates the
+ * same scene through the C API directly: the reference that the Fortran
+ * module's answer must equal bit for bit. Its options are its own
+ * nts_options, set here from the file, never the Fortran program's struct,
+ * so that a mirrored layout that differs cannot give both sides the same
+ * wrong options. Also the C tables (status codes, output bits, warnings) that
+ * the module's constants are checked against.
+ *
+ * It reads the few keys the examples use and refuses any other, so that the
+ * test never passes on a scene it half read. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+#include <ntscontact/ntscontact.h>
+
+typedef struct file_body {
+    int node_count, triangle_count, loop_count, loop_length;
+    nts_vec2* nodes;
+    int* triangles;  /* 3 a triangle, 0-based as the file */
+    int* loop_nodes; /* 0-based */
+    int* loop_start; /* loop_count + 1 */
+} file_body;
+
+static struct {
+    int body_count, node_count;
+    file_body* bodies;
+    double alpha, penalty, search_radius, lx, ly;
+} file;
+
+static struct {
+    nts_scene* scene;
+    nts_context* ctx;
+    nts_result res;
+} ref;
+
+/* The functions the Fortran program binds to (no header: only it calls them). */
+int ftest_load(const char* path);
+int ftest_body_count(void);
+void ftest_body_sizes(int b, int* nodes, int* triangles, int* loops, int* loop_length);
+void ftest_body_arrays(int b, double* xy, int* triangles, int* loop_nodes, int* loop_start);
+void ftest_scene_options(double* alpha, double* penalty, double* search_radius, double* lx, double* ly);
+int ftest_reference(const double* positions);
+void ftest_reference_summary(double* energy, double* virial, int* contacts, double* max_penetration);
+void ftest_reference_forces(double* xy);
+int ftest_reference_triplet_count(void);
+void ftest_reference_triplets(int* rows, int* cols, double* values);
+int ftest_status_table(int* values, int max);
+int ftest_output_table(int* bits, int max);
+int ftest_warning_table(int* values, int max);
+void ftest_free(void);
+
+static int refuse(const char* what, const char* name) {
+    fprintf(stderr, "reference.c: %s%s\n", what, name ? name : "");
+    return -1;
+}
+
+static char* read_all(const char* path) {
+    FILE* f = fopen(path, "rb");
+    char* text = NULL;
+    long n;
+    if (f == NULL) return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0 &&
+        (text = (char*)malloc((size_t)n + 1)) != NULL) {
+        if (fread(text, 1, (size_t)n, f) != (size_t)n) {
+            free(text);
+            text = NULL;
+        } else {
+            text[n] = '\0';
+        }
+    }
+    fclose(f);
+    return text;
+}
+
+/* An array of `width`-number arrays into out (n * width values). */
+static int read_tuples(const cJSON* a, int width, double* out) {
+    const cJSON* row;
+    int k = 0;
+    cJSON_ArrayForEach(row, a) {
+        const cJSON* x;
+        int j = 0;
+        if (!cJSON_IsArray(row) || cJSON_GetArraySize(row) != width) return -1;
+        cJSON_ArrayForEach(x, row) {
+            if (!cJSON_IsNumber(x)) return -1;
+            out[(size_t)k * (size_t)width + (size_t)j++] = x->valuedouble;
+        }
+        ++k;
+    }
+    return 0;
+}
+
+static int read_body(const cJSON* jb, file_body* b) {
+    const cJSON* item;
+    const cJSON* nodes = cJSON_GetObjectItemCaseSensitive(jb, "nodes");
+    const cJSON* tri = cJSON_GetObjectItemCaseSensitive(jb, "triangles");
+    const cJSON* loops = cJSON_GetObjectItemCaseSensitive(jb, "loops");
+    cJSON_ArrayForEach(item, jb) {
+        if (strcmp(item->string, "id") != 0 && strcmp(item->string, "nodes") != 0 &&
+            strcmp(item->string, "triangles") != 0 && strcmp(item->string, "loops") != 0)
+            return refuse("a body key this test does not read: ", item->string);
+    }
+    if (!cJSON_IsArray(nodes)) return refuse("a body without nodes", NULL);
+    b->node_count = cJSON_GetArraySize(nodes);
+    b->nodes = (nts_vec2*)calloc((size_t)b->node_count + 1, sizeof(nts_vec2));
+    if (b->nodes == NULL || read_tuples(nodes, 2, &b->nodes[0].x) != 0) return refuse("bad nodes", NULL);
+    if (tri != NULL) {
+        double* t;
+        int k;
+        b->triangle_count = cJSON_GetArraySize(tri);
+        t = (double*)calloc((size_t)b->triangle_count * 3 + 1, sizeof(double));
+        b->triangles = (int*)calloc((size_t)b->triangle_count * 3 + 1, sizeof(int));
+        if (t == NULL || b->triangles == NULL || read_tuples(tri, 3, t) != 0) {
+            free(t);
+            return refuse("bad triangles", NULL);
+        }
+        for (k = 0; k < 3 * b->triangle_count; ++k) b->triangles[k] = (int)t[k];
+        free(t);
+    }
+    if (loops != NULL) {
+        const cJSON* loop;
+        int l = 0, k = 0;
+        b->loop_count = cJSON_GetArraySize(loops);
+        cJSON_ArrayForEach(loop, loops) b->loop_length += cJSON_GetArraySize(loop);
+        b->loop_nodes = (int*)calloc((size_t)b->loop_length + 1, sizeof(int));
+        b->loop_start = (int*)calloc((size_t)b->loop_count + 1, sizeof(int));
+        if (b->loop_nodes == NULL || b->loop_start == NULL) return refuse("out of memory", NULL);
+        cJSON_ArrayForEach(loop, loops) {
+            const cJSON* x;
+            b->loop_start[l++] = k;
+            cJSON_ArrayForEach(x, loop) {
+                if (!cJSON_IsNumber(x)) return refuse("bad loops", NULL);
+                b->loop_nodes[k++] = x->valueint;
+            }
+        }
+        b->loop_start[l] = k;
+    }
+    return 0;
+}
+
+static int read_options(const cJSON* o) {
+    const cJSON* item;
+    nts_options d = nts_default_options();
+    file.alpha = d.alpha;
+    file.penalty = d.penalty;
+    file.search_radius = d.search_radius;
+    cJSON_ArrayForEach(item, o) {
+        const char* k = item->string;
+        if (strcmp(k, "alpha") == 0 && cJSON_IsNumber(item)) {
+            file.alpha = item->valuedouble;
+        } else if (strcmp(k, "penalty") == 0 && cJSON_IsNumber(item)) {
+            file.penalty = item->valuedouble;
+        } else if (strcmp(k, "search_radius") == 0 && cJSON_IsNumber(item)) {
+            file.search_radius = item->valuedouble;
+        } else if (strcmp(k, "periodic") == 0) {
+            const cJSON* lx = cJSON_GetObjectItemCaseSensitive(item, "lx");
+            const cJSON* ly = cJSON_GetObjectItemCaseSensitive(item, "ly");
+            if (!cJSON_IsNumber(lx) || !cJSON_IsNumber(ly)) return refuse("bad periodic box", NULL);
+            file.lx = lx->valuedouble;
+            file.ly = ly->valuedouble;
+        } else if (strcmp(k, "outputs") != 0) { /* the test chooses its own outputs */
+            return refuse("an option this test does not read: ", k);
+        }
+    }
+    return 0;
+}
+
+int ftest_load(const char* path) {
+    char* text = read_all(path);
+    cJSON* doc = text ? cJSON_Parse(text) : NULL;
+    const cJSON *bodies, *jb;
+    int rc = 0, b = 0;
+    free(text);
+    ftest_free();
+    if (doc == NULL) return refuse("cannot read or parse ", path);
+    bodies = cJSON_GetObjectItemCaseSensitive(doc, "bodies");
+    if (!cJSON_IsArray(bodies) || (rc = read_options(cJSON_GetObjectItemCaseSensitive(doc, "options"))) != 0) {
+        cJSON_Delete(doc);
+        return rc != 0 ? rc : refuse("no bodies in ", path);
+    }
+    file.body_count = cJSON_GetArraySize(bodies);
+    file.bodies = (file_body*)calloc((size_t)file.body_count + 1, sizeof(file_body));
+    if (file.bodies == NULL) rc = refuse("out of memory", NULL);
+    cJSON_ArrayForEach(jb, bodies) {
+        if (rc != 0) break;
+        rc = read_body(jb, &file.bodies[b]);
+        file.node_count += file.bodies[b++].node_count;
+    }
+    cJSON_Delete(doc);
+    return rc;
+}
+
+int ftest_body_count(void) { return file.body_count; }
+
+void ftest_body_sizes(int b, int* nodes, int* triangles, int* loops, int* loop_length) {
+    const file_body* fb = &file.bodies[b];
+    *nodes = fb->node_count;
+    *triangles = fb->triangle_count;
+    *loops = fb->loop_count;
+    *loop_length = fb->loop_length;
+}
+
+void ftest_body_arrays(int b, double* xy, int* triangles, int* loop_nodes, int* loop_start) {
+    const file_body* fb = &file.bodies[b];
+    memcpy(xy, fb->nodes, sizeof(nts_vec2) * (size_t)fb->node_count);
+    if (fb->triangle_count > 0) memcpy(triangles, fb->triangles, sizeof(int) * 3 * (size_t)fb->triangle_count);
+    if (fb->loop_count > 0) {
+        memcpy(loop_nodes, fb->loop_nodes, sizeof(int) * (size_t)fb->loop_length);
+        memcpy(loop_start, fb->loop_start, sizeof(int) * ((size_t)fb->loop_count + 1));
+    }
+}
+
+void ftest_scene_options(double* alpha, double* penalty, double* search_radius, double* lx, double* ly) {
+    *alpha = file.alpha;
+    *penalty = file.penalty;
+    *search_radius = file.search_radius;
+    *lx = file.lx;
+    *ly = file.ly;
+}
+
+/* A fresh scene of the file's bodies at `positions` (2 * node_count doubles,
+ * global order; NULL: the file's own), evaluated with the file's options and
+ * outputs forces, energy, virial and stiffness. Returns the status. */
+int ftest_reference(const double* positions) {
+    nts_scene_def def = nts_default_scene_def();
+    nts_body_def* defs = (nts_body_def*)calloc((size_t)file.body_count + 1, sizeof(nts_body_def));
+    nts_options opt = nts_default_options();
+    nts_error err;
+    int b, offset = 0, rc;
+    if (defs == NULL) return NTS_ENOMEM;
+    for (b = 0; b < file.body_count; ++b) {
+        const file_body* fb = &file.bodies[b];
+        defs[b].nodes = positions ? (const nts_vec2*)(const void*)(positions + 2 * offset) : fb->nodes;
+        defs[b].node_count = fb->node_count;
+        defs[b].triangles = fb->triangles;
+        defs[b].triangle_count = fb->triangle_count;
+        defs[b].loop_nodes = fb->loop_nodes;
+        defs[b].loop_start = fb->loop_start;
+        defs[b].loop_count = fb->loop_count;
+        offset += fb->node_count;
+    }
+    def.bodies = defs;
+    def.body_count = file.body_count;
+    def.lx = file.lx;
+    def.ly = file.ly;
+    nts_scene_destroy(ref.scene);
+    ref.scene = nts_scene_create(&def, &err);
+    free(defs);
+    if (ref.scene == NULL) return err.code;
+    if (ref.ctx == NULL && (ref.ctx = nts_context_create()) == NULL) return NTS_ENOMEM;
+    opt.alpha = file.alpha;
+    opt.penalty = file.penalty;
+    opt.search_radius = file.search_radius;
+    opt.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_STIFFNESS;
+    rc = nts_evaluate(ref.ctx, ref.scene, &opt, &ref.res, &err);
+    if (rc != NTS_OK) fprintf(stderr, "reference.c: %s: %s\n", nts_status_name(rc), err.message);
+    return rc;
+}
+
+void ftest_reference_summary(double* energy, double* virial, int* contacts, double* max_penetration) {
+    *energy = ref.res.summary.energy;
+    virial[0] = ref.res.summary.virial.xx;
+    virial[1] = ref.res.summary.virial.yy;
+    virial[2] = ref.res.summary.virial.xy;
+    virial[3] = ref.res.summary.virial.yx;
+    *contacts = ref.res.summary.contacts;
+    *max_penetration = ref.res.summary.max_penetration;
+}
+
+void ftest_reference_forces(double* xy) {
+    memcpy(xy, ref.res.forces, sizeof(nts_vec2) * (size_t)file.node_count);
+}
+
+int ftest_reference_triplet_count(void) { return ref.res.stiffness.count; }
+
+void ftest_reference_triplets(int* rows, int* cols, double* values) {
+    const nts_triplets* t = &ref.res.stiffness;
+    if (t->count == 0) return;
+    memcpy(rows, t->rows, sizeof(int) * (size_t)t->count);
+    memcpy(cols, t->cols, sizeof(int) * (size_t)t->count);
+    memcpy(values, t->values, sizeof(double) * (size_t)t->count);
+}
+
+/* The tables in their C order; each returns how many rows it has (and
+ * writes at most `max`), so the Fortran side sees a row it lacks too. */
+int ftest_status_table(int* values, int max) {
+    int n = 0;
+#define FTEST_XX_(e, v, name, msg) \
+    if (n < max) values[n] = NTS_E##e; \
+    ++n;
+    NTS_ERRNO_MAP(FTEST_XX_)
+#undef FTEST_XX_
+    return n;
+}
+
+int ftest_output_table(int* bits, int max) {
+    int n = 0;
+#define FTEST_XX_(ID, bit, name, result, records) \
+    if (n < max) bits[n] = (int)NTS_OUT_##ID;    \
+    ++n;
+    NTS_OUTPUT_MAP(FTEST_XX_)
+#undef FTEST_XX_
+    if (n < max) bits[n] = (int)NTS_OUT_ALL;
+    return n + 1;
+}
+
+int ftest_warning_table(int* values, int max) {
+    int n = 0;
+#define FTEST_XX_(e, v, name, msg) \
+    if (n < max) values[n] = NTS_WARN_##e; \
+    ++n;
+    NTS_WARNING_MAP(FTEST_XX_)
+#undef FTEST_XX_
+    return n;
+}
+
+void ftest_free(void) {
+    int b;
+    for (b = 0; b < file.body_count && file.bodies; ++b) {
+        free(file.bodies[b].nodes);
+        free(file.bodies[b].triangles);
+        free(file.bodies[b].loop_nodes);
+        free(file.bodies[b].loop_start);
+    }
+    free(file.bodies);
+    memset(&file, 0, sizeof file);
+    nts_scene_destroy(ref.scene);
+    nts_context_destroy(ref.ctx);
+    memset(&ref, 0, sizeof ref);
+}
