@@ -3,7 +3,9 @@ a user's project (tests/cmake/consumer) configures, builds against the core
 and the codec, and runs; the same program built through pkg-config alone
 (lib/pkgconfig/ntscontact.pc, ntscontact-codec.pc), from a static install
 and from a shared one (-DBUILD_SHARED_LIBS=ON), whose installed CLI runs
-without LD_LIBRARY_PATH."""
+without LD_LIBRARY_PATH; and, when the build has the Fortran module, a
+Fortran program (tests/cmake/fortran_consumer, docs/coupling.md's example)
+through ntscontact::fortran."""
 import json
 import os
 import pathlib
@@ -38,6 +40,36 @@ def test_find_package_from_an_install_prefix(paths, tmp_path):
     assert out.returncode == 0, out.stdout + out.stderr
     assert f"version {VERSION}" in out.stdout and "contacts " in out.stdout and "codec has energy" in out.stdout
     assert int(out.stdout.split("contacts ")[1].split()[0]) > 0
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+def test_fortran_module_from_an_install_prefix(paths, tmp_path):
+    """The installed .mod and ntscontact::fortran: tests/cmake/fortran_consumer
+    configures, builds and prints what docs/coupling.md says it prints; the
+    program there is this one, verbatim."""
+    if not (paths.build / "fortran" / "mod" / "ntscontact.mod").exists():
+        pytest.skip("the build has no Fortran module (no Fortran compiler, or NTS_FORTRAN=OFF)")
+    if sanitized(paths):
+        pytest.skip("a sanitizer build: its static libraries need the sanitizer runtime in the consumer too")
+    source = REPO / "tests" / "cmake" / "fortran_consumer"
+    program = (source / "main.f90").read_text()
+    assert program in (REPO / "docs" / "coupling.md").read_text(), "docs/coupling.md: not the tested program"
+    prefix = tmp_path / "prefix"
+    subprocess.run(["cmake", "--install", str(paths.build), "--prefix", str(prefix)], check=True,
+                   capture_output=True, timeout=120)
+    assert (prefix / "include" / "ntscontact" / "fortran" / "ntscontact.mod").exists()
+    assert list(prefix.glob("lib*/cmake/ntscontact/ntscontactFortranTargets.cmake"))
+    build = tmp_path / "consumer"
+    r = subprocess.run(["cmake", "-S", str(source), "-B", str(build), f"-DCMAKE_PREFIX_PATH={prefix}"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    r = subprocess.run(["cmake", "--build", str(build)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    out = subprocess.run([str(build / "squares")], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stdout + out.stderr
+    block = (REPO / "docs" / "coupling.md").read_text().split("<!-- fortran output -->")[1].split("```")[1]
+    shown = block.split("\n", 1)[1]  # past the block's language tag
+    assert out.stdout.strip() == shown.strip(), out.stdout
 
 
 def sanitized(paths):

@@ -74,7 +74,7 @@ def test_python_doc_names_every_client_parameter_and_method():
 
 
 PATH = re.compile(r"(?<![\w./:-])((?:core|codec|cli|server|clients|schemas|examples|tests|bench|docs|scripts|deploy|"
-                  r"support|fuzz)/[\w./*-]*[\w*])")
+                  r"support|fuzz|fortran)/[\w./*-]*[\w*])")
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(REPO)))
