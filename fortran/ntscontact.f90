@@ -596,7 +596,6 @@ contains
     type(nts_csr) :: c
     integer(c_int) :: en
     integer :: k
-    character(len=24) :: a, b
 
     here = [c_sizeof(v), c_sizeof(vi), c_sizeof(e), c_sizeof(l), c_sizeof(su), c_sizeof(o), c_sizeof(bd), &
             c_sizeof(sd), c_sizeof(t), c_sizeof(w), c_sizeof(r), c_sizeof(c), c_sizeof(en), c_sizeof(en)]
@@ -606,11 +605,8 @@ contains
       there = c_layout_sizeof(int(k - 1, c_int))
       if (here(k) /= there) then
         ntsf_layout_ok = .false.
-        if (present(detail)) then
-          write (a, '(i0)') here(k)
-          write (b, '(i0)') there
-          detail = trim(layout_names(k))//" is "//trim(a)//" bytes in Fortran, "//trim(b)//" in C"
-        end if
+        if (present(detail)) detail = trim(layout_names(k))//" is "//itoa(int(here(k), c_long_long))// &
+          " bytes in Fortran, "//itoa(int(there, c_long_long))//" in C"
         return
       end if
     end do
@@ -779,22 +775,48 @@ contains
     integer(c_int), intent(in) :: code
     integer, intent(in) :: body
     character(len=*), intent(in) :: text
-    character(len=len(text) + 24) :: full
+    character(len=:), allocatable :: full
     integer :: i, n
     e = no_error()
     e%code = code
     e%body = int(body, c_int)
     if (body >= 0) then
-      write (full, '(a, i0, 2a)') "body ", body, ": ", text
+      full = "body "//itoa(int(body, c_long_long))//": "//text
     else
       full = text
     end if
-    n = min(len_trim(full), size(e%message) - 1)
+    n = min(len(full), size(e%message) - 1)
     do i = 1, n
       e%message(i) = full(i:i)
     end do
     status = code
   end function fail
+
+  ! An integer as text. The module does no formatted I/O of its own: a
+  ! library has no business with the program's units, and libgfortran
+  ! copies a format with strndup, which AddressSanitizer's
+  ! strict_string_checks (scripts/test-sanitize.sh) reads past a Fortran
+  ! string that has no NUL after it.
+  pure function itoa(i) result(text)
+    integer(c_long_long), intent(in) :: i
+    character(len=:), allocatable :: text
+    character(len=20) :: buf
+    integer(c_long_long) :: v
+    integer :: p
+    v = abs(i)
+    p = len(buf) + 1
+    do
+      p = p - 1
+      buf(p:p) = achar(iachar("0") + int(mod(v, 10_c_long_long)))
+      v = v / 10
+      if (v == 0) exit
+    end do
+    if (i < 0) then
+      p = p - 1
+      buf(p:p) = "-"
+    end if
+    text = buf(p:)
+  end function itoa
 
   ! A NUL-terminated C string (static in the library) as a Fortran one.
   pure function c_string(p) result(text)
