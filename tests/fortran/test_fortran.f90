@@ -116,7 +116,7 @@ program test_fortran
     error stop 2
   end if
   call read_bodies(bodies)
-  call ftest_scene_options(alpha, penalty, radius, lx, ly)
+  call ftest_scene_options(alpha, penalty, radius, lx, ly) ! for the box: options_of_file sets the options
   opt = options_of_file()
 
   ! The scene through the module, evaluated, against the C API's own.
@@ -237,9 +237,8 @@ contains
   subroutine read_bodies(b)
     type(ntsf_body), allocatable, intent(out) :: b(:)
     integer(c_int) :: nodes, tri, loops, loop_length
-    integer(c_int), allocatable :: dummy(:)
     integer :: k
-    allocate (b(ftest_body_count()), dummy(1))
+    allocate (b(ftest_body_count()))
     do k = 1, size(b)
       call ftest_body_sizes(int(k - 1, c_int), nodes, tri, loops, loop_length)
       allocate (b(k)%nodes(2, nodes), b(k)%triangles(3, tri), b(k)%loop_nodes(loop_length))
