@@ -38,8 +38,8 @@ def _build_engine(build_temp: Path) -> Path:
     if shutil.which(cmake) is None:
         raise RuntimeError(f"{cmake} not found")
     build = build_temp / "engine"
-    subprocess.run([cmake, "-S", str(SOURCE), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-                    "-DNTS_BUILD_TESTS=OFF", "-DNTS_COMPONENTS=codec"], check=True, stdout=subprocess.DEVNULL)
+    subprocess.run([cmake, "-S", str(SOURCE), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release", "-DNTS_BUILD_TESTS=OFF",
+                    "-DNTS_COMPONENTS=codec", "-DNTS_FORTRAN=OFF"], check=True, stdout=subprocess.DEVNULL)
     subprocess.run([cmake, "--build", str(build), "--target", "ntscontact_engine", "-j", str(os.cpu_count() or 1)],
                    check=True, stdout=subprocess.DEVNULL)
     lib = build / "lib" / LIBRARY
