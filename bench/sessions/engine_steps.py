@@ -3,7 +3,7 @@
 (issue 28, item 1).
 
 Scenes: square packings of pressed 64-node disks (bench/load/make_scene.py) of
-25,600 and 102,400 nodes, and the 66k-node FEM scene of python_steps.py. Each
+256, 25,600 and 102,400 nodes, and the 66k-node FEM scene of python_steps.py. Each
 round moves every node (a fresh frame) and takes, interleaved:
 
   engine      s.contact(x).force_array() on an Engine session (the default: a
@@ -78,9 +78,10 @@ def measure(engine, client, name, scene, repeats):
             "engine_over_c_max": max(step), "http_over_engine": med["http_ms"] / med["engine_ms"]}
 
 
-def markdown(rows, repeats, commit):
+def markdown(rows, repeats, commit, build_type):
     lines = [SECTION, "",
-             f"`bench/sessions/engine_steps.py --repeats {repeats}` (commit {commit}), one evaluation thread, "
+             f"`bench/sessions/engine_steps.py --repeats {repeats}` (commit {commit}, the library and the daemon of a "
+             f"{build_type} build: `NTS_BUILD_DIR=build-bench`), one evaluation thread, "
              "medians of interleaved rounds that each move every node.",
              "**engine**: `s.contact(x).force_array()` on an `Engine` session (its default kept candidate list);",
              "**engine, from scratch**: the same with `keep_candidates=False`; **C**: the library's own time of",
@@ -103,7 +104,7 @@ def markdown(rows, repeats, commit):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--sizes", default="20,40", help="disks per side of the packings (x64 nodes each)")
+    ap.add_argument("--sizes", default="2,20,40", help="disks per side of the packings (x64 nodes each)")
     ap.add_argument("--fem-nodes", type=int, default=66000)
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--library", default=str(BUILD / "lib" / "libntscontact_engine.so"))
@@ -125,7 +126,10 @@ def main():
     finally:
         proc.terminate()
         proc.wait(timeout=60)
-    write_results(rows, "sessions_engine.csv", a.out, SECTION, markdown(rows, a.repeats, commit))
+    cache = BUILD / "CMakeCache.txt"
+    build_type = next((line.split("=", 1)[1].strip() for line in cache.read_text().splitlines()
+                       if line.startswith("CMAKE_BUILD_TYPE:")), "?") if cache.exists() else "?"
+    write_results(rows, "sessions_engine.csv", a.out, SECTION, markdown(rows, a.repeats, commit, build_type))
 
 
 if __name__ == "__main__":
