@@ -119,6 +119,7 @@ def _remote(p: argparse.ArgumentParser, timeout: float) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``python -m ntscontact`` (subcommands convert, contact, health)."""
     p = argparse.ArgumentParser(prog="python -m ntscontact", description="ntscontact Python tools")
     p.add_argument("--version", action="version", version=f"ntscontact-python {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -167,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Optional[List[str]] = None) -> int:
+    """Run the command line on ``argv`` (default: ``sys.argv[1:]``) and return its exit code."""
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))

@@ -86,6 +86,7 @@ class Client:
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
+        """Close the HTTP connection pool (``with Client(...)`` does it on exit)."""
         self.http.close()
 
     def __enter__(self) -> "Client":

@@ -68,11 +68,14 @@ class Contact:
 
     @property
     def virial_tensor(self) -> FloatArray:
+        """``virial`` as the symmetric 2x2 array ``[[xx, xy], [xy, yy]]``."""
         xx, yy, xy = self.virial
         return np.array([[xx, xy], [xy, yy]], dtype=np.float64)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Contact":
+        """A contact from one entry of a result's ``contacts``; fields the entry lacks
+        (friction, session matches) stay ``None``."""
         s, m = d["slave"], d["master"]
         v = d.get("virial") or {}
         return cls(
@@ -111,10 +114,13 @@ class Gap:
 
     @property
     def active(self) -> bool:
+        """Whether the closest point is an active contact (``gap < 0``)."""
         return self.gap < 0.0
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Gap":
+        """A gap from one entry of a result's ``gaps``: the slave, the master body and
+        ``gap``; everything else of the entry and of its master in ``extra``."""
         s, m = d["slave"], d["master"]
         extra = {k: v for k, v in d.items() if k not in ("slave", "gap")}
         extra.update({k: v for k, v in m.items() if k != "body"})
@@ -140,6 +146,7 @@ class ResultWarning:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "ResultWarning":
+        """A warning from one entry of a result's ``warnings`` (missing fields: empty or 0)."""
         return cls(code=str(d.get("code", "")), count=int(d.get("count", 0)), message=str(d.get("message", "")))
 
     @classmethod
@@ -182,6 +189,8 @@ class Summary:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "Summary":
+        """A summary from a result's ``summary`` (missing fields: 0); fields the client
+        does not know are kept in ``extra``."""
         known = ("bodies", "nodes", "surface_nodes", "contacts", "gaps", "energy", "virial", "max_penetration",
                  "loops_reversed", "search_radius", "cell_size", "elapsed_ms", "deep_contacts", "dissipation",
                  "sticking", "slipping")
@@ -281,14 +290,17 @@ class Result:
 
     @property
     def energy(self) -> float:
+        """The contact energy, ``summary.energy``."""
         return self.summary.energy
 
     @property
     def virial(self) -> FloatArray:
+        """The 2x2 virial, ``summary.virial``."""
         return self.summary.virial
 
     @property
     def body_ids(self) -> List[BodyId]:
+        """The ids of the bodies that have forces, in the order of the answer."""
         return list(self.forces)
 
     def force_array(self, order: Optional[Sequence[BodyId]] = None) -> FloatArray:
@@ -380,6 +392,8 @@ class Result:
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> "Result":
+        """A result from a parsed result document (``POST /v1/contact``'s answer);
+        ``raw`` keeps the document."""
         forces: Dict[BodyId, FloatArray] = {}
         pressure: Dict[BodyId, FloatArray] = {}
         for b in doc.get("bodies") or []:
@@ -412,4 +426,5 @@ class Result:
 
     @classmethod
     def from_json(cls, text: Union[str, bytes]) -> "Result":
+        """A result from JSON text (:meth:`from_dict` of it)."""
         return cls.from_dict(json.loads(text))

@@ -232,9 +232,12 @@ class Body:
 
     @property
     def node_count(self) -> int:
+        """How many nodes the body has (the rows of ``nodes``)."""
         return int(self.nodes.shape[0])
 
     def to_dict(self) -> Dict[str, Any]:
+        """The body as an entry of a scene document's ``bodies``: ``id`` and ``nodes``,
+        and each optional field only when it is set."""
         out: Dict[str, Any] = {"id": self.id, "nodes": self.nodes.tolist()}
         if self.loops is not None:
             out["loops"] = [loop.tolist() for loop in self.loops]
@@ -304,6 +307,8 @@ class Scene:
 
     @property
     def periodic(self) -> Optional[Tuple[float, float]]:
+        """The periodic box ``(lx, ly)``, or ``None`` for an open scene; set it from any
+        pair of numbers."""
         return self._periodic
 
     @periodic.setter
@@ -316,6 +321,9 @@ class Scene:
 
     @property
     def outputs(self) -> Optional[List[str]]:
+        """The outputs asked for (names of :data:`OUTPUTS`), or ``None`` for the service's
+        default; set it from a list or a comma-separated string (an unknown name
+        raises :class:`InvalidScene`)."""
         return self._outputs
 
     @outputs.setter
@@ -512,20 +520,25 @@ class Scene:
             k += b.node_count
 
     def index_of(self, id: BodyId) -> int:  # noqa: A002
+        """The position of the body ``id`` in the scene (the order of the answer);
+        :class:`KeyError` when no body has that id."""
         try:
             return self._index[(type(id), id)]
         except KeyError:
             raise KeyError(f"no body with id {id!r}") from None
 
     def body(self, id: BodyId) -> Body:  # noqa: A002
+        """The :class:`Body` with this ``id``; :class:`KeyError` when there is none."""
         return self._bodies[self.index_of(id)]
 
     @property
     def bodies(self) -> List[Body]:
+        """The bodies in scene order (a new list: changing it changes nothing)."""
         return list(self._bodies)
 
     @property
     def body_ids(self) -> List[BodyId]:
+        """The bodies' ids in scene order."""
         return [b.id for b in self._bodies]
 
     def __len__(self) -> int:
@@ -559,6 +572,8 @@ class Scene:
     # ------------------------------------------------------------ (de)serialising
 
     def to_dict(self) -> Dict[str, Any]:
+        """The scene document (``version``, ``options``, ``bodies``) as plain Python
+        objects, ready for :func:`json.dumps`."""
         return {"version": 1, "options": self.options_dict(), "bodies": [b.to_dict() for b in self._bodies]}
 
     def to_json(self, indent: Optional[int] = None) -> str:
@@ -567,6 +582,9 @@ class Scene:
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> "Scene":
+        """A scene from a parsed scene document (``version`` 1). Options the client does
+        not know go to ``extra_options``; a malformed document raises
+        :class:`InvalidScene` with the code and JSON pointer the service would give."""
         if not isinstance(doc, Mapping):
             raise InvalidScene("a scene is a JSON object", code="invalid_type", pointer="")
         version = doc.get("version", 1)
@@ -600,6 +618,9 @@ class Scene:
 
     @classmethod
     def from_json(cls, text: Union[str, bytes]) -> "Scene":
+        """A scene from JSON text; invalid JSON (``NaN`` and ``Infinity`` included) raises
+        :class:`InvalidScene` (``invalid_json``, ``non_finite``), as :meth:`from_dict` does
+        for a malformed document."""
         def reject(name: str) -> float:
             raise InvalidScene(f"{name} is not a JSON number", code="non_finite", pointer="")
 
@@ -611,10 +632,12 @@ class Scene:
 
     @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":
+        """A scene from a JSON file (:meth:`from_json` of its bytes)."""
         with open(path, "rb") as fh:
             return cls.from_json(fh.read())
 
     def save(self, path: Union[str, "os.PathLike[str]"], indent: Optional[int] = None) -> None:
+        """Write :meth:`to_json` (``indent`` as there) and a newline to ``path``."""
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(self.to_json(indent=indent))
             fh.write("\n")
