@@ -1,4 +1,5 @@
-/* ntscontact: the vocabularies of the contract, each spelled once (issue 24 §3).
+/** @file
+ * ntscontact: the vocabularies of the contract, each spelled once (issue 24 §3).
  *
  * The error codes are one X-macro table (NTS_ERRNO_MAP, base.h, as libuv's
  * UV_ERRNO_MAP); the options of an evaluation are another, here. Every place
@@ -23,7 +24,7 @@
 extern "C" {
 #endif
 
-/* The outputs a caller may ask for (nts_options.outputs, a scene's "outputs",
+/** The outputs a caller may ask for (nts_options.outputs, a scene's "outputs",
  * the CLI's --outputs, a step's ?outputs=): one row each, in their bit order.
  *
  * XX(ID, bit, name, result, records)
@@ -42,13 +43,15 @@ extern "C" {
     XX(STIFFNESS, 5, "stiffness", "stiffness", 1)   \
     XX(PRESSURE, 6, "pressure", "bodies/pressure", 1)
 
-/* The names of an enumerated option's values: XX(C enumerator, JSON name). */
+/** The names of an enumerated option's values: XX(C enumerator, JSON name).
+ * @{ */
 #define NTS_SOLVER_NAMES(XX) XX(NTS_SOLVER_CLOSED_FORM, "closed_form") XX(NTS_SOLVER_NEWTON, "newton")
 #define NTS_SEARCH_NAMES(XX) XX(NTS_SEARCH_CELLS, "cells") XX(NTS_SEARCH_BRUTE_FORCE, "brute_force")
 #define NTS_PENALTY_SCALING_NAMES(XX) XX(NTS_PENALTY_PER_NODE, "node") XX(NTS_PENALTY_PER_LENGTH, "length")
 #define NTS_NO_NAMES(XX)
+/** @} */
 
-/* The options. One row each, in the order a scene's options are decoded
+/** The options. One row each, in the order a scene's options are decoded
  * (the first fault found is the one reported):
  *
  * XX(ID, field, json, flag, metavar, kind, ctype, default, min, max, bound, check, presence, doors, names, help)
@@ -102,6 +105,8 @@ extern "C" {
     XX(FRICTION, friction, "friction", "", "", OBJECT, double, 0.0, 0.0, 10.0, CLOSED, CORE, OPTIONAL, SCENE,       \
        NTS_NO_NAMES, "Coulomb friction {coefficient, tangential_penalty}")
 
+/** An option's id: NTS_OPT_<ID>, its row's index in NTS_OPTION_MAP (the `id`
+ * the functions below take). */
 typedef enum nts_option_id {
 #define NTS_XX_(ID, field, json, flag, meta, kind, ctype, def, lo, hi, bound, check, presence, doors, names, help) \
     NTS_OPT_##ID,
@@ -111,70 +116,86 @@ typedef enum nts_option_id {
 } nts_option_id;
 
 /* The table at run time, for the loops of the parsers and the help. */
+/** An option's `kind` column (NTS_OPTION_MAP): NUMBER, ENUM, OUTPUTS or OBJECT. */
 typedef enum nts_option_kind {
     NTS_OPTION_KIND_NUMBER, NTS_OPTION_KIND_ENUM, NTS_OPTION_KIND_OUTPUTS, NTS_OPTION_KIND_OBJECT
 } nts_option_kind;
+/** An option's `bound` column: the form of its valid range [min, max]. */
 typedef enum nts_option_bound {
     NTS_OPTION_BOUND_NONE, NTS_OPTION_BOUND_CLOSED, NTS_OPTION_BOUND_ABOVE, NTS_OPTION_BOUND_FROM
 } nts_option_bound;
+/** An option's `check` column: who checks its range. */
 typedef enum nts_option_check { NTS_OPTION_CHECK_NONE, NTS_OPTION_CHECK_CORE, NTS_OPTION_CHECK_CODEC } nts_option_check;
-/* The doors an option comes through (bits). */
+/** The doors an option comes through (bits). */
 enum {
-    NTS_OPTION_DOOR_SCENE = 1, /* a scene document's "options" */
-    NTS_OPTION_DOOR_STEP = 2,  /* a session step's "options" and a binary step's query */
-    NTS_OPTION_DOOR_CLI = 4,   /* the CLI's flag */
+    NTS_OPTION_DOOR_SCENE = 1, /**< a scene document's "options" */
+    NTS_OPTION_DOOR_STEP = 2,  /**< a session step's "options" and a binary step's query */
+    NTS_OPTION_DOOR_CLI = 4,   /**< the CLI's flag */
     NTS_OPTION_DOORS_SCENE = NTS_OPTION_DOOR_SCENE,
     NTS_OPTION_DOORS_ALL = NTS_OPTION_DOOR_SCENE | NTS_OPTION_DOOR_STEP | NTS_OPTION_DOOR_CLI
 };
 
+/** One row of NTS_OPTION_MAP at run time (nts_option_info_of). */
 typedef struct nts_option_info {
-    const char* json;            /* "search_radius" */
-    const char* flag;            /* "--search-radius", "" */
-    const char* metavar;         /* "R" */
-    const char* help;            /* "search radius" */
-    nts_option_kind kind;
+    const char* json;            /**< "search_radius" */
+    const char* flag;            /**< "--search-radius", "" */
+    const char* metavar;         /**< "R" */
+    const char* help;            /**< "search radius" */
+    nts_option_kind kind;        /**< NUMBER, ENUM, OUTPUTS or OBJECT */
+    /** The valid range's ends (as `bound` reads them). @{ */
     double min, max;
-    nts_option_bound bound;
-    nts_option_check check;
-    int required;                /* in a scene document */
-    int doors;                   /* NTS_OPTION_DOOR_* */
-    const char* const* names;    /* an ENUM's value names, name_count of them */
-    const int* values;           /* their C values */
-    int name_count;
+    /** @} */
+    nts_option_bound bound;      /**< the form of the range */
+    nts_option_check check;      /**< who checks the range */
+    int required;                /**< in a scene document */
+    int doors;                   /**< NTS_OPTION_DOOR_* */
+    const char* const* names;    /**< an ENUM's value names, name_count of them */
+    const int* values;           /**< their C values */
+    int name_count;              /**< how many `names` and `values` (0 unless ENUM) */
 } nts_option_info;
 
-/* A parsed value of any kind. */
+/** A parsed value of any kind. */
 typedef struct nts_option_value {
-    double number;   /* NUMBER */
-    int enumerated;  /* ENUM: the C value */
-    unsigned flags;  /* OUTPUTS: NTS_OUT_* */
+    double number;   /**< NUMBER */
+    int enumerated;  /**< ENUM: the C value */
+    unsigned flags;  /**< OUTPUTS: NTS_OUT_* */
 } nts_option_value;
 
 struct nts_options;
 
-/* The row of an option (NULL when out of range), the row named `json` (-1
+/** @name Rows
+ * The row of an option (NULL when out of range), the row named `json` (-1
  * when none), and the store of a value into its nts_options field (nothing
- * for OBJECT). */
+ * for OBJECT).
+ * @{ */
+/** The row of option `id` (a static table: never freed), NULL when out of range. */
 NTS_API const nts_option_info* nts_option_info_of(int id);
+/** The id of the option whose JSON name is the `n` bytes at `json` (not
+ * NUL-terminated), -1 when none. */
 NTS_API int nts_option_find(const char* json, size_t n);
+/** Stores `v` (the member of its kind) into option `id`'s field of `o`;
+ * nothing for OBJECT or an id out of range. */
 NTS_API void nts_option_store(struct nts_options* o, int id, const nts_option_value* v);
-/* "in [0, 0.5]", "> 0", ">= 0" (empty for NONE): the range as --help and the
+/** @} */
+/** "in [0, 0.5]", "> 0", ">= 0" (empty for NONE): the range as --help and the
  * messages write it. Returns the length. */
 NTS_API int nts_option_range_text(int id, char* out, size_t size);
-/* An ENUM's names (or the output names for OUTPUTS) as prose, "a, b or c",
+/** An ENUM's names (or the output names for OUTPUTS) as prose, "a, b or c",
  * into out. Returns the length. */
 NTS_API int nts_option_names_text(int id, char* out, size_t size);
-/* 1 when `v` is in the row's range, else 0. */
+/** 1 when `v` is in the row's range, else 0. */
 NTS_API int nts_option_in_range(int id, double v);
 
-/* Helpers that expand a row by its kind, bound or doors (token pasting), so a
- * generator writes one line for every row. */
+/** Helpers that expand a row by its kind, bound or doors (token pasting), so a
+ * generator writes one line for every row.
+ * @{ */
 #define NTS_OPT_IS_ALL(x) x
 #define NTS_OPT_IS_SCENE(x)
 #define NTS_OPT_HAS_FIELD_NUMBER(x) x
 #define NTS_OPT_HAS_FIELD_ENUM(x) x
 #define NTS_OPT_HAS_FIELD_OUTPUTS(x) x
 #define NTS_OPT_HAS_FIELD_OBJECT(x)
+/** @} */
 
 #ifdef __cplusplus
 }
