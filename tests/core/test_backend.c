@@ -126,26 +126,6 @@ static void test_finish(void* handle, void* user) {
     b->order = ORDER_DEFERRED;
 }
 
-/* Every output of two results, bitwise. */
-static int same_result(const nts_scene* s, const nts_result* a, const nts_result* b) {
-    if (memcmp(&a->summary, &b->summary, sizeof a->summary) != 0) return 0;
-    if (a->gap_count != b->gap_count || a->contact_count != b->contact_count) return 0;
-    if (a->gap_count > 0 && memcmp(a->gaps, b->gaps, sizeof(nts_contact) * (size_t)a->gap_count) != 0) return 0;
-    if (a->contact_count > 0 && memcmp(a->contacts, b->contacts, sizeof(nts_contact) * (size_t)a->contact_count) != 0)
-        return 0;
-    if (a->stiffness.count != b->stiffness.count) return 0;
-    if (a->stiffness.count > 0 &&
-        (memcmp(a->stiffness.rows, b->stiffness.rows, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
-         memcmp(a->stiffness.cols, b->stiffness.cols, sizeof(int) * (size_t)a->stiffness.count) != 0 ||
-         memcmp(a->stiffness.values, b->stiffness.values, sizeof(double) * (size_t)a->stiffness.count) != 0))
-        return 0;
-    if ((a->pressure == NULL) != (b->pressure == NULL)) return 0;
-    if (a->pressure != NULL && memcmp(a->pressure, b->pressure, sizeof(double) * (size_t)nts_scene_node_count(s)) != 0)
-        return 0;
-    if ((a->forces == NULL) != (b->forces == NULL)) return 0;
-    return a->forces == NULL || memcmp(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) == 0;
-}
-
 /* A scene's serial result against every backend, worker count 1 to 4, and
  * OpenMP's 1 to 4 threads, for all the outputs (records) and the default
  * ones (direct with one worker, shares with several). */
@@ -179,7 +159,7 @@ static void check_backends(const nts_scene* s, double alpha, double radius, int 
                 p.user = &tb;
                 CU_ASSERT_FATAL(nts_context_set_parallel(c1, &p) == NTS_OK);
                 CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
-                same = same_result(s, &r0, &r1);
+                same = same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE);
                 if (!same)
                     fprintf(stderr, "\n  backend order %d, %d workers, outputs %u differ from serial\n", order,
                             workers, o.outputs);
@@ -194,7 +174,7 @@ static void check_backends(const nts_scene* s, double alpha, double radius, int 
         for (workers = 1; workers <= 4; ++workers) {
             o.threads = workers;
             CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
-            CU_ASSERT(same_result(s, &r0, &r1));
+            CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
         }
         nts_context_destroy(c0);
         nts_context_destroy(c1);

@@ -101,3 +101,29 @@ double scene_energy(const nts_scene* s, const nts_options* opt) {
     nts_context_destroy(ctx);
     return e;
 }
+
+/* memcmp of n items, where a count of zero needs no pointer. */
+static int same_bytes(const void* a, const void* b, size_t count, size_t size) {
+    if (count == 0) return 1;
+    if (a == NULL || b == NULL) return a == b;
+    return memcmp(a, b, count * size) == 0;
+}
+
+int same_answer(const nts_scene* s, const nts_result* a, const nts_result* b, int summary) {
+    const size_t nodes = (size_t)nts_scene_node_count(s);
+    nts_summary sa = a->summary, sb = b->summary;
+    if (summary != NTST_SUMMARY_WHOLE) sa.cell_size = sb.cell_size = 0.0;
+    if (memcmp(&sa, &sb, sizeof sa) != 0) return 0;
+    if (a->gap_count != b->gap_count || a->contact_count != b->contact_count ||
+        a->stiffness.count != b->stiffness.count || a->anchor_count != b->anchor_count)
+        return 0;
+    if ((a->forces == NULL) != (b->forces == NULL) || (a->pressure == NULL) != (b->pressure == NULL)) return 0;
+    return same_bytes(a->gaps, b->gaps, (size_t)a->gap_count, sizeof(nts_contact)) &&
+           same_bytes(a->contacts, b->contacts, (size_t)a->contact_count, sizeof(nts_contact)) &&
+           same_bytes(a->stiffness.rows, b->stiffness.rows, (size_t)a->stiffness.count, sizeof(int)) &&
+           same_bytes(a->stiffness.cols, b->stiffness.cols, (size_t)a->stiffness.count, sizeof(int)) &&
+           same_bytes(a->stiffness.values, b->stiffness.values, (size_t)a->stiffness.count, sizeof(double)) &&
+           same_bytes(a->anchors, b->anchors, (size_t)a->anchor_count, sizeof(nts_anchor)) &&
+           same_bytes(a->forces, b->forces, a->forces != NULL ? nodes : 0, sizeof(nts_vec2)) &&
+           same_bytes(a->pressure, b->pressure, a->pressure != NULL ? nodes : 0, sizeof(double));
+}

@@ -62,4 +62,12 @@ int eval_scene(const nts_scene* s, const nts_options* opt, nts_result* res, nts_
 /* Total energy for finite differences. */
 double scene_energy(const nts_scene* s, const nts_options* opt);
 
+/* Whether two results of scene s hold bitwise the same answer: forces,
+ * pressure, gaps, contacts, the tangent's triplets, friction's anchors (an
+ * output not asked for is a null pointer on both sides), and the summary:
+ * whole with NTST_SUMMARY_WHOLE, else all but cell_size (a search by cells
+ * and a brute-force one answer alike but start from different cells). */
+enum { NTST_SUMMARY_WHOLE = 1, NTST_SUMMARY_BUT_CELLS = 0 };
+int same_answer(const nts_scene* s, const nts_result* a, const nts_result* b, int summary);
+
 #endif
