@@ -77,4 +77,19 @@ class EngineDistribution(Distribution):
         return True
 
 
-setup(cmdclass={"build_py": BuildWithEngine}, distclass=EngineDistribution)
+commands: dict = {"build_py": BuildWithEngine}
+try:
+    from wheel.bdist_wheel import bdist_wheel
+
+    class PlatformWheel(bdist_wheel):
+        """py3-none-<platform>: the library is loaded through ctypes and does not
+        depend on the Python version's ABI, only on the platform."""
+
+        def get_tag(self) -> tuple:
+            return ("py3", "none", super().get_tag()[2])
+
+    commands["bdist_wheel"] = PlatformWheel
+except ImportError:  # no wheel package: setuptools builds no wheel either
+    pass
+
+setup(cmdclass=commands, distclass=EngineDistribution)

@@ -291,3 +291,95 @@ def test_sessions_outlive_their_engine(paths):
     assert np.array_equal(s.contact(pos, outputs=["forces"]).force_array(), want)
     s.close()
     s.close()  # twice is fine
+
+
+def test_bad_thread_counts_are_refused_at_once():
+    for bad in (-1, 1025, "2", True, 2.0):
+        with pytest.raises(ValueError):
+            Engine(threads=bad, library=LIBRARY)
+
+
+def test_a_session_that_fails_to_start_leaves_nothing_behind(paths):
+    import sys
+    seen = []
+    old, sys.unraisablehook = sys.unraisablehook, seen.append
+    try:
+        with Engine(library=LIBRARY) as e:
+            for bad in ({"bodies": []}, "not json", {"options": {"penalty": -1}, "bodies": load(paths, "two_disks")["bodies"]}):
+                with pytest.raises((InvalidScene, ValueError)):
+                    e.session(bad)
+        import gc
+        gc.collect()
+    finally:
+        sys.unraisablehook = old
+    assert seen == []  # no error from __del__ of a half-made session
+
+
+def test_info_and_close_from_two_threads(paths):
+    """info() against close() on another thread: a closed session raises, none crashes."""
+    scene = load(paths, "two_disks")
+    e = Engine(library=LIBRARY)
+    current = [e.session(scene)]
+    stop = threading.Event()
+    outcomes = {"info": 0, "closed": 0}
+
+    def reader():
+        while not stop.is_set():
+            try:
+                assert current[0].info()["nodes"] == 96
+                outcomes["info"] += 1
+            except ntscontact.NtsError as exc:
+                assert exc.code == "closed"
+                outcomes["closed"] += 1
+
+    t = threading.Thread(target=reader)
+    t.start()
+    for _ in range(300):
+        s = current[0]
+        current[0] = e.session(scene)
+        s.close()
+    stop.set()
+    t.join()
+    current[0].close()
+    with pytest.raises(ntscontact.NtsError):
+        current[0].info()
+    assert outcomes["info"] > 0
+
+
+def test_close_waits_for_calls_in_flight(paths):
+    scene = load(paths, "periodic_packing")
+    e = Engine(library=LIBRARY)
+    results = []
+
+    def caller():
+        for _ in range(20):
+            try:
+                results.append(e.contact_json(scene))
+            except ntscontact.NtsError as exc:
+                results.append(exc.code)
+
+    t = threading.Thread(target=caller)
+    t.start()
+    e.close()
+    t.join()
+    assert all(r == "closed" or r.startswith(b'{"version"') for r in results) and len(results) == 20
+
+
+def test_each_result_knows_its_own_positions_whatever_the_threads(paths):
+    scene = load(paths, "two_disks")
+    moves = list(walk(scene, 12, 8))
+    bad = []
+    with Engine(library=LIBRARY) as e, e.session(scene) as s:
+        def work(i):
+            for k in range(40):
+                x = moves[(i + k) % len(moves)]
+                r = s.contact(x, outputs=["forces"])
+                if not np.array_equal(r._scene[1], x):
+                    bad.append(k)
+
+        threads = [threading.Thread(target=work, args=(i,)) for i in range(3)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    assert bad == []

@@ -77,3 +77,27 @@ def test_engine_command_says_where_or_why(tmp_path):
     assert r.returncode == 0 and r.stdout.startswith("engine: ") and "libntscontact_engine.so" in r.stdout
     r = py("engine", env={"NTSCONTACT_LIBRARY": str(tmp_path / "none.so")})
     assert r.returncode == 1 and "engine: none" in r.stdout
+
+
+def test_usage_errors_exit_2(tmp_path, paths):
+    scene = paths.examples / "two_disks.json"
+    empty = tmp_path / "empty.tok"
+    empty.write_text("# only a comment\n\n")
+    binary = tmp_path / "bin.tok"
+    binary.write_bytes(b"\xff\xfe\x00secret")
+    for args in ([scene, "--token-file", empty], [scene, "--token-file", binary],
+                 [scene, "--token", "a", "--token-file", empty], [scene, "--engine", "--threads", "-1"],
+                 [scene, "--threads", "2"], [tmp_path / "nowhere.json"],
+                 [scene, "--url", "https://127.0.0.1:9", "--ca", tmp_path / "nowhere.pem"]):
+        r = py("contact", *args)
+        assert r.returncode == 2, (args, r.stdout, r.stderr)
+        assert "Traceback" not in r.stderr
+
+
+def test_the_daemons_token_file_works_for_the_client(secured, tmp_path):
+    base, cert, _ = secured
+    tokens = tmp_path / "tokens"
+    tokens.write_text("# the client's copy of a daemon token file\n\n  cli-token-7  \nanother\n")
+    r = py("health", "--url", base, "--ca", cert, "--token-file", tokens)
+    assert r.returncode == 0, r.stderr
+    assert "build" in json.loads(r.stdout)

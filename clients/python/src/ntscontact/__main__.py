@@ -56,24 +56,51 @@ def _convert(args: argparse.Namespace) -> int:
     return 0
 
 
+class UsageError(Exception):
+    """A command line that cannot run as given (exit 2, as the C CLI's usage errors)."""
+
+
+def read_token_file(path: str) -> str:
+    """The token in a file of the daemon's --token-file form: its first line
+    that is neither empty nor a ``#`` comment. Raises :class:`UsageError` naming
+    the file when it cannot be read or holds none."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            lines = fh.read().splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--token-file {path}: cannot read it ({exc})") from exc
+    for line in lines:
+        token = line.strip()
+        if token and not token.startswith("#"):
+            return token
+    raise UsageError(f"--token-file {path}: no token in it (one a line; # starts a comment)")
+
+
 def _client(args: argparse.Namespace) -> "Client":
     """The Client of the command's --url, --timeout, --token/--token-file and --ca."""
     from .client import Client
 
-    token = args.token
-    if args.token_file:
-        with open(args.token_file, encoding="utf-8") as fh:
-            token = fh.read().strip()
+    if args.token is not None and args.token_file:
+        raise UsageError("give --token or --token-file, not both")
+    token = read_token_file(args.token_file) if args.token_file else args.token
     if token is None:
         token = os.environ.get("NTSCONTACT_TOKEN") or None
+    if args.ca and not os.path.isfile(args.ca):
+        raise UsageError(f"--ca {args.ca}: no such file")
     return Client(args.url, timeout=args.timeout, token=token, verify=args.ca if args.ca else True)
 
 
 def _contact(args: argparse.Namespace) -> int:
     from .scene import Scene
 
-    with open(args.scene, "rb") if args.scene != "-" else sys.stdin.buffer as fh:
-        scene = Scene.from_json(fh.read())
+    if args.threads and not args.engine:
+        raise UsageError("--threads is for --engine (a daemon has its own --threads)")
+    try:
+        with open(args.scene, "rb") if args.scene != "-" else sys.stdin.buffer as fh:
+            text = fh.read()
+    except OSError as exc:  # as in the C CLI: a file that cannot be opened is a usage error
+        raise UsageError(f"cannot open '{args.scene}': {exc.strerror or exc}") from exc
+    scene = Scene.from_json(text)
     if args.engine:  # in process, no daemon
         from .engine import Engine
 
@@ -105,6 +132,17 @@ def _engine(args: argparse.Namespace) -> int:
         print(f"engine: none: {exc.message}")
         return 1
     return 0
+
+
+def _threads(text: str) -> int:
+    """An evaluation's thread count for argparse: an integer in [0, 1024]."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if not 0 <= n <= 1024:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer in [0, 1024]")
+    return n
 
 
 def _remote(p: argparse.ArgumentParser, timeout: float) -> None:
@@ -153,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("scene", help="scene JSON file, or - for standard input")
     _remote(q, 30.0)
     q.add_argument("--engine", action="store_true", help="evaluate in process (ntscontact.Engine), no daemon")
-    q.add_argument("--threads", type=int, default=0, help="with --engine: evaluation threads (0: serial)")
+    q.add_argument("--threads", type=_threads, default=0, help="with --engine: evaluation threads (0: serial)")
     q.add_argument("--outputs", help="comma-separated outputs")
     q.add_argument("--pretty", action="store_true")
     q.set_defaults(func=_contact)
@@ -172,6 +210,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
+    except UsageError as exc:
+        print(f"ntscontact: {exc}", file=sys.stderr)
+        return 2
     except InvalidScene as exc:
         print(f"ntscontact: {exc}", file=sys.stderr)
         return 3

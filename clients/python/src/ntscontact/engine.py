@@ -29,12 +29,13 @@ needs none of this.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
 import threading
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 from . import __version__
 from .client import Client, SceneLike
@@ -49,6 +50,8 @@ __all__ = ["Engine", "EngineSession", "EngineUnavailable", "LIBRARY_NAME", "find
 LIBRARY_NAME = "libntscontact_engine.so"
 
 _STEP_EMPTY, _STEP_BINARY = 0, 2  # ntsj_step_body (codec.h)
+#: The most threads an evaluation takes (the core's options table: nts_options.threads).
+MAX_THREADS = 1024
 
 
 class EngineUnavailable(NtsError, ImportError):
@@ -183,11 +186,16 @@ class Engine:
     """
 
     def __init__(self, threads: int = 0, *, library: Optional[Union[str, os.PathLike]] = None) -> None:
-        if threads < 0:
-            raise ValueError(f"threads must be >= 0, not {threads}")
+        self._ptr: Optional[int] = None
+        if isinstance(threads, bool) or not isinstance(threads, int) or not 0 <= threads <= MAX_THREADS:
+            raise ValueError(f"threads must be an integer in [0, {MAX_THREADS}], not {threads!r}")
         self.library = Path(library) if library is not None else find_library()
         self._lib = _load(self.library)
         self.threads = int(threads)
+        # Calls in flight (the GIL is released inside them): close() waits
+        # for them, so that none reads a freed engine.
+        self._calls = 0
+        self._idle = threading.Condition()
         self._ptr = self._lib.ntsj_engine_create(self.threads)
         if not self._ptr:
             raise MemoryError("ntscontact: out of memory creating the engine")
@@ -196,11 +204,15 @@ class Engine:
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
-        """Free the engine: its calls then raise; its sessions go on (each holds
-        its own state and configuration) until they are closed."""
-        if self._ptr:
-            self._lib.ntsj_engine_destroy(self._ptr)
-            self._ptr = None
+        """Free the engine once the calls in flight have returned: its calls then
+        raise; its sessions go on (each holds its own state and configuration)
+        until they are closed."""
+        with self._idle:
+            while self._calls > 0:
+                self._idle.wait()
+            ptr, self._ptr = self._ptr, None
+        if ptr:
+            self._lib.ntsj_engine_destroy(ptr)
 
     def __del__(self) -> None:
         if getattr(self, "_ptr", None):
@@ -215,10 +227,20 @@ class Engine:
     def __repr__(self) -> str:
         return f"Engine(threads={self.threads}, library={str(self.library)!r})"
 
-    def _engine(self) -> int:
-        if not self._ptr:
-            raise NtsError("the engine is closed", code="closed")
-        return self._ptr
+    @contextlib.contextmanager
+    def _engine(self) -> Iterator[int]:
+        """The engine's handle for one call, which close() waits for."""
+        with self._idle:
+            if not self._ptr:
+                raise NtsError("the engine is closed", code="closed")
+            self._calls += 1
+            ptr = self._ptr
+        try:
+            yield ptr
+        finally:
+            with self._idle:
+                self._calls -= 1
+                self._idle.notify_all()
 
     # ------------------------------------------------------------ calls
 
@@ -228,7 +250,7 @@ class Engine:
         arguments, the same :class:`~ntscontact.Result` and errors."""
         doc = json.loads(self.contact_json(scene, outputs, history=history))
         if not isinstance(doc, dict) or not isinstance(doc.get("summary"), dict):
-            raise ServerError("the engine's answer has no summary", code="bad_response", status=answer.status)
+            raise ServerError("the engine's answer has no summary", code="bad_response", status=200)
         result = Result.from_dict(doc)
         if isinstance(scene, Scene):
             result._scene = (scene, scene.positions())
@@ -240,14 +262,16 @@ class Engine:
         (``elapsed_ms`` aside): for a program that stores or forwards it. Errors
         are raised as :meth:`contact` raises them."""
         body, ids = Client._encode(scene, normalize_outputs(outputs), history)
-        answer = _Answer(self._lib, self._lib.ntsj_engine_contact(self._engine(), body, len(body), 0))
+        with self._engine() as ptr:
+            answer = _Answer(self._lib, self._lib.ntsj_engine_contact(ptr, body, len(body), 0))
         answer.raise_for_error(ids)
         return answer.text()
 
     def validate(self, scene: SceneLike, *, timeout: Optional[Any] = None) -> Dict[str, Any]:
         """:meth:`Client.validate <ntscontact.Client.validate>` in process."""
         body, ids = Client._encode(scene, None)
-        answer = _Answer(self._lib, self._lib.ntsj_engine_contact(self._engine(), body, len(body), 1))
+        with self._engine() as ptr:
+            answer = _Answer(self._lib, self._lib.ntsj_engine_contact(ptr, body, len(body), 1))
         answer.raise_for_error(ids)
         doc: Dict[str, Any] = json.loads(answer.text())
         return doc
@@ -268,10 +292,13 @@ class EngineSession(Session):
         self.engine = engine
         self._lib = engine._lib
         self._handle: Optional[int] = None
+        self._config: Optional[int] = None
+        self._closed = False  # before anything that may raise: __del__ reads it
         self._step_lock = threading.Lock()
         # The session's own configuration (the engine's threads): it outlives
         # Engine.close(), as the session's state does.
-        self._config = self._lib.ntsj_engine_create(engine.threads) if engine._engine() else None
+        with engine._engine():
+            self._config = self._lib.ntsj_engine_create(engine.threads)
         if not self._config:
             raise MemoryError("ntscontact: out of memory creating a session")
         super().__init__(engine, scene, **kw)
@@ -289,14 +316,18 @@ class EngineSession(Session):
             raise ServerError(f"the engine counts {counts[1]} nodes, the scene has {self.nodes}", code="bad_response")
 
     def _counts(self) -> List[int]:
+        """bodies, nodes, surface nodes, steps, bytes: read between steps."""
         out = (ctypes.c_longlong * 5)()
-        self._lib.ntsj_engine_session_counts(self._handle, out)
+        with self._step_lock:
+            if self._closed or not self._handle:
+                raise NtsError("the session is closed", code="closed")
+            self._lib.ntsj_engine_session_counts(self._handle, out)
         return list(out)
 
     def close(self) -> None:
-        """Free the session's state in the library."""
+        """Free the session's state in the library (twice is fine)."""
         with self._step_lock:
-            if self._closed:
+            if self._closed and not self._config:
                 return
             self._closed = True
             if self._handle:
@@ -311,7 +342,9 @@ class EngineSession(Session):
             self.close()
 
     def info(self) -> Dict[str, Any]:
-        """What the session holds: bodies, nodes, surface nodes, steps, bytes."""
+        """What the session holds: bodies, nodes, surface nodes, steps, bytes
+        (the daemon's info without its timings: a session in process never
+        expires). A closed session raises."""
         bodies, nodes, surface, steps, memory = self._counts()
         return {"id": self.id, "bodies": bodies, "nodes": nodes, "surface_nodes": surface, "steps": steps,
                 "memory_bytes": memory}

@@ -226,14 +226,17 @@ class Session:
         # and the summary): the step's outputs, else the scene's.
         wanted = set(outs) if outs is not None else set(self._scene_outputs)
         binary = wanted <= _BINARY_OUTPUTS
+        # This step's own copy: the caller may move its array on, and another
+        # thread's step may replace the stored positions meanwhile.
+        stored = pos.astype(np.float64, copy=True) if pos is not None else self._positions
         doc, headers, content = self._post_step(pos, params, binary, timeout)
         if pos is not None:
-            self._positions = pos.astype(np.float64, copy=True)
+            self._positions = stored
         self.steps += 1
         result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted) if binary
                   else Result.from_dict(doc))
         # the stored positions are replaced, never written in place: shared, not copied
-        result._scene = (self._scene_factory, self._positions)
+        result._scene = (self._scene_factory, stored)
         return result.warn()
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
