@@ -135,6 +135,7 @@ module ntscontact
     integer(c_int) :: surface_count
     integer(c_int) :: has_friction
     real(c_double) :: friction
+    integer(c_int) :: self_contact
   end type nts_body_def
 
   type, bind(c) :: nts_scene_def
@@ -193,6 +194,7 @@ module ntscontact
     real(c_double) :: alpha = 0
     logical :: has_friction = .false.               ! .true.: `friction` instead of the options' coefficient
     real(c_double) :: friction = 0
+    logical :: self_contact = .false.               ! .true.: its nodes meet its own surface too (docs/model.md §16)
   end type ntsf_body
 
   ! A scene and its evaluation context: from ntsf_scene_create to
@@ -640,6 +642,7 @@ contains
     def%surface_count = 0
     def%has_friction = merge(1_c_int, 0_c_int, body%has_friction)
     def%friction = body%friction
+    def%self_contact = merge(1_c_int, 0_c_int, body%self_contact)
     status = NTS_OK
 
     n = 0

@@ -49,6 +49,10 @@ struct nts_context {
      * statistics' values, then the cells of the masters. */
     int* scratch;
     int scratch_cap;
+    /* Self-contact (docs/model.md §16): the entries of self-contact bodies
+     * unwrapped along their loops (open: the positions), for the coverage. */
+    nts_vec2* self_u;
+    int self_u_cap;
     int* hist;         /* per-slice cell counts of the counting sort */
     int hist_cap;
     worker* workers;

@@ -242,6 +242,30 @@ static void search_chunks(int begin, int end, int t, void* p) {
     }
 }
 
+/* Self-contact (docs/model.md §16): the entries of each self-contact body
+ * unwrapped along its loops, from its outer loop's first node (each hole's
+ * first node by the minimum image from there), so that the body's coverage
+ * is taken in one frame, and a master's image is told from the slave's own
+ * (search.c, self_admits). */
+static int self_unwrap(nts_context* ctx, const nts_scene* s) {
+    int b, l, e;
+    if (nts_grow((void**)&ctx->self_u, &ctx->self_u_cap, s->surface_count, sizeof(nts_vec2)) != NTS_OK)
+        return NTS_ENOMEM;
+    for (b = 0; b < s->body_count; ++b) {
+        const int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1];
+        nts_vec2 p0;
+        if (!s->body_self[b] || l0 == l1) continue;
+        p0 = ctx->seg[s->loop_start[l0]].p;
+        for (l = l0; l < l1; ++l) {
+            const int first = s->loop_start[l], last = s->loop_start[l + 1] - 1;
+            const nts_vec2 q = ctx->seg[first].p;
+            ctx->self_u[first] = nts_add(p0, nts_scene_diff(s, q, p0));
+            for (e = first; e < last; ++e) ctx->self_u[e + 1] = nts_add(ctx->self_u[e], ctx->seg[e].t);
+        }
+    }
+    return NTS_OK;
+}
+
 int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
     search_env env;
     seg_summary ss;
@@ -295,6 +319,11 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.alpha = opt->alpha;
     for (i = 0; i < s->body_count && !env.body_alphas; ++i) env.body_alphas = s->body_alpha[i] >= 0.0;
     env.surf_flag = s->surf_flag;
+    if (s->self_bodies > 0) { /* nothing of it runs otherwise */
+        if ((rc = self_unwrap(ctx, s)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+        env.self = s->body_self;
+        env.self_u = ctx->self_u;
+    }
     env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0; /* no surface's end: nothing to extend */
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;

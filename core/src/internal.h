@@ -40,6 +40,8 @@ struct nts_scene {
     unsigned char* body_mesh;  /* 1: loops from triangles, each piece oriented by its outer loop */
     double* body_alpha;        /* the body's own alpha, or -1: the options' */
     double* body_friction;     /* the body's own friction coefficient, or -1: the options' */
+    unsigned char* body_self;  /* 1: the body's nodes are tested against its own surface (§16) */
+    int self_bodies;           /* how many bodies have self-contact (0: nothing of it runs) */
     double* surf_trib;         /* surface entry -> tributary length in the reference configuration,
                                   over the contact surface's segments (0 off the surface) */
     /* The contact surfaces (nts_body_def.surface; docs/model.md §13): per

@@ -329,7 +329,7 @@ static int coarse(nts_context* ctx, search_env* env, worker* w, int i, double l)
             for (k = r->grid_start[cell]; k < r->grid_start[cell + 1] && rc == NTS_OK; ++k) {
                 const int b = r->grid_items[k];
                 double rb;
-                if (b == own || nts_outside_circle(env, r->shape, b, env->seg[i].p)) continue;
+                if ((b == own && !self_body(env, own)) || nts_outside_circle(env, r->shape, b, env->seg[i].p)) continue;
                 rb = nts_body_shape(env, r->shape, b)[3];
                 rb = (rb < rho ? rb : rho) * (1.0 + 1e-9) + env->wide_pad;
                 nts_search_wide(env, w, i, b, rb, NULL);

@@ -45,6 +45,7 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s->body_mesh);
     nts_free(s->body_alpha);
     nts_free(s->body_friction);
+    nts_free(s->body_self);
     nts_free(s->surf_trib);
     nts_free(s->loop_piece);
     nts_free(s->piece_area2);
@@ -229,6 +230,8 @@ static int count_body_nodes(scene_build* sb, int b, nts_error* err) {
         return fail_naming(err, NTS_EINVALID_OPTION, b, "alpha", "body %d: alpha must be in [0, 0.5]", b);
     if (bd->has_friction && !(bd->friction >= 0.0 && bd->friction <= 10.0))
         return fail_naming(err, NTS_EINVALID_OPTION, b, "friction", "body %d: friction must be in [0, 10]", b);
+    if (bd->self_contact != 0 && bd->self_contact != 1)
+        return fail_naming(err, NTS_EINVALID_OPTION, b, "self_contact", "body %d: self_contact must be 0 or 1", b);
     if (def->limits.max_nodes_per_body > 0 && bd->node_count > def->limits.max_nodes_per_body)
         return fail_naming(err, NTS_ELIMIT, b, "max_nodes_per_body",
                            "body %d has %d nodes, more than the limit of %d nodes per body", b, bd->node_count,
@@ -335,6 +338,7 @@ static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
     s->body_mesh = (unsigned char*)nts_alloc(bodies);
     s->body_alpha = (double*)nts_alloc(sizeof(double) * bodies);
     s->body_friction = (double*)nts_alloc(sizeof(double) * bodies);
+    s->body_self = (unsigned char*)nts_alloc(bodies);
     s->surf_trib = (double*)nts_alloc(sizeof(double) * surf);
     s->loop_piece = (int*)nts_alloc(sizeof(int) * loops);
     s->piece_area2 = (double*)nts_alloc(sizeof(double) * loops);
@@ -344,7 +348,7 @@ static int alloc_scene(scene_build* sb, nts_scene** out, nts_error* err) {
     sb->steps = (double*)nts_alloc(3 * sizeof(double) * scratch);
     if (!s->pos || !s->body_node_start || !s->body_loop_start || !s->loop_start || !s->surf_node ||
         !s->surf_local || !s->surf_prev || !s->surf_next || !s->surf_body || !s->loop_reversed || !s->body_outer ||
-        !s->body_role || !s->body_mesh || !s->body_alpha || !s->body_friction || !s->surf_trib || !s->loop_piece || !s->piece_area2 ||
+        !s->body_role || !s->body_mesh || !s->body_alpha || !s->body_friction || !s->body_self || !s->surf_trib || !s->loop_piece || !s->piece_area2 ||
         !sb->mark || !sb->area2 || !sb->loop_tmp || !sb->steps)
         return fail(err, NTS_ENOMEM, -1, -1, -1, -1, "out of memory");
     return NTS_OK;
@@ -432,6 +436,8 @@ static void orient_body(const scene_build* sb, nts_scene* s, int b) {
     s->body_role[b] = (unsigned char)bd->role;
     s->body_alpha[b] = bd->has_alpha ? bd->alpha : -1.0;
     s->body_friction[b] = bd->has_friction ? bd->friction : -1.0;
+    s->body_self[b] = (unsigned char)(bd->self_contact != 0);
+    s->self_bodies += bd->self_contact != 0;
     for (l = l0; l < l1; ++l) {
         s->loop_piece[l] = s->body_mesh[b] ? l0 + sb->bnd[b].loop_piece[l - l0] : -1;
         if (s->body_mesh[b]) piece_outer(s->piece_area2, s->loop_piece[l], l, sb->area2[l]);

@@ -64,6 +64,53 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     }
 }
 
+/* Self-contact (docs/model.md §16). The coverage of body b at m (in the
+ * frame of env->self_u): the sum of the winding numbers of its loops around
+ * m, by the crossings of a ray towards +x (Sunday's rule: an upward edge
+ * with m on its left counts +1, a downward one with m on its right -1). A
+ * valid body covers every point at most once; where it folds onto itself,
+ * twice. */
+static int self_coverage(const search_env* env, int b, nts_vec2 m) {
+    const nts_scene* s = env->s;
+    const nts_vec2* u = env->self_u;
+    const int e0 = s->loop_start[s->body_loop_start[b]], e1 = s->loop_start[s->body_loop_start[b + 1]];
+    int e, w = 0;
+    for (e = e0; e < e1; ++e) {
+        const nts_vec2 a = nts_sub(u[e], m), c = nts_sub(u[env->seg[e].next], m);
+        const double cross = a.x * c.y - a.y * c.x;
+        if (a.y <= 0.0) {
+            if (c.y > 0.0 && cross > 0.0) ++w;
+        } else if (c.y <= 0.0 && cross < 0.0) {
+            --w;
+        }
+    }
+    return w;
+}
+
+/* Whether candidate c of master j, on the slave's own body, counts
+ * (docs/model.md §16): `d` is Xs - X_j and `delta` Xs minus the closest
+ * point, both by the minimum image. In another periodic image the body is
+ * a master like any other. In the same one: (T) the feature does not
+ * contain the slave node (the flats of its two segments, the corners or
+ * vertices at it and its two neighbours); (N) its normal is opposed to the
+ * slave's pseudo-normal; (C) a penetration lies where the body covers
+ * itself: coverage >= 2 at the midpoint of the slave and its closest point. */
+static int self_admits(const search_env* env, const worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
+    const seg_data* seg = env->seg;
+    const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next;
+    nts_vec2 du, pseudo;
+    if (env->lx > 0.0 || env->ly > 0.0) {
+        /* The same image when the loops' own difference is the minimum image's
+         * (they differ by a whole box otherwise). */
+        du = nts_sub(nts_sub(env->self_u[i], env->self_u[j]), d);
+        if (fabs(du.x) > 0.25 * env->lx || fabs(du.y) > 0.25 * env->ly) return 1;
+    }
+    if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return 0; /* (T) */
+    pseudo = nts_add(seg_normal(seg[ip].t, seg[ip].len), seg_normal(seg[i].t, seg[i].len));
+    if (!(nts_dot(pseudo, c->normal) < 0.0)) return 0;                                                /* (N) */
+    return c->gap >= 0.0 || self_coverage(env, c->body, nts_mul_add(env->self_u[i], -0.5, delta)) >= 2; /* (C) */
+}
+
 /* Try the features that master j (a surface entry) offers to a slave at xs
  * within radius r (the search radius, or a widened search's): the flat part
  * of segment (j, j+1), and the corner (alpha > 0) or vertex (alpha = 0) at j.
@@ -106,7 +153,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_SEGMENT;
-            offer(env->s, w, &c);
+            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, nts_mul_add(d, -sj_param, m->t)))
+                offer(env->s, w, &c);
         }
     }
     if (!corner || sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
@@ -136,7 +184,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_CORNER;
-            offer(s, w, &c);
+            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, nts_sub(d, sol.point)))
+                offer(s, w, &c);
         } else {
             /* Vertex candidate (alpha = 0): s_{j-1} >= 1 and s_j <= 0; the sign
              * comes from the pseudo-normal n_{j-1} + n_j. */
@@ -160,7 +209,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_VERTEX;
-            offer(s, w, &c);
+            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, d)) offer(s, w, &c);
         }
     }
 }
@@ -427,11 +476,15 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     int last_cell = -1, i, q;
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = env->seg[i].body;
-        const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
+        const int bi = env->seg[i].body, self = self_body(env, bi);
+        /* the own body's keys are skipped, unless it meets itself (an empty range) */
+        const int own0 = self ? 0 : s->loop_start[s->body_loop_start[bi]];
+        const int own1 = self ? 0 : s->loop_start[s->body_loop_start[bi + 1]];
         nts_vec2 xs;
         nts_cell_place at;
         double sx, sy;
+        w->slave = i;
+        w->slave_body = bi;
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -485,7 +538,8 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 const long_master* lm = &env->long_m[env->long_items[e]];
                 const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && b != bi) try_master(env, w, xs, j, env->r, periodic, surfaces);
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && (b != bi || self))
+                    try_master(env, w, xs, j, env->r, periodic, surfaces);
             }
         }
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
@@ -512,6 +566,8 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
         const int bi = env->seg[i].body;
         const int* items = kc->chunk[i / KEPT_CHUNK];
         const nts_vec2 xs = env->seg[i].p;
+        w->slave = i;
+        w->slave_body = bi;
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -605,8 +661,9 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
     int last_cell = -1, i, q, at = 0;
     st.n = 0;
     for (i = begin; i < end; ++i) {
-        const int bi = env->seg[i].body;
-        const int own0 = s->loop_start[s->body_loop_start[bi]], own1 = s->loop_start[s->body_loop_start[bi + 1]];
+        const int bi = env->seg[i].body, self = self_body(env, bi);
+        const int own0 = self ? 0 : s->loop_start[s->body_loop_start[bi]];
+        const int own1 = self ? 0 : s->loop_start[s->body_loop_start[bi + 1]];
         const nts_vec2 xs = env->seg[i].p;
         const double inner_s = kc->inner * cl->scale, ring_s = kc->ring[i] * cl->scale;
         nts_cell_place p;
@@ -635,7 +692,7 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
                 const long_master* lm = &env->long_m[env->long_items[e]];
                 const int j = lm->entry;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
-                if (d.x * d.x + d.y * d.y <= lm->reach2 && env->seg[j].body != bi &&
+                if (d.x * d.x + d.y * d.y <= lm->reach2 && (env->seg[j].body != bi || self) &&
                     kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, j, kept_ring(env, kc, xs, kc->ring[i], j, periodic)) !=
                         NTS_OK)
                     return NTS_ENOMEM;
@@ -664,8 +721,10 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
     const nts_scene* s = env->s;
     int i, j;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = s->surf_body[i];
+        const int bi = s->surf_body[i], self = self_body(env, bi);
         const nts_vec2 xs = env->seg[i].p;
+        w->slave = i;
+        w->slave_body = bi;
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -679,7 +738,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             const int b = s->surf_body[j];
             nts_vec2 d;
             double R;
-            if (b == bi || s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, j)) continue;
+            if ((b == bi && !self) || s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, j)) continue;
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha), env->ext), env->r,
                               env->brute_pad);
@@ -757,7 +816,8 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
     const int b = m->body;
     double rb = rho, R, d2;
     nts_vec2 d;
-    if (b == own || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(env->s, j))
+    if ((b == own && !self_body(env, own)) || (body >= 0 && b != body) || env->s->body_role[b] == NTS_ROLE_SLAVE ||
+        !nts_on_surface(env->s, j))
         return;
     if (body < 0) {
         const double depth = nts_body_shape(env, shape, b)[3] * (1.0 + 1e-9) + env->wide_pad; /* with round-off */
@@ -803,6 +863,8 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
     const int own = env->seg[k].body;
     const nts_vec2 xs = env->seg[k].p;
     int e0 = 0, e1 = s->surface_count, j;
+    w->slave = k;
+    w->slave_body = own;
     if (kept_covers(env, k, rho)) {
         /* The slave's kept list holds every master that could offer a
          * feature within rho (eq. (30)): the same candidates as the cells. */
@@ -859,7 +921,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
         for (j = e0; j < e1; ++j) wide_try(env, w, xs, own, j, body, rho, shape, periodic);
         return;
     }
-    if (body == own || s->body_role[body] == NTS_ROLE_SLAVE) return;
+    if ((body == own && !self_body(env, own)) || s->body_role[body] == NTS_ROLE_SLAVE) return;
     {
         /* One body, all its entries: the bound of wide_try first. */
         const double alpha = alpha_of_body(s, body, env->alpha);

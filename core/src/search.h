@@ -86,6 +86,7 @@ typedef struct worker {
     candidate* last;   /* the closest points of the slave flushed last in this chunk */
     int last_count, last_cap, last_slave;
     int first_slave;   /* the first slave of the current loop, when it is in this chunk (else -1) */
+    int slave, slave_body; /* the slave being searched (self-contact's tests read them) */
     /* Finished chunks' records and items that the pools had no room for. */
     char* spill[STREAMS];
     size_t spill_used[STREAMS], spill_cap[STREAMS];
@@ -154,7 +155,15 @@ typedef struct search_env {
     double cell_side;        /* nts_summary.cell_size (evaluate.c: summary_cell_side) */
     const seg_summary* ss;
     const nts_run* run;
+    /* Self-contact (docs/model.md §16): per body, 1 when its nodes meet its
+     * own surface (NULL when no body's do: nothing of it runs), and its
+     * entries unwrapped along their loops (self_u, by surface entry). */
+    const unsigned char* self;
+    const nts_vec2* self_u;
 } search_env;
+
+/* Whether a slave of body b may take its own body's masters. */
+static inline int self_body(const search_env* env, int b) { return env->self != NULL && env->self[b]; }
 
 /* Whether slave k's kept list holds every master that could offer it a
  * feature within rho (eq. (30)). */

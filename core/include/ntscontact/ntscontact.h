@@ -76,6 +76,12 @@ typedef struct nts_body_def {
      * the smaller of their two coefficients. In [0, 10]. */
     int has_friction;
     double friction; /**< the coefficient, read when has_friction is 1 */
+    /** 1: this body's slave nodes are also tested against its own surface
+     * (docs/model.md §16): a feature counts when it does not contain the
+     * node, faces it (opposed normals), and, for a penetration, lies where
+     * the body covers itself (the winding numbers of its loops sum to at
+     * least 2 between the node and the feature). 0 (the default): never. */
+    int self_contact;
 } nts_body_def;
 
 /** Bounds on the size of a scene, checked by nts_scene_create (NTS_ELIMIT). */
