@@ -25,6 +25,7 @@ int main(void) {
     register_surfaces_suite();
     register_friction_suite();
     register_candidates_suite();
+    register_self_contact_suite();
     CU_basic_set_mode(CU_BRM_VERBOSE);
     CU_basic_run_tests();
     failed = CU_get_number_of_failures() + CU_get_number_of_tests_failed();

@@ -19,4 +19,5 @@ void register_pressure_suite(void);
 void register_surfaces_suite(void);
 void register_friction_suite(void);
 void register_candidates_suite(void);
+void register_self_contact_suite(void);
 #endif

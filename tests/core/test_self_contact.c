@@ -1,0 +1,489 @@
+/* Self-contact suite (issue 29, docs/model.md §16): no self-contact at rest on
+ * random valid polygons (stars, combs with narrow slots, spirals, thin spikes)
+ * whatever alpha, solver and radius; a horseshoe pressed shut meets itself
+ * exactly where its arms overlap, with forces that are the energy's gradient
+ * and a tangent that is the forces' derivative; an annulus whose hole closes;
+ * a ring that meets its own periodic image; the same bits for any thread
+ * count, brute force and a kept candidate list. */
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "suites.h"
+#include "test_util.h"
+
+enum { MAXN = 4096 };
+static const double PI = 3.14159265358979323846;
+
+typedef struct shape {
+    nts_vec2 p[MAXN];
+    int n;
+    int loop_nodes[MAXN];
+    int loop_start[3];
+    int loops; /* 0: one implicit loop */
+} shape;
+
+static void put(shape* s, double x, double y) {
+    assert(s->n < MAXN);
+    s->p[s->n++] = nts_v2(x, y);
+}
+
+/* A line from a to b in k pieces, b left out. */
+static void line(shape* s, nts_vec2 a, nts_vec2 b, int k) {
+    int q;
+    for (q = 0; q < k; ++q) put(s, a.x + (b.x - a.x) * q / k, a.y + (b.y - a.y) * q / k);
+}
+
+/* Random star-shaped polygon: sorted angles, radii in [0.3, 1]. */
+static void star(shape* s, test_rng* r, int n) {
+    double t[MAXN];
+    int i, j;
+    s->n = 0;
+    for (i = 0; i < n; ++i) t[i] = 2.0 * PI * (i + 0.9 * rng_uniform(r)) / n;
+    for (i = 1; i < n; ++i) /* increasing already, by construction; keep it explicit */
+        for (j = i; j > 0 && t[j] < t[j - 1]; --j) {
+            double k = t[j];
+            t[j] = t[j - 1];
+            t[j - 1] = k;
+        }
+    for (i = 0; i < n; ++i) {
+        double rad = 0.3 + 0.7 * rng_uniform(r);
+        put(s, rad * cos(t[i]), rad * sin(t[i]));
+    }
+}
+
+/* A comb: `teeth` teeth of width 1 and height 5 on a base, slots of width
+ * `slot` between them, each wall in `k` pieces. Counter-clockwise. */
+static void comb(shape* s, int teeth, double slot, int k) {
+    const double h = 5.0, base = -1.0, pitch = 1.0 + slot;
+    int t;
+    s->n = 0;
+    line(s, nts_v2(0.0, base), nts_v2(teeth * pitch - slot, base), k);
+    for (t = teeth - 1; t >= 0; --t) {
+        const double xa = t * pitch, xb = xa + 1.0;
+        line(s, nts_v2(xb, t == teeth - 1 ? base : 0.0), nts_v2(xb, h), k);
+        line(s, nts_v2(xb, h), nts_v2(xa, h), 2);
+        line(s, nts_v2(xa, h), nts_v2(xa, t > 0 ? 0.0 : base), k);
+        if (t > 0) line(s, nts_v2(xa, 0.0), nts_v2(xa - slot, 0.0), 1);
+    }
+}
+
+/* A strip wound into a spiral of `turns` turns, `width` wide, gaps of 2
+ * widths between its turns. Counter-clockwise. */
+static void spiral(shape* s, double turns, double width, int per_turn) {
+    const int m = (int)(per_turn * turns);
+    int i;
+    s->n = 0;
+    for (i = 0; i < m; ++i) {
+        const double th = 2.0 * PI * turns * i / (m - 1), r0 = 1.0 + 3.0 * width * th / (2.0 * PI);
+        put(s, (r0 + width) * cos(th), (r0 + width) * sin(th));
+    }
+    for (i = m - 1; i >= 0; --i) {
+        const double th = 2.0 * PI * turns * i / (m - 1), r0 = 1.0 + 3.0 * width * th / (2.0 * PI);
+        put(s, r0 * cos(th), r0 * sin(th));
+    }
+}
+
+/* `count` spikes of `deg` degrees (under 18.9, or neighbours would overlap)
+ * and height 3 on a base of unit pitch, each wall in `k` pieces: a zig-zag of
+ * needles with reflex corners between them. */
+static void spikes(shape* s, int count, double deg, int k) {
+    const double h = 3.0, half = h * tan(deg * PI / 360.0);
+    int q;
+    s->n = 0;
+    put(s, 0.0, -1.0);
+    put(s, count, -1.0);
+    for (q = count - 1; q >= 0; --q) {
+        const double xc = q + 0.5;
+        put(s, q + 1.0, 0.0);
+        line(s, nts_v2(xc + half, 0.0), nts_v2(xc, h), k);
+        line(s, nts_v2(xc, h), nts_v2(xc - half, 0.0), k);
+    }
+}
+
+static nts_scene* one_body(const shape* sh, int self, double lx, double ly) {
+    nts_body_def d;
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    nts_scene* s;
+    memset(&d, 0, sizeof d);
+    d.nodes = sh->p;
+    d.node_count = sh->n;
+    if (sh->loops > 0) {
+        d.loop_nodes = sh->loop_nodes;
+        d.loop_start = sh->loop_start;
+        d.loop_count = sh->loops;
+    }
+    d.self_contact = self;
+    def.bodies = &d;
+    def.body_count = 1;
+    def.lx = lx;
+    def.ly = ly;
+    s = nts_scene_create(&def, &err);
+    if (s == NULL) fprintf(stderr, "\n  scene: %s: %s\n", nts_status_name(err.code), err.message);
+    return s;
+}
+
+static double extent(const shape* sh) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    int i;
+    for (i = 0; i < sh->n; ++i) {
+        x0 = fmin(x0, sh->p[i].x);
+        x1 = fmax(x1, sh->p[i].x);
+        y0 = fmin(y0, sh->p[i].y);
+        y1 = fmax(y1, sh->p[i].y);
+    }
+    return fmax(x1 - x0, y1 - y0);
+}
+
+/* Active contacts and their forces' largest component. */
+static int active(const nts_scene* s, const nts_options* o, nts_result* r, nts_context* ctx) {
+    nts_error err;
+    int rc = nts_evaluate(ctx, s, o, r, &err);
+    if (rc != NTS_OK) fprintf(stderr, "\n  evaluate: %s: %s\n", nts_status_name(err.code), err.message);
+    CU_ASSERT_FATAL(rc == NTS_OK);
+    return r->summary.contacts;
+}
+
+static void test_none_at_rest(void) {
+    static shape sh;
+    test_rng rng = {29};
+    nts_context* ctx = nts_context_create();
+    int k, shapes = 0, evaluations = 0, found = 0, a, r, sv;
+    const double alphas[3] = {0.0, 0.2, 0.5};
+    for (k = 0; k < 1000; ++k) {
+        nts_scene* s;
+        const int kind = k % 4;
+        if (kind == 0) star(&sh, &rng, 8 + (int)(rng_uniform(&rng) * 400));
+        else if (kind == 1) comb(&sh, 2 + k % 4, 0.01 + 0.2 * rng_uniform(&rng), 1 + (int)(rng_uniform(&rng) * 60));
+        else if (kind == 2) spiral(&sh, 1.2 + 1.3 * rng_uniform(&rng), 0.05 + 0.25 * rng_uniform(&rng), 20 + k % 200);
+        else spikes(&sh, 1 + k % 4, k % 3 == 0 ? 1.0 : (k % 3 == 1 ? 5.0 : 15.0), 1 + (int)(rng_uniform(&rng) * 30));
+        sh.loops = 0;
+        s = one_body(&sh, 1, 0.0, 0.0);
+        CU_ASSERT_FATAL(s != NULL);
+        ++shapes;
+        for (a = 0; a < 3; ++a)
+            for (r = 0; r < 2; ++r)
+                for (sv = 0; sv < 2; ++sv) {
+                    nts_options o = nts_default_options();
+                    nts_result res;
+                    int c;
+                    if ((k + a + r + sv) % 3 != 0 && k >= 40) continue; /* every case on the first 40, a third after */
+                    o.alpha = alphas[a];
+                    o.search_radius = r == 0 ? -1.0 : extent(&sh) / 10.0;
+                    o.solver = sv ? NTS_SOLVER_NEWTON : NTS_SOLVER_CLOSED_FORM;
+                    o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+                    c = active(s, &o, &res, ctx);
+                    ++evaluations;
+                    if (c != 0) {
+                        if (found < 5)
+                            fprintf(stderr, "\n  at rest: shape %d (kind %d, %d nodes) alpha %g radius %g: %d contacts",
+                                    k, kind, sh.n, o.alpha, o.search_radius, c);
+                        ++found;
+                    }
+                }
+        nts_scene_destroy(s);
+    }
+    CU_ASSERT(shapes == 1000 && evaluations > 4000);
+    ASSERT_INT_EQ(found, 0);
+    nts_context_destroy(ctx);
+}
+
+/* A horseshoe (a U of width 2R, arms of length L and thickness w) whose arms
+ * are bent in above y = 0.2 until their inner walls are `gap` apart
+ * (negative: overlapping by -gap). */
+static void horseshoe(shape* s, double gap) {
+    const double R = 1.0, w = 0.3, L = 2.0;
+    const int arc = 40, arm = 20;
+    int i;
+    s->n = 0;
+    s->loops = 0;
+    for (i = 0; i < arc; ++i) put(s, R * cos(PI + PI * i / (arc - 1)), R * sin(PI + PI * i / (arc - 1)));
+    for (i = 1; i < arm; ++i) put(s, R, L * i / (arm - 1));
+    for (i = 0; i < arm; ++i) put(s, R - w, L * (arm - 1 - i) / (arm - 1));
+    for (i = arc - 2; i >= 1; --i)
+        put(s, (R - w) * cos(PI + PI * i / (arc - 1)), (R - w) * sin(PI + PI * i / (arc - 1)));
+    for (i = 0; i < arm; ++i) put(s, -(R - w), L * i / (arm - 1));
+    for (i = arm - 2; i >= 1; --i) put(s, -R, L * i / (arm - 1));
+    for (i = 0; i < s->n; ++i) {
+        const double y = s->p[i].y, f = y <= 0.2 ? 0.0 : (y >= 0.7 ? 1.0 : (y - 0.2) / 0.5);
+        const double shift = f * ((R - w) - gap / 2.0);
+        s->p[i].x -= (s->p[i].x > 0.0 ? 1.0 : -1.0) * shift;
+    }
+}
+
+static void test_horseshoe_meets_itself_where_its_arms_overlap(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    const double gaps[4] = {0.05, 0.0, -0.02, -0.05};
+    int g;
+    for (g = 0; g < 4; ++g) {
+        nts_scene *s, *off;
+        nts_options o = nts_default_options();
+        nts_result r;
+        int c, k, expect = 0, i;
+        horseshoe(&sh, gaps[g]);
+        s = one_body(&sh, 1, 0.0, 0.0);
+        off = one_body(&sh, 0, 0.0, 0.0);
+        CU_ASSERT_FATAL(s != NULL && off != NULL);
+        o.alpha = 0.2;
+        o.search_radius = 0.3;
+        o.penalty = 100.0;
+        o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+        /* The nodes of the inner walls where the arms overlap (y >= 0.7),
+         * but the tips: a tip lies on the line of the other arm's end, at
+         * distance 0 from its surface. */
+        for (i = 0; i < sh.n; ++i)
+            expect += gaps[g] < 0.0 && fabs(fabs(sh.p[i].x) - fabs(gaps[g]) / 2.0) < 1e-12 && sh.p[i].y >= 0.7 - 1e-12 &&
+                      sh.p[i].y < 2.0 - 1e-12;
+        c = active(s, &o, &r, ctx);
+        ASSERT_INT_EQ(c, expect);
+        for (k = 0; k < r.contact_count; ++k) {
+            const nts_contact* ct = &r.contacts[k];
+            const nts_vec2 x = sh.p[ct->slave_node];
+            CU_ASSERT(ct->slave_body == 0 && ct->master_body == 0);
+            /* the overlap itself where both walls are straight (the first
+             * node above the bend meets the other wall's bend: less) */
+            if (x.y >= 0.8) CU_ASSERT_DOUBLE_EQUAL(ct->gap, gaps[g], 1e-12);
+            CU_ASSERT(ct->gap < 0.0 && ct->gap >= gaps[g] - 1e-12);
+            /* pushed back towards its own arm's side: a node of the right
+             * arm (now left of x = 0) goes right */
+            CU_ASSERT((x.x < 0.0) == (r.forces[ct->slave_node].x > 0.0));
+        }
+        ASSERT_INT_EQ(active(off, &o, &r, ctx), 0); /* self-contact off: the overlap goes unseen */
+        nts_scene_destroy(s);
+        nts_scene_destroy(off);
+    }
+    nts_context_destroy(ctx);
+}
+
+/* Forces against -dE/dx and the tangent against -df/dx, by central
+ * differences, on the pressed horseshoe. */
+static void test_horseshoe_forces_and_tangent_by_differences(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_scene* s;
+    nts_result r;
+    nts_error err;
+    nts_csr csr;
+    const double h = 1e-6;
+    int n, dofs, j, i, checked = 0;
+    double *f0, *K, emax = 0.0, fmaxv = 0.0, kmax = 0.0, kerr = 0.0;
+    nts_vec2* x;
+    horseshoe(&sh, -0.03);
+    s = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    n = nts_scene_node_count(s);
+    dofs = 2 * n;
+    o.alpha = 0.2;
+    o.search_radius = 0.3;
+    o.penalty = 100.0;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_STIFFNESS;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+    CU_ASSERT_FATAL(r.summary.contacts > 0);
+    f0 = malloc(sizeof(double) * (size_t)dofs);
+    K = calloc((size_t)dofs * (size_t)dofs, sizeof(double));
+    x = malloc(sizeof(nts_vec2) * (size_t)n);
+    for (i = 0; i < n; ++i) {
+        f0[2 * i] = r.forces[i].x;
+        f0[2 * i + 1] = r.forces[i].y;
+        x[i] = sh.p[i];
+    }
+    CU_ASSERT_FATAL(nts_triplets_to_csr(&r.stiffness, &csr, &err) == 0);
+    for (i = 0; i < dofs; ++i)
+        for (j = csr.row_start[i]; j < csr.row_start[i + 1]; ++j) K[(size_t)i * dofs + csr.cols[j]] = csr.values[j];
+    nts_csr_free(&csr);
+    for (i = 0; i < dofs * dofs; ++i) kmax = fmax(kmax, fabs(K[i]));
+    for (i = 0; i < dofs; ++i) fmaxv = fmax(fmaxv, fabs(f0[i]));
+    for (j = 0; j < dofs; ++j) {
+        double ep, em, fp[2 * MAXN], fm[2 * MAXN];
+        const double keep = j % 2 ? x[j / 2].y : x[j / 2].x;
+        int side;
+        if (fabs(f0[j]) == 0.0 && j % 7 != 0) continue; /* the nodes in contact, and a sample of the rest */
+        for (side = 0; side < 2; ++side) {
+            nts_result rr;
+            nts_options oo = o;
+            if (j % 2) x[j / 2].y = keep + (side ? -h : h);
+            else x[j / 2].x = keep + (side ? -h : h);
+            CU_ASSERT_FATAL(nts_scene_set_positions(s, 0, x, &err) == 0);
+            oo.outputs = NTS_OUT_FORCES;
+            CU_ASSERT_FATAL(nts_evaluate(ctx, s, &oo, &rr, &err) == 0);
+            if (side) em = rr.summary.energy;
+            else ep = rr.summary.energy;
+            for (i = 0; i < n; ++i) {
+                (side ? fm : fp)[2 * i] = rr.forces[i].x;
+                (side ? fm : fp)[2 * i + 1] = rr.forces[i].y;
+            }
+        }
+        if (j % 2) x[j / 2].y = keep;
+        else x[j / 2].x = keep;
+        emax = fmax(emax, fabs(-(ep - em) / (2.0 * h) - f0[j]));
+        for (i = 0; i < dofs; ++i) kerr = fmax(kerr, fabs(-(fp[i] - fm[i]) / (2.0 * h) - K[(size_t)i * dofs + j]));
+        ++checked;
+    }
+    CU_ASSERT_FATAL(nts_scene_set_positions(s, 0, x, &err) == 0);
+    CU_ASSERT(checked > 20);
+    if (!(emax <= 1e-6 * fmaxv && kerr <= 1e-6 * kmax))
+        fprintf(stderr, "\n  horseshoe: |f + dE/dx| %.3g of %.3g, |K + df/dx| %.3g of %.3g", emax, fmaxv, kerr, kmax);
+    CU_ASSERT(emax <= 1e-6 * fmaxv);
+    CU_ASSERT(kerr <= 1e-6 * kmax);
+    free(f0);
+    free(K);
+    free(x);
+    nts_scene_destroy(s);
+    nts_context_destroy(ctx);
+}
+
+/* An annulus (outer circle radius 1, hole radius `hole`), squeezed along y by
+ * `sq` (y scaled by sq): below hole / 1 the hole closes, its walls overlap. */
+static void annulus(shape* s, double hole, double sq, int n) {
+    int i;
+    s->n = 0;
+    for (i = 0; i < n; ++i) put(s, cos(2.0 * PI * i / n), sq * sin(2.0 * PI * i / n));
+    for (i = 0; i < n; ++i) put(s, hole * cos(-2.0 * PI * i / n), sq * hole * sin(-2.0 * PI * i / n) - 0.0);
+    for (i = 0; i < 2 * n; ++i) s->loop_nodes[i] = i;
+    s->loop_start[0] = 0;
+    s->loop_start[1] = n;
+    s->loop_start[2] = 2 * n;
+    s->loops = 2;
+}
+
+static void test_annulus_whose_hole_closes(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_scene* s;
+    int k, n = 64;
+    o.alpha = 0.2;
+    o.search_radius = 0.2;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+    annulus(&sh, 0.5, 1.0, n); /* at rest */
+    s = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    ASSERT_INT_EQ(active(s, &o, &r, ctx), 0);
+    nts_scene_destroy(s);
+    /* The hole pinched through itself in the middle: y scaled by
+     * 1 - 1.1 (1 - (x / 0.5)^2), -0.1 at x = 0, so that its top and bottom
+     * walls cross and overlap there while its ends stay open. */
+    annulus(&sh, 0.5, 1.0, n);
+    for (k = n; k < 2 * n; ++k) sh.p[k].y *= 1.0 - 1.1 * (1.0 - (sh.p[k].x / 0.5) * (sh.p[k].x / 0.5));
+    s = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    CU_ASSERT(active(s, &o, &r, ctx) > 0);
+    for (k = 0; k < r.contact_count; ++k) {
+        const nts_contact* c = &r.contacts[k];
+        CU_ASSERT(c->slave_node >= n && c->master_body == 0); /* inner-loop nodes */
+        CU_ASSERT(c->gap < 0.0);
+    }
+    nts_scene_destroy(s);
+    nts_context_destroy(ctx);
+}
+
+/* A ring in a periodic box: none while the box is wider than the ring, its
+ * own image once the box is narrower. */
+static void test_ring_meets_its_own_image(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    const double boxes[2] = {2.1, 1.96};
+    int b, k, n = 96;
+    o.alpha = 0.2;
+    o.search_radius = 0.05;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+    for (b = 0; b < 2; ++b) {
+        nts_scene* s;
+        annulus(&sh, 0.8, 1.0, n);
+        s = one_body(&sh, 1, boxes[b], 6.0);
+        CU_ASSERT_FATAL(s != NULL);
+        if (b == 0) {
+            ASSERT_INT_EQ(active(s, &o, &r, ctx), 0);
+        } else {
+            CU_ASSERT(active(s, &o, &r, ctx) > 0);
+            for (k = 0; k < r.contact_count; ++k) {
+                const nts_vec2 x = sh.p[r.contacts[k].slave_node];
+                CU_ASSERT(r.contacts[k].master_body == 0 && r.contacts[k].slave_node < n && fabs(x.x) > 0.9);
+            }
+        }
+        nts_scene_destroy(s);
+    }
+    nts_context_destroy(ctx);
+}
+
+/* Threads, brute force and a kept candidate list: the same bits. */
+static void test_same_bits_every_way(void) {
+    static shape sh;
+    nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+    nts_candidates* kc = nts_candidates_create(-1.0);
+    nts_options o = nts_default_options();
+    nts_result r0, r1;
+    nts_error err;
+    nts_scene* s;
+    int th, step;
+    horseshoe(&sh, -0.04);
+    s = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL && kc != NULL);
+    o.alpha = 0.2;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
+    CU_ASSERT(r0.summary.contacts > 0);
+    for (th = 1; th <= 3; ++th) {
+        o.threads = th;
+        CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+        CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
+    }
+    o.threads = 0;
+    o.search = NTS_SEARCH_BRUTE_FORCE;
+    CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+    CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_BUT_CELLS));
+    o.search = NTS_SEARCH_CELLS;
+    /* a walk with a kept list against searches from scratch */
+    for (step = 0; step < 6; ++step) {
+        test_rng rng = {100 + (unsigned long long)step};
+        nts_vec2 x[MAXN];
+        int i;
+        for (i = 0; i < sh.n; ++i) x[i] = nts_v2(sh.p[i].x + 0.002 * (rng_uniform(&rng) - 0.5), sh.p[i].y + 0.002 * (rng_uniform(&rng) - 0.5));
+        CU_ASSERT_FATAL(nts_scene_set_positions(s, 0, x, &err) == 0);
+        o.candidates = NULL;
+        CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
+        o.candidates = kc;
+        CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
+        CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
+        CU_ASSERT(r0.summary.contacts > 0);
+    }
+    nts_candidates_destroy(kc);
+    nts_scene_destroy(s);
+    nts_context_destroy(c0);
+    nts_context_destroy(c1);
+}
+
+static void test_self_contact_is_zero_or_one(void) {
+    static shape sh;
+    nts_body_def d;
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    star(&sh, &(test_rng){7}, 12);
+    memset(&d, 0, sizeof d);
+    d.nodes = sh.p;
+    d.node_count = sh.n;
+    d.self_contact = 2;
+    def.bodies = &d;
+    def.body_count = 1;
+    CU_ASSERT(nts_scene_create(&def, &err) == NULL);
+    ASSERT_INT_EQ(err.code, NTS_EINVALID_OPTION);
+    CU_ASSERT(strcmp(err.option, "self_contact") == 0);
+}
+
+void register_self_contact_suite(void) {
+    CU_pSuite s = CU_add_suite("self_contact", NULL, NULL);
+    ADD_TEST(s, test_none_at_rest);
+    ADD_TEST(s, test_horseshoe_meets_itself_where_its_arms_overlap);
+    ADD_TEST(s, test_horseshoe_forces_and_tangent_by_differences);
+    ADD_TEST(s, test_annulus_whose_hole_closes);
+    ADD_TEST(s, test_ring_meets_its_own_image);
+    ADD_TEST(s, test_same_bits_every_way);
+    ADD_TEST(s, test_self_contact_is_zero_or_one);
+}
