@@ -231,9 +231,9 @@ static int decode_id(decoder* d, const cJSON* v, const char* ptr, ntsj_id* id) {
 }
 
 static const char* const body_fields[] = {"id", "nodes", "loops", "triangles", "alpha", "role", "mesh_points",
-                                          "reference", "surface", "friction"};
+                                          "reference", "surface", "friction", "self_contact"};
 enum { BODY_ID, BODY_NODES, BODY_LOOPS, BODY_TRIANGLES, BODY_ALPHA, BODY_ROLE, BODY_MESH_POINTS, BODY_REFERENCE,
-       BODY_SURFACE, BODY_FRICTION, BODY_COUNT };
+       BODY_SURFACE, BODY_FRICTION, BODY_SELF_CONTACT, BODY_COUNT };
 
 /* "mesh_points": the mesh point of each node (a converted mesh's map, kept for
  * the caller: the core does not use it). Checked: one non-negative integer per node. */
@@ -513,6 +513,13 @@ static int decode_body(decoder* d, int b, const cJSON* v, long long* total) {
         snprintf(p, sizeof p, "%s/friction", ptr);
         if (get_number(d, f[BODY_FRICTION], p, &bd->friction) != 0) return -1;
         bd->has_friction = 1;
+    }
+    if (f[BODY_SELF_CONTACT]) {
+        /* Its nodes meet its own surface too (docs/model.md §16). */
+        char p[80];
+        snprintf(p, sizeof p, "%s/self_contact", ptr);
+        if (!cJSON_IsBool(f[BODY_SELF_CONTACT])) return fail_type(d, p, f[BODY_SELF_CONTACT], "true or false");
+        d->scene->defs[b].self_contact = cJSON_IsTrue(f[BODY_SELF_CONTACT]) ? 1 : 0;
     }
     if (f[BODY_ROLE]) {
         char p[80];

@@ -229,6 +229,7 @@ class Body:
     reference: Optional[FloatArray] = None
     surface: Optional[IntArray] = None
     friction: Optional[float] = None
+    self_contact: bool = False
 
     @property
     def node_count(self) -> int:
@@ -255,6 +256,8 @@ class Body:
             out["surface"] = self.surface.tolist()
         if self.friction is not None:
             out["friction"] = float(self.friction)
+        if self.self_contact:
+            out["self_contact"] = True
         return out
 
 
@@ -369,6 +372,7 @@ class Scene:
         reference: Optional[ArrayLike] = None,
         surface: Optional[ArrayLike] = None,
         friction: Optional[float] = None,
+        self_contact: bool = False,
     ) -> BodyId:
         """Add a body and return its id (the next free integer when ``id`` is None).
 
@@ -389,6 +393,9 @@ class Scene:
         here; for a triangle mesh the service checks it. ``friction`` is this
         body's own Coulomb coefficient (docs/model.md §14; a pair rubs with the
         smaller of its two bodies', each the body's own or the scene's).
+        ``self_contact``: the body's nodes also meet its own surface
+        (docs/model.md §16: folds, a ring that collapses, a hole that closes;
+        never at rest).
         Checks shapes, finiteness and index ranges; raises :class:`InvalidScene`
         naming the body and the node at fault.
         """
@@ -484,9 +491,13 @@ class Scene:
                                          and 0.0 <= float(friction) <= 10.0):
             raise InvalidScene(f"body friction {friction!r} is not a number in [0, 10]", code="invalid_option",
                                pointer=f"/bodies/{index}/friction", where=f"body index {index}")
+        if not isinstance(self_contact, (bool, np.bool_)):
+            raise InvalidScene(f"self_contact {self_contact!r} is not true or false", code="invalid_type",
+                               pointer=f"/bodies/{index}/self_contact", where=f"body index {index}")
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
                                  alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp,
-                                 reference=ref, surface=surf, friction=None if friction is None else float(friction)))
+                                 reference=ref, surface=surf, friction=None if friction is None else float(friction),
+                                 self_contact=bool(self_contact)))
         self._index[key] = index
         return id
 
@@ -613,7 +624,8 @@ class Scene:
                 raise InvalidScene("a body is an object with nodes", code="invalid_type", pointer=f"/bodies/{i}")
             scene.add_body(b["nodes"], loops=b.get("loops"), triangles=b.get("triangles"), id=b.get("id", i),
                            alpha=b.get("alpha"), role=b.get("role"), mesh_points=b.get("mesh_points"),
-                           reference=b.get("reference"), surface=b.get("surface"), friction=b.get("friction"))
+                           reference=b.get("reference"), surface=b.get("surface"), friction=b.get("friction"),
+                           self_contact=b.get("self_contact", False))
         return scene
 
     @classmethod
