@@ -64,6 +64,28 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
     }
 }
 
+/* The slave the worker searches now, and for a body that meets itself its
+ * pseudo-normal (docs/model.md §16, (N)). */
+static inline void set_slave(const search_env* env, worker* w, int i, int body) {
+    w->slave = i;
+    w->slave_body = body;
+    if (env->self != NULL && env->self[body]) {
+        const seg_data* seg = env->seg;
+        const int ip = seg[i].prev;
+        w->slave_pn = nts_add(seg_normal(seg[ip].t, seg[ip].len), seg_normal(seg[i].t, seg[i].len));
+    }
+}
+
+/* Whether master j of the slave's own body, Xs - X_j = d by the minimum
+ * image, lies in the slave's periodic image: the loops' own difference is
+ * the minimum image's (they differ by a whole box otherwise). */
+static inline int self_same_image(const search_env* env, const worker* w, int j, nts_vec2 d) {
+    nts_vec2 du;
+    if (env->lx <= 0.0 && env->ly <= 0.0) return 1;
+    du = nts_sub(nts_sub(env->self_u[w->slave], env->self_u[j]), d);
+    return fabs(du.x) <= 0.25 * env->lx && fabs(du.y) <= 0.25 * env->ly;
+}
+
 /* Self-contact (docs/model.md §16). The coverage of body b at m (in the
  * frame of env->self_u): the sum of the winding numbers of its loops around
  * m, by the crossings of a ray towards +x (Sunday's rule: an upward edge
@@ -98,17 +120,29 @@ static int self_coverage(const search_env* env, int b, nts_vec2 m) {
 static int self_admits(const search_env* env, const worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
     const seg_data* seg = env->seg;
     const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next;
-    nts_vec2 du, pseudo;
-    if (env->lx > 0.0 || env->ly > 0.0) {
-        /* The same image when the loops' own difference is the minimum image's
-         * (they differ by a whole box otherwise). */
-        du = nts_sub(nts_sub(env->self_u[i], env->self_u[j]), d);
-        if (fabs(du.x) > 0.25 * env->lx || fabs(du.y) > 0.25 * env->ly) return 1;
-    }
+    if (!self_same_image(env, w, j, d)) return 1;
     if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return 0; /* (T) */
-    pseudo = nts_add(seg_normal(seg[ip].t, seg[ip].len), seg_normal(seg[i].t, seg[i].len));
-    if (!(nts_dot(pseudo, c->normal) < 0.0)) return 0;                                                /* (N) */
+    if (!(nts_dot(w->slave_pn, c->normal) < 0.0)) return 0;                                           /* (N) */
     return c->gap >= 0.0 || self_coverage(env, c->body, nts_mul_add(env->self_u[i], -0.5, delta)) >= 2; /* (C) */
+}
+
+/* Before the exact tests of master j of the slave's own body (same image):
+ * which of its features could count (self_admits decides). Its flat's normal
+ * is n_j and its corner's lies between n_{j-1} and n_j (the tangent runs
+ * from a positive multiple of t_{j-1} to one of t_j, (5)), so (N) fails for
+ * the flat when n_i . n_j >= 0 and for the corner when both dots are; (T)
+ * rules out both features of j = i - 1 and j = i and the corner of i + 1.
+ * Bit 1: the flat may count, bit 2: the corner (or vertex). */
+static inline int self_may(const search_env* env, const worker* w, int j) {
+    const seg_data* seg = env->seg;
+    const int i = w->slave;
+    const nts_vec2 pn = w->slave_pn, tj = seg[j].t, tp = seg[seg[j].prev].t;
+    int flat, corner;
+    if (j == seg[i].prev || j == i) return 0;
+    /* n . (t_y, -t_x) / |t|: its sign without the division */
+    flat = pn.x * tj.y - pn.y * tj.x < 0.0;
+    corner = j != seg[i].next && (flat || pn.x * tp.y - pn.y * tp.x < 0.0);
+    return flat | corner << 1;
 }
 
 /* Try the features that master j (a surface entry) offers to a slave at xs
@@ -117,7 +151,7 @@ static int self_admits(const search_env* env, const worker* w, const candidate* 
  * Each test is exact on its own: which masters get here decides nothing but
  * the time. */
 static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w, nts_vec2 xs, int j, const double r,
-                                                const int periodic, const int surfaces) {
+                                                const int periodic, const int surfaces, const int selfc) {
     const seg_data* m = &env->seg[j];
     const int body = m->body;
     const double alpha = env->body_alphas ? alpha_of_body(env->s, body, env->alpha) : env->alpha; /* the master's */
@@ -127,6 +161,11 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     int corner = 1;
     candidate c;
 
+    int may = 3; /* the features that may count: the flat (1), the corner or vertex (2) */
+    if (selfc && body == w->slave_body && self_same_image(env, w, j, d) && (may = self_may(env, w, j)) == 0)
+        return; /* self-contact (docs/model.md §16): nothing of master j could count */
+    /* (the slave's own entry and the one before it never get here from the
+     * cells' screen; from the other searches they stop in self_may) */
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */
     if (surfaces) {
         /* A contact surface (docs/model.md §13): no corner across its ends,
@@ -143,7 +182,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     }
 
     /* Flat candidate of segment j (alpha <= s <= 1 - alpha; at a surface's end (22)). */
-    if (sj_param >= lo && sj_param <= hi) {
+    if ((may & 1) && sj_param >= lo && sj_param <= hi) {
         double g = nts_dot(d, seg_normal(m->t, m->len));
         if (fabs(g) <= r) {
             c.gap = g;
@@ -153,11 +192,11 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_SEGMENT;
-            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, nts_mul_add(d, -sj_param, m->t)))
+            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, nts_mul_add(d, -sj_param, m->t)))
                 offer(env->s, w, &c);
         }
     }
-    if (!corner || sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
+    if (!corner || !(may & 2) || sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
     {
         const nts_scene* s = env->s;
         const int jp = m->prev;
@@ -184,7 +223,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_CORNER;
-            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, nts_sub(d, sol.point)))
+            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, nts_sub(d, sol.point)))
                 offer(s, w, &c);
         } else {
             /* Vertex candidate (alpha = 0): s_{j-1} >= 1 and s_j <= 0; the sign
@@ -209,7 +248,7 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_VERTEX;
-            if (body != w->slave_body || env->self == NULL || self_admits(env, w, &c, d, d)) offer(s, w, &c);
+            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, d)) offer(s, w, &c);
         }
     }
 }
@@ -466,7 +505,7 @@ static inline NTS_ALWAYS_INLINE void slave_stencil(const nts_cells* cl, nts_cell
  * wraps and clips, only when the cell changes (consecutive slaves of a loop
  * mostly share it). */
 static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker* w, int begin, int end,
-                                                  const int periodic, const int surfaces) {
+                                                  const int periodic, const int surfaces, const int selfc) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
     const master_keys* keys = env->keys;
@@ -476,15 +515,16 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
     int last_cell = -1, i, q;
     st.n = 0;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
-        const int bi = env->seg[i].body, self = self_body(env, bi);
-        /* the own body's keys are skipped, unless it meets itself (an empty range) */
-        const int own0 = self ? 0 : s->loop_start[s->body_loop_start[bi]];
-        const int own1 = self ? 0 : s->loop_start[s->body_loop_start[bi + 1]];
+        const int bi = env->seg[i].body, self = selfc && self_body(env, bi);
+        /* The own body's keys are skipped; when it meets itself, only those
+         * of the slave and the entry before it (docs/model.md §16 (T): none
+         * of their features counts). */
+        const int own0 = self ? (env->seg[i].prev == i - 1 ? i - 1 : i) : s->loop_start[s->body_loop_start[bi]];
+        const int own1 = self ? i + 1 : s->loop_start[s->body_loop_start[bi + 1]];
         nts_vec2 xs;
         nts_cell_place at;
         double sx, sy;
-        w->slave = i;
-        w->slave_body = bi;
+        if (selfc) set_slave(env, w, i, bi);
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -516,7 +556,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 NTS_PREFETCH(&env->seg[j]);
                 NTS_PREFETCH(&env->seg[j - (j > 0)]);
             }
-            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->r, periodic, surfaces);
+            for (k = 0; k < n; ++k) try_master(env, w, xs, kept[k], env->r, periodic, surfaces, selfc);
         } else {
             /* A crowded stencil: a batch of keys at a time. */
             for (q = 0; q < st.n; ++q) {
@@ -526,7 +566,8 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                     const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
                     int k;
-                    for (k = 0; k < n; ++k) try_master(env, w, xs, keys->entry[kept[k]], env->r, periodic, surfaces);
+                    for (k = 0; k < n; ++k)
+                        try_master(env, w, xs, keys->entry[kept[k]], env->r, periodic, surfaces, selfc);
                     e0 = e1;
                 }
             }
@@ -539,7 +580,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                 const int j = lm->entry, b = env->seg[j].body;
                 const nts_vec2 d = search_diff(env, xs, env->seg[j].p, periodic);
                 if (d.x * d.x + d.y * d.y <= lm->reach2 && (b != bi || self))
-                    try_master(env, w, xs, j, env->r, periodic, surfaces);
+                    try_master(env, w, xs, j, env->r, periodic, surfaces, selfc);
             }
         }
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
@@ -557,7 +598,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
  * candidates.c), so the same candidates, the same records, bit for bit. */
 enum { KEPT_AHEAD = 4 };
 static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
-                                                 const int periodic, const int surfaces) {
+                                                 const int periodic, const int surfaces, const int selfc) {
     const nts_scene* s = env->s;
     const nts_candidates* kc = env->kept;
     const int *lo = kept_lo(kc), *mid = kept_mid(kc);
@@ -566,8 +607,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
         const int bi = env->seg[i].body;
         const int* items = kc->chunk[i / KEPT_CHUNK];
         const nts_vec2 xs = env->seg[i].p;
-        w->slave = i;
-        w->slave_body = bi;
+        if (selfc) set_slave(env, w, i, bi);
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -594,7 +634,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
                 NTS_PREFETCH(&env->seg[ahead[k] - (ahead[k] > 0)]);
             }
         }
-        for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces);
+        for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else {
@@ -723,8 +763,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = s->surf_body[i], self = self_body(env, bi);
         const nts_vec2 xs = env->seg[i].p;
-        w->slave = i;
-        w->slave_body = bi;
+        set_slave(env, w, i, bi);
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
             w->status = NTS_ECANCELLED;
             break;
@@ -742,7 +781,8 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             d = search_diff(env, xs, env->seg[j].p, periodic);
             R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(s, b, env->alpha), env->ext), env->r,
                               env->brute_pad);
-            if (d.x * d.x + d.y * d.y <= R * R) try_master(env, w, xs, j, env->r, periodic, env->surf_flag != NULL);
+            if (d.x * d.x + d.y * d.y <= R * R)
+                try_master(env, w, xs, j, env->r, periodic, env->surf_flag != NULL, env->self != NULL);
         }
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
@@ -763,31 +803,57 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
 #define NTS_NOINLINE
 #endif
 static NTS_NOINLINE void cells_open(const search_env* env, worker* w, int begin, int end) {
-    search_cells(env, w, begin, end, 0, 0);
+    search_cells(env, w, begin, end, 0, 0, 0);
 }
 static NTS_NOINLINE void cells_periodic(const search_env* env, worker* w, int begin, int end) {
-    search_cells(env, w, begin, end, 1, 0);
+    search_cells(env, w, begin, end, 1, 0, 0);
 }
 static NTS_NOINLINE void cells_open_surfaces(const search_env* env, worker* w, int begin, int end) {
-    search_cells(env, w, begin, end, 0, 1);
+    search_cells(env, w, begin, end, 0, 1, 0);
 }
 static NTS_NOINLINE void cells_periodic_surfaces(const search_env* env, worker* w, int begin, int end) {
-    search_cells(env, w, begin, end, 1, 1);
+    search_cells(env, w, begin, end, 1, 1, 0);
 }
 static NTS_NOINLINE void kept_open(const search_env* env, worker* w, int begin, int end) {
-    search_kept(env, w, begin, end, 0, 0);
+    search_kept(env, w, begin, end, 0, 0, 0);
 }
 static NTS_NOINLINE void kept_periodic(const search_env* env, worker* w, int begin, int end) {
-    search_kept(env, w, begin, end, 1, 0);
+    search_kept(env, w, begin, end, 1, 0, 0);
 }
 static NTS_NOINLINE void kept_surfaces(const search_env* env, worker* w, int begin, int end) {
-    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, 1);
-    else search_kept(env, w, begin, end, 0, 1);
+    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, 1, 0);
+    else search_kept(env, w, begin, end, 0, 1, 0);
+}
+/* A scene where some body meets itself (docs/model.md §16): instances of
+ * their own, so that every other scene runs the code it ran before. */
+static NTS_NOINLINE void cells_self_open(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 0, 0, 1);
+}
+static NTS_NOINLINE void cells_self_periodic(const search_env* env, worker* w, int begin, int end) {
+    search_cells(env, w, begin, end, 1, 0, 1);
+}
+static NTS_NOINLINE void cells_self(const search_env* env, worker* w, int begin, int end) {
+    const int periodic = env->lx > 0.0 || env->ly > 0.0;
+    if (env->surf_flag == NULL) {
+        if (periodic) cells_self_periodic(env, w, begin, end);
+        else cells_self_open(env, w, begin, end);
+    } else if (periodic) {
+        search_cells(env, w, begin, end, 1, 1, 1);
+    } else {
+        search_cells(env, w, begin, end, 0, 1, 1);
+    }
+}
+static NTS_NOINLINE void kept_self(const search_env* env, worker* w, int begin, int end) {
+    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, env->surf_flag != NULL, 1);
+    else search_kept(env, w, begin, end, 0, env->surf_flag != NULL, 1);
 }
 
 void nts_search_range(const search_env* env, worker* w, int begin, int end) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
-    if (env->kept != NULL) {
+    if (env->self != NULL && (env->kept != NULL || env->cells != NULL)) {
+        if (env->kept != NULL) kept_self(env, w, begin, end);
+        else cells_self(env, w, begin, end);
+    } else if (env->kept != NULL) {
         if (env->surf_flag != NULL) kept_surfaces(env, w, begin, end);
         else if (periodic) kept_periodic(env, w, begin, end);
         else kept_open(env, w, begin, end);
@@ -831,7 +897,7 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
     R = reach_allowed(env->wide_lmax, rb, env->wide_pad);
     if (d2 > R * R) return;
     R = reach_allowed(reach_at_node(env->seg, j, alpha_of_body(env->s, b, env->alpha), env->ext), rb, env->wide_pad);
-    if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic, env->surf_flag != NULL);
+    if (d2 <= R * R) try_master(env, w, xs, j, rb, periodic, env->surf_flag != NULL, env->self != NULL);
 }
 
 /* The entries of body b: consecutive. */
@@ -863,8 +929,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
     const int own = env->seg[k].body;
     const nts_vec2 xs = env->seg[k].p;
     int e0 = 0, e1 = s->surface_count, j;
-    w->slave = k;
-    w->slave_body = own;
+    set_slave(env, w, k, own);
     if (kept_covers(env, k, rho)) {
         /* The slave's kept list holds every master that could offer a
          * feature within rho (eq. (30)): the same candidates as the cells. */
@@ -932,7 +997,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
             double R;
             if (d2 > Rmax2 || !nts_on_surface(s, j)) continue;
             R = reach_allowed(reach_at_node(env->seg, j, alpha, env->ext), rho, env->wide_pad);
-            if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic, env->surf_flag != NULL);
+            if (d2 <= R * R) try_master(env, w, xs, j, rho, periodic, env->surf_flag != NULL, env->self != NULL);
         }
     }
 }

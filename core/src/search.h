@@ -87,6 +87,7 @@ typedef struct worker {
     int last_count, last_cap, last_slave;
     int first_slave;   /* the first slave of the current loop, when it is in this chunk (else -1) */
     int slave, slave_body; /* the slave being searched (self-contact's tests read them) */
+    nts_vec2 slave_pn;     /* its pseudo-normal n_{i-1} + n_i, when its body meets itself */
     /* Finished chunks' records and items that the pools had no room for. */
     char* spill[STREAMS];
     size_t spill_used[STREAMS], spill_cap[STREAMS];

@@ -298,7 +298,7 @@ static void test_horseshoe_forces_and_tangent_by_differences(void) {
     for (i = 0; i < dofs * dofs; ++i) kmax = fmax(kmax, fabs(K[i]));
     for (i = 0; i < dofs; ++i) fmaxv = fmax(fmaxv, fabs(f0[i]));
     for (j = 0; j < dofs; ++j) {
-        double ep, em, fp[2 * MAXN], fm[2 * MAXN];
+        double ep = 0.0, em = 0.0, fp[2 * MAXN], fm[2 * MAXN];
         const double keep = j % 2 ? x[j / 2].y : x[j / 2].x;
         int side;
         if (fabs(f0[j]) == 0.0 && j % 7 != 0) continue; /* the nodes in contact, and a sample of the rest */
