@@ -119,11 +119,15 @@ static int self_coverage(const search_env* env, int b, nts_vec2 m) {
  * itself: coverage >= 2 at the midpoint of the slave and its closest point. */
 static int self_admits(const search_env* env, const worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
     const seg_data* seg = env->seg;
-    const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next;
+    const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next, k = w->slot[c->body];
     if (!self_same_image(env, w, j, d)) return 1;
     if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return 0; /* (T) */
     if (!(nts_dot(w->slave_pn, c->normal) < 0.0)) return 0;                                           /* (N) */
-    return c->gap >= 0.0 || self_coverage(env, c->body, nts_mul_add(env->self_u[i], -0.5, delta)) >= 2; /* (C) */
+    /* (C), the costly test (a pass over the body's loops), only for a
+     * candidate that would be kept: one the body's best so far beats is not
+     * (offer), whether it counts or not. */
+    if (c->gap >= 0.0 || (k >= 0 && !better(env->s, c, &w->best[k]))) return 1;
+    return self_coverage(env, c->body, nts_mul_add(env->self_u[i], -0.5, delta)) >= 2;                 /* (C) */
 }
 
 /* Before the exact tests of master j of the slave's own body (same image):

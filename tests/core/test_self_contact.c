@@ -155,7 +155,7 @@ static void test_none_at_rest(void) {
     for (k = 0; k < 1000; ++k) {
         nts_scene* s;
         const int kind = k % 4;
-        if (kind == 0) star(&sh, &rng, 8 + (int)(rng_uniform(&rng) * 400));
+        if (kind == 0) star(&sh, &rng, 8 + (k == 400 || k == 800 ? 1992 : (int)(rng_uniform(&rng) * 400)));
         else if (kind == 1) comb(&sh, 2 + k % 4, 0.01 + 0.2 * rng_uniform(&rng), 1 + (int)(rng_uniform(&rng) * 60));
         else if (kind == 2) spiral(&sh, 1.2 + 1.3 * rng_uniform(&rng), 0.05 + 0.25 * rng_uniform(&rng), 20 + k % 200);
         else spikes(&sh, 1 + k % 4, k % 3 == 0 ? 1.0 : (k % 3 == 1 ? 5.0 : 15.0), 1 + (int)(rng_uniform(&rng) * 30));
@@ -434,6 +434,34 @@ static void test_same_bits_every_way(void) {
         o.threads = th;
         CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
         CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
+    }
+    /* with friction and a body's own alpha too (the records path) */
+    {
+        nts_options of = o;
+        nts_scene* s2;
+        nts_body_def d;
+        nts_scene_def def = nts_default_scene_def();
+        memset(&d, 0, sizeof d);
+        d.nodes = sh.p;
+        d.node_count = sh.n;
+        d.self_contact = 1;
+        d.has_alpha = 1;
+        d.alpha = 0.35;
+        def.bodies = &d;
+        def.body_count = 1;
+        s2 = nts_scene_create(&def, &err);
+        CU_ASSERT_FATAL(s2 != NULL);
+        of.friction = 0.3;
+        of.threads = 0;
+        CU_ASSERT_FATAL(nts_evaluate(c0, s2, &of, &r0, &err) == 0);
+        CU_ASSERT(r0.summary.contacts > 0 && r0.anchor_count == r0.summary.contacts);
+        for (th = 1; th <= 3; ++th) {
+            of.threads = th;
+            CU_ASSERT_FATAL(nts_evaluate(c1, s2, &of, &r1, &err) == 0);
+            CU_ASSERT(same_answer(s2, &r0, &r1, NTST_SUMMARY_WHOLE));
+        }
+        nts_scene_destroy(s2);
+        CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0); /* the reference again */
     }
     o.threads = 0;
     o.search = NTS_SEARCH_BRUTE_FORCE;
