@@ -382,6 +382,57 @@ static void test_annulus_whose_hole_closes(void) {
     nts_context_destroy(ctx);
 }
 
+/* With a contact surface (docs/model.md §13) the rule applies to the
+ * surface's features and nodes: the horseshoe's inner walls as its surface
+ * meet each other as before, its other walls take part in nothing. */
+static void test_self_contact_on_a_contact_surface(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_body_def d;
+    nts_scene_def def = nts_default_scene_def();
+    nts_result r, whole;
+    nts_error err;
+    nts_scene *s, *w;
+    int pairs[2 * MAXN], count = 0, i, k;
+    horseshoe(&sh, -0.03);
+    /* the inner walls: the segments whose both ends lie on x = +-0.015 above y = 0.7 */
+    for (i = 0; i < sh.n; ++i) {
+        const int j = (i + 1) % sh.n;
+        if (fabs(fabs(sh.p[i].x) - 0.015) < 1e-9 && fabs(fabs(sh.p[j].x) - 0.015) < 1e-9 && sh.p[i].y > 0.69 &&
+            sh.p[j].y > 0.69) {
+            pairs[2 * count] = i;
+            pairs[2 * count + 1] = j;
+            ++count;
+        }
+    }
+    CU_ASSERT_FATAL(count > 10);
+    memset(&d, 0, sizeof d);
+    d.nodes = sh.p;
+    d.node_count = sh.n;
+    d.self_contact = 1;
+    d.surface = pairs;
+    d.surface_count = count;
+    def.bodies = &d;
+    def.body_count = 1;
+    s = nts_scene_create(&def, &err);
+    w = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL && w != NULL);
+    o.alpha = 0.2;
+    o.search_radius = 0.3;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+    CU_ASSERT(active(s, &o, &r, ctx) > 0);
+    for (k = 0; k < r.contact_count; ++k) CU_ASSERT_DOUBLE_EQUAL(r.contacts[k].gap, -0.03, 0.03);
+    {
+        nts_context* c2 = nts_context_create();
+        CU_ASSERT(active(w, &o, &whole, c2) >= r.contact_count); /* the whole boundary finds these and more */
+        nts_context_destroy(c2);
+    }
+    nts_scene_destroy(s);
+    nts_scene_destroy(w);
+    nts_context_destroy(ctx);
+}
+
 /* A ring in a periodic box: none while the box is wider than the ring, its
  * own image once the box is narrower. */
 static void test_ring_meets_its_own_image(void) {
@@ -511,6 +562,7 @@ void register_self_contact_suite(void) {
     ADD_TEST(s, test_horseshoe_meets_itself_where_its_arms_overlap);
     ADD_TEST(s, test_horseshoe_forces_and_tangent_by_differences);
     ADD_TEST(s, test_annulus_whose_hole_closes);
+    ADD_TEST(s, test_self_contact_on_a_contact_surface);
     ADD_TEST(s, test_ring_meets_its_own_image);
     ADD_TEST(s, test_same_bits_every_way);
     ADD_TEST(s, test_self_contact_is_zero_or_one);
