@@ -53,6 +53,15 @@ struct nts_context {
      * unwrapped along their loops (open: the positions), for the coverage. */
     nts_vec2* self_u;
     int self_u_cap;
+    /* and its slabs (search.h, self_slabs) */
+    double* self_y;    /* per body: the lowest height and 1 / slab height */
+    int self_y_cap;
+    int* self_first;   /* per body + 1: its first slab */
+    int self_first_cap;
+    int* self_start;   /* per slab + 1: its first edge */
+    int self_start_cap;
+    int* self_items;   /* the slabs' edges (surface entries) */
+    int self_items_cap;
     int* hist;         /* per-slice cell counts of the counting sort */
     int hist_cap;
     worker* workers;

@@ -266,6 +266,63 @@ static int self_unwrap(nts_context* ctx, const nts_scene* s) {
     return NTS_OK;
 }
 
+/* The coverage's slabs (search.h): for each self-contact body, its loop
+ * edges (each entry to the next along its loop, unwrapped) listed by the
+ * horizontal slabs their heights span; about the square root of its entries
+ * of slabs, so that a count of crossings reads one slab's edges. */
+static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
+    int b, e, k, slabs = 0, items = 0, rc;
+    if ((rc = nts_grow((void**)&ctx->self_y, &ctx->self_y_cap, 2 * s->body_count, sizeof(double))) != NTS_OK ||
+        (rc = nts_grow((void**)&ctx->self_first, &ctx->self_first_cap, s->body_count + 1, sizeof(int))) != NTS_OK)
+        return rc;
+    for (b = 0; b < s->body_count; ++b) { /* each body's slabs, its heights */
+        const int e0 = s->loop_start[s->body_loop_start[b]], e1 = s->loop_start[s->body_loop_start[b + 1]];
+        double lo = 0.0, hi = 0.0;
+        int n = 0;
+        ctx->self_first[b] = slabs;
+        ctx->self_y[2 * b] = 0.0;
+        ctx->self_y[2 * b + 1] = 0.0;
+        if (!s->body_self[b] || e1 <= e0) continue;
+        lo = hi = ctx->self_u[e0].y;
+        for (e = e0; e < e1; ++e) {
+            lo = ctx->self_u[e].y < lo ? ctx->self_u[e].y : lo;
+            hi = ctx->self_u[e].y > hi ? ctx->self_u[e].y : hi;
+        }
+        while ((long long)n * n < e1 - e0) ++n; /* ceil(sqrt(entries)) */
+        ctx->self_y[2 * b] = lo;
+        ctx->self_y[2 * b + 1] = hi > lo ? n / (hi - lo) : 0.0; /* flat: one slab */
+        slabs += hi > lo ? n : 1;
+    }
+    ctx->self_first[s->body_count] = slabs;
+    if ((rc = nts_grow((void**)&ctx->self_start, &ctx->self_start_cap, slabs + 1, sizeof(int))) != NTS_OK) return rc;
+    memset(ctx->self_start, 0, sizeof(int) * (size_t)(slabs + 1));
+    for (k = 0; k < 2; ++k) { /* count, then fill */
+        for (b = 0; b < s->body_count; ++b) {
+            const int e0 = s->loop_start[s->body_loop_start[b]], e1 = s->loop_start[s->body_loop_start[b + 1]];
+            const int f = ctx->self_first[b], count = ctx->self_first[b + 1] - f;
+            if (!s->body_self[b]) continue;
+            for (e = e0; e < e1; ++e) {
+                const double ya = ctx->self_u[e].y, yb = ctx->self_u[ctx->seg[e].next].y;
+                int q0 = nts_self_slab(ctx->self_y + 2 * b, count, ya < yb ? ya : yb);
+                const int q1 = nts_self_slab(ctx->self_y + 2 * b, count, ya < yb ? yb : ya);
+                for (; q0 <= q1; ++q0) {
+                    if (k == 0) ++ctx->self_start[f + q0 + 1];
+                    else ctx->self_items[ctx->self_start[f + q0]++] = e;
+                }
+            }
+        }
+        if (k == 0) {
+            for (b = 0; b < slabs; ++b) ctx->self_start[b + 1] += ctx->self_start[b];
+            items = ctx->self_start[slabs];
+            if ((rc = nts_grow((void**)&ctx->self_items, &ctx->self_items_cap, items > 0 ? items : 1, sizeof(int))) != NTS_OK)
+                return rc;
+        }
+    }
+    for (b = slabs; b > 0; --b) ctx->self_start[b] = ctx->self_start[b - 1]; /* the fill moved each start to its end */
+    ctx->self_start[0] = 0;
+    return NTS_OK;
+}
+
 int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
     search_env env;
     seg_summary ss;
@@ -320,9 +377,14 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     for (i = 0; i < s->body_count && !env.body_alphas; ++i) env.body_alphas = s->body_alpha[i] >= 0.0;
     env.surf_flag = s->surf_flag;
     if (s->self_bodies > 0) { /* nothing of it runs otherwise */
-        if ((rc = self_unwrap(ctx, s)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+        if ((rc = self_unwrap(ctx, s)) != NTS_OK || (rc = self_slabs_build(ctx, s)) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
         env.self = s->body_self;
         env.self_u = ctx->self_u;
+        env.self_y = ctx->self_y;
+        env.self_first = ctx->self_first;
+        env.self_start = ctx->self_start;
+        env.self_items = ctx->self_items;
     }
     env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0; /* no surface's end: nothing to extend */
     env.eps = opt->penalty;

@@ -161,7 +161,24 @@ typedef struct search_env {
      * entries unwrapped along their loops (self_u, by surface entry). */
     const unsigned char* self;
     const nts_vec2* self_u;
+    /* The coverage's slabs: a self-contact body's loop edges listed by the
+     * horizontal slabs their heights span (about the square root of its
+     * entries of them), so that the crossings of a horizontal ray are counted
+     * over one slab's edges, not the whole body's. self_y[2 b], [2 b + 1]:
+     * the body's lowest height and 1 / slab height; self_first[b]: its first
+     * slab; self_start: each slab's first edge in self_items. */
+    const double* self_y;
+    const int* self_first;
+    const int* self_start;
+    const int* self_items;
 } search_env;
+
+/* The slab of height y among a body's `count` (y_lo_inv[0]: its lowest
+ * height, [1]: 1 / slab height), clamped to the body's slabs. */
+static inline int nts_self_slab(const double* y_lo_inv, int count, double y) {
+    const double q = (y - y_lo_inv[0]) * y_lo_inv[1];
+    return q <= 0.0 ? 0 : (q >= (double)(count - 1) ? count - 1 : (int)q);
+}
 
 /* Whether a slave of body b may take its own body's masters. */
 static inline int self_body(const search_env* env, int b) { return env->self != NULL && env->self[b]; }
