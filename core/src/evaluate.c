@@ -282,7 +282,9 @@ static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
         ctx->self_first[b] = slabs;
         ctx->self_y[2 * b] = 0.0;
         ctx->self_y[2 * b + 1] = 0.0;
-        if (!s->body_self[b] || e1 <= e0) continue;
+        /* a small body is read whole (self_first: no slab), as cheaply as a
+         * slab is found; only a large one pays for building them */
+        if (!s->body_self[b] || e1 - e0 < NTS_SELF_SLAB_MIN) continue;
         lo = hi = ctx->self_u[e0].y;
         for (e = e0; e < e1; ++e) {
             lo = ctx->self_u[e].y < lo ? ctx->self_u[e].y : lo;
@@ -300,7 +302,7 @@ static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
         for (b = 0; b < s->body_count; ++b) {
             const int e0 = s->loop_start[s->body_loop_start[b]], e1 = s->loop_start[s->body_loop_start[b + 1]];
             const int f = ctx->self_first[b], count = ctx->self_first[b + 1] - f;
-            if (!s->body_self[b]) continue;
+            if (count == 0) continue;
             for (e = e0; e < e1; ++e) {
                 const double ya = ctx->self_u[e].y, yb = ctx->self_u[ctx->seg[e].next].y;
                 int q0 = nts_self_slab(ctx->self_y + 2 * b, count, ya < yb ? ya : yb);

@@ -93,13 +93,20 @@ static inline int self_same_image(const search_env* env, const worker* w, int j,
  * valid body covers every point at most once; where it folds onto itself,
  * twice. */
 static int self_coverage(const search_env* env, int b, nts_vec2 m) {
+    const nts_scene* s = env->s;
     const nts_vec2* u = env->self_u;
     const int f = env->self_first[b], count = env->self_first[b + 1] - f;
-    const int slab = f + nts_self_slab(env->self_y + 2 * b, count, m.y);
-    int k, w = 0;
-    /* an edge the ray crosses spans its height, so it is listed in its slab */
-    for (k = env->self_start[slab]; k < env->self_start[slab + 1]; ++k) {
-        const int e = env->self_items[k];
+    int k, k0, k1, w = 0;
+    if (count > 0) { /* an edge the ray crosses spans its height, so it is listed in its slab */
+        const int slab = f + nts_self_slab(env->self_y + 2 * b, count, m.y);
+        k0 = env->self_start[slab];
+        k1 = env->self_start[slab + 1];
+    } else { /* a small body: every edge, the body's entries */
+        k0 = s->loop_start[s->body_loop_start[b]];
+        k1 = s->loop_start[s->body_loop_start[b + 1]];
+    }
+    for (k = k0; k < k1; ++k) {
+        const int e = count > 0 ? env->self_items[k] : k;
         const nts_vec2 a = nts_sub(u[e], m), c = nts_sub(u[env->seg[e].next], m);
         const double cross = a.x * c.y - a.y * c.x;
         if (a.y <= 0.0) {

@@ -164,7 +164,9 @@ typedef struct search_env {
     /* The coverage's slabs: a self-contact body's loop edges listed by the
      * horizontal slabs their heights span (about the square root of its
      * entries of them), so that the crossings of a horizontal ray are counted
-     * over one slab's edges, not the whole body's. self_y[2 b], [2 b + 1]:
+     * over one slab's edges, not the whole body's (bodies of at least
+     * NTS_SELF_SLAB_MIN entries; a smaller one has none and is read whole).
+     * self_y[2 b], [2 b + 1]:
      * the body's lowest height and 1 / slab height; self_first[b]: its first
      * slab; self_start: each slab's first edge in self_items. */
     const double* self_y;
@@ -172,6 +174,9 @@ typedef struct search_env {
     const int* self_start;
     const int* self_items;
 } search_env;
+
+/* Bodies of fewer entries have no slabs: their coverage reads every edge. */
+enum { NTS_SELF_SLAB_MIN = 256 };
 
 /* The slab of height y among a body's `count` (y_lo_inv[0]: its lowest
  * height, [1]: 1 / slab height), clamped to the body's slabs. */
