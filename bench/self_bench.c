@@ -31,29 +31,11 @@ static double eval_ns(nts_context* ctx, const nts_scene* s, const nts_options* o
 }
 
 /* The packing as a scene, every body with self-contact or none. */
-static nts_scene* scene_of(const ntsx_scene* b, int self) {
-    nts_body_def* defs = (nts_body_def*)calloc((size_t)b->body_count, sizeof(nts_body_def));
-    nts_scene_def def = nts_default_scene_def();
+static nts_scene* scene_of(ntsx_scene* b, int self) {
     nts_error err;
     nts_scene* s;
-    int i;
-    if (defs == NULL) die("out of memory", NULL);
-    for (i = 0; i < b->body_count; ++i) {
-        defs[i].nodes = b->nodes[i];
-        defs[i].node_count = b->counts[i];
-        defs[i].loop_nodes = b->loop_nodes[i];
-        defs[i].loop_start = b->loop_start[i];
-        defs[i].loop_count = b->loop_count[i];
-        defs[i].has_alpha = b->has_alpha[i];
-        defs[i].alpha = b->alpha[i];
-        defs[i].self_contact = self;
-    }
-    def.bodies = defs;
-    def.body_count = b->body_count;
-    def.lx = b->lx;
-    def.ly = b->ly;
-    s = nts_scene_create(&def, &err);
-    free(defs);
+    b->self_contact = self;
+    s = ntsx_scene_create(b, &err);
     if (s == NULL) die("scene", &err);
     return s;
 }

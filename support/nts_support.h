@@ -36,6 +36,7 @@ typedef struct ntsx_scene {
     double *cx, *cy, *R;
     double lx, ly;       /* the periodic box, 0: open */
     int total;           /* nodes of all bodies */
+    int self_contact;    /* every body meets its own surface too (0 after ntsx_scene_init) */
 } ntsx_scene;
 
 void ntsx_scene_init(ntsx_scene* s, int bodies);

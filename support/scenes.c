@@ -87,6 +87,9 @@ nts_scene* ntsx_scene_create(const ntsx_scene* s, nts_error* err) {
         defs[i].has_alpha = s->has_alpha[i];
         defs[i].alpha = s->alpha[i];
 #endif
+#ifdef NTS_HAS_SELF_CONTACT
+        defs[i].self_contact = s->self_contact;
+#endif
     }
     def.bodies = defs;
     def.body_count = s->body_count;

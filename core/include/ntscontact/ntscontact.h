@@ -83,6 +83,9 @@ typedef struct nts_body_def {
      * least 2 between the node and the feature). 0 (the default): never. */
     int self_contact;
 } nts_body_def;
+/** Defined when nts_body_def has `self_contact` (after 0.3.0): code built
+ * against several releases (the benchmarks' cross-version runs) asks it. */
+#define NTS_HAS_SELF_CONTACT 1
 
 /** Bounds on the size of a scene, checked by nts_scene_create (NTS_ELIMIT). */
 typedef struct nts_limits {
