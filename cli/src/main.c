@@ -697,6 +697,14 @@ static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
     return 0;
 }
 
+#ifdef NTS_CLI_MPI
+/* ntscontact-mpi (mpi/src/cli_hook.c): rank 0 runs this CLI, evaluating
+ * across the ranks; the hook's main calls this one. */
+void ntsm_cli_configure(ntsj_config* cfg);
+int nts_cli_main(int argc, char** argv);
+#define main nts_cli_main
+#endif
+
 int main(int argc, char** argv) {
     ntsj_config cfg = ntsj_default_config();
     ntsj_response resp;
@@ -715,6 +723,10 @@ int main(int argc, char** argv) {
 
     status = parse_args(argc, argv, &cfg, &args);
     if (status != 0) return status < 0 ? EXIT_DONE : status;
+#ifdef NTS_CLI_MPI
+    if (args.frames) return usage_error("%s", "--frames (a session) is not distributed yet: use ntscontact");
+    ntsm_cli_configure(&cfg);
+#endif
     input = args.input;
     output = args.output;
     frames = args.frames;

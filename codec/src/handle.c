@@ -288,7 +288,8 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
             ntsj_scene_free(&s);
             return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         }
-        rc = nts_evaluate(ctx, scene, &opt, &result, &err);
+        rc = cfg.evaluate != NULL ? cfg.evaluate(cfg.evaluate_user, &def, scene, &opt, &result, &err)
+                                  : nts_evaluate(ctx, scene, &opt, &result, &err);
         elapsed = ntsj_now_ms() - t0;
         if ((rc == 0 || rc == NTS_ECANCELLED) && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) {
             done = 1;

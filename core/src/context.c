@@ -110,6 +110,8 @@ static void buffers_free(nts_context* ctx) {
     nts_free(ctx->fric);
     nts_free(ctx->fric_deep);
     nts_free(ctx->anchors);
+    nts_free(ctx->parts);
+    nts_free(ctx->gap_entries);
 }
 
 void nts_context_destroy(nts_context* ctx) {

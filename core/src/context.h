@@ -6,6 +6,7 @@
 
 #include "friction.h"
 #include "reach.h"
+#include <ntscontact/distributed.h>
 
 /* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
  * whichever thread is free (so a thread that the machine slows down takes
@@ -97,6 +98,15 @@ struct nts_context {
     double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
     nts_parallel host;  /* the host's backend (nts_context_set_parallel), when host_set */
     int host_set;
+    /* A distributed host's seam (ntscontact/distributed.h, distributed.c):
+     * the whole scene's frame, taken for the scene's own when frame_set, and
+     * the parts each evaluation leaves when parts_on (scatter.c). */
+    nts_frame frame;
+    int frame_set, parts_on;
+    nts_part* parts;
+    int parts_cap, part_count;
+    int* gap_entries;   /* the slave entry of every closest point, in the gaps' order */
+    int gap_entries_cap, gap_entry_count;
 };
 
 /* A failed evaluation: the error record filled, the status returned. */

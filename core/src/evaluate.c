@@ -356,7 +356,11 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
-    rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
+    /* (a part of a distributed scene takes the whole's median from its frame) */
+    rc = nts_segments_compute(ctx, s,
+                              opt->search_radius < 0.0 && s->surface_count > 0 && !ctx->frame_set
+                                  ? (s->surface_count - 1) / 2
+                                  : -1,
                               (double*)(void*)ctx->scratch, nts_kept_since(opt->candidates, s), &run, &ss);
     if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count) {
@@ -366,6 +370,18 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         snprintf(msg, sizeof msg, "body %d: segment from node %d has length %.3g, outside [1e-100, 3e100]",
                  s->surf_body[bad], s->surf_local[bad], sqrt(l2));
         return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[bad], s->surf_local[bad], msg);
+    }
+    if (ctx->frame_set) {
+        /* A part of a distributed scene (ntscontact/distributed.h): what the
+         * whole's segments set, so that every slave's answer is the one the
+         * whole scene gives it (docs/distributed.md). */
+        ss.kth = ctx->frame.median;
+        ss.lmax = ctx->frame.lmax;
+        ss.coord_max = ctx->frame.coord_max;
+        ss.xmin = ctx->frame.xmin;
+        ss.xmax = ctx->frame.xmax;
+        ss.ymin = ctx->frame.ymin;
+        ss.ymax = ctx->frame.ymax;
     }
     t1 = wall_time();
     ctx->phase[0] = t1 - t0;
@@ -391,7 +407,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0; /* no surface's end: nothing to extend */
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
-    env.max_records = opt->max_candidates > 0 ? opt->max_candidates : 64LL * s->surface_count + 1000000;
+    env.max_records = opt->max_candidates > 0 ? opt->max_candidates
+                      : 64LL * (ctx->frame_set ? ctx->frame.surface_nodes : s->surface_count) + 1000000;
     if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
@@ -399,7 +416,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     else if (s->surface_count > 0) env.r = ss.kth; /* the median segment, exactly */
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
-    env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u; /* tables.h's records column */
+    /* tables.h's records column; a distributed host's parts read every record */
+    env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u || ctx->parts_on;
     /* Friction (docs/model.md §14): on when some pair can rub; then the
      * records path (each active record's friction is computed once, after
      * the search, and read by the sums, the forces, the contacts and the
@@ -443,7 +461,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
-        env.cell_side = summary_cell_side(ctx, s, &env, &ss);
+        env.cell_side = ctx->frame_set && ctx->frame.cell_size >= 0.0 ? ctx->frame.cell_size
+                                                                      : summary_cell_side(ctx, s, &env, &ss);
     } else {
         /* The minimum image's round-off, for brute force's reach test. */
         env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);
@@ -518,5 +537,51 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     /* 4. Scatter and summary (scatter.c). */
     if ((rc = nts_scatter(ctx, s, opt, &env, &run, out, err)) != NTS_OK) return rc;
     ctx->phase[3] = wall_time() - t0;
+    return NTS_OK;
+}
+
+/* The frame of a scene (ntscontact/distributed.h): what nts_evaluate's first
+ * two phases take from the segments, computed as they compute it. */
+int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_frame* out, double* lengths,
+                    nts_error* err) {
+    seg_summary ss;
+    search_env env;
+    nts_run run;
+    int rc, i;
+    if (err != NULL) *err = nts_error_none();
+    if (ctx == NULL || s == NULL || opt == NULL || out == NULL)
+        return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
+    if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
+    memset(out, 0, sizeof *out);
+    out->cell_size = 0.0;
+    out->surface_nodes = s->surface_count;
+    run = nts_run_stock(0);
+    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
+        NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
+                              (double*)(void*)ctx->scratch, NULL, &run, &ss);
+    if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    if (ss.bad < s->surface_count)
+        return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[ss.bad], s->surf_local[ss.bad],
+                         "a segment's length is outside [1e-100, 3e100]");
+    out->median = ss.kth;
+    out->lmax = ss.lmax;
+    out->coord_max = ss.coord_max;
+    out->xmin = ss.xmin;
+    out->xmax = ss.xmax;
+    out->ymin = ss.ymin;
+    out->ymax = ss.ymax;
+    if (lengths != NULL)
+        for (i = 0; i < s->surface_count; ++i) lengths[i] = ctx->seg[i].len;
+    if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
+        memset(&env, 0, sizeof env);
+        env.s = s;
+        env.seg = ctx->seg;
+        env.alpha = opt->alpha;
+        env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0;
+        env.r = opt->search_radius >= 0.0 ? opt->search_radius : ss.kth;
+        out->cell_size = summary_cell_side(ctx, s, &env, &ss);
+    }
     return NTS_OK;
 }

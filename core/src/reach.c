@@ -51,6 +51,8 @@ void nts_reach_free(nts_reach* r) {
     nts_free(r->shape);
     nts_free(r->grid_start);
     nts_free(r->grid_items);
+    nts_free(r->unresolved_slaves);
+    nts_free(r->beyond_slaves);
     memset(r, 0, sizeof *r);
 }
 
@@ -552,7 +554,11 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
         for (q = q0; q < q1 && rc == NTS_OK; ++q) {
             if (r->hits[q].kind >= 0) rc = settle(ctx, env, r->queue[q].slave, &r->hits[q], r->queue[q].from);
             else if (env->lx > 0.0 && inside_body(env, r->queue[q].slave, r->queue[q].body)) {
-                ++r->unresolved; /* inside, deeper than the box's half: beyond it no image is the nearest */
+                /* inside, deeper than the box's half: beyond it no image is the nearest */
+                if ((rc = nts_grow((void**)&r->unresolved_slaves, &r->unresolved_cap, (int)r->unresolved + 1,
+                                   sizeof(int))) != NTS_OK)
+                    return rc;
+                r->unresolved_slaves[r->unresolved++] = r->queue[q].slave;
                 rc = follow_beyond(ctx, env, r->queue[q]);
             }
         }
@@ -561,6 +567,9 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
     if (found + r->deep_count > env->max_records) return NTS_ELIMIT;
     if (r->deep_count > 1) qsort(r->deep, (size_t)r->deep_count, sizeof(candidate), deep_order);
     if (!env->grow) { /* an explicit radius: counted, left out */
+        if ((rc = nts_grow((void**)&r->beyond_slaves, &r->beyond_cap, r->deep_count, sizeof(int))) != NTS_OK)
+            return rc;
+        for (k = 0; k < r->deep_count; ++k) r->beyond_slaves[k] = r->deep[k].slave;
         r->beyond = r->deep_count;
         r->deep_count = 0;
     }

@@ -44,6 +44,12 @@ typedef struct nts_reach {
     int grid_start_cap, grid_items_cap, grid_built; /* built: 1, not yet: 0, too many: -1 */
     long long beyond;       /* with an explicit radius: the active contacts deeper than r, left out */
     long long unresolved;   /* slaves inside a body deeper than the periodic box's limit */
+    /* Which slaves those two counted (a distributed host's seam:
+     * nts_context_warning_entries), one per count. */
+    int* unresolved_slaves;
+    int unresolved_cap;
+    int* beyond_slaves;
+    int beyond_cap;
 } nts_reach;
 
 /* After the search, the pairs (slave, master body) next to those

@@ -233,6 +233,62 @@ static void records_task(int begin, int end, int wi, void* p) {
     }
 }
 
+/* A distributed host's parts (ntscontact/distributed.h): every record's
+ * slave entry, and each active one's sums and forces, in contact order, by
+ * the law's functions as the paths above compute them (the same bits). */
+static int parts_make(nts_context* ctx, const search_env* env, int ncontact, int total) {
+    int c, q, rc, live, p = 0, g = 0;
+    if ((rc = nts_grow((void**)&ctx->parts, &ctx->parts_cap, ncontact, sizeof(nts_part))) != NTS_OK ||
+        (rc = nts_grow((void**)&ctx->gap_entries, &ctx->gap_entries_cap, total, sizeof(int))) != NTS_OK)
+        return rc;
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        merged it = merged_begin(ctx, ch);
+        const candidate* rec;
+        int k_rec = 0;
+        while ((rec = merged_next(&it)) != NULL) {
+            const friction_out* fo = env->friction ? merged_friction(ctx, ch, &it, rec, &k_rec) : NULL;
+            const int deep = it.deep != NULL && it.j > 0 && rec == &it.deep[it.j - 1];
+            nts_part* pt;
+            contact_sums cs;
+            force_shares sh;
+            assert(g < total);
+            ctx->gap_entries[g++] = rec->slave;
+            if (!(rec->gap < 0.0)) continue;
+            assert(p < ncontact);
+            pt = &ctx->parts[p++];
+            memset(&cs, 0, sizeof cs);
+            if (fo != NULL) {
+                friction_sum(env, rec, fo, &cs);
+                sh = friction_shares(env, rec, fo);
+            } else {
+                contact_sum(env, rec, &cs);
+                sh = contact_shares(env, rec);
+            }
+            pt->entry = rec->slave;
+            pt->master_body = rec->body;
+            pt->deep = deep;
+            pt->state = fo != NULL ? fo->state : NTS_FRICTIONLESS;
+            for (q = 0, live = 1; q < 4; ++q) { /* as law_add_shares reads them */
+                live = live && sh.node[q] >= 0;
+                pt->nodes[q] = live ? sh.node[q] : -1;
+                pt->force[q] = live ? share_force(&sh, q) : nts_v2(0.0, 0.0);
+            }
+            pt->energy = cs.energy;
+            pt->dissipation = cs.dissipation;
+            pt->virial.xx = cs.vxx;
+            pt->virial.yy = cs.vyy;
+            pt->virial.xy = cs.vxy;
+            pt->virial.yx = cs.vyx;
+            pt->penetration = cs.maxpen;
+            pt->stiff_at = pt->stiff_count = 0;
+        }
+    }
+    ctx->part_count = p;
+    ctx->gap_entry_count = g;
+    return p == ncontact && g == total ? NTS_OK : NTS_EINTERNAL;
+}
+
 static int overflow_error(nts_error* err, const char* msg) {
     return eval_fail_option(err, NTS_ENONFINITE, "penalty", msg);
 }
@@ -393,9 +449,11 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             return eval_fail(err, rc, -1, -1, "out of memory");
         nts_run_each(run, records_task, nchunk, &task);
     }
+    if (ctx->parts_on && (rc = parts_make(ctx, env, ncontact, (int)total)) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
     if (want_stiffness) {
         /* The triplets in contact order, one block per active contact. */
-        int i;
+        int i, part = 0;
         ctx->stiffness.count = 0;
         for (c = 0; c < nchunk; ++c) {
             const chunk_info* ch = &ctx->chunks[c];
@@ -405,6 +463,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
             while ((rec = merged_next(&it)) != NULL) {
                 const friction_out* fo = env->friction ? merged_friction(ctx, ch, &it, rec, &k_rec) : NULL;
                 nts_contact cc;
+                int at = ctx->stiffness.count;
                 if (!(rec->gap < 0.0)) continue;
                 cc = make_contact(env, rec, fo);
                 if ((rc = nts_stiffness_add(&ctx->stiffness, s, &cc, alpha_of_body(s, cc.master_body, env->alpha))) !=
@@ -413,6 +472,10 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
                 /* friction's part, not symmetric (docs/model.md §14) */
                 if (fo != NULL && (rc = nts_friction_tangent_add(&ctx->stiffness, env, rec, fo)) != NTS_OK)
                     return eval_fail(err, rc, -1, -1, "out of memory");
+                if (ctx->parts_on) {
+                    ctx->parts[part].stiff_at = at;
+                    ctx->parts[part++].stiff_count = ctx->stiffness.count - at;
+                }
             }
         }
         for (i = 0; i < ctx->stiffness.count; ++i)

@@ -75,6 +75,14 @@ typedef struct ntsj_config {
      * one after the step) as {"history": [...]} in ntsj_response.history:
      * the CLI's --history-out. */
     int history_out;
+    /** A front end's own evaluation instead of nts_evaluate, given the
+     * request's scene definition as decoded (ntscontact-mpi: the
+     * distributed one, mpi/src/cli_hook.c); NULL: nts_evaluate. It returns
+     * what nts_evaluate would, and its result stays valid until the
+     * response is encoded. */
+    int (*evaluate)(void* user, const nts_scene_def* def, const nts_scene* scene, const nts_options* opt,
+                    nts_result* out, nts_error* err);
+    void* evaluate_user; /**< the argument `evaluate` is called with */
 } ntsj_config;
 /** Evaluate, compact output, no overrides, nts_default_limits(), nesting 32,
  * requests up to 64 MiB, no time or step-memory bound, serial. */

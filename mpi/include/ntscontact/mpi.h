@@ -1,0 +1,81 @@
+/** @file
+ * One scene across the ranks of an MPI communicator (docs/distributed.md):
+ * each rank holds the bodies the host gives it, the library cuts the plane
+ * into slabs of about equal surface nodes, sends each slab the bodies that
+ * reach into it (the halo), evaluates the slave nodes each slab owns, and
+ * sums every contribution in the order one process would: the answer is the
+ * same bits as nts_evaluate on the whole scene, for any number of ranks.
+ * Every call is collective, and an error is every rank's: the same code,
+ * message and body (the global index) everywhere. */
+#ifndef NTSCONTACT_MPI_H
+#define NTSCONTACT_MPI_H
+
+#include <mpi.h>
+
+#include <ntscontact/distributed.h>
+#include <ntscontact/ntscontact.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** A scene distributed over a communicator. */
+typedef struct ntsm_scene ntsm_scene;
+
+/** What an evaluation moved and held, on this rank. */
+typedef struct ntsm_stats {
+    long long bytes_sent;     /**< bytes this rank sent (bodies, contributions, sums) */
+    long long bytes_received; /**< bytes it received */
+    int owned_slaves;         /**< the slave entries its slab owns */
+    int part_entries;         /**< the surface entries it evaluated (owned, and the halo's) */
+    int part_bodies;          /**< the bodies it held for the evaluation */
+    double seconds[4];        /**< frame and decomposition, bodies' exchange, evaluation, sums */
+} ntsm_stats;
+
+/** The answer on one rank: the whole scene's summary and warnings, and the
+ * forces (and pressure) on the nodes of the bodies this rank owns, body by
+ * body in the order it gave them. Valid until the next evaluation. */
+typedef struct ntsm_result {
+    nts_summary summary;
+    nts_warning warnings[NTS_WARN_COUNT_];
+    int warning_count;
+    const nts_vec2* forces;   /**< NULL unless NTS_OUT_FORCES */
+    const double* pressure;   /**< NULL unless NTS_OUT_PRESSURE */
+    int node_count;           /**< this rank's nodes */
+    ntsm_stats stats;
+} ntsm_result;
+
+/** Collective: the bodies this rank owns, `ids[k]` the global index of
+ * bodies[k] (every index 0..B-1 on exactly one rank), the periodic box and
+ * the limits the same on every rank. The bodies are copied. NULL on error,
+ * with *err the same on every rank (err->body a global index). */
+ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
+                              double ly, nts_limits limits, nts_error* err);
+void ntsm_scene_destroy(ntsm_scene* scene);
+
+/** New positions of this rank's nodes (its bodies' in order). Collective:
+ * NTS_OK everywhere, or every rank's error (a rank whose bodies are
+ * reshaped: NTS_ERESHAPED, naming the body). */
+int ntsm_scene_update_positions(ntsm_scene* scene, const nts_vec2* positions, nts_error* err);
+
+/** Collective: the whole scene's frame (distributed.h) for the next
+ * evaluations, when a rank holds the whole scene and computed it
+ * (nts_scene_frame; ntscontact-mpi's rank 0 does), so that the summary's
+ * cell size is the whole scene's too; NULL: found across the ranks. */
+void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
+
+/** Collective: evaluate. opt->history, opt->candidates and opt->cancel must
+ * be NULL (NTS_EINVALID_ARGUMENT). NTS_OK or every rank's error. */
+int ntsm_evaluate(ntsm_scene* scene, const nts_options* opt, ntsm_result* out, nts_error* err);
+
+/** Collective, after a successful ntsm_evaluate: the whole answer on `root`,
+ * as nts_evaluate gives it (forces, pressure, contacts, gaps, tangent and
+ * anchors as the options asked, global node and body indices), in *out,
+ * valid until the next evaluation; other ranks get nothing. NTS_OK or
+ * every rank's NTS_ENOMEM. */
+int ntsm_gather(ntsm_scene* scene, int root, nts_result* out, nts_error* err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

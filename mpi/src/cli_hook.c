@@ -1,0 +1,126 @@
+/* ntscontact-mpi: the CLI (cli/src/main.c) on rank 0, evaluating across
+ * every rank of MPI_COMM_WORLD (docs/distributed.md). Rank 0 reads and
+ * checks the request as ntscontact does; at the evaluation the codec calls
+ * `evaluate` below, which deals the bodies to the ranks (blocks of about
+ * equal nodes), gives them the whole scene's frame, evaluates with the
+ * library and gathers the answer on rank 0, which the codec encodes: the
+ * bytes ntscontact writes. The other ranks wait for jobs until rank 0 is
+ * done. */
+#include <stdlib.h>
+#include <string.h>
+
+#include <ntscontact/codec.h>
+#include <ntscontact/mpi.h>
+
+#include "mpi_internal.h"
+
+int nts_cli_main(int argc, char** argv);
+void ntsm_cli_configure(ntsj_config* cfg);
+
+enum { JOB_STOP = 0, JOB_EVALUATE = 1 };
+
+/* A job's state, kept until the next (its result's arrays live in it). */
+typedef struct job {
+    ntsm_dealt dealt;
+    ntsm_scene* scene;
+} job;
+
+static job current;
+
+static void job_end(void) {
+    ntsm_scene_destroy(current.scene);
+    ntsm_dealt_free(&current.dealt);
+    memset(&current, 0, sizeof current);
+}
+
+/* Every rank: one evaluation of the bodies root deals (def only read on
+ * root), with root's options and frame. */
+static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame, nts_result* out, nts_error* err) {
+    double box[2] = {0.0, 0.0};
+    nts_limits limits = nts_default_limits();
+    int rank, rc;
+    ntsm_result mine;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    job_end();
+    if (rank == 0) {
+        box[0] = def->lx;
+        box[1] = def->ly;
+        limits = def->limits;
+    }
+    MPI_Bcast(opt, (int)sizeof *opt, MPI_BYTE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(frame, (int)sizeof *frame, MPI_BYTE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(box, 2, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(&limits, (int)sizeof limits, MPI_BYTE, 0, MPI_COMM_WORLD);
+    if ((rc = ntsm_deal_bodies(MPI_COMM_WORLD, 0, rank == 0 ? def->bodies : NULL, rank == 0 ? def->body_count : 0,
+                               &current.dealt)) != NTS_OK) {
+        *err = nts_error_none();
+        err->code = rc;
+        strcpy(err->message, "out of memory");
+        return rc;
+    }
+    current.scene = ntsm_scene_create(MPI_COMM_WORLD, current.dealt.defs, current.dealt.ids, current.dealt.count,
+                                      box[0], box[1], limits, err);
+    if (current.scene == NULL) return err->code;
+    ntsm_scene_set_frame(current.scene, frame);
+    if ((rc = ntsm_evaluate(current.scene, opt, &mine, err)) != NTS_OK) return rc;
+    return ntsm_gather(current.scene, 0, out, err);
+}
+
+/* The codec's evaluation on rank 0. */
+static int evaluate(void* user, const nts_scene_def* def, const nts_scene* scene, const nts_options* opt,
+                    nts_result* out, nts_error* err) {
+    int cmd = JOB_EVALUATE, rc;
+    nts_options o = *opt;
+    nts_frame frame;
+    nts_context* ctx;
+    (void)user;
+    memset(out, 0, sizeof *out);
+    if (opt->history != NULL) { /* answered here: the other ranks are not asked */
+        *err = nts_error_none();
+        err->code = NTS_EINVALID_ARGUMENT;
+        strcpy(err->option, "history");
+        strcpy(err->message, "ntscontact-mpi takes no friction history yet: evaluate it with ntscontact");
+        return err->code;
+    }
+    /* the whole scene's frame, computed here where the whole scene is */
+    if ((ctx = nts_context_create()) == NULL) return NTS_ENOMEM;
+    rc = nts_scene_frame(ctx, scene, opt, &frame, NULL, err);
+    nts_context_destroy(ctx);
+    if (rc != NTS_OK) return rc;
+    o.cancel = NULL; /* a deadline is rank 0's: the others cannot ask it */
+    o.cancel_user = NULL;
+    o.history = NULL;
+    o.candidates = NULL;
+    MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return job_run(def, &o, &frame, out, err);
+}
+
+void ntsm_cli_configure(ntsj_config* cfg) {
+    cfg->evaluate = evaluate;
+    cfg->evaluate_user = NULL;
+}
+
+int main(int argc, char** argv) {
+    int rank, status = 0, provided;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank == 0) {
+        int cmd = JOB_STOP;
+        status = nts_cli_main(argc, argv);
+        MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    } else {
+        for (;;) {
+            int cmd;
+            nts_options opt;
+            nts_frame frame;
+            nts_result out;
+            nts_error err;
+            MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
+            if (cmd != JOB_EVALUATE) break;
+            (void)job_run(NULL, &opt, &frame, &out, &err);
+        }
+    }
+    job_end();
+    MPI_Finalize();
+    return status;
+}

@@ -1,0 +1,184 @@
+"""ntscontact-mpi (docs/distributed.md): under `mpirun -np N`, N = 1..4, its
+output is the bytes ntscontact writes for the same scene and options
+(elapsed_ms aside): open and periodic packings, long walls, bodies spanning
+several slabs and larger than a rank's domain, more ranks than cells along an
+axis, deep contacts, friction, self-contact, contact surfaces, meshes, every
+output; and a bad scene gives the same error and exit code. Skipped when the
+build has no MPI (-DNTS_MPI=ON)."""
+import json
+import math
+import os
+import random
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from conftest import BUILD
+
+MPI_CLI = BUILD / "bin" / "ntscontact-mpi"
+SERIAL = BUILD / "bin" / "ntscontact"
+MPIRUN = shutil.which("mpirun")
+
+pytestmark = pytest.mark.skipif(not MPI_CLI.exists() or MPIRUN is None,
+                                reason="no ntscontact-mpi in this build (-DNTS_MPI=ON) or no mpirun")
+
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_btl_vader_single_copy_mechanism="none")
+ELAPSED = re.compile(rb'"elapsed_ms":\s*[-0-9.eE+]+')
+ALL = "forces,energy,virial,contacts,gaps,stiffness,pressure"
+
+
+def polygon(cx, cy, r, n, phase=0.0):
+    return [[cx + r * math.cos(phase + 2 * math.pi * k / n), cy + r * math.sin(phase + 2 * math.pi * k / n)]
+            for k in range(n)]
+
+
+def packing(count, seed, periodic=False, overlap=1.08, n=24):
+    """Disks on a jittered grid, pressed into each other (radius `overlap` x half the spacing)."""
+    rng = random.Random(seed)
+    side = int(math.ceil(math.sqrt(count)))
+    bodies = []
+    for i in range(count):
+        x, y = (i % side) + 0.5, (i // side) + 0.5
+        r = 0.5 * overlap * rng.uniform(0.9, 1.05)
+        bodies.append({"nodes": polygon(x + rng.uniform(-0.04, 0.04), y + rng.uniform(-0.04, 0.04), r, n,
+                                        rng.uniform(0, 1))})
+    scene = {"bodies": bodies}
+    if periodic:
+        scene["options"] = {"penalty": 1.0, "periodic": {"lx": float(side), "ly": float(side)}}
+    return scene
+
+
+def rectangle(x0, y0, x1, y1, per_side):
+    pts = []
+    for k in range(per_side):
+        pts.append([x0 + (x1 - x0) * k / per_side, y0])
+    for k in range(per_side):
+        pts.append([x1, y0 + (y1 - y0) * k / per_side])
+    for k in range(per_side):
+        pts.append([x1 - (x1 - x0) * k / per_side, y1])
+    for k in range(per_side):
+        pts.append([x0, y1 - (y1 - y0) * k / per_side])
+    return pts
+
+
+def run(cmd, scene_path, flags, np_=None):
+    argv = [str(cmd), *flags, str(scene_path)]
+    if np_ is not None:
+        argv = [MPIRUN, "-np", str(np_), "--oversubscribe", *argv]
+    return subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
+
+
+def same_bytes(tmp_path, scene, flags=(), ranks=(1, 2, 3, 4)):
+    path = tmp_path / "scene.json"
+    if isinstance(scene, dict):
+        scene.setdefault("options", {}).setdefault("penalty", 1.0)
+        for i, b in enumerate(scene["bodies"]):
+            b.setdefault("id", i)
+        path.write_text(json.dumps(scene))
+    else:
+        path = scene
+    ref = run(SERIAL, path, flags)
+    assert ref.returncode == 0, ref.stderr.decode()
+    want = ELAPSED.sub(b"", ref.stdout)
+    for n in ranks:
+        got = run(MPI_CLI, path, flags, n)
+        assert got.returncode == 0, f"np={n}: {got.stderr.decode()}"
+        assert ELAPSED.sub(b"", got.stdout) == want, f"np={n}: differs from ntscontact ({' '.join(flags)})"
+    return json.loads(ref.stdout)
+
+
+@pytest.mark.parametrize("example", ["two_disks", "jittered_packing", "periodic_packing", "triangle_meshes"])
+@pytest.mark.parametrize("outputs", [None, ALL])
+def test_examples_bitwise(tmp_path, paths, example, outputs):
+    flags = ("--outputs", outputs) if outputs else ()
+    same_bytes(tmp_path, paths.examples / f"{example}.json", flags)
+
+
+def test_open_packing_every_output(tmp_path):
+    r = same_bytes(tmp_path, packing(150, 1), ("--outputs", ALL))
+    assert r["summary"]["contacts"] > 300
+
+
+def test_periodic_packing(tmp_path):
+    r = same_bytes(tmp_path, packing(144, 2, periodic=True), ("--outputs", "forces,contacts,gaps"))
+    assert r["summary"]["contacts"] > 300
+
+
+def test_options(tmp_path):
+    scene = packing(64, 3)
+    for flags in (("--alpha", "0"), ("--alpha", "0.5", "--solver", "newton"), ("--search-radius", "0.05"),
+                  ("--penalty", "1e3", "--outputs", "forces,stiffness")):
+        same_bytes(tmp_path, scene, flags, ranks=(2, 4))
+
+
+def test_explicit_radius_warning(tmp_path):
+    """Deeper than an explicit radius: left out, and counted the same."""
+    scene = packing(36, 4, overlap=1.4)
+    r = same_bytes(tmp_path, scene, ("--search-radius", "0.02"), ranks=(1, 3))
+    assert r.get("warnings"), "the scene should leave contacts out"
+
+
+def test_deep_contacts_and_a_body_larger_than_a_slab(tmp_path):
+    """A big disk over many small ones, some deep inside it: its box spans every slab."""
+    scene = packing(100, 5)
+    scene["bodies"].append({"nodes": polygon(5.0, 5.0, 2.2, 400)})
+    r = same_bytes(tmp_path, scene, ("--outputs", "forces,contacts,gaps"))
+    assert r["summary"]["deep_contacts"] > 0
+
+
+def test_long_walls(tmp_path):
+    """A floor and a ceiling as long as the scene, disks between them."""
+    scene = packing(60, 6)
+    scene["bodies"].append({"nodes": rectangle(-1.0, -0.45, 11.0, 0.05, 200), "alpha": 0.0})
+    scene["bodies"].append({"nodes": rectangle(-1.0, 6.0, 11.0, 6.5, 200), "alpha": 0.0})
+    same_bytes(tmp_path, scene, ("--outputs", "forces,contacts,stiffness"))
+
+
+def test_more_ranks_than_cells(tmp_path):
+    """Two disks: 4 ranks, most with no slave at all."""
+    scene = {"bodies": [{"nodes": polygon(0, 0, 1, 40)}, {"nodes": polygon(1.9, 0.1, 1, 40)}]}
+    same_bytes(tmp_path, scene, ("--outputs", ALL))
+
+
+def test_friction_self_contact_surfaces(tmp_path):
+    scene = packing(49, 7)
+    scene["options"] = {"penalty": 1.0, "friction": {"coefficient": 0.3}}
+    same_bytes(tmp_path, scene, ("--outputs", "forces,contacts,stiffness"), ranks=(2, 3))
+    ring = packing(25, 8)
+    for b in ring["bodies"][::3]:
+        b["self_contact"] = True
+    same_bytes(tmp_path, ring, (), ranks=(2, 4))
+    surf = {"bodies": [{"nodes": rectangle(0, 0, 2, 1, 8), "surface": [[k, k + 1] for k in range(7)] + [[7, 8]]},
+                       {"nodes": rectangle(0, 0.99, 2, 2, 8)}]}
+    same_bytes(tmp_path, surf, ("--outputs", "forces,contacts"), ranks=(1, 2))
+
+
+@pytest.mark.parametrize("bad", [
+    {"bodies": [{"nodes": [[0, 0], [1, 0], [1, 0], [0, 1]]}, {"nodes": polygon(3, 0, 1, 8)}]},
+    {"bodies": [{"nodes": polygon(0, 0, 1, 8)}, {"nodes": [[0, 0], [1, 0]]}]},
+    {"bodies": [{"nodes": polygon(0, 0, 1, 8)}, {"nodes": polygon(1.5, 0, 1, 8)}],
+     "options": {"penalty": 1.0, "periodic": {"lx": 3.0, "ly": 3.0}}},
+])
+def test_bad_scene_same_error(tmp_path, bad):
+    path = tmp_path / "bad.json"
+    bad = dict(bad)
+    bad.setdefault("options", {"penalty": 1.0})
+    bad["bodies"] = [dict(b, id=i) for i, b in enumerate(bad["bodies"])]
+    path.write_text(json.dumps(bad))
+    ref = run(SERIAL, path, ())
+    assert ref.returncode != 0
+    for n in (1, 3):
+        got = run(MPI_CLI, path, (), n)
+        assert got.returncode == ref.returncode
+        # (mpirun adds its own notice of the non-zero exit after it)
+        assert got.stderr.splitlines()[0] == ref.stderr.splitlines()[0]
+
+
+def test_frames_refused(tmp_path, paths):
+    frames = tmp_path / "f.bin"
+    frames.write_bytes(b"")
+    got = run(MPI_CLI, paths.examples / "two_disks.json", ("--frames", str(frames)), 2)
+    assert got.returncode == 2 and b"--frames" in got.stderr
