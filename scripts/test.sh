@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-NTS_BUILD_DIR=build bash scripts/build.sh -DNTS_WERROR=ON
+NTS_BUILD_DIR=build bash scripts/build.sh -DNTS_WERROR=ON -DNTS_MPI=ON
 (cd build && ctest --output-on-failure)
 if [ -d tests/python ]; then
   set +e

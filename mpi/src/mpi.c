@@ -252,7 +252,16 @@ static int fail(nts_error* err, int code, const char* msg) {
 
 /* A core error on a scene of this rank's: its body as a global index. */
 static void global_body(nts_error* err, const int* ids, int count) {
-    if (err != NULL && err->body >= 0 && err->body < count) err->body = ids[err->body];
+    int local, used = 0;
+    if (err == NULL || err->body < 0 || err->body >= count) return;
+    /* the message names the body as the core does ("body K ..."): K global too */
+    if (sscanf(err->message, "body %d%n", &local, &used) == 1 && local == err->body) {
+        char out[sizeof err->message + 32];
+        snprintf(out, sizeof out, "body %d%s", ids[local], err->message + used);
+        memcpy(err->message, out, sizeof err->message - 1);
+        err->message[sizeof err->message - 1] = '\0';
+    }
+    err->body = ids[err->body];
 }
 
 void ntsm_scene_destroy(ntsm_scene* m) {

@@ -1,0 +1,251 @@
+/* libntscontact_mpi against nts_evaluate on the whole scene, under
+ * mpirun -np N (ctest mpi_np1..4): every rank builds the whole scene for the
+ * reference and owns a scattered share of its bodies (body b on rank
+ * 7 b mod N, not blocks: the host decides). Open and periodic packings, a
+ * long wall, a big body over all the slabs; positions moved so that bodies
+ * cross ranks (and the periodic box's edge); the forces on each rank's nodes,
+ * the energy, virial and counts must be the same bits. Bad input on one rank
+ * must give every rank the same error. Exit 0 when all holds. */
+#include <math.h>
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ntscontact/mpi.h>
+
+static int rank_, size_, failures;
+
+#define CHECK(cond, ...)                                                    \
+    do {                                                                    \
+        if (!(cond)) {                                                      \
+            ++failures;                                                     \
+            fprintf(stderr, "rank %d/%d: %s:%d: ", rank_, size_, __FILE__, __LINE__); \
+            fprintf(stderr, __VA_ARGS__);                                   \
+            fputc('\n', stderr);                                            \
+        }                                                                   \
+    } while (0)
+
+typedef struct scene_data {
+    int bodies;
+    nts_body_def* defs;
+    nts_vec2* nodes; /* all bodies' nodes, body after body */
+    int* offset;     /* bodies + 1 */
+    double lx, ly;
+} scene_data;
+
+static unsigned rng_state = 12345u;
+static double rnd(void) {
+    rng_state = rng_state * 1664525u + 1013904223u;
+    return (double)(rng_state >> 8) / 16777216.0;
+}
+
+/* count disks on a jittered grid (pressed into each other), a long wall
+ * under them, and a big disk over the middle. */
+static scene_data make_scene(int count, int periodic) {
+    scene_data d;
+    const int side = (int)ceil(sqrt((double)count)), n = 20, wall = periodic ? 0 : 400, big = periodic ? 0 : 300;
+    int b, k, at = 0;
+    memset(&d, 0, sizeof d);
+    d.bodies = count + (wall > 0) + (big > 0);
+    d.defs = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
+    d.offset = (int*)calloc((size_t)d.bodies + 1, sizeof(int));
+    d.nodes = (nts_vec2*)calloc((size_t)(count * n + wall + big), sizeof(nts_vec2));
+    for (b = 0; b < count; ++b) {
+        const double cx = (b % side) + 0.5 + 0.04 * (rnd() - 0.5), cy = (b / side) + 0.5 + 0.04 * (rnd() - 0.5);
+        const double r = 0.54 * (0.92 + 0.12 * rnd()), ph = rnd();
+        d.offset[b] = at;
+        for (k = 0; k < n; ++k) {
+            d.nodes[at + k].x = cx + r * cos(ph + 2 * M_PI * k / n);
+            d.nodes[at + k].y = cy + r * sin(ph + 2 * M_PI * k / n);
+        }
+        at += n;
+    }
+    if (wall > 0) { /* a thin floor as long as the scene */
+        d.offset[b] = at;
+        for (k = 0; k < wall / 2; ++k) {
+            d.nodes[at + k].x = -1.0 + (side + 2.0) * k / (wall / 2);
+            d.nodes[at + k].y = -0.4;
+        }
+        for (k = 0; k < wall / 2; ++k) {
+            d.nodes[at + wall / 2 + k].x = side + 1.0 - (side + 2.0) * k / (wall / 2);
+            d.nodes[at + wall / 2 + k].y = 0.02;
+        }
+        at += wall;
+        ++b;
+    }
+    if (big > 0) {
+        d.offset[b] = at;
+        for (k = 0; k < big; ++k) {
+            d.nodes[at + k].x = 0.5 * side + 0.3 * side * cos(2 * M_PI * k / big);
+            d.nodes[at + k].y = 0.5 * side + 0.3 * side * sin(2 * M_PI * k / big);
+        }
+        at += big;
+        ++b;
+    }
+    d.offset[d.bodies] = at;
+    for (b = 0; b < d.bodies; ++b) {
+        d.defs[b].nodes = d.nodes + d.offset[b];
+        d.defs[b].node_count = d.offset[b + 1] - d.offset[b];
+    }
+    if (b == count + 2) d.defs[count].has_alpha = 1; /* the wall: sharp corners */
+    d.lx = d.ly = periodic ? side : 0.0;
+    return d;
+}
+
+static void free_scene(scene_data* d) {
+    free(d->defs);
+    free(d->nodes);
+    free(d->offset);
+}
+
+/* The distributed answer against the whole scene's, at the current positions. */
+static void compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count, const char* what,
+                    unsigned outputs) {
+    nts_context* ctx = nts_context_create();
+    nts_options opt = nts_default_options();
+    nts_result ref;
+    ntsm_result got;
+    nts_error err;
+    int k, rc, at = 0, i;
+    opt.outputs = outputs;
+    rc = nts_evaluate(ctx, whole, &opt, &ref, &err);
+    CHECK(rc == 0, "%s: reference: %s", what, err.message);
+    rc = ntsm_evaluate(m, &opt, &got, &err);
+    CHECK(rc == 0, "%s: distributed: %s", what, err.message);
+    if (rc == 0) {
+        CHECK(memcmp(&got.summary.energy, &ref.summary.energy, sizeof(double)) == 0, "%s: energy %.17g vs %.17g", what,
+              got.summary.energy, ref.summary.energy);
+        CHECK(memcmp(&got.summary.virial, &ref.summary.virial, sizeof(nts_virial)) == 0, "%s: virial", what);
+        CHECK(got.summary.contacts == ref.summary.contacts && got.summary.gaps == ref.summary.gaps &&
+                  got.summary.deep_contacts == ref.summary.deep_contacts,
+              "%s: counts %d %d %d vs %d %d %d", what, got.summary.contacts, got.summary.gaps,
+              got.summary.deep_contacts, ref.summary.contacts, ref.summary.gaps, ref.summary.deep_contacts);
+        CHECK(got.summary.max_penetration == ref.summary.max_penetration, "%s: max penetration", what);
+        CHECK(got.summary.search_radius == ref.summary.search_radius, "%s: radius %.17g vs %.17g", what,
+              got.summary.search_radius, ref.summary.search_radius);
+        CHECK(got.warning_count == ref.warning_count, "%s: warnings", what);
+        for (k = 0; k < count && (outputs & NTS_OUT_FORCES); ++k) {
+            const int b = mine[k], n = d->offset[b + 1] - d->offset[b];
+            for (i = 0; i < n; ++i)
+                CHECK(memcmp(&got.forces[at + i], &ref.forces[d->offset[b] + i], sizeof(nts_vec2)) == 0,
+                      "%s: body %d node %d: force differs", what, b, i);
+            at += n;
+        }
+        if (rank_ == 0)
+            printf("%s: %d ranks, %d contacts (%d deep), energy %.17g, bitwise equal; this rank sent %lld bytes, "
+                   "held %d of %d surface entries\n",
+                   what, size_, got.summary.contacts, got.summary.deep_contacts, got.summary.energy,
+                   got.stats.bytes_sent, got.stats.part_entries, got.summary.surface_nodes);
+    }
+    nts_context_destroy(ctx);
+}
+
+static void run_case(int count, int periodic, const char* name) {
+    scene_data d = make_scene(count, periodic);
+    nts_scene_def def = nts_default_scene_def();
+    nts_scene* whole;
+    ntsm_scene* m;
+    nts_body_def* owned = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
+    int* ids = (int*)calloc((size_t)d.bodies, sizeof(int));
+    nts_vec2* moved = (nts_vec2*)calloc((size_t)d.offset[d.bodies], sizeof(nts_vec2));
+    nts_vec2* mine_pos = (nts_vec2*)calloc((size_t)d.offset[d.bodies], sizeof(nts_vec2));
+    nts_error err;
+    int b, k, count_mine = 0, step;
+    char what[96];
+    def.bodies = d.defs;
+    def.body_count = d.bodies;
+    def.lx = d.lx;
+    def.ly = d.ly;
+    whole = nts_scene_create(&def, &err);
+    CHECK(whole != NULL, "%s: whole scene: %s", name, err.message);
+    for (b = 0; b < d.bodies; ++b)
+        if ((7 * b) % size_ == rank_) {
+            owned[count_mine] = d.defs[b];
+            ids[count_mine++] = b;
+        }
+    m = ntsm_scene_create(MPI_COMM_WORLD, owned, ids, count_mine, d.lx, d.ly, nts_default_limits(), &err);
+    CHECK(m != NULL, "%s: distributed scene: %s", name, err.message);
+    if (whole != NULL && m != NULL) {
+        snprintf(what, sizeof what, "%s, at rest", name);
+        compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+        for (step = 1; step <= 2; ++step) {
+            /* every body moves a third of the scene along x and turns a
+             * little: most cross a rank (and the box's edge when periodic) */
+            const double shift = step * 0.37 * sqrt((double)count), turn = 0.01 * step;
+            int at = 0;
+            for (k = 0; k < d.offset[d.bodies]; ++k) {
+                const nts_vec2 p = d.nodes[k];
+                moved[k].x = p.x * cos(turn) - p.y * sin(turn) + shift;
+                moved[k].y = p.x * sin(turn) + p.y * cos(turn);
+            }
+            for (k = 0; k < count_mine; ++k) {
+                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
+                memcpy(mine_pos + at, moved + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
+                at += n;
+            }
+            CHECK(nts_scene_update_positions(whole, moved, &err) == 0, "%s: move: %s", name, err.message);
+            CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "%s: move: %s", name, err.message);
+            snprintf(what, sizeof what, "%s, moved %d", name, step);
+            compare(&d, m, whole, ids, count_mine, what,
+                    step == 1 ? NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL : NTS_OUT_FORCES | NTS_OUT_ENERGY);
+        }
+    }
+    ntsm_scene_destroy(m);
+    nts_scene_destroy(whole);
+    free(owned);
+    free(ids);
+    free(moved);
+    free(mine_pos);
+    free_scene(&d);
+}
+
+/* A degenerate body on the last rank only: every rank gets its error. */
+static void bad_input(void) {
+    nts_vec2 good[8], bad[4] = {{0, 0}, {1, 0}, {1, 0}, {0, 1}};
+    nts_body_def def;
+    nts_error err;
+    ntsm_scene* m;
+    int k, id = rank_ == size_ - 1 ? 2 * size_ - 1 : rank_, codes[2], all[2];
+    for (k = 0; k < 8; ++k) {
+        good[k].x = 3.0 * rank_ + cos(2 * M_PI * k / 8);
+        good[k].y = sin(2 * M_PI * k / 8);
+    }
+    memset(&def, 0, sizeof def);
+    def.nodes = rank_ == size_ - 1 ? bad : good;
+    def.node_count = rank_ == size_ - 1 ? 4 : 8;
+    /* ids: 0 .. size-2 on the first ranks, the bad body's id past them */
+    id = rank_ == size_ - 1 ? size_ - 1 : rank_;
+    m = ntsm_scene_create(MPI_COMM_WORLD, &def, &id, 1, 0.0, 0.0, nts_default_limits(), &err);
+    if (m != NULL) { /* the fault may only show when the segments are computed */
+        nts_options opt = nts_default_options();
+        ntsm_result r;
+        int rc = ntsm_evaluate(m, &opt, &r, &err);
+        CHECK(rc != 0, "the degenerate body was accepted");
+        ntsm_scene_destroy(m);
+    }
+    codes[0] = err.code;
+    codes[1] = err.body;
+    MPI_Allreduce(codes, all, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    CHECK(err.code != 0 && all[0] == codes[0] && all[1] == codes[1] && err.body == size_ - 1,
+          "bad input: code %d body %d (min over ranks %d %d; want body %d)", err.code, err.body, all[0], all[1],
+          size_ - 1);
+    if (rank_ == 0) printf("bad input on rank %d: every rank got \"%s\" (body %d)\n", size_ - 1, err.message, err.body);
+}
+
+int main(int argc, char** argv) {
+    int total;
+    MPI_Init(&argc, &argv);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    run_case(300, 0, "open packing, a long wall, a big disk");
+    run_case(256, 1, "periodic packing");
+    run_case(2, 0, "two disks");
+    bad_input();
+    MPI_Allreduce(&failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+    if (rank_ == 0) printf("%s\n", total == 0 ? "all equal" : "FAILED");
+    MPI_Finalize();
+    return total == 0 ? 0 : 1;
+}
