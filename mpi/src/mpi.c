@@ -152,10 +152,13 @@ static size_t body_read(const char* p, nts_body_def* d, int* id) {
 
 /* ------------------------------------------------------------ the scene */
 
-/* One contribution to a node's force, with the key one process adds it in. */
+/* One contribution to a node's force, with the key one process adds it in
+ * (deep, slave entry, master body, place), to the rank that owns the node. */
 typedef struct share_msg {
-    long long node; /* global */
-    int deep, entry, body, q;
+    int at;    /* the node among its owner's nodes */
+    int entry; /* global slave entry */
+    int body;  /* global master body */
+    int dq;    /* deep << 2 | place in the contact (0: the slave) */
     double fx, fy;
 } share_msg;
 
@@ -183,12 +186,14 @@ struct ntsm_scene {
     nts_scene* own;       /* the owned bodies alone (positions, the frame's lengths) */
     nts_context* own_ctx;
     int own_nodes;
+    int* own_node_at;     /* count + 1: each owned body's first node among this rank's */
     /* the whole, by global body */
     int bodies;
     int* owner;           /* rank */
     int* local_of;        /* index among this rank's bodies, or -1 */
     long long* node_off;  /* bodies + 1 */
     long long* entry_off; /* bodies + 1 */
+    int* owner_node_at;   /* each body's first node among its owner's nodes */
     int loops_reversed;
     double lx, ly;        /* the periodic box (0: open) */
     nts_frame frame;
@@ -201,6 +206,9 @@ struct ntsm_scene {
     int part_cap_ids;
     long long* part_node; /* part node -> global node */
     int part_node_cap;
+    int* node_owner;      /* part node -> its owner rank, and its place among the owner's nodes */
+    int* node_at;
+    int node_owner_cap, node_at_cap;
     int* entry_owned;     /* part entry -> 1 when this rank owns its slave */
     long long* entry_global;
     int entry_cap;
@@ -270,17 +278,21 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->own_bytes.p);
     free(m->own_at);
     free(m->own_defs);
+    free(m->own_node_at);
     nts_scene_destroy(m->own);
     nts_context_destroy(m->own_ctx);
     free(m->owner);
     free(m->local_of);
     free(m->node_off);
     free(m->entry_off);
+    free(m->owner_node_at);
     free(m->recv.p);
     nts_scene_destroy(m->part);
     nts_context_destroy(m->ctx);
     free(m->part_ids);
     free(m->part_node);
+    free(m->node_owner);
+    free(m->node_at);
     free(m->entry_owned);
     free(m->entry_global);
     free(m->forces);
@@ -324,9 +336,10 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         m->lx = lx;
         m->ly = ly;
         m->ids = (int*)malloc(sizeof(int) * (size_t)(count + 1));
+        m->own_node_at = (int*)calloc((size_t)count + 1, sizeof(int));
         m->own_at = (size_t*)malloc(sizeof(size_t) * (size_t)(count + 1));
         m->own_defs = (nts_body_def*)calloc((size_t)count + 1, sizeof(nts_body_def));
-        if (m->ids == NULL || m->own_at == NULL || m->own_defs == NULL) rc = fail(&e, NTS_ENOMEM, "out of memory");
+        if (m->ids == NULL || m->own_at == NULL || m->own_defs == NULL || m->own_node_at == NULL) rc = fail(&e, NTS_ENOMEM, "out of memory");
     }
     for (k = 0; k < count && rc == NTS_OK; ++k) {
         if (bodies[k].nodes == NULL || bodies[k].node_count < 0) {
@@ -373,6 +386,7 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         mine[3 * k + 1] = m->own_defs[k].node_count;
         mine[3 * k + 2] = nts_scene_body_entry_start(m->own, k + 1) - nts_scene_body_entry_start(m->own, k);
         m->own_nodes += m->own_defs[k].node_count;
+        m->own_node_at[k + 1] = m->own_nodes;
     }
     k = 3 * count;
     MPI_Allgather(&k, 1, MPI_INT, counts, 1, MPI_INT, comm);
@@ -384,12 +398,13 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
     m->local_of = (int*)malloc(sizeof(int) * (size_t)(total + 1));
     m->node_off = (long long*)malloc(sizeof(long long) * (size_t)(total + 1));
     m->entry_off = (long long*)malloc(sizeof(long long) * (size_t)(total + 1));
-    rc = all && m->owner && m->local_of && m->node_off && m->entry_off ? NTS_OK : fail(&e, NTS_ENOMEM, "out of memory");
+    m->owner_node_at = (int*)malloc(sizeof(int) * (size_t)(total + 1));
+    rc = all && m->owner && m->local_of && m->node_off && m->entry_off && m->owner_node_at ? NTS_OK : fail(&e, NTS_ENOMEM, "out of memory");
     if (agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
     MPI_Allgatherv(mine, 3 * count, MPI_INT, all, counts, displs, MPI_INT, comm);
     for (i = 0; i < total; ++i) m->owner[i] = -1;
     for (i = 0; i < size && rc == NTS_OK; ++i) {
-        int j;
+        int j, at = 0;
         for (j = displs[i] / 3; j < displs[i + 1] / 3; ++j) {
             const int id = all[3 * j];
             if (id < 0 || id >= total || m->owner[id] >= 0) {
@@ -399,6 +414,8 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
                 break;
             }
             m->owner[id] = i;
+            m->owner_node_at[id] = at;
+            at += all[3 * j + 1];
             m->node_off[id + 1] = all[3 * j + 1];
             m->entry_off[id + 1] = all[3 * j + 2];
         }
@@ -459,11 +476,6 @@ void ntsm_scene_set_frame(ntsm_scene* m, const nts_frame* frame) {
 
 /* ------------------------------------------------------------ the frame */
 
-static int cmp_double(const void* a, const void* b) {
-    const double x = *(const double*)a, y = *(const double*)b;
-    return (x > y) - (x < y);
-}
-
 static uint64_t bits_of(double v) {
     uint64_t u;
     memcpy(&u, &v, sizeof u);
@@ -476,15 +488,31 @@ static double double_of(uint64_t u) {
     return v;
 }
 
-/* How many of the sorted v[0..n) are <= x. */
-static long long count_le(const double* v, int n, double x) {
-    int lo = 0, hi = n;
-    while (lo < hi) {
-        const int mid = lo + (hi - lo) / 2;
-        if (v[mid] <= x) lo = mid + 1;
-        else hi = mid;
+/* The k-th smallest (0-based) of every rank's values v[0..n), exactly: the
+ * values are positive doubles, ordered as their bits, so eight rounds each
+ * fix the next byte of the answer's bits, from a histogram of that byte
+ * among the values that agree with the bytes found so far, summed across
+ * the ranks (v is reordered: those candidates are kept in front). */
+static double kth_across(MPI_Comm comm, double* v, int n, long long k) {
+    uint64_t prefix = 0;
+    long long h[256], sum[256];
+    int round, live = n, i, c;
+    for (round = 0; round < 8; ++round) {
+        const int shift = 56 - 8 * round;
+        memset(h, 0, sizeof h);
+        for (i = 0; i < live; ++i) h[(bits_of(v[i]) >> shift) & 255u]++;
+        MPI_Allreduce(h, sum, 256, MPI_LONG_LONG, MPI_SUM, comm);
+        for (c = 0; c < 255 && k >= sum[c]; ++c) k -= sum[c];
+        prefix |= (uint64_t)c << shift;
+        { /* keep the candidates that share the bytes so far */
+            int kept = 0;
+            const uint64_t mask = ~(uint64_t)0 << shift;
+            for (i = 0; i < live; ++i)
+                if ((bits_of(v[i]) & mask) == prefix) v[kept++] = v[i];
+            live = kept;
+        }
     }
-    return lo;
+    return double_of(prefix);
 }
 
 /* The whole scene's frame: its segments' extremes reduced, and the median
@@ -524,19 +552,8 @@ static int frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_e
     f->ymax = red[5];
     f->cell_size = -1.0;
     f->surface_nodes = (int)m->entry_off[m->bodies];
-    if (opt->search_radius < 0.0 && f->surface_nodes > 0) {
-        const long long want = (long long)(f->surface_nodes - 1) / 2 + 1; /* the k-th: k + 1 at or below it */
-        uint64_t lo = 0, hi = bits_of(HUGE_VAL);
-        qsort(len, (size_t)n, sizeof(double), cmp_double);
-        while (lo < hi) {
-            const uint64_t mid = lo + (hi - lo) / 2;
-            long long c = count_le(len, n, double_of(mid)), sum;
-            MPI_Allreduce(&c, &sum, 1, MPI_LONG_LONG, MPI_SUM, m->comm);
-            if (sum >= want) hi = mid;
-            else lo = mid + 1;
-        }
-        f->median = double_of(lo);
-    }
+    if (opt->search_radius < 0.0 && f->surface_nodes > 0)
+        f->median = kth_across(m->comm, len, n, (long long)(f->surface_nodes - 1) / 2);
     free(len);
     return NTS_OK;
 }
@@ -644,14 +661,13 @@ static int meets(const slabs* sl, int r, double a, double b) {
 
 /* ------------------------------------------------------------ sorting keys */
 
-static int cmp_share(const void* pa, const void* pb) {
-    const share_msg* a = (const share_msg*)pa;
-    const share_msg* b = (const share_msg*)pb;
-    if (a->node != b->node) return a->node < b->node ? -1 : 1;
-    if (a->deep != b->deep) return a->deep - b->deep;
+/* One process's order of a node's contributions: the chunks' (by slave
+ * entry, master body, place), then the deep contacts' (scatter.c). */
+static int cmp_share(const share_msg* a, const share_msg* b) {
+    if ((a->dq >> 2) != (b->dq >> 2)) return (a->dq >> 2) - (b->dq >> 2);
     if (a->entry != b->entry) return a->entry < b->entry ? -1 : 1;
     if (a->body != b->body) return a->body < b->body ? -1 : 1;
-    return a->q - b->q;
+    return (a->dq & 3) - (b->dq & 3);
 }
 
 static int cmp_sum(const void* pa, const void* pb) {
@@ -659,6 +675,38 @@ static int cmp_sum(const void* pa, const void* pb) {
     const sum_msg* b = (const sum_msg*)pb;
     if (a->entry != b->entry) return a->entry < b->entry ? -1 : 1;
     return (a->body > b->body) - (a->body < b->body);
+}
+
+/* v[0..n) in (entry, body) order: a counting sort by entry (the entries a
+ * chunk home receives span its chunks), then each entry's few by body. */
+static int sort_sums(sum_msg* v, int n) {
+    int lo = v[0].entry, hi = v[0].entry, k, j, e;
+    int* start;
+    sum_msg* out;
+    for (k = 1; k < n; ++k) {
+        if (v[k].entry < lo) lo = v[k].entry;
+        if (v[k].entry > hi) hi = v[k].entry;
+    }
+    start = (int*)calloc((size_t)(hi - lo) + 2, sizeof(int));
+    out = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)n);
+    if (start == NULL || out == NULL) {
+        free(start);
+        free(out);
+        return NTS_ENOMEM;
+    }
+    for (k = 0; k < n; ++k) start[v[k].entry - lo + 1]++;
+    for (e = 0; e <= hi - lo; ++e) start[e + 1] += start[e];
+    for (k = 0; k < n; ++k) out[start[v[k].entry - lo]++] = v[k];
+    for (k = 1; k < n; ++k) /* insertion sort: only a slave's few contacts are out of order */
+        for (j = k; j > 0 && cmp_sum(&out[j - 1], &out[j]) > 0; --j) {
+            const sum_msg t = out[j];
+            out[j] = out[j - 1];
+            out[j - 1] = t;
+        }
+    memcpy(v, out, sizeof(sum_msg) * (size_t)n);
+    free(start);
+    free(out);
+    return NTS_OK;
 }
 
 static int cmp_chunk(const void* pa, const void* pb) {
@@ -835,12 +883,19 @@ static int part_maps(ntsm_scene* m, const slabs* sl) {
         int cap = m->entry_cap - 1;
         if (!grow(&m->entry_global, &cap, m->entry_cap, sizeof(long long))) return NTS_ENOMEM;
     }
-    if (!grow(&m->part_node, &m->part_node_cap, nn + 1, sizeof(long long))) return NTS_ENOMEM;
+    if (!grow(&m->part_node, &m->part_node_cap, nn + 1, sizeof(long long)) ||
+        !grow(&m->node_owner, &m->node_owner_cap, nn + 1, sizeof(int)) ||
+        !grow(&m->node_at, &m->node_at_cap, nn + 1, sizeof(int)))
+        return NTS_ENOMEM;
     for (b = 0; b < nb; ++b) {
         const int id = m->part_ids[b], n0 = nts_scene_body_node_offset(m->part, b);
         const int e0 = nts_scene_body_entry_start(m->part, b), e1 = nts_scene_body_entry_start(m->part, b + 1);
         int i;
-        for (i = 0; i < nts_scene_body_node_count(m->part, b); ++i) m->part_node[n0 + i] = m->node_off[id] + i;
+        for (i = 0; i < nts_scene_body_node_count(m->part, b); ++i) {
+            m->part_node[n0 + i] = m->node_off[id] + i;
+            m->node_owner[n0 + i] = m->owner[id];
+            m->node_at[n0 + i] = m->owner_node_at[id] + i;
+        }
         for (e = e0; e < e1; ++e) {
             int body, node;
             nts_scene_entry(m->part, e, &body, &node);
@@ -876,22 +931,14 @@ static int sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     sum_msg* all_deep = NULL;
     long long cnt[8], tot[8];
     double maxpen = 0.0, gmax = 0.0;
+    const int want_forces = (m->outputs & NTS_OUT_FORCES) != 0u;
     if (counts == NULL) return fail(err, NTS_ENOMEM, "out of memory");
     memset(cnt, 0, sizeof cnt);
 
     /* The shares, grouped by the rank that owns each node. */
-    for (k = 0; k < np; ++k) {
+    for (k = 0; k < np && want_forces; ++k) {
         if (!m->entry_owned[parts[k].entry]) continue;
-        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q) {
-            const long long g = m->part_node[parts[k].nodes[q]];
-            int lo = 0, hi = m->bodies - 1;
-            while (lo < hi) { /* the body of node g */
-                const int mid = (lo + hi + 1) / 2;
-                if (m->node_off[mid] <= g) lo = mid;
-                else hi = mid - 1;
-            }
-            counts[m->owner[lo]]++;
-        }
+        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q) counts[m->node_owner[parts[k].nodes[q]]]++;
     }
     for (r = 0, n_sh = 0; r < P; ++r) {
         fill[r] = n_sh;
@@ -908,21 +955,12 @@ static int sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         const int ge = (int)m->entry_global[p->entry];
         sum_msg s;
         if (!m->entry_owned[p->entry]) continue;
-        for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-            const long long g = m->part_node[p->nodes[q]];
-            int lo = 0, hi = m->bodies - 1;
-            share_msg* o;
-            while (lo < hi) {
-                const int mid = (lo + hi + 1) / 2;
-                if (m->node_off[mid] <= g) lo = mid;
-                else hi = mid - 1;
-            }
-            o = &sh[fill[m->owner[lo]]++];
-            o->node = g;
-            o->deep = p->deep;
+        for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
+            share_msg* o = &sh[fill[m->node_owner[p->nodes[q]]]++];
+            o->at = m->node_at[p->nodes[q]];
             o->entry = ge;
             o->body = gb;
-            o->q = q;
+            o->dq = p->deep << 2 | q;
             o->fx = p->force[q].x;
             o->fy = p->force[q].y;
         }
@@ -962,25 +1000,41 @@ static int sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         !grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
         rc = fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    if (got > 1) qsort(rs, (size_t)got, sizeof(share_msg), cmp_share);
-    if (m->outputs & NTS_OUT_FORCES) {
-        int bad = 0, any_bad = 0;
-        long long base = 0;
-        memset(m->forces, 0, sizeof(nts_vec2) * (size_t)(m->own_nodes + 1));
-        for (k = 0; k < got; ++k) {
-            const long long g = rs[k].node;
-            int lo = 0, hi = m->bodies - 1, at, j;
-            while (lo < hi) {
-                const int mid = (lo + hi + 1) / 2;
-                if (m->node_off[mid] <= g) lo = mid;
-                else hi = mid - 1;
-            }
-            for (j = 0, at = 0; j < m->local_of[lo]; ++j) at += m->own_defs[j].node_count;
-            at += (int)(g - m->node_off[lo]);
-            m->forces[at].x = m->forces[at].x + rs[k].fx;
-            m->forces[at].y = m->forces[at].y + rs[k].fy;
+    if (want_forces) {
+        /* by node (a counting sort), then each node's few by key */
+        int bad = 0, any_bad = 0, i, j;
+        int* start = (int*)calloc((size_t)m->own_nodes + 2, sizeof(int));
+        int* order = (int*)malloc(sizeof(int) * (size_t)(got + 1));
+        if (start == NULL || order == NULL) {
+            free(start);
+            free(order);
+            rc = fail(err, NTS_ENOMEM, "out of memory");
+            goto done;
         }
-        (void)base;
+        for (k = 0; k < got; ++k) start[rs[k].at + 1]++;
+        for (i = 0; i < m->own_nodes; ++i) start[i + 1] += start[i];
+        for (k = 0; k < got; ++k) order[start[rs[k].at]++] = k;
+        for (i = m->own_nodes; i > 0; --i) start[i] = start[i - 1];
+        start[0] = 0;
+        for (i = 0; i < m->own_nodes; ++i) {
+            nts_vec2 f = {0.0, 0.0};
+            for (j = start[i] + 1; j < start[i + 1]; ++j) { /* insertion sort by key */
+                const int x = order[j];
+                int t = j;
+                while (t > start[i] && cmp_share(&rs[order[t - 1]], &rs[x]) > 0) {
+                    order[t] = order[t - 1];
+                    --t;
+                }
+                order[t] = x;
+            }
+            for (j = start[i]; j < start[i + 1]; ++j) {
+                f.x = f.x + rs[order[j]].fx;
+                f.y = f.y + rs[order[j]].fy;
+            }
+            m->forces[i] = f;
+        }
+        free(start);
+        free(order);
         for (k = 0; k < m->own_nodes; ++k) bad |= !isfinite(m->forces[k].x) || !isfinite(m->forces[k].y);
         MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, m->comm);
         if (any_bad) {
@@ -1011,7 +1065,8 @@ static int sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         }
     }
     if ((rc = agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    if (got > 1) qsort(rsum, (size_t)got, sizeof(sum_msg), cmp_sum);
+    if (got > 1 && sort_sums(rsum, got) != NTS_OK) rc = fail(err, NTS_ENOMEM, "out of memory");
+    if ((rc = agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     ch = (chunk_msg*)calloc((size_t)got + 1, sizeof(chunk_msg));
     rc = ch ? NTS_OK : fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
