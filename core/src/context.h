@@ -103,6 +103,8 @@ struct nts_context {
      * the parts each evaluation leaves when parts_on (scatter.c). */
     nts_frame frame;
     int frame_set, parts_on;
+    const unsigned char* owned; /* the host's slaves, by entry (nts_context_set_owned) */
+    long long owned_gaps;       /* the last evaluation's closest points of those */
     nts_part* parts;
     int parts_cap, part_count;
     int* gap_entries;   /* the slave entry of every closest point, in the gaps' order */

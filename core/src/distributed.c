@@ -19,6 +19,12 @@ const nts_part* nts_context_parts(const nts_context* ctx, int* count) {
     return ctx->parts_on ? ctx->parts : NULL;
 }
 
+void nts_context_set_owned(nts_context* ctx, const unsigned char* owned) {
+    if (ctx != NULL) ctx->owned = owned;
+}
+
+long long nts_context_owned_gaps(const nts_context* ctx) { return ctx->parts_on ? ctx->owned_gaps : 0; }
+
 const int* nts_context_gap_entries(const nts_context* ctx, int* count) {
     *count = ctx->parts_on ? ctx->gap_entry_count : 0;
     return ctx->parts_on ? ctx->gap_entries : NULL;

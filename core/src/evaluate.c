@@ -416,8 +416,9 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     else if (s->surface_count > 0) env.r = ss.kth; /* the median segment, exactly */
     env.solver = opt->solver;
     env.want_virial = (opt->outputs & NTS_OUT_VIRIAL) != 0u;
-    /* tables.h's records column; a distributed host's parts read every record */
-    env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u || ctx->parts_on;
+    /* tables.h's records column */
+    env.keep_all = (opt->outputs & (unsigned)NTS_OUT_RECORDS_) != 0u;
+    env.owned = ctx->parts_on ? ctx->owned : NULL;
     /* Friction (docs/model.md §14): on when some pair can rub; then the
      * records path (each active record's friction is computed once, after
      * the search, and read by the sums, the forces, the contacts and the
@@ -479,10 +480,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         return eval_fail(err, rc, -1, -1, "out of memory");
     /* One thread and no records asked for: no records at all, the search
      * sums and scatters each slave's contacts itself (search_env.direct). */
-    env.direct = nthreads == 1 && !env.keep_all;
+    env.direct = nthreads == 1 && !env.keep_all && !ctx->parts_on; /* parts read records */
     /* Several threads and no records asked for: each chunk its sums and
      * force shares, no records (search_env.shares). */
-    env.shares = nthreads > 1 && !env.keep_all;
+    env.shares = nthreads > 1 && !env.keep_all && !ctx->parts_on;
     env.want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
     if (env.direct && env.want_forces) {
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
@@ -496,10 +497,11 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     st.env = &env;
     nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
     {
-        long long records = 0;
+        long long records = 0, owned_gaps = 0;
         int limited = 0, status = NTS_OK;
         for (i = 0; i < nthreads; ++i) {
             records += ctx->workers[i].gaps;
+            owned_gaps += ctx->workers[i].owned_gaps;
             if (ctx->workers[i].status == NTS_ELIMIT) limited = 1;
             else if (ctx->workers[i].status != NTS_OK && status == NTS_OK) status = ctx->workers[i].status;
         }
@@ -514,6 +516,7 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
             return rc;
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
+        ctx->owned_gaps = owned_gaps;
         if ((rc = nts_chunks_settle(ctx, nthreads, env.shares)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         /* The active contacts deeper than r, found (default radius) or

@@ -234,7 +234,7 @@ static void records_task(int begin, int end, int wi, void* p) {
 }
 
 /* A distributed host's parts (ntscontact/distributed.h): every record's
- * slave entry, and each active one's sums and forces, in contact order, by
+ * slave entry (when every record is kept), and each active one's sums and forces, in contact order, by
  * the law's functions as the paths above compute them (the same bits). */
 static int parts_make(nts_context* ctx, const search_env* env, int ncontact, int total) {
     int c, q, rc, live, p = 0, g = 0;
@@ -252,8 +252,10 @@ static int parts_make(nts_context* ctx, const search_env* env, int ncontact, int
             nts_part* pt;
             contact_sums cs;
             force_shares sh;
-            assert(g < total);
-            ctx->gap_entries[g++] = rec->slave;
+            if (env->keep_all) {
+                assert(g < total);
+                ctx->gap_entries[g++] = rec->slave;
+            }
             if (!(rec->gap < 0.0)) continue;
             assert(p < ncontact);
             pt = &ctx->parts[p++];
@@ -286,7 +288,7 @@ static int parts_make(nts_context* ctx, const search_env* env, int ncontact, int
     }
     ctx->part_count = p;
     ctx->gap_entry_count = g;
-    return p == ncontact && g == total ? NTS_OK : NTS_EINTERNAL;
+    return p == ncontact && (!env->keep_all || g == total) ? NTS_OK : NTS_EINTERNAL;
 }
 
 static int overflow_error(nts_error* err, const char* msg) {

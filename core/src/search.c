@@ -438,6 +438,7 @@ static void flush_slave(const search_env* env, worker* w, int i, int end) {
     if (w->best_count > 0) {
         if (w->best_count > w->best_most) w->best_most = w->best_count;
         w->gaps += w->best_count;
+        if (env->owned != NULL && env->owned[i]) w->owned_gaps += w->best_count;
         need = w->rec_count + w->best_count;
         if (w->gaps > env->max_records) {
             /* Over the budget in this worker alone, so the total is too (the caller

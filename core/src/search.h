@@ -96,6 +96,7 @@ typedef struct worker {
     force_shares fifo[FORCE_DELAY];
     int fifo_head, fifo_count;
     long long gaps;    /* closest points within r found (kept or not) */
+    long long owned_gaps; /* those of the slaves search_env.owned marks (a distributed host's) */
     contact_sums* sums;/* the current chunk's, when the search sums as it goes (direct or shares) */
     int status;
     /* Workers sit side by side in one array and update their counts all the
@@ -140,6 +141,9 @@ typedef struct search_env {
      * active contacts to its chunk's sums and to the forces (when asked, into
      * `forces`) itself, in the order the scatter would, and keeps no records. */
     int direct;
+    /* A distributed host's part (distributed.h): which slaves it owns (by
+     * entry), whose closest points the workers count apart; NULL: none. */
+    const unsigned char* owned;
     nts_vec2* forces;
     /* Several threads and no records asked for: each chunk sums its active
      * contacts as it goes and keeps only their force shares (when forces are

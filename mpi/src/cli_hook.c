@@ -6,18 +6,94 @@
  * library and gathers the answer on rank 0, which the codec encodes: the
  * bytes ntscontact writes. The other ranks wait for jobs until rank 0 is
  * done. */
+#include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include <ntscontact/codec.h>
 #include <ntscontact/mpi.h>
 
-#include "mpi_internal.h"
+#include "internal.h"
 
 int nts_cli_main(int argc, char** argv);
 void ntsm_cli_configure(ntsj_config* cfg);
 
 enum { JOB_STOP = 0, JOB_EVALUATE = 1 };
+
+/* The bodies root dealt this rank: contiguous blocks of about equal nodes
+ * (a host's decomposition), their global indices and definitions (pointing
+ * into `data`). */
+typedef struct ntsm_dealt {
+    int count;
+    int* ids;
+    nts_body_def* defs;
+    bytes data;
+} ntsm_dealt;
+
+/* Collective: root's bodies (body_count of them, only read on root) dealt
+ * to the ranks. NTS_OK or, on every rank, NTS_ENOMEM. */
+
+static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int body_count, ntsm_dealt* out) {
+    int rank, size, r, k, ok = 1;
+    memset(out, 0, sizeof *out);
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+    if (rank == root) {
+        /* contiguous blocks of about equal nodes, as a host's decomposition:
+         * body b goes to the rank its first node's place falls in */
+        long long nodes = 0, acc = 0;
+        int b = 0;
+        for (k = 0; k < body_count; ++k) nodes += bodies[k].node_count;
+        for (r = 0; r < size; ++r) {
+            bytes blk;
+            const int first = b;
+            long long head[2];
+            memset(&blk, 0, sizeof blk);
+            while (b < body_count && (nodes == 0 ? r == size - 1 : (int)(acc * size / nodes) == r)) {
+                ntsm_body_write(&blk, &bodies[b], b, bodies[b].reference ? bodies[b].reference : bodies[b].nodes);
+                acc += bodies[b++].node_count;
+            }
+            head[0] = b - first;
+            head[1] = (long long)blk.n;
+            if (blk.oom || blk.n > INT_MAX) ok = 0;
+            if (r == root) {
+                out->count = b - first;
+                out->data = blk;
+            } else {
+                MPI_Send(head, 2, MPI_LONG_LONG, r, 71, comm);
+                if (head[1] > 0) MPI_Send(blk.p, (int)blk.n, MPI_BYTE, r, 72, comm);
+                free(blk.p);
+            }
+        }
+    } else {
+        long long head[2];
+        MPI_Recv(head, 2, MPI_LONG_LONG, root, 71, comm, MPI_STATUS_IGNORE);
+        out->count = (int)head[0];
+        if (ntsm_bytes_room(&out->data, (size_t)head[1] + 8) == NULL) ok = 0;
+        out->data.n = (size_t)head[1];
+        if (head[1] > 0) MPI_Recv(out->data.p, (int)head[1], MPI_BYTE, root, 72, comm, MPI_STATUS_IGNORE);
+    }
+    out->defs = (nts_body_def*)calloc((size_t)out->count + 1, sizeof(nts_body_def));
+    out->ids = (int*)calloc((size_t)out->count + 1, sizeof(int));
+    if (out->defs == NULL || out->ids == NULL) ok = 0;
+    if (ok) {
+        size_t p = 0;
+        for (k = 0; k < out->count; ++k) p += ntsm_body_read(out->data.p + p, &out->defs[k], &out->ids[k]);
+    }
+    {
+        int all_ok;
+        MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm);
+        return all_ok ? NTS_OK : NTS_ENOMEM;
+    }
+}
+
+static void dealt_free(ntsm_dealt* d) {
+    free(d->data.p);
+    free(d->defs);
+    free(d->ids);
+    memset(d, 0, sizeof *d);
+}
+
 
 /* A job's state, kept until the next (its result's arrays live in it). */
 typedef struct job {
@@ -29,7 +105,7 @@ static job current;
 
 static void job_end(void) {
     ntsm_scene_destroy(current.scene);
-    ntsm_dealt_free(&current.dealt);
+    dealt_free(&current.dealt);
     memset(&current, 0, sizeof current);
 }
 
@@ -51,7 +127,7 @@ static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame,
     MPI_Bcast(frame, (int)sizeof *frame, MPI_BYTE, 0, MPI_COMM_WORLD);
     MPI_Bcast(box, 2, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     MPI_Bcast(&limits, (int)sizeof limits, MPI_BYTE, 0, MPI_COMM_WORLD);
-    if ((rc = ntsm_deal_bodies(MPI_COMM_WORLD, 0, rank == 0 ? def->bodies : NULL, rank == 0 ? def->body_count : 0,
+    if ((rc = deal_bodies(MPI_COMM_WORLD, 0, rank == 0 ? def->bodies : NULL, rank == 0 ? def->body_count : 0,
                                &current.dealt)) != NTS_OK) {
         *err = nts_error_none();
         err->code = rc;

@@ -102,20 +102,21 @@ static void free_scene(scene_data* d) {
 }
 
 /* The distributed answer against the whole scene's, at the current positions. */
-static void compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count, const char* what,
-                    unsigned outputs) {
+static int compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count, const char* what,
+                   unsigned outputs) {
     nts_context* ctx = nts_context_create();
     nts_options opt = nts_default_options();
     nts_result ref;
     ntsm_result got;
     nts_error err;
-    int k, rc, at = 0, i;
+    int k, rc, at = 0, i, rebuilt = -1;
     opt.outputs = outputs;
     rc = nts_evaluate(ctx, whole, &opt, &ref, &err);
     CHECK(rc == 0, "%s: reference: %s", what, err.message);
     rc = ntsm_evaluate(m, &opt, &got, &err);
     CHECK(rc == 0, "%s: distributed: %s", what, err.message);
     if (rc == 0) {
+        rebuilt = got.stats.rebuilt;
         CHECK(memcmp(&got.summary.energy, &ref.summary.energy, sizeof(double)) == 0, "%s: energy %.17g vs %.17g", what,
               got.summary.energy, ref.summary.energy);
         CHECK(memcmp(&got.summary.virial, &ref.summary.virial, sizeof(nts_virial)) == 0, "%s: virial", what);
@@ -141,6 +142,7 @@ static void compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const 
                    got.stats.bytes_sent, got.stats.part_entries, got.summary.surface_nodes);
     }
     nts_context_destroy(ctx);
+    return rebuilt;
 }
 
 static void run_case(int count, int periodic, const char* name) {
@@ -169,8 +171,33 @@ static void run_case(int count, int periodic, const char* name) {
     m = ntsm_scene_create(MPI_COMM_WORLD, owned, ids, count_mine, d.lx, d.ly, nts_default_limits(), &err);
     CHECK(m != NULL, "%s: distributed scene: %s", name, err.message);
     if (whole != NULL && m != NULL) {
+        int kept = 0, made = 0;
         snprintf(what, sizeof what, "%s, at rest", name);
-        compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+        CHECK(compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL) == 1,
+              "%s: the first evaluation makes the decomposition", name);
+        /* A random walk of small steps (the kept decomposition), then one
+         * step past the skin: the same bits either way. */
+        for (step = 0; step < 6; ++step) {
+            const double amp = step == 5 ? 0.2 : 0.004;
+            int at = 0, r2;
+            for (k = 0; k < d.offset[d.bodies]; ++k) {
+                d.nodes[k].x += amp * (rnd() - 0.5);
+                d.nodes[k].y += amp * (rnd() - 0.5);
+            }
+            for (k = 0; k < count_mine; ++k) {
+                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
+                memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
+                at += n;
+            }
+            CHECK(nts_scene_update_positions(whole, d.nodes, &err) == 0, "%s: walk: %s", name, err.message);
+            CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "%s: walk: %s", name, err.message);
+            snprintf(what, sizeof what, "%s, walk %d", name, step);
+            r2 = compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+            kept += r2 == 0;
+            made += r2 == 1 && step == 5;
+        }
+        CHECK(kept >= 3, "%s: the small steps kept the decomposition only %d times", name, kept);
+        CHECK(made == 1, "%s: the step past the skin did not rebuild", name);
         for (step = 1; step <= 2; ++step) {
             /* every body moves a third of the scene along x and turns a
              * little: most cross a rank (and the box's edge when periodic) */

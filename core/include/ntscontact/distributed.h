@@ -11,7 +11,7 @@
  *   segment and its extent (the reach's allowances) and the summary's cell
  *   size. A context given a frame evaluates with it instead of its scene's.
  * - the parts (nts_part): with nts_context_set_parts on, an evaluation keeps
- *   every closest point's record and leaves, per active contact, the terms
+ *   its active contacts' records and leaves, per active contact, the terms
  *   the energy and virial add and the forces on each of its nodes, computed
  *   by the contact law as the scatter computes them.
  * The host keeps the parts of the slaves it owns, sums the energy of each
@@ -75,8 +75,19 @@ NTS_API void nts_context_set_parts(nts_context* ctx, int on);
 /** The last evaluation's parts, in contact order. */
 NTS_API const nts_part* nts_context_parts(const nts_context* ctx, int* count);
 
-/** The slave entry of every closest point of the last evaluation (its gaps,
- * the deep contacts among them), in the order of nts_result.gaps. */
+/** The slaves the host owns, by surface entry of the scene it evaluates
+ * next (1: owned; NULL: none, the default): with parts on, an evaluation
+ * counts their closest points within r apart (nts_context_owned_gaps). The
+ * array is the host's and must outlive the evaluations. */
+NTS_API void nts_context_set_owned(nts_context* ctx, const unsigned char* owned);
+
+/** The last evaluation's closest points within r of the owned slaves (their
+ * deep contacts not counted). */
+NTS_API long long nts_context_owned_gaps(const nts_context* ctx);
+
+/** With NTS_OUT_GAPS or NTS_OUT_CONTACTS asked (every record kept): the
+ * slave entry of every closest point of the last evaluation (its gaps, the
+ * deep contacts among them), in the order of nts_result.gaps. */
 NTS_API const int* nts_context_gap_entries(const nts_context* ctx, int* count);
 
 /** The slave entries a warning of the last evaluation counted (code:

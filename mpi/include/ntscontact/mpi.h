@@ -29,6 +29,7 @@ typedef struct ntsm_stats {
     int owned_slaves;         /**< the slave entries its slab owns */
     int part_entries;         /**< the surface entries it evaluated (owned, and the halo's) */
     int part_bodies;          /**< the bodies it held for the evaluation */
+    int rebuilt;              /**< 1: the decomposition was made anew (else the kept one's positions moved) */
     double seconds[4];        /**< frame and decomposition, bodies' exchange, evaluation, sums */
 } ntsm_stats;
 
@@ -63,6 +64,15 @@ int ntsm_scene_update_positions(ntsm_scene* scene, const nts_vec2* positions, nt
  * (nts_scene_frame; ntscontact-mpi's rank 0 does), so that the summary's
  * cell size is the whole scene's too; NULL: found across the ranks. */
 void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
+
+/** The skin of the kept decomposition (docs/distributed.md): the slabs and
+ * halos are kept between evaluations while no node has moved more than
+ * skin / 2... precisely: while twice the largest move since they were made,
+ * added to the halo now needed, stays within the halo they were made with
+ * (the needed one plus 2 skin). Negative (the default): 0.3 times the search
+ * radius. 0: made anew every evaluation. The answer is the same bits
+ * whatever the skin. Call it on every rank with the same value. */
+void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
 
 /** Collective: evaluate. opt->history, opt->candidates and opt->cancel must
  * be NULL (NTS_EINVALID_ARGUMENT). NTS_OK or every rank's error. */

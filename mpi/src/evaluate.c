@@ -1,0 +1,177 @@
+/* One scene across the ranks of a communicator (ntscontact/mpi.h,
+ * docs/distributed.md). An evaluation:
+ *   1. the frame: what the whole scene's segments set (the median segment,
+ *      exactly, by eight rounds of byte histograms; the longest; the extent), reduced
+ *      across the ranks (distributed.h);
+ *   2. the slabs: cuts along the longer axis at the quantiles of the surface
+ *      nodes (a histogram summed across the ranks): each slab owns the slave
+ *      entries whose node lies in it;
+ *   3. the halo: each body goes whole to every slab its bounding box, grown
+ *      by the reach, overlaps (a contact's slave lies within the reach of
+ *      its master, or inside it; the corners and the deep contacts' chains
+ *      need the whole loop);
+ *   4. each rank evaluates its part with the whole's frame and keeps the
+ *      parts (distributed.h) of the slaves it owns;
+ *   5. the sums in one process's order: each contribution to a node's force
+ *      goes to the node's owner with its key (deep, global slave entry,
+ *      master body, place) and is added in key order; each chunk of
+ *      NTS_PART_CHUNK slave entries is summed by one rank in contact order,
+ *      the chunks' sums are added in chunk order, then the deep contacts'.
+ * Steps 2 and 3 are kept between evaluations while no node has moved far
+ * enough to leave its halo (the skin: ntsm_scene_set_skin); then only the
+ * positions travel. Every step that can fail ends in ntsm_agree: the same
+ * error on every rank. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+static double now(void) { return MPI_Wtime(); }
+
+int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_error* err) {
+    nts_error e = nts_error_none();
+    nts_frame f;
+    slabs sl;
+    nts_options po;
+    double t0 = now(), t1, halo, r;
+    int rc = NTS_OK;
+    memset(&sl, 0, sizeof sl);
+    memset(out, 0, sizeof *out);
+    memset(&m->stats, 0, sizeof m->stats);
+    memset(&m->part_result, 0, sizeof m->part_result);
+    memset(&m->summary, 0, sizeof m->summary);
+    if (opt == NULL) rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "null options");
+    else if (opt->history != NULL || opt->candidates != NULL || opt->cancel != NULL)
+        rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT,
+                  "a distributed evaluation takes no friction history, kept candidate list or cancel callback yet");
+    else rc = nts_options_validate(opt, &e);
+    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    m->outputs = opt->outputs;
+
+    /* 1. The frame; 2. the slabs; 3. the halo: a slave's contacts are on
+     * masters within the reach (r, and each feature within (1 + ext) L_max
+     * of its master node) or around it (deep): twice that, and the bodies
+     * that contain it (their boxes hold it). */
+    if (m->frame_given) f = m->frame;
+    else if ((rc = ntsm_frame_find(m, opt, &f, &e)) != NTS_OK) goto out;
+    r = opt->search_radius >= 0.0 ? opt->search_radius : f.median;
+    halo = 2.0 * (r + (1.0 + opt->surface_extension) * f.lmax) * (1.0 + 1e-9) +
+           1e-9 * (f.coord_max + m->lx + m->ly);
+    t1 = now();
+    m->stats.seconds[0] = t1 - t0;
+    t0 = t1;
+    /* The kept decomposition holds while a slave's contacts stay within the
+     * halo it was built with: each of their bodies was within `halo` of the
+     * slave's slab then, and both have moved at most `moved` since. */
+    if (m->built && !m->rebuild_next) {
+        double moved2 = 0.0, moved, all;
+        int k2, i2, at2 = 0;
+        for (k2 = 0; k2 < m->count; ++k2)
+            for (i2 = 0; i2 < m->own_defs[k2].node_count; ++i2, ++at2) {
+                const double dx = m->own_defs[k2].nodes[i2].x - m->build_pos[at2].x;
+                const double dy = m->own_defs[k2].nodes[i2].y - m->build_pos[at2].y;
+                if (dx * dx + dy * dy > moved2) moved2 = dx * dx + dy * dy;
+            }
+        moved = sqrt(moved2);
+        MPI_Allreduce(&moved, &all, 1, MPI_DOUBLE, MPI_MAX, m->comm);
+        if (!(halo + 2.0 * all <= m->halo_b) || opt->surface_extension != m->ext_b) m->built = 0;
+    }
+    if (m->built && !m->rebuild_next) {
+        sl.axis = m->axis_b;
+        sl.period = m->period_b;
+        sl.lo = m->lo_b;
+        sl.hi = m->hi_b;
+        sl.cut = m->cut_b;
+        rc = ntsm_part_move(m, &e);
+        sl.cut = NULL;
+        if (rc == NTS_ERESHAPED) m->built = 0; /* the part renormalises: build it anew */
+        else if (rc != NTS_OK) goto out;
+    } else {
+        m->built = 0;
+    }
+    m->rebuild_next = 0;
+    if (!m->built) {
+        const double skin = m->skin >= 0.0 ? m->skin : 0.3 * r;
+        rc = ntsm_slabs_make(m, &f, m->lx, m->ly, &sl) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+        m->halo_b = halo + 2.0 * skin;
+        m->ext_b = opt->surface_extension;
+        if ((rc = ntsm_part_build(m, &sl, m->halo_b, m->lx, m->ly, &e)) != NTS_OK) goto out;
+        free(m->build_pos);
+        m->build_pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(m->own_nodes + 1));
+        rc = m->build_pos != NULL ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+        {
+            int k2, at2 = 0;
+            for (k2 = 0; k2 < m->count; ++k2) {
+                memcpy(m->build_pos + at2, m->own_defs[k2].nodes, sizeof(nts_vec2) * (size_t)m->own_defs[k2].node_count);
+                at2 += m->own_defs[k2].node_count;
+            }
+        }
+        free(m->cut_b);
+        m->cut_b = sl.cut;
+        m->axis_b = sl.axis;
+        m->period_b = sl.period;
+        m->lo_b = sl.lo;
+        m->hi_b = sl.hi;
+        sl.cut = NULL;
+        m->built = 1;
+        m->rebuilds++;
+        m->stats.rebuilt = 1;
+    }
+    sl.axis = m->axis_b;
+    sl.period = m->period_b;
+    sl.lo = m->lo_b;
+    sl.hi = m->hi_b;
+    sl.cut = m->cut_b;
+    rc = ntsm_part_maps(m, &sl) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    sl.cut = NULL;
+    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    {
+        /* an uneven load (some slab owning a quarter more than its share):
+         * the next evaluation cuts the slabs anew */
+        long long mine2[2], all2[2];
+        mine2[0] = m->stats.owned_slaves;
+        mine2[1] = -mine2[0];
+        MPI_Allreduce(mine2, all2, 2, MPI_LONG_LONG, MPI_MAX, m->comm);
+        if ((double)all2[0] > 1.25 * (double)m->entry_off[m->bodies] / m->size + NTS_PART_CHUNK) m->rebuild_next = 1;
+    }
+    t1 = now();
+    m->stats.seconds[1] = t1 - t0;
+    t0 = t1;
+
+    /* 4. The part, with the whole's frame; its parts. */
+    po = *opt;
+    po.outputs &= ~(unsigned)NTS_OUT_FORCES; /* the parts carry them */
+    nts_context_set_frame(m->ctx, &f);
+    nts_context_set_parts(m->ctx, 1);
+    nts_context_set_owned(m->ctx, m->owned_mask);
+    if (m->part != NULL && (rc = nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e)) != NTS_OK)
+        ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    t1 = now();
+    m->stats.seconds[2] = t1 - t0;
+    t0 = t1;
+
+    /* 5. The sums. */
+    rc = ntsm_sums(m, opt, &e);
+    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    m->summary.search_radius = r;
+    m->summary.cell_size = opt->search == NTS_SEARCH_CELLS
+                               ? (f.cell_size >= 0.0 ? f.cell_size : m->part_result.summary.cell_size)
+                               : 0.0;
+    m->stats.seconds[3] = now() - t0;
+    out->summary = m->summary;
+    memcpy(out->warnings, m->warnings, sizeof out->warnings);
+    out->warning_count = m->warning_count;
+    out->forces = (opt->outputs & NTS_OUT_FORCES) ? m->forces : NULL;
+    out->pressure = NULL;
+    out->node_count = m->own_nodes;
+    out->stats = m->stats;
+out:
+    free(sl.cut);
+    if (err != NULL) *err = rc == NTS_OK ? nts_error_none() : e;
+    return rc;
+}

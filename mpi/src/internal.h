@@ -1,0 +1,159 @@
+/* The distributed evaluation's parts (mpi/src/, not installed): the scene
+ * each rank keeps, the messages the ranks exchange, and the functions the
+ * files share. One file per concept: bytes.c (a body on the wire), scene.c
+ * (the scene and the collective errors), frame.c (the whole's frame),
+ * slabs.c (the decomposition), halo.c (each rank's part), sums.c (the sums
+ * in one process's order), evaluate.c, gather.c (the whole answer on a
+ * root). docs/distributed.md tells the design. */
+#ifndef NTSCONTACT_MPI_INTERNAL_H
+#define NTSCONTACT_MPI_INTERNAL_H
+
+#include <stddef.h>
+
+#include <ntscontact/mpi.h>
+
+/* A growing byte buffer (8-byte aligned items). */
+typedef struct bytes {
+    char* p;
+    size_t n, cap;
+    int oom;
+} bytes;
+
+
+/* One contribution to a node's force, with the key one process adds it in
+ * (deep, slave entry, master body, place), to the rank that owns the node. */
+typedef struct share_msg {
+    int at;    /* the node among its owner's nodes */
+    int entry; /* global slave entry */
+    int body;  /* global master body */
+    int dq;    /* deep << 2 | place in the contact (0: the slave) */
+    double fx, fy;
+} share_msg;
+
+/* One contact's sums, with its key. */
+typedef struct sum_msg {
+    int entry, body, pad[2];
+    double e, xx, yy, xy, yx, dis;
+} sum_msg;
+
+/* A chunk's sums. */
+typedef struct chunk_msg {
+    int chunk, pad;
+    double e, xx, yy, xy, yx, dis;
+} chunk_msg;
+
+/* The slabs: cuts along one axis (docs/distributed.md). */
+typedef struct slabs {
+    int axis;        /* 0: x, 1: y */
+    double period;   /* the box along the axis, or 0 */
+    double lo, hi;
+    double* cut;     /* size + 1: slab r is [cut[r], cut[r + 1]) */
+} slabs;
+
+struct ntsm_scene {
+    MPI_Comm comm;
+    int rank, size;
+    /* what this rank owns */
+    int count;
+    int* ids;             /* global index of each owned body */
+    bytes own_bytes;      /* the owned bodies, as sent */
+    size_t* own_at;       /* each one's offset in own_bytes */
+    nts_body_def* own_defs;
+    nts_scene* own;       /* the owned bodies alone (positions, the frame's lengths) */
+    nts_context* own_ctx;
+    int own_nodes;
+    int* own_node_at;     /* count + 1: each owned body's first node among this rank's */
+    /* the whole, by global body */
+    int bodies;
+    int* owner;           /* rank */
+    int* local_of;        /* index among this rank's bodies, or -1 */
+    long long* node_off;  /* bodies + 1 */
+    long long* entry_off; /* bodies + 1 */
+    int* owner_node_at;   /* each body's first node among its owner's nodes */
+    int loops_reversed;
+    double lx, ly;        /* the periodic box (0: open) */
+    nts_frame frame;
+    int frame_given;
+    /* The decomposition kept between evaluations (a solver's loop): the
+     * slabs, the halo it was built with, where each owned body went (to,
+     * count x size) and the positions then, and each received body's nodes
+     * and place in the part (arrival order). Rebuilt when some node has
+     * moved more than the skin allows, or the load is uneven. */
+    int built, rebuild_next;
+    double skin;          /* negative: 0.3 times the search radius */
+    double halo_b, ext_b;
+    double* cut_b;
+    int axis_b;
+    double period_b, lo_b, hi_b;
+    unsigned char* to;
+    nts_vec2* build_pos;
+    int* arrival_nodes;
+    int* arrival_off;
+    int arrivals;
+    long long rebuilds;
+    /* the last evaluation's part */
+    bytes recv;
+    nts_scene* part;
+    nts_context* ctx;
+    int* part_ids;        /* part body -> global */
+    int part_cap_ids;
+    long long* part_node; /* part node -> global node */
+    int part_node_cap;
+    int* node_owner;      /* part node -> its owner rank, and its place among the owner's nodes */
+    int* node_at;
+    int node_owner_cap, node_at_cap;
+    int* entry_owned;     /* part entry -> 1 when this rank owns its slave */
+    unsigned char* owned_mask; /* the same, for the core (nts_context_set_owned) */
+    int owned_mask_cap;
+    long long* entry_global;
+    int entry_cap;
+    nts_result part_result;
+    unsigned outputs;
+    /* the answer on this rank */
+    nts_vec2* forces;
+    double* pressure;
+    int forces_cap, pressure_cap;
+    /* ntsm_gather's arrays on the root */
+    nts_vec2* g_forces;
+    double* g_pressure;
+    nts_contact* g_contacts;
+    nts_contact* g_gaps;
+    nts_anchor* g_anchors;
+    int* g_rows;
+    int* g_cols;
+    double* g_vals;
+    nts_summary summary;
+    nts_warning warnings[NTS_WARN_COUNT_];
+    int warning_count;
+    ntsm_stats stats;
+};
+
+/* bytes.c */
+void* ntsm_bytes_room(bytes* b, size_t n);
+void ntsm_bytes_put(bytes* b, const void* v, size_t n);
+int ntsm_grow(void* pp, int* cap, long long count, size_t size);
+size_t ntsm_al8(size_t n);
+void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* reference);
+size_t ntsm_body_read(const char* p, nts_body_def* d, int* id);
+
+/* scene.c: collective errors */
+int ntsm_agree(ntsm_scene* m, MPI_Comm comm, int rank, int size, int rc, nts_error* err);
+int ntsm_fail(nts_error* err, int code, const char* msg);
+void ntsm_global_body(nts_error* err, const int* ids, int count);
+
+/* frame.c, slabs.c */
+int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_error* err);
+int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl);
+double ntsm_axis_of(const slabs* sl, nts_vec2 p);
+int ntsm_slab_of(const slabs* sl, int size, double c);
+int ntsm_meets(const slabs* sl, int r, double a, double b);
+
+/* halo.c */
+int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, double ly, nts_error* err);
+int ntsm_part_move(ntsm_scene* m, nts_error* err);
+int ntsm_part_maps(ntsm_scene* m, const slabs* sl);
+
+/* sums.c */
+int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err);
+
+#endif

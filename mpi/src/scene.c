@@ -1,0 +1,263 @@
+/* The distributed scene (ntscontact/mpi.h): the bodies a rank owns, the
+ * whole's tables, and the collective errors every call ends in. */
+#include <limits.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+/* The same error on every rank: the failing rank with the lowest global body
+ * (-1 first), then the lowest rank, gives its record to all. */
+int ntsm_agree(ntsm_scene* m, MPI_Comm comm, int rank, int size, int rc, nts_error* err) {
+    long long mine = LLONG_MAX, first;
+    nts_error e;
+    (void)m;
+    if (rc != NTS_OK) mine = ((long long)(err != NULL ? err->body : -1) + 1) * size + rank;
+    MPI_Allreduce(&mine, &first, 1, MPI_LONG_LONG, MPI_MIN, comm);
+    if (first == LLONG_MAX) return NTS_OK;
+    e = err != NULL ? *err : nts_error_none();
+    if (rc != NTS_OK && e.code == 0) e.code = rc;
+    MPI_Bcast(&e, (int)sizeof e, MPI_BYTE, (int)(first % size), comm);
+    if (err != NULL) *err = e;
+    return e.code != 0 ? e.code : NTS_EINTERNAL;
+}
+
+int ntsm_fail(nts_error* err, int code, const char* msg) {
+    if (err != NULL) {
+        *err = nts_error_none();
+        err->code = code;
+        snprintf(err->message, sizeof err->message, "%s", msg);
+    }
+    return code;
+}
+
+/* A core error on a scene of this rank's: its body as a global index. */
+void ntsm_global_body(nts_error* err, const int* ids, int count) {
+    int local, used = 0;
+    if (err == NULL || err->body < 0 || err->body >= count) return;
+    /* the message names the body as the core does ("body K ..."): K global too */
+    if (sscanf(err->message, "body %d%n", &local, &used) == 1 && local == err->body) {
+        char out[sizeof err->message + 32];
+        snprintf(out, sizeof out, "body %d%s", ids[local], err->message + used);
+        memcpy(err->message, out, sizeof err->message - 1);
+        err->message[sizeof err->message - 1] = '\0';
+    }
+    err->body = ids[err->body];
+}
+
+void ntsm_scene_destroy(ntsm_scene* m) {
+    if (m == NULL) return;
+    free(m->ids);
+    free(m->own_bytes.p);
+    free(m->own_at);
+    free(m->own_defs);
+    free(m->own_node_at);
+    nts_scene_destroy(m->own);
+    nts_context_destroy(m->own_ctx);
+    free(m->owner);
+    free(m->local_of);
+    free(m->node_off);
+    free(m->entry_off);
+    free(m->owner_node_at);
+    free(m->cut_b);
+    free(m->to);
+    free(m->build_pos);
+    free(m->arrival_nodes);
+    free(m->arrival_off);
+    free(m->recv.p);
+    nts_scene_destroy(m->part);
+    nts_context_destroy(m->ctx);
+    free(m->part_ids);
+    free(m->part_node);
+    free(m->node_owner);
+    free(m->node_at);
+    free(m->entry_owned);
+    free(m->owned_mask);
+    free(m->entry_global);
+    free(m->forces);
+    free(m->pressure);
+    free(m->g_forces);
+    free(m->g_pressure);
+    free(m->g_contacts);
+    free(m->g_gaps);
+    free(m->g_anchors);
+    free(m->g_rows);
+    free(m->g_cols);
+    free(m->g_vals);
+    free(m);
+}
+
+/* The owned bodies' definitions, pointing into own_bytes. */
+static void own_defs_point(ntsm_scene* m) {
+    int k, id;
+    for (k = 0; k < m->count; ++k) ntsm_body_read(m->own_bytes.p + m->own_at[k], &m->own_defs[k], &id);
+}
+
+ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
+                              double ly, nts_limits limits, nts_error* err) {
+    ntsm_scene* m = (ntsm_scene*)calloc(1, sizeof *m);
+    int rank, size, rc = NTS_OK, k, total = 0, i;
+    int* counts = NULL;
+    int* displs = NULL;
+    int* mine = NULL;
+    int* all = NULL;
+    nts_error e = nts_error_none();
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+    if (m == NULL || count < 0 || (count > 0 && (bodies == NULL || ids == NULL))) {
+        rc = m == NULL ? ntsm_fail(&e, NTS_ENOMEM, "out of memory") : ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "no bodies given");
+    }
+    if (rc == NTS_OK) {
+        m->comm = comm;
+        m->rank = rank;
+        m->size = size;
+        m->count = count;
+        m->lx = lx;
+        m->ly = ly;
+        m->skin = -1.0;
+        m->ids = (int*)malloc(sizeof(int) * (size_t)(count + 1));
+        m->own_node_at = (int*)calloc((size_t)count + 1, sizeof(int));
+        m->own_at = (size_t*)malloc(sizeof(size_t) * (size_t)(count + 1));
+        m->own_defs = (nts_body_def*)calloc((size_t)count + 1, sizeof(nts_body_def));
+        if (m->ids == NULL || m->own_at == NULL || m->own_defs == NULL || m->own_node_at == NULL) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    }
+    for (k = 0; k < count && rc == NTS_OK; ++k) {
+        if (bodies[k].nodes == NULL || bodies[k].node_count < 0) {
+            rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "a body has no nodes array");
+            e.body = ids[k];
+            break;
+        }
+        m->ids[k] = ids[k];
+        m->own_at[k] = m->own_bytes.n;
+        /* no reference given: the first positions are it, wherever the body goes */
+        ntsm_body_write(&m->own_bytes, &bodies[k], ids[k], bodies[k].reference ? bodies[k].reference : bodies[k].nodes);
+    }
+    if (rc == NTS_OK && m->own_bytes.oom) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    if (rc == NTS_OK) {
+        nts_scene_def def = nts_default_scene_def();
+        own_defs_point(m);
+        def.bodies = m->own_defs;
+        def.body_count = count;
+        def.lx = lx;
+        def.ly = ly;
+        def.limits = limits;
+        def.limits.max_bodies = INT_MAX;
+        if (count > 0) {
+            m->own = nts_scene_create(&def, &e);
+            if (m->own == NULL) {
+                rc = e.code != 0 ? e.code : NTS_ENOMEM;
+                ntsm_global_body(&e, m->ids, count);
+            }
+        }
+        m->own_ctx = nts_context_create();
+        m->ctx = nts_context_create();
+        if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL)) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    }
+    if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+
+    /* The whole: every body's owner, nodes and surface entries. */
+    counts = (int*)malloc(sizeof(int) * (size_t)size);
+    displs = (int*)malloc(sizeof(int) * (size_t)(size + 1));
+    mine = (int*)malloc(sizeof(int) * 3u * (size_t)(count + 1));
+    rc = counts && displs && mine ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+    for (k = 0; k < count; ++k) {
+        mine[3 * k] = m->ids[k];
+        mine[3 * k + 1] = m->own_defs[k].node_count;
+        mine[3 * k + 2] = nts_scene_body_entry_start(m->own, k + 1) - nts_scene_body_entry_start(m->own, k);
+        m->own_nodes += m->own_defs[k].node_count;
+        m->own_node_at[k + 1] = m->own_nodes;
+    }
+    k = 3 * count;
+    MPI_Allgather(&k, 1, MPI_INT, counts, 1, MPI_INT, comm);
+    for (i = 0, displs[0] = 0; i < size; ++i) displs[i + 1] = displs[i] + counts[i];
+    total = displs[size] / 3;
+    all = (int*)malloc(sizeof(int) * 3u * (size_t)(total + 1));
+    m->bodies = total;
+    m->owner = (int*)malloc(sizeof(int) * (size_t)(total + 1));
+    m->local_of = (int*)malloc(sizeof(int) * (size_t)(total + 1));
+    m->node_off = (long long*)malloc(sizeof(long long) * (size_t)(total + 1));
+    m->entry_off = (long long*)malloc(sizeof(long long) * (size_t)(total + 1));
+    m->owner_node_at = (int*)malloc(sizeof(int) * (size_t)(total + 1));
+    rc = all && m->owner && m->local_of && m->node_off && m->entry_off && m->owner_node_at ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+    MPI_Allgatherv(mine, 3 * count, MPI_INT, all, counts, displs, MPI_INT, comm);
+    for (i = 0; i < total; ++i) m->owner[i] = -1;
+    for (i = 0; i < size && rc == NTS_OK; ++i) {
+        int j, at = 0;
+        for (j = displs[i] / 3; j < displs[i + 1] / 3; ++j) {
+            const int id = all[3 * j];
+            if (id < 0 || id >= total || m->owner[id] >= 0) {
+                rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT,
+                          "the ranks' body indices must be 0 .. B-1, each on exactly one rank");
+                e.body = id >= 0 && id < total ? id : -1;
+                break;
+            }
+            m->owner[id] = i;
+            m->owner_node_at[id] = at;
+            at += all[3 * j + 1];
+            m->node_off[id + 1] = all[3 * j + 1];
+            m->entry_off[id + 1] = all[3 * j + 2];
+        }
+    }
+    if (rc == NTS_OK) {
+        m->node_off[0] = m->entry_off[0] = 0;
+        for (i = 0; i < total; ++i) {
+            m->node_off[i + 1] += m->node_off[i];
+            m->entry_off[i + 1] += m->entry_off[i];
+            m->local_of[i] = -1;
+        }
+        for (k = 0; k < count; ++k) m->local_of[m->ids[k]] = k;
+        if (total == 0) rc = ntsm_fail(&e, NTS_EEMPTY_SCENE, "scene has no bodies");
+        else if (total > limits.max_bodies) rc = ntsm_fail(&e, NTS_ELIMIT, "more bodies than the limit max_bodies");
+        else if (m->node_off[total] > limits.max_nodes) rc = ntsm_fail(&e, NTS_ELIMIT, "more nodes than the limit max_nodes");
+        else if (m->entry_off[total] > INT_MAX / 2) rc = ntsm_fail(&e, NTS_ELIMIT, "too many surface nodes");
+        if (rc == NTS_ELIMIT) snprintf(e.option, sizeof e.option, "%s", total > limits.max_bodies ? "max_bodies" : "max_nodes");
+    }
+    if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+    k = m->own != NULL ? nts_scene_loops_reversed(m->own) : 0;
+    MPI_Allreduce(&k, &m->loops_reversed, 1, MPI_INT, MPI_SUM, comm);
+    free(counts);
+    free(displs);
+    free(mine);
+    free(all);
+    if (err != NULL) *err = nts_error_none();
+    return m;
+failed:
+    free(counts);
+    free(displs);
+    free(mine);
+    free(all);
+    ntsm_scene_destroy(m);
+    if (err != NULL) *err = e;
+    return NULL;
+}
+
+int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_error* err) {
+    nts_error e = nts_error_none();
+    int rc = NTS_OK, k, at = 0;
+    if (m->own != NULL && (rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK)
+        ntsm_global_body(&e, m->ids, m->count);
+    if (rc == NTS_OK)
+        for (k = 0; k < m->count; ++k) {
+            memcpy((void*)(uintptr_t)m->own_defs[k].nodes, positions + at,
+                   sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
+            at += m->own_defs[k].node_count;
+        }
+    rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e);
+    if (err != NULL) *err = rc == NTS_OK ? nts_error_none() : e;
+    return rc;
+}
+
+void ntsm_scene_set_skin(ntsm_scene* m, double skin) {
+    m->skin = skin;
+    m->built = 0;
+}
+
+void ntsm_scene_set_frame(ntsm_scene* m, const nts_frame* frame) {
+    m->frame_given = frame != NULL;
+    if (frame != NULL) m->frame = *frame;
+}

@@ -1,0 +1,376 @@
+/* The sums in one process's order (docs/distributed.md): each node's
+ * forces at its owner, each chunk's energy and virial at its home, then the
+ * chunks and the deep contacts in order (core/src/scatter.c's order). */
+#include <limits.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal.h"
+
+
+/* One process's order of a node's contributions: the chunks' (by slave
+ * entry, master body, place), then the deep contacts' (scatter.c). */
+static int cmp_share(const share_msg* a, const share_msg* b) {
+    if ((a->dq >> 2) != (b->dq >> 2)) return (a->dq >> 2) - (b->dq >> 2);
+    if (a->entry != b->entry) return a->entry < b->entry ? -1 : 1;
+    if (a->body != b->body) return a->body < b->body ? -1 : 1;
+    return (a->dq & 3) - (b->dq & 3);
+}
+
+static int cmp_sum(const void* pa, const void* pb) {
+    const sum_msg* a = (const sum_msg*)pa;
+    const sum_msg* b = (const sum_msg*)pb;
+    if (a->entry != b->entry) return a->entry < b->entry ? -1 : 1;
+    return (a->body > b->body) - (a->body < b->body);
+}
+
+/* v[0..n) in (entry, body) order: a counting sort by entry (the entries a
+ * chunk home receives span its chunks), then each entry's few by body. */
+static int sort_sums(sum_msg* v, int n) {
+    int lo = v[0].entry, hi = v[0].entry, k, j, e;
+    int* start;
+    sum_msg* out;
+    for (k = 1; k < n; ++k) {
+        if (v[k].entry < lo) lo = v[k].entry;
+        if (v[k].entry > hi) hi = v[k].entry;
+    }
+    start = (int*)calloc((size_t)(hi - lo) + 2, sizeof(int));
+    out = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)n);
+    if (start == NULL || out == NULL) {
+        free(start);
+        free(out);
+        return NTS_ENOMEM;
+    }
+    for (k = 0; k < n; ++k) start[v[k].entry - lo + 1]++;
+    for (e = 0; e <= hi - lo; ++e) start[e + 1] += start[e];
+    for (k = 0; k < n; ++k) out[start[v[k].entry - lo]++] = v[k];
+    for (k = 1; k < n; ++k) /* insertion sort: only a slave's few contacts are out of order */
+        for (j = k; j > 0 && cmp_sum(&out[j - 1], &out[j]) > 0; --j) {
+            const sum_msg t = out[j];
+            out[j] = out[j - 1];
+            out[j - 1] = t;
+        }
+    memcpy(v, out, sizeof(sum_msg) * (size_t)n);
+    free(start);
+    free(out);
+    return NTS_OK;
+}
+
+static int cmp_chunk(const void* pa, const void* pb) {
+    const chunk_msg* a = (const chunk_msg*)pa;
+    const chunk_msg* b = (const chunk_msg*)pb;
+    return (a->chunk > b->chunk) - (a->chunk < b->chunk);
+}
+
+/* All-to-all of records of `size` bytes, send[] grouped by destination with
+ * counts[r]; returns the received records (malloc) and their count. */
+static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got) {
+    int* sc = (int*)malloc(sizeof(int) * 4u * (size_t)m->size);
+    int *sd, *rc_, *rd, r, total = 0;
+    void* out = NULL;
+    long long sent = 0, recvd = 0;
+    if (sc == NULL) return NULL;
+    sd = sc + m->size;
+    rc_ = sd + m->size;
+    rd = rc_ + m->size;
+    for (r = 0; r < m->size; ++r) {
+        sc[r] = (int)(counts[r] * size);
+        sd[r] = r == 0 ? 0 : sd[r - 1] + sc[r - 1];
+        if (r != m->rank) sent += sc[r];
+    }
+    MPI_Alltoall(sc, 1, MPI_INT, rc_, 1, MPI_INT, m->comm);
+    for (r = 0; r < m->size; ++r) {
+        rd[r] = r == 0 ? 0 : rd[r - 1] + rc_[r - 1];
+        if (r != m->rank) recvd += rc_[r];
+    }
+    total = rd[m->size - 1] + rc_[m->size - 1];
+    out = malloc((size_t)total + 8);
+    if (out != NULL) MPI_Alltoallv(send, sc, sd, MPI_BYTE, out, rc_, rd, MPI_BYTE, m->comm);
+    m->stats.bytes_sent += sent;
+    m->stats.bytes_received += recvd;
+    *got = (int)((size_t)total / size);
+    free(sc);
+    return out;
+}
+
+/* This rank's answer: the shares summed at the nodes' owners, the chunks'
+ * sums, the counts. */
+int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
+    const int P = m->size;
+    const long long N = m->entry_off[m->bodies];
+    const int nchunk = (int)((N + NTS_PART_CHUNK - 1) / NTS_PART_CHUNK);
+    int np = 0, k, q, r, got = 0, rc = NTS_OK;
+    const nts_part* parts = m->part ? nts_context_parts(m->ctx, &np) : NULL;
+    int* counts = (int*)calloc(2u * (size_t)P, sizeof(int));
+    int* fill = counts ? counts + P : NULL;
+    share_msg* sh = NULL;
+    sum_msg* sm = NULL;
+    sum_msg* deep_mine = NULL;
+    int n_sh = 0, n_sm = 0, n_deep = 0;
+    share_msg* rs = NULL;
+    sum_msg* rsum = NULL;
+    chunk_msg* ch = NULL;
+    chunk_msg* all_ch = NULL;
+    sum_msg* all_deep = NULL;
+    long long cnt[8], tot[8];
+    double maxpen = 0.0, gmax = 0.0;
+    const int want_forces = (m->outputs & NTS_OUT_FORCES) != 0u;
+    if (counts == NULL) return ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    memset(cnt, 0, sizeof cnt);
+
+    /* The shares, grouped by the rank that owns each node. */
+    for (k = 0; k < np && want_forces; ++k) {
+        if (!m->entry_owned[parts[k].entry]) continue;
+        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q) counts[m->node_owner[parts[k].nodes[q]]]++;
+    }
+    for (r = 0, n_sh = 0; r < P; ++r) {
+        fill[r] = n_sh;
+        n_sh += counts[r];
+    }
+    if ((sh = (share_msg*)malloc(sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL) rc = NTS_ENOMEM;
+    if (rc == NTS_OK && (sm = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(np + 1))) == NULL) rc = NTS_ENOMEM;
+    if (rc == NTS_OK && (deep_mine = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(np + 1))) == NULL) rc = NTS_ENOMEM;
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) != NTS_OK)
+        goto done;
+    for (k = 0; k < np; ++k) {
+        const nts_part* p = &parts[k];
+        const int gb = m->part_ids[p->master_body];
+        const int ge = (int)m->entry_global[p->entry];
+        sum_msg s;
+        if (!m->entry_owned[p->entry]) continue;
+        for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
+            share_msg* o = &sh[fill[m->node_owner[p->nodes[q]]]++];
+            o->at = m->node_at[p->nodes[q]];
+            o->entry = ge;
+            o->body = gb;
+            o->dq = p->deep << 2 | q;
+            o->fx = p->force[q].x;
+            o->fy = p->force[q].y;
+        }
+        memset(&s, 0, sizeof s);
+        s.entry = ge;
+        s.body = gb;
+        s.e = p->energy;
+        s.xx = p->virial.xx;
+        s.yy = p->virial.yy;
+        s.xy = p->virial.xy;
+        s.yx = p->virial.yx;
+        s.dis = p->dissipation;
+        if (p->deep) deep_mine[n_deep++] = s;
+        else sm[n_sm++] = s;
+        cnt[0]++;                       /* contacts */
+        cnt[2] += p->deep;              /* deep */
+        cnt[3] += p->state == NTS_STICK;
+        cnt[4] += p->state == NTS_SLIP;
+        if (p->penetration > maxpen) maxpen = p->penetration;
+    }
+    /* the owned slaves' closest points within r, and their deep contacts */
+    cnt[1] = (m->part ? nts_context_owned_gaps(m->ctx) : 0) + cnt[2];
+    {
+        int nw, w;
+        const int* we;
+        we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_RADIUS, &nw) : NULL;
+        for (w = 0; we && w < nw; ++w) cnt[5] += m->entry_owned[we[w]];
+        we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_REACH, &nw) : NULL;
+        for (w = 0; we && w < nw; ++w) cnt[6] += m->entry_owned[we[w]];
+    }
+    MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
+    MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
+
+    /* Each node's forces at its owner, in one process's order. */
+    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got);
+    rc = rs != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if (rc == NTS_OK && (m->outputs & NTS_OUT_FORCES) &&
+        !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
+        rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+    if (want_forces) {
+        /* by node (a counting sort), then each node's few by key */
+        int bad = 0, any_bad = 0, i, j;
+        int* start = (int*)calloc((size_t)m->own_nodes + 2, sizeof(int));
+        int* order = (int*)malloc(sizeof(int) * (size_t)(got + 1));
+        if (start == NULL || order == NULL) {
+            free(start);
+            free(order);
+            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+            goto done;
+        }
+        for (k = 0; k < got; ++k) start[rs[k].at + 1]++;
+        for (i = 0; i < m->own_nodes; ++i) start[i + 1] += start[i];
+        for (k = 0; k < got; ++k) order[start[rs[k].at]++] = k;
+        for (i = m->own_nodes; i > 0; --i) start[i] = start[i - 1];
+        start[0] = 0;
+        for (i = 0; i < m->own_nodes; ++i) {
+            nts_vec2 f = {0.0, 0.0};
+            for (j = start[i] + 1; j < start[i + 1]; ++j) { /* insertion sort by key */
+                const int x = order[j];
+                int t = j;
+                while (t > start[i] && cmp_share(&rs[order[t - 1]], &rs[x]) > 0) {
+                    order[t] = order[t - 1];
+                    --t;
+                }
+                order[t] = x;
+            }
+            for (j = start[i]; j < start[i + 1]; ++j) {
+                f.x = f.x + rs[order[j]].fx;
+                f.y = f.y + rs[order[j]].fy;
+            }
+            m->forces[i] = f;
+        }
+        free(start);
+        free(order);
+        for (k = 0; k < m->own_nodes; ++k) bad |= !isfinite(m->forces[k].x) || !isfinite(m->forces[k].y);
+        MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, m->comm);
+        if (any_bad) {
+            rc = ntsm_fail(err, NTS_ENONFINITE, "the result overflows a double (penalty or coordinates too large)");
+            snprintf(err->option, sizeof err->option, "penalty");
+            goto done;
+        }
+    }
+
+    /* Each chunk summed by one rank in contact order, the chunks in order,
+     * then the deep contacts (scatter.c's order). */
+    memset(counts, 0, sizeof(int) * (size_t)P);
+    for (k = 0; k < n_sm; ++k) counts[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++;
+    {
+        sum_msg* sorted = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(n_sm + 1));
+        int* at = (int*)calloc((size_t)P, sizeof(int));
+        if (sorted == NULL || at == NULL) {
+            free(sorted);
+            free(at);
+            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        } else {
+            for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
+            for (k = 0; k < n_sm; ++k) sorted[at[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++] = sm[k];
+            free(at);
+            rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got);
+            free(sorted);
+            if (rsum == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        }
+    }
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+    if (got > 1 && sort_sums(rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+    ch = (chunk_msg*)calloc((size_t)got + 1, sizeof(chunk_msg));
+    rc = ch ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+    {
+        int nc = 0;
+        for (k = 0; k < got; ++k) {
+            const int c = rsum[k].entry / NTS_PART_CHUNK;
+            if (nc == 0 || ch[nc - 1].chunk != c) {
+                memset(&ch[nc], 0, sizeof ch[nc]);
+                ch[nc++].chunk = c;
+            }
+            ch[nc - 1].e += rsum[k].e;
+            ch[nc - 1].xx += rsum[k].xx;
+            ch[nc - 1].yy += rsum[k].yy;
+            ch[nc - 1].xy += rsum[k].xy;
+            ch[nc - 1].yx += rsum[k].yx;
+            ch[nc - 1].dis += rsum[k].dis;
+        }
+        /* every rank gets every chunk's sums, and every deep contact's */
+        {
+            int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)(P + 1));
+            int total_c = 0, total_d = 0;
+            double energy = 0.0, xx = 0.0, yy = 0.0, xy = 0.0, yx = 0.0, dis = 0.0;
+            double de = 0.0, dxx = 0.0, dyy = 0.0, dxy = 0.0, dyx = 0.0, ddis = 0.0;
+            int mine_bytes = (int)(nc * sizeof(chunk_msg));
+            if (cc == NULL) {
+                rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+            }
+            if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
+                free(cc);
+                goto done;
+            }
+            MPI_Allgather(&mine_bytes, 1, MPI_INT, cc, 1, MPI_INT, m->comm);
+            for (r = 0, cc[P] = 0; r < P; ++r) total_c += cc[r];
+            {
+                int* dd = (int*)malloc(sizeof(int) * (size_t)P);
+                int* disp = (int*)malloc(sizeof(int) * (size_t)P);
+                all_ch = (chunk_msg*)malloc((size_t)total_c + sizeof(chunk_msg));
+                for (r = 0; disp && r < P; ++r) disp[r] = r == 0 ? 0 : disp[r - 1] + cc[r - 1];
+                if (dd && disp && all_ch)
+                    MPI_Allgatherv(ch, mine_bytes, MPI_BYTE, all_ch, cc, disp, MPI_BYTE, m->comm);
+                mine_bytes = (int)(n_deep * sizeof(sum_msg));
+                MPI_Allgather(&mine_bytes, 1, MPI_INT, dd, 1, MPI_INT, m->comm);
+                for (r = 0; r < P; ++r) {
+                    disp[r] = r == 0 ? 0 : disp[r - 1] + dd[r - 1];
+                    total_d += dd[r];
+                }
+                all_deep = (sum_msg*)malloc((size_t)total_d + sizeof(sum_msg));
+                if (all_deep) MPI_Allgatherv(deep_mine, mine_bytes, MPI_BYTE, all_deep, dd, disp, MPI_BYTE, m->comm);
+                free(dd);
+                free(disp);
+            }
+            free(cc);
+            total_c /= (int)sizeof(chunk_msg);
+            total_d /= (int)sizeof(sum_msg);
+            if (total_c > 1) qsort(all_ch, (size_t)total_c, sizeof(chunk_msg), cmp_chunk);
+            if (total_d > 1) qsort(all_deep, (size_t)total_d, sizeof(sum_msg), cmp_sum);
+            for (k = 0; k < total_c; ++k) {
+                energy += all_ch[k].e;
+                xx += all_ch[k].xx;
+                yy += all_ch[k].yy;
+                xy += all_ch[k].xy;
+                yx += all_ch[k].yx;
+                dis += all_ch[k].dis;
+            }
+            for (k = 0; k < total_d; ++k) {
+                de += all_deep[k].e;
+                dxx += all_deep[k].xx;
+                dyy += all_deep[k].yy;
+                dxy += all_deep[k].xy;
+                dyx += all_deep[k].yx;
+                ddis += all_deep[k].dis;
+            }
+            m->summary.energy = energy + de;
+            m->summary.virial.xx = xx + dxx;
+            m->summary.virial.yy = yy + dyy;
+            m->summary.virial.xy = xy + dxy;
+            m->summary.virial.yx = yx + dyx;
+            m->summary.dissipation = dis + ddis;
+        }
+    }
+    m->summary.bodies = m->bodies;
+    m->summary.surface_nodes = (int)N;
+    m->summary.contacts = (int)tot[0];
+    m->summary.gaps = (int)tot[1];
+    m->summary.deep_contacts = (int)tot[2];
+    m->summary.sticking = (int)tot[3];
+    m->summary.slipping = (int)tot[4];
+    m->summary.max_penetration = gmax;
+    m->summary.loops_reversed = m->loops_reversed;
+    m->warning_count = 0;
+    if (tot[5] > 0) {
+        m->warnings[m->warning_count].code = NTS_WARN_PENETRATION_BEYOND_RADIUS;
+        m->warnings[m->warning_count++].count = tot[5];
+    }
+    if (tot[6] > 0) {
+        m->warnings[m->warning_count].code = NTS_WARN_PENETRATION_BEYOND_REACH;
+        m->warnings[m->warning_count++].count = tot[6];
+    }
+    {
+        const nts_summary* s = &m->summary;
+        if (!isfinite(s->energy) || !isfinite(s->virial.xx) || !isfinite(s->virial.yy) || !isfinite(s->virial.xy) ||
+            !isfinite(s->virial.yx) || !isfinite(s->dissipation)) {
+            rc = ntsm_fail(err, NTS_ENONFINITE, "the result overflows a double (penalty or coordinates too large)");
+            snprintf(err->option, sizeof err->option, "penalty");
+        }
+    }
+    (void)opt;
+done:
+    free(counts);
+    free(sh);
+    free(sm);
+    free(deep_mine);
+    free(rs);
+    free(rsum);
+    free(ch);
+    free(all_ch);
+    free(all_deep);
+    return rc;
+}
