@@ -88,6 +88,18 @@ void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* re
     if (h[H_SURF] > 0) ntsm_bytes_put(b, d->surface, sizeof(int) * 2u * (size_t)h[H_SURF]);
 }
 
+void* ntsm_scratch(scratch* s, size_t need) {
+    if (need > s->cap) {
+        size_t cap = s->cap > 0 ? s->cap : 4096;
+        void* p;
+        while (cap < need) cap *= 2;
+        if ((p = realloc(s->p, cap)) == NULL) return NULL;
+        s->p = p;
+        s->cap = cap;
+    }
+    return s->p;
+}
+
 size_t ntsm_al8(size_t n) { return (n + 7u) & ~(size_t)7u; }
 
 /* The body at p (pointers into p); returns the bytes it takes. */

@@ -163,9 +163,9 @@ int ntsm_part_move(ntsm_scene* m, nts_error* err) {
     for (k = 0; k < m->count; ++k)
         for (r = 0; r < P; ++r) n_send += m->to[(size_t)k * P + r] ? m->own_defs[k].node_count : 0;
     for (a = 0; a < m->arrivals; ++a) n_recv += m->arrival_nodes[a];
-    send = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(n_send + 1));
-    recv = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(n_recv + 1));
-    pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(nn + 1));
+    send = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_SEND], sizeof(nts_vec2) * (size_t)(n_send + 1));
+    recv = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_RECV], sizeof(nts_vec2) * (size_t)(n_recv + 1));
+    pos = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_PART], sizeof(nts_vec2) * (size_t)(nn + 1));
     if (sc == NULL || send == NULL || recv == NULL || pos == NULL || 16 * (n_send + n_recv) > INT_MAX)
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
@@ -200,9 +200,6 @@ int ntsm_part_move(ntsm_scene* m, nts_error* err) {
     rc = ntsm_agree(m, m->comm, m->rank, P, rc, err);
 done:
     free(sc);
-    free(send);
-    free(recv);
-    free(pos);
     return rc;
 }
 

@@ -42,6 +42,17 @@ typedef struct chunk_msg {
     double e, xx, yy, xy, yx, dis;
 } chunk_msg;
 
+/* A buffer kept between evaluations (it only grows): a step in a solver's
+ * loop allocates nothing and touches no fresh page. */
+typedef struct scratch {
+    void* p;
+    size_t cap;
+} scratch;
+enum {
+    SC_SHARES_OUT, SC_SHARES_IN, SC_START, SC_ORDER, SC_SUMS_OUT, SC_SUMS_SORTED, SC_SUMS_IN, SC_SUMS_TMP,
+    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_COUNT
+};
+
 /* The slabs: cuts along one axis (docs/distributed.md). */
 typedef struct slabs {
     int axis;        /* 0: x, 1: y */
@@ -91,6 +102,7 @@ struct ntsm_scene {
     int* arrival_off;
     int arrivals;
     long long rebuilds;
+    scratch sc[SC_COUNT];
     /* the last evaluation's part */
     bytes recv;
     nts_scene* part;
@@ -135,6 +147,9 @@ int ntsm_grow(void* pp, int* cap, long long count, size_t size);
 size_t ntsm_al8(size_t n);
 void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* reference);
 size_t ntsm_body_read(const char* p, nts_body_def* d, int* id);
+
+/* `need` bytes of s (NULL when they cannot be had). */
+void* ntsm_scratch(scratch* s, size_t need);
 
 /* scene.c: collective errors */
 int ntsm_agree(ntsm_scene* m, MPI_Comm comm, int rank, int size, int rc, nts_error* err);

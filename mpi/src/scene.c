@@ -68,6 +68,10 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->arrival_nodes);
     free(m->arrival_off);
     free(m->recv.p);
+    {
+        int k;
+        for (k = 0; k < SC_COUNT; ++k) free(m->sc[k].p);
+    }
     nts_scene_destroy(m->part);
     nts_context_destroy(m->ctx);
     free(m->part_ids);

@@ -29,7 +29,7 @@ static int cmp_sum(const void* pa, const void* pb) {
 
 /* v[0..n) in (entry, body) order: a counting sort by entry (the entries a
  * chunk home receives span its chunks), then each entry's few by body. */
-static int sort_sums(sum_msg* v, int n) {
+static int sort_sums(ntsm_scene* m, sum_msg* v, int n) {
     int lo = v[0].entry, hi = v[0].entry, k, j, e;
     int* start;
     sum_msg* out;
@@ -37,13 +37,10 @@ static int sort_sums(sum_msg* v, int n) {
         if (v[k].entry < lo) lo = v[k].entry;
         if (v[k].entry > hi) hi = v[k].entry;
     }
-    start = (int*)calloc((size_t)(hi - lo) + 2, sizeof(int));
-    out = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)n);
-    if (start == NULL || out == NULL) {
-        free(start);
-        free(out);
-        return NTS_ENOMEM;
-    }
+    start = (int*)ntsm_scratch(&m->sc[SC_SUMS_START], sizeof(int) * ((size_t)(hi - lo) + 2));
+    out = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_TMP], sizeof(sum_msg) * (size_t)n);
+    if (start == NULL || out == NULL) return NTS_ENOMEM;
+    memset(start, 0, sizeof(int) * ((size_t)(hi - lo) + 2));
     for (k = 0; k < n; ++k) start[v[k].entry - lo + 1]++;
     for (e = 0; e <= hi - lo; ++e) start[e + 1] += start[e];
     for (k = 0; k < n; ++k) out[start[v[k].entry - lo]++] = v[k];
@@ -54,8 +51,6 @@ static int sort_sums(sum_msg* v, int n) {
             out[j - 1] = t;
         }
     memcpy(v, out, sizeof(sum_msg) * (size_t)n);
-    free(start);
-    free(out);
     return NTS_OK;
 }
 
@@ -66,8 +61,8 @@ static int cmp_chunk(const void* pa, const void* pb) {
 }
 
 /* All-to-all of records of `size` bytes, send[] grouped by destination with
- * counts[r]; returns the received records (malloc) and their count. */
-static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got) {
+ * counts[r]; returns the received records (in `into`) and their count. */
+static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got, scratch* into) {
     int* sc = (int*)malloc(sizeof(int) * 4u * (size_t)m->size);
     int *sd, *rc_, *rd, r, total = 0;
     void* out = NULL;
@@ -87,7 +82,7 @@ static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t
         if (r != m->rank) recvd += rc_[r];
     }
     total = rd[m->size - 1] + rc_[m->size - 1];
-    out = malloc((size_t)total + 8);
+    out = ntsm_scratch(into, (size_t)total + 8);
     if (out != NULL) MPI_Alltoallv(send, sc, sd, MPI_BYTE, out, rc_, rd, MPI_BYTE, m->comm);
     m->stats.bytes_sent += sent;
     m->stats.bytes_received += recvd;
@@ -130,9 +125,13 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         fill[r] = n_sh;
         n_sh += counts[r];
     }
-    if ((sh = (share_msg*)malloc(sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL) rc = NTS_ENOMEM;
-    if (rc == NTS_OK && (sm = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(np + 1))) == NULL) rc = NTS_ENOMEM;
-    if (rc == NTS_OK && (deep_mine = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(np + 1))) == NULL) rc = NTS_ENOMEM;
+    if ((sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL)
+        rc = NTS_ENOMEM;
+    if (rc == NTS_OK && (sm = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_OUT], sizeof(sum_msg) * (size_t)(np + 1))) == NULL)
+        rc = NTS_ENOMEM;
+    if (rc == NTS_OK &&
+        (deep_mine = (sum_msg*)ntsm_scratch(&m->sc[SC_DEEP], sizeof(sum_msg) * (size_t)(np + 1))) == NULL)
+        rc = NTS_ENOMEM;
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) != NTS_OK)
         goto done;
     for (k = 0; k < np; ++k) {
@@ -181,7 +180,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
 
     /* Each node's forces at its owner, in one process's order. */
-    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got);
+    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN]);
     rc = rs != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if (rc == NTS_OK && (m->outputs & NTS_OUT_FORCES) &&
         !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
@@ -190,14 +189,11 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     if (want_forces) {
         /* by node (a counting sort), then each node's few by key */
         int bad = 0, any_bad = 0, i, j;
-        int* start = (int*)calloc((size_t)m->own_nodes + 2, sizeof(int));
-        int* order = (int*)malloc(sizeof(int) * (size_t)(got + 1));
-        if (start == NULL || order == NULL) {
-            free(start);
-            free(order);
-            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-            goto done;
-        }
+        int* start = (int*)ntsm_scratch(&m->sc[SC_START], sizeof(int) * ((size_t)m->own_nodes + 2));
+        int* order = (int*)ntsm_scratch(&m->sc[SC_ORDER], sizeof(int) * (size_t)(got + 1));
+        rc = start != NULL && order != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+        memset(start, 0, sizeof(int) * ((size_t)m->own_nodes + 2));
         for (k = 0; k < got; ++k) start[rs[k].at + 1]++;
         for (i = 0; i < m->own_nodes; ++i) start[i + 1] += start[i];
         for (k = 0; k < got; ++k) order[start[rs[k].at]++] = k;
@@ -220,8 +216,6 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             }
             m->forces[i] = f;
         }
-        free(start);
-        free(order);
         for (k = 0; k < m->own_nodes; ++k) bad |= !isfinite(m->forces[k].x) || !isfinite(m->forces[k].y);
         MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, m->comm);
         if (any_bad) {
@@ -236,23 +230,21 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     memset(counts, 0, sizeof(int) * (size_t)P);
     for (k = 0; k < n_sm; ++k) counts[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++;
     {
-        sum_msg* sorted = (sum_msg*)malloc(sizeof(sum_msg) * (size_t)(n_sm + 1));
+        sum_msg* sorted = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_SORTED], sizeof(sum_msg) * (size_t)(n_sm + 1));
         int* at = (int*)calloc((size_t)P, sizeof(int));
         if (sorted == NULL || at == NULL) {
-            free(sorted);
             free(at);
             rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
         } else {
             for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
             for (k = 0; k < n_sm; ++k) sorted[at[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++] = sm[k];
             free(at);
-            rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got);
-            free(sorted);
+            rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN]);
             if (rsum == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
         }
     }
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    if (got > 1 && sort_sums(rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if (got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     ch = (chunk_msg*)calloc((size_t)got + 1, sizeof(chunk_msg));
     rc = ch ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
@@ -364,11 +356,6 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     (void)opt;
 done:
     free(counts);
-    free(sh);
-    free(sm);
-    free(deep_mine);
-    free(rs);
-    free(rsum);
     free(ch);
     free(all_ch);
     free(all_deep);
