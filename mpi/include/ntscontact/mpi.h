@@ -50,20 +50,20 @@ typedef struct ntsm_result {
  * bodies[k] (every index 0..B-1 on exactly one rank), the periodic box and
  * the limits the same on every rank. The bodies are copied. NULL on error,
  * with *err the same on every rank (err->body a global index). */
-ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
+NTS_API ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
                               double ly, nts_limits limits, nts_error* err);
-void ntsm_scene_destroy(ntsm_scene* scene);
+NTS_API void ntsm_scene_destroy(ntsm_scene* scene);
 
 /** New positions of this rank's nodes (its bodies' in order). Collective:
  * NTS_OK everywhere, or every rank's error (a rank whose bodies are
  * reshaped: NTS_ERESHAPED, naming the body). */
-int ntsm_scene_update_positions(ntsm_scene* scene, const nts_vec2* positions, nts_error* err);
+NTS_API int ntsm_scene_update_positions(ntsm_scene* scene, const nts_vec2* positions, nts_error* err);
 
 /** Collective: the whole scene's frame (distributed.h) for the next
  * evaluations, when a rank holds the whole scene and computed it
  * (nts_scene_frame; ntscontact-mpi's rank 0 does), so that the summary's
  * cell size is the whole scene's too; NULL: found across the ranks. */
-void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
+NTS_API void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
 
 /** The skin of the kept decomposition (docs/distributed.md): the slabs and
  * halos are kept between evaluations while no node has moved more than
@@ -72,18 +72,18 @@ void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
  * (the needed one plus 2 skin). Negative (the default): 0.3 times the search
  * radius. 0: made anew every evaluation. The answer is the same bits
  * whatever the skin. Call it on every rank with the same value. */
-void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
+NTS_API void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
 
 /** Collective: evaluate. opt->history, opt->candidates and opt->cancel must
  * be NULL (NTS_EINVALID_ARGUMENT). NTS_OK or every rank's error. */
-int ntsm_evaluate(ntsm_scene* scene, const nts_options* opt, ntsm_result* out, nts_error* err);
+NTS_API int ntsm_evaluate(ntsm_scene* scene, const nts_options* opt, ntsm_result* out, nts_error* err);
 
 /** Collective, after a successful ntsm_evaluate: the whole answer on `root`,
  * as nts_evaluate gives it (forces, pressure, contacts, gaps, tangent and
  * anchors as the options asked, global node and body indices), in *out,
  * valid until the next evaluation; other ranks get nothing. NTS_OK or
  * every rank's NTS_ENOMEM. */
-int ntsm_gather(ntsm_scene* scene, int root, nts_result* out, nts_error* err);
+NTS_API int ntsm_gather(ntsm_scene* scene, int root, nts_result* out, nts_error* err);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,122 @@
+"""ntscontact.mpi (docs/distributed.md): under `mpirun -np N`, N = 1..4, each
+rank's DistributedSession of the bodies it owns (scattered: body b on rank
+b mod N) steps a random walk together with the others, and every step's
+energy, virial, counts and this rank's forces are the bits the in-process
+Engine gives on the whole scene; a bad body or bad positions on one rank
+raise the same error on every rank (nothing hangs). Skipped without MPI in
+the build or mpi4py."""
+import os
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from conftest import BUILD
+
+MPI_LIB = BUILD / "lib" / "libntscontact_mpi_engine.so"
+ENGINE_LIB = BUILD / "lib" / "libntscontact_engine.so"
+MPIRUN = shutil.which("mpirun")
+
+try:
+    import mpi4py  # noqa: F401
+    HAVE_MPI4PY = True
+except ImportError:
+    HAVE_MPI4PY = False
+
+pytestmark = pytest.mark.skipif(not MPI_LIB.exists() or MPIRUN is None or not HAVE_MPI4PY,
+                                reason="no libntscontact_mpi_engine.so (-DNTS_MPI=ON), mpirun or mpi4py")
+
+SCRIPT = textwrap.dedent('''
+    import math, sys
+    import numpy as np
+    from mpi4py import MPI
+    import ntscontact
+    from ntscontact.errors import NtsError
+    import ntscontact.mpi
+
+    comm = MPI.COMM_WORLD
+    rank, size = comm.Get_rank(), comm.Get_size()
+    rng = np.random.default_rng(5)
+
+    def disk(cx, cy, r, n, ph):
+        t = ph + 2 * math.pi * np.arange(n) / n
+        return np.stack([cx + r * np.cos(t), cy + r * np.sin(t)], axis=1)
+
+    side, bodies = 9, []
+    for b in range(side * side):
+        bodies.append(disk(b % side + 0.5 + 0.03 * rng.standard_normal(), b // side + 0.5,
+                           0.54 * rng.uniform(0.92, 1.04), 16 + b % 5, rng.uniform()))
+    bodies.append(np.array([[-1.0, -0.45], [side + 1.0, -0.45], [side + 1.0, 0.03], [-1.0, 0.03]]))
+    options = {"penalty": 10.0, "alpha": 0.2}
+
+    def scene(ids):
+        return {"options": options, "bodies": [{"id": i, "nodes": bodies[i].tolist()} for i in ids]}
+
+    whole = list(range(len(bodies)))
+    mine = [b for b in whole if b % size == rank]
+    ref = ntscontact.Engine().session(scene(whole))
+    eng = ntscontact.mpi.DistributedEngine(comm)
+    part = eng.session(scene(mine))
+    pos = np.concatenate(bodies)
+    offsets = np.concatenate([[0], np.cumsum([len(x) for x in bodies])])
+    for step in range(5):
+        pos = pos + 0.003 * rng.standard_normal(pos.shape)
+        my_pos = np.concatenate([pos[offsets[b]:offsets[b + 1]] for b in mine])
+        a = ref.step(pos)
+        d = part.step(my_pos, outputs=["forces", "energy", "virial"] if step % 2 else None)
+        assert np.float64(d.energy).tobytes() == np.float64(a.energy).tobytes(), (step, d.energy, a.energy)
+        assert np.asarray(d.virial).tobytes() == np.asarray(a.virial).tobytes(), step
+        assert (d.summary.contacts, d.summary.gaps, d.summary.deep_contacts) == \\
+            (a.summary.contacts, a.summary.gaps, a.summary.deep_contacts), step
+        want = np.concatenate([a.force_array()[offsets[b]:offsets[b + 1]] for b in mine])
+        assert d.force_array().tobytes() == want.tobytes(), step
+    assert a.summary.contacts > 50
+
+    # bad positions on the last rank only: every rank raises the same error
+    bad = my_pos.copy()
+    if rank == size - 1:
+        bad[0, 0] = float("nan")
+    try:
+        part.step(bad)
+        raise SystemExit("NaN positions accepted")
+    except NtsError as exc:
+        codes = comm.allgather((exc.code, str(exc)))
+        assert all(c == codes[0] for c in codes), codes
+        assert exc.code == "non_finite", exc.code
+
+    # a degenerate body on the last rank only
+    broken = scene(mine)
+    if rank == size - 1:
+        nodes = broken["bodies"][0]["nodes"]
+        nodes[1] = list(nodes[0])
+    try:
+        eng.session(broken)
+        raise SystemExit("a degenerate body accepted")
+    except NtsError as exc:
+        seen = comm.allgather((exc.code, exc.pointer))
+        assert all(s == seen[0] for s in seen), seen
+        want_body = mine[0] if rank == size - 1 else None
+        want_body = comm.bcast(want_body, root=size - 1)
+        assert exc.pointer.startswith(f"/bodies/{want_body}"), (exc.pointer, want_body)
+    part.close()
+    sys.stdout.write(f"OK rank {rank}/{size}\\n")
+    sys.stdout.flush()
+''')
+
+
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4])
+def test_distributed_session_bitwise(tmp_path, ranks):
+    script = tmp_path / "steps.py"
+    script.write_text(SCRIPT)
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", NTSCONTACT_MPI_LIBRARY=str(MPI_LIB),
+               NTSCONTACT_LIBRARY=str(ENGINE_LIB))
+    r = subprocess.run([MPIRUN, "-np", str(ranks), "--oversubscribe", sys.executable, str(script)],
+                       capture_output=True, timeout=600, env=env)
+    out = r.stdout.decode()
+    assert r.returncode == 0, out + r.stderr.decode()[-3000:]
+    # (mpirun may interleave the ranks' lines)
+    assert sorted(re.findall(r"OK rank \d+/\d+", out)) == sorted(f"OK rank {k}/{ranks}" for k in range(ranks)), out
