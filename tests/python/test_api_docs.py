@@ -21,7 +21,8 @@ from conftest import REPO
 
 DOXYFILE = REPO / "docs" / "api" / "Doxyfile"
 PUBLIC_HEADERS = sorted([*(REPO / "core" / "include" / "ntscontact").glob("*.h"),
-                         *(REPO / "codec" / "include" / "ntscontact").glob("*.h")])
+                         *(REPO / "codec" / "include" / "ntscontact").glob("*.h"),
+                         *(REPO / "mpi" / "include" / "ntscontact").glob("*.h")])
 PY_SRC = REPO / "clients" / "python" / "src"
 
 

@@ -56,7 +56,9 @@ typedef struct nts_part {
     double dissipation; /**< what it adds to the dissipation (27) */
     nts_virial virial;  /**< what it adds to the virial (11) (or (28) with friction) */
     double penetration; /**< -g */
-    int stiff_at, stiff_count; /**< its tangent's triplets in nts_result.stiffness */
+    /** its tangent's triplets in nts_result.stiffness: from stiff_at, stiff_count of them @{ */
+    int stiff_at, stiff_count;
+    /** @} */
 } nts_part;
 
 /** The frame of `scene` for `opt` as one process computes it (the median only

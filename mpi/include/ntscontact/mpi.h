@@ -37,13 +37,13 @@ typedef struct ntsm_stats {
  * forces (and pressure) on the nodes of the bodies this rank owns, body by
  * body in the order it gave them. Valid until the next evaluation. */
 typedef struct ntsm_result {
-    nts_summary summary;
-    nts_warning warnings[NTS_WARN_COUNT_];
-    int warning_count;
+    nts_summary summary;      /**< the whole scene's, as nts_evaluate gives it */
+    nts_warning warnings[NTS_WARN_COUNT_]; /**< what may be missing, in code order */
+    int warning_count;        /**< how many `warnings` */
     const nts_vec2* forces;   /**< NULL unless NTS_OUT_FORCES */
-    const double* pressure;   /**< NULL unless NTS_OUT_PRESSURE */
+    const double* pressure;   /**< NULL: the pressure comes from ntsm_gather */
     int node_count;           /**< this rank's nodes */
-    ntsm_stats stats;
+    ntsm_stats stats;         /**< what this rank moved and held */
 } ntsm_result;
 
 /** Collective: the bodies this rank owns, `ids[k]` the global index of
@@ -52,6 +52,7 @@ typedef struct ntsm_result {
  * with *err the same on every rank (err->body a global index). */
 NTS_API ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
                               double ly, nts_limits limits, nts_error* err);
+/** Frees this rank's part of the scene (not collective); NULL is a no-op. */
 NTS_API void ntsm_scene_destroy(ntsm_scene* scene);
 
 /** New positions of this rank's nodes (its bodies' in order). Collective:
