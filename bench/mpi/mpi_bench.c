@@ -7,7 +7,10 @@
  * Between evaluations every node moves by 1e-4 (a solver's step), so the
  * decomposition is kept (SKIN < 0: the default skin) or made anew every
  * time (SKIN 0).
- * usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN]] */
+ * The host owns the disks by rows (LAYOUT 0: bands across the slabs the
+ * library cuts along x, so that about half of the contributions go to
+ * another rank) or by columns (LAYOUT 1: bands along the slabs).
+ * usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN [LAYOUT]]] */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,7 +28,7 @@ static int cmp_double(const void* a, const void* b) {
 }
 
 int main(int argc, char** argv) {
-    int rank, size, disks, per, repeats, threads, side, b, k, first, last, rep, rebuilt = 0;
+    int rank, size, disks, per, repeats, threads, side, b, k, rep, rebuilt = 0, layout, mine = 0;
     double skin;
     nts_vec2* nodes;
     nts_body_def* defs;
@@ -40,7 +43,7 @@ int main(int argc, char** argv) {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     MPI_Comm_size(MPI_COMM_WORLD, &size);
     if (argc < 4) {
-        if (rank == 0) fprintf(stderr, "usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN]]\n");
+        if (rank == 0) fprintf(stderr, "usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN [LAYOUT]]]\n");
         MPI_Finalize();
         return 2;
     }
@@ -49,13 +52,12 @@ int main(int argc, char** argv) {
     repeats = atoi(argv[3]);
     threads = argc > 4 ? atoi(argv[4]) : 0;
     skin = argc > 5 ? atof(argv[5]) : -1.0;
+    layout = argc > 6 ? atoi(argv[6]) : 0;
     side = (int)ceil(sqrt((double)disks));
-    /* this rank's block of disks (rows of the grid: a host's decomposition) */
-    first = (int)((long long)disks * rank / size);
-    last = (int)((long long)disks * (rank + 1) / size);
-    nodes = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(last - first) * (size_t)per + 1);
-    defs = (nts_body_def*)calloc((size_t)(last - first) + 1, sizeof(nts_body_def));
-    ids = (int*)calloc((size_t)(last - first) + 1, sizeof(int));
+    /* this rank's disks: a band of rows or of columns (a host's decomposition) */
+    nodes = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)disks * (size_t)per + 1);
+    defs = (nts_body_def*)calloc((size_t)disks + 1, sizeof(nts_body_def));
+    ids = (int*)calloc((size_t)disks + 1, sizeof(int));
     times = (double*)calloc((size_t)repeats + 1, sizeof(double));
     for (b = 0; b < disks; ++b) {
         double jx, jy, rr, ph;
@@ -67,16 +69,16 @@ int main(int argc, char** argv) {
         rr = 0.54 * (0.92 + 0.12 * (double)(seed >> 8) / 16777216.0);
         seed = seed * 1664525u + 1013904223u;
         ph = (double)(seed >> 8) / 16777216.0;
-        if (b < first || b >= last) continue;
+        if ((layout == 0 ? (long long)b * size / disks : (long long)(b % side) * size / side) != rank) continue;
         for (k = 0; k < per; ++k) {
-            nodes[(size_t)(b - first) * per + k].x = (b % side) + 0.5 + jx + rr * cos(ph + 2 * M_PI * k / per);
-            nodes[(size_t)(b - first) * per + k].y = (b / side) + 0.5 + jy + rr * sin(ph + 2 * M_PI * k / per);
+            nodes[(size_t)mine * per + k].x = (b % side) + 0.5 + jx + rr * cos(ph + 2 * M_PI * k / per);
+            nodes[(size_t)mine * per + k].y = (b / side) + 0.5 + jy + rr * sin(ph + 2 * M_PI * k / per);
         }
-        defs[b - first].nodes = nodes + (size_t)(b - first) * per;
-        defs[b - first].node_count = per;
-        ids[b - first] = b;
+        defs[mine].nodes = nodes + (size_t)mine * per;
+        defs[mine].node_count = per;
+        ids[mine++] = b;
     }
-    m = ntsm_scene_create(MPI_COMM_WORLD, defs, ids, last - first, 0.0, 0.0, nts_default_limits(), &err);
+    m = ntsm_scene_create(MPI_COMM_WORLD, defs, ids, mine, 0.0, 0.0, nts_default_limits(), &err);
     if (m == NULL) {
         if (rank == 0) fprintf(stderr, "mpi_bench: %s\n", err.message);
         MPI_Finalize();
@@ -93,7 +95,7 @@ int main(int argc, char** argv) {
         double ph[4] = {0, 0, 0, 0};
         for (rep = 0; rep < repeats; ++rep) {
             double t0;
-            const size_t nn = (size_t)(last - first) * (size_t)per;
+            const size_t nn = (size_t)mine * (size_t)per;
             size_t i;
             for (i = 0; i < nn; ++i) nodes[i].x += rep % 2 ? -1e-4 : 1e-4;
             MPI_Barrier(MPI_COMM_WORLD);

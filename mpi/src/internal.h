@@ -50,7 +50,7 @@ typedef struct scratch {
 } scratch;
 enum {
     SC_SHARES_OUT, SC_SHARES_IN, SC_START, SC_ORDER, SC_SUMS_OUT, SC_SUMS_SORTED, SC_SUMS_IN, SC_SUMS_TMP,
-    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_COUNT
+    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_MIXED, SC_MIXED_ALL, SC_CHUNKS, SC_COUNT
 };
 
 /* The slabs: cuts along one axis (docs/distributed.md). */

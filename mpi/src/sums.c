@@ -111,15 +111,18 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     chunk_msg* all_ch = NULL;
     sum_msg* all_deep = NULL;
     long long cnt[8], tot[8];
+    int n_chunks_mine = 0;
     double maxpen = 0.0, gmax = 0.0;
     const int want_forces = (m->outputs & NTS_OUT_FORCES) != 0u;
     if (counts == NULL) return ntsm_fail(err, NTS_ENOMEM, "out of memory");
     memset(cnt, 0, sizeof cnt);
 
-    /* The shares, grouped by the rank that owns each node. */
+    /* The shares to other ranks' nodes, grouped by the rank that owns each
+     * (this rank's own nodes take theirs below, without a message). */
     for (k = 0; k < np && want_forces; ++k) {
         if (!m->entry_owned[parts[k].entry]) continue;
-        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q) counts[m->node_owner[parts[k].nodes[q]]]++;
+        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q)
+            if (m->node_owner[parts[k].nodes[q]] != m->rank) counts[m->node_owner[parts[k].nodes[q]]]++;
     }
     for (r = 0, n_sh = 0; r < P; ++r) {
         fill[r] = n_sh;
@@ -141,7 +144,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         sum_msg s;
         if (!m->entry_owned[p->entry]) continue;
         for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
-            share_msg* o = &sh[fill[m->node_owner[p->nodes[q]]]++];
+            share_msg* o;
+            if (m->node_owner[p->nodes[q]] == m->rank) continue;
+            o = &sh[fill[m->node_owner[p->nodes[q]]]++];
             o->at = m->node_at[p->nodes[q]];
             o->entry = ge;
             o->body = gb;
@@ -179,40 +184,88 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
     MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
 
-    /* Each node's forces at its owner, in one process's order. */
+    /* Each node's forces at its owner, in one process's order: a node that
+     * only this rank's contacts touch takes them as they come (its parts run
+     * in key order: the chunks' contacts, then the deep ones); a node that
+     * others' touch too ("mixed") gets every contribution bucketed and its
+     * few ordered by key. */
     rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN]);
     rc = rs != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
-    if (rc == NTS_OK && (m->outputs & NTS_OUT_FORCES) &&
-        !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
+    if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     if (want_forces) {
-        /* by node (a counting sort), then each node's few by key */
-        int bad = 0, any_bad = 0, i, j;
-        int* start = (int*)ntsm_scratch(&m->sc[SC_START], sizeof(int) * ((size_t)m->own_nodes + 2));
-        int* order = (int*)ntsm_scratch(&m->sc[SC_ORDER], sizeof(int) * (size_t)(got + 1));
-        rc = start != NULL && order != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        int bad = 0, any_bad = 0, i, j, pass, n_local = 0, total;
+        unsigned char* mixed = (unsigned char*)ntsm_scratch(&m->sc[SC_MIXED], (size_t)m->own_nodes + 1);
+        share_msg* all;
+        int* start;
+        int* order;
+        rc = mixed != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+        memset(mixed, 0, (size_t)m->own_nodes + 1);
+        memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
+        for (k = 0; k < got; ++k) mixed[rs[k].at] = 1;
+        /* this rank's contributions: the chunks' contacts, then the deep ones */
+        for (pass = 0; pass < 2; ++pass)
+            for (k = 0; k < np; ++k) {
+                const nts_part* p = &parts[k];
+                if (p->deep != pass || !m->entry_owned[p->entry]) continue;
+                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+                    const int at = m->node_at[p->nodes[q]];
+                    if (m->node_owner[p->nodes[q]] != m->rank) continue;
+                    if (mixed[at]) {
+                        ++n_local;
+                        continue;
+                    }
+                    m->forces[at].x = m->forces[at].x + p->force[q].x;
+                    m->forces[at].y = m->forces[at].y + p->force[q].y;
+                }
+            }
+        /* the mixed nodes' contributions, this rank's after the others' */
+        total = got + n_local;
+        all = (share_msg*)ntsm_scratch(&m->sc[SC_MIXED_ALL], sizeof(share_msg) * ((size_t)total + 1));
+        start = (int*)ntsm_scratch(&m->sc[SC_START], sizeof(int) * ((size_t)m->own_nodes + 2));
+        order = (int*)ntsm_scratch(&m->sc[SC_ORDER], sizeof(int) * ((size_t)total + 1));
+        rc = all != NULL && start != NULL && order != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+        memcpy(all, rs, sizeof(share_msg) * (size_t)got);
+        for (k = 0, n_local = got; k < np && total > got; ++k) {
+            const nts_part* p = &parts[k];
+            if (!m->entry_owned[p->entry]) continue;
+            for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+                const int at = m->node_at[p->nodes[q]];
+                share_msg* o;
+                if (m->node_owner[p->nodes[q]] != m->rank || !mixed[at]) continue;
+                o = &all[n_local++];
+                o->at = at;
+                o->entry = (int)m->entry_global[p->entry];
+                o->body = m->part_ids[p->master_body];
+                o->dq = p->deep << 2 | q;
+                o->fx = p->force[q].x;
+                o->fy = p->force[q].y;
+            }
+        }
         memset(start, 0, sizeof(int) * ((size_t)m->own_nodes + 2));
-        for (k = 0; k < got; ++k) start[rs[k].at + 1]++;
+        for (k = 0; k < total; ++k) start[all[k].at + 1]++;
         for (i = 0; i < m->own_nodes; ++i) start[i + 1] += start[i];
-        for (k = 0; k < got; ++k) order[start[rs[k].at]++] = k;
+        for (k = 0; k < total; ++k) order[start[all[k].at]++] = k;
         for (i = m->own_nodes; i > 0; --i) start[i] = start[i - 1];
         start[0] = 0;
         for (i = 0; i < m->own_nodes; ++i) {
             nts_vec2 f = {0.0, 0.0};
+            if (!mixed[i]) continue;
             for (j = start[i] + 1; j < start[i + 1]; ++j) { /* insertion sort by key */
                 const int x = order[j];
                 int t = j;
-                while (t > start[i] && cmp_share(&rs[order[t - 1]], &rs[x]) > 0) {
+                while (t > start[i] && cmp_share(&all[order[t - 1]], &all[x]) > 0) {
                     order[t] = order[t - 1];
                     --t;
                 }
                 order[t] = x;
             }
             for (j = start[i]; j < start[i + 1]; ++j) {
-                f.x = f.x + rs[order[j]].fx;
-                f.y = f.y + rs[order[j]].fy;
+                f.x = f.x + all[order[j]].fx;
+                f.y = f.y + all[order[j]].fy;
             }
             m->forces[i] = f;
         }
@@ -226,47 +279,88 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     }
 
     /* Each chunk summed by one rank in contact order, the chunks in order,
-     * then the deep contacts (scatter.c's order). */
-    memset(counts, 0, sizeof(int) * (size_t)P);
-    for (k = 0; k < n_sm; ++k) counts[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++;
+     * then the deep contacts (scatter.c's order). A chunk whose contacts are
+     * all this rank's is summed here, as its parts come (key order); one
+     * that several ranks' contacts share goes to its home rank. */
     {
+        int* ranks_in = (int*)ntsm_scratch(&m->sc[SC_CHUNKS], sizeof(int) * 2u * ((size_t)nchunk + 1));
+        int* mine_in = ranks_in != NULL ? ranks_in + nchunk + 1 : NULL;
         sum_msg* sorted = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_SORTED], sizeof(sum_msg) * (size_t)(n_sm + 1));
-        int* at = (int*)calloc((size_t)P, sizeof(int));
-        if (sorted == NULL || at == NULL) {
+        int* at = (int*)calloc((size_t)P + 1, sizeof(int));
+        int n_shared = 0, nc = 0;
+        rc = ranks_in != NULL && sorted != NULL && at != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
             free(at);
-            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-        } else {
-            for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
-            for (k = 0; k < n_sm; ++k) sorted[at[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++] = sm[k];
-            free(at);
-            rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN]);
-            if (rsum == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+            goto done;
         }
-    }
-    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    if (got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    ch = (chunk_msg*)calloc((size_t)got + 1, sizeof(chunk_msg));
-    rc = ch ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
-    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    {
-        int nc = 0;
-        for (k = 0; k < got; ++k) {
-            const int c = rsum[k].entry / NTS_PART_CHUNK;
+        memset(mine_in, 0, sizeof(int) * ((size_t)nchunk + 1));
+        for (k = 0; k < n_sm; ++k) mine_in[sm[k].entry / NTS_PART_CHUNK] = 1;
+        MPI_Allreduce(mine_in, ranks_in, nchunk, MPI_INT, MPI_SUM, m->comm);
+        ch = (chunk_msg*)calloc((size_t)n_sm + 1, sizeof(chunk_msg));
+        rc = ch != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
+            free(at);
+            goto done;
+        }
+        memset(counts, 0, sizeof(int) * (size_t)P);
+        for (k = 0; k < n_sm; ++k) {
+            const int c = sm[k].entry / NTS_PART_CHUNK;
+            if (ranks_in[c] > 1) {
+                counts[(int)((long long)c * P / nchunk)]++;
+                ++n_shared;
+                continue;
+            }
             if (nc == 0 || ch[nc - 1].chunk != c) {
                 memset(&ch[nc], 0, sizeof ch[nc]);
                 ch[nc++].chunk = c;
             }
-            ch[nc - 1].e += rsum[k].e;
-            ch[nc - 1].xx += rsum[k].xx;
-            ch[nc - 1].yy += rsum[k].yy;
-            ch[nc - 1].xy += rsum[k].xy;
-            ch[nc - 1].yx += rsum[k].yx;
-            ch[nc - 1].dis += rsum[k].dis;
+            ch[nc - 1].e += sm[k].e;
+            ch[nc - 1].xx += sm[k].xx;
+            ch[nc - 1].yy += sm[k].yy;
+            ch[nc - 1].xy += sm[k].xy;
+            ch[nc - 1].yx += sm[k].yx;
+            ch[nc - 1].dis += sm[k].dis;
         }
+        for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
+        for (k = 0; k < n_sm; ++k) {
+            const int c = sm[k].entry / NTS_PART_CHUNK;
+            if (ranks_in[c] > 1) sorted[at[(int)((long long)c * P / nchunk)]++] = sm[k];
+        }
+        free(at);
+        (void)n_shared;
+        rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN]);
+        rc = rsum != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if (rc == NTS_OK && got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if (rc == NTS_OK && got + nc > n_sm) { /* room for the shared chunks' sums too */
+            chunk_msg* more = (chunk_msg*)realloc(ch, sizeof(chunk_msg) * ((size_t)(got + nc) + 1));
+            if (more == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+            else ch = more;
+        }
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+        {
+            int last = -1;
+            for (k = 0; k < got; ++k) {
+                const int c = rsum[k].entry / NTS_PART_CHUNK;
+                if (c != last) {
+                    memset(&ch[nc], 0, sizeof ch[nc]);
+                    ch[nc++].chunk = c;
+                    last = c;
+                }
+                ch[nc - 1].e += rsum[k].e;
+                ch[nc - 1].xx += rsum[k].xx;
+                ch[nc - 1].yy += rsum[k].yy;
+                ch[nc - 1].xy += rsum[k].xy;
+                ch[nc - 1].yx += rsum[k].yx;
+                ch[nc - 1].dis += rsum[k].dis;
+            }
+        }
+        n_chunks_mine = nc;
+    }
+    {
+        const int nc = n_chunks_mine;
         /* every rank gets every chunk's sums, and every deep contact's */
         {
-            int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)(P + 1));
+            int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)(P + 1)); /* chunks' bytes, then the deep ones' */
             int total_c = 0, total_d = 0;
             double energy = 0.0, xx = 0.0, yy = 0.0, xy = 0.0, yx = 0.0, dis = 0.0;
             double de = 0.0, dxx = 0.0, dyy = 0.0, dxy = 0.0, dyx = 0.0, ddis = 0.0;
@@ -279,22 +373,29 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 goto done;
             }
             MPI_Allgather(&mine_bytes, 1, MPI_INT, cc, 1, MPI_INT, m->comm);
-            for (r = 0, cc[P] = 0; r < P; ++r) total_c += cc[r];
+            for (r = 0; r < P; ++r) total_c += cc[r];
             {
                 int* dd = (int*)malloc(sizeof(int) * (size_t)P);
                 int* disp = (int*)malloc(sizeof(int) * (size_t)P);
+                int deep_bytes = (int)(n_deep * sizeof(sum_msg));
+                MPI_Allgather(&deep_bytes, 1, MPI_INT, cc + P, 1, MPI_INT, m->comm);
+                for (r = 0; r < P; ++r) total_d += cc[P + r];
                 all_ch = (chunk_msg*)malloc((size_t)total_c + sizeof(chunk_msg));
-                for (r = 0; disp && r < P; ++r) disp[r] = r == 0 ? 0 : disp[r - 1] + cc[r - 1];
-                if (dd && disp && all_ch)
-                    MPI_Allgatherv(ch, mine_bytes, MPI_BYTE, all_ch, cc, disp, MPI_BYTE, m->comm);
-                mine_bytes = (int)(n_deep * sizeof(sum_msg));
-                MPI_Allgather(&mine_bytes, 1, MPI_INT, dd, 1, MPI_INT, m->comm);
-                for (r = 0; r < P; ++r) {
-                    disp[r] = r == 0 ? 0 : disp[r - 1] + dd[r - 1];
-                    total_d += dd[r];
-                }
                 all_deep = (sum_msg*)malloc((size_t)total_d + sizeof(sum_msg));
-                if (all_deep) MPI_Allgatherv(deep_mine, mine_bytes, MPI_BYTE, all_deep, dd, disp, MPI_BYTE, m->comm);
+                rc = dd && disp && all_ch && all_deep ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+                if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
+                    free(dd);
+                    free(disp);
+                    free(cc);
+                    goto done;
+                }
+                for (r = 0; r < P; ++r) disp[r] = r == 0 ? 0 : disp[r - 1] + cc[r - 1];
+                MPI_Allgatherv(ch, mine_bytes, MPI_BYTE, all_ch, cc, disp, MPI_BYTE, m->comm);
+                for (r = 0; r < P; ++r) {
+                    dd[r] = cc[P + r];
+                    disp[r] = r == 0 ? 0 : disp[r - 1] + dd[r - 1];
+                }
+                MPI_Allgatherv(deep_mine, deep_bytes, MPI_BYTE, all_deep, dd, disp, MPI_BYTE, m->comm);
                 free(dd);
                 free(disp);
             }
