@@ -182,3 +182,29 @@ def test_frames_refused(tmp_path, paths):
     frames.write_bytes(b"")
     got = run(MPI_CLI, paths.examples / "two_disks.json", ("--frames", str(frames)), 2)
     assert got.returncode == 2 and b"--frames" in got.stderr
+
+
+def test_vtk_validate_pretty(tmp_path, paths):
+    """--vtk writes the same file, --validate and --pretty the same bytes."""
+    scene = paths.examples / "jittered_packing.json"
+    ref = run(SERIAL, scene, ("--vtk", str(tmp_path / "one.vtu")))
+    got = run(MPI_CLI, scene, ("--vtk", str(tmp_path / "many.vtu")), 3)
+    assert ref.returncode == 0 and got.returncode == 0, got.stderr.decode()
+    assert (tmp_path / "one.vtu").read_bytes() == (tmp_path / "many.vtu").read_bytes()
+    for flags in (("--validate",), ("--pretty", "--outputs", "forces,contacts")):
+        ref = run(SERIAL, paths.examples / "periodic_packing.json", flags)
+        got = run(MPI_CLI, paths.examples / "periodic_packing.json", flags, 2)
+        assert got.returncode == 0, got.stderr.decode()
+        assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout), flags
+
+
+def test_friction_history_refused(tmp_path, paths):
+    """Friction's history is not distributed yet: a clear error, not a wrong answer."""
+    scene = json.loads((paths.examples / "two_disks.json").read_text())
+    scene["options"]["friction"] = {"coefficient": 0.3}
+    path = tmp_path / "f.json"
+    path.write_text(json.dumps(scene))
+    first = run(SERIAL, path, ("--history-out", str(tmp_path / "h.json")))
+    assert first.returncode == 0, first.stderr.decode()
+    got = run(MPI_CLI, path, ("--history-in", str(tmp_path / "h.json")), 2)
+    assert got.returncode != 0 and b"history" in got.stderr.splitlines()[0], got.stderr.decode()
