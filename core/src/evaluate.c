@@ -404,7 +404,8 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         env.self_start = ctx->self_start;
         env.self_items = ctx->self_items;
     }
-    env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0; /* no surface's end: nothing to extend */
+    /* no surface's end (in the whole scene, for a part): nothing to extend */
+    env.ext = (ctx->frame_set ? ctx->frame.surface_ends : s->surf_ends > 0) ? opt->surface_extension : 0.0;
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
     env.max_records = opt->max_candidates > 0 ? opt->max_candidates
@@ -558,6 +559,7 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
     memset(out, 0, sizeof *out);
     out->cell_size = 0.0;
     out->surface_nodes = s->surface_count;
+    out->surface_ends = s->surf_ends > 0;
     run = nts_run_stock(0);
     if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
         NTS_OK)

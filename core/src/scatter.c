@@ -239,7 +239,7 @@ static void records_task(int begin, int end, int wi, void* p) {
 static int parts_make(nts_context* ctx, const search_env* env, int ncontact, int total) {
     int c, q, rc, live, p = 0, g = 0;
     if ((rc = nts_grow((void**)&ctx->parts, &ctx->parts_cap, ncontact, sizeof(nts_part))) != NTS_OK ||
-        (rc = nts_grow((void**)&ctx->gap_entries, &ctx->gap_entries_cap, total, sizeof(int))) != NTS_OK)
+        (env->keep_all && (rc = nts_grow((void**)&ctx->gap_entries, &ctx->gap_entries_cap, total, sizeof(int))) != NTS_OK))
         return rc;
     for (c = 0; c < ctx->chunk_count; ++c) {
         const chunk_info* ch = &ctx->chunks[c];
@@ -452,7 +452,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         nts_run_each(run, records_task, nchunk, &task);
     }
     if (ctx->parts_on && (rc = parts_make(ctx, env, ncontact, (int)total)) != NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
+        return eval_fail(err, rc, -1, -1, rc == NTS_ENOMEM ? "out of memory" : "the parts do not match the contacts");
     if (want_stiffness) {
         /* The triplets in contact order, one block per active contact. */
         int i, part = 0;

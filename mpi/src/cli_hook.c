@@ -7,6 +7,7 @@
  * bytes ntscontact writes. The other ranks wait for jobs until rank 0 is
  * done. */
 #include <limits.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,10 +55,14 @@ static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int 
                 acc += bodies[b++].node_count;
             }
             head[0] = b - first;
+            if (blk.oom || blk.n > INT_MAX) {
+                ok = 0;
+                head[0] = 0; /* nothing sent: every rank learns it below */
+                blk.n = 0;
+            }
             head[1] = (long long)blk.n;
-            if (blk.oom || blk.n > INT_MAX) ok = 0;
             if (r == root) {
-                out->count = b - first;
+                out->count = (int)head[0];
                 out->data = blk;
             } else {
                 MPI_Send(head, 2, MPI_LONG_LONG, r, 71, comm);
@@ -69,7 +74,11 @@ static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int 
         long long head[2];
         MPI_Recv(head, 2, MPI_LONG_LONG, root, 71, comm, MPI_STATUS_IGNORE);
         out->count = (int)head[0];
-        if (ntsm_bytes_room(&out->data, (size_t)head[1] + 8) == NULL) ok = 0;
+        if (ntsm_bytes_room(&out->data, (size_t)head[1] + 8) == NULL) {
+            /* nowhere to receive the bodies into: end the job, not in a crash */
+            fprintf(stderr, "ntscontact-mpi: rank %d: out of memory receiving its bodies\n", rank);
+            MPI_Abort(comm, 4);
+        }
         out->data.n = (size_t)head[1];
         if (head[1] > 0) MPI_Recv(out->data.p, (int)head[1], MPI_BYTE, root, 72, comm, MPI_STATUS_IGNORE);
     }

@@ -24,6 +24,15 @@ struct ntsm_engine {
     long long counts[3];
 };
 
+/* An error document (malloc'd copy of the codec's). */
+static char* doc_of(const char* code, const char* message, const char* pointer) {
+    char* d = ntsj_error_document(code, message, pointer);
+    char* out = d != NULL ? (char*)malloc(strlen(d) + 1) : NULL;
+    if (out != NULL) strcpy(out, d);
+    nts_free(d);
+    return out;
+}
+
 /* The error document every rank agrees on: `mine` (this rank's, or NULL);
  * the lowest failing rank's is every rank's. NULL when none failed. */
 static char* agree_doc(MPI_Comm comm, int rank, char* mine) {
@@ -46,17 +55,9 @@ static char* agree_doc(MPI_Comm comm, int rank, char* mine) {
         if (doc == NULL) free(buf);
     }
     free(mine);
-    return doc != NULL ? doc : ntsj_error_document("out_of_memory", "out of memory", "");
+    return doc != NULL ? doc : doc_of("out_of_memory", "out of memory", "");
 }
 
-/* An error document (malloc'd copy of the codec's). */
-static char* doc_of(const char* code, const char* message, const char* pointer) {
-    char* d = ntsj_error_document(code, message, pointer);
-    char* out = d != NULL ? (char*)malloc(strlen(d) + 1) : NULL;
-    if (out != NULL) strcpy(out, d);
-    nts_free(d);
-    return out;
-}
 
 /* "/bodies/K..." with K this rank's index of a body: K its global index. */
 static void pointer_global(char* p, size_t size, const int* ids, int count) {
@@ -244,11 +245,15 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         mine = doc_of(nts_status_name(err.code), err.message, pointer);
     }
     if ((*error = agree_doc(e->comm, e->rank, mine)) != NULL) return -1;
-    if (positions != NULL && ntsm_scene_update_positions(e->scene, (const nts_vec2*)(const void*)positions, &err) != 0) {
-        *error = core_doc(e, &err);
-        return -1;
+    /* every rank updates (a collective), those given none with what they hold */
+    {
+        const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions : nts_scene_positions(e->own);
+        if (ntsm_scene_update_positions(e->scene, p, &err) != 0) {
+            *error = core_doc(e, &err);
+            return -1;
+        }
+        if (positions != NULL) nts_scene_update_positions(e->own, p, NULL);
     }
-    if (positions != NULL) nts_scene_update_positions(e->own, (const nts_vec2*)(const void*)positions, NULL);
     if (ntsm_evaluate(e->scene, &opt, &r, &err) != 0) {
         *error = core_doc(e, &err);
         return -1;
@@ -271,7 +276,17 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         resp.elapsed_ms = ntsj_round_us(1e3 * (MPI_Wtime() - t0));
         ntsj_binary_headers_of(&resp, &h);
         for (i = 0; i < h.count; ++i) size += strlen(h.names[i]) + strlen(h.values[i]) + 3;
-        if ((*headers = (char*)malloc(size)) == NULL) return -1; /* (no collective after this) */
+        *headers = (char*)malloc(size);
+        {
+            int fine = *headers != NULL, all;
+            MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, e->comm);
+            if (!all) { /* every rank fails alike */
+                free(*headers);
+                *headers = NULL;
+                *error = doc_of("out_of_memory", "out of memory", "");
+                return -1;
+            }
+        }
         for (i = 0; i < h.count; ++i) k += (size_t)snprintf(*headers + k, size - k, "%s: %s\n", h.names[i], h.values[i]);
         (*headers)[k] = '\0';
     }

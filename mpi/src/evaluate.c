@@ -30,6 +30,21 @@
 
 static double now(void) { return MPI_Wtime(); }
 
+/* Whether every rank was given the same options and skin (what decides the
+ * evaluation's path; the threads may differ: the answer does not). */
+static int same_everywhere(ntsm_scene* m, const nts_options* opt) {
+    const double v[12] = {opt->alpha, opt->penalty, opt->search_radius, (double)opt->solver, (double)opt->outputs,
+                          (double)opt->search, (double)opt->penalty_scaling, (double)opt->max_candidates,
+                          opt->surface_extension, opt->friction, opt->tangential_penalty, m->skin};
+    double lo[12], hi[12];
+    int k;
+    MPI_Allreduce(v, lo, 12, MPI_DOUBLE, MPI_MIN, m->comm);
+    MPI_Allreduce(v, hi, 12, MPI_DOUBLE, MPI_MAX, m->comm);
+    for (k = 0; k < 12; ++k)
+        if (lo[k] != hi[k]) return 0;
+    return 1;
+}
+
 int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_error* err) {
     nts_error e = nts_error_none();
     nts_frame f;
@@ -48,6 +63,10 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
                   "a distributed evaluation takes no friction history, kept candidate list or cancel callback yet");
     else rc = nts_options_validate(opt, &e);
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    if (!same_everywhere(m, opt)) { /* else the ranks would take different paths and wait for each other */
+        rc = ntsm_fail(&e, NTS_EINVALID_OPTION, "the ranks' options (or skins) differ: give every rank the same");
+        goto out;
+    }
     m->outputs = opt->outputs;
 
     /* 1. The frame; 2. the slabs; 3. the halo: a slave's contacts are on
@@ -77,6 +96,11 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         moved = sqrt(moved2);
         MPI_Allreduce(&moved, &all, 1, MPI_DOUBLE, MPI_MAX, m->comm);
         if (!(halo + 2.0 * all <= m->halo_b) || opt->surface_extension != m->ext_b) m->built = 0;
+    }
+    { /* kept only where every rank keeps it */
+        int keep = m->built && !m->rebuild_next, all_keep;
+        MPI_Allreduce(&keep, &all_keep, 1, MPI_INT, MPI_MIN, m->comm);
+        if (!all_keep) m->built = 0;
     }
     if (m->built && !m->rebuild_next) {
         sl.axis = m->axis_b;
@@ -159,9 +183,16 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     rc = ntsm_sums(m, opt, &e);
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
     m->summary.search_radius = r;
-    m->summary.cell_size = opt->search == NTS_SEARCH_CELLS
-                               ? (f.cell_size >= 0.0 ? f.cell_size : m->part_result.summary.cell_size)
-                               : 0.0;
+    if (opt->search != NTS_SEARCH_CELLS) {
+        m->summary.cell_size = 0.0;
+    } else if (f.cell_size >= 0.0) {
+        m->summary.cell_size = f.cell_size; /* the whole's (ntscontact-mpi's rank 0 computed it) */
+    } else {
+        /* no rank holds the whole: the largest part's grid, the same on every
+         * rank (a diagnostic; one process's may differ, docs/distributed.md) */
+        double mine = m->part != NULL ? m->part_result.summary.cell_size : 0.0;
+        MPI_Allreduce(&mine, &m->summary.cell_size, 1, MPI_DOUBLE, MPI_MAX, m->comm);
+    }
     m->stats.seconds[3] = now() - t0;
     out->summary = m->summary;
     memcpy(out->warnings, m->warnings, sizeof out->warnings);

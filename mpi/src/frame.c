@@ -56,7 +56,7 @@ static double kth_across(MPI_Comm comm, double* v, int n, long long k) {
 int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_error* err) {
     const int n = m->own != NULL ? nts_scene_surface_node_count(m->own) : 0;
     double* len = (double*)malloc(sizeof(double) * (size_t)(n + 1));
-    double ext[6], red[6];
+    double ext[7], red[7];
     int rc = len ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
     nts_frame mine;
     memset(&mine, 0, sizeof mine);
@@ -76,7 +76,8 @@ int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_err
     ext[3] = mine.xmax;
     ext[4] = -mine.ymin;
     ext[5] = mine.ymax;
-    MPI_Allreduce(ext, red, 6, MPI_DOUBLE, MPI_MAX, m->comm);
+    ext[6] = mine.surface_ends;
+    MPI_Allreduce(ext, red, 7, MPI_DOUBLE, MPI_MAX, m->comm);
     memset(f, 0, sizeof *f);
     f->lmax = red[0];
     f->coord_max = red[1];
@@ -84,6 +85,7 @@ int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_err
     f->xmax = red[3];
     f->ymin = -red[4];
     f->ymax = red[5];
+    f->surface_ends = red[6] > 0.0;
     f->cell_size = -1.0;
     f->surface_nodes = (int)m->entry_off[m->bodies];
     if (opt->search_radius < 0.0 && f->surface_nodes > 0)

@@ -9,13 +9,23 @@
 
 
 /* Every rank's bytes, one after the other on root (malloc; NULL elsewhere). */
+/* Whether every rank is fine (a collective: every rank calls it). */
+static int all_ok(ntsm_scene* m, int ok) {
+    int all = 0;
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    return all;
+}
+
+/* Every rank's bytes, one after the other on root (malloc; NULL elsewhere).
+ * *ok: every rank's verdict (a rank short of memory, or more than 2 GiB on
+ * root, fails them all, and nobody sends). */
 static char* gather_bytes(ntsm_scene* m, int root, const void* mine, size_t n, size_t* total, int* ok) {
     int mine_n = (int)n, r;
     int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)m->size);
     char* all = NULL;
     long long t = 0;
     *total = 0;
-    if (cc == NULL || n > INT_MAX) {
+    if (!all_ok(m, *ok && cc != NULL && n <= INT_MAX)) {
         free(cc);
         *ok = 0;
         return NULL;
@@ -23,15 +33,19 @@ static char* gather_bytes(ntsm_scene* m, int root, const void* mine, size_t n, s
     MPI_Gather(&mine_n, 1, MPI_INT, cc, 1, MPI_INT, root, m->comm);
     if (m->rank == root) {
         for (r = 0; r < m->size; ++r) {
-            cc[m->size + r] = (int)t;
+            cc[m->size + r] = (int)(t < INT_MAX ? t : 0);
             t += cc[r];
         }
         if (t > INT_MAX || (all = (char*)malloc((size_t)t + 8)) == NULL) *ok = 0;
     }
-    MPI_Bcast(ok, 1, MPI_INT, root, m->comm);
+    *ok = all_ok(m, *ok);
     if (*ok) MPI_Gatherv(mine, mine_n, MPI_BYTE, all, cc, cc + m->size, MPI_BYTE, root, m->comm);
     *total = (size_t)t;
     free(cc);
+    if (!*ok) {
+        free(all);
+        all = NULL;
+    }
     return all;
 }
 
@@ -136,7 +150,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
         }
         free(all);
         b.n = 0;
-        if (!ok) goto oom;
+        if (!all_ok(m, ok)) goto oom;
     }
 
     /* The pressure: each owned slave's node, from the part that owns it. */
@@ -167,7 +181,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
         }
         free(all);
         b.n = 0;
-        if (!ok) goto oom;
+        if (!all_ok(m, ok)) goto oom;
     }
 
     /* The contacts and the anchors (contact order: parts' order). */
@@ -220,7 +234,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
             }
             free(all);
             b.n = 0;
-            if (!ok) goto oom;
+            if (!all_ok(m, ok)) goto oom;
         }
     }
 
@@ -247,7 +261,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
         }
         free(all);
         b.n = 0;
-        if (!ok) goto oom;
+        if (!all_ok(m, ok)) goto oom;
     }
 
     /* The tangent: each active contact's block in contact order. */
@@ -291,7 +305,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
         }
         free(all);
         b.n = 0;
-        if (!ok) goto oom;
+        if (!all_ok(m, ok)) goto oom;
     }
     if (m->rank == root) out->stiffness.size = (int)(2 * nodes);
     free(b.p);

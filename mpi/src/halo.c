@@ -55,6 +55,7 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
     }
     for (r = 0; r < P && rc == NTS_OK; ++r)
         if (sizes[r] > INT_MAX) rc = ntsm_fail(err, NTS_ELIMIT, "more than 2 GiB of bodies for one rank");
+    if (rc == NTS_OK && total > INT_MAX) rc = ntsm_fail(err, NTS_ELIMIT, "more than 2 GiB of bodies from one rank");
     if (rc == NTS_OK && (send = (char*)malloc(total + 8)) == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     for (r = 0, at = 0; r < P; ++r) {
@@ -78,7 +79,9 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
     }
     free(m->recv.p);
     memset(&m->recv, 0, sizeof m->recv);
-    rc = at < INT_MAX && ntsm_bytes_room(&m->recv, at + 8) != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    rc = at > INT_MAX                                ? ntsm_fail(err, NTS_ELIMIT, "more than 2 GiB of bodies for one rank")
+         : ntsm_bytes_room(&m->recv, at + 8) != NULL ? NTS_OK
+                                                     : ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     MPI_Alltoallv(send, sc, sc + P, MPI_BYTE, m->recv.p, sc + 2 * P, sc + 3 * P, MPI_BYTE, m->comm);
     /* The bodies received, by global index (one process's order). */
@@ -166,7 +169,9 @@ int ntsm_part_move(ntsm_scene* m, nts_error* err) {
     send = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_SEND], sizeof(nts_vec2) * (size_t)(n_send + 1));
     recv = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_RECV], sizeof(nts_vec2) * (size_t)(n_recv + 1));
     pos = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_PART], sizeof(nts_vec2) * (size_t)(nn + 1));
-    if (sc == NULL || send == NULL || recv == NULL || pos == NULL || 16 * (n_send + n_recv) > INT_MAX)
+    if (16 * n_send > INT_MAX || 16 * n_recv > INT_MAX)
+        rc = ntsm_fail(err, NTS_ELIMIT, "more than 2 GiB of positions for one rank");
+    else if (sc == NULL || send == NULL || recv == NULL || pos == NULL)
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
     {

@@ -111,8 +111,10 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
     nts_error e = nts_error_none();
     MPI_Comm_rank(comm, &rank);
     MPI_Comm_size(comm, &size);
-    if (m == NULL || count < 0 || (count > 0 && (bodies == NULL || ids == NULL))) {
-        rc = m == NULL ? ntsm_fail(&e, NTS_ENOMEM, "out of memory") : ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "no bodies given");
+    if (m == NULL || count < 0 || count > INT_MAX / 4 || (count > 0 && (bodies == NULL || ids == NULL))) {
+        rc = m == NULL            ? ntsm_fail(&e, NTS_ENOMEM, "out of memory")
+             : count > INT_MAX / 4 ? ntsm_fail(&e, NTS_ELIMIT, "more than 2^29 bodies on one rank")
+                                   : ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "no bodies given");
     }
     if (rc == NTS_OK) {
         m->comm = comm;
@@ -129,8 +131,17 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         if (m->ids == NULL || m->own_at == NULL || m->own_defs == NULL || m->own_node_at == NULL) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     }
     for (k = 0; k < count && rc == NTS_OK; ++k) {
-        if (bodies[k].nodes == NULL || bodies[k].node_count < 0) {
-            rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "a body has no nodes array");
+        const nts_body_def* d = &bodies[k];
+        const char* bad = (d->nodes == NULL && d->node_count != 0) || d->node_count < 0 ? "no nodes array"
+                          : d->loop_count < 0 || (d->loop_count > 0 && (d->loop_start == NULL || d->loop_nodes == NULL ||
+                                                                        d->loop_start[d->loop_count] < 0))
+                              ? "a loop count without its arrays"
+                          : d->triangle_count < 0 || (d->triangle_count > 0 && d->triangles == NULL)
+                              ? "a triangle count without its array"
+                          : d->surface != NULL && d->surface_count < 0 ? "a negative surface count"
+                                                                        : NULL;
+        if (bad != NULL) {
+            rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, bad);
             e.body = ids[k];
             break;
         }
@@ -218,8 +229,9 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         if (total == 0) rc = ntsm_fail(&e, NTS_EEMPTY_SCENE, "scene has no bodies");
         else if (total > limits.max_bodies) rc = ntsm_fail(&e, NTS_ELIMIT, "more bodies than the limit max_bodies");
         else if (m->node_off[total] > limits.max_nodes) rc = ntsm_fail(&e, NTS_ELIMIT, "more nodes than the limit max_nodes");
-        else if (m->entry_off[total] > INT_MAX / 2) rc = ntsm_fail(&e, NTS_ELIMIT, "too many surface nodes");
-        if (rc == NTS_ELIMIT) snprintf(e.option, sizeof e.option, "%s", total > limits.max_bodies ? "max_bodies" : "max_nodes");
+        else if (m->entry_off[total] > INT_MAX / 2) rc = ntsm_fail(&e, NTS_ELIMIT, "more than 2^30 surface nodes");
+        if (rc == NTS_ELIMIT && m->entry_off[total] <= INT_MAX / 2)
+            snprintf(e.option, sizeof e.option, "%s", total > limits.max_bodies ? "max_bodies" : "max_nodes");
     }
     if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
     k = m->own != NULL ? nts_scene_loops_reversed(m->own) : 0;
@@ -242,16 +254,33 @@ failed:
 
 int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_error* err) {
     nts_error e = nts_error_none();
-    int rc = NTS_OK, k, at = 0;
-    if (m->own != NULL && (rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK)
-        ntsm_global_body(&e, m->ids, m->count);
-    if (rc == NTS_OK)
+    nts_vec2* old = (nts_vec2*)ntsm_scratch(&m->sc[SC_OLD_POS], sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
+    int rc = NTS_OK, mine, k, at = 0;
+    if (old == NULL) {
+        rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    } else if (m->own != NULL && positions == NULL) {
+        rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "no positions");
+    } else if (m->own != NULL) {
+        /* the positions before, should another rank's be refused */
         for (k = 0; k < m->count; ++k) {
+            memcpy(old + at, m->own_defs[k].nodes, sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
+            at += m->own_defs[k].node_count;
+        }
+        if ((rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK) ntsm_global_body(&e, m->ids, m->count);
+    }
+    mine = rc;
+    rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e);
+    if (rc != NTS_OK) {
+        /* all or nothing: every rank keeps the positions it had */
+        if (mine == NTS_OK && m->own != NULL) nts_scene_update_positions(m->own, old, NULL);
+    } else {
+        for (k = 0, at = 0; k < m->count; ++k) {
             memcpy((void*)(uintptr_t)m->own_defs[k].nodes, positions + at,
                    sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
             at += m->own_defs[k].node_count;
         }
-    rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e);
+        m->frame_given = 0; /* a given frame was for the positions before */
+    }
     if (err != NULL) *err = rc == NTS_OK ? nts_error_none() : e;
     return rc;
 }

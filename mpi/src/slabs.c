@@ -46,8 +46,14 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
     const long long total = m->entry_off[m->bodies];
     long long acc = 0;
     int b, k, r;
-    if (h == NULL || (sl->cut = (double*)malloc(sizeof(double) * (size_t)(m->size + 1))) == NULL) {
+    int fine, all;
+    sl->cut = h != NULL ? (double*)malloc(sizeof(double) * (size_t)(m->size + 1)) : NULL;
+    fine = h != NULL && sl->cut != NULL;
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm); /* before the histogram's reduction */
+    if (!all) {
         free(h);
+        free(sl->cut);
+        sl->cut = NULL;
         return NTS_ENOMEM;
     }
     if (lx > 0.0) {

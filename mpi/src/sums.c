@@ -61,34 +61,61 @@ static int cmp_chunk(const void* pa, const void* pb) {
 }
 
 /* All-to-all of records of `size` bytes, send[] grouped by destination with
- * counts[r]; returns the received records (in `into`) and their count. */
-static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got, scratch* into) {
-    int* sc = (int*)malloc(sizeof(int) * 4u * (size_t)m->size);
-    int *sd, *rc_, *rd, r, total = 0;
+ * counts[r]; the received records (in `into`) and their count. NULL on
+ * every rank when one of them cannot: more than 2 GiB to send or to receive
+ * (*limit set), or no memory. */
+static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got, scratch* into,
+                      int* limit) {
+    int* sc = (int*)ntsm_scratch(&m->sc[SC_EXCHANGE], sizeof(int) * 4u * (size_t)m->size);
+    int *sd, *rc_, *rd, r, fine = 1, all;
     void* out = NULL;
-    long long sent = 0, recvd = 0;
-    if (sc == NULL) return NULL;
+    long long sent = 0, recvd = 0, at = 0;
+    *got = 0;
+    *limit = 0;
+    if (sc != NULL)
+        for (r = 0; r < m->size; ++r) {
+            const long long bytes_r = (long long)counts[r] * (long long)size;
+            if (bytes_r > INT_MAX || at + bytes_r > INT_MAX) fine = 0, *limit = 1;
+            else sc[r] = (int)bytes_r, sc[m->size + r] = (int)at;
+            at += bytes_r;
+            if (r != m->rank) sent += bytes_r;
+        }
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    if (sc == NULL || !all) {
+        MPI_Allreduce(limit, &all, 1, MPI_INT, MPI_MAX, m->comm);
+        *limit = all;
+        return NULL;
+    }
     sd = sc + m->size;
     rc_ = sd + m->size;
     rd = rc_ + m->size;
-    for (r = 0; r < m->size; ++r) {
-        sc[r] = (int)(counts[r] * size);
-        sd[r] = r == 0 ? 0 : sd[r - 1] + sc[r - 1];
-        if (r != m->rank) sent += sc[r];
-    }
     MPI_Alltoall(sc, 1, MPI_INT, rc_, 1, MPI_INT, m->comm);
-    for (r = 0; r < m->size; ++r) {
-        rd[r] = r == 0 ? 0 : rd[r - 1] + rc_[r - 1];
+    for (r = 0, at = 0; r < m->size; ++r) {
+        rd[r] = (int)(at < INT_MAX ? at : 0);
+        at += rc_[r];
         if (r != m->rank) recvd += rc_[r];
     }
-    total = rd[m->size - 1] + rc_[m->size - 1];
-    out = ntsm_scratch(into, (size_t)total + 8);
-    if (out != NULL) MPI_Alltoallv(send, sc, sd, MPI_BYTE, out, rc_, rd, MPI_BYTE, m->comm);
+    fine = at <= INT_MAX;
+    *limit = !fine;
+    if (fine && (out = ntsm_scratch(into, (size_t)at + 8)) == NULL) fine = 0;
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    {
+        int any_limit = 0;
+        MPI_Allreduce(limit, &any_limit, 1, MPI_INT, MPI_MAX, m->comm);
+        *limit = any_limit;
+    }
+    if (!all) return NULL;
+    MPI_Alltoallv(send, sc, sd, MPI_BYTE, out, rc_, rd, MPI_BYTE, m->comm);
     m->stats.bytes_sent += sent;
     m->stats.bytes_received += recvd;
-    *got = (int)((size_t)total / size);
-    free(sc);
+    *got = (int)((size_t)at / size);
     return out;
+}
+
+/* exchange's failure, the same on every rank. */
+static int exchange_failed(nts_error* err, int limit) {
+    return limit ? ntsm_fail(err, NTS_ELIMIT, "more than 2 GiB for one rank in one exchange (use more ranks)")
+                 : ntsm_fail(err, NTS_ENOMEM, "out of memory");
 }
 
 /* This rank's answer: the shares summed at the nodes' owners, the chunks'
@@ -114,7 +141,12 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     int n_chunks_mine = 0;
     double maxpen = 0.0, gmax = 0.0;
     const int want_forces = (m->outputs & NTS_OUT_FORCES) != 0u;
-    if (counts == NULL) return ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    int limit = 0;
+    rc = counts != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
+        free(counts);
+        return rc;
+    }
     memset(cnt, 0, sizeof cnt);
 
     /* The shares to other ranks' nodes, grouped by the rank that owns each
@@ -182,6 +214,19 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         for (w = 0; we && w < nw; ++w) cnt[6] += m->entry_owned[we[w]];
     }
     MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
+    {
+        /* the whole's candidate budget (nts_evaluate's), not each part's */
+        long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * N + 1000000;
+        if (budget > INT_MAX) budget = INT_MAX; /* the count is nts_summary.gaps, an int */
+        if (tot[1] > budget) {
+            rc = ntsm_fail(err, NTS_ELIMIT, "");
+            snprintf(err->message, sizeof err->message,
+                     "more than max_candidates = %lld closest points within the search radius: the bodies overlap "
+                     "far more than contact does (or raise the limit)", budget);
+            snprintf(err->option, sizeof err->option, "max_candidates");
+            goto done;
+        }
+    }
     MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
 
     /* Each node's forces at its owner, in one process's order: a node that
@@ -189,8 +234,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
      * in key order: the chunks' contacts, then the deep ones); a node that
      * others' touch too ("mixed") gets every contribution bucketed and its
      * few ordered by key. */
-    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN]);
-    rc = rs != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN], &limit);
+    rc = rs != NULL ? NTS_OK : exchange_failed(err, limit);
     if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
@@ -328,8 +373,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         }
         free(at);
         (void)n_shared;
-        rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN]);
-        rc = rsum != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN], &limit);
+        rc = rsum != NULL ? NTS_OK : exchange_failed(err, limit);
         if (rc == NTS_OK && got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if (rc == NTS_OK && got + nc > n_sm) { /* room for the shared chunks' sums too */
             chunk_msg* more = (chunk_msg*)realloc(ch, sizeof(chunk_msg) * ((size_t)(got + nc) + 1));
@@ -454,7 +499,6 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             snprintf(err->option, sizeof err->option, "penalty");
         }
     }
-    (void)opt;
 done:
     free(counts);
     free(ch);

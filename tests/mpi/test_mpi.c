@@ -198,6 +198,30 @@ static void run_case(int count, int periodic, const char* name) {
         }
         CHECK(kept >= 3, "%s: the small steps kept the decomposition only %d times", name, kept);
         CHECK(made == 1, "%s: the step past the skin did not rebuild", name);
+        {
+            /* a NaN on the last rank only: every rank refuses the update and
+             * keeps the positions it had (the next answer is the old one's) */
+            int at = 0, n_mine = 0, rc2;
+            for (k = 0; k < count_mine; ++k) {
+                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
+                memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
+                at += n;
+            }
+            n_mine = at;
+            if (rank_ == size_ - 1 && n_mine > 0) mine_pos[n_mine - 1].x = NAN;
+            for (k = 0; k < n_mine; ++k) mine_pos[k].y += 0.01; /* the others' would move */
+            rc2 = ntsm_scene_update_positions(m, mine_pos, &err);
+            CHECK(rc2 != 0 && err.code == NTS_ENONFINITE, "%s: NaN on one rank: rc %d code %d", name, rc2, err.code);
+            snprintf(what, sizeof what, "%s, after a refused update", name);
+            compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+        }
+        if (size_ > 1) {
+            /* different options on different ranks: an error, not a hang */
+            nts_options opt = nts_default_options();
+            ntsm_result r;
+            opt.penalty = rank_ == 0 ? 1.0 : 2.0;
+            CHECK(ntsm_evaluate(m, &opt, &r, &err) == NTS_EINVALID_OPTION, "%s: differing options accepted", name);
+        }
         for (step = 1; step <= 2; ++step) {
             /* every body moves a third of the scene along x and turns a
              * little: most cross a rank (and the box's edge when periodic) */

@@ -41,6 +41,7 @@ typedef struct nts_frame {
     /** @} */
     double cell_size; /**< nts_summary.cell_size of the whole scene; negative: the part's own */
     int surface_nodes;/**< the whole scene's surface entries (the cell grid's cap) */
+    int surface_ends; /**< 1: some contact surface of the whole has an end (nts_options.surface_extension applies) */
 } nts_frame;
 
 /** One active contact's contributions (contact order: by slave entry, then

@@ -29,6 +29,7 @@ It needs mpi4py (``pip install 'ntscontact[mpi]'``) and
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -38,6 +39,7 @@ import numpy as np
 
 from .engine import EngineUnavailable
 from .errors import InvalidScene, NtsError, error_from_response
+from .result import Result
 from .scene import Scene
 from .session import FloatArray, PositionsLike, Session
 
@@ -149,7 +151,7 @@ class DistributedSession(Session):
             if len(self._ids) != len(self.body_ids):
                 raise InvalidScene(f"{len(self._ids)} global indices for {len(self.body_ids)} bodies",
                                    code="invalid_value", pointer="/bodies")
-        except (NtsError, ValueError, TypeError) as exc:
+        except Exception as exc:  # any: the other ranks must hear of it, not wait
             failure = exc
         self._agree(failure)
         self._deferred = False
@@ -197,11 +199,21 @@ class DistributedSession(Session):
         out = None
         try:
             out = super()._as_positions(positions)
-        except (NtsError, KeyError, ValueError) as exc:
+        except Exception as exc:  # any: the other ranks must hear of it, not wait
             failure = exc
         self._agree(failure)
         assert out is not None
         return out
+
+    def contact(self, positions: Optional[PositionsLike] = None, **kw: Any) -> Result:
+        """Collective: :meth:`Session.contact` on every rank together; a rank
+        whose bodies did not move may pass None (its stored positions). The
+        summary is the whole scene's (its ``bodies`` too); the forces this
+        rank's nodes'."""
+        # every rank checks positions (a collective), those given none their stored ones
+        result = super().contact(positions if positions is not None else self._positions, **kw)
+        result.summary = dataclasses.replace(result.summary, bodies=self.whole_bodies)
+        return result
 
     def close(self) -> None:
         """Free this rank's session (not collective; twice is fine)."""
