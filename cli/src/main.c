@@ -724,7 +724,6 @@ int main(int argc, char** argv) {
     status = parse_args(argc, argv, &cfg, &args);
     if (status != 0) return status < 0 ? EXIT_DONE : status;
 #ifdef NTS_CLI_MPI
-    if (args.frames) return usage_error("%s", "--frames (a session) is not distributed yet: use ntscontact");
     ntsm_cli_configure(&cfg);
 #endif
     input = args.input;

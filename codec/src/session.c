@@ -101,6 +101,40 @@ static nts_scene_def scene_def_of(const ntsj_scene* s, const nts_limits* limits)
 }
 
 /* The evaluation options of ntsj_handle: the summary is always complete. */
+/* An evaluation of the session's scene: nts_evaluate, or the front end's own
+ * (ntsj_config.evaluate: ntscontact-mpi's), given the scene's definition at
+ * the stored positions (each body's reference its first ones). */
+static int session_evaluate(ntsj_session* ss, const ntsj_config* cfg, const nts_options* opt, nts_result* result,
+                            nts_error* err) {
+    nts_scene_def def;
+    nts_body_def* bodies;
+    const nts_vec2* pos;
+    int b, rc;
+    if (cfg->evaluate == NULL) return nts_evaluate(ss->ctx, ss->scene, opt, result, err);
+    bodies = (nts_body_def*)nts_alloc(sizeof(nts_body_def) * (size_t)(ss->js.body_count + 1));
+    if (bodies == NULL) {
+        if (err != NULL) {
+            *err = nts_error_none();
+            err->code = NTS_ENOMEM;
+            snprintf(err->message, sizeof err->message, "out of memory");
+        }
+        return NTS_ENOMEM;
+    }
+    pos = nts_scene_positions(ss->scene);
+    for (b = 0; b < ss->js.body_count; ++b) {
+        bodies[b] = ss->js.defs[b];
+        bodies[b].nodes = pos + nts_scene_body_node_offset(ss->scene, b);
+    }
+    {
+        const nts_limits limits = ss->limits_set ? ss->limits : nts_default_limits();
+        def = scene_def_of(&ss->js, &limits);
+    }
+    def.bodies = bodies;
+    rc = cfg->evaluate(cfg->evaluate_user, &def, ss->scene, opt, result, err);
+    nts_free(bodies);
+    return rc;
+}
+
 static nts_options eval_options(nts_options o, int answer_binary, int vtk) {
     o.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
     if (answer_binary) o.outputs |= NTS_OUT_FORCES;
@@ -205,7 +239,7 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
         opt.outputs = 0u;
         opt.history = ss->history;
         opt.candidates = ss->candidates;
-        rc = nts_evaluate(ss->ctx, ss->scene, &opt, &result, &err);
+        rc = session_evaluate(ss, &cfg, &opt, &result, &err);
         if (rc != 0) {
             rc = ntsj_respond_core(error, &ss->js, &err, rc, cfg.pretty);
             ntsj_session_destroy(ss);
@@ -668,7 +702,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
         eo.candidates = ss->candidates; /* replayed while it holds (§15) */
         capped = cap_candidates(ss, &cfg, &eo);
-        rc = nts_evaluate(ss->ctx, ss->scene, &eo, &result, &err);
+        rc = session_evaluate(ss, &cfg, &eo, &result, &err);
     }
     if (rc == NTS_ECANCELLED && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (rc == NTS_ELIMIT && capped && strcmp(err.option, "max_candidates") == 0)

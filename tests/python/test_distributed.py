@@ -3,13 +3,14 @@ output is the bytes ntscontact writes for the same scene and options
 (elapsed_ms aside): open and periodic packings, long walls, bodies spanning
 several slabs and larger than a rank's domain, more ranks than cells along an
 axis, deep contacts, friction, self-contact, contact surfaces, meshes, every
-output; and a bad scene gives the same error and exit code. Skipped when the
+output, --frames; and a bad scene gives the same error and exit code. Skipped when the
 build has no MPI (-DNTS_MPI=ON)."""
 import json
 import math
 import os
 import random
 import re
+import struct
 import shutil
 import subprocess
 
@@ -177,11 +178,23 @@ def test_bad_scene_same_error(tmp_path, bad):
         assert got.stderr.splitlines()[0] == ref.stderr.splitlines()[0]
 
 
-def test_frames_refused(tmp_path, paths):
-    frames = tmp_path / "f.bin"
-    frames.write_bytes(b"")
-    got = run(MPI_CLI, paths.examples / "two_disks.json", ("--frames", str(frames)), 2)
-    assert got.returncode == 2 and b"--frames" in got.stderr
+def test_frames(tmp_path, paths):
+    """--frames (a session over frames of positions): the same lines, frame by frame, and the same VTK series."""
+    scene = json.loads((paths.examples / "jittered_packing.json").read_text())
+    nodes = [p for b in scene["bodies"] for p in b["nodes"]]
+    rng = random.Random(9)
+    frames = b"".join(struct.pack(f"<{2 * len(nodes)}d", *[c + 0.002 * k * rng.gauss(0, 1) for p in nodes for c in p])
+                      for k in range(4))
+    (tmp_path / "frames.bin").write_bytes(frames)
+    for flags in (("--outputs", "forces,contacts"), ("--outputs", "forces,stiffness,pressure")):
+        args = ("--frames", str(tmp_path / "frames.bin"), *flags)
+        ref = run(SERIAL, paths.examples / "jittered_packing.json", args)
+        assert ref.returncode == 0, ref.stderr.decode()
+        assert len(ref.stdout.splitlines()) == 4
+        for n in (2, 3):
+            got = run(MPI_CLI, paths.examples / "jittered_packing.json", args, n)
+            assert got.returncode == 0, got.stderr.decode()
+            assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout), (n, flags)
 
 
 def test_vtk_validate_pretty(tmp_path, paths):

@@ -76,8 +76,10 @@ typedef struct ntsj_config {
      * the CLI's --history-out. */
     int history_out;
     /** A front end's own evaluation instead of nts_evaluate, given the
-     * request's scene definition as decoded (ntscontact-mpi: the
-     * distributed one, mpi/src/cli_hook.c); NULL: nts_evaluate. It returns
+     * request's scene definition as decoded (in a session: at the stored
+     * positions, each body's reference its first ones), for ntsj_handle and
+     * sessions alike (ntscontact-mpi: the distributed one,
+     * mpi/src/cli_hook.c); NULL: nts_evaluate. It returns
      * what nts_evaluate would, and its result stays valid until the
      * response is encoded. */
     int (*evaluate)(void* user, const nts_scene_def* def, const nts_scene* scene, const nts_options* opt,
