@@ -7,6 +7,7 @@
  * bytes ntscontact writes. The other ranks wait for jobs until rank 0 is
  * done. */
 #include <limits.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -120,7 +121,8 @@ static void job_end(void) {
 
 /* Every rank: one evaluation of the bodies root deals (def only read on
  * root), with root's options and frame. */
-static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame, nts_result* out, nts_error* err) {
+static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame, const nts_anchor* anchors, int count,
+                   nts_result* out, nts_error* err) {
     double box[2] = {0.0, 0.0};
     nts_limits limits = nts_default_limits();
     int rank, rc;
@@ -147,6 +149,34 @@ static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame,
                                       box[0], box[1], limits, err);
     if (current.scene == NULL) return err->code;
     ntsm_scene_set_frame(current.scene, frame);
+    /* friction's committed anchors: rank 0's, to every rank */
+    {
+        nts_anchor* given = NULL;
+        int ok = 1, all;
+        MPI_Bcast(&count, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        if (count > 0) {
+            given = rank == 0 ? (nts_anchor*)(uintptr_t)anchors : (nts_anchor*)malloc(sizeof(nts_anchor) * (size_t)count);
+            ok = given != NULL;
+        }
+        MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (!all) {
+            if (rank != 0) free(given);
+            *err = nts_error_none();
+            err->code = NTS_ENOMEM;
+            strcpy(err->message, "out of memory");
+            return NTS_ENOMEM;
+        }
+        if (count > 0) MPI_Bcast(given, (int)(sizeof(nts_anchor) * (size_t)count), MPI_BYTE, 0, MPI_COMM_WORLD);
+        ok = ntsm_scene_set_history(current.scene, given, count) == NTS_OK;
+        if (rank != 0) free(given);
+        MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (!all) {
+            *err = nts_error_none();
+            err->code = NTS_ENOMEM;
+            strcpy(err->message, "out of memory");
+            return NTS_ENOMEM;
+        }
+    }
     if ((rc = ntsm_evaluate(current.scene, opt, &mine, err)) != NTS_OK) return rc;
     return ntsm_gather(current.scene, 0, out, err);
 }
@@ -160,13 +190,6 @@ static int evaluate(void* user, const nts_scene_def* def, const nts_scene* scene
     nts_context* ctx;
     (void)user;
     memset(out, 0, sizeof *out);
-    if (opt->history != NULL) { /* answered here: the other ranks are not asked */
-        *err = nts_error_none();
-        err->code = NTS_EINVALID_ARGUMENT;
-        strcpy(err->option, "history");
-        strcpy(err->message, "ntscontact-mpi takes no friction history yet: evaluate it with ntscontact");
-        return err->code;
-    }
     /* the whole scene's frame, computed here where the whole scene is */
     if ((ctx = nts_context_create()) == NULL) return NTS_ENOMEM;
     rc = nts_scene_frame(ctx, scene, opt, &frame, NULL, err);
@@ -174,10 +197,14 @@ static int evaluate(void* user, const nts_scene_def* def, const nts_scene* scene
     if (rc != NTS_OK) return rc;
     o.cancel = NULL; /* a deadline is rank 0's: the others cannot ask it */
     o.cancel_user = NULL;
-    o.history = NULL;
+    o.history = NULL; /* its anchors go to every rank (job_run) */
     o.candidates = NULL;
     MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
-    return job_run(def, &o, &frame, out, err);
+    {
+        int n = 0;
+        const nts_anchor* anchors = opt->history != NULL ? nts_history_anchors(opt->history, &n) : NULL;
+        return job_run(def, &o, &frame, anchors, n, out, err);
+    }
 }
 
 void ntsm_cli_configure(ntsj_config* cfg) {
@@ -202,7 +229,7 @@ int main(int argc, char** argv) {
             nts_error err;
             MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
             if (cmd != JOB_EVALUATE) break;
-            (void)job_run(NULL, &opt, &frame, &out, &err);
+            (void)job_run(NULL, &opt, &frame, NULL, 0, &out, &err);
         }
     }
     job_end();

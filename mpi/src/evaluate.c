@@ -30,6 +30,37 @@
 
 static double now(void) { return MPI_Wtime(); }
 
+/* The committed anchors whose bodies the part holds, as its indices, in
+ * the part's history: its slaves' contacts are all among them. */
+static int part_history(ntsm_scene* m, nts_error* err) {
+    const int nb = m->part != NULL ? nts_scene_body_count(m->part) : 0;
+    int k, n = 0;
+    if (m->part == NULL) return NTS_OK;
+    if ((m->part_history == NULL && (m->part_history = nts_history_create()) == NULL) ||
+        !ntsm_grow(&m->part_anchors, &m->part_anchors_cap, m->hist_count + 1, sizeof(nts_anchor)) ||
+        (m->part_of == NULL && (m->part_of = (int*)malloc(sizeof(int) * (size_t)(m->bodies + 1))) == NULL))
+        return ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    for (k = 0; k < m->bodies; ++k) m->part_of[k] = -1;
+    for (k = 0; k < nb; ++k) m->part_of[m->part_ids[k]] = k;
+    for (k = 0; k < m->hist_count; ++k) {
+        nts_anchor a = m->hist[k];
+        if (a.slave_body < 0 || a.slave_body >= m->bodies || a.master_body < 0 || a.master_body >= m->bodies) {
+            ntsm_fail(err, NTS_EINVALID_HISTORY, "a friction history entry names a body the scene does not have");
+            err->item = k;
+            snprintf(err->option, sizeof err->option, "history");
+            return NTS_EINVALID_HISTORY;
+        }
+        a.slave_body = m->part_of[a.slave_body];
+        a.master_body = m->part_of[a.master_body];
+        if (a.slave_body >= 0 && a.master_body >= 0) m->part_anchors[n++] = a;
+    }
+    if (nts_history_set(m->part_history, m->part, m->part_anchors, n, err) != NTS_OK) {
+        ntsm_global_body(err, m->part_ids, nb);
+        return err->code != 0 ? err->code : NTS_EINVALID_HISTORY;
+    }
+    return NTS_OK;
+}
+
 /* Whether every rank was given the same options and skin (what decides the
  * evaluation's path; the threads may differ: the answer does not). */
 static int same_everywhere(ntsm_scene* m, const nts_options* opt) {
@@ -60,7 +91,8 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     if (opt == NULL) rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "null options");
     else if (opt->history != NULL || opt->candidates != NULL || opt->cancel != NULL)
         rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT,
-                  "a distributed evaluation takes no friction history, kept candidate list or cancel callback yet");
+                  "a distributed evaluation takes no kept candidate list or cancel callback yet, and friction's "
+                  "history through ntsm_scene_set_history");
     else rc = nts_options_validate(opt, &e);
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
     if (!same_everywhere(m, opt)) { /* else the ranks would take different paths and wait for each other */
@@ -169,6 +201,11 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     /* 4. The part, with the whole's frame; its parts. */
     po = *opt;
     po.outputs &= ~(unsigned)NTS_OUT_FORCES; /* the parts carry them */
+    if (m->hist_count > 0) { /* friction's anchors of the part's bodies (§14) */
+        rc = part_history(m, &e);
+        if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+        po.history = m->part != NULL ? m->part_history : NULL;
+    }
     nts_context_set_frame(m->ctx, &f);
     nts_context_set_parts(m->ctx, 1);
     nts_context_set_owned(m->ctx, m->owned_mask);

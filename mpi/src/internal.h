@@ -102,6 +102,14 @@ struct ntsm_scene {
     int* arrival_off;
     int arrivals;
     long long rebuilds;
+    /* friction's committed anchors (global bodies; ntsm_scene_set_history),
+     * and the part's share of them */
+    nts_anchor* hist;
+    int hist_count;
+    nts_history* part_history;
+    nts_anchor* part_anchors;
+    int part_anchors_cap;
+    int* part_of;         /* global body -> part body, or -1 (bodies) */
     scratch sc[SC_COUNT];
     /* the last evaluation's part */
     bytes recv;

@@ -55,6 +55,10 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->own_at);
     free(m->own_defs);
     free(m->own_node_at);
+    free(m->hist);
+    nts_history_destroy(m->part_history);
+    free(m->part_anchors);
+    free(m->part_of);
     nts_scene_destroy(m->own);
     nts_context_destroy(m->own_ctx);
     free(m->owner);
@@ -283,6 +287,18 @@ int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_er
     }
     if (err != NULL) *err = rc == NTS_OK ? nts_error_none() : e;
     return rc;
+}
+
+int ntsm_scene_set_history(ntsm_scene* m, const nts_anchor* anchors, int count) {
+    nts_anchor* copy = NULL;
+    if (anchors != NULL && count > 0) {
+        if ((copy = (nts_anchor*)malloc(sizeof(nts_anchor) * (size_t)count)) == NULL) return NTS_ENOMEM;
+        memcpy(copy, anchors, sizeof(nts_anchor) * (size_t)count);
+    }
+    free(m->hist);
+    m->hist = copy;
+    m->hist_count = copy != NULL ? count : 0;
+    return NTS_OK;
 }
 
 void ntsm_scene_set_skin(ntsm_scene* m, double skin) {

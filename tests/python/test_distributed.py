@@ -211,13 +211,40 @@ def test_vtk_validate_pretty(tmp_path, paths):
         assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout), flags
 
 
-def test_friction_history_refused(tmp_path, paths):
-    """Friction's history is not distributed yet: a clear error, not a wrong answer."""
-    scene = json.loads((paths.examples / "two_disks.json").read_text())
-    scene["options"]["friction"] = {"coefficient": 0.3}
-    path = tmp_path / "f.json"
-    path.write_text(json.dumps(scene))
-    first = run(SERIAL, path, ("--history-out", str(tmp_path / "h.json")))
-    assert first.returncode == 0, first.stderr.decode()
-    got = run(MPI_CLI, path, ("--history-in", str(tmp_path / "h.json")), 2)
-    assert got.returncode != 0 and b"history" in got.stderr.splitlines()[0], got.stderr.decode()
+def test_friction_history(tmp_path):
+    """Friction's history (docs/model.md §14): --history-in / --history-out
+    and --frames (every frame commits) give ntscontact's bytes, anchors too."""
+    scene = packing(49, 11)
+    scene["options"] = {"penalty": 10.0, "friction": {"coefficient": 0.4}, "outputs": ["forces", "contacts"]}
+    for i, b in enumerate(scene["bodies"]):
+        b["id"] = i
+    first = tmp_path / "first.json"
+    first.write_text(json.dumps(scene))
+    moved = json.loads(json.dumps(scene))
+    for k, b in enumerate(moved["bodies"]):  # every other row slides to the right
+        if (k // 7) % 2:
+            b["nodes"] = [[x + 0.01, y] for x, y in b["nodes"]]
+    second = tmp_path / "second.json"
+    second.write_text(json.dumps(moved))
+    ref = run(SERIAL, first, ("--history-out", str(tmp_path / "h1.json")))
+    assert ref.returncode == 0, ref.stderr.decode()
+    ref2 = run(SERIAL, second, ("--history-in", str(tmp_path / "h1.json"), "--history-out", str(tmp_path / "h2.json")))
+    assert ref2.returncode == 0 and b'"slipping"' in ref2.stdout
+    for n in (2, 3):
+        got = run(MPI_CLI, second, ("--history-in", str(tmp_path / "h1.json"), "--history-out",
+                                    str(tmp_path / f"m{n}.json")), n)
+        assert got.returncode == 0, got.stderr.decode()
+        assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref2.stdout), n
+        assert (tmp_path / f"m{n}.json").read_bytes() == (tmp_path / "h2.json").read_bytes(), n
+    nodes = [p for b in scene["bodies"] for p in b["nodes"]]
+    frames = b"".join(struct.pack(f"<{2 * len(nodes)}d", *[c + (0.004 * k if j % 2 == 0 else 0.0)
+                                                           for p in nodes for j, c in enumerate(p)])
+                      for k in range(4))
+    (tmp_path / "frames.bin").write_bytes(frames)
+    args = ("--frames", str(tmp_path / "frames.bin"), "--history-out", str(tmp_path / "hf.json"))
+    ref = run(SERIAL, first, args)
+    assert ref.returncode == 0, ref.stderr.decode()
+    got = run(MPI_CLI, first, ("--frames", str(tmp_path / "frames.bin"), "--history-out", str(tmp_path / "mf.json")), 3)
+    assert got.returncode == 0, got.stderr.decode()
+    assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout)
+    assert (tmp_path / "mf.json").read_bytes() == (tmp_path / "hf.json").read_bytes()

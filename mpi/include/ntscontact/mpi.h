@@ -75,8 +75,15 @@ NTS_API void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
  * whatever the skin. Call it on every rank with the same value. */
 NTS_API void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
 
+/** Friction's committed anchors (docs/model.md §14) the next evaluations
+ * start from, with global body indices (a previous evaluation's, from
+ * ntsm_gather: nts_result.anchors), the same on every rank; copied. NULL or
+ * 0: none (every contact new). Not collective; NTS_OK or NTS_ENOMEM. */
+NTS_API int ntsm_scene_set_history(ntsm_scene* scene, const nts_anchor* anchors, int count);
+
 /** Collective: evaluate. opt->history, opt->candidates and opt->cancel must
- * be NULL (NTS_EINVALID_ARGUMENT). NTS_OK or every rank's error. */
+ * be NULL (NTS_EINVALID_ARGUMENT; friction's history is given by
+ * ntsm_scene_set_history). NTS_OK or every rank's error. */
 NTS_API int ntsm_evaluate(ntsm_scene* scene, const nts_options* opt, ntsm_result* out, nts_error* err);
 
 /** Collective, after a successful ntsm_evaluate: the whole answer on `root`,
