@@ -116,6 +116,15 @@ static void print_option(int id) {
 
 static void print_usage(void) {
     int k;
+#ifdef NTS_CLI_MPI
+    fputs("ntscontact-mpi: under mpirun -np N, the answer of ntscontact (below) evaluated\n"
+          "across the N ranks, bitwise the same (docs/distributed.md). Rank 0 reads the\n"
+          "scene; or each rank reads its own part:\n"
+          "  --part PATTERN       rank r reads PATTERN with %d = r (a scene document of its\n"
+          "                       bodies, the same \"options\" in every part); the scene is\n"
+          "                       the parts' bodies in rank order\n\n",
+          stdout);
+#endif
     fputs("usage: ntscontact [options] SCENE.json\n"
           "       ntscontact [options] -            (read the scene from standard input)\n"
           "       ntscontact [options] --frames FRAMES.bin SCENE.json\n"

@@ -6,11 +6,17 @@
  * library and gathers the answer on rank 0, which the codec encodes: the
  * bytes ntscontact writes. The other ranks wait for jobs until rank 0 is
  * done. */
+#define _POSIX_C_SOURCE 200809L /* mkstemp, fdopen */
+
+#include <errno.h>
 #include <limits.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
 
 #include <ntscontact/codec.h>
 #include <ntscontact/mpi.h>
@@ -212,13 +218,195 @@ void ntsm_cli_configure(ntsj_config* cfg) {
     cfg->evaluate_user = NULL;
 }
 
+/* A JSON value as text, its numbers as the shortest %.17g that reads back
+ * the same double (cJSON's own printer loses digits): the request rank 0
+ * assembles is the parts' numbers, bit for bit. */
+static void json_write(FILE* f, const cJSON* v) {
+    const cJSON* c;
+    if (cJSON_IsObject(v) || cJSON_IsArray(v)) {
+        const int obj = cJSON_IsObject(v);
+        fputc(obj ? '{' : '[', f);
+        for (c = v->child; c != NULL; c = c->next) {
+            if (c != v->child) fputc(',', f);
+            if (obj) {
+                cJSON* key = cJSON_CreateString(c->string);
+                char* k = key != NULL ? cJSON_PrintUnformatted(key) : NULL;
+                fputs(k != NULL ? k : "\"\"", f);
+                fputc(':', f);
+                cJSON_free(k);
+                cJSON_Delete(key);
+            }
+            json_write(f, c);
+        }
+        fputc(obj ? '}' : ']', f);
+    } else if (cJSON_IsNumber(v)) {
+        char num[40];
+        int p;
+        for (p = 15; p <= 17; ++p) { /* the shortest that reads back */
+            snprintf(num, sizeof num, "%.*g", p, v->valuedouble);
+            if (strtod(num, NULL) == v->valuedouble) break;
+        }
+        fputs(num, f);
+    } else {
+        char* t = cJSON_PrintUnformatted(v); /* strings (escaped), true, false, null */
+        fputs(t != NULL ? t : "null", f);
+        cJSON_free(t);
+    }
+}
+
+/* --part PATTERN: each rank reads its own part of the scene, PATTERN with
+ * "%d" its rank (a scene document of its bodies, "options" the same in
+ * every part). Rank 0 puts the parts together (the whole's bodies in rank
+ * order, its options the parts') into one request in a temporary file, which
+ * the CLI then reads. Returns the file's path on rank 0 (malloc), NULL with
+ * *status set on every rank after a fault (each rank's named). */
+static char* parts_together(const char* pattern, int rank, int size, int* status) {
+    char path[4096], msg[4600] = "";
+    char* text = NULL;
+    long long len = 0;
+    int ok = 1, all, r;
+    char* out = NULL;
+    *status = 0;
+    if (strstr(pattern, "%d") == NULL || strlen(pattern) > 4000) {
+        if (rank == 0) fprintf(stderr, "ntscontact-mpi: --part takes a path with %%d (the rank): not '%s'\n", pattern);
+        *status = 2;
+        return NULL;
+    }
+    {
+        const char* at = strstr(pattern, "%d");
+        snprintf(path, sizeof path, "%.*s%d%s", (int)(at - pattern), pattern, rank, at + 2);
+    }
+    {
+        FILE* f = fopen(path, "rb");
+        if (f == NULL) {
+            snprintf(msg, sizeof msg, "rank %d cannot read '%s': %s", rank, path, strerror(errno));
+            ok = 0;
+        } else {
+            if (fseek(f, 0, SEEK_END) == 0 && (len = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0 && len < INT_MAX &&
+                (text = (char*)malloc((size_t)len + 1)) != NULL && fread(text, 1, (size_t)len, f) == (size_t)len) {
+                text[len] = '\0';
+            } else {
+                snprintf(msg, sizeof msg, "rank %d cannot read '%s' whole", rank, path);
+                ok = 0;
+            }
+            fclose(f);
+        }
+    }
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (!all) { /* every failing rank says why, rank 0 first */
+        for (r = 0; r < size; ++r) {
+            if (r == rank && !ok) fprintf(stderr, "ntscontact-mpi: %s\n", msg);
+            MPI_Barrier(MPI_COMM_WORLD);
+        }
+        free(text);
+        *status = 2;
+        return NULL;
+    }
+    {
+        /* the texts to rank 0 */
+        int n = (int)len;
+        int* counts = rank == 0 ? (int*)malloc(sizeof(int) * 2u * (size_t)size) : NULL;
+        char* texts = NULL;
+        long long total = 0;
+        MPI_Gather(&n, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        if (rank == 0) {
+            ok = counts != NULL;
+            for (r = 0; ok && r < size; ++r) {
+                counts[size + r] = (int)total;
+                total += counts[r];
+            }
+            ok = ok && total < INT_MAX && (texts = (char*)malloc((size_t)total + 1)) != NULL;
+        }
+        MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        if (ok) MPI_Gatherv(text, n, MPI_BYTE, texts, counts, counts + size, MPI_BYTE, 0, MPI_COMM_WORLD);
+        free(text);
+        if (!ok) {
+            if (rank == 0) fprintf(stderr, "ntscontact-mpi: out of memory gathering the parts\n");
+            free(counts);
+            *status = 4;
+            return NULL;
+        }
+        if (rank == 0) {
+            /* one request: part 0's document, every part's bodies in rank order */
+            cJSON* whole = NULL;
+            cJSON* bodies = NULL;
+            for (r = 0; r < size && *status == 0; ++r) {
+                cJSON* part = cJSON_ParseWithLength(texts + counts[size + r], (size_t)counts[r]);
+                cJSON* pb = part != NULL ? cJSON_GetObjectItemCaseSensitive(part, "bodies") : NULL;
+                if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
+                    fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
+                                    "\"bodies\"\n", r);
+                    *status = 3;
+                } else if (r == 0) {
+                    whole = part;
+                    bodies = pb;
+                    part = NULL;
+                } else {
+                    cJSON* o0 = cJSON_GetObjectItemCaseSensitive(whole, "options");
+                    cJSON* o1 = cJSON_GetObjectItemCaseSensitive(part, "options");
+                    if (!(o0 == NULL && o1 == NULL) && !(o0 != NULL && o1 != NULL && cJSON_Compare(o0, o1, 1))) {
+                        fprintf(stderr, "ntscontact-mpi: invalid_value at \"/options\": part %d's options differ "
+                                        "from part 0's\n", r);
+                        *status = 3;
+                    }
+                    while (*status == 0 && cJSON_GetArraySize(pb) > 0)
+                        cJSON_AddItemToArray(bodies, cJSON_DetachItemFromArray(pb, 0));
+                }
+                cJSON_Delete(part);
+            }
+            if (*status == 0) {
+                char tmpl[] = "/tmp/ntscontact-mpi-XXXXXX";
+                const int fd = mkstemp(tmpl);
+                FILE* f = fd >= 0 ? fdopen(fd, "wb") : NULL;
+                if (f != NULL) json_write(f, whole);
+                if (f != NULL && !ferror(f) && fclose(f) == 0 && (out = (char*)malloc(sizeof tmpl)) != NULL) {
+                    memcpy(out, tmpl, sizeof tmpl);
+                } else {
+                    fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s\n", tmpl);
+                    if (fd >= 0) unlink(tmpl);
+                    *status = 4;
+                }
+            }
+            cJSON_Delete(whole);
+            free(texts);
+            free(counts);
+        }
+        MPI_Bcast(status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    }
+    return out;
+}
+
 int main(int argc, char** argv) {
-    int rank, status = 0, provided;
+    int rank, size, status = 0, provided, k, nargs = 0;
+    const char* pattern = NULL;
+    char* assembled = NULL;
+    char** args;
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    /* --part PATTERN (ntscontact-mpi's own flag), then the CLI's */
+    args = (char**)calloc((size_t)argc + 2, sizeof(char*));
+    for (k = 0; args != NULL && k < argc; ++k) {
+        if (strcmp(argv[k], "--part") == 0 && k + 1 < argc) pattern = argv[++k];
+        else if (strncmp(argv[k], "--part=", 7) == 0) pattern = argv[k] + 7;
+        else args[nargs++] = argv[k];
+    }
+    if (args == NULL) {
+        MPI_Finalize();
+        return 4;
+    }
+    if (pattern != NULL) {
+        assembled = parts_together(pattern, rank, size, &status);
+        if (status == 0 && rank == 0) args[nargs++] = assembled;
+    }
+    if (status != 0) {
+        free(args);
+        MPI_Finalize();
+        return status;
+    }
     if (rank == 0) {
         int cmd = JOB_STOP;
-        status = nts_cli_main(argc, argv);
+        status = nts_cli_main(nargs, args);
         MPI_Bcast(&cmd, 1, MPI_INT, 0, MPI_COMM_WORLD);
     } else {
         for (;;) {
@@ -232,6 +420,11 @@ int main(int argc, char** argv) {
             (void)job_run(NULL, &opt, &frame, NULL, 0, &out, &err);
         }
     }
+    if (assembled != NULL) {
+        unlink(assembled);
+        free(assembled);
+    }
+    free(args);
     job_end();
     MPI_Finalize();
     return status;
