@@ -92,18 +92,7 @@ static nts_contact contact_global(const ntsm_scene* m, nts_contact c) {
     return c;
 }
 
-int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
-    const long long nodes = m->node_off[m->bodies];
-    const nts_result* pr = &m->part_result;
-    int np = 0, ng = 0, k, ok = 1, rc = NTS_OK;
-    const nts_part* parts = m->part ? nts_context_parts(m->ctx, &np) : NULL;
-    const int* gap_entries = m->part ? nts_context_gap_entries(m->ctx, &ng) : NULL;
-    bytes b;
-    char* all;
-    size_t total;
-    nts_error e = nts_error_none();
-    memset(out, 0, sizeof *out);
-    memset(&b, 0, sizeof b);
+void ntsm_gathered_free(ntsm_scene* m) {
     free(m->g_forces);
     free(m->g_pressure);
     free(m->g_contacts);
@@ -118,6 +107,21 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
     m->g_anchors = NULL;
     m->g_rows = m->g_cols = NULL;
     m->g_vals = NULL;
+}
+
+int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
+    const long long nodes = m->node_off[m->bodies];
+    const nts_result* pr = &m->part_result;
+    int np = 0, ng = 0, k, ok = 1, rc = NTS_OK;
+    const nts_part* parts = m->part ? nts_context_parts(m->ctx, &np) : NULL;
+    const int* gap_entries = m->part ? nts_context_gap_entries(m->ctx, &ng) : NULL;
+    bytes b;
+    char* all;
+    size_t total;
+    nts_error e = nts_error_none();
+    memset(out, 0, sizeof *out);
+    memset(&b, 0, sizeof b);
+    ntsm_gathered_free(m);
     if (m->rank == root) {
         out->summary = m->summary;
         out->warnings = m->warning_count > 0 ? m->warnings : NULL;

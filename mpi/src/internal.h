@@ -31,15 +31,30 @@ typedef struct share_msg {
 } share_msg;
 
 /* One contact's sums, with its key. */
+/* What active contacts add up to: energy, virial, dissipation. */
+typedef struct sums6 {
+    double e, xx, yy, xy, yx, dis;
+} sums6;
+
+/* Add b to a, field by field (each field's sum in the order of the calls). */
+static inline void sums6_add(sums6* a, const sums6* b) {
+    a->e += b->e;
+    a->xx += b->xx;
+    a->yy += b->yy;
+    a->xy += b->xy;
+    a->yx += b->yx;
+    a->dis += b->dis;
+}
+
 typedef struct sum_msg {
     int entry, body, pad[2];
-    double e, xx, yy, xy, yx, dis;
+    sums6 s;
 } sum_msg;
 
 /* A chunk's sums. */
 typedef struct chunk_msg {
     int chunk, pad;
-    double e, xx, yy, xy, yx, dis;
+    sums6 s;
 } chunk_msg;
 
 /* A buffer kept between evaluations (it only grows): a step in a solver's
@@ -175,6 +190,9 @@ int ntsm_meets(const slabs* sl, int r, double a, double b);
 int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, double ly, nts_error* err);
 int ntsm_part_move(ntsm_scene* m, nts_error* err);
 int ntsm_part_maps(ntsm_scene* m, const slabs* sl);
+
+/* gather.c: the last ntsm_gather's arrays, freed */
+void ntsm_gathered_free(ntsm_scene* m);
 
 /* sums.c */
 int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err);

@@ -87,14 +87,7 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->entry_global);
     free(m->forces);
     free(m->pressure);
-    free(m->g_forces);
-    free(m->g_pressure);
-    free(m->g_contacts);
-    free(m->g_gaps);
-    free(m->g_anchors);
-    free(m->g_rows);
-    free(m->g_cols);
-    free(m->g_vals);
+    ntsm_gathered_free(m);
     free(m);
 }
 

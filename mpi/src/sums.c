@@ -189,12 +189,12 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         memset(&s, 0, sizeof s);
         s.entry = ge;
         s.body = gb;
-        s.e = p->energy;
-        s.xx = p->virial.xx;
-        s.yy = p->virial.yy;
-        s.xy = p->virial.xy;
-        s.yx = p->virial.yx;
-        s.dis = p->dissipation;
+        s.s.e = p->energy;
+        s.s.xx = p->virial.xx;
+        s.s.yy = p->virial.yy;
+        s.s.xy = p->virial.xy;
+        s.s.yx = p->virial.yx;
+        s.s.dis = p->dissipation;
         if (p->deep) deep_mine[n_deep++] = s;
         else sm[n_sm++] = s;
         cnt[0]++;                       /* contacts */
@@ -359,12 +359,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 memset(&ch[nc], 0, sizeof ch[nc]);
                 ch[nc++].chunk = c;
             }
-            ch[nc - 1].e += sm[k].e;
-            ch[nc - 1].xx += sm[k].xx;
-            ch[nc - 1].yy += sm[k].yy;
-            ch[nc - 1].xy += sm[k].xy;
-            ch[nc - 1].yx += sm[k].yx;
-            ch[nc - 1].dis += sm[k].dis;
+            sums6_add(&ch[nc - 1].s, &sm[k].s);
         }
         for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
         for (k = 0; k < n_sm; ++k) {
@@ -391,12 +386,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     ch[nc++].chunk = c;
                     last = c;
                 }
-                ch[nc - 1].e += rsum[k].e;
-                ch[nc - 1].xx += rsum[k].xx;
-                ch[nc - 1].yy += rsum[k].yy;
-                ch[nc - 1].xy += rsum[k].xy;
-                ch[nc - 1].yx += rsum[k].yx;
-                ch[nc - 1].dis += rsum[k].dis;
+                sums6_add(&ch[nc - 1].s, &rsum[k].s);
             }
         }
         n_chunks_mine = nc;
@@ -407,8 +397,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         {
             int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)(P + 1)); /* chunks' bytes, then the deep ones' */
             int total_c = 0, total_d = 0;
-            double energy = 0.0, xx = 0.0, yy = 0.0, xy = 0.0, yx = 0.0, dis = 0.0;
-            double de = 0.0, dxx = 0.0, dyy = 0.0, dxy = 0.0, dyx = 0.0, ddis = 0.0;
+            sums6 chunks, deep; /* the chunks' sums in chunk order, then the deep contacts' */
             int mine_bytes = (int)(nc * sizeof(chunk_msg));
             if (cc == NULL) {
                 rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
@@ -449,28 +438,16 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             total_d /= (int)sizeof(sum_msg);
             if (total_c > 1) qsort(all_ch, (size_t)total_c, sizeof(chunk_msg), cmp_chunk);
             if (total_d > 1) qsort(all_deep, (size_t)total_d, sizeof(sum_msg), cmp_sum);
-            for (k = 0; k < total_c; ++k) {
-                energy += all_ch[k].e;
-                xx += all_ch[k].xx;
-                yy += all_ch[k].yy;
-                xy += all_ch[k].xy;
-                yx += all_ch[k].yx;
-                dis += all_ch[k].dis;
-            }
-            for (k = 0; k < total_d; ++k) {
-                de += all_deep[k].e;
-                dxx += all_deep[k].xx;
-                dyy += all_deep[k].yy;
-                dxy += all_deep[k].xy;
-                dyx += all_deep[k].yx;
-                ddis += all_deep[k].dis;
-            }
-            m->summary.energy = energy + de;
-            m->summary.virial.xx = xx + dxx;
-            m->summary.virial.yy = yy + dyy;
-            m->summary.virial.xy = xy + dxy;
-            m->summary.virial.yx = yx + dyx;
-            m->summary.dissipation = dis + ddis;
+            memset(&chunks, 0, sizeof chunks);
+            memset(&deep, 0, sizeof deep);
+            for (k = 0; k < total_c; ++k) sums6_add(&chunks, &all_ch[k].s);
+            for (k = 0; k < total_d; ++k) sums6_add(&deep, &all_deep[k].s);
+            m->summary.energy = chunks.e + deep.e;
+            m->summary.virial.xx = chunks.xx + deep.xx;
+            m->summary.virial.yy = chunks.yy + deep.yy;
+            m->summary.virial.xy = chunks.xy + deep.xy;
+            m->summary.virial.yx = chunks.yx + deep.yx;
+            m->summary.dissipation = chunks.dis + deep.dis;
         }
     }
     m->summary.bodies = m->bodies;
