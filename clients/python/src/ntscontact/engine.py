@@ -58,18 +58,25 @@ class EngineUnavailable(NtsError, ImportError):
     """The in-process engine's library cannot be found or loaded."""
 
 
-def find_library() -> Path:
-    """The path of ``libntscontact_engine.so``: ``$NTSCONTACT_LIBRARY``, else the
-    copy bundled in the package. Raises :class:`EngineUnavailable` with what to do."""
-    env = os.environ.get("NTSCONTACT_LIBRARY")
+def locate(variable: str, name: str) -> Optional[Path]:
+    """A shared library: ``$variable`` (a path, which must exist), else the
+    package's copy of ``name``, else None."""
+    env = os.environ.get(variable)
     if env:
         path = Path(env)
         if not path.is_file():
-            raise EngineUnavailable(f"NTSCONTACT_LIBRARY={env}: no such file", code="engine_unavailable")
+            raise EngineUnavailable(f"{variable}={env}: no such file", code="engine_unavailable")
         return path
-    bundled = Path(__file__).resolve().parent / "_lib" / LIBRARY_NAME
-    if bundled.is_file():
-        return bundled
+    bundled = Path(__file__).resolve().parent / "_lib" / name
+    return bundled if bundled.is_file() else None
+
+
+def find_library() -> Path:
+    """The path of ``libntscontact_engine.so``: ``$NTSCONTACT_LIBRARY``, else the
+    copy bundled in the package. Raises :class:`EngineUnavailable` with what to do."""
+    found = locate("NTSCONTACT_LIBRARY", LIBRARY_NAME)
+    if found is not None:
+        return found
     raise EngineUnavailable(
         f"the in-process engine needs {LIBRARY_NAME}, and this installation of ntscontact has none "
         "(it was installed where CMake or a C compiler was missing). Install them (Debian: apt-get install "

@@ -37,7 +37,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .engine import EngineUnavailable
+from .engine import EngineUnavailable, locate
 from .errors import InvalidScene, NtsError, error_from_response
 from .result import Result
 from .scene import Scene
@@ -55,15 +55,9 @@ _SOLVERS = {"closed_form": 0, "newton": 1}
 
 def find_library() -> Path:
     """``$NTSCONTACT_MPI_LIBRARY``, else the copy bundled in the package."""
-    env = os.environ.get("NTSCONTACT_MPI_LIBRARY")
-    if env:
-        path = Path(env)
-        if not path.is_file():
-            raise EngineUnavailable(f"NTSCONTACT_MPI_LIBRARY={env}: no such file", code="engine_unavailable")
-        return path
-    bundled = Path(__file__).resolve().parent / "_lib" / LIBRARY_NAME
-    if bundled.is_file():
-        return bundled
+    found = locate("NTSCONTACT_MPI_LIBRARY", LIBRARY_NAME)
+    if found is not None:
+        return found
     raise EngineUnavailable(
         f"ntscontact.mpi needs {LIBRARY_NAME}: build it (`cmake -S . -B build -DNTS_MPI=ON && cmake --build "
         f"build`, with Open MPI: apt-get install libopenmpi-dev openmpi-bin) and set "
