@@ -61,6 +61,11 @@ void ntsj_buf_string(ntsj_buf* b, const char* s);
  * exponent, so readers that split integers from reals see a real. */
 void ntsj_buf_double(ntsj_buf* b, double v);
 /* ntsj_format_double is public (codec.h). */
+/* The JSON number (RFC 8259 §6) that starts at p (before end): its length,
+ * *out the nearest double (ties to even: strtod's bits); 0 when no number
+ * starts there, or one of 64 characters or more that only strtod reads
+ * (numparse.c). */
+size_t ntsj_parse_number(const char* p, const char* end, double* out);
 
 /* ------------------------------------------------------------ scan */
 

@@ -343,7 +343,7 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
  * else, each key once, exactly the scene's node count of pairs of finite
  * numbers, is taken (1); anything else (0) goes the general way, which
  * answers the same positions, or the error naming its place. The numbers
- * are converted by strtod, as cJSON converts them: the same bits. */
+ * are converted to strtod's bits, as cJSON converts them (numparse.c). */
 typedef struct fast_reader {
     const char *p, *end;
 } fast_reader;
@@ -361,36 +361,13 @@ static int fast_char(fast_reader* r, char c) {
     return 0;
 }
 
-/* A JSON number (RFC 8259's grammar, checked before strtod, which would take
- * more: hex, inf, a leading '+' or '.'). */
+/* A JSON number (RFC 8259's grammar: not strtod's, which would take more:
+ * hex, inf, a leading '+' or '.'), read by ntsj_parse_number. */
 static int fast_number(fast_reader* r, double* out) {
-    const char* q = r->p;
-    char buf[64];
     size_t n;
     fast_ws(r);
-    q = r->p;
-    if (q < r->end && *q == '-') ++q;
-    if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
-    if (*q == '0') ++q;
-    else
-        while (q < r->end && *q >= '0' && *q <= '9') ++q;
-    if (q < r->end && *q == '.') {
-        ++q;
-        if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
-        while (q < r->end && *q >= '0' && *q <= '9') ++q;
-    }
-    if (q < r->end && (*q == 'e' || *q == 'E')) {
-        ++q;
-        if (q < r->end && (*q == '+' || *q == '-')) ++q;
-        if (q >= r->end || !(*q >= '0' && *q <= '9')) return 0;
-        while (q < r->end && *q >= '0' && *q <= '9') ++q;
-    }
-    n = (size_t)(q - r->p);
-    if (n >= sizeof buf) return 0; /* (the general way takes it) */
-    memcpy(buf, r->p, n);
-    buf[n] = '\0';
-    *out = strtod(buf, NULL);
-    r->p = q;
+    if ((n = ntsj_parse_number(r->p, r->end, out)) == 0) return 0;
+    r->p += n;
     return isfinite(*out) != 0;
 }
 

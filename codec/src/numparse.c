@@ -1,0 +1,198 @@
+/* The codec's number reader: a JSON number (RFC 8259 §6) to the nearest
+ * double, ties to even: the bits strtod gives (and so cJSON, which calls
+ * it), at a tenth of its cost for the numbers solvers send.
+ *
+ * Why not strtod alone: a JSON session step is two numbers a node, and
+ * glibc's strtod (exact big-number arithmetic for every 16-17 digit
+ * number) was 40% of the daemon's time for such a step (docs/benchmarks.md).
+ *
+ * How it stays exact: a number is w x 10^q with w its significant digits.
+ * When w has at most 19 digits (w < 2^64) and |q| <= 27 (5^27 < 2^63), the
+ * value is w 5^q 2^q (q >= 0) or w / 5^-q 2^q (q < 0): one 128-bit product,
+ * or one 128-bit quotient with its remainder, both exact, rounded once to
+ * 53 bits. Every such value lies in [1e-27, 2^64 1e27], well inside the
+ * normal doubles, so no underflow or overflow can occur. Anything else (more
+ * digits, larger exponents, a compiler without 128-bit integers) is copied
+ * and handed to strtod. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec_internal.h"
+
+#if defined(__SIZEOF_INT128__)
+__extension__ typedef unsigned __int128 u128;
+#define NTSJ_HAVE_U128 1
+#else
+#define NTSJ_HAVE_U128 0
+#endif
+
+#define NTSJ_FAST_EXP 27   /* 5^27 < 2^63 */
+#define NTSJ_FAST_DIGITS 19 /* 10^19 - 1 < 2^64 */
+
+#if NTSJ_HAVE_U128
+static int bit_length(u128 v) {
+    const uint64_t hi = (uint64_t)(v >> 64), lo = (uint64_t)v;
+    return hi != 0 ? 128 - __builtin_clzll(hi) : (lo != 0 ? 64 - __builtin_clzll(lo) : 0);
+}
+
+/* v x 2^e, v's bits beyond 53 rounded to nearest, ties to even, `sticky`
+ * when something nonzero lies below v's last bit (a remainder). */
+static double round_to_double(u128 v, int e, int sticky) {
+    const int n = bit_length(v);
+    uint64_t mant, bits;
+    double out;
+    if (n <= 53) {
+        mant = (uint64_t)v << (53 - n);
+        e -= 53 - n;
+    } else {
+        const int shift = n - 53;
+        const u128 rest = v & (((u128)1 << shift) - 1), half = (u128)1 << (shift - 1);
+        mant = (uint64_t)(v >> shift);
+        e += shift;
+        if (rest > half || (rest == half && (sticky || (mant & 1u)))) {
+            ++mant;
+            if (mant == (uint64_t)1 << 53) {
+                mant >>= 1;
+                ++e;
+            }
+        }
+    }
+    /* mant in [2^52, 2^53): the value is 1.f x 2^(e + 52), a normal double */
+    bits = (uint64_t)(e + 52 + 1023) << 52 | (mant & (((uint64_t)1 << 52) - 1));
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
+/* num / d when the quotient fits 64 bits (num < d 2^64): one divq where
+ * there is one, rather than the 128-bit division's library call. */
+static void divide(u128 num, uint64_t d, uint64_t* quot, uint64_t* rem) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    uint64_t hi = (uint64_t)(num >> 64), lo = (uint64_t)num;
+    __asm__("divq %4" : "=a"(lo), "=d"(hi) : "a"(lo), "d"(hi), "rm"(d));
+    *quot = lo;
+    *rem = hi;
+#else
+    *quot = (uint64_t)(num / d);
+    *rem = (uint64_t)(num % d);
+#endif
+}
+
+static double exact(uint64_t w, int q) {
+    static const uint64_t pow5[NTSJ_FAST_EXP + 1] = {
+        1ull, 5ull, 25ull, 125ull, 625ull, 3125ull, 15625ull, 78125ull, 390625ull, 1953125ull, 9765625ull,
+        48828125ull, 244140625ull, 1220703125ull, 6103515625ull, 30517578125ull, 152587890625ull,
+        762939453125ull, 3814697265625ull, 19073486328125ull, 95367431640625ull, 476837158203125ull,
+        2384185791015625ull, 11920928955078125ull, 59604644775390625ull, 298023223876953125ull,
+        1490116119384765625ull, 7450580596923828125ull};
+    if (q >= 0) return round_to_double((u128)w * pow5[q], q, 0);
+    {
+        /* w / 5^k, w shifted so that the quotient has 63 or 64 bits (at
+         * least the 53 kept, a rounding bit and more), the remainder the
+         * sticky bit */
+        const int k = -q;
+        const uint64_t d = pow5[k];
+        const int s = (64 - __builtin_clzll(d)) + 63 - (64 - __builtin_clzll(w));
+        uint64_t quot, rem;
+        divide((u128)w << s, d, &quot, &rem);
+        return round_to_double(quot, -s - k, rem != 0);
+    }
+}
+#endif
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define NTSJ_SWAR 1
+/* Eight digits at once (the digit loop is a chain of multiply-adds, the
+ * reader's longest part): whether the eight bytes at p are all '0'..'9':
+ * each byte's high nibble 3, and no low nibble that overflows past 9 when
+ * 6 is added. */
+static int eight_digits(const char* p) {
+    uint64_t v;
+    memcpy(&v, p, sizeof v);
+    return ((v & 0xF0F0F0F0F0F0F0F0ull) | (((v + 0x0606060606060606ull) & 0xF0F0F0F0F0F0F0F0ull) >> 4)) ==
+           0x3333333333333333ull;
+}
+
+/* Their value: pairs of digits, then pairs of pairs, then the two halves
+ * (the first byte is the most significant digit). */
+static uint64_t eight_value(const char* p) {
+    uint64_t v;
+    memcpy(&v, p, sizeof v);
+    v -= 0x3030303030303030ull;
+    v = v * 10u + (v >> 8); /* each even byte: two digits' value */
+    v = ((v & 0x000000FF000000FFull) * (100u + (1000000ull << 32)) +
+         ((v >> 16) & 0x000000FF000000FFull) * (1u + (10000ull << 32))) >> 32;
+    return v;
+}
+#else
+#define NTSJ_SWAR 0
+#endif
+
+size_t ntsj_parse_number(const char* p, const char* end, double* out) {
+    const char* q = p;
+    uint64_t w = 0;
+    int digits = 0, many = 0, exp10 = 0, neg = 0;
+    if (q < end && *q == '-') {
+        neg = 1;
+        ++q;
+    }
+    if (q >= end || *q < '0' || *q > '9') return 0;
+    if (*q == '0') {
+        ++q;
+    } else {
+#if NTSJ_SWAR
+        w = (uint64_t)(*q++ - '0'); /* then significant: eight at a time while they fit */
+        digits = 1;
+        for (; digits + 8 <= NTSJ_FAST_DIGITS && end - q >= 8 && eight_digits(q); q += 8, digits += 8)
+            w = w * 100000000u + eight_value(q);
+#endif
+        for (; q < end && *q >= '0' && *q <= '9'; ++q) {
+            if (digits < NTSJ_FAST_DIGITS) w = w * 10u + (uint64_t)(*q - '0'), ++digits;
+            else many = 1; /* (strtod reads it) */
+        }
+    }
+    if (q < end && *q == '.') {
+        ++q;
+        if (q >= end || *q < '0' || *q > '9') return 0;
+#if NTSJ_SWAR
+        while (w == 0 && q < end && *q == '0' && exp10 > -100000) ++q, --exp10; /* leading zeros: not significant */
+        for (; digits + 8 <= NTSJ_FAST_DIGITS && end - q >= 8 && eight_digits(q); q += 8, digits += 8, exp10 -= 8)
+            w = w * 100000000u + eight_value(q);
+#endif
+        for (; q < end && *q >= '0' && *q <= '9'; ++q) {
+            if (digits >= NTSJ_FAST_DIGITS || exp10 < -100000) many = 1; /* (strtod reads it) */
+            else if (w == 0 && *q == '0') --exp10; /* a leading zero: not significant */
+            else w = w * 10u + (uint64_t)(*q - '0'), ++digits, --exp10;
+        }
+    }
+    if (q < end && (*q == 'e' || *q == 'E')) {
+        int eneg = 0, e = 0;
+        ++q;
+        if (q < end && (*q == '+' || *q == '-')) eneg = *q++ == '-';
+        if (q >= end || *q < '0' || *q > '9') return 0;
+        for (; q < end && *q >= '0' && *q <= '9'; ++q)
+            if (e < 100000) e = e * 10 + (*q - '0'); /* (beyond: strtod's) */
+        if (e >= 100000) many = 1;
+        exp10 += eneg ? -e : e;
+    }
+#if NTSJ_HAVE_U128
+    if (w == 0 && !many) {
+        *out = neg ? -0.0 : 0.0;
+        return (size_t)(q - p);
+    }
+    if (!many && exp10 >= -NTSJ_FAST_EXP && exp10 <= NTSJ_FAST_EXP) {
+        const double v = exact(w, exp10);
+        *out = neg ? -v : v;
+        return (size_t)(q - p);
+    }
+#endif
+    {
+        char buf[64];
+        const size_t n = (size_t)(q - p);
+        if (n >= sizeof buf) return 0; /* (the caller's general way takes it) */
+        memcpy(buf, p, n);
+        buf[n] = '\0';
+        *out = strtod(buf, NULL);
+        return n;
+    }
+}

@@ -1,0 +1,183 @@
+/* Self-check of the codec's number reader (numparse.c), run by ctest: every
+ * JSON number must read as strtod reads it, bit for bit (the nearest double,
+ * ties to even), and take exactly the characters of the number; what is not
+ * a JSON number must be refused. The numbers: random doubles in every
+ * spelling a client writes (%.15g .. %.17g, %e, the shortest), random digit
+ * strings of 1-25 digits with exponents around the fast range's edges, the
+ * decimals nearest the midpoints between neighbouring doubles (where a
+ * rounding mistake shows), exact midpoints (2^53 + odd integers), and the
+ * edges (0, -0, 19 and 20 digits, 10^+-27 and 10^+-28, overflow, underflow).
+ * Exit status 0 when all hold; prints the first failure otherwise. */
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec_internal.h"
+
+static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
+static uint64_t next_u64(void) { /* xorshift64* */
+    rng_state ^= rng_state >> 12;
+    rng_state ^= rng_state << 25;
+    rng_state ^= rng_state >> 27;
+    return rng_state * 2685821657736338717ull;
+}
+
+static long checked = 0;
+
+/* `s` must read as strtod reads it and take all of it (or be refused as a
+ * whole when it is 64 characters or more and not for the fast way). */
+static int check(const char* s) {
+    const size_t len = strlen(s);
+    double got = 0.0, want = strtod(s, NULL);
+    /* the token followed by a character that ends it, and not terminated */
+    char buf[160];
+    size_t n;
+    if (len + 2 > sizeof buf) return 0;
+    memcpy(buf, s, len);
+    buf[len] = ',';
+    n = ntsj_parse_number(buf, buf + len + 1, &got);
+    ++checked;
+    if (n == 0 && len >= 64) return 0;
+    if (n != len) {
+        printf("FAIL %s: took %zu characters of %zu\n", s, n, len);
+        return 1;
+    }
+    if (memcmp(&got, &want, sizeof got) != 0) {
+        printf("FAIL %s: read %a, strtod %a\n", s, got, want);
+        return 1;
+    }
+    n = ntsj_parse_number(buf, buf + len, &got); /* ending at the buffer's end */
+    if (n != len || memcmp(&got, &want, sizeof got) != 0) {
+        printf("FAIL %s at the end of its buffer: took %zu, read %a\n", s, n, got);
+        return 1;
+    }
+    return 0;
+}
+
+static int refused(const char* s) {
+    double v = 0.0;
+    const size_t n = ntsj_parse_number(s, s + strlen(s), &v);
+    if (n != 0) {
+        printf("FAIL %s: not a JSON number, but %zu characters taken\n", s, n);
+        return 1;
+    }
+    return 0;
+}
+
+static int takes(const char* s, size_t want) {
+    double v = 0.0;
+    const size_t n = ntsj_parse_number(s, s + strlen(s), &v);
+    if (n != want) {
+        printf("FAIL %s: took %zu characters, expected %zu\n", s, n, want);
+        return 1;
+    }
+    return 0;
+}
+
+static double random_double(void) {
+    double v;
+    uint64_t bits;
+    do {
+        bits = next_u64();
+        memcpy(&v, &bits, sizeof v);
+    } while (!isfinite(v));
+    return v;
+}
+
+/* a random double of a scale a scene has: |v| in [1e-12, 1e12] */
+static double random_coordinate(void) {
+    const double m = (double)(next_u64() >> 11) / 9007199254740992.0;
+    const int e = (int)(next_u64() % 25) - 12;
+    return (next_u64() & 1 ? -1.0 : 1.0) * (1.0 + m) * pow(10.0, e);
+}
+
+int main(void) {
+    static const char* const not_numbers[] = {"", "-", "+1", ".5", "1.", "1.e5", "1e", "1e+", "1E-", "-.5",
+                                              "- 1", "inf", "nan", "e5", "-e5", "--1", "\"1\""};
+    char s[128];
+    int k, j, fails = 0;
+    /* the grammar */
+    for (k = 0; k < (int)(sizeof not_numbers / sizeof not_numbers[0]); ++k) fails += refused(not_numbers[k]);
+    fails += takes("01", 1) + takes("-0.5.5", 4) + takes("1e5e5", 3) + takes("00", 1) + takes("1 ", 1) +
+             takes("2x", 1) + takes("-0", 2) + takes("1E+05]", 5) + takes("0x10", 1);
+    {
+        double v = 1.0;
+        ntsj_parse_number("-0.0e7", "-0.0e7" + 6, &v);
+        if (!(v == 0.0 && signbit(v))) printf("FAIL -0.0e7 read as %a\n", v), ++fails;
+    }
+    /* the edges */
+    {
+        static const char* const edges[] = {
+            "0", "-0", "0.0", "0e0", "0e-999999", "-0.000", "1", "-1", "9", "10", "1e27", "1e-27", "1e28", "1e-28",
+            "9999999999999999999", "99999999999999999999", "18446744073709551615", "18446744073709551616",
+            "9999999999999999999e27", "9999999999999999999e-27", "1000000000000000000e-27", "0.0000000000000000000000000001",
+            "123456789012345678.9", "1234567890123456789.0", "1.234567890123456789", "1.2345678901234567890",
+            "1.23456789012345678901", "9007199254740993", "9007199254740995", "9007199254740992.5",
+            "4503599627370496.5", "4503599627370497.5", "2.2250738585072011e-308", "2.2250738585072014e-308",
+            "4.9406564584124654e-324", "2.4703282292062327e-324", "2.4703282292062328e-324", "1.7976931348623157e308",
+            "1.7976931348623158e308", "1.7976931348623159e308", "1e309", "-1e309", "1e-400", "1e99999", "1e100000",
+            "1e-100000", "1e999999999999", "0.1", "0.2", "0.3", "0.7", "1.1", "3.14159265358979323846",
+            "2.718281828459045", "1.5e-5", "-4.25E+3", "1E1", "1e+1", "1e-0", "1e00000000000000000001",
+            "0.00000000000000000000000000000000000000000000000000001"};
+        for (k = 0; k < (int)(sizeof edges / sizeof edges[0]); ++k) fails += check(edges[k]);
+    }
+    /* random doubles in the spellings clients write */
+    for (k = 0; k < 300000 && fails == 0; ++k) {
+        const double v = k % 3 == 0 ? random_double() : random_coordinate();
+        snprintf(s, sizeof s, "%.17g", v);
+        fails += check(s);
+        snprintf(s, sizeof s, "%.16g", v);
+        fails += check(s);
+        snprintf(s, sizeof s, "%.15g", v);
+        fails += check(s);
+        snprintf(s, sizeof s, "%.17e", v);
+        fails += check(s);
+        ntsj_format_double(s, v);
+        fails += check(s);
+    }
+    /* random digit strings: 1-25 digits, a point anywhere, exponents -40..40 */
+    for (k = 0; k < 300000 && fails == 0; ++k) {
+        const int nd = 1 + (int)(next_u64() % 25), point = (int)(next_u64() % (uint64_t)(nd + 1));
+        int n = 0;
+        if (next_u64() & 1) s[n++] = '-';
+        for (j = 0; j < nd; ++j) {
+            if (j == point && j > 0) s[n++] = '.';
+            s[n++] = (char)('0' + (j == 0 && nd > 1 && point != 1 ? 1 + next_u64() % 9 : next_u64() % 10));
+        }
+        if (point == 0 && nd > 1) { /* 0.ddd */
+            memmove(s + (s[0] == '-') + 2, s + (s[0] == '-'), (size_t)(n - (s[0] == '-')));
+            s[(s[0] == '-')] = '0';
+            s[(s[0] == '-') + 1] = '.';
+            n += 2;
+        }
+        if (next_u64() % 4 != 0) n += snprintf(s + n, sizeof s - (size_t)n, "e%d", (int)(next_u64() % 81) - 40);
+        s[n] = '\0';
+        fails += check(s);
+    }
+    /* the decimals nearest the midpoints between neighbouring doubles */
+    for (k = 0; k < 300000 && fails == 0; ++k) {
+        const double v = k % 2 ? fabs(random_coordinate()) : fabs(random_double());
+        const double up = nextafter(v, INFINITY);
+        const long double mid = ((long double)v + (long double)up) / 2.0L;
+        if (!isfinite(up) || LDBL_MANT_DIG < 64) continue;
+        for (j = 14; j <= 20; ++j) {
+            snprintf(s, sizeof s, "%.*Le", j, mid);
+            fails += check(s);
+        }
+    }
+    /* exact midpoints: 2^53 + an odd integer, and their tenths */
+    for (k = 0; k < 20000 && fails == 0; ++k) {
+        const unsigned long long m = (1ull << 53) + 2ull * (next_u64() % (1ull << 40)) + 1ull;
+        snprintf(s, sizeof s, "%llu", m);
+        fails += check(s);
+        snprintf(s, sizeof s, "%llue-%d", m, (int)(next_u64() % 28));
+        fails += check(s);
+        snprintf(s, sizeof s, "%llu0000", m);
+        fails += check(s);
+    }
+    if (fails == 0) printf("numparse: %ld numbers read as strtod reads them\n", checked);
+    return fails == 0 ? 0 : 1;
+}
