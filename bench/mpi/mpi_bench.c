@@ -116,6 +116,9 @@ int main(int argc, char** argv) {
             MPI_Reduce(&held, &mh, 1, MPI_INT, MPI_SUM, 0, MPI_COMM_WORLD);
             MPI_Reduce(&owned, &mo, 1, MPI_INT, MPI_SUM, 0, MPI_COMM_WORLD);
             MPI_Reduce(ph, maxph, 4, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+            if (getenv("NTSM_BENCH_RANKS") != NULL) /* each rank's own phases and load */
+                fprintf(stderr, "rank %d bodies %d held_entries %d owned_slaves %d phases_s %.4f %.4f %.4f %.4f\n", rank, mine,
+                        held, owned, ph[0], ph[1], ph[2], ph[3]);
             if (rank == 0)
                 printf("rebuilt %d/%d ranks %d nodes %d contacts %d median_s %.4f min_s %.4f phases_s frame+slabs %.4f bodies %.4f "
                        "evaluate %.4f sums %.4f max_bytes_sent_per_rank %lld halo_fraction %.4f\n",
@@ -123,7 +126,7 @@ int main(int argc, char** argv) {
                        maxph[1], maxph[2], maxph[3], maxsent, mo > 0 ? (double)(mh - mo) / mo : 0.0);
         }
     }
-    if (size == 1) { /* the same scene in one process, nts_evaluate */
+    if (size == 1 && getenv("NTSM_BENCH_NO_SERIAL") == NULL) { /* the same scene in one process, nts_evaluate */
         nts_scene_def def = nts_default_scene_def();
         nts_scene* whole;
         nts_context* ctx = nts_context_create();
