@@ -92,6 +92,23 @@ static void w_bool(writer* w, int v) {
 }
 
 static void w_vec2(writer* w, nts_vec2 v) {
+    ntsj_buf* b = w->b;
+    if (!w->pretty && !b->oom && b->data != NULL && b->len + 2 * NTSJ_DOUBLE_MAX + 4 < b->cap) {
+        /* the arrays of forces and positions: written in place while the
+         * buffer has room, the same bytes as below */
+        char* p = b->data + b->len;
+        if (w->after_key) w->after_key = 0;
+        else if (w->need_comma) *p++ = ',';
+        *p++ = '[';
+        p += ntsj_format_double(p, v.x);
+        *p++ = ',';
+        p += ntsj_format_double(p, v.y);
+        *p++ = ']';
+        *p = '\0';
+        b->len = (size_t)(p - b->data);
+        w->need_comma = 1;
+        return;
+    }
     w_open(w, '[', 1);
     w_double(w, v.x);
     w_double(w, v.y);

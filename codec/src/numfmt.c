@@ -401,7 +401,12 @@ int ntsj_format_double(char* out, double v) {
 }
 
 void ntsj_buf_double(ntsj_buf* b, double v) {
-    char tmp[32];
-    int n = ntsj_format_double(tmp, v);
+    char tmp[NTSJ_DOUBLE_MAX];
+    int n;
+    if (!b->oom && b->data != NULL && b->len + NTSJ_DOUBLE_MAX < b->cap) { /* in place while there is room */
+        b->len += (size_t)ntsj_format_double(b->data + b->len, v);
+        return;
+    }
+    n = ntsj_format_double(tmp, v);
     ntsj_buf_put(b, tmp, (size_t)n);
 }

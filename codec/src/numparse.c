@@ -31,24 +31,19 @@ __extension__ typedef unsigned __int128 u128;
 #define NTSJ_FAST_DIGITS 19 /* 10^19 - 1 < 2^64 */
 
 #if NTSJ_HAVE_U128
-static int bit_length(u128 v) {
-    const uint64_t hi = (uint64_t)(v >> 64), lo = (uint64_t)v;
-    return hi != 0 ? 128 - __builtin_clzll(hi) : (lo != 0 ? 64 - __builtin_clzll(lo) : 0);
-}
-
-/* v x 2^e, v's bits beyond 53 rounded to nearest, ties to even, `sticky`
- * when something nonzero lies below v's last bit (a remainder). */
-static double round_to_double(u128 v, int e, int sticky) {
-    const int n = bit_length(v);
+/* v x 2^e (v != 0), v's bits beyond 53 rounded to nearest, ties to even,
+ * `sticky` when something nonzero lies below v's last bit. */
+static double round_to_double(uint64_t v, int e, int sticky) {
+    const int n = 64 - __builtin_clzll(v);
     uint64_t mant, bits;
     double out;
-    if (n <= 53) {
-        mant = (uint64_t)v << (53 - n);
+    if (n <= 53) { /* exact (nothing below it: the callers' values then have no sticky) */
+        mant = v << (53 - n);
         e -= 53 - n;
     } else {
         const int shift = n - 53;
-        const u128 rest = v & (((u128)1 << shift) - 1), half = (u128)1 << (shift - 1);
-        mant = (uint64_t)(v >> shift);
+        const uint64_t rest = v & (((uint64_t)1 << shift) - 1), half = (uint64_t)1 << (shift - 1);
+        mant = v >> shift;
         e += shift;
         if (rest > half || (rest == half && (sticky || (mant & 1u)))) {
             ++mant;
@@ -62,6 +57,15 @@ static double round_to_double(u128 v, int e, int sticky) {
     bits = (uint64_t)(e + 52 + 1023) << 52 | (mant & (((uint64_t)1 << 52) - 1));
     memcpy(&out, &bits, sizeof out);
     return out;
+}
+
+/* v x 2^e for a 128-bit v: its top 64 bits, the rest as the sticky bit. */
+static double round128(u128 v, int e) {
+    const uint64_t hi = (uint64_t)(v >> 64), lo = (uint64_t)v;
+    int sh;
+    if (hi == 0) return round_to_double(lo, e, 0);
+    sh = 64 - __builtin_clzll(hi);
+    return round_to_double((uint64_t)(v >> sh), e + sh, (lo & (((uint64_t)1 << sh) - 1)) != 0);
 }
 
 /* num / d when the quotient fits 64 bits (num < d 2^64): one divq where
@@ -85,7 +89,7 @@ static double exact(uint64_t w, int q) {
         762939453125ull, 3814697265625ull, 19073486328125ull, 95367431640625ull, 476837158203125ull,
         2384185791015625ull, 11920928955078125ull, 59604644775390625ull, 298023223876953125ull,
         1490116119384765625ull, 7450580596923828125ull};
-    if (q >= 0) return round_to_double((u128)w * pow5[q], q, 0);
+    if (q >= 0) return round128((u128)w * pow5[q], q);
     {
         /* w / 5^k, w shifted so that the quotient has 63 or 64 bits (at
          * least the 53 kept, a rounding bit and more), the remainder the
@@ -114,15 +118,36 @@ static int eight_digits(const char* p) {
 }
 
 /* Their value: pairs of digits, then pairs of pairs, then the two halves
- * (the first byte is the most significant digit). */
+ * (the first byte is the most significant digit). `v` holds the digits'
+ * values (each byte 0..9). */
+static uint64_t eight_value_of(uint64_t v) {
+    v = v * 10u + (v >> 8); /* each even byte: two digits' value */
+    return ((v & 0x000000FF000000FFull) * (100u + (1000000ull << 32)) +
+            ((v >> 16) & 0x000000FF000000FFull) * (1u + (10000ull << 32))) >> 32;
+}
+
 static uint64_t eight_value(const char* p) {
     uint64_t v;
     memcpy(&v, p, sizeof v);
-    v -= 0x3030303030303030ull;
-    v = v * 10u + (v >> 8); /* each even byte: two digits' value */
-    v = ((v & 0x000000FF000000FFull) * (100u + (1000000ull << 32)) +
-         ((v >> 16) & 0x000000FF000000FFull) * (1u + (10000ull << 32))) >> 32;
-    return v;
+    return eight_value_of(v - 0x3030303030303030ull);
+}
+
+/* The last 1..7 digits (the run ends within the eight bytes at p) in one
+ * step rather than a loop whose length varies: the count of leading digit
+ * bytes (a carry of + 6 only reaches bytes after a non-digit, past the
+ * first), their value with zeros shifted in ahead of them. */
+static int tail_digits(const char* p, int room, uint64_t* w) {
+    static const uint64_t pow10[8] = {1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u, 10000000u};
+    uint64_t v, not_digit;
+    int k;
+    memcpy(&v, p, sizeof v);
+    not_digit = ((v & 0xF0F0F0F0F0F0F0F0ull) ^ 0x3030303030303030ull) |
+                (((v + 0x0606060606060606ull) & 0xF0F0F0F0F0F0F0F0ull) ^ 0x3030303030303030ull);
+    if (not_digit == 0) return 0; /* eight: the caller's loops */
+    k = __builtin_ctzll(not_digit) / 8;
+    if (k == 0 || k > room) return 0;
+    *w = *w * pow10[k] + eight_value_of((v - 0x3030303030303030ull) << (8 * (8 - k)));
+    return k;
 }
 #else
 #define NTSJ_SWAR 0
@@ -145,6 +170,10 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         digits = 1;
         for (; digits + 8 <= NTSJ_FAST_DIGITS && end - q >= 8 && eight_digits(q); q += 8, digits += 8)
             w = w * 100000000u + eight_value(q);
+        if (end - q >= 8) {
+            const int k = tail_digits(q, NTSJ_FAST_DIGITS - digits, &w);
+            q += k, digits += k;
+        }
 #endif
         for (; q < end && *q >= '0' && *q <= '9'; ++q) {
             if (digits < NTSJ_FAST_DIGITS) w = w * 10u + (uint64_t)(*q - '0'), ++digits;
@@ -158,6 +187,10 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         while (w == 0 && q < end && *q == '0' && exp10 > -100000) ++q, --exp10; /* leading zeros: not significant */
         for (; digits + 8 <= NTSJ_FAST_DIGITS && end - q >= 8 && eight_digits(q); q += 8, digits += 8, exp10 -= 8)
             w = w * 100000000u + eight_value(q);
+        if (end - q >= 8) {
+            const int k = tail_digits(q, NTSJ_FAST_DIGITS - digits, &w);
+            q += k, digits += k, exp10 -= k;
+        }
 #endif
         for (; q < end && *q >= '0' && *q <= '9'; ++q) {
             if (digits >= NTSJ_FAST_DIGITS || exp10 < -100000) many = 1; /* (strtod reads it) */
