@@ -1,6 +1,6 @@
 /* The codec's number reader: a JSON number (RFC 8259 §6) to the nearest
  * double, ties to even: the bits strtod gives (and so cJSON, which calls
- * it), at a tenth of its cost for the numbers solvers send.
+ * it), in less than half its time for the numbers solvers send.
  *
  * Why not strtod alone: a JSON session step is two numbers a node, and
  * glibc's strtod (exact big-number arithmetic for every 16-17 digit
@@ -9,8 +9,8 @@
  * How it stays exact: a number is w x 10^q with w its significant digits.
  * When w has at most 19 digits (w < 2^64) and |q| <= 27 (5^27 < 2^63), the
  * value is w 5^q 2^q (q >= 0) or w / 5^-q 2^q (q < 0): one 128-bit product,
- * or one 128-bit quotient with its remainder, both exact, rounded once to
- * 53 bits. Every such value lies in [1e-27, 2^64 1e27], well inside the
+ * or one division of a 128-bit dividend with its remainder, both exact,
+ * rounded once to 53 bits. Every such value lies in [1e-27, 2^64 1e27], inside the
  * normal doubles, so no underflow or overflow can occur. Anything else (more
  * digits, larger exponents, a compiler without 128-bit integers) is copied
  * and handed to strtod. */
