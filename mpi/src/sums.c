@@ -1,6 +1,7 @@
 /* The sums in one process's order (docs/distributed.md): each node's
  * forces at its owner, each chunk's energy and virial at its home, then the
  * chunks and the deep contacts in order (core/src/scatter.c's order). */
+#include <assert.h>
 #include <limits.h>
 #include <math.h>
 #include <stdint.h>
@@ -18,6 +19,14 @@ static int cmp_share(const share_msg* a, const share_msg* b) {
     if (a->entry != b->entry) return a->entry < b->entry ? -1 : 1;
     if (a->body != b->body) return a->body < b->body ? -1 : 1;
     return (a->dq & 3) - (b->dq & 3);
+}
+
+/* The mixed nodes' contributions: by node, then in one process's order. */
+static int cmp_mixed(const void* pa, const void* pb) {
+    const share_msg* a = (const share_msg*)pa;
+    const share_msg* b = (const share_msg*)pb;
+    if (a->at != b->at) return a->at < b->at ? -1 : 1;
+    return cmp_share(a, b);
 }
 
 static int cmp_sum(const void* pa, const void* pb) {
@@ -65,7 +74,7 @@ static int cmp_chunk(const void* pa, const void* pb) {
  * every rank when one of them cannot: more than 2 GiB to send or to receive
  * (*limit set), or no memory. */
 static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t size, int* got, scratch* into,
-                      int* limit) {
+                      int* limit, int* from) {
     int* sc = (int*)ntsm_scratch(&m->sc[SC_EXCHANGE], sizeof(int) * 4u * (size_t)m->size);
     int *sd, *rc_, *rd, r, fine = 1, all;
     void* out = NULL;
@@ -106,6 +115,8 @@ static void* exchange(ntsm_scene* m, const void* send, const int* counts, size_t
     }
     if (!all) return NULL;
     MPI_Alltoallv(send, sc, sd, MPI_BYTE, out, rc_, rd, MPI_BYTE, m->comm);
+    if (from != NULL) /* the records each rank sent, in rank order */
+        for (r = 0; r < m->size; ++r) from[r] = (int)((size_t)rc_[r] / size);
     m->stats.bytes_sent += sent;
     m->stats.bytes_received += recvd;
     *got = (int)((size_t)at / size);
@@ -118,6 +129,51 @@ static int exchange_failed(nts_error* err, int limit) {
                  : ntsm_fail(err, NTS_ENOMEM, "out of memory");
 }
 
+/* An own node's source: SRC_NONE, the one rank whose contacts touch it,
+ * or SRC_MIXED (several). */
+enum { SRC_NONE = -1, SRC_MIXED = -2 };
+
+static void src_tag(int* src, int at, int rank) {
+    src[at] = src[at] == SRC_NONE || src[at] == rank ? rank : SRC_MIXED;
+}
+
+/* Contact k's shares for other ranks' nodes when its deep flag is `deep`,
+ * each at its owner's place in sh (fill). */
+static void emit_shares(const ntsm_scene* m, const nts_part* parts, int k, int deep, share_msg* sh, int* fill) {
+    const nts_part* p = &parts[k];
+    int q;
+    if (p->deep != deep) return;
+    for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+        const int owner = m->node_owner[p->nodes[q]];
+        share_msg* o;
+        if (owner == m->rank) continue;
+        o = &sh[fill[owner]++];
+        o->at = m->node_at[p->nodes[q]];
+        o->entry = (int)m->entry_global[p->entry];
+        o->body = m->part_ids[p->master_body];
+        o->dq = p->deep << 2 | q;
+        o->fx = p->force[q].x;
+        o->fy = p->force[q].y;
+    }
+}
+
+/* Contact p's forces on this rank's nodes that only this rank's contacts
+ * touch; how many it leaves for the mixed ones. */
+static int add_local(ntsm_scene* m, const nts_part* p, const int* src) {
+    int q, left = 0;
+    for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+        const int at = m->node_at[p->nodes[q]];
+        if (m->node_owner[p->nodes[q]] != m->rank) continue;
+        if (src[at] != m->rank) {
+            ++left;
+            continue;
+        }
+        m->forces[at].x = m->forces[at].x + p->force[q].x;
+        m->forces[at].y = m->forces[at].y + p->force[q].y;
+    }
+    return left;
+}
+
 /* This rank's answer: the shares summed at the nodes' owners, the chunks'
  * sums, the counts. */
 int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
@@ -126,8 +182,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     const int nchunk = (int)((N + NTS_PART_CHUNK - 1) / NTS_PART_CHUNK);
     int np = 0, k, q, r, got = 0, rc = NTS_OK;
     const nts_part* parts = m->part ? nts_context_parts(m->ctx, &np) : NULL;
-    int* counts = (int*)calloc(2u * (size_t)P, sizeof(int));
+    int* counts = (int*)calloc(3u * (size_t)P, sizeof(int));
     int* fill = counts ? counts + P : NULL;
+    int* from = counts ? counts + 2 * P : NULL; /* the shares each rank sent this one */
     share_msg* sh = NULL;
     sum_msg* sm = NULL;
     sum_msg* deep_mine = NULL;
@@ -149,177 +206,177 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     }
     memset(cnt, 0, sizeof cnt);
 
-    /* The shares to other ranks' nodes, grouped by the rank that owns each
-     * (this rank's own nodes take theirs below, without a message). */
-    for (k = 0; k < np && want_forces; ++k) {
-        if (!m->entry_owned[parts[k].entry]) continue;
-        for (q = 0; q < 4 && parts[k].nodes[q] >= 0; ++q)
-            if (m->node_owner[parts[k].nodes[q]] != m->rank) counts[m->node_owner[parts[k].nodes[q]]]++;
-    }
-    for (r = 0, n_sh = 0; r < P; ++r) {
-        fill[r] = n_sh;
-        n_sh += counts[r];
-    }
-    if ((sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL)
-        rc = NTS_ENOMEM;
-    if (rc == NTS_OK && (sm = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_OUT], sizeof(sum_msg) * (size_t)(np + 1))) == NULL)
-        rc = NTS_ENOMEM;
-    if (rc == NTS_OK &&
-        (deep_mine = (sum_msg*)ntsm_scratch(&m->sc[SC_DEEP], sizeof(sum_msg) * (size_t)(np + 1))) == NULL)
-        rc = NTS_ENOMEM;
-    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) != NTS_OK)
-        goto done;
-    for (k = 0; k < np; ++k) {
-        const nts_part* p = &parts[k];
-        const int gb = m->part_ids[p->master_body];
-        const int ge = (int)m->entry_global[p->entry];
-        sum_msg s;
-        if (!m->entry_owned[p->entry]) continue;
-        for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
-            share_msg* o;
-            if (m->node_owner[p->nodes[q]] == m->rank) continue;
-            o = &sh[fill[m->node_owner[p->nodes[q]]]++];
-            o->at = m->node_at[p->nodes[q]];
-            o->entry = ge;
-            o->body = gb;
-            o->dq = p->deep << 2 | q;
-            o->fx = p->force[q].x;
-            o->fy = p->force[q].y;
-        }
-        memset(&s, 0, sizeof s);
-        s.entry = ge;
-        s.body = gb;
-        s.s.e = p->energy;
-        s.s.xx = p->virial.xx;
-        s.s.yy = p->virial.yy;
-        s.s.xy = p->virial.xy;
-        s.s.yx = p->virial.yx;
-        s.s.dis = p->dissipation;
-        if (p->deep) deep_mine[n_deep++] = s;
-        else sm[n_sm++] = s;
-        cnt[0]++;                       /* contacts */
-        cnt[2] += p->deep;              /* deep */
-        cnt[3] += p->state == NTS_STICK;
-        cnt[4] += p->state == NTS_SLIP;
-        if (p->penetration > maxpen) maxpen = p->penetration;
-    }
-    /* the owned slaves' closest points within r, and their deep contacts */
-    cnt[1] = (m->part ? nts_context_owned_gaps(m->ctx) : 0) + cnt[2];
+    /* One pass over the parts: each owned contact's sums (the chunks', the
+     * deep ones'), the counts, the shares each other rank gets, the
+     * contacts with a share for another rank and the deep ones (listed), and
+     * each own node's source: the one rank whose contacts touch it (this
+     * one's here, the others' once their shares are in), or MIXED. */
+    sm = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_OUT], sizeof(sum_msg) * (size_t)(np + 1));
+    deep_mine = (sum_msg*)ntsm_scratch(&m->sc[SC_DEEP], sizeof(sum_msg) * (size_t)(np + 1));
     {
-        int nw, w;
-        const int* we;
-        we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_RADIUS, &nw) : NULL;
-        for (w = 0; we && w < nw; ++w) cnt[5] += m->entry_owned[we[w]];
-        we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_REACH, &nw) : NULL;
-        for (w = 0; we && w < nw; ++w) cnt[6] += m->entry_owned[we[w]];
-    }
-    MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
-    {
-        /* the whole's candidate budget (nts_evaluate's), not each part's */
-        long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * N + 1000000;
-        if (budget > INT_MAX) budget = INT_MAX; /* the count is nts_summary.gaps, an int */
-        if (tot[1] > budget) {
-            rc = ntsm_fail(err, NTS_ELIMIT, "");
-            snprintf(err->message, sizeof err->message,
-                     "more than max_candidates = %lld closest points within the search radius: the bodies overlap "
-                     "far more than contact does (or raise the limit)", budget);
-            snprintf(err->option, sizeof err->option, "max_candidates");
+        int* lists = (int*)ntsm_scratch(&m->sc[SC_DEEP_AT], sizeof(int) * (2u * (size_t)np + 1));
+        int* src = (int*)ntsm_scratch(&m->sc[SC_MIXED], sizeof(int) * ((size_t)m->own_nodes + 1));
+        int* remote_at = lists;                            /* owned contacts with a share for another rank */
+        int* deep_at = lists != NULL ? lists + np : NULL; /* owned deep contacts */
+        int n_remote = 0, n_deep_at = 0;
+        if (sm == NULL || deep_mine == NULL || lists == NULL || src == NULL) rc = NTS_ENOMEM;
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) !=
+            NTS_OK)
             goto done;
+        for (k = 0; k < m->own_nodes; ++k) src[k] = SRC_NONE;
+        for (k = 0; k < np; ++k) {
+            const nts_part* p = &parts[k];
+            sum_msg s;
+            int remote = 0;
+            if (!m->entry_owned[p->entry]) continue;
+            for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
+                const int owner = m->node_owner[p->nodes[q]];
+                if (owner != m->rank) {
+                    counts[owner]++;
+                    remote = 1;
+                } else {
+                    src_tag(src, m->node_at[p->nodes[q]], m->rank);
+                }
+            }
+            if (remote) remote_at[n_remote++] = k;
+            if (p->deep) deep_at[n_deep_at++] = k;
+            memset(&s, 0, sizeof s);
+            s.entry = (int)m->entry_global[p->entry];
+            s.body = m->part_ids[p->master_body];
+            s.s.e = p->energy;
+            s.s.xx = p->virial.xx;
+            s.s.yy = p->virial.yy;
+            s.s.xy = p->virial.xy;
+            s.s.yx = p->virial.yx;
+            s.s.dis = p->dissipation;
+            if (p->deep) deep_mine[n_deep++] = s;
+            else sm[n_sm++] = s;
+            cnt[0]++;                       /* contacts */
+            cnt[2] += p->deep;              /* deep */
+            cnt[3] += p->state == NTS_STICK;
+            cnt[4] += p->state == NTS_SLIP;
+            if (p->penetration > maxpen) maxpen = p->penetration;
         }
-    }
-    MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
-
-    /* Each node's forces at its owner, in one process's order: a node that
-     * only this rank's contacts touch takes them as they come (its parts run
-     * in key order: the chunks' contacts, then the deep ones); a node that
-     * others' touch too ("mixed") gets every contribution bucketed and its
-     * few ordered by key. */
-    rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN], &limit);
-    rc = rs != NULL ? NTS_OK : exchange_failed(err, limit);
-    if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
-        rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-    if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-    if (want_forces) {
-        int bad = 0, any_bad = 0, i, j, pass, n_local = 0, total;
-        unsigned char* mixed = (unsigned char*)ntsm_scratch(&m->sc[SC_MIXED], (size_t)m->own_nodes + 1);
-        share_msg* all;
-        int* start;
-        int* order;
-        rc = mixed != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        for (r = 0, n_sh = 0; r < P; ++r) {
+            fill[r] = n_sh;
+            n_sh += counts[r];
+        }
+        rc = (sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) != NULL
+                 ? NTS_OK
+                 : ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-        memset(mixed, 0, (size_t)m->own_nodes + 1);
-        memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
-        for (k = 0; k < got; ++k) mixed[rs[k].at] = 1;
-        /* this rank's contributions: the chunks' contacts, then the deep ones */
-        for (pass = 0; pass < 2; ++pass)
-            for (k = 0; k < np; ++k) {
-                const nts_part* p = &parts[k];
-                if (p->deep != pass || !m->entry_owned[p->entry]) continue;
-                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-                    const int at = m->node_at[p->nodes[q]];
-                    if (m->node_owner[p->nodes[q]] != m->rank) continue;
-                    if (mixed[at]) {
-                        ++n_local;
+        /* Each rank's shares in key order (the chunks' contacts, then the
+         * deep ones: the parts run in key order within each), so that a
+         * node only one other rank's contacts touch can take them as they
+         * come (below). */
+        for (k = 0; k < n_remote; ++k) emit_shares(m, parts, remote_at[k], 0, sh, fill);
+        for (k = 0; k < n_remote; ++k) emit_shares(m, parts, remote_at[k], 1, sh, fill);
+
+        /* the owned slaves' closest points within r, and their deep contacts */
+        cnt[1] = (m->part ? nts_context_owned_gaps(m->ctx) : 0) + cnt[2];
+        {
+            int nw, w;
+            const int* we;
+            we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_RADIUS, &nw) : NULL;
+            for (w = 0; we && w < nw; ++w) cnt[5] += m->entry_owned[we[w]];
+            we = m->part ? nts_context_warning_entries(m->ctx, NTS_WARN_PENETRATION_BEYOND_REACH, &nw) : NULL;
+            for (w = 0; we && w < nw; ++w) cnt[6] += m->entry_owned[we[w]];
+        }
+        MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
+        {
+            /* the whole's candidate budget (nts_evaluate's), not each part's */
+            long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * N + 1000000;
+            if (budget > INT_MAX) budget = INT_MAX; /* the count is nts_summary.gaps, an int */
+            if (tot[1] > budget) {
+                rc = ntsm_fail(err, NTS_ELIMIT, "");
+                snprintf(err->message, sizeof err->message,
+                         "more than max_candidates = %lld closest points within the search radius: the bodies "
+                         "overlap far more than contact does (or raise the limit)", budget);
+                snprintf(err->option, sizeof err->option, "max_candidates");
+                goto done;
+            }
+        }
+        MPI_Allreduce(&maxpen, &gmax, 1, MPI_DOUBLE, MPI_MAX, m->comm);
+
+        /* Each node's forces at its owner, in one process's order: a node
+         * that one rank's contacts alone touch takes them as they come (that
+         * rank's parts and shares run in key order); a node that several
+         * ranks' touch ("mixed") gets every contribution bucketed and its
+         * few ordered by key. */
+        rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN], &limit, from);
+        rc = rs != NULL ? NTS_OK : exchange_failed(err, limit);
+        if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
+            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+        if (want_forces) {
+            int bad = 0, any_bad = 0, n_mixed = 0, n_left = 0, total, at0;
+            int* left_at = remote_at; /* (done with) the contacts that leave some to the mixed nodes */
+            share_msg* all;
+            memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
+            for (r = 0, at0 = 0; r < P; at0 += from[r++])
+                for (k = at0; k < at0 + from[r]; ++k) src_tag(src, rs[k].at, r);
+            /* this rank's contributions: the chunks' contacts, then the deep ones */
+            for (k = 0; k < np + n_deep_at; ++k) {
+                const int c = k < np ? k : deep_at[k - np];
+                int left;
+                if (k < np && (parts[c].deep || !m->entry_owned[parts[c].entry])) continue;
+                if ((left = add_local(m, &parts[c], src)) > 0) {
+                    n_mixed += left;
+                    left_at[n_left++] = c;
+                }
+            }
+            /* the others', each rank's in its order */
+            for (r = 0, at0 = 0; r < P; at0 += from[r++])
+                for (k = at0; k < at0 + from[r]; ++k) {
+                    const int at = rs[k].at;
+                    if (src[at] != r) {
+                        ++n_mixed;
                         continue;
                     }
-                    m->forces[at].x = m->forces[at].x + p->force[q].x;
-                    m->forces[at].y = m->forces[at].y + p->force[q].y;
+                    m->forces[at].x = m->forces[at].x + rs[k].fx;
+                    m->forces[at].y = m->forces[at].y + rs[k].fy;
+                }
+            /* the mixed nodes' contributions (those near a slab's edge), by
+             * node and key */
+            total = n_mixed;
+            all = (share_msg*)ntsm_scratch(&m->sc[SC_MIXED_ALL], sizeof(share_msg) * ((size_t)total + 1));
+            rc = all != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+            if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
+            for (k = 0, n_mixed = 0; k < got && total > 0; ++k)
+                if (src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
+            for (k = 0; k < n_left; ++k) {
+                const nts_part* p = &parts[left_at[k]];
+                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+                    const int at = m->node_at[p->nodes[q]];
+                    share_msg* o;
+                    if (m->node_owner[p->nodes[q]] != m->rank || src[at] != SRC_MIXED) continue;
+                    o = &all[n_mixed++];
+                    o->at = at;
+                    o->entry = (int)m->entry_global[p->entry];
+                    o->body = m->part_ids[p->master_body];
+                    o->dq = p->deep << 2 | q;
+                    o->fx = p->force[q].x;
+                    o->fy = p->force[q].y;
                 }
             }
-        /* the mixed nodes' contributions, this rank's after the others' */
-        total = got + n_local;
-        all = (share_msg*)ntsm_scratch(&m->sc[SC_MIXED_ALL], sizeof(share_msg) * ((size_t)total + 1));
-        start = (int*)ntsm_scratch(&m->sc[SC_START], sizeof(int) * ((size_t)m->own_nodes + 2));
-        order = (int*)ntsm_scratch(&m->sc[SC_ORDER], sizeof(int) * ((size_t)total + 1));
-        rc = all != NULL && start != NULL && order != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
-        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-        memcpy(all, rs, sizeof(share_msg) * (size_t)got);
-        for (k = 0, n_local = got; k < np && total > got; ++k) {
-            const nts_part* p = &parts[k];
-            if (!m->entry_owned[p->entry]) continue;
-            for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-                const int at = m->node_at[p->nodes[q]];
-                share_msg* o;
-                if (m->node_owner[p->nodes[q]] != m->rank || !mixed[at]) continue;
-                o = &all[n_local++];
-                o->at = at;
-                o->entry = (int)m->entry_global[p->entry];
-                o->body = m->part_ids[p->master_body];
-                o->dq = p->deep << 2 | q;
-                o->fx = p->force[q].x;
-                o->fy = p->force[q].y;
-            }
-        }
-        memset(start, 0, sizeof(int) * ((size_t)m->own_nodes + 2));
-        for (k = 0; k < total; ++k) start[all[k].at + 1]++;
-        for (i = 0; i < m->own_nodes; ++i) start[i + 1] += start[i];
-        for (k = 0; k < total; ++k) order[start[all[k].at]++] = k;
-        for (i = m->own_nodes; i > 0; --i) start[i] = start[i - 1];
-        start[0] = 0;
-        for (i = 0; i < m->own_nodes; ++i) {
-            nts_vec2 f = {0.0, 0.0};
-            if (!mixed[i]) continue;
-            for (j = start[i] + 1; j < start[i + 1]; ++j) { /* insertion sort by key */
-                const int x = order[j];
-                int t = j;
-                while (t > start[i] && cmp_share(&all[order[t - 1]], &all[x]) > 0) {
-                    order[t] = order[t - 1];
-                    --t;
+            assert(n_mixed == total);
+            if (total > 1) qsort(all, (size_t)total, sizeof(share_msg), cmp_mixed); /* (the keys are distinct) */
+            for (k = 0; k < total;) {
+                const int at = all[k].at;
+                nts_vec2 f = {0.0, 0.0};
+                for (; k < total && all[k].at == at; ++k) {
+                    f.x = f.x + all[k].fx;
+                    f.y = f.y + all[k].fy;
                 }
-                order[t] = x;
+                m->forces[at] = f;
             }
-            for (j = start[i]; j < start[i + 1]; ++j) {
-                f.x = f.x + all[order[j]].fx;
-                f.y = f.y + all[order[j]].fy;
+            for (k = 0; k < m->own_nodes; ++k) bad |= !isfinite(m->forces[k].x) || !isfinite(m->forces[k].y);
+            MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, m->comm);
+            if (any_bad) {
+                rc = ntsm_fail(err, NTS_ENONFINITE, "the result overflows a double (penalty or coordinates too large)");
+                snprintf(err->option, sizeof err->option, "penalty");
+                goto done;
             }
-            m->forces[i] = f;
-        }
-        for (k = 0; k < m->own_nodes; ++k) bad |= !isfinite(m->forces[k].x) || !isfinite(m->forces[k].y);
-        MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, m->comm);
-        if (any_bad) {
-            rc = ntsm_fail(err, NTS_ENONFINITE, "the result overflows a double (penalty or coordinates too large)");
-            snprintf(err->option, sizeof err->option, "penalty");
-            goto done;
         }
     }
 
@@ -341,7 +398,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         memset(mine_in, 0, sizeof(int) * ((size_t)nchunk + 1));
         for (k = 0; k < n_sm; ++k) mine_in[sm[k].entry / NTS_PART_CHUNK] = 1;
         MPI_Allreduce(mine_in, ranks_in, nchunk, MPI_INT, MPI_SUM, m->comm);
-        ch = (chunk_msg*)calloc((size_t)n_sm + 1, sizeof(chunk_msg));
+        /* at most every chunk summed here, and every shared one received */
+        ch = (chunk_msg*)ntsm_scratch(&m->sc[SC_CHUNK_SUMS], sizeof(chunk_msg) * (2u * (size_t)nchunk + 2));
         rc = ch != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
             free(at);
@@ -368,14 +426,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         }
         free(at);
         (void)n_shared;
-        rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN], &limit);
+        rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN], &limit, NULL);
         rc = rsum != NULL ? NTS_OK : exchange_failed(err, limit);
         if (rc == NTS_OK && got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-        if (rc == NTS_OK && got + nc > n_sm) { /* room for the shared chunks' sums too */
-            chunk_msg* more = (chunk_msg*)realloc(ch, sizeof(chunk_msg) * ((size_t)(got + nc) + 1));
-            if (more == NULL) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-            else ch = more;
-        }
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
         {
             int last = -1;
@@ -389,6 +442,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 sums6_add(&ch[nc - 1].s, &rsum[k].s);
             }
         }
+        assert(nc <= 2 * nchunk + 2);
         n_chunks_mine = nc;
     }
     {
@@ -478,7 +532,6 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     }
 done:
     free(counts);
-    free(ch);
     free(all_ch);
     free(all_deep);
     return rc;
