@@ -64,16 +64,104 @@ static int part_history(ntsm_scene* m, nts_error* err) {
 /* Whether every rank was given the same options and skin (what decides the
  * evaluation's path; the threads may differ: the answer does not). */
 static int same_everywhere(ntsm_scene* m, const nts_options* opt) {
-    const double v[12] = {opt->alpha, opt->penalty, opt->search_radius, (double)opt->solver, (double)opt->outputs,
+    const double v[13] = {opt->alpha, opt->penalty, opt->search_radius, (double)opt->solver, (double)opt->outputs,
                           (double)opt->search, (double)opt->penalty_scaling, (double)opt->max_candidates,
-                          opt->surface_extension, opt->friction, opt->tangential_penalty, m->skin};
-    double lo[12], hi[12];
+                          opt->surface_extension, opt->friction, opt->tangential_penalty, m->skin,
+                          (double)(m->weights != NULL)};
+    double lo[13], hi[13];
     int k;
-    MPI_Allreduce(v, lo, 12, MPI_DOUBLE, MPI_MIN, m->comm);
-    MPI_Allreduce(v, hi, 12, MPI_DOUBLE, MPI_MAX, m->comm);
-    for (k = 0; k < 12; ++k)
+    MPI_Allreduce(v, lo, 13, MPI_DOUBLE, MPI_MIN, m->comm);
+    MPI_Allreduce(v, hi, 13, MPI_DOUBLE, MPI_MAX, m->comm);
+    for (k = 0; k < 13; ++k)
         if (lo[k] != hi[k]) return 0;
     return 1;
+}
+
+/* The host's weights (ntsm_scene_set_weights): positive, finite and the
+ * same on every rank; the shares they give (NULL when all are equal: the
+ * equal cuts). Collective. */
+static int weights_shares(ntsm_scene* m) {
+    double* lo = (double*)malloc(sizeof(double) * 2u * (size_t)m->size);
+    double sum = 0.0;
+    int r, fine = lo != NULL, all, equal = 1;
+    for (r = 0; fine && r < m->size; ++r) fine = m->weights[r] > 0.0 && isfinite(m->weights[r]);
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    if (!all) {
+        free(lo);
+        return NTS_EINVALID_OPTION;
+    }
+    MPI_Allreduce(m->weights, lo, m->size, MPI_DOUBLE, MPI_MIN, m->comm);
+    MPI_Allreduce(m->weights, lo + m->size, m->size, MPI_DOUBLE, MPI_MAX, m->comm);
+    for (r = 0; r < m->size; ++r) {
+        if (lo[r] != lo[m->size + r]) fine = 0;
+        if (m->weights[r] != m->weights[0]) equal = 0;
+        sum += m->weights[r];
+    }
+    free(lo);
+    if (!fine) return NTS_EINVALID_OPTION; /* (the same verdict everywhere: the same reductions) */
+    if (!equal && m->share == NULL) {
+        if ((m->share = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) fine = 0;
+        for (r = 0; fine && r < m->size; ++r) m->share[r] = m->weights[r] / sum;
+    }
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    return all ? NTS_OK : NTS_ENOMEM;
+}
+
+/* Balanced by measured time (no host weights): each rank's part took
+ * `seconds` for `owned` slaves; when the slowest took over 15% more than
+ * the mean three evaluations in a row, the next evaluation cuts the slabs
+ * in proportion to the ranks' speeds (smoothed). The same gathered numbers
+ * on every rank: the same decision and shares. Collective. */
+static void balance(ntsm_scene* m, double seconds, long long owned) {
+    const int P = m->size;
+    double mine[2], *all, mean = 0.0, worst = 0.0, sum = 0.0;
+    int r, fine;
+    mine[0] = seconds;
+    mine[1] = (double)owned;
+    all = (double*)malloc(sizeof(double) * 2u * (size_t)P);
+    if (m->speed == NULL) m->speed = (double*)calloc((size_t)P, sizeof(double));
+    fine = all != NULL && m->speed != NULL;
+    {
+        int every;
+        MPI_Allreduce(&fine, &every, 1, MPI_INT, MPI_MIN, m->comm);
+        if (!every) { /* (no memory: no balancing this time) */
+            free(all);
+            return;
+        }
+    }
+    MPI_Allgather(mine, 2, MPI_DOUBLE, all, 2, MPI_DOUBLE, m->comm);
+    for (r = 0; r < P; ++r) {
+        const double t = all[2 * r] > 1e-6 ? all[2 * r] : 1e-6, v = all[2 * r + 1] / t;
+        m->speed[r] = m->speed[r] > 0.0 ? 0.7 * m->speed[r] + 0.3 * v : v;
+        mean += all[2 * r] / P;
+        if (all[2 * r] > worst) worst = all[2 * r];
+    }
+    /* (a part of a few milliseconds is all noise) */
+    if (P > 1 && worst > 0.005 && worst > 1.15 * mean) m->uneven_steps++;
+    else m->uneven_steps = 0;
+    if (m->uneven_steps >= 3) {
+        if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
+        fine = m->share != NULL;
+        for (r = 0; fine && r < P; ++r) sum += m->speed[r] > 0.0 ? m->speed[r] : 0.0;
+        fine = fine && sum > 0.0;
+        for (r = 0; fine && r < P; ++r) { /* within a quarter and four times an equal share */
+            double sh = (m->speed[r] > 0.0 ? m->speed[r] : 0.0) / sum;
+            if (sh < 0.25 / P) sh = 0.25 / P;
+            if (sh > 4.0 / P) sh = 4.0 / P;
+            m->share[r] = sh;
+        }
+        if (fine) {
+            double total = 0.0;
+            for (r = 0; r < P; ++r) total += m->share[r];
+            for (r = 0; r < P; ++r) m->share[r] /= total;
+            m->rebuild_next = 1;
+        } else {
+            free(m->share);
+            m->share = NULL;
+        }
+        m->uneven_steps = 0;
+    }
+    free(all);
 }
 
 int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_error* err) {
@@ -96,7 +184,15 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     else rc = nts_options_validate(opt, &e);
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
     if (!same_everywhere(m, opt)) { /* else the ranks would take different paths and wait for each other */
-        rc = ntsm_fail(&e, NTS_EINVALID_OPTION, "the ranks' options (or skins) differ: give every rank the same");
+        rc = ntsm_fail(&e, NTS_EINVALID_OPTION,
+                       "the ranks' options (or skins, or weights) differ: give every rank the same");
+        goto out;
+    }
+    if (m->weights != NULL && (rc = weights_shares(m)) != NTS_OK) {
+        rc = rc == NTS_ENOMEM ? ntsm_fail(&e, NTS_ENOMEM, "out of memory")
+                              : ntsm_fail(&e, NTS_EINVALID_OPTION,
+                                          "the ranks' weights (ntsm_scene_set_weights) must be positive, finite and "
+                                          "the same on every rank");
         goto out;
     }
     m->outputs = opt->outputs;
@@ -188,11 +284,10 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     {
         /* an uneven load (some slab owning a quarter more than its share):
          * the next evaluation cuts the slabs anew */
-        long long mine2[2], all2[2];
-        mine2[0] = m->stats.owned_slaves;
-        mine2[1] = -mine2[0];
-        MPI_Allreduce(mine2, all2, 2, MPI_LONG_LONG, MPI_MAX, m->comm);
-        if ((double)all2[0] > 1.25 * (double)m->entry_off[m->bodies] / m->size + NTS_PART_CHUNK) m->rebuild_next = 1;
+        const double share = m->share != NULL ? m->share[m->rank] : 1.0 / m->size;
+        int over = (double)m->stats.owned_slaves > 1.25 * share * (double)m->entry_off[m->bodies] + NTS_PART_CHUNK, any;
+        MPI_Allreduce(&over, &any, 1, MPI_INT, MPI_MAX, m->comm);
+        if (any) m->rebuild_next = 1;
     }
     t1 = now();
     m->stats.seconds[1] = t1 - t0;
@@ -211,7 +306,9 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     nts_context_set_owned(m->ctx, m->owned_mask);
     if (m->part != NULL && (rc = nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e)) != NTS_OK)
         ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+    t1 = now(); /* this rank's own time, before waiting for the others */
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    if (m->weights == NULL) balance(m, t1 - t0, m->stats.owned_slaves);
     t1 = now();
     m->stats.seconds[2] = t1 - t0;
     t0 = t1;

@@ -107,6 +107,14 @@ struct ntsm_scene {
      * moved more than the skin allows, or the load is uneven. */
     int built, rebuild_next;
     double skin;          /* negative: 0.3 times the search radius */
+    /* The slabs' shares of the surface nodes (slabs.c): the host's fixed
+     * weights (NULL: balanced by measured time), the shares the slabs are
+     * cut at (NULL: equal), each rank's measured speed (owned slaves a
+     * second, smoothed) and how many evaluations in a row were uneven. */
+    double* weights;
+    double* share;
+    double* speed;
+    int uneven_steps;
     double halo_b, ext_b;
     double* cut_b;
     int axis_b;

@@ -67,6 +67,9 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->entry_off);
     free(m->owner_node_at);
     free(m->cut_b);
+    free(m->weights);
+    free(m->share);
+    free(m->speed);
     free(m->to);
     free(m->build_pos);
     free(m->arrival_nodes);
@@ -297,6 +300,19 @@ int ntsm_scene_set_history(ntsm_scene* m, const nts_anchor* anchors, int count) 
 void ntsm_scene_set_skin(ntsm_scene* m, double skin) {
     m->skin = skin;
     m->built = 0;
+}
+
+int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {
+    int r;
+    free(m->weights);
+    m->weights = NULL;
+    free(m->share);
+    m->share = NULL;
+    m->built = 0; /* the next evaluation cuts the slabs anew */
+    if (weights == NULL) return NTS_OK;
+    if ((m->weights = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) return NTS_ENOMEM;
+    for (r = 0; r < m->size; ++r) m->weights[r] = weights[r];
+    return NTS_OK;
 }
 
 void ntsm_scene_set_frame(ntsm_scene* m, const nts_frame* frame) {

@@ -1,5 +1,7 @@
 /* The decomposition (docs/distributed.md): cuts along the longer axis at
- * the quantiles of the surface nodes, the same on every rank. */
+ * the quantiles of the surface nodes (equal shares, or the shares of
+ * ntsm_scene_set_weights or of the measured speeds), the same on every
+ * rank. */
 #include <limits.h>
 #include <math.h>
 #include <stdint.h>
@@ -80,7 +82,13 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
     sl->cut[0] = -HUGE_VAL;
     sl->cut[m->size] = HUGE_VAL;
     for (r = 1, b = 0; r < m->size; ++r) {
-        const long long target = total * r / m->size;
+        long long target = total * r / m->size;
+        if (m->share != NULL) { /* uneven shares (ntsm_scene_set_weights): the same doubles on every rank */
+            double cum = 0.0;
+            int i;
+            for (i = 0; i < r; ++i) cum += m->share[i];
+            target = (long long)((double)total * cum);
+        }
         while (b < BINS && acc + h[BINS + b] < target) acc += h[BINS + b++];
         /* the slab boundary at the end of bin b (the bins' edges, exactly the
          * same on every rank) */

@@ -170,6 +170,12 @@ static void run_case(int count, int periodic, const char* name) {
         }
     m = ntsm_scene_create(MPI_COMM_WORLD, owned, ids, count_mine, d.lx, d.ly, nts_default_limits(), &err);
     CHECK(m != NULL, "%s: distributed scene: %s", name, err.message);
+    if (m != NULL) { /* equal shares, never moved by measured times: the counts of kept steps below hold */
+        double* equal = (double*)malloc(sizeof(double) * (size_t)size_);
+        for (k = 0; k < size_; ++k) equal[k] = 1.0;
+        CHECK(ntsm_scene_set_weights(m, equal) == NTS_OK, "%s: equal weights", name);
+        free(equal);
+    }
     if (whole != NULL && m != NULL) {
         int kept = 0, made = 0;
         snprintf(what, sizeof what, "%s, at rest", name);
@@ -221,6 +227,39 @@ static void run_case(int count, int periodic, const char* name) {
             ntsm_result r;
             opt.penalty = rank_ == 0 ? 1.0 : 2.0;
             CHECK(ntsm_evaluate(m, &opt, &r, &err) == NTS_EINVALID_OPTION, "%s: differing options accepted", name);
+        }
+        if (size_ > 1) {
+            /* uneven weights (the host's: rank 0 three times as fast): the
+             * slabs are cut anew at those shares, and the answer is the same
+             * bits; weights that differ between ranks, or are not positive,
+             * are refused on every rank */
+            double* w = (double*)malloc(sizeof(double) * (size_t)size_);
+            long long* owned_all = (long long*)malloc(sizeof(long long) * (size_t)size_);
+            long long mine_owned;
+            nts_options opt = nts_default_options();
+            ntsm_result r;
+            for (k = 0; k < size_; ++k) w[k] = k == 0 ? 3.0 : 1.0;
+            CHECK(ntsm_scene_set_weights(m, w) == NTS_OK, "%s: weights", name);
+            snprintf(what, sizeof what, "%s, weights 3:1", name);
+            CHECK(compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL) == 1,
+                  "%s: new weights did not cut the slabs anew", name);
+            CHECK(ntsm_evaluate(m, &opt, &r, &err) == 0, "%s: weights: %s", name, err.message);
+            mine_owned = r.stats.owned_slaves;
+            MPI_Allgather(&mine_owned, 1, MPI_LONG_LONG, owned_all, 1, MPI_LONG_LONG, MPI_COMM_WORLD);
+            if (count > 100)
+                CHECK(owned_all[0] > 2 * owned_all[1], "%s: weights 3:1 gave rank 0 %lld slaves and rank 1 %lld", name,
+                      owned_all[0], owned_all[1]);
+            w[size_ - 1] = rank_ == 0 ? 1.0 : 2.0; /* differs between ranks (when there are two or more) */
+            CHECK(ntsm_scene_set_weights(m, w) == NTS_OK, "%s: weights", name);
+            CHECK(ntsm_evaluate(m, &opt, &r, &err) == NTS_EINVALID_OPTION, "%s: differing weights accepted", name);
+            w[size_ - 1] = 0.0;
+            CHECK(ntsm_scene_set_weights(m, w) == NTS_OK, "%s: weights", name);
+            CHECK(ntsm_evaluate(m, &opt, &r, &err) == NTS_EINVALID_OPTION, "%s: a zero weight accepted", name);
+            CHECK(ntsm_scene_set_weights(m, NULL) == NTS_OK, "%s: weights", name); /* by measured time again */
+            snprintf(what, sizeof what, "%s, weights by time", name);
+            compare(&d, m, whole, ids, count_mine, what, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+            free(w);
+            free(owned_all);
         }
         for (step = 1; step <= 2; ++step) {
             /* every body moves a third of the scene along x and turns a

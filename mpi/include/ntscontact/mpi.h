@@ -75,6 +75,18 @@ NTS_API void ntsm_scene_set_frame(ntsm_scene* scene, const nts_frame* frame);
  * whatever the skin. Call it on every rank with the same value. */
 NTS_API void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
 
+/** How many of the surface nodes each rank's slab takes (docs/distributed.md).
+ * NULL (the default): equal shares at first, then balanced by measured time:
+ * when some rank's part took over 15% longer than the ranks' mean three
+ * evaluations in a row, the slabs are cut anew in proportion to each rank's
+ * measured speed (a core shared with other work, unequal machines). Else
+ * `weights` (one for each rank of the communicator, positive and finite):
+ * each rank's relative speed, fixed (all equal: equal shares, never moved).
+ * Call it on every rank with the same values (an evaluation checks:
+ * NTS_EINVALID_OPTION); the next evaluation cuts the slabs anew. The answer
+ * is the same bits whatever the weights. NTS_OK or NTS_ENOMEM. */
+NTS_API int ntsm_scene_set_weights(ntsm_scene* scene, const double* weights);
+
 /** Friction's committed anchors (docs/model.md §14) the next evaluations
  * start from, with global body indices (a previous evaluation's, from
  * ntsm_gather: nts_result.anchors), the same on every rank; copied. NULL or
