@@ -77,13 +77,27 @@ static int same_everywhere(ntsm_scene* m, const nts_options* opt) {
     return 1;
 }
 
+/* The shares' buffer, on every rank or on none (agreed). Collective. */
+static int share_buffer(ntsm_scene* m) {
+    int fine, all;
+    if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)m->size);
+    fine = m->share != NULL;
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    return all;
+}
+
 /* The host's weights (ntsm_scene_set_weights): positive, finite and the
- * same on every rank; the shares they give (NULL when all are equal: the
- * equal cuts). Collective. */
+ * same on every rank; the shares they give (equal ones when all are equal:
+ * the equal cuts). Collective: the same verdict on every rank. */
 static int weights_shares(ntsm_scene* m) {
     double* lo = (double*)malloc(sizeof(double) * 2u * (size_t)m->size);
     double sum = 0.0;
     int r, fine = lo != NULL, all, equal = 1;
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
+    if (!all || !share_buffer(m)) {
+        free(lo);
+        return NTS_ENOMEM;
+    }
     for (r = 0; fine && r < m->size; ++r) fine = m->weights[r] > 0.0 && isfinite(m->weights[r]);
     MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
     if (!all) {
@@ -99,12 +113,9 @@ static int weights_shares(ntsm_scene* m) {
     }
     free(lo);
     if (!fine) return NTS_EINVALID_OPTION; /* (the same verdict everywhere: the same reductions) */
-    if (!equal && m->share == NULL) {
-        if ((m->share = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) fine = 0;
-        for (r = 0; fine && r < m->size; ++r) m->share[r] = m->weights[r] / sum;
-    }
-    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm);
-    return all ? NTS_OK : NTS_ENOMEM;
+    for (r = 0; r < m->size; ++r) m->share[r] = m->weights[r] / sum;
+    m->share_on = !equal;
+    return NTS_OK;
 }
 
 /* Balanced by measured time (no host weights): each rank's part took
@@ -115,19 +126,17 @@ static int weights_shares(ntsm_scene* m) {
 static void balance(ntsm_scene* m, double seconds, long long owned) {
     const int P = m->size;
     double mine[2], *all, mean = 0.0, worst = 0.0, sum = 0.0;
-    int r, fine;
+    int r, fine, every;
     mine[0] = seconds;
     mine[1] = (double)owned;
     all = (double*)malloc(sizeof(double) * 2u * (size_t)P);
     if (m->speed == NULL) m->speed = (double*)calloc((size_t)P, sizeof(double));
-    fine = all != NULL && m->speed != NULL;
-    {
-        int every;
-        MPI_Allreduce(&fine, &every, 1, MPI_INT, MPI_MIN, m->comm);
-        if (!every) { /* (no memory: no balancing this time) */
-            free(all);
-            return;
-        }
+    if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
+    fine = all != NULL && m->speed != NULL && m->share != NULL;
+    MPI_Allreduce(&fine, &every, 1, MPI_INT, MPI_MIN, m->comm);
+    if (!every) { /* (no memory on some rank: no balancing this time, anywhere) */
+        free(all);
+        return;
     }
     MPI_Allgather(mine, 2, MPI_DOUBLE, all, 2, MPI_DOUBLE, m->comm);
     for (r = 0; r < P; ++r) {
@@ -140,24 +149,19 @@ static void balance(ntsm_scene* m, double seconds, long long owned) {
     if (P > 1 && worst > 0.005 && worst > 1.15 * mean) m->uneven_steps++;
     else m->uneven_steps = 0;
     if (m->uneven_steps >= 3) {
-        if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
-        fine = m->share != NULL;
-        for (r = 0; fine && r < P; ++r) sum += m->speed[r] > 0.0 ? m->speed[r] : 0.0;
-        fine = fine && sum > 0.0;
-        for (r = 0; fine && r < P; ++r) { /* within a quarter and four times an equal share */
-            double sh = (m->speed[r] > 0.0 ? m->speed[r] : 0.0) / sum;
-            if (sh < 0.25 / P) sh = 0.25 / P;
-            if (sh > 4.0 / P) sh = 4.0 / P;
-            m->share[r] = sh;
-        }
-        if (fine) {
+        for (r = 0; r < P; ++r) sum += m->speed[r] > 0.0 ? m->speed[r] : 0.0;
+        if (sum > 0.0) {
             double total = 0.0;
-            for (r = 0; r < P; ++r) total += m->share[r];
+            for (r = 0; r < P; ++r) { /* within a quarter and four times an equal share */
+                double sh = (m->speed[r] > 0.0 ? m->speed[r] : 0.0) / sum;
+                if (sh < 0.25 / P) sh = 0.25 / P;
+                if (sh > 4.0 / P) sh = 4.0 / P;
+                m->share[r] = sh;
+                total += sh;
+            }
             for (r = 0; r < P; ++r) m->share[r] /= total;
+            m->share_on = 1;
             m->rebuild_next = 1;
-        } else {
-            free(m->share);
-            m->share = NULL;
         }
         m->uneven_steps = 0;
     }
@@ -169,7 +173,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     nts_frame f;
     slabs sl;
     nts_options po;
-    double t0 = now(), t1, halo, r;
+    double t0 = now(), t1, t_part, halo, r;
     int rc = NTS_OK;
     memset(&sl, 0, sizeof sl);
     memset(out, 0, sizeof *out);
@@ -284,7 +288,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     {
         /* an uneven load (some slab owning a quarter more than its share):
          * the next evaluation cuts the slabs anew */
-        const double share = m->share != NULL ? m->share[m->rank] : 1.0 / m->size;
+        const double share = m->share_on ? m->share[m->rank] : 1.0 / m->size;
         int over = (double)m->stats.owned_slaves > 1.25 * share * (double)m->entry_off[m->bodies] + NTS_PART_CHUNK, any;
         MPI_Allreduce(&over, &any, 1, MPI_INT, MPI_MAX, m->comm);
         if (any) m->rebuild_next = 1;
@@ -304,11 +308,12 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     nts_context_set_frame(m->ctx, &f);
     nts_context_set_parts(m->ctx, 1);
     nts_context_set_owned(m->ctx, m->owned_mask);
+    t_part = now();
     if (m->part != NULL && (rc = nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e)) != NTS_OK)
         ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
-    t1 = now(); /* this rank's own time, before waiting for the others */
+    t_part = now() - t_part; /* this rank's own time, before waiting for the others */
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
-    if (m->weights == NULL) balance(m, t1 - t0, m->stats.owned_slaves);
+    if (m->weights == NULL) balance(m, t_part, m->stats.owned_slaves);
     t1 = now();
     m->stats.seconds[2] = t1 - t0;
     t0 = t1;

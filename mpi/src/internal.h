@@ -112,7 +112,8 @@ struct ntsm_scene {
      * cut at (NULL: equal), each rank's measured speed (owned slaves a
      * second, smoothed) and how many evaluations in a row were uneven. */
     double* weights;
-    double* share;
+    double* share; /* (size doubles, kept; used when share_on) */
+    int share_on;
     double* speed;
     int uneven_steps;
     double halo_b, ext_b;

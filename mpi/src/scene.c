@@ -306,9 +306,8 @@ int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {
     int r;
     free(m->weights);
     m->weights = NULL;
-    free(m->share);
-    m->share = NULL;
-    m->built = 0; /* the next evaluation cuts the slabs anew */
+    m->share_on = 0; /* equal shares until the next evaluation says otherwise */
+    m->built = 0;    /* the next evaluation cuts the slabs anew */
     if (weights == NULL) return NTS_OK;
     if ((m->weights = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) return NTS_ENOMEM;
     for (r = 0; r < m->size; ++r) m->weights[r] = weights[r];

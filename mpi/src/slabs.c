@@ -83,7 +83,7 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
     sl->cut[m->size] = HUGE_VAL;
     for (r = 1, b = 0; r < m->size; ++r) {
         long long target = total * r / m->size;
-        if (m->share != NULL) { /* uneven shares (ntsm_scene_set_weights): the same doubles on every rank */
+        if (m->share_on) { /* uneven shares (ntsm_scene_set_weights): the same doubles on every rank */
             double cum = 0.0;
             int i;
             for (i = 0; i < r; ++i) cum += m->share[i];
