@@ -137,6 +137,18 @@ static void src_tag(int* src, int at, int rank) {
     src[at] = src[at] == SRC_NONE || src[at] == rank ? rank : SRC_MIXED;
 }
 
+/* Contact p's share of its node q, with its key, for the node's owner. */
+static share_msg share_of(const ntsm_scene* m, const nts_part* p, int q) {
+    share_msg o;
+    o.at = m->node_at[p->nodes[q]];
+    o.entry = (int)m->entry_global[p->entry];
+    o.body = m->part_ids[p->master_body];
+    o.dq = p->deep << 2 | q;
+    o.fx = p->force[q].x;
+    o.fy = p->force[q].y;
+    return o;
+}
+
 /* Contact k's shares for other ranks' nodes when its deep flag is `deep`,
  * each at its owner's place in sh (fill). */
 static void emit_shares(const ntsm_scene* m, const nts_part* parts, int k, int deep, share_msg* sh, int* fill) {
@@ -145,15 +157,7 @@ static void emit_shares(const ntsm_scene* m, const nts_part* parts, int k, int d
     if (p->deep != deep) return;
     for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
         const int owner = m->node_owner[p->nodes[q]];
-        share_msg* o;
-        if (owner == m->rank) continue;
-        o = &sh[fill[owner]++];
-        o->at = m->node_at[p->nodes[q]];
-        o->entry = (int)m->entry_global[p->entry];
-        o->body = m->part_ids[p->master_body];
-        o->dq = p->deep << 2 | q;
-        o->fx = p->force[q].x;
-        o->fy = p->force[q].y;
+        if (owner != m->rank) sh[fill[owner]++] = share_of(m, p, q);
     }
 }
 
@@ -346,18 +350,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 if (src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
             for (k = 0; k < n_left; ++k) {
                 const nts_part* p = &parts[left_at[k]];
-                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-                    const int at = m->node_at[p->nodes[q]];
-                    share_msg* o;
-                    if (m->node_owner[p->nodes[q]] != m->rank || src[at] != SRC_MIXED) continue;
-                    o = &all[n_mixed++];
-                    o->at = at;
-                    o->entry = (int)m->entry_global[p->entry];
-                    o->body = m->part_ids[p->master_body];
-                    o->dq = p->deep << 2 | q;
-                    o->fx = p->force[q].x;
-                    o->fy = p->force[q].y;
-                }
+                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q)
+                    if (m->node_owner[p->nodes[q]] == m->rank && src[m->node_at[p->nodes[q]]] == SRC_MIXED)
+                        all[n_mixed++] = share_of(m, p, q);
             }
             assert(n_mixed == total);
             if (total > 1) qsort(all, (size_t)total, sizeof(share_msg), cmp_mixed); /* (the keys are distinct) */
