@@ -242,3 +242,52 @@ def test_kept_candidates_options_reach_the_session(client, paths):
     with pytest.raises(InvalidScene) as e:
         client.session(scene, skin=-1.0)
     assert e.value.pointer == "/session/skin"
+
+
+def test_steps_skip_requests_machinery_and_fall_back_to_it(daemon, paths):
+    """A step goes to requests' own connection pool directly (requests' per-call
+    merging and hooks cost a millisecond a step, docs/benchmarks.md): with the
+    default client no call reaches ``requests.Session.request``. A client whose
+    requests session needs that machinery (a hook, proxies, auth, cookies, its
+    own adapter) goes through requests. Both give the full call's answer, bit
+    for bit, binary and JSON, with query options and the client's headers."""
+    scene = load(paths, "jittered_packing")
+    x = positions_of(scene) + 1e-4
+
+    def steps(c):
+        with c.session(scene) as s:
+            binary = s.contact(x, outputs=["forces", "energy"], alpha=0.1)
+            as_json = s.contact(x, outputs=["forces", "contacts"], alpha=0.1)
+            assert binary.raw == {} and as_json.raw != {}
+            return binary, as_json
+
+    with Client(daemon.base, timeout=60) as ref:
+        full = ref.contact(dict(with_positions(scene, x), options={**scene.get("options", {}), "alpha": 0.1}),
+                           outputs=["forces", "contacts"])
+    with Client(daemon.base, timeout=60) as direct:
+        def refuse(*a, **k):
+            raise AssertionError("a step went through requests.Session.request")
+        direct.http.request = refuse  # (instance attribute: only this client's)
+        got = steps(direct)
+    seen = []
+    with Client(daemon.base, timeout=60) as hooked:
+        hooked.http.hooks["response"].append(lambda r, *a, **k: seen.append(r.request.headers["User-Agent"]))
+        got_hooked = steps(hooked)
+    assert len(seen) == 4 and all(ua.startswith("ntscontact-python/") for ua in seen)  # create, 2 steps, delete
+    for b, j in (got, got_hooked):
+        assert np.array_equal(b.force_array(), full.force_array())
+        assert np.array_equal(j.force_array(), full.force_array()) and j.contacts == full.contacts
+        assert b.summary.energy == full.summary.energy
+
+
+def test_a_step_to_a_daemon_gone_is_service_unavailable(daemon_factory, paths):
+    """The direct path says a refused connection as requests' did: unreachable,
+    no status; a session whose daemon is gone does not hang."""
+    d = daemon_factory()
+    with Client(d.base, timeout=10, retries=1, backoff=0.0) as c:
+        s = c.session(load(paths, "two_disks"))
+        s.contact()
+        d.stop()
+        with pytest.raises(ntscontact.ServiceUnavailable) as ei:
+            s.contact()
+        assert ei.value.status is None and ei.value.code == "unreachable"

@@ -20,17 +20,17 @@ from __future__ import annotations
 
 import json
 import warnings as _warnings
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
-import requests
-import urllib3
 
-from .errors import (InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response,
-                     tls_error)
+from .errors import InvalidScene, NtsError, ServerError, error_from_response
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
 from .scene import BodyId, Scene, normalize_outputs
+
+if TYPE_CHECKING:
+    from .client import Answer
 
 __all__ = ["Session", "PositionsLike"]
 
@@ -229,7 +229,8 @@ class Session:
         # This step's own copy: the caller may move its array on, and another
         # thread's step may replace the stored positions meanwhile.
         stored = pos.astype(np.float64, copy=True) if pos is not None else self._positions
-        doc, headers, content = self._post_step(pos, params, binary, timeout)
+        # (the step sends the stored copy: the same numbers, one copy fewer)
+        doc, headers, content = self._post_step(stored if pos is not None else None, params, binary, timeout)
         if pos is not None:
             self._positions = stored
         self.steps += 1
@@ -253,7 +254,8 @@ class Session:
             # After a re-creation the new session holds the scene's first
             # positions: send ours explicitly.
             send = pos if pos is not None else (self._positions if attempt else None)
-            data = send.tobytes() if send is not None else b""
+            # (sent from the array's own memory: no copy of 16 N bytes)
+            data = memoryview(send).cast("B") if send is not None else b""
             try:
                 doc, resp = self._request("POST", f"/v1/scenes/{self.id}/contact", data=data, headers=headers,
                                           params=params, timeout=timeout, expect_json=not binary)
@@ -328,33 +330,12 @@ class Session:
 
     # ------------------------------------------------------------ HTTP
 
-    def _request(self, method: str, path: str, *, data: Optional[bytes] = None,
+    def _request(self, method: str, path: str, *, data: Optional[Union[bytes, memoryview]] = None,
                  headers: Optional[Dict[str, str]] = None, params: Optional[Dict[str, str]] = None,
-                 timeout: Optional[Any] = None, expect_json: bool = True) -> Tuple[Dict[str, Any],
-                                                                                    requests.Response]:
+                 timeout: Optional[Any] = None, expect_json: bool = True) -> Tuple[Dict[str, Any], Answer]:
         c = self.client
-        url = c.base_url + path
         t = timeout if timeout is not None else (self.timeout if self.timeout is not None else c.timeout)
-        try:
-            # A binary answer (1 MB at 66k nodes) is read whole, in one read of
-            # its Content-Length: requests would read it in 10 kB chunks and join
-            # them (a third of the client's own time per step).
-            resp = c.http.request(method, url, data=data, headers=headers, params=params, timeout=t,
-                                  stream=not expect_json)
-            if not expect_json:
-                resp._content = resp.raw.read(decode_content=True)  # what resp.content would have joined
-                resp._content_consumed = True
-                resp.raw.release_conn()                             # the connection back to the pool
-        except (requests.Timeout, urllib3.exceptions.TimeoutError) as exc:
-            raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
-        except urllib3.exceptions.HTTPError as exc:  # the whole-body read of a binary answer
-            raise ServiceUnavailable(f"{method} {url}: the answer was cut ({exc})", code="unreachable") from exc
-        except requests.exceptions.SSLError as exc:  # a ConnectionError too: said as what it is
-            raise tls_error(method, url, exc) from exc
-        except requests.ConnectionError as exc:
-            raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
-        except requests.RequestException as exc:
-            raise NtsError(f"{method} {url}: {exc}", code="request_failed") from exc
+        resp = c._send(method, path, body=data, headers=headers, params=params, timeout=t)
         if resp.status_code >= 400:
             try:
                 doc = resp.json()
@@ -368,6 +349,6 @@ class Session:
         except ValueError:
             doc = None
         if not isinstance(doc, dict):
-            raise ServerError(f"{method} {url}: the answer is not a JSON object: {resp.text[:200]!r}",
+            raise ServerError(f"{method} {c.base_url + path}: the answer is not a JSON object: {resp.text[:200]!r}",
                               code="bad_response", status=resp.status_code)
         return doc, resp
