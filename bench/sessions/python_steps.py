@@ -22,6 +22,7 @@ Writes bench/results/sessions_python.csv and replaces the section "Sessions
 through the Python client" of docs/benchmarks.md.
 """
 import argparse
+import http.client
 import json
 import math
 import os
@@ -93,12 +94,27 @@ def measure(client, name, scene, repeats):
             # the daemon's own time of the step (NTS-Elapsed-Ms: positions in, evaluation, answer out)
             t_daemon.append(1e-3 * res.summary.elapsed_ms)
             ratio.append(t_sess[-1] / t_daemon[-1] if t_daemon[-1] > 0 else float("nan"))
+        # The floor under the client: the same steps as bare http.client calls
+        # (the same bytes both ways, no client library), their wall over the
+        # daemon's own time.
+        raw_ratio = []
+        host, port = client.base_url.split("//", 1)[1].split(":")
+        conn = http.client.HTTPConnection(host, int(port), timeout=600)
+        heads = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
+        for i in range(repeats):
+            t0 = time.perf_counter()
+            conn.request("POST", f"/v1/scenes/{s.id}/contact", body=memoryview(frames[i]).cast("B"), headers=heads)
+            r = conn.getresponse()
+            f_raw = np.frombuffer(r.read(), dtype="<f8").reshape(-1, 2)
+            raw_ratio.append((time.perf_counter() - t0) / (1e-3 * float(r.getheader("NTS-Elapsed-Ms"))))
+        conn.close()
+        assert np.array_equal(f_raw, f_sess), "bare http.client and the client disagree"
     assert np.array_equal(f_full, f_sess), "session and full call disagree"
     row = {"scene": name, "nodes": int(len(x0)), "full_request_mb": request_bytes / 1e6,
            "session_request_mb": 16 * len(x0) / 1e6, "full_ms": 1e3 * statistics.median(t_full),
            "session_ms": 1e3 * statistics.median(t_sess), "daemon_ms": 1e3 * statistics.median(t_daemon),
            "session_over_daemon": statistics.median(ratio), "session_over_daemon_min": min(ratio),
-           "session_over_daemon_max": max(ratio)}
+           "session_over_daemon_max": max(ratio), "bare_over_daemon": statistics.median(raw_ratio)}
     row["speedup"] = row["full_ms"] / row["session_ms"]
     return row
 
@@ -114,20 +130,33 @@ def markdown(rows, repeats):
              "**daemon** is the daemon's own time of the session step (its `NTS-Elapsed-Ms`: the positions read",
              "and checked, the evaluation, the answer written), and **session / daemon** the step's wall time over",
              "it, step by step (median; range): what the client and the loopback add (target, issue 27: at most",
-             "1.3 on the FEM scene).",
+             "1.3 on the FEM scene). **bare / daemon** is the same steps sent as bare `http.client` calls (the",
+             "same bytes, no client library, no numpy result): the floor that loopback and the daemon's reading",
+             "and writing of the bytes outside its own time put under any client.",
              "", "| scene | nodes | full: request | full | session: request | session | daemon | session / daemon "
-             "| speed-up |",
-             "|---|---:|---:|---:|---:|---:|---:|---|---:|"]
+             "| bare / daemon | speed-up |",
+             "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|"]
     for r in rows:
         lines.append(f"| {r['scene']} | {r['nodes']:,} | {r['full_request_mb']:.2f} MB | {r['full_ms']:.1f} ms "
                      f"| {r['session_request_mb']:.2f} MB | {r['session_ms']:.2f} ms | {r['daemon_ms']:.2f} ms "
                      f"| {r['session_over_daemon']:.2f} ({r['session_over_daemon_min']:.2f}-"
-                     f"{r['session_over_daemon_max']:.2f}) | {r['speedup']:.1f}x |")
+                     f"{r['session_over_daemon_max']:.2f}) | {r['bare_over_daemon']:.2f} | {r['speedup']:.1f}x |")
     fem = [r for r in rows if r["scene"].startswith("FEM")]
     if fem:
         lines += ["", f"Target (issue 10): the session step on the ~66k-node FEM scene at least 20x faster than the "
                       f"full-scene call; measured {fem[0]['speedup']:.0f}x ({fem[0]['full_ms']:.0f} ms against "
-                      f"{fem[0]['session_ms']:.1f} ms). Most of the full call is Python encoding the scene as JSON."]
+                      f"{fem[0]['session_ms']:.1f} ms). Most of the full call is Python encoding the scene as JSON.",
+                  "",
+                  f"Target (issue 27 §3): session / daemon at most 1.3 on the FEM scene; measured "
+                  f"{fem[0]['session_over_daemon']:.2f}, **not reached**. The client calls requests' connection pool "
+                  "directly (urllib3) and sends the positions from the array's memory: a step took 3.16 ms before "
+                  "(2.86 times the daemon's time in that run; the ratio moves with the daemon's own time, 0.65 "
+                  "to 1.1 ms from run to run here); the two clients on one daemon in interleaved rounds: 3.34 "
+                  "against 2.67 times the daemon's time. Bare `http.client` "
+                  f"calls of the same bytes take {fem[0]['bare_over_daemon']:.2f} times the daemon's time: 1 MB "
+                  "each way on loopback, and the daemon's reading of the request and writing of the answer, "
+                  "which its own time does not count, cost more than 0.3 of its 1 ms here (a Python echo of "
+                  "1 MB each way over loopback alone takes 0.45 ms on this machine)."]
     lines.append("")
     return "\n".join(lines)
 
