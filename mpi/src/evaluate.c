@@ -26,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "balance.h"
 #include "internal.h"
 
 static double now(void) { return MPI_Wtime(); }
@@ -119,17 +120,17 @@ static int weights_shares(ntsm_scene* m) {
 }
 
 /* Balanced by measured time (no host weights): each rank's part took
- * `seconds` for `owned` slaves; when the slowest took over 15% more than
- * the mean three evaluations in a row, the next evaluation cuts the slabs
- * in proportion to the ranks' speeds (smoothed). The same gathered numbers
+ * `seconds` for `owned` slaves; when cuts by the ranks' speeds would make
+ * the slowest part 5% shorter three evaluations in a row, the next
+ * evaluation cuts the slabs at them (balance.c). The same gathered numbers
  * on every rank: the same decision and shares. Collective. */
 static void balance(ntsm_scene* m, double seconds, long long owned) {
     const int P = m->size;
-    double mine[2], *all, mean = 0.0, worst = 0.0, sum = 0.0;
+    double mine[2], *all, *times, *counts, *current, *next;
     int r, fine, every;
     mine[0] = seconds;
     mine[1] = (double)owned;
-    all = (double*)malloc(sizeof(double) * 2u * (size_t)P);
+    all = (double*)malloc(sizeof(double) * 5u * (size_t)P);
     if (m->speed == NULL) m->speed = (double*)calloc((size_t)P, sizeof(double));
     if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
     fine = all != NULL && m->speed != NULL && m->share != NULL;
@@ -139,31 +140,19 @@ static void balance(ntsm_scene* m, double seconds, long long owned) {
         return;
     }
     MPI_Allgather(mine, 2, MPI_DOUBLE, all, 2, MPI_DOUBLE, m->comm);
+    times = all + 2 * P;
+    counts = times + P;
+    current = counts + P;
     for (r = 0; r < P; ++r) {
-        const double t = all[2 * r] > 1e-6 ? all[2 * r] : 1e-6, v = all[2 * r + 1] / t;
-        m->speed[r] = m->speed[r] > 0.0 ? 0.7 * m->speed[r] + 0.3 * v : v;
-        mean += all[2 * r] / P;
-        if (all[2 * r] > worst) worst = all[2 * r];
+        times[r] = all[2 * r];
+        counts[r] = all[2 * r + 1];
+        current[r] = m->share_on ? m->share[r] : 1.0 / P;
     }
-    /* (a part of a few milliseconds is all noise) */
-    if (P > 1 && worst > 0.005 && worst > 1.15 * mean) m->uneven_steps++;
-    else m->uneven_steps = 0;
-    if (m->uneven_steps >= 3) {
-        for (r = 0; r < P; ++r) sum += m->speed[r] > 0.0 ? m->speed[r] : 0.0;
-        if (sum > 0.0) {
-            double total = 0.0;
-            for (r = 0; r < P; ++r) { /* within a quarter and four times an equal share */
-                double sh = (m->speed[r] > 0.0 ? m->speed[r] : 0.0) / sum;
-                if (sh < 0.25 / P) sh = 0.25 / P;
-                if (sh > 4.0 / P) sh = 4.0 / P;
-                m->share[r] = sh;
-                total += sh;
-            }
-            for (r = 0; r < P; ++r) m->share[r] /= total;
-            m->share_on = 1;
-            m->rebuild_next = 1;
-        }
-        m->uneven_steps = 0;
+    next = all; /* (read out above) */
+    if (ntsm_balance_step(m->speed, &m->uneven_steps, times, counts, P, current, next)) {
+        for (r = 0; r < P; ++r) m->share[r] = next[r];
+        m->share_on = 1;
+        m->rebuild_next = 1;
     }
     free(all);
 }

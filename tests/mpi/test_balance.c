@@ -1,0 +1,163 @@
+/* The slabs' balance by measured time (mpi/src/balance.c) on made-up part
+ * times: when it cuts the slabs anew and at which shares. What every rank
+ * decides from the same gathered numbers; the cuts themselves are tested
+ * under MPI (test_mpi: weights 3:1, the same bits). Exit 0 when all holds. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "balance.h"
+
+static int failures;
+
+#define CHECK(cond, ...)                                  \
+    do {                                                  \
+        if (!(cond)) {                                    \
+            ++failures;                                   \
+            fprintf(stderr, "%s:%d: ", __FILE__, __LINE__); \
+            fprintf(stderr, __VA_ARGS__);                 \
+            fputc('\n', stderr);                          \
+        }                                                 \
+    } while (0)
+
+enum { MAXP = 4 };
+
+typedef struct run {
+    int P, streak;
+    double speed[MAXP], current[MAXP], share[MAXP];
+} run;
+
+static run start(int P) {
+    run r;
+    int k;
+    memset(&r, 0, sizeof r);
+    r.P = P;
+    for (k = 0; k < P; ++k) r.current[k] = 1.0 / P;
+    return r;
+}
+
+/* One evaluation: rank k's part of owned[k] slaves at speed v[k] (slaves a
+ * second); whether it cuts. The cuts become the current shares. */
+static int step(run* r, const double* owned, const double* v) {
+    double t[MAXP];
+    int k, cut;
+    for (k = 0; k < r->P; ++k) t[k] = owned[k] / v[k];
+    cut = ntsm_balance_step(r->speed, &r->streak, t, owned, r->P, r->current, r->share);
+    if (cut)
+        for (k = 0; k < r->P; ++k) r->current[k] = r->share[k];
+    return cut;
+}
+
+/* The slaves each rank owns at the current shares. */
+static void owned_at(const run* r, double n, double* owned) {
+    int k;
+    for (k = 0; k < r->P; ++k) owned[k] = n * r->current[k];
+}
+
+int main(void) {
+    const double N = 5e5; /* slaves: parts of 0.1 s and more at these speeds */
+    double owned[MAXP], v[MAXP];
+    int k, cuts;
+
+    { /* even ranks: never */
+        run r = start(2);
+        v[0] = v[1] = 4e6;
+        for (k = 0, cuts = 0; k < 20; ++k) {
+            owned_at(&r, N, owned);
+            cuts += step(&r, owned, v);
+        }
+        CHECK(cuts == 0, "even ranks cut %d times", cuts);
+    }
+    { /* a rank 30% slower: cut at the third evaluation, in proportion to the speeds, then never again */
+        run r = start(2);
+        v[0] = 4.5e6;
+        v[1] = 4.5e6 / 1.3;
+        owned_at(&r, N, owned);
+        CHECK(!step(&r, owned, v) && !step(&r, owned, v), "cut before three uneven evaluations");
+        CHECK(step(&r, owned, v), "no cut after three uneven evaluations");
+        CHECK(fabs(r.share[0] - 1.3 / 2.3) < 1e-12 && fabs(r.share[1] - 1.0 / 2.3) < 1e-12,
+              "shares %.15g %.15g, expected 1.3/2.3 and 1/2.3", r.share[0], r.share[1]);
+        for (k = 0, cuts = 0; k < 20; ++k) {
+            owned_at(&r, N, owned);
+            cuts += step(&r, owned, v);
+        }
+        CHECK(cuts == 0, "balanced ranks cut again %d times", cuts);
+        /* the speeds swap (another program on the first core): cut back */
+        v[1] = 4.5e6;
+        v[0] = 4.5e6 / 1.3;
+        for (k = 0, cuts = 0; k < 6 && !cuts; ++k) {
+            owned_at(&r, N, owned);
+            cuts = step(&r, owned, v);
+        }
+        CHECK(cuts && r.current[0] < 0.5, "no cut back after the speeds swapped (share %.3f)", r.current[0]);
+    }
+    { /* 10% slower: cuts would gain under 5%; not worth a rebuild */
+        run r = start(2);
+        v[0] = 4e6;
+        v[1] = 4e6 / 1.1;
+        for (k = 0, cuts = 0; k < 20; ++k) {
+            owned_at(&r, N, owned);
+            cuts += step(&r, owned, v);
+        }
+        CHECK(cuts == 0, "a 10%% slower rank cut %d times", cuts);
+    }
+    { /* uneven, uneven, even, uneven, uneven: no streak of three */
+        run r = start(2);
+        const double slow[2] = {4e6, 4e6 / 1.4}, even[2] = {4e6, 4e6};
+        owned_at(&r, N, owned);
+        cuts = step(&r, owned, slow) + step(&r, owned, slow) + step(&r, owned, even);
+        cuts += step(&r, owned, slow) + step(&r, owned, slow);
+        CHECK(cuts == 0, "cut without three uneven evaluations in a row");
+    }
+    { /* parts of a few milliseconds: noise */
+        run r = start(2);
+        v[0] = 4e6;
+        v[1] = 1e6;
+        for (k = 0, cuts = 0; k < 20; ++k) {
+            owned_at(&r, 1e4, owned); /* 1.25 and 5 ms... */
+            owned[1] = 4e3;           /* ...and 4 ms */
+            cuts += step(&r, owned, v);
+        }
+        CHECK(cuts == 0, "parts under 5 ms cut %d times", cuts);
+    }
+    { /* a rank 10 times slower: the bounds, then no rebuild for the same cuts */
+        run r = start(2);
+        v[0] = 4e6;
+        v[1] = 4e5;
+        owned_at(&r, N, owned);
+        cuts = step(&r, owned, v) + step(&r, owned, v) + step(&r, owned, v);
+        CHECK(cuts == 1 && r.current[1] > 1.0 / 11.0 + 0.02 && r.current[1] < 0.125,
+              "shares %.4f %.4f: expected the slow rank raised towards a quarter of an equal share", r.current[0],
+              r.current[1]);
+        for (k = 0, cuts = 0; k < 20; ++k) {
+            owned_at(&r, N, owned);
+            cuts += step(&r, owned, v);
+        }
+        CHECK(cuts == 0, "the same bounded cuts rebuilt %d times", cuts);
+    }
+    { /* four ranks, one twice as slow; a rank that owns nothing has no speed measured */
+        run r = start(4);
+        for (k = 0; k < 4; ++k) v[k] = 4e6;
+        v[2] = 2e6;
+        owned_at(&r, N, owned);
+        cuts = step(&r, owned, v) + step(&r, owned, v) + step(&r, owned, v);
+        CHECK(cuts == 1 && fabs(r.current[2] - 1.0 / 7.0) < 1e-12 && fabs(r.current[0] - 2.0 / 7.0) < 1e-12,
+              "four ranks: shares %.6f %.6f %.6f %.6f, expected 2/7 2/7 1/7 2/7", r.current[0], r.current[1],
+              r.current[2], r.current[3]);
+        r = start(4);
+        owned[0] = owned[1] = owned[2] = N / 3.0;
+        owned[3] = 0.0;
+        for (k = 0; k < 4; ++k) v[k] = 4e6;
+        for (k = 0, cuts = 0; k < 10; ++k) cuts += step(&r, owned, v);
+        /* uneven (one rank idle), but the idle rank counts at the others' mean
+         * speed: the speeds' cuts are the equal ones in place, no rebuild */
+        CHECK(cuts == 0 && r.speed[3] == 0.0, "a rank without slaves: %d cuts, speed %g", cuts, r.speed[3]);
+        r.current[0] = r.current[1] = r.current[2] = 0.3;
+        r.current[3] = 0.1;
+        for (k = 0, cuts = 0; k < 3; ++k) cuts += step(&r, owned, v);
+        CHECK(cuts == 1 && fabs(r.current[3] - 0.25) < 1e-12, "from uneven cuts, an idle rank: %d cuts, share %.6f",
+              cuts, r.current[3]);
+    }
+    if (failures == 0) printf("test_balance: all passed\n");
+    return failures == 0 ? 0 : 1;
+}
