@@ -199,7 +199,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     chunk_msg* all_ch = NULL;
     sum_msg* all_deep = NULL;
     long long cnt[8], tot[8];
-    int n_chunks_mine = 0;
+    int nc = 0; /* the chunks' sums this rank holds, in ch */
+    int* ranks_in = NULL; /* how many ranks own slaves of each chunk */
     double maxpen = 0.0, gmax = 0.0;
     const int want_forces = (m->outputs & NTS_OUT_FORCES) != 0u;
     int limit = 0;
@@ -209,6 +210,26 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         return rc;
     }
     memset(cnt, 0, sizeof cnt);
+
+    /* The chunks whose slaves only this rank owns: their sums are taken
+     * here as the parts come (key order), in the pass below; the others'
+     * contacts go to the chunk's home rank (below). */
+    {
+        const int ne = m->part ? nts_scene_surface_node_count(m->part) : 0;
+        int* mine_in;
+        ranks_in = (int*)ntsm_scratch(&m->sc[SC_CHUNKS], sizeof(int) * 2u * ((size_t)nchunk + 1));
+        ch = (chunk_msg*)ntsm_scratch(&m->sc[SC_CHUNK_SUMS], sizeof(chunk_msg) * (2u * (size_t)nchunk + 2));
+        rc = ranks_in != NULL && ch != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
+            free(counts);
+            return rc;
+        }
+        mine_in = ranks_in + nchunk + 1;
+        memset(mine_in, 0, sizeof(int) * ((size_t)nchunk + 1));
+        for (k = 0; k < ne; ++k)
+            if (m->entry_owned[k]) mine_in[m->entry_global[k] / NTS_PART_CHUNK] = 1;
+        MPI_Allreduce(mine_in, ranks_in, nchunk, MPI_INT, MPI_SUM, m->comm);
+    }
 
     /* One pass over the parts: each owned contact's sums (the chunks', the
      * deep ones'), the counts, the shares each other rank gets, the
@@ -253,8 +274,18 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             s.s.xy = p->virial.xy;
             s.s.yx = p->virial.yx;
             s.s.dis = p->dissipation;
-            if (p->deep) deep_mine[n_deep++] = s;
-            else sm[n_sm++] = s;
+            if (p->deep) {
+                deep_mine[n_deep++] = s;
+            } else if (ranks_in[s.entry / NTS_PART_CHUNK] > 1) {
+                sm[n_sm++] = s; /* for the chunk's home */
+            } else {
+                const int c = s.entry / NTS_PART_CHUNK;
+                if (nc == 0 || ch[nc - 1].chunk != c) {
+                    memset(&ch[nc], 0, sizeof ch[nc]);
+                    ch[nc++].chunk = c;
+                }
+                sums6_add(&ch[nc - 1].s, &s.s);
+            }
             cnt[0]++;                       /* contacts */
             cnt[2] += p->deep;              /* deep */
             cnt[3] += p->state == NTS_STICK;
@@ -376,51 +407,24 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     }
 
     /* Each chunk summed by one rank in contact order, the chunks in order,
-     * then the deep contacts (scatter.c's order). A chunk whose contacts are
-     * all this rank's is summed here, as its parts come (key order); one
-     * that several ranks' contacts share goes to its home rank. */
+     * then the deep contacts (scatter.c's order). A chunk whose slaves are
+     * all this rank's was summed in the pass above, as its parts came (key
+     * order); the contacts of one whose slaves several ranks own go to its
+     * home rank, which sorts them by key and sums them from zero (the same
+     * bits: a chunk's sum starts at zero and runs in key order either way). */
     {
-        int* ranks_in = (int*)ntsm_scratch(&m->sc[SC_CHUNKS], sizeof(int) * 2u * ((size_t)nchunk + 1));
-        int* mine_in = ranks_in != NULL ? ranks_in + nchunk + 1 : NULL;
         sum_msg* sorted = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_SORTED], sizeof(sum_msg) * (size_t)(n_sm + 1));
         int* at = (int*)calloc((size_t)P + 1, sizeof(int));
-        int n_shared = 0, nc = 0;
-        rc = ranks_in != NULL && sorted != NULL && at != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
-        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
-            free(at);
-            goto done;
-        }
-        memset(mine_in, 0, sizeof(int) * ((size_t)nchunk + 1));
-        for (k = 0; k < n_sm; ++k) mine_in[sm[k].entry / NTS_PART_CHUNK] = 1;
-        MPI_Allreduce(mine_in, ranks_in, nchunk, MPI_INT, MPI_SUM, m->comm);
-        /* at most every chunk summed here, and every shared one received */
-        ch = (chunk_msg*)ntsm_scratch(&m->sc[SC_CHUNK_SUMS], sizeof(chunk_msg) * (2u * (size_t)nchunk + 2));
-        rc = ch != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
+        rc = sorted != NULL && at != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) {
             free(at);
             goto done;
         }
         memset(counts, 0, sizeof(int) * (size_t)P);
-        for (k = 0; k < n_sm; ++k) {
-            const int c = sm[k].entry / NTS_PART_CHUNK;
-            if (ranks_in[c] > 1) {
-                counts[(int)((long long)c * P / nchunk)]++;
-                ++n_shared;
-                continue;
-            }
-            if (nc == 0 || ch[nc - 1].chunk != c) {
-                memset(&ch[nc], 0, sizeof ch[nc]);
-                ch[nc++].chunk = c;
-            }
-            sums6_add(&ch[nc - 1].s, &sm[k].s);
-        }
+        for (k = 0; k < n_sm; ++k) counts[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++;
         for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
-        for (k = 0; k < n_sm; ++k) {
-            const int c = sm[k].entry / NTS_PART_CHUNK;
-            if (ranks_in[c] > 1) sorted[at[(int)((long long)c * P / nchunk)]++] = sm[k];
-        }
+        for (k = 0; k < n_sm; ++k) sorted[at[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++] = sm[k];
         free(at);
-        (void)n_shared;
         rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN], &limit, NULL);
         rc = rsum != NULL ? NTS_OK : exchange_failed(err, limit);
         if (rc == NTS_OK && got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
@@ -438,10 +442,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             }
         }
         assert(nc <= 2 * nchunk + 2);
-        n_chunks_mine = nc;
     }
     {
-        const int nc = n_chunks_mine;
         /* every rank gets every chunk's sums, and every deep contact's */
         {
             int* cc = (int*)malloc(sizeof(int) * 2u * (size_t)(P + 1)); /* chunks' bytes, then the deep ones' */
