@@ -43,7 +43,7 @@ int ntsm_balance_step(double* speed, int* streak, const double* seconds, const d
     if (n == 0) return 0;
     mean = sum / n; /* (a rank never measured counts at the others' mean) */
     sum += (P - n) * mean;
-    for (r = 0; r < P; ++r) { /* within a quarter and four times an equal share */
+    for (r = 0; r < P; ++r) { /* within a quarter and four times an equal share (before the norming) */
         double sh = (speed[r] > 0.0 ? speed[r] : mean) / sum;
         if (sh < 0.25 / P) sh = 0.25 / P;
         if (sh > 4.0 / P) sh = 4.0 / P;

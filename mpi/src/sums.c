@@ -281,6 +281,8 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             } else {
                 const int c = s.entry / NTS_PART_CHUNK;
                 if (nc == 0 || ch[nc - 1].chunk != c) {
+                    assert(nc == 0 || ch[nc - 1].chunk < c); /* the parts come in key order */
+                    assert(nc < nchunk);
                     memset(&ch[nc], 0, sizeof ch[nc]);
                     ch[nc++].chunk = c;
                 }

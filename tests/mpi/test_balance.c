@@ -154,7 +154,10 @@ int main(void) {
         CHECK(cuts == 0 && r.speed[3] == 0.0, "a rank without slaves: %d cuts, speed %g", cuts, r.speed[3]);
         r.current[0] = r.current[1] = r.current[2] = 0.3;
         r.current[3] = 0.1;
-        for (k = 0, cuts = 0; k < 3; ++k) cuts += step(&r, owned, v);
+        r.streak = 0; /* (the ten steps above left one) */
+        cuts = step(&r, owned, v) + step(&r, owned, v);
+        CHECK(cuts == 0, "cut before three uneven evaluations in a row");
+        cuts = step(&r, owned, v);
         CHECK(cuts == 1 && fabs(r.current[3] - 0.25) < 1e-12, "from uneven cuts, an idle rank: %d cuts, share %.6f",
               cuts, r.current[3]);
     }

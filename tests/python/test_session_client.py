@@ -251,6 +251,8 @@ def test_steps_skip_requests_machinery_and_fall_back_to_it(daemon, paths):
     requests session needs that machinery (a hook, proxies, auth, cookies, its
     own adapter) goes through requests. Both give the full call's answer, bit
     for bit, binary and JSON, with query options and the client's headers."""
+    if not hasattr(requests.adapters.HTTPAdapter, "get_connection_with_tls_context"):
+        pytest.skip("requests older than 2.32.2: every call goes through requests")
     scene = load(paths, "jittered_packing")
     x = positions_of(scene) + 1e-4
 
@@ -291,3 +293,57 @@ def test_a_step_to_a_daemon_gone_is_service_unavailable(daemon_factory, paths):
         with pytest.raises(ntscontact.ServiceUnavailable) as ei:
             s.contact()
         assert ei.value.status is None and ei.value.code == "unreachable"
+
+
+def test_the_direct_path_keeps_requests_semantics():
+    """What requests did and the direct path must too: a cookie the service
+    sets is sent back (a load balancer's stickiness), a redirect is followed,
+    credentials in the URL are sent, a path prefix is kept."""
+    import http.server
+    import socketserver
+    import threading
+
+    seen = []
+
+    class H(http.server.BaseHTTPRequestHandler):
+        protocol_version = "HTTP/1.1"
+
+        def log_message(self, *a):
+            pass
+
+        def do_GET(self):
+            seen.append((self.path, self.headers.get("Cookie"), self.headers.get("Authorization")))
+            if self.path.endswith("/old/v1/health"):
+                self.send_response(307)
+                self.send_header("Location", self.path.replace("/old/", "/new/"))
+                self.send_header("Content-Length", "0")
+                self.end_headers()
+                return
+            body = b'{"status": "ok"}'
+            self.send_response(200)
+            self.send_header("Set-Cookie", "route=a1; Path=/")
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+    srv = socketserver.ThreadingTCPServer(("127.0.0.1", 0), H)
+    srv.daemon_threads = True
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    port = srv.server_address[1]
+    try:
+        with Client(f"http://127.0.0.1:{port}/api", timeout=10) as c:
+            assert c.health()["status"] == "ok"
+            assert c.health()["status"] == "ok"
+            assert seen[0] == ("/api/v1/health", None, None) and seen[1][1] == "route=a1"
+        seen.clear()
+        with Client(f"http://127.0.0.1:{port}/old", timeout=10) as c:
+            assert c.health()["status"] == "ok"
+            assert [p for p, _, _ in seen] == ["/old/v1/health", "/new/v1/health"]
+        seen.clear()
+        with Client(f"http://u:pw@127.0.0.1:{port}", timeout=10) as c:
+            assert c.health()["status"] == "ok"
+            assert seen[0][2] is not None and seen[0][2].startswith("Basic ")
+    finally:
+        srv.shutdown()
+        srv.server_close()

@@ -5,11 +5,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
-from urllib.parse import urlencode
+from urllib.parse import urlencode, urljoin
 
 import requests
 import urllib3
 from requests.adapters import HTTPAdapter
+from requests.cookies import extract_cookies_to_jar
 from requests.structures import CaseInsensitiveDict
 from urllib3.util import parse_url
 from urllib3.util.retry import Retry
@@ -226,11 +227,16 @@ class Client:
         h = self.http
         adapter = h.get_adapter(url)
         if (adapter is not self._adapter or h.trust_env or h.proxies or h.auth is not None or len(h.cookies) > 0
-                or any(h.hooks.values()) or not hasattr(adapter, "get_connection_with_tls_context")):
+                or h.params or any(h.hooks.values()) or parse_url(self.base_url).auth
+                or not hasattr(adapter, "get_connection_with_tls_context")):
             return None
         if self._prepared is None or self._prepared[0] != self.base_url:
             self._prepared = (self.base_url, requests.Request("GET", self.base_url + "/").prepare())
         return adapter.get_connection_with_tls_context(self._prepared[1], h.verify, None, h.cert)
+
+    @staticmethod
+    def _prepared_for(url: str) -> requests.PreparedRequest:
+        return requests.Request("GET", url).prepare()
 
     def _send(self, method: str, path: str, *, body: Optional[BodyLike] = None,
               headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
@@ -257,6 +263,16 @@ class Client:
                 content = resp.read(decode_content=True)
             finally:
                 resp.release_conn()
+            if "set-cookie" in resp.headers:  # kept as requests keeps them: later calls go through requests
+                extract_cookies_to_jar(self.http.cookies, self._prepared_for(url), resp)
+            location = resp.get_redirect_location()
+            if location:  # requests follows redirects, from here on as it would have (rebuild_method)
+                status = resp.status
+                to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
+                data = None if to_get else (body.tobytes() if isinstance(body, memoryview) else body)
+                r = self.http.request("GET" if to_get else method, urljoin(url, location), data=data,
+                                      headers=headers, timeout=t)
+                return Answer(r.status_code, r.headers, r.content)
             return Answer(resp.status, resp.headers, content)
         except urllib3.exceptions.MaxRetryError as exc:  # requests' reading of it
             reason = exc.reason
@@ -266,12 +282,13 @@ class Client:
                     not isinstance(reason, urllib3.exceptions.NewConnectionError):
                 raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
             raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
+        except urllib3.exceptions.NewConnectionError as exc:  # (a TimeoutError subclass in urllib3: first)
+            raise ServiceUnavailable(f"{method} {url}: cannot connect ({exc})", code="unreachable") from exc
         except (requests.Timeout, urllib3.exceptions.TimeoutError) as exc:
             raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
         except (requests.exceptions.SSLError, urllib3.exceptions.SSLError) as exc:  # said as what it is
             raise tls_error(method, url, exc) from exc
-        except (requests.ConnectionError, urllib3.exceptions.ProtocolError, urllib3.exceptions.NewConnectionError,
-                urllib3.exceptions.ClosedPoolError) as exc:
+        except (requests.ConnectionError, urllib3.exceptions.ProtocolError, urllib3.exceptions.ClosedPoolError) as exc:
             raise ServiceUnavailable(f"{method} {url}: cannot connect, or the answer was cut ({exc})",
                                      code="unreachable") from exc
         except (requests.RequestException, urllib3.exceptions.HTTPError) as exc:

@@ -228,7 +228,7 @@ class Session:
         binary = wanted <= _BINARY_OUTPUTS
         # This step's own copy: the caller may move its array on, and another
         # thread's step may replace the stored positions meanwhile.
-        stored = pos.astype(np.float64, copy=True) if pos is not None else self._positions
+        stored = pos.astype("<f8", copy=True) if pos is not None else self._positions
         # (the step sends the stored copy: the same numbers, one copy fewer)
         doc, headers, content = self._post_step(stored if pos is not None else None, params, binary, timeout)
         if pos is not None:
