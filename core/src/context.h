@@ -4,6 +4,8 @@
 #ifndef NTSCONTACT_CONTEXT_H
 #define NTSCONTACT_CONTEXT_H
 
+#include <limits.h>
+
 #include "friction.h"
 #include "reach.h"
 #include <ntscontact/distributed.h>
@@ -31,6 +33,7 @@ typedef struct chunk_info {
     int deep_at, deep_count;  /* the deep contacts of its slaves (ctx->reach.deep) */
     int share_at;             /* the first place of its active records' force shares in ctx->shares */
     const force_shares* sh;   /* its force shares (sums.active of them), wherever they are */
+    int node_lo, node_hi;     /* the nodes its force shares touch lie in [node_lo, node_hi] (none: lo > hi) */
     contact_sums sums;        /* of its active contacts */
 } chunk_info;
 
@@ -147,6 +150,19 @@ static inline const candidate* chunk_recs(const chunk_info* ch) {
     return (const candidate*)ch->part[STREAM_RECORDS].data;
 }
 static inline int chunk_count(const chunk_info* ch) { return ch->part[STREAM_RECORDS].count; }
+
+/* The nodes shares sh[0..n) touch, as the chunk's span: a thread adding
+ * the forces of a range of nodes skips the chunks that miss it (scatter.c). */
+static inline void chunk_node_span(chunk_info* ch, const force_shares* sh, int n) {
+    int lo = INT_MAX, hi = -1, k, q;
+    for (k = 0; k < n; ++k)
+        for (q = 0; q < 4 && sh[k].node[q] >= 0; ++q) {
+            if (sh[k].node[q] < lo) lo = sh[k].node[q];
+            if (sh[k].node[q] > hi) hi = sh[k].node[q];
+        }
+    ch->node_lo = lo;
+    ch->node_hi = hi;
+}
 
 /* The records of chunk ch and its deep contacts (reach.c), merged by slave
  * then master body (each pair is in one of them only): the order of the

@@ -233,6 +233,7 @@ static void search_chunks(int begin, int end, int t, void* p) {
         w->sums = &ch->sums;
         if (w->status == NTS_OK) nts_search_range(env, w, first, last);
         recs->count = env->shares ? w->share_count : w->rec_count;
+        if (env->shares) chunk_node_span(ch, w->shares, w->share_count); /* (just written: in cache) */
         items->count = w->item_count;
         if (w->status == NTS_OK && recs->count > 0)
             nts_chunk_keep(ctx, w, ch, STREAM_RECORDS, env->shares ? (const void*)w->shares : (const void*)w->recs,

@@ -111,6 +111,7 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
     force_shares* out;
     int k;
     ch->sh = NULL;
+    chunk_node_span(ch, NULL, 0);
     if (ch->sums.active == 0) return;
     out = ctx->shares + ch->share_at;
     ch->sh = out;
@@ -118,10 +119,11 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
         const friction_out* fo = ctx->fric + ch->share_at;
         for (k = 0; k < chunk_count(ch); ++k)
             if (rec[k].gap < 0.0) *out++ = friction_shares(env, &rec[k], fo++);
-        return;
+    } else {
+        for (k = 0; k < chunk_count(ch); ++k)
+            if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
     }
-    for (k = 0; k < chunk_count(ch); ++k)
-        if (rec[k].gap < 0.0) *out++ = contact_shares(env, &rec[k]);
+    chunk_node_span(ch, ch->sh, ch->sums.active);
 }
 
 /* Add the forces of shares sh[0..n) on nodes [n0, n1), in order. */
@@ -135,13 +137,18 @@ static void shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int
 
 /* The forces on nodes [n0, n1) from the chunks' force shares, in chunk
  * order and in record order within a chunk, then the deep contacts' (in
- * their order): each thread reads every share but computes none. Returns 1
- * when one of them overflowed. */
+ * their order): each thread reads the shares of every chunk whose nodes
+ * reach its range (most chunks touch the nodes of a few neighbouring
+ * bodies, so about its share of them) but computes none. Returns 1 when one
+ * of them overflowed. */
 static int forces_range(nts_context* ctx, int n0, int n1) {
     nts_vec2* F = ctx->forces;
     int c;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
-    for (c = 0; c < ctx->chunk_count; ++c) shares_range(F, ctx->chunks[c].sh, ctx->chunks[c].sums.active, n0, n1);
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        const chunk_info* ch = &ctx->chunks[c];
+        if (ch->node_hi >= n0 && ch->node_lo < n1) shares_range(F, ch->sh, ch->sums.active, n0, n1);
+    }
     shares_range(F, ctx->reach.shares, ctx->reach.deep_count, n0, n1);
     return forces_finite(F, n0, n1) ? 0 : 1;
 }
