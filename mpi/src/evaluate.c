@@ -130,7 +130,7 @@ static void balance(ntsm_scene* m, double seconds, long long owned) {
     int r, fine, every;
     mine[0] = seconds;
     mine[1] = (double)owned;
-    all = (double*)malloc(sizeof(double) * 5u * (size_t)P);
+    all = (double*)malloc(sizeof(double) * 6u * (size_t)P);
     if (m->speed == NULL) m->speed = (double*)calloc((size_t)P, sizeof(double));
     if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
     fine = all != NULL && m->speed != NULL && m->share != NULL;
@@ -143,12 +143,12 @@ static void balance(ntsm_scene* m, double seconds, long long owned) {
     times = all + 2 * P;
     counts = times + P;
     current = counts + P;
+    next = current + P;
     for (r = 0; r < P; ++r) {
         times[r] = all[2 * r];
         counts[r] = all[2 * r + 1];
         current[r] = m->share_on ? m->share[r] : 1.0 / P;
     }
-    next = all; /* (read out above) */
     if (ntsm_balance_step(m->speed, &m->uneven_steps, times, counts, P, current, next)) {
         for (r = 0; r < P; ++r) m->share[r] = next[r];
         m->share_on = 1;

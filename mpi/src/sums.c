@@ -178,6 +178,19 @@ static int add_local(ntsm_scene* m, const nts_part* p, const int* src) {
     return left;
 }
 
+/* The rank that sums chunk c of nchunk when several ranks own its slaves. */
+static int chunk_home(int c, int P, int nchunk) { return (int)((long long)c * P / nchunk); }
+
+/* Sums s into the chunk sums ch[0..*nc): the last one when it is chunk c,
+ * else a new one from zero (the contacts come chunk by chunk). */
+static void chunk_add(chunk_msg* ch, int* nc, int c, const sums6* s) {
+    if (*nc == 0 || ch[*nc - 1].chunk != c) {
+        memset(&ch[*nc], 0, sizeof ch[*nc]);
+        ch[(*nc)++].chunk = c;
+    }
+    sums6_add(&ch[*nc - 1].s, s);
+}
+
 /* This rank's answer: the shares summed at the nodes' owners, the chunks'
  * sums, the counts. */
 int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
@@ -279,14 +292,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             } else if (ranks_in[s.entry / NTS_PART_CHUNK] > 1) {
                 sm[n_sm++] = s; /* for the chunk's home */
             } else {
-                const int c = s.entry / NTS_PART_CHUNK;
-                if (nc == 0 || ch[nc - 1].chunk != c) {
-                    assert(nc == 0 || ch[nc - 1].chunk < c); /* the parts come in key order */
-                    assert(nc < nchunk);
-                    memset(&ch[nc], 0, sizeof ch[nc]);
-                    ch[nc++].chunk = c;
-                }
-                sums6_add(&ch[nc - 1].s, &s.s);
+                assert(nc == 0 || ch[nc - 1].chunk <= s.entry / NTS_PART_CHUNK); /* the parts come in key order */
+                chunk_add(ch, &nc, s.entry / NTS_PART_CHUNK, &s.s);
+                assert(nc <= nchunk);
             }
             cnt[0]++;                       /* contacts */
             cnt[2] += p->deep;              /* deep */
@@ -423,26 +431,16 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             goto done;
         }
         memset(counts, 0, sizeof(int) * (size_t)P);
-        for (k = 0; k < n_sm; ++k) counts[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++;
+        for (k = 0; k < n_sm; ++k) counts[chunk_home(sm[k].entry / NTS_PART_CHUNK, P, nchunk)]++;
         for (r = 1; r < P; ++r) at[r] = at[r - 1] + counts[r - 1];
-        for (k = 0; k < n_sm; ++k) sorted[at[(int)((long long)(sm[k].entry / NTS_PART_CHUNK) * P / nchunk)]++] = sm[k];
+        for (k = 0; k < n_sm; ++k) sorted[at[chunk_home(sm[k].entry / NTS_PART_CHUNK, P, nchunk)]++] = sm[k];
         free(at);
         rsum = (sum_msg*)exchange(m, sorted, counts, sizeof(sum_msg), &got, &m->sc[SC_SUMS_IN], &limit, NULL);
         rc = rsum != NULL ? NTS_OK : exchange_failed(err, limit);
         if (rc == NTS_OK && got > 1 && sort_sums(m, rsum, got) != NTS_OK) rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-        {
-            int last = -1;
-            for (k = 0; k < got; ++k) {
-                const int c = rsum[k].entry / NTS_PART_CHUNK;
-                if (c != last) {
-                    memset(&ch[nc], 0, sizeof ch[nc]);
-                    ch[nc++].chunk = c;
-                    last = c;
-                }
-                sums6_add(&ch[nc - 1].s, &rsum[k].s);
-            }
-        }
+        /* (a shared chunk is never one of this rank's own: a new entry) */
+        for (k = 0; k < got; ++k) chunk_add(ch, &nc, rsum[k].entry / NTS_PART_CHUNK, &rsum[k].s);
         assert(nc <= 2 * nchunk + 2);
     }
     {

@@ -110,7 +110,8 @@ class Client:
         self.http.mount("http://", adapter)
         self.http.mount("https://", adapter)
         self._adapter = adapter
-        self._prepared: Optional[Tuple[str, requests.PreparedRequest]] = None  # (base_url, a request to it)
+        # (base_url, a request to it, its path, whether it carries credentials): what _pool and _send read of it
+        self._base: Optional[Tuple[str, requests.PreparedRequest, str, bool]] = None
         self.http.headers.update({"User-Agent": USER_AGENT, "Accept": "application/json"})
         if token is not None:  # the daemon's --token-file
             self.http.headers["Authorization"] = f"Bearer {token}"
@@ -217,26 +218,39 @@ class Client:
             doc = dict(doc, history=[dict(a) for a in history])
         return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8"), ids
 
+    def _base_parts(self) -> Tuple[str, requests.PreparedRequest, str, bool]:
+        """base_url read once (it may be changed between calls)."""
+        if self._base is None or self._base[0] != self.base_url:
+            u = parse_url(self.base_url)
+            self._base = (self.base_url, self._prepared_for(self.base_url + "/"), u.path or "", bool(u.auth))
+        return self._base
+
     def _pool(self, url: str) -> Optional[urllib3.HTTPConnectionPool]:
         """The connection pool of requests' own adapter for ``url``, when none
         of requests' per-call machinery is in play (no proxies or environment,
-        auth, hooks, cookies, or an adapter of the caller's): then a call goes
-        to it directly, the same pool, retries, TLS settings and headers,
-        without requests' 1 ms a call of merging and hooks (a third of a
-        session step at 66k nodes, docs/benchmarks.md). None: through requests."""
+        auth, params, hooks, cookies, credentials in the URL, or an adapter of
+        the caller's): then a call goes to it directly, the same pool,
+        retries, TLS settings and headers, without requests' 1 ms a call of
+        merging and hooks (a third of a session step at 66k nodes,
+        docs/benchmarks.md). None: through requests."""
         h = self.http
         adapter = h.get_adapter(url)
+        _, prepared, _, credentials = self._base_parts()
         if (adapter is not self._adapter or h.trust_env or h.proxies or h.auth is not None or len(h.cookies) > 0
-                or h.params or any(h.hooks.values()) or parse_url(self.base_url).auth
+                or h.params or any(h.hooks.values()) or credentials
                 or not hasattr(adapter, "get_connection_with_tls_context")):
             return None
-        if self._prepared is None or self._prepared[0] != self.base_url:
-            self._prepared = (self.base_url, requests.Request("GET", self.base_url + "/").prepare())
-        return adapter.get_connection_with_tls_context(self._prepared[1], h.verify, None, h.cert)
+        return adapter.get_connection_with_tls_context(prepared, h.verify, None, h.cert)
 
     @staticmethod
     def _prepared_for(url: str) -> requests.PreparedRequest:
         return requests.Request("GET", url).prepare()
+
+    def _via_requests(self, method: str, url: str, body: Optional[BodyLike], headers: Optional[Mapping[str, str]],
+                      params: Optional[Mapping[str, str]], t: Optional[TimeoutLike]) -> Answer:
+        data = body.tobytes() if isinstance(body, memoryview) else body
+        r = self.http.request(method, url, data=data, headers=headers, params=params, timeout=t)
+        return Answer(r.status_code, r.headers, r.content)
 
     def _send(self, method: str, path: str, *, body: Optional[BodyLike] = None,
               headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
@@ -250,12 +264,10 @@ class Client:
         try:
             pool = self._pool(url)
             if pool is None:
-                data = body.tobytes() if isinstance(body, memoryview) else body
-                r = self.http.request(method, url, data=data, headers=headers, params=params, timeout=t)
-                return Answer(r.status_code, r.headers, r.content)
+                return self._via_requests(method, url, body, headers, params, t)
             merged = CaseInsensitiveDict(self.http.headers)
             merged.update(headers or {})
-            target = (parse_url(url).path or "/") + ("?" + urlencode(params) if params else "")
+            target = (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
             resp = pool.urlopen(method, target, body=body, headers=merged, redirect=False, assert_same_host=False,
                                 preload_content=False, decode_content=False, retries=self._adapter.max_retries,
                                 timeout=_urllib3_timeout(t))
@@ -269,10 +281,8 @@ class Client:
             if location:  # requests follows redirects, from here on as it would have (rebuild_method)
                 status = resp.status
                 to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
-                data = None if to_get else (body.tobytes() if isinstance(body, memoryview) else body)
-                r = self.http.request("GET" if to_get else method, urljoin(url, location), data=data,
-                                      headers=headers, timeout=t)
-                return Answer(r.status_code, r.headers, r.content)
+                return self._via_requests("GET" if to_get else method, urljoin(url, location),
+                                          None if to_get else body, headers, None, t)
             return Answer(resp.status, resp.headers, content)
         except urllib3.exceptions.MaxRetryError as exc:  # requests' reading of it
             reason = exc.reason
@@ -294,6 +304,31 @@ class Client:
         except (requests.RequestException, urllib3.exceptions.HTTPError) as exc:
             raise NtsError(f"{method} {url}: {exc}", code="request_failed") from exc
 
+    def _call(self, method: str, path: str, *, body: Optional[BodyLike] = None,
+              headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
+              timeout: Optional[TimeoutLike] = None, body_ids: Optional[List[Any]] = None, expect_json: bool = True,
+              empty_ok: bool = False) -> Tuple[Dict[str, Any], Answer]:
+        """A call and its answer: a 4xx or 5xx raised as the service's error
+        (its body's ids name the bodies), else the JSON object it carries
+        (``{}`` when no JSON is expected, or for a 204 when ``empty_ok``)."""
+        resp = self._send(method, path, body=body, headers=headers, params=params, timeout=timeout)
+        if resp.status_code >= 400:
+            try:
+                doc = resp.json()
+            except ValueError:
+                doc = None
+            raise error_from_response(resp.status_code, doc, resp.text, body_ids)
+        if not expect_json or (empty_ok and resp.status_code == 204):
+            return {}, resp
+        try:
+            doc = resp.json()
+        except ValueError:
+            doc = None
+        if not isinstance(doc, dict):
+            raise ServerError(f"{method} {self.base_url + path}: the answer is not a JSON object: "
+                              f"{resp.text[:200]!r}", code="bad_response", status=resp.status_code)
+        return doc, resp
+
     def _request(
         self,
         method: str,
@@ -303,16 +338,5 @@ class Client:
         timeout: Optional[TimeoutLike] = None,
         body_ids: Optional[List[Any]] = None,
     ) -> Dict[str, Any]:
-        url = self.base_url + path
         headers = {"Content-Type": "application/json"} if body is not None else None
-        resp = self._send(method, path, body=body, headers=headers, timeout=timeout)
-        try:
-            doc = resp.json()
-        except ValueError:
-            doc = None
-        if resp.status_code >= 400:
-            raise error_from_response(resp.status_code, doc, resp.text, body_ids)
-        if not isinstance(doc, dict):
-            raise ServerError(f"{method} {url}: the answer is not a JSON object: {resp.text[:200]!r}",
-                              code="bad_response", status=resp.status_code)
-        return doc
+        return self._call(method, path, body=body, headers=headers, timeout=timeout, body_ids=body_ids)[0]

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, 
 import numpy as np
 import numpy.typing as npt
 
-from .errors import InvalidScene, NtsError, ServerError, error_from_response
+from .errors import InvalidScene, NtsError, ServerError
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
 from .scene import BodyId, Scene, normalize_outputs
 
@@ -335,20 +335,5 @@ class Session:
                  timeout: Optional[Any] = None, expect_json: bool = True) -> Tuple[Dict[str, Any], Answer]:
         c = self.client
         t = timeout if timeout is not None else (self.timeout if self.timeout is not None else c.timeout)
-        resp = c._send(method, path, body=data, headers=headers, params=params, timeout=t)
-        if resp.status_code >= 400:
-            try:
-                doc = resp.json()
-            except ValueError:
-                doc = None
-            raise error_from_response(resp.status_code, doc, resp.text, self.body_ids)
-        if not expect_json or resp.status_code == 204:
-            return {}, resp
-        try:
-            doc = resp.json()
-        except ValueError:
-            doc = None
-        if not isinstance(doc, dict):
-            raise ServerError(f"{method} {c.base_url + path}: the answer is not a JSON object: {resp.text[:200]!r}",
-                              code="bad_response", status=resp.status_code)
-        return doc, resp
+        return c._call(method, path, body=data, headers=headers, params=params, timeout=t, body_ids=self.body_ids,
+                       expect_json=expect_json, empty_ok=True)
