@@ -65,12 +65,12 @@ typedef struct scratch {
 } scratch;
 enum {
     SC_SHARES_OUT, SC_SHARES_IN, SC_SUMS_OUT, SC_SUMS_SORTED, SC_SUMS_IN, SC_SUMS_TMP,
-    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_MIXED, SC_MIXED_ALL, SC_DEEP_AT, SC_CHUNKS, SC_CHUNK_SUMS, SC_EXCHANGE, SC_OLD_POS, SC_COUNT
+    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_MIXED, SC_MIXED_ALL, SC_DEEP_AT, SC_CHUNKS, SC_CHUNK_SUMS, SC_EXCHANGE, SC_SHARES_TMP, SC_SHARES_DEST, SC_OLD_POS, SC_COUNT
 };
 
 /* The slabs: cuts along one axis (docs/distributed.md). */
 typedef struct slabs {
-    int axis;        /* 0: x, 1: y */
+    int axis;        /* the direction: 0 x, 1 y, 2 -x, 3 -y (slab r for rank r in its order) */
     double period;   /* the box along the axis, or 0 */
     double lo, hi;
     double* cut;     /* size + 1: slab r is [cut[r], cut[r + 1]) */
@@ -191,6 +191,8 @@ void ntsm_global_body(nts_error* err, const int* ids, int count);
 /* frame.c, slabs.c */
 int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_error* err);
 int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl);
+/* p's coordinate along the direction; the same within the period, if any. */
+double ntsm_axis_coord(const slabs* sl, nts_vec2 p);
 double ntsm_axis_of(const slabs* sl, nts_vec2 p);
 int ntsm_slab_of(const slabs* sl, int size, double c);
 int ntsm_meets(const slabs* sl, int r, double a, double b);

@@ -149,35 +149,6 @@ static share_msg share_of(const ntsm_scene* m, const nts_part* p, int q) {
     return o;
 }
 
-/* Contact k's shares for other ranks' nodes when its deep flag is `deep`,
- * each at its owner's place in sh (fill). */
-static void emit_shares(const ntsm_scene* m, const nts_part* parts, int k, int deep, share_msg* sh, int* fill) {
-    const nts_part* p = &parts[k];
-    int q;
-    if (p->deep != deep) return;
-    for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-        const int owner = m->node_owner[p->nodes[q]];
-        if (owner != m->rank) sh[fill[owner]++] = share_of(m, p, q);
-    }
-}
-
-/* Contact p's forces on this rank's nodes that only this rank's contacts
- * touch; how many it leaves for the mixed ones. */
-static int add_local(ntsm_scene* m, const nts_part* p, const int* src) {
-    int q, left = 0;
-    for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
-        const int at = m->node_at[p->nodes[q]];
-        if (m->node_owner[p->nodes[q]] != m->rank) continue;
-        if (src[at] != m->rank) {
-            ++left;
-            continue;
-        }
-        m->forces[at].x = m->forces[at].x + p->force[q].x;
-        m->forces[at].y = m->forces[at].y + p->force[q].y;
-    }
-    return left;
-}
-
 /* The rank that sums chunk c of nchunk when several ranks own its slaves. */
 static int chunk_home(int c, int P, int nchunk) { return (int)((long long)c * P / nchunk); }
 
@@ -244,78 +215,114 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         MPI_Allreduce(mine_in, ranks_in, nchunk, MPI_INT, MPI_SUM, m->comm);
     }
 
-    /* One pass over the parts: each owned contact's sums (the chunks', the
-     * deep ones'), the counts, the shares each other rank gets, the
-     * contacts with a share for another rank and the deep ones (listed), and
-     * each own node's source: the one rank whose contacts touch it (this
-     * one's here, the others' once their shares are in), or MIXED. */
+    /* One pass over the parts, which it reads once (160 bytes a contact):
+     * each owned contact's sums (the chunks', the deep ones'), the counts,
+     * its forces on this rank's nodes added as they come (the chunks'
+     * contacts in key order; the deep ones after them, in key order), its
+     * shares for other ranks' nodes in key order (grouped by destination
+     * below), each own node's source (this rank here, the others' once their
+     * shares are in, or MIXED), and the places of its own nodes (own_at):
+     * a node that turns out mixed takes its contributions from there. */
     sm = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_OUT], sizeof(sum_msg) * (size_t)(np + 1));
     deep_mine = (sum_msg*)ntsm_scratch(&m->sc[SC_DEEP], sizeof(sum_msg) * (size_t)(np + 1));
     {
-        int* lists = (int*)ntsm_scratch(&m->sc[SC_DEEP_AT], sizeof(int) * (2u * (size_t)np + 1));
+        int* lists = (int*)ntsm_scratch(&m->sc[SC_DEEP_AT], sizeof(int) * (7u * (size_t)np + 1));
         int* src = (int*)ntsm_scratch(&m->sc[SC_MIXED], sizeof(int) * ((size_t)m->own_nodes + 1));
-        int* remote_at = lists;                            /* owned contacts with a share for another rank */
-        int* deep_at = lists != NULL ? lists + np : NULL; /* owned deep contacts */
-        int n_remote = 0, n_deep_at = 0;
+        int* deep_at = lists;                                /* owned deep contacts, */
+        int* deep_own = lists != NULL ? lists + np : NULL;   /* and their places in own_k */
+        int* own_k = lists != NULL ? lists + 2 * np : NULL;  /* owned contacts */
+        int* own_at = lists != NULL ? lists + 3 * np : NULL; /* their nodes' places here (-1: another rank's, or none) */
+        share_msg* tmp = NULL;                            /* the shares in key order, */
+        int* dest = NULL;                                 /* and their destinations */
+        int n_deep_at = 0, n_own = 0, n_tmp = 0, tmp_cap = 0;
         if (sm == NULL || deep_mine == NULL || lists == NULL || src == NULL) rc = NTS_ENOMEM;
+        if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
+            rc = NTS_ENOMEM;
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) !=
             NTS_OK)
             goto done;
         for (k = 0; k < m->own_nodes; ++k) src[k] = SRC_NONE;
-        for (k = 0; k < np; ++k) {
-            const nts_part* p = &parts[k];
+        if (want_forces) memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
+        for (k = 0; k < np + n_deep_at && rc == NTS_OK; ++k) {
+            /* the parts in key order, then the deep ones again (their forces) */
+            const int again = k >= np, c = again ? deep_at[k - np] : k;
+            int own;
+            const nts_part* p = &parts[c];
             sum_msg s;
-            int remote = 0;
-            if (!m->entry_owned[p->entry]) continue;
-            for (q = 0; q < 4 && p->nodes[q] >= 0 && want_forces; ++q) {
-                const int owner = m->node_owner[p->nodes[q]];
-                if (owner != m->rank) {
-                    counts[owner]++;
-                    remote = 1;
+            if (!again) {
+                if (!m->entry_owned[p->entry]) continue;
+                memset(&s, 0, sizeof s);
+                s.entry = (int)m->entry_global[p->entry];
+                s.body = m->part_ids[p->master_body];
+                s.s.e = p->energy;
+                s.s.xx = p->virial.xx;
+                s.s.yy = p->virial.yy;
+                s.s.xy = p->virial.xy;
+                s.s.yx = p->virial.yx;
+                s.s.dis = p->dissipation;
+                if (p->deep) {
+                    deep_mine[n_deep++] = s;
+                } else if (ranks_in[s.entry / NTS_PART_CHUNK] > 1) {
+                    sm[n_sm++] = s; /* for the chunk's home */
                 } else {
-                    src_tag(src, m->node_at[p->nodes[q]], m->rank);
+                    assert(nc == 0 || ch[nc - 1].chunk <= s.entry / NTS_PART_CHUNK); /* the parts come in key order */
+                    chunk_add(ch, &nc, s.entry / NTS_PART_CHUNK, &s.s);
+                    assert(nc <= nchunk);
+                }
+                cnt[0]++;                       /* contacts */
+                cnt[2] += p->deep;              /* deep */
+                cnt[3] += p->state == NTS_STICK;
+                cnt[4] += p->state == NTS_SLIP;
+                if (p->penetration > maxpen) maxpen = p->penetration;
+                if (!want_forces) continue;
+                if (p->deep) {
+                    deep_own[n_deep_at] = n_own;
+                    deep_at[n_deep_at++] = c;
+                }
+                own_k[n_own] = c;
+                for (q = 0; q < 4; ++q) own_at[4 * n_own + q] = -1;
+                own = n_own++;
+            } else {
+                own = deep_own[k - np];
+            }
+            if (!want_forces || p->deep != again) continue; /* a deep contact's forces come after the chunks' */
+            if (n_tmp + 4 > tmp_cap) {
+                tmp_cap = 2 * (n_tmp + 4) + np;
+                tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
+                dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
+                if (tmp == NULL || dest == NULL) {
+                    rc = NTS_ENOMEM;
+                    break;
                 }
             }
-            if (remote) remote_at[n_remote++] = k;
-            if (p->deep) deep_at[n_deep_at++] = k;
-            memset(&s, 0, sizeof s);
-            s.entry = (int)m->entry_global[p->entry];
-            s.body = m->part_ids[p->master_body];
-            s.s.e = p->energy;
-            s.s.xx = p->virial.xx;
-            s.s.yy = p->virial.yy;
-            s.s.xy = p->virial.xy;
-            s.s.yx = p->virial.yx;
-            s.s.dis = p->dissipation;
-            if (p->deep) {
-                deep_mine[n_deep++] = s;
-            } else if (ranks_in[s.entry / NTS_PART_CHUNK] > 1) {
-                sm[n_sm++] = s; /* for the chunk's home */
-            } else {
-                assert(nc == 0 || ch[nc - 1].chunk <= s.entry / NTS_PART_CHUNK); /* the parts come in key order */
-                chunk_add(ch, &nc, s.entry / NTS_PART_CHUNK, &s.s);
-                assert(nc <= nchunk);
+            for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
+                const int owner = m->node_owner[p->nodes[q]], at = m->node_at[p->nodes[q]];
+                if (owner != m->rank) {
+                    counts[owner]++;
+                    dest[n_tmp] = owner;
+                    tmp[n_tmp++] = share_of(m, p, q);
+                } else {
+                    src_tag(src, at, m->rank);
+                    m->forces[at].x = m->forces[at].x + p->force[q].x;
+                    m->forces[at].y = m->forces[at].y + p->force[q].y;
+                    own_at[4 * own + q] = at;
+                }
             }
-            cnt[0]++;                       /* contacts */
-            cnt[2] += p->deep;              /* deep */
-            cnt[3] += p->state == NTS_STICK;
-            cnt[4] += p->state == NTS_SLIP;
-            if (p->penetration > maxpen) maxpen = p->penetration;
         }
         for (r = 0, n_sh = 0; r < P; ++r) {
             fill[r] = n_sh;
             n_sh += counts[r];
         }
-        rc = (sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) != NULL
-                 ? NTS_OK
-                 : ntsm_fail(err, NTS_ENOMEM, "out of memory");
-        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
-        /* Each rank's shares in key order (the chunks' contacts, then the
-         * deep ones: the parts run in key order within each), so that a
-         * node only one other rank's contacts touch can take them as they
-         * come (below). */
-        for (k = 0; k < n_remote; ++k) emit_shares(m, parts, remote_at[k], 0, sh, fill);
-        for (k = 0; k < n_remote; ++k) emit_shares(m, parts, remote_at[k], 1, sh, fill);
+        if (rc == NTS_OK &&
+            (sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL)
+            rc = NTS_ENOMEM;
+        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) !=
+            NTS_OK)
+            goto done;
+        /* each rank's shares in key order (the chunks' contacts, then the
+         * deep ones), so that a node only one other rank's contacts touch
+         * can take them as they come (below) */
+        for (k = 0; k < n_tmp; ++k) sh[fill[dest[k]]++] = tmp[k];
 
         /* the owned slaves' closest points within r, and their deep contacts */
         cnt[1] = (m->part ? nts_context_owned_gaps(m->ctx) : 0) + cnt[2];
@@ -345,32 +352,19 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
 
         /* Each node's forces at its owner, in one process's order: a node
          * that one rank's contacts alone touch takes them as they come (that
-         * rank's parts and shares run in key order); a node that several
-         * ranks' touch ("mixed") gets every contribution bucketed and its
-         * few ordered by key. */
+         * rank's parts and shares run in key order: this rank's are in); a
+         * node that several ranks' touch ("mixed") gets every contribution
+         * bucketed and its few ordered by key. */
         rs = (share_msg*)exchange(m, sh, counts, sizeof(share_msg), &got, &m->sc[SC_SHARES_IN], &limit, from);
         rc = rs != NULL ? NTS_OK : exchange_failed(err, limit);
-        if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
-            rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
         if (want_forces) {
-            int bad = 0, any_bad = 0, n_mixed = 0, n_left = 0, total, at0;
-            int* left_at = remote_at; /* (done with) the contacts that leave some to the mixed nodes */
+            int bad = 0, any_bad = 0, n_mixed = 0, total, at0;
             share_msg* all;
-            memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
             for (r = 0, at0 = 0; r < P; at0 += from[r++])
                 for (k = at0; k < at0 + from[r]; ++k) src_tag(src, rs[k].at, r);
-            /* this rank's contributions: the chunks' contacts, then the deep ones */
-            for (k = 0; k < np + n_deep_at; ++k) {
-                const int c = k < np ? k : deep_at[k - np];
-                int left;
-                if (k < np && (parts[c].deep || !m->entry_owned[parts[c].entry])) continue;
-                if ((left = add_local(m, &parts[c], src)) > 0) {
-                    n_mixed += left;
-                    left_at[n_left++] = c;
-                }
-            }
-            /* the others', each rank's in its order */
+            /* the others', each rank's in its order, on the nodes that
+             * contacts of that rank alone touch */
             for (r = 0, at0 = 0; r < P; at0 += from[r++])
                 for (k = at0; k < at0 + from[r]; ++k) {
                     const int at = rs[k].at;
@@ -382,19 +376,17 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     m->forces[at].y = m->forces[at].y + rs[k].fy;
                 }
             /* the mixed nodes' contributions (those near a slab's edge), by
-             * node and key */
+             * node and key: every mixed node has some other rank's */
+            if (n_mixed > 0)
+                for (k = 0; k < 4 * n_own; ++k) n_mixed += own_at[k] >= 0 && src[own_at[k]] == SRC_MIXED;
             total = n_mixed;
             all = (share_msg*)ntsm_scratch(&m->sc[SC_MIXED_ALL], sizeof(share_msg) * ((size_t)total + 1));
             rc = all != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
             if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
             for (k = 0, n_mixed = 0; k < got && total > 0; ++k)
                 if (src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
-            for (k = 0; k < n_left; ++k) {
-                const nts_part* p = &parts[left_at[k]];
-                for (q = 0; q < 4 && p->nodes[q] >= 0; ++q)
-                    if (m->node_owner[p->nodes[q]] == m->rank && src[m->node_at[p->nodes[q]]] == SRC_MIXED)
-                        all[n_mixed++] = share_of(m, p, q);
-            }
+            for (k = 0; k < 4 * n_own && total > 0; ++k)
+                if (own_at[k] >= 0 && src[own_at[k]] == SRC_MIXED) all[n_mixed++] = share_of(m, &parts[own_k[k / 4]], k % 4);
             assert(n_mixed == total);
             if (total > 1) qsort(all, (size_t)total, sizeof(share_msg), cmp_mixed); /* (the keys are distinct) */
             for (k = 0; k < total;) {
