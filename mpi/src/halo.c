@@ -42,7 +42,7 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
         double a = HUGE_VAL, b = -HUGE_VAL;
         int i;
         for (i = 0; i < d->node_count; ++i) {
-            const double c = sl->axis == 0 ? d->nodes[i].x : d->nodes[i].y;
+            const double c = ntsm_axis_coord(sl, d->nodes[i]);
             if (c < a) a = c;
             if (c > b) b = c;
         }

@@ -1,4 +1,5 @@
-/* The decomposition (docs/distributed.md): cuts along the longer axis at
+/* The decomposition (docs/distributed.md): cuts along a direction (the
+ * longer axis, or the one that keeps more nodes on their owners' ranks) at
  * the quantiles of the surface nodes (equal shares, or the shares of
  * ntsm_scene_set_weights or of the measured speeds), the same on every
  * rank. */
@@ -14,8 +15,13 @@
 
 enum { BINS = 4096 };
 
+double ntsm_axis_coord(const slabs* sl, nts_vec2 p) {
+    const double c = (sl->axis & 1) ? p.y : p.x;
+    return (sl->axis & 2) ? -c : c;
+}
+
 double ntsm_axis_of(const slabs* sl, nts_vec2 p) {
-    double c = sl->axis == 0 ? p.x : p.y;
+    double c = ntsm_axis_coord(sl, p);
     if (sl->period > 0.0) {
         c -= sl->period * floor(c / sl->period);
         if (!(c < sl->period)) c = 0.0; /* a round-off at the top */
@@ -41,47 +47,31 @@ static int bin_of(const slabs* sl, double c) {
     return q <= 0.0 ? 0 : (q >= BINS - 1 ? BINS - 1 : (int)q);
 }
 
-/* The cuts: at the quantiles of the surface nodes along the longer axis. */
-int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl) {
-    long long* h = (long long*)calloc(2 * BINS, sizeof(long long));
-    const nts_vec2* pos = m->own ? nts_scene_positions(m->own) : NULL;
-    const long long total = m->entry_off[m->bodies];
-    long long acc = 0;
-    int b, k, r;
-    int fine, all;
-    sl->cut = h != NULL ? (double*)malloc(sizeof(double) * (size_t)(m->size + 1)) : NULL;
-    fine = h != NULL && sl->cut != NULL;
-    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm); /* before the histogram's reduction */
-    if (!all) {
-        free(h);
-        free(sl->cut);
-        sl->cut = NULL;
-        return NTS_ENOMEM;
-    }
+/* The direction's frame (axis: 0 x, 1 y, 2 -x, 3 -y): the box along it,
+ * or the nodes' extent. */
+static void axis_frame(slabs* sl, int axis, const nts_frame* f, double lx, double ly) {
+    const double lo = (axis & 1) ? f->ymin : f->xmin, hi = (axis & 1) ? f->ymax : f->xmax;
+    sl->axis = axis;
     if (lx > 0.0) {
-        sl->axis = lx >= ly ? 0 : 1;
-        sl->period = sl->axis == 0 ? lx : ly;
+        sl->period = (axis & 1) ? ly : lx;
         sl->lo = 0.0;
         sl->hi = sl->period;
     } else {
-        sl->axis = f->xmax - f->xmin >= f->ymax - f->ymin ? 0 : 1;
         sl->period = 0.0;
-        sl->lo = sl->axis == 0 ? f->xmin : f->ymin;
-        sl->hi = sl->axis == 0 ? f->xmax : f->ymax;
+        sl->lo = (axis & 2) ? -hi : lo;
+        sl->hi = (axis & 2) ? -lo : hi;
     }
-    for (b = 0; b < m->count; ++b) {
-        const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
-        const int n0 = nts_scene_body_node_offset(m->own, b);
-        for (k = e0; k < e1; ++k) {
-            int body, node;
-            nts_scene_entry(m->own, k, &body, &node);
-            h[bin_of(sl, ntsm_axis_of(sl, pos[n0 + node]))]++;
-        }
-    }
-    MPI_Allreduce(h, h + BINS, BINS, MPI_LONG_LONG, MPI_SUM, m->comm);
+}
+
+/* The cuts at the quantiles (equal shares, or the shares) of the summed
+ * histogram h along sl's axis, into sl->cut. */
+static void cuts_from(const ntsm_scene* m, slabs* sl, const long long* h) {
+    const long long total = m->entry_off[m->bodies];
+    long long acc = 0;
+    int b = 0, r;
     sl->cut[0] = -HUGE_VAL;
     sl->cut[m->size] = HUGE_VAL;
-    for (r = 1, b = 0; r < m->size; ++r) {
+    for (r = 1; r < m->size; ++r) {
         long long target = total * r / m->size;
         if (m->share_on) { /* uneven shares (ntsm_scene_set_weights): the same doubles on every rank */
             double cum = 0.0;
@@ -89,12 +79,77 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
             for (i = 0; i < r; ++i) cum += m->share[i];
             target = (long long)((double)total * cum);
         }
-        while (b < BINS && acc + h[BINS + b] < target) acc += h[BINS + b++];
+        while (b < BINS && acc + h[b] < target) acc += h[b++];
         /* the slab boundary at the end of bin b (the bins' edges, exactly the
          * same on every rank) */
         sl->cut[r] = b >= BINS ? HUGE_VAL : sl->lo + (sl->hi - sl->lo) * (double)(b + 1) / BINS;
         if (sl->cut[r] < sl->cut[r - 1]) sl->cut[r] = sl->cut[r - 1];
     }
+}
+
+/* The cuts: at the quantiles of the surface nodes along a direction, slab
+ * r for rank r. Along the longer axis, unless another direction leaves a
+ * quarter more of the surface nodes in their owner's slab (the same axis
+ * the other way, or the other axis when it is at least half as long): a
+ * host that owns rows of bodies gets slabs along its rows, in its ranks'
+ * order, so that a slave's forces on its own and its masters' nodes mostly
+ * stay on its rank (docs/distributed.md, "The slabs"). The same on every
+ * rank. */
+enum { DIRS = 4 };
+int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl) {
+    const nts_vec2* pos = m->own ? nts_scene_positions(m->own) : NULL;
+    const double ex = lx > 0.0 ? lx : f->xmax - f->xmin, ey = lx > 0.0 ? ly : f->ymax - f->ymin;
+    const int longer = ex >= ey ? 0 : 1;
+    const int nd = m->size == 1 ? 1 : (longer == 0 ? ey >= 0.5 * ex : ex >= 0.5 * ey) ? 4 : 2;
+    long long* h = (long long*)calloc(2u * DIRS * BINS, sizeof(long long)); /* mine, then summed */
+    slabs cand[DIRS];
+    long long kept[DIRS], sum[DIRS];
+    int b, k, d, best = 0;
+    int fine, all;
+    memset(cand, 0, sizeof cand);
+    memset(kept, 0, sizeof kept);
+    for (d = 0, fine = h != NULL; d < nd; ++d) {
+        /* the longer axis, the other way, the other axis, the other way */
+        axis_frame(&cand[d], (d < 2 ? longer : 1 - longer) | (d & 1) << 1, f, lx, ly);
+        if ((cand[d].cut = (double*)malloc(sizeof(double) * (size_t)(m->size + 1))) == NULL) fine = 0;
+    }
+    MPI_Allreduce(&fine, &all, 1, MPI_INT, MPI_MIN, m->comm); /* before the histograms' reduction */
+    if (!all) {
+        free(h);
+        for (d = 0; d < nd; ++d) free(cand[d].cut);
+        sl->cut = NULL;
+        return NTS_ENOMEM;
+    }
+    for (b = 0; b < m->count; ++b) {
+        const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
+        const int n0 = nts_scene_body_node_offset(m->own, b);
+        for (k = e0; k < e1; ++k) {
+            int body, node;
+            nts_scene_entry(m->own, k, &body, &node);
+            for (d = 0; d < nd; ++d) h[d * BINS + bin_of(&cand[d], ntsm_axis_of(&cand[d], pos[n0 + node]))]++;
+        }
+    }
+    MPI_Allreduce(h, h + DIRS * BINS, nd * BINS, MPI_LONG_LONG, MPI_SUM, m->comm);
+    for (d = 0; d < nd; ++d) cuts_from(m, &cand[d], h + (DIRS + d) * BINS);
+    if (nd > 1) {
+        /* the surface nodes each direction's slabs leave on their owner's rank */
+        for (b = 0; b < m->count; ++b) {
+            const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
+            const int n0 = nts_scene_body_node_offset(m->own, b);
+            for (k = e0; k < e1; ++k) {
+                int body, node;
+                nts_scene_entry(m->own, k, &body, &node);
+                for (d = 0; d < nd; ++d)
+                    kept[d] += ntsm_slab_of(&cand[d], m->size, ntsm_axis_of(&cand[d], pos[n0 + node])) == m->rank;
+            }
+        }
+        MPI_Allreduce(kept, sum, nd, MPI_LONG_LONG, MPI_SUM, m->comm);
+        for (d = 1; d < nd; ++d)
+            if (4 * sum[d] > 5 * sum[0] && sum[d] > sum[best]) best = d;
+    }
+    *sl = cand[best];
+    for (d = 0; d < nd; ++d)
+        if (d != best) free(cand[d].cut);
     free(h);
     return NTS_OK;
 }

@@ -325,6 +325,76 @@ static void bad_input(void) {
     if (rank_ == 0) printf("bad input on rank %d: every rank got \"%s\" (body %d)\n", size_ - 1, err.message, err.body);
 }
 
+/* A host that owns rows of bodies in a square periodic box, then the same
+ * scene turned a quarter (the same bodies in the same order, the same
+ * owners, so the same chunks: its rows now run along y): the slabs follow
+ * the host (docs/distributed.md, "The slabs"), so a kept step sends about
+ * as many bytes either way; slabs along x for both send several times more
+ * for the first (most of its forces to other ranks' nodes). Both bitwise
+ * equal to one process. */
+static void affinity(void) {
+    const int side = 16;
+    long long bytes[2] = {0, 0};
+    int turn;
+    for (turn = 0; turn < 2; ++turn) {
+        scene_data d;
+        nts_scene_def def = nts_default_scene_def();
+        nts_scene* whole;
+        nts_body_def* owned;
+        int* ids;
+        double* equal = (double*)malloc(sizeof(double) * (size_t)size_);
+        nts_options opt = nts_default_options();
+        ntsm_result got;
+        nts_error err;
+        ntsm_scene* m;
+        int b, k, count_mine = 0;
+        long long mine;
+        rng_state = 4242u;
+        d = make_scene(side * side, 1);
+        if (turn == 1)
+            for (k = 0; k < d.offset[d.bodies]; ++k) { /* (x, y) -> (L - y, x): rows become columns */
+                const nts_vec2 p = d.nodes[k];
+                d.nodes[k].x = d.lx - p.y;
+                d.nodes[k].y = p.x;
+            }
+        owned = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
+        ids = (int*)calloc((size_t)d.bodies, sizeof(int));
+        def.bodies = d.defs;
+        def.body_count = d.bodies;
+        def.lx = d.lx;
+        def.ly = d.ly;
+        whole = nts_scene_create(&def, &err);
+        CHECK(whole != NULL, "affinity: whole scene: %s", err.message);
+        for (b = 0; b < d.bodies; ++b)
+            if ((b / side) * size_ / side == rank_) {
+                owned[count_mine] = d.defs[b];
+                ids[count_mine++] = b;
+            }
+        m = ntsm_scene_create(MPI_COMM_WORLD, owned, ids, count_mine, d.lx, d.ly, nts_default_limits(), &err);
+        CHECK(m != NULL, "affinity: distributed scene: %s", err.message);
+        if (m != NULL && whole != NULL) {
+            for (k = 0; k < size_; ++k) equal[k] = 1.0;
+            CHECK(ntsm_scene_set_weights(m, equal) == NTS_OK, "affinity: equal weights");
+            compare(&d, m, whole, ids, count_mine, turn == 0 ? "host owns rows along x" : "host owns rows along y",
+                    NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+            CHECK(ntsm_evaluate(m, &opt, &got, &err) == 0, "affinity: %s", err.message); /* a kept step */
+            mine = got.stats.bytes_sent;
+            MPI_Allreduce(&mine, &bytes[turn], 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+        }
+        ntsm_scene_destroy(m);
+        nts_scene_destroy(whole);
+        free(owned);
+        free(ids);
+        free(equal);
+        free_scene(&d);
+    }
+    if (rank_ == 0) printf("affinity: a kept step sends %lld bytes (rows along x), %lld (along y)\n", bytes[0], bytes[1]);
+    if (size_ > 1)
+        CHECK(2 * bytes[0] <= 3 * bytes[1] && 2 * bytes[1] <= 3 * bytes[0],
+              "affinity: a kept step sends %lld bytes when the host's rows run along x, %lld along y", bytes[0],
+              bytes[1]);
+}
+
 int main(int argc, char** argv) {
     int total;
     MPI_Init(&argc, &argv);
@@ -333,6 +403,7 @@ int main(int argc, char** argv) {
     run_case(300, 0, "open packing, a long wall, a big disk");
     run_case(256, 1, "periodic packing");
     run_case(2, 0, "two disks");
+    affinity();
     bad_input();
     MPI_Allreduce(&failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
     if (rank_ == 0) printf("%s\n", total == 0 ? "all equal" : "FAILED");
