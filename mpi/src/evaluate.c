@@ -271,7 +271,9 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     sl.lo = m->lo_b;
     sl.hi = m->hi_b;
     sl.cut = m->cut_b;
-    rc = ntsm_part_maps(m, &sl) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    if (m->stats.rebuilt) m->maps_whole = 0; /* a new part: its nodes' and entries' maps too */
+    rc = ntsm_part_maps(m, &sl, !m->maps_whole) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    if (rc == NTS_OK) m->maps_whole = 1;
     sl.cut = NULL;
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
     {

@@ -208,9 +208,10 @@ done:
     return rc;
 }
 
-/* The part's entries: whether this rank owns each one's slave, and its
- * global index; the part's nodes' global indices. */
-int ntsm_part_maps(ntsm_scene* m, const slabs* sl) {
+/* The part's entries: whether this rank owns each one's slave, and (when
+ * the part is new: `all`) its global index; the part's nodes' global
+ * indices, owners and places among their owners' nodes. */
+int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all) {
     const int nb = m->part ? nts_scene_body_count(m->part) : 0;
     const int ne = m->part ? nts_scene_surface_node_count(m->part) : 0;
     const int nn = m->part ? nts_scene_node_count(m->part) : 0;
@@ -231,7 +232,7 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl) {
         const int id = m->part_ids[b], n0 = nts_scene_body_node_offset(m->part, b);
         const int e0 = nts_scene_body_entry_start(m->part, b), e1 = nts_scene_body_entry_start(m->part, b + 1);
         int i;
-        for (i = 0; i < nts_scene_body_node_count(m->part, b); ++i) {
+        for (i = 0; all && i < nts_scene_body_node_count(m->part, b); ++i) {
             m->part_node[n0 + i] = m->node_off[id] + i;
             m->node_owner[n0 + i] = m->owner[id];
             m->node_at[n0 + i] = m->owner_node_at[id] + i;
@@ -239,8 +240,8 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl) {
         for (e = e0; e < e1; ++e) {
             int body, node;
             nts_scene_entry(m->part, e, &body, &node);
-            m->entry_global[e] = m->entry_off[id] + (e - e0);
-            m->entry_owned[e] = ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[n0 + node])) == m->rank;
+            if (all) m->entry_global[e] = m->entry_off[id] + (e - e0);
+            m->entry_owned[e] = m->size == 1 || ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[n0 + node])) == m->rank;
             m->owned_mask[e] = (unsigned char)m->entry_owned[e];
             owned += m->entry_owned[e];
         }

@@ -106,6 +106,7 @@ struct ntsm_scene {
      * and place in the part (arrival order). Rebuilt when some node has
      * moved more than the skin allows, or the load is uneven. */
     int built, rebuild_next;
+    int maps_whole;       /* the part's maps hold its nodes' and entries' (ntsm_part_maps), not only who owns each slave */
     double skin;          /* negative: 0.3 times the search radius */
     /* The slabs' shares of the surface nodes (slabs.c): the host's fixed
      * weights (NULL: balanced by measured time), the shares the slabs are
@@ -200,7 +201,7 @@ int ntsm_meets(const slabs* sl, int r, double a, double b);
 /* halo.c */
 int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, double ly, nts_error* err);
 int ntsm_part_move(ntsm_scene* m, nts_error* err);
-int ntsm_part_maps(ntsm_scene* m, const slabs* sl);
+int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all);
 
 /* gather.c: the last ntsm_gather's arrays, freed */
 void ntsm_gathered_free(ntsm_scene* m);
