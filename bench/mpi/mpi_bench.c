@@ -7,9 +7,10 @@
  * Between evaluations every node moves by 1e-4 (a solver's step), so the
  * decomposition is kept (SKIN < 0: the default skin) or made anew every
  * time (SKIN 0).
- * The host owns the disks by rows (LAYOUT 0: bands across the slabs the
- * library cuts along x, so that about half of the contributions go to
- * another rank) or by columns (LAYOUT 1: bands along the slabs).
+ * The host owns the disks by bands of rows (LAYOUT 0), by bands of columns
+ * (LAYOUT 1): the library's slabs follow either; or dealt in turn, disk b
+ * to rank b mod P (LAYOUT 2: no slab can follow the host, so that about
+ * half of the contributions go to another rank on 2 ranks).
  * usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN [LAYOUT]]] */
 #include <math.h>
 #include <stdio.h>
@@ -69,7 +70,10 @@ int main(int argc, char** argv) {
         rr = 0.54 * (0.92 + 0.12 * (double)(seed >> 8) / 16777216.0);
         seed = seed * 1664525u + 1013904223u;
         ph = (double)(seed >> 8) / 16777216.0;
-        if ((layout == 0 ? (long long)b * size / disks : (long long)(b % side) * size / side) != rank) continue;
+        if ((layout == 0   ? (long long)b * size / disks
+             : layout == 1 ? (long long)(b % side) * size / side
+                           : (long long)(b % size)) != rank)
+            continue;
         for (k = 0; k < per; ++k) {
             nodes[(size_t)mine * per + k].x = (b % side) + 0.5 + jx + rr * cos(ph + 2 * M_PI * k / per);
             nodes[(size_t)mine * per + k].y = (b / side) + 0.5 + jy + rr * sin(ph + 2 * M_PI * k / per);

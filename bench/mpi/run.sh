@@ -3,7 +3,8 @@
 # at 1e5 and 1e6 surface nodes and weak scaling (5e5 nodes a rank) on 1 and 2
 # ranks, the decomposition kept (a solver's loop) and made anew every step
 # (skin 0), interleaved rounds; bytes each rank sends and the halo fraction.
-# Layout 0: the host owns rows of disks (across the slabs); 1: columns (along).
+# Layout 0: the host owns bands of rows of disks; 1: bands of columns (the
+# slabs follow either); 2: disk b on rank b mod P (no slab can follow it).
 # Needs a Release build with -DNTS_MPI=ON and the bench component:
 #   cmake -S . -B build-mpi-rel -DCMAKE_BUILD_TYPE=Release -DNTS_MPI=ON \
 #         -DNTS_COMPONENTS="codec;cli;bench" -DNTS_FORTRAN=OFF && cmake --build build-mpi-rel
@@ -14,7 +15,7 @@ rounds=${2:-3}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 echo "round,case,layout,ranks,skin,surface_nodes,contacts,median_s,min_s,frame_s,bodies_s,evaluate_s,sums_s,bytes_sent_per_rank,halo_fraction,serial_median_s"
 for round in $(seq 1 "$rounds"); do
-  for c in "strong1e6 25000 0" "strong1e6 25000 1" "strong1e5 2500 0" "weak 12500 0"; do
+  for c in "strong1e6 25000 0" "strong1e6 25000 1" "strong1e6 25000 2" "strong1e5 2500 0" "weak 12500 0"; do
     set -- $c
     name=$1 disks=$2 layout=$3
     for skin in -1 0; do
