@@ -1,8 +1,10 @@
 """docs/img/distributed_slabs.png: the decomposition of docs/distributed.md,
 computed as mpi/src/slabs.c and halo.c compute it, for a packing of 12 x 12
-disks on 3 ranks whose host owns them by rows: the slabs (cuts at the
-quantiles of the surface nodes along x), and the bodies slab 1 holds (those
-whose box, grown by the halo, overlaps it).
+disks on 3 ranks whose host owns them by bands of columns: the slabs (cuts
+at the quantiles of the surface nodes along x, which follows the host: the
+longer axis, and its direction leaves the most nodes on their owners'
+ranks), and the bodies slab 1 holds (those whose box, grown by the halo,
+overlaps it).
 usage: python bench/mpi/figure.py docs/img/distributed_slabs.png"""
 import math
 import sys
@@ -30,7 +32,7 @@ hist = np.bincount(np.clip(((nodes[:, 0] - lo) / (hi - lo) * bins).astype(int), 
 cum = np.cumsum(hist)
 cuts = [-np.inf] + [lo + (hi - lo) * (int(np.searchsorted(cum, len(nodes) * k / ranks)) + 1) / bins
                     for k in range(1, ranks)] + [np.inf]
-owner = [b * ranks // len(disks) for b in range(len(disks))]
+owner = [(b % side) * ranks // side for b in range(len(disks))]
 colors = ["#4e79a7", "#f28e2b", "#59a14f"]
 fig, ax = plt.subplots(figsize=(7.2, 6.6))
 s = 1
@@ -48,7 +50,7 @@ ax.axvspan(cuts[2], cuts[2] + halo, color="crimson", alpha=0.08)
 for k in range(ranks):
     a, b2 = max(cuts[k], -0.3), min(cuts[k + 1], side + 0.3)
     ax.text((a + b2) / 2, side + 0.35, f"slab {k}", ha="center", color="crimson", fontsize=11)
-ax.set_title("3 ranks: the host owns rows (colours); the library cuts slabs (red)\n"
+ax.set_title("3 ranks: the host owns bands of columns (colours); the library's slabs (red) follow them\n"
              "slab 1 holds the outlined bodies (its own and a halo; shaded: the halo's reach)", fontsize=10)
 ax.set_aspect("equal")
 ax.set_xlim(-0.6, side + 0.6)
