@@ -3,7 +3,8 @@
  *   1. the frame: what the whole scene's segments set (the median segment,
  *      exactly, by eight rounds of byte histograms; the longest; the extent), reduced
  *      across the ranks (distributed.h);
- *   2. the slabs: cuts along the longer axis at the quantiles of the surface
+ *   2. the slabs: cuts along a direction (the longer axis, or the one that
+ *      follows the host's bodies: slabs.c) at the quantiles of the surface
  *      nodes (a histogram summed across the ranks): each slab owns the slave
  *      entries whose node lies in it;
  *   3. the halo: each body goes whole to every slab its bounding box, grown

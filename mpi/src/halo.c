@@ -208,9 +208,9 @@ done:
     return rc;
 }
 
-/* The part's entries: whether this rank owns each one's slave, and (when
- * the part is new: `all`) its global index; the part's nodes' global
- * indices, owners and places among their owners' nodes. */
+/* The part's entries: whether this rank owns each one's slave; and, when
+ * the part is new (`all`), each entry's global index and each node's global
+ * index, owner and place among its owner's nodes (kept while the part is). */
 int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all) {
     const int nb = m->part ? nts_scene_body_count(m->part) : 0;
     const int ne = m->part ? nts_scene_surface_node_count(m->part) : 0;

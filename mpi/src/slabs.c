@@ -1,5 +1,6 @@
 /* The decomposition (docs/distributed.md): cuts along a direction (the
- * longer axis, or the one that keeps more nodes on their owners' ranks) at
+ * longer axis, or one that keeps a quarter more nodes on their owners'
+ * ranks) at
  * the quantiles of the surface nodes (equal shares, or the shares of
  * ntsm_scene_set_weights or of the measured speeds), the same on every
  * rank. */
@@ -129,21 +130,23 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
             for (d = 0; d < nd; ++d) h[d * BINS + bin_of(&cand[d], ntsm_axis_of(&cand[d], pos[n0 + node]))]++;
         }
     }
-    MPI_Allreduce(h, h + DIRS * BINS, nd * BINS, MPI_LONG_LONG, MPI_SUM, m->comm);
+    /* (every rank reduces as many values, whatever its nd: ranks given
+     * different frames get a wrong decomposition, never a hang) */
+    MPI_Allreduce(h, h + DIRS * BINS, DIRS * BINS, MPI_LONG_LONG, MPI_SUM, m->comm);
     for (d = 0; d < nd; ++d) cuts_from(m, &cand[d], h + (DIRS + d) * BINS);
-    if (nd > 1) {
+    {
         /* the surface nodes each direction's slabs leave on their owner's rank */
         for (b = 0; b < m->count; ++b) {
             const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
             const int n0 = nts_scene_body_node_offset(m->own, b);
-            for (k = e0; k < e1; ++k) {
+            for (k = e0; k < e1 && nd > 1; ++k) {
                 int body, node;
                 nts_scene_entry(m->own, k, &body, &node);
                 for (d = 0; d < nd; ++d)
                     kept[d] += ntsm_slab_of(&cand[d], m->size, ntsm_axis_of(&cand[d], pos[n0 + node])) == m->rank;
             }
         }
-        MPI_Allreduce(kept, sum, nd, MPI_LONG_LONG, MPI_SUM, m->comm);
+        MPI_Allreduce(kept, sum, DIRS, MPI_LONG_LONG, MPI_SUM, m->comm);
         for (d = 1; d < nd; ++d)
             if (4 * sum[d] > 5 * sum[0] && sum[d] > sum[best]) best = d;
     }

@@ -280,24 +280,25 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     deep_at[n_deep_at++] = c;
                 }
                 own_k[n_own] = c;
-                for (q = 0; q < 4; ++q) own_at[4 * n_own + q] = -1;
+                for (q = 0; q < 4; ++q) own_at[4 * (size_t)n_own + q] = -1;
                 own = n_own++;
             } else {
                 own = deep_own[k - np];
             }
             if (!want_forces || p->deep != again) continue; /* a deep contact's forces come after the chunks' */
-            if (n_tmp + 4 > tmp_cap) {
-                tmp_cap = 2 * (n_tmp + 4) + np;
-                tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
-                dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
-                if (tmp == NULL || dest == NULL) {
-                    rc = NTS_ENOMEM;
-                    break;
-                }
-            }
             for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
                 const int owner = m->node_owner[p->nodes[q]], at = m->node_at[p->nodes[q]];
                 if (owner != m->rank) {
+                    if (n_tmp == tmp_cap) { /* grown as the shares come: none on one rank */
+                        const long long cap = 2LL * tmp_cap + 1024;
+                        tmp_cap = cap > INT_MAX ? INT_MAX : (int)cap;
+                        tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
+                        dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
+                        if (tmp == NULL || dest == NULL || n_tmp == tmp_cap) {
+                            rc = NTS_ENOMEM;
+                            break;
+                        }
+                    }
                     counts[owner]++;
                     dest[n_tmp] = owner;
                     tmp[n_tmp++] = share_of(m, p, q);
@@ -305,7 +306,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     src_tag(src, at, m->rank);
                     m->forces[at].x = m->forces[at].x + p->force[q].x;
                     m->forces[at].y = m->forces[at].y + p->force[q].y;
-                    own_at[4 * own + q] = at;
+                    own_at[4 * (size_t)own + q] = at;
                 }
             }
         }
@@ -360,6 +361,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
         if (want_forces) {
             int bad = 0, any_bad = 0, n_mixed = 0, total, at0;
+            size_t z;
             share_msg* all;
             for (r = 0, at0 = 0; r < P; at0 += from[r++])
                 for (k = at0; k < at0 + from[r]; ++k) src_tag(src, rs[k].at, r);
@@ -378,15 +380,15 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             /* the mixed nodes' contributions (those near a slab's edge), by
              * node and key: every mixed node has some other rank's */
             if (n_mixed > 0)
-                for (k = 0; k < 4 * n_own; ++k) n_mixed += own_at[k] >= 0 && src[own_at[k]] == SRC_MIXED;
+                for (z = 0; z < 4 * (size_t)n_own; ++z) n_mixed += own_at[z] >= 0 && src[own_at[z]] == SRC_MIXED;
             total = n_mixed;
             all = (share_msg*)ntsm_scratch(&m->sc[SC_MIXED_ALL], sizeof(share_msg) * ((size_t)total + 1));
             rc = all != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
             if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
             for (k = 0, n_mixed = 0; k < got && total > 0; ++k)
                 if (src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
-            for (k = 0; k < 4 * n_own && total > 0; ++k)
-                if (own_at[k] >= 0 && src[own_at[k]] == SRC_MIXED) all[n_mixed++] = share_of(m, &parts[own_k[k / 4]], k % 4);
+            for (z = 0; z < 4 * (size_t)n_own && total > 0; ++z)
+                if (own_at[z] >= 0 && src[own_at[z]] == SRC_MIXED) all[n_mixed++] = share_of(m, &parts[own_k[z / 4]], (int)(z % 4));
             assert(n_mixed == total);
             if (total > 1) qsort(all, (size_t)total, sizeof(share_msg), cmp_mixed); /* (the keys are distinct) */
             for (k = 0; k < total;) {
@@ -520,6 +522,10 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         }
     }
 done:
+    /* no half-summed forces for ntsm_gather after a failure (the forces are
+     * added as the parts come) */
+    if (rc != NTS_OK && m->forces != NULL && m->forces_cap > m->own_nodes)
+        memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
     free(counts);
     free(all_ch);
     free(all_deep);
