@@ -241,7 +241,7 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all) {
             int body, node;
             nts_scene_entry(m->part, e, &body, &node);
             if (all) m->entry_global[e] = m->entry_off[id] + (e - e0);
-            m->entry_owned[e] = m->size == 1 || ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[n0 + node])) == m->rank;
+            m->entry_owned[e] = ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[n0 + node])) == m->rank;
             m->owned_mask[e] = (unsigned char)m->entry_owned[e];
             owned += m->entry_owned[e];
         }

@@ -300,7 +300,6 @@ int ntsm_scene_set_history(ntsm_scene* m, const nts_anchor* anchors, int count) 
 void ntsm_scene_set_skin(ntsm_scene* m, double skin) {
     m->skin = skin;
     m->built = 0;
-    m->maps_whole = 0;
 }
 
 int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {

@@ -94,7 +94,7 @@ static void cuts_from(const ntsm_scene* m, slabs* sl, const long long* h) {
  * the other way, or the other axis when it is at least half as long): a
  * host that owns rows of bodies gets slabs along its rows, in its ranks'
  * order, so that a slave's forces on its own and its masters' nodes mostly
- * stay on its rank (docs/distributed.md, "The slabs"). The same on every
+ * stay on its rank (docs/distributed.md, "The slabs follow the host"). The same on every
  * rank. */
 enum { DIRS = 4 };
 int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl) {
@@ -134,22 +134,20 @@ int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, sla
      * different frames get a wrong decomposition, never a hang) */
     MPI_Allreduce(h, h + DIRS * BINS, DIRS * BINS, MPI_LONG_LONG, MPI_SUM, m->comm);
     for (d = 0; d < nd; ++d) cuts_from(m, &cand[d], h + (DIRS + d) * BINS);
-    {
-        /* the surface nodes each direction's slabs leave on their owner's rank */
-        for (b = 0; b < m->count; ++b) {
-            const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
-            const int n0 = nts_scene_body_node_offset(m->own, b);
-            for (k = e0; k < e1 && nd > 1; ++k) {
-                int body, node;
-                nts_scene_entry(m->own, k, &body, &node);
-                for (d = 0; d < nd; ++d)
-                    kept[d] += ntsm_slab_of(&cand[d], m->size, ntsm_axis_of(&cand[d], pos[n0 + node])) == m->rank;
-            }
+    /* the surface nodes each direction's slabs leave on their owner's rank */
+    for (b = 0; b < m->count && nd > 1; ++b) {
+        const int e0 = nts_scene_body_entry_start(m->own, b), e1 = nts_scene_body_entry_start(m->own, b + 1);
+        const int n0 = nts_scene_body_node_offset(m->own, b);
+        for (k = e0; k < e1; ++k) {
+            int body, node;
+            nts_scene_entry(m->own, k, &body, &node);
+            for (d = 0; d < nd; ++d)
+                kept[d] += ntsm_slab_of(&cand[d], m->size, ntsm_axis_of(&cand[d], pos[n0 + node])) == m->rank;
         }
-        MPI_Allreduce(kept, sum, DIRS, MPI_LONG_LONG, MPI_SUM, m->comm);
-        for (d = 1; d < nd; ++d)
-            if (4 * sum[d] > 5 * sum[0] && sum[d] > sum[best]) best = d;
     }
+    MPI_Allreduce(kept, sum, DIRS, MPI_LONG_LONG, MPI_SUM, m->comm);
+    for (d = 1; d < nd; ++d)
+        if (4 * sum[d] > 5 * sum[0] && sum[d] > sum[best]) best = d;
     *sl = cand[best];
     for (d = 0; d < nd; ++d)
         if (d != best) free(cand[d].cut);

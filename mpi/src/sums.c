@@ -226,12 +226,11 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
     sm = (sum_msg*)ntsm_scratch(&m->sc[SC_SUMS_OUT], sizeof(sum_msg) * (size_t)(np + 1));
     deep_mine = (sum_msg*)ntsm_scratch(&m->sc[SC_DEEP], sizeof(sum_msg) * (size_t)(np + 1));
     {
-        int* lists = (int*)ntsm_scratch(&m->sc[SC_DEEP_AT], sizeof(int) * (7u * (size_t)np + 1));
+        int* lists = (int*)ntsm_scratch(&m->sc[SC_DEEP_AT], sizeof(int) * (6u * (size_t)np + 1));
         int* src = (int*)ntsm_scratch(&m->sc[SC_MIXED], sizeof(int) * ((size_t)m->own_nodes + 1));
-        int* deep_at = lists;                                /* owned deep contacts, */
-        int* deep_own = lists != NULL ? lists + np : NULL;   /* and their places in own_k */
-        int* own_k = lists != NULL ? lists + 2 * np : NULL;  /* owned contacts */
-        int* own_at = lists != NULL ? lists + 3 * np : NULL; /* their nodes' places here (-1: another rank's, or none) */
+        int* own_k = lists;                                  /* owned contacts */
+        int* deep_own = lists != NULL ? lists + np : NULL;   /* the deep ones' places in own_k */
+        int* own_at = lists != NULL ? lists + 2 * np : NULL; /* their nodes' places here (-1: another rank's, or none) */
         share_msg* tmp = NULL;                            /* the shares in key order, */
         int* dest = NULL;                                 /* and their destinations */
         int n_deep_at = 0, n_own = 0, n_tmp = 0, tmp_cap = 0;
@@ -245,7 +244,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         if (want_forces) memset(m->forces, 0, sizeof(nts_vec2) * ((size_t)m->own_nodes + 1));
         for (k = 0; k < np + n_deep_at && rc == NTS_OK; ++k) {
             /* the parts in key order, then the deep ones again (their forces) */
-            const int again = k >= np, c = again ? deep_at[k - np] : k;
+            const int again = k >= np, c = again ? own_k[deep_own[k - np]] : k;
             int own;
             const nts_part* p = &parts[c];
             sum_msg s;
@@ -275,10 +274,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 cnt[4] += p->state == NTS_SLIP;
                 if (p->penetration > maxpen) maxpen = p->penetration;
                 if (!want_forces) continue;
-                if (p->deep) {
-                    deep_own[n_deep_at] = n_own;
-                    deep_at[n_deep_at++] = c;
-                }
+                if (p->deep) deep_own[n_deep_at++] = n_own;
                 own_k[n_own] = c;
                 for (q = 0; q < 4; ++q) own_at[4 * (size_t)n_own + q] = -1;
                 own = n_own++;
