@@ -10,16 +10,20 @@
  * step k is at X_i + A sin(w k) u_i, with A half the search radius and w
  * such that a step moves a node at most 1/K of what the default skin allows
  * (docs/model.md (29)), K = 10 by default: about K steps between builds. A
- * loop of S steps (default 20) gives each step's positions to the scene
- * (nts_scene_update_positions, as a session's binary step does) and
- * evaluates. Round j runs steps jS + 1 .. (j + 1)S from scratch on one warm
- * context, then the same steps with a kept list on another: the same
- * positions, the same contacts, every step's energy and the last step's
- * forces checked equal bit for bit.
+ * loop of S steps (default 20) gives each step's positions to the scene and
+ * evaluates. Round j runs steps jS + 1 .. (j + 1)S three ways, each on a warm
+ * context of its own: from scratch, the positions given by
+ * nts_scene_update_positions and then nts_evaluate (timed apart); from
+ * scratch in one call, nts_evaluate_positions (the positions checked in the
+ * segment pass, as a session's binary step takes them); and with a kept list,
+ * nts_evaluate_positions again (a session's step). The same positions, the
+ * same contacts: every step's energy and the last step's forces checked
+ * equal bit for bit.
  * Prints a Markdown table: nodes, contacts, builds per loop, ns per surface
- * node of a step from scratch (evaluation alone, and with the positions'
- * update) and with the list (with the update), and the ratio of the kept
- * step to the evaluation from scratch round by round (median, range). */
+ * node of the evaluation from scratch, of the step from scratch (update +
+ * evaluation, and in one call) and of the kept step, and, round by round
+ * (median, range), the ratio of the step in one call to the evaluation from
+ * scratch (issue 27 §3) and of the kept step to it (§1). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,10 +47,11 @@ typedef struct loop {
 } loop;
 
 /* Steps first + 1 .. first + S on ctx: seconds of the evaluations alone and
- * of the steps (update + evaluation); each step's energy into energy[] and
- * the last step's forces into forces, or checked against them (check). */
-static void run_loop(const loop* L, nts_context* ctx, const nts_options* o, int first, double* eval_s, double* step_s,
-                     double* energy, nts_vec2* forces, int check) {
+ * of the steps (update + evaluation, or nts_evaluate_positions when `fused`:
+ * both times are the call's); each step's energy into energy[] and the last
+ * step's forces into forces, or checked against them (check). */
+static void run_loop(const loop* L, nts_context* ctx, const nts_options* o, int first, int fused, double* eval_s,
+                     double* step_s, double* energy, nts_vec2* forces, int check) {
     nts_result r;
     nts_error err;
     int k, i;
@@ -59,9 +64,14 @@ static void run_loop(const loop* L, nts_context* ctx, const nts_options* o, int 
             L->pos[i].y = L->base[i].y + a * L->dir[i].y;
         }
         t0 = ntsx_now();
-        if (nts_scene_update_positions(L->s, L->pos, &err) != NTS_OK) die("update", &err);
-        t1 = ntsx_now();
-        if (nts_evaluate(ctx, L->s, o, &r, &err) != NTS_OK) die("evaluate", &err);
+        if (fused) {
+            if (nts_evaluate_positions(ctx, L->s, L->pos, o, &r, &err) != NTS_OK) die("evaluate_positions", &err);
+            t1 = t0;
+        } else {
+            if (nts_scene_update_positions(L->s, L->pos, &err) != NTS_OK) die("update", &err);
+            t1 = ntsx_now();
+            if (nts_evaluate(ctx, L->s, o, &r, &err) != NTS_OK) die("evaluate", &err);
+        }
         t2 = ntsx_now();
         *eval_s += t2 - t1;
         *step_s += t2 - t0;
@@ -93,21 +103,22 @@ int main(int argc, char** argv) {
     }
     if (rounds < 3) rounds = 3;
     if (steps < 1) steps = 1;
-    printf("| surface nodes | contacts | builds per %d steps | scratch: evaluation ns/node | scratch: step ns/node | "
-           "kept: step ns/node | kept step / scratch evaluation (median; range) | list bytes per node |\n",
+    printf("| surface nodes | contacts | builds per %d steps | scratch: evaluation ns/node | scratch: update + "
+           "evaluation ns/node | scratch: one call ns/node | kept: one call ns/node | one call / evaluation (median; "
+           "range) | kept / scratch evaluation (median; range) | list bytes per node |\n",
            steps);
-    printf("|---:|---:|---:|---:|---:|---:|---|---:|\n");
+    printf("|---:|---:|---:|---:|---:|---:|---:|---|---|---:|\n");
     for (t = 0; t < (quick ? 2 : 3); ++t) {
         ntsx_scene b;
         ntsx_packing_def d = ntsx_default_packing(targets[t] / 48, 1, 2026u + (uint64_t)t);
-        nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+        nts_context *c0 = nts_context_create(), *c1 = nts_context_create(), *c2 = nts_context_create();
         nts_candidates* kc = nts_candidates_create(-1.0);
         nts_options o0 = nts_default_options(), o1;
         nts_result r;
         nts_error err;
         loop L;
         nts_vec2 *base, *dir, *forces;
-        double *energy, *ta, *tsa, *tb, *ratio, e0, s0, e1, s1, radius;
+        double *energy, *ta, *tsa, *tf, *tb, *ratio, *door, e0, s0, e1, s1, e2, s2, radius;
         long long builds0;
         int k;
         uint64_t rng = 77u + (uint64_t)t;
@@ -124,8 +135,10 @@ int main(int argc, char** argv) {
         energy = (double*)malloc(sizeof(double) * (size_t)steps);
         ta = (double*)malloc(sizeof(double) * (size_t)rounds);
         tsa = (double*)malloc(sizeof(double) * (size_t)rounds);
+        tf = (double*)malloc(sizeof(double) * (size_t)rounds);
         tb = (double*)malloc(sizeof(double) * (size_t)rounds);
         ratio = (double*)malloc(sizeof(double) * (size_t)rounds);
+        door = (double*)malloc(sizeof(double) * (size_t)rounds);
         memcpy(base, nts_scene_positions(L.s), sizeof(nts_vec2) * (size_t)L.nodes);
         {
             /* a direction per body, and a fifth as much per node (|u_i| <= 1.2) */
@@ -150,27 +163,34 @@ int main(int argc, char** argv) {
         L.amp = 0.5 * radius;
         L.omega = 0.3 * radius / (3.0 + 2.0 * o0.alpha) / per_build / (1.2 * L.amp);
         /* warm both, then interleaved rounds */
-        run_loop(&L, c0, &o0, 0, &e0, &s0, energy, forces, 0);
-        run_loop(&L, c1, &o1, 0, &e1, &s1, energy, forces, 1);
+        run_loop(&L, c0, &o0, 0, 0, &e0, &s0, energy, forces, 0);
+        run_loop(&L, c2, &o0, 0, 1, &e2, &s2, energy, forces, 1);
+        run_loop(&L, c1, &o1, 0, 1, &e1, &s1, energy, forces, 1);
         builds0 = nts_candidates_get_info(kc).builds;
         for (k = 0; k < rounds; ++k) {
-            run_loop(&L, c0, &o0, (k + 1) * steps, &e0, &s0, energy, forces, 0);
-            run_loop(&L, c1, &o1, (k + 1) * steps, &e1, &s1, energy, forces, 1);
+            run_loop(&L, c0, &o0, (k + 1) * steps, 0, &e0, &s0, energy, forces, 0);
+            run_loop(&L, c2, &o0, (k + 1) * steps, 1, &e2, &s2, energy, forces, 1);
+            run_loop(&L, c1, &o1, (k + 1) * steps, 1, &e1, &s1, energy, forces, 1);
             ta[k] = 1e9 * e0 / steps / L.surface;
             tsa[k] = 1e9 * s0 / steps / L.surface;
+            tf[k] = 1e9 * s2 / steps / L.surface;
             tb[k] = 1e9 * s1 / steps / L.surface;
+            door[k] = tf[k] / ta[k];
             ratio[k] = tb[k] / ta[k];
         }
         {
-            double lo = ratio[0], hi = ratio[0];
+            double lo = ratio[0], hi = ratio[0], dlo = door[0], dhi = door[0];
             for (k = 1; k < rounds; ++k) {
                 lo = ratio[k] < lo ? ratio[k] : lo;
                 hi = ratio[k] > hi ? ratio[k] : hi;
+                dlo = door[k] < dlo ? door[k] : dlo;
+                dhi = door[k] > dhi ? door[k] : dhi;
             }
             if (nts_evaluate(c0, L.s, &o0, &r, &err) != NTS_OK) die("evaluate", &err);
-            printf("| %d | %d | %.1f | %.1f | %.1f | %.1f | %.3f (%.3f-%.3f) | %.1f |\n", L.surface, r.summary.contacts,
-                   (double)(nts_candidates_get_info(kc).builds - builds0) / rounds, ntsx_median(ta, rounds),
-                   ntsx_median(tsa, rounds), ntsx_median(tb, rounds), ntsx_median(ratio, rounds), lo, hi,
+            printf("| %d | %d | %.1f | %.1f | %.1f | %.1f | %.1f | %.3f (%.3f-%.3f) | %.3f (%.3f-%.3f) | %.1f |\n",
+                   L.surface, r.summary.contacts, (double)(nts_candidates_get_info(kc).builds - builds0) / rounds,
+                   ntsx_median(ta, rounds), ntsx_median(tsa, rounds), ntsx_median(tf, rounds), ntsx_median(tb, rounds),
+                   ntsx_median(door, rounds), dlo, dhi, ntsx_median(ratio, rounds), lo, hi,
                    (double)nts_candidates_bytes(kc) / L.surface);
             fflush(stdout);
             {
@@ -186,11 +206,14 @@ int main(int argc, char** argv) {
         free(energy);
         free(ta);
         free(tsa);
+        free(tf);
         free(tb);
         free(ratio);
+        free(door);
         nts_candidates_destroy(kc);
         nts_context_destroy(c0);
         nts_context_destroy(c1);
+        nts_context_destroy(c2);
         nts_scene_destroy(L.s);
         ntsx_scene_free(&b);
     }

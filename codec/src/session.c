@@ -509,6 +509,14 @@ static int rebuild(ntsj_session* ss, nts_error* err) {
     return NTS_OK;
 }
 
+/* The positions read into ss->next taken by the scene, or, when they change
+ * its normalisation (or fail a check), a scene made anew from them (whose
+ * creation names any fault). */
+static int take_positions(ntsj_session* ss, nts_error* err) {
+    if (nts_scene_update_positions(ss->scene, ss->next, err) == NTS_OK) return NTS_OK;
+    return rebuild(ss, err);
+}
+
 static void put_le32(char* p, int v) {
     unsigned u = (unsigned)v;
     int i;
@@ -597,7 +605,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     ntsj_buf b;
     const nts_contact_match* match = NULL;
     nts_contact_changes changes;
-    int rc, pretty = cfg.pretty, have_positions = 0, capped, commit = 1;
+    int rc, pretty = cfg.pretty, have_positions = 0, fused, capped, commit = 1;
     size_t held, grown = 0;
 
     memset(out, 0, sizeof *out);
@@ -662,12 +670,12 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (nts_options_validate(&opt, &err) != 0)
         return ntsj_respond_core(out, &ss->js, &err, NTS_EINVALID_OPTION, pretty);
 
-    if (have_positions) {
-        rc = nts_scene_update_positions(ss->scene, ss->next, &err);
-        if (rc != NTS_OK && (rc = rebuild(ss, &err)) != NTS_OK) {
-            if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
-            return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
-        }
+    /* In-process evaluation checks the positions in its own segment pass
+     * (nts_evaluate_positions); a host's evaluator is given them taken. */
+    fused = have_positions && cfg.evaluate == NULL;
+    if (have_positions && !fused && (rc = take_positions(ss, &err)) != NTS_OK) {
+        if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
+        return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
     }
     if (ntsj_over_budget(&cfg, t0, out, "reading the positions", &rc)) return rc;
 
@@ -679,7 +687,18 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
         eo.candidates = ss->candidates; /* replayed while it holds (§15) */
         capped = cap_candidates(ss, &cfg, &eo);
-        rc = session_evaluate(ss, &cfg, &eo, &result, &err);
+        rc = fused ? nts_evaluate_positions(ss->ctx, ss->scene, ss->next, &eo, &result, &err)
+                   : session_evaluate(ss, &cfg, &eo, &result, &err);
+        if (rc != NTS_OK && fused && nts_scene_update_positions(ss->scene, ss->next, NULL) != NTS_OK) {
+            /* the positions refused (the update refuses exactly those):
+             * a scene made anew from them, or the reason it cannot be */
+            if ((rc = rebuild(ss, &err)) != NTS_OK) {
+                if (rc == NTS_ENOMEM)
+                    return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
+                return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
+            }
+            rc = session_evaluate(ss, &cfg, &eo, &result, &err); /* the same topology: the same cap */
+        }
     }
     if (rc == NTS_ECANCELLED && ntsj_over_budget(&cfg, t0, out, "evaluating", &rc)) return rc;
     if (rc == NTS_ELIMIT && capped && strcmp(err.option, "max_candidates") == 0)

@@ -66,6 +66,10 @@ struct nts_context {
     int self_start_cap;
     int* self_items;   /* the slabs' edges (surface entries) */
     int self_items_cap;
+    /* Checking new positions (nts_evaluate_positions): each loop's twice
+     * signed area and perimeter (segments.c). */
+    double* area_perim;
+    int area_perim_cap;
     int* hist;         /* per-slice cell counts of the counting sort */
     int hist_cap;
     worker* workers;

@@ -326,7 +326,12 @@ static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
     return NTS_OK;
 }
 
-int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
+/* nts_evaluate, at the scene's positions (fresh NULL), or at new positions
+ * `fresh` checked in the segment pass and taken when they pass
+ * (nts_evaluate_positions: the scene is then not const). *taken: 0 when
+ * fresh was rejected, the error being nts_scene_update_positions's. */
+static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh, const nts_options* opt,
+                    nts_result* out, nts_error* err, int* taken) {
     search_env env;
     seg_summary ss;
     double h;
@@ -340,6 +345,10 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
     if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
     memset(out, 0, sizeof *out);
+    if (fresh != NULL && !nts_scene_interior_in_range(s, fresh)) {
+        *taken = 0;
+        return NTS_OK; /* the caller's check names the coordinate */
+    }
     /* The workers: the host's (nts_context_set_parallel: the indices it
      * gives are below its count), or the build's own on opt->threads, no
      * more than there are slaves. */
@@ -358,12 +367,26 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
     /* (a part of a distributed scene takes the whole's median from its frame) */
-    rc = nts_segments_compute(ctx, s,
+    if (fresh != NULL &&
+        (rc = nts_grow((void**)&ctx->area_perim, &ctx->area_perim_cap, 2 * s->loop_total, sizeof(double))) != NTS_OK)
+        return eval_fail(err, rc, -1, -1, "out of memory");
+    rc = nts_segments_compute(ctx, s, fresh,
                               opt->search_radius < 0.0 && s->surface_count > 0 && !ctx->frame_set
                                   ? (s->surface_count - 1) / 2
                                   : -1,
-                              (double*)(void*)ctx->scratch, nts_kept_since(opt->candidates, s), &run, &ss);
+                              (double*)(void*)ctx->scratch, nts_kept_since(opt->candidates, s),
+                              fresh != NULL ? ctx->area_perim : NULL, &run, &ss);
     if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
+    if (fresh != NULL) {
+        /* New positions are taken only when every check of the scene's
+         * passes (its loops' in the pass above, their areas' here), before
+         * anything reads the scene's positions. */
+        if (ss.rejected || !nts_scene_keeps_shape((nts_scene*)s, ctx->area_perim)) {
+            *taken = 0;
+            return NTS_OK;
+        }
+        memcpy(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count);
+    }
     if (ss.bad < s->surface_count) {
         const int bad = ss.bad;
         char msg[160];
@@ -545,6 +568,30 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
     return NTS_OK;
 }
 
+int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
+    return evaluate(ctx, s, NULL, opt, out, err, NULL);
+}
+
+int nts_evaluate_positions(nts_context* ctx, nts_scene* s, const nts_vec2* positions, const nts_options* opt,
+                           nts_result* out, nts_error* err) {
+    int taken = 1, rc;
+    if (s == NULL || positions == NULL) {
+        if (err != NULL) *err = nts_error_none();
+        return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
+    }
+    rc = evaluate(ctx, s, positions, opt, out, err, &taken);
+    if (taken) return rc;
+    /* Rejected: the scene's own check finds the first fault in its order and
+     * names it (nts_scene_update_positions), and leaves the scene as it was. */
+    rc = nts_scene_update_positions(s, positions, err);
+    if (rc != NTS_OK) return rc;
+    /* The two checks decide by the same bits (checks.h): a disagreement is a
+     * fault of this library, said as one rather than hidden behind a slower
+     * right answer. The positions are taken; nts_evaluate gives the answer. */
+    return eval_fail(err, NTS_EINTERNAL, -1, -1, "the checks of the positions in the segment pass refused what the "
+                                                 "scene's own check takes");
+}
+
 /* The frame of a scene (ntscontact/distributed.h): what nts_evaluate's first
  * two phases take from the segments, computed as they compute it. */
 int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_frame* out, double* lengths,
@@ -565,8 +612,9 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
     if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
-    rc = nts_segments_compute(ctx, s, opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
-                              (double*)(void*)ctx->scratch, NULL, &run, &ss);
+    rc = nts_segments_compute(ctx, s, NULL,
+                              opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
+                              (double*)(void*)ctx->scratch, NULL, NULL, &run, &ss);
     if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count)
         return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[ss.bad], s->surf_local[ss.bad],

@@ -57,6 +57,17 @@ struct nts_scene {
     int longest_loop;
 };
 
+/* The checks of nts_scene_update_positions in parts, for the evaluation that
+ * checks new positions in its segment pass (nts_evaluate_positions):
+ * whether every coordinate of the nodes on no loop (a mesh's interior) is in
+ * the supported range (check_point's verdict; the segment pass judges the
+ * others), and whether loops of twice the signed areas area_perim[2 l] and
+ * perimeters area_perim[2 l + 1] (each in the caller's order, as the scene's
+ * check of a loop sums them) all enclose an area and keep the scene's
+ * normalisation. Verdicts only: the errors are the update's own (scene.c). */
+int nts_scene_interior_in_range(const nts_scene* s, const nts_vec2* pos);
+int nts_scene_keeps_shape(nts_scene* s, const double* area_perim);
+
 /* A surface entry's flags (nts_scene.surf_flag): its own segment (from it to
  * the next entry) is on the contact surface, the previous one is, the next
  * one is. The entry's node is a slave when either of its segments is on; its

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "checks.h"
 #include "internal.h"
 
 nts_limits nts_default_limits(void) {
@@ -54,28 +55,6 @@ void nts_scene_destroy(nts_scene* s) {
     nts_free(s);
 }
 
-/* The supported range (docs/model.md, "Geometry"): squares of lengths and
- * products of coordinates must stay well inside a double (1e-200 .. 1e200),
- * so that no test of the search, no 1/|t|^2 and no area overflows or
- * underflows into a silent wrong answer. */
-#define NTS_COORD_MAX 1e100
-#define NTS_LENGTH_MIN 1e-100
-
-static double max4(double a, double b, double c, double d) {
-    double m = a > b ? a : b, n = c > d ? c : d;
-    return m > n ? m : n;
-}
-
-/* A segment is degenerate when it is shorter than 1e-12 of its two neighbours
- * together (a doubled node), or than what its own coordinates can resolve (a
- * few ulps of the largest), or than NTS_LENGTH_MIN. Only the segment's own
- * neighbourhood counts: no body elsewhere changes the verdict. */
-static double segment_tolerance(double l_prev, double l_next, nts_vec2 p, nts_vec2 q) {
-    double res = 16.0 * DBL_EPSILON * max4(fabs(p.x), fabs(p.y), fabs(q.x), fabs(q.y));
-    double nb = 1e-12 * (l_prev + l_next);
-    double tol = res > nb ? res : nb;
-    return tol > NTS_LENGTH_MIN ? tol : NTS_LENGTH_MIN;
-}
 
 /* Geometry checks of one loop: degenerate segments, zero-angle spikes, zero
  * area. `nodes` holds the loop as stored; when `reversed` the input order is
@@ -103,7 +82,7 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
     }
     for (k = 0; k < n; ++k) {
         const int next = k + 1 < n ? k + 1 : 0, a = NODE_AT(k), c = NODE_AT(next);
-        const double tol = segment_tolerance(len[k > 0 ? k - 1 : n - 1], len[next], pos[node0 + a], pos[node0 + c]);
+        const double tol = nts_segment_tolerance(len[k > 0 ? k - 1 : n - 1], len[next], pos[node0 + a], pos[node0 + c]);
         if (!(len[k] > tol))
             return fail(err, NTS_EDEGENERATE_SEGMENT, body, loop, k, a,
                         "body %d loop %d: segment from node %d to node %d has length %.3g (<= %.3g: 1e-12 of its "
@@ -112,11 +91,8 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
         perim += len[k];
     }
     for (k = 0; k < n; ++k) {
-        /* Zero-angle spike: both neighbours leave node k in the same direction,
-         * so the corner tangent vanishes (docs/model.md §3). */
         const int prev = k > 0 ? k - 1 : n - 1;
-        const nts_vec2 a = nts_neg(d[prev]), c = d[k];
-        if (nts_dot(a, c) > 0.0 && fabs(nts_cross(a, c)) <= 64.0 * DBL_EPSILON * len[prev] * len[k])
+        if (nts_is_spike(d[prev], d[k], len[prev], len[k]))
             return fail(err, NTS_ESPIKE, body, loop, k, NODE_AT(k),
                         "body %d loop %d: zero-angle spike at node %d", body, loop, NODE_AT(k));
     }
@@ -133,8 +109,7 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
         }
     }
 #undef NODE_AT
-    /* perim^2 <= (n 2e100)^2: finite for any loop the limits allow. */
-    if (!(fabs(a2) > 64.0 * DBL_EPSILON * perim * perim))
+    if (nts_zero_area(a2, perim))
         return fail(err, NTS_EZERO_AREA, body, loop, -1, -1, "body %d loop %d encloses zero area", body, loop);
     *area2_out = a2;
     return NTS_OK;
@@ -619,6 +594,59 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
     return NTS_OK;
 }
 
+/* The verdicts of nts_scene_update_positions on a loop's signed area (twice
+ * it, in the caller's order): nts_scene_create would store loop l of body b
+ * the other way round (the outer loop counter-clockwise, holes clockwise). */
+static int loop_turned(const nts_scene* s, int b, int l, double a2) {
+    return ((a2 > 0.0) != (l == s->body_outer[b])) != (s->loop_reversed[l] != 0);
+}
+/* A mesh's piece headed by loop l would be turned the other way (by the sign
+ * of its outer loop, piece_outer's). */
+static int piece_turned(const nts_scene* s, int l) {
+    return s->loop_piece[l] == l && (s->piece_area2[l] < 0.0) != (s->loop_reversed[l] != 0);
+}
+
+int nts_scene_keeps_shape(nts_scene* s, const double* area_perim) {
+    int b, l;
+    for (b = 0; b < s->body_count; ++b) {
+        const int l0 = s->body_loop_start[b], l1 = s->body_loop_start[b + 1];
+        double outer_abs = -1.0;
+        int outer = -1;
+        for (l = l0; l < l1; ++l) {
+            const double a2 = area_perim[2 * l];
+            if (nts_zero_area(a2, area_perim[2 * l + 1])) return 0;
+            if (s->body_mesh[b]) {
+                piece_outer(s->piece_area2, s->loop_piece[l], l, a2);
+                continue;
+            }
+            if (fabs(a2) > outer_abs) {
+                outer_abs = fabs(a2);
+                outer = l;
+            }
+            if (loop_turned(s, b, l, a2)) return 0;
+        }
+        if (s->body_mesh[b]) {
+            for (l = l0; l < l1; ++l)
+                if (piece_turned(s, l)) return 0;
+        } else if (outer != s->body_outer[b]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+int nts_scene_interior_in_range(const nts_scene* s, const nts_vec2* pos) {
+    int b, i, ok = 1;
+    for (b = 0; b < s->body_count; ++b) {
+        const int n0 = s->body_node_start[b], n1 = s->body_node_start[b + 1];
+        const int on_surface = s->loop_start[s->body_loop_start[b + 1]] - s->loop_start[s->body_loop_start[b]];
+        if (n1 - n0 == on_surface) continue; /* every node on a loop (a node is on one place at most) */
+        /* check_point's verdict without a branch a node: a NaN fails both tests */
+        for (i = n0; i < n1; ++i) ok &= (fabs(pos[i].x) <= NTS_COORD_MAX) & (fabs(pos[i].y) <= NTS_COORD_MAX);
+    }
+    return ok;
+}
+
 int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err) {
     int b, i, rc;
     if (err != NULL) *err = nts_error_none();
@@ -649,7 +677,7 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
             /* nts_scene_create reverses a loop whose sign disagrees with its role
              * (the outer loop counter-clockwise, holes clockwise): the stored order
              * is still the one it would give while each verdict is unchanged. */
-            if (((a2 > 0.0) != (l == s->body_outer[b])) != (s->loop_reversed[l] != 0))
+            if (loop_turned(s, b, l, a2))
                 return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
                             "body %d loop %d turned over; create the scene anew", b, l - l0);
         }
@@ -657,7 +685,7 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
             /* Each piece stays turned the way nts_scene_create turned it: by
              * the sign of its outer loop, the largest |area| of the piece. */
             for (l = l0; l < l1; ++l)
-                if (s->loop_piece[l] == l && (s->piece_area2[l] < 0.0) != (s->loop_reversed[l] != 0))
+                if (piece_turned(s, l))
                     return fail(err, NTS_ERESHAPED, b, l - l0, -1, -1,
                                 "body %d: the piece of its mesh with loop %d turned over (its outer loop changed "
                                 "direction); create the scene anew", b, l - l0);

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "parallel.h"
+#include "checks.h"
 #include "context.h"
 
 /* Room for n records, aligned to NTS_SEG_ALIGN whatever the allocator's
@@ -30,12 +31,13 @@ static int seg_reserve(nts_context* ctx, int n) {
     return NTS_OK;
 }
 
-/* The length of segment i, as the segment pass computes it (the same bits),
- * or -1 outside the supported range (scene.c: nts_scene_set_positions does
- * not check it, and 1/|t|^2 must not overflow). */
-static inline double segment_length(const nts_scene* s, int i, nts_vec2 p, nts_vec2* t) {
+/* The length of segment i at positions `pos` (the scene's, or new ones being
+ * checked), as the segment pass computes it (the same bits), or -1 outside
+ * the supported range (scene.c: nts_scene_set_positions does not check it,
+ * and 1/|t|^2 must not overflow). */
+static inline double segment_length(const nts_scene* s, const nts_vec2* pos, int i, nts_vec2 p, nts_vec2* t) {
     double l2;
-    *t = nts_scene_diff(s, s->pos[s->surf_node[s->surf_next[i]]], p);
+    *t = nts_scene_diff(s, pos[s->surf_node[s->surf_next[i]]], p);
     l2 = nts_length_sq(*t);
     return l2 >= 1e-200 && l2 <= 1e201 ? sqrt(l2) : -1.0;
 }
@@ -60,6 +62,7 @@ typedef struct kth_plan {
  * slower. `sample`: NTS_SAMPLE doubles. */
 typedef struct sample_task {
     const nts_scene* s;
+    const nts_vec2* pos;
     double* sample;
 } sample_task;
 
@@ -71,11 +74,11 @@ static void sample_lengths(int begin, int end, int wi, void* p) {
     for (i = begin; i < end; ++i) {
         const int e = (int)((long long)i * n / NTS_SAMPLE);
         nts_vec2 tt;
-        t->sample[i] = segment_length(t->s, e, t->s->pos[t->s->surf_node[e]], &tt);
+        t->sample[i] = segment_length(t->s, t->pos, e, t->pos[t->s->surf_node[e]], &tt);
     }
 }
 
-static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, const nts_run* run) {
+static kth_plan kth_prepare(const nts_scene* s, const nts_vec2* pos, int k, double* sample, const nts_run* run) {
     const int n = s->surface_count;
     kth_plan plan;
     sample_task st;
@@ -84,6 +87,7 @@ static kth_plan kth_prepare(const nts_scene* s, int k, double* sample, const nts
     plan.lo = plan.hi = 0.0;
     if (!plan.bracket) return plan;
     st.s = s;
+    st.pos = pos;
     st.sample = sample;
     nts_run_each(run, sample_lengths, NTS_SAMPLE, &st);
     /* The sample rank of the k-th, +- 256 (4 sqrt(NTS_SAMPLE)): an eighth of the lengths is kept. */
@@ -201,18 +205,92 @@ static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double 
 /* What one share of the pass finds: its counts of the bracket, and its
  * part of the summary (combined by the caller in share order). */
 typedef struct share_found {
-    int below, in, first_bad;
+    int below, in, first_bad, rejected;
     double lmax, amax, xmin, xmax, ymin, ymax, moved2;
+    double lmin; /* checking new positions: the shortest segment */
 } share_found;
 
 typedef struct pass_task {
     nts_context* ctx;
     const nts_scene* s;
+    const nts_vec2* pos; /* the positions the segments are computed at */
     double* scratch;
     kth_plan plan;
     share_found* found;
     const nts_vec2* since;
+    double* area_perim; /* checking new positions: each loop's signed area (twice) and perimeter */
 } pass_task;
+
+/* One share's accumulators, in registers once inlined. */
+typedef struct share_acc {
+    double lm, am, x0, x1, y0, y1, m2;
+    int cb, ci, first_bad;
+} share_acc;
+
+static void acc_init(share_acc* a, int n) {
+    a->lm = a->am = a->m2 = 0.0;
+    a->x0 = a->y0 = HUGE_VAL;
+    a->x1 = a->y1 = -HUGE_VAL;
+    a->cb = a->ci = 0;
+    a->first_bad = n;
+}
+
+static void acc_store(const share_acc* a, share_found* f) {
+    f->below = a->cb;
+    f->in = a->ci;
+    f->first_bad = a->first_bad;
+    f->lmax = a->lm;
+    f->amax = a->am;
+    f->xmin = a->x0;
+    f->xmax = a->x1;
+    f->ymin = a->y0;
+    f->ymax = a->y1;
+    f->moved2 = a->m2;
+}
+
+/* Entry i's record, its node at pp and its segment tt of length len (-1:
+ * outside the supported range), and its part of the share's summary; b is
+ * the share's first entry (its kept lengths start there in `scratch`). */
+static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, int i, int b, nts_vec2 pp, nts_vec2 tt, double len, share_acc* a) {
+    const nts_scene* s = t->s;
+    seg_data* sd = &t->ctx->seg[i];
+    double m;
+    sd->p = pp;
+    sd->t = tt;
+    if (t->since != NULL) {
+        double dx = pp.x - t->since[i].x, dy = pp.y - t->since[i].y, d2;
+        if (s->lx > 0.0) {
+            dx = nts_min_image_1(dx, s->lx);
+            dy = nts_min_image_1(dy, s->ly);
+        }
+        d2 = dx * dx + dy * dy;
+        a->m2 = d2 > a->m2 ? d2 : a->m2;
+    }
+    sd->prev = s->surf_prev[i];
+    sd->next = s->surf_next[i];
+    sd->node = s->surf_node[i];
+    sd->body = s->surf_body[i];
+    if (len < 0.0) {
+        sd->len = -1.0;
+        sd->inv_len2 = 0.0;
+        if (i < a->first_bad) a->first_bad = i;
+        return;
+    }
+    sd->len = len;
+    sd->inv_len2 = 1.0 / nts_length_sq(tt);
+    if (t->plan.bracket) { /* without a branch: 1 in 8 is kept, at random */
+        t->scratch[b + a->ci] = len;
+        a->cb += len < t->plan.lo;
+        a->ci += (len >= t->plan.lo) & (len <= t->plan.hi);
+    }
+    a->lm = len > a->lm ? len : a->lm;
+    m = fabs(pp.x) > fabs(pp.y) ? fabs(pp.x) : fabs(pp.y);
+    a->am = m > a->am ? m : a->am;
+    a->x0 = pp.x < a->x0 ? pp.x : a->x0;
+    a->x1 = pp.x > a->x1 ? pp.x : a->x1;
+    a->y0 = pp.y < a->y0 ? pp.y : a->y0;
+    a->y1 = pp.y > a->y1 ? pp.y : a->y1;
+}
 
 static void segments_pass(int begin, int end, int wi, void* p) {
     const pass_task* t = (const pass_task*)p;
@@ -221,91 +299,191 @@ static void segments_pass(int begin, int end, int wi, void* p) {
     int q;
     (void)wi;
     for (q = begin; q < end; ++q) {
-        /* The share's own accumulators, in registers. */
         const int b = share_begin(n, q), e = share_begin(n, q + 1);
-        const int keep = t->plan.bracket;
-        const double lo = t->plan.lo, hi = t->plan.hi;
-        double* scratch = t->scratch;
-        double lm = 0.0, am = 0.0, x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL, m2 = 0.0;
-        int i, cb = 0, ci = 0, first_bad = n;
-        share_found* f = &t->found[q];
+        share_acc a;
+        int i;
+        acc_init(&a, n);
         for (i = b; i < e; ++i) {
-            seg_data* sd = &t->ctx->seg[i];
-            const nts_vec2 pp = s->pos[s->surf_node[i]];
-            double len, a;
-            sd->p = pp;
-            if (t->since != NULL) {
-                double dx = pp.x - t->since[i].x, dy = pp.y - t->since[i].y, d2;
-                if (s->lx > 0.0) {
-                    dx = nts_min_image_1(dx, s->lx);
-                    dy = nts_min_image_1(dy, s->ly);
-                }
-                d2 = dx * dx + dy * dy;
-                m2 = d2 > m2 ? d2 : m2;
-            }
-            len = segment_length(s, i, pp, &sd->t);
-            sd->prev = s->surf_prev[i];
-            sd->next = s->surf_next[i];
-            sd->node = s->surf_node[i];
-            sd->body = s->surf_body[i];
-            if (len < 0.0) {
-                sd->len = -1.0;
-                sd->inv_len2 = 0.0;
-                if (i < first_bad) first_bad = i;
-                continue;
-            }
-            sd->len = len;
-            sd->inv_len2 = 1.0 / nts_length_sq(sd->t);
-            if (keep) { /* without a branch: 1 in 8 is kept, at random */
-                scratch[b + ci] = len;
-                cb += len < lo;
-                ci += (len >= lo) & (len <= hi);
-            }
-            lm = len > lm ? len : lm;
-            a = fabs(pp.x) > fabs(pp.y) ? fabs(pp.x) : fabs(pp.y);
-            am = a > am ? a : am;
-            x0 = pp.x < x0 ? pp.x : x0;
-            x1 = pp.x > x1 ? pp.x : x1;
-            y0 = pp.y < y0 ? pp.y : y0;
-            y1 = pp.y > y1 ? pp.y : y1;
+            const nts_vec2 pp = t->pos[s->surf_node[i]];
+            nts_vec2 tt;
+            const double len = segment_length(s, t->pos, i, pp, &tt);
+            put_entry(t, i, b, pp, tt, len, &a);
         }
-        f->below = cb;
-        f->in = ci;
-        f->first_bad = first_bad;
-        f->lmax = lm;
-        f->amax = am;
-        f->xmin = x0;
-        f->xmax = x1;
-        f->ymin = y0;
-        f->ymax = y1;
-        f->moved2 = m2;
+        acc_store(&a, &t->found[q]);
+        t->found[q].rejected = 0;
     }
 }
 
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_vec2* since,
-                         const nts_run* run, seg_summary* out) {
+/* The share holding entry i. */
+static int share_of(int n, int i) {
+    int q = (int)((long long)i * SHARES / n);
+    while (q + 1 < SHARES && share_begin(n, q + 1) <= i) ++q;
+    while (q > 0 && share_begin(n, q) > i) --q;
+    return q;
+}
+
+/* Whether the checking pass sums loop l's area and perimeter as it goes: a
+ * loop inside one share and stored in the caller's order, so that its sums
+ * run in the order of the scene's check (check_loop). The others are summed
+ * after the pass, from the records. */
+static int loop_summed_inline(const nts_scene* s, int l) {
+    const int n = s->surface_count, ls = s->loop_start[l], le = s->loop_start[l + 1];
+    return !s->loop_reversed[l] && share_of(n, ls) == share_of(n, le - 1);
+}
+
+/* The pass checking new positions as it computes the segments: blocks of
+ * CHECK_BLOCK entries (their records in L1), each computed as the plain pass
+ * computes it, then given the checks of nts_scene_update_positions's loops
+ * (scene.c, check_loop) from the records just written: each length computed
+ * once. A neighbour outside what this share has written (across the share's
+ * edge, or a loop's last entry before its first) is computed from the
+ * positions, the same bits. The verdict only: a share that finds a fault
+ * says so, and the caller leaves the error to the scene's own check. */
+enum { CHECK_BLOCK = 256 };
+
+static void segments_pass_checked(int begin, int end, int wi, void* p) {
+    const pass_task* t = (const pass_task*)p;
+    const nts_scene* s = t->s;
+    const nts_vec2* pos = t->pos;
+    const seg_data* seg = t->ctx->seg;
+    const int n = s->surface_count;
+    int q;
+    (void)wi;
+    for (q = begin; q < end; ++q) {
+        const int b = share_begin(n, q), e = share_begin(n, q + 1);
+        int lo = 0, hi = s->loop_total - 1, l, le, inline_sums, i0, bad = 0;
+        nts_vec2 cur = nts_v2(0.0, 0.0);
+        double a2 = 0.0, perim = 0.0, lmin = HUGE_VAL;
+        share_acc a;
+        acc_init(&a, n);
+        if (b == e) {
+            acc_store(&a, &t->found[q]);
+            t->found[q].rejected = 0;
+            continue;
+        }
+        while (lo < hi) { /* the loop holding b: the last that starts at or before it */
+            const int mid = lo + (hi - lo + 1) / 2;
+            if (s->loop_start[mid] <= b) lo = mid;
+            else hi = mid - 1;
+        }
+        l = lo;
+        le = s->loop_start[l + 1];
+        inline_sums = loop_summed_inline(s, l);
+        for (i0 = b; i0 < e; i0 += CHECK_BLOCK) {
+            const int i1 = e - i0 > CHECK_BLOCK ? i0 + CHECK_BLOCK : e;
+            int i;
+            for (i = i0; i < i1; ++i) {
+                const nts_vec2 pp = pos[s->surf_node[i]];
+                nts_vec2 tt;
+                const double len = segment_length(s, pos, i, pp, &tt);
+                put_entry(t, i, b, pp, tt, len, &a);
+            }
+            for (i = i0; i < i1; ++i) {
+                const seg_data* c = &seg[i];
+                const int ip = c->prev;
+                nts_vec2 tp;
+                double lp;
+                if (ip >= b && ip < i1) {
+                    tp = seg[ip].t;
+                    lp = seg[ip].len;
+                } else {
+                    lp = segment_length(s, pos, ip, pos[s->surf_node[ip]], &tp);
+                }
+                /* check_loop's spike verdict at the segment's first node; its
+                 * degenerate verdicts follow from the lengths' extremes
+                 * (nts_segments_compute) */
+                bad |= nts_is_spike(tp, c->t, lp, c->len);
+                lmin = c->len < lmin ? c->len : lmin;
+                if (i == le) { /* the next loop's first entry */
+                    ++l;
+                    le = s->loop_start[l + 1];
+                    inline_sums = loop_summed_inline(s, l);
+                    cur = nts_v2(0.0, 0.0);
+                    a2 = perim = 0.0;
+                }
+                { /* check_loop's shoelace and perimeter, in its order (kept when the loop is inline) */
+                    const nts_vec2 next = nts_add(cur, c->t);
+                    a2 += nts_cross(cur, next);
+                    cur = next;
+                    perim += c->len;
+                }
+                if (i == le - 1 && inline_sums) {
+                    t->area_perim[2 * l] = a2;
+                    t->area_perim[2 * l + 1] = perim;
+                }
+            }
+        }
+        acc_store(&a, &t->found[q]);
+        t->found[q].rejected = bad;
+        t->found[q].lmin = lmin;
+    }
+}
+
+/* Whether some segment is degenerate by check_loop's verdict (checks.h), its
+ * neighbours' lengths and its ends' coordinates read from the records. */
+static int some_degenerate(const nts_context* ctx, int n) {
+    const seg_data* seg = ctx->seg;
+    int i;
+    for (i = 0; i < n; ++i) {
+        const seg_data* c = &seg[i];
+        if (nts_segment_degenerate(c->len, seg[c->prev].len, seg[c->next].len, c->p, seg[c->next].p)) return 1;
+    }
+    return 0;
+}
+
+/* The area and perimeter of the loops the pass did not sum, in the caller's
+ * order from the records: a reversed loop's input step k is the negated
+ * segment of stored entry m - 1 - k (a difference and the minimum image are
+ * odd), and negating every step negates every partial sum, which leaves each
+ * cross product as it is; so the stored segments read backwards give the bits
+ * check_loop sums. */
+static void loops_summed_after(const nts_context* ctx, const nts_scene* s, double* area_perim) {
+    int l;
+    for (l = 0; l < s->loop_total; ++l) {
+        const int ls = s->loop_start[l], m = s->loop_start[l + 1] - ls, rev = s->loop_reversed[l];
+        nts_vec2 cur = nts_v2(0.0, 0.0);
+        double a2 = 0.0, perim = 0.0;
+        int k;
+        if (loop_summed_inline(s, l)) continue;
+        for (k = 0; k < m; ++k) {
+            const seg_data* sd = &ctx->seg[ls + (rev ? m - 1 - k : k)];
+            const nts_vec2 next = nts_add(cur, sd->t);
+            a2 += nts_cross(cur, next);
+            cur = next;
+            perim += sd->len;
+        }
+        area_perim[2 * l] = a2;
+        area_perim[2 * l + 1] = perim;
+    }
+}
+
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* pos, int k, double* scratch,
+                         const nts_vec2* since, double* area_perim, const nts_run* run, seg_summary* out) {
     const int n = s->surface_count;
     share_found found[SHARES];
     pass_task t;
     int cnt_below[SHARES], cnt_in[SHARES];
-    int q, rc, bad = n;
+    int q, rc, bad = n, rejected = 0;
     long long below = 0, inside = 0;
     double lmax = 0.0, amax = 0.0, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL, m2 = 0.0;
     assert(k < n);
     if ((rc = seg_reserve(ctx, n)) != NTS_OK) return rc;
     t.ctx = ctx;
     t.s = s;
+    t.pos = pos != NULL ? pos : s->pos;
     t.scratch = scratch;
-    t.plan = kth_prepare(s, k, scratch + n, run);
+    t.plan = kth_prepare(s, t.pos, k, scratch + n, run);
     t.found = found;
     t.since = since;
+    t.area_perim = area_perim;
     /* Each share taken by whichever worker is free; the minima and maxima
      * are exact, whatever the order they are taken in. */
-    nts_run_tasks(run, segments_pass, SHARES, 1, &t);
+    nts_run_tasks(run, area_perim != NULL && n > 0 ? segments_pass_checked : segments_pass, SHARES, 1, &t);
     for (q = 0; q < SHARES; ++q) {
         const share_found* f = &found[q];
         cnt_below[q] = f->below;
         cnt_in[q] = f->in;
+        rejected |= f->rejected;
         if (f->first_bad < bad) bad = f->first_bad;
         if (f->lmax > lmax) lmax = f->lmax;
         if (f->amax > amax) amax = f->amax;
@@ -316,6 +494,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
         if (f->moved2 > m2) m2 = f->moved2;
     }
     out->bad = bad;
+    out->rejected = rejected;
     out->lmax = lmax;
     out->coord_max = amax;
     out->xmin = xmin;
@@ -324,7 +503,23 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* sc
     out->ymax = ymax;
     out->kth = 0.0;
     out->moved = sqrt(m2);
-    if (bad < n || k < 0) return NTS_OK;
+    if (area_perim != NULL && bad < n) rejected = out->rejected = 1; /* a length outside the range: degenerate */
+    if (area_perim != NULL && !rejected) {
+        /* The coordinates' range and the degenerate verdicts (check_point's
+         * and check_loop's) from the extremes: every coordinate of a surface
+         * node is in the maximum (a NaN or an infinity makes its segments
+         * bad), and each segment's tolerance is at most the largest of 16
+         * eps amax, 1e-12 (lmax + lmax) and 1e-100 (each a rounding of a
+         * larger or equal operand), so a shortest segment above that bound
+         * leaves none degenerate; below it, each is checked. */
+        double lmin = HUGE_VAL, bound;
+        for (q = 0; q < SHARES; ++q) lmin = found[q].lmin < lmin ? found[q].lmin : lmin;
+        bound = nts_segment_tolerance(lmax, lmax, nts_v2(amax, amax), nts_v2(amax, amax));
+        if (!(amax <= NTS_COORD_MAX) || (!(lmin > bound) && some_degenerate(ctx, n))) rejected = 1;
+        out->rejected = rejected;
+        if (!rejected) loops_summed_after(ctx, s, area_perim);
+    }
+    if (bad < n || rejected || k < 0) return NTS_OK;
     if (t.plan.bracket) {
         for (q = 0; q < SHARES; ++q) {
             below += cnt_below[q];

@@ -32,6 +32,7 @@ typedef char nts_seg_data_is_one_line[sizeof(seg_data) == NTS_SEG_ALIGN ? 1 : -1
  * the k-th smallest length when asked for (and no segment is bad). */
 typedef struct seg_summary {
     int bad;
+    int rejected; /* checking new positions: some check of a loop failed (the scene's check says which) */
     double lmax;
     double coord_max;
     double xmin, xmax, ymin, ymax;
@@ -46,12 +47,19 @@ static inline nts_vec2 seg_normal(nts_vec2 t, double len) { return nts_v2(t.y / 
 /* The order statistic's sample: this many entries at a fixed stride. */
 enum { NTS_SAMPLE = 4096 };
 /* The segment data, the summary, and the k-th smallest segment length
- * (0-based, exactly; k < 0: none) found in the same pass. `scratch` holds
- * surface_count + NTS_SAMPLE doubles. `since` (or NULL): positions of the
- * surface entries, from which the pass finds the largest displacement (the
- * minimum image in a periodic box: a kept candidate list's test, eq. (29)). */
-int nts_segments_compute(nts_context* ctx, const nts_scene* s, int k, double* scratch, const nts_vec2* since,
-                         const nts_run* run, seg_summary* out);
+ * (0-based, exactly; k < 0: none) found in the same pass, at positions `pos`
+ * (NULL: the scene's). `scratch` holds surface_count + NTS_SAMPLE doubles.
+ * `since` (or NULL): positions of the surface entries, from which the pass
+ * finds the largest displacement (the minimum image in a periodic box: a kept
+ * candidate list's test, eq. (29)). `area_perim` (or NULL): new positions
+ * are checked as the scene checks each loop (nts_scene_update_positions), the
+ * verdict in out->rejected, each loop's twice signed area and perimeter (in
+ * the caller's order, the scene's check's bits) in area_perim[2 l], [2 l + 1]
+ * (2 loop_total doubles) for the scene's verdicts on them
+ * (nts_scene_keeps_shape); the coordinates of nodes on no loop must have
+ * passed nts_scene_interior_in_range. */
+int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* pos, int k, double* scratch,
+                         const nts_vec2* since, double* area_perim, const nts_run* run, seg_summary* out);
 /* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
 

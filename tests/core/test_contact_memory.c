@@ -86,7 +86,7 @@ static void test_random_walk(void) {
             x[i].x += 0.004 * (rng_uniform(&rng) - 0.5);
             x[i].y += 0.004 * (rng_uniform(&rng) - 0.5);
         }
-        CU_ASSERT_FATAL(nts_scene_update_positions(s, x, &err) == NTS_OK);
+        CU_ASSERT_FATAL(update_both(s, x, &err) == NTS_OK);
     }
     /* the walk met every kind of change */
     CU_ASSERT(total_persisted > 0);
@@ -162,7 +162,7 @@ static void test_trial_and_commit(void) {
     /* Trial 1: every node pushed outward by 0.02; trial 2 from the same committed step. */
     memcpy(x, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
     for (i = 0; i < n; ++i) x[i].x *= 1.01;
-    CU_ASSERT_FATAL(nts_scene_update_positions(s, x, &err) == NTS_OK);
+    CU_ASSERT_FATAL(update_both(s, x, &err) == NTS_OK);
     CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
     CU_ASSERT_FATAL(nts_contact_memory_match(mem, &r, &match, &first) == NTS_OK);
     base = nts_contact_memory_previous(mem, &count);

@@ -355,7 +355,7 @@ static void test_set_positions_checks_the_range(void) {
     CU_ASSERT(strstr(err.message, "node 3") != NULL);
     ASSERT_NEAR(nts_scene_positions(s)[3].x, 0.0, 0.0); /* unchanged */
     /* The same verdict as the two other entry points. */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_EOUT_OF_RANGE);
     ASSERT_INT_EQ(err.node, 3);
     b.nodes = moved;
     CU_ASSERT(nts_scene_create(&def, &err) == NULL);
@@ -364,7 +364,7 @@ static void test_set_positions_checks_the_range(void) {
     /* 1e100 itself is inside the range, for all three. */
     for (k = 0; k < 4; ++k) all[k] = nts_v2(1e100 * square[k].x, 1e100 * square[k].y);
     ASSERT_INT_EQ(nts_scene_set_positions(s, 0, all, &err), 0);
-    ASSERT_INT_EQ(nts_scene_update_positions(s, all, &err), 0);
+    ASSERT_INT_EQ(update_both(s, all, &err), 0);
     nts_scene_destroy(s);
 }
 

@@ -65,7 +65,7 @@ static void check_random_moves(int periodic) {
         }
         pos = gather(p.bodies, p.count, &n);
         ASSERT_INT_EQ(n, nts_scene_node_count(s));
-        ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
+        ASSERT_INT_EQ(update_both(s, pos, &err), 0);
         CU_ASSERT(memcmp(nts_scene_positions(s), pos, sizeof(nts_vec2) * (size_t)n) == 0);
         assert_same_as_fresh(s, p.bodies, p.count, p.lx, p.ly);
         free(pos);
@@ -104,13 +104,13 @@ static void test_orientation_kept_or_refused(void) {
     b[1].nodes[0].x += 0.9; /* the square pokes into the hole's edge: a contact */
     for (i = 0; i < 8; ++i) pos[i] = b[0].nodes[i];
     for (i = 0; i < 4; ++i) pos[8 + i] = b[1].nodes[i];
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), 0);
+    ASSERT_INT_EQ(update_both(s, pos, &err), 0);
     assert_same_as_fresh(s, b, 2, 0.0, 0.0);
 
     /* Mirror body 1 (x -> 4 - x): its loop turns clockwise. */
     memcpy(before, nts_scene_positions(s), sizeof before);
     for (i = 8; i < 12; ++i) pos[i].x = 4.0 - pos[i].x;
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(update_both(s, pos, &err), NTS_ERESHAPED);
     ASSERT_INT_EQ(err.body, 1);
     ASSERT_INT_EQ(err.loop, 0);
     CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0); /* unchanged */
@@ -118,21 +118,21 @@ static void test_orientation_kept_or_refused(void) {
     /* The hole grows larger than the outer loop: another loop is the outer one. */
     for (i = 0; i < 12; ++i) pos[i] = before[i];
     for (i = 4; i < 8; ++i) pos[i] = nts_v2(2.0 + 5.0 * (pos[i].x - 2.0), 2.0 + 5.0 * (pos[i].y - 2.0));
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(update_both(s, pos, &err), NTS_ERESHAPED);
     ASSERT_INT_EQ(err.body, 0);
 
     /* The checks of creation, with its codes. */
     for (i = 0; i < 12; ++i) pos[i] = before[i];
     pos[1] = pos[0];
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(update_both(s, pos, &err), NTS_EDEGENERATE_SEGMENT);
     ASSERT_INT_EQ(err.body, 0);
     pos[1] = before[1];
     pos[10].y = NAN;
-    ASSERT_INT_EQ(nts_scene_update_positions(s, pos, &err), NTS_ENONFINITE);
+    ASSERT_INT_EQ(update_both(s, pos, &err), NTS_ENONFINITE);
     ASSERT_INT_EQ(err.body, 1);
     ASSERT_INT_EQ(err.node, 2);
     CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0);
-    ASSERT_INT_EQ(nts_scene_update_positions(s, NULL, &err), NTS_EINVALID_ARGUMENT);
+    ASSERT_INT_EQ(update_both(s, NULL, &err), NTS_EINVALID_ARGUMENT);
     nts_scene_destroy(s);
 }
 
@@ -221,7 +221,7 @@ static void test_interior_triangle_turned_over(void) {
     fresh = grid_scene(turned, tri, &err);
     CU_ASSERT_FATAL(fresh != NULL);
     assert_same_contacts(fresh, s);
-    ASSERT_INT_EQ(nts_scene_update_positions(s, turned, &err), 0);
+    ASSERT_INT_EQ(update_both(s, turned, &err), 0);
     CU_ASSERT(memcmp(nts_scene_positions(s), turned, sizeof turned) == 0);
     assert_same_contacts(s, fresh);
     nts_scene_destroy(fresh);
@@ -230,7 +230,7 @@ static void test_interior_triangle_turned_over(void) {
     flat[12] = nts_v2(0.75, 0.625);
     fresh = grid_scene(flat, tri, &err);
     CU_ASSERT_FATAL(fresh != NULL);
-    ASSERT_INT_EQ(nts_scene_update_positions(s, flat, &err), 0);
+    ASSERT_INT_EQ(update_both(s, flat, &err), 0);
     assert_same_contacts(s, fresh);
     nts_scene_destroy(fresh);
     nts_scene_destroy(s);
@@ -253,7 +253,7 @@ static void test_mesh_boundary_verdicts(void) {
     memcpy(before, pos, sizeof pos);
     memcpy(moved, pos, sizeof pos);
     moved[3] = moved[4]; /* boundary nodes 3 and 4 on one spot */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_EDEGENERATE_SEGMENT);
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_EDEGENERATE_SEGMENT);
     ASSERT_INT_EQ(err.body, 0);
     CU_ASSERT(err.node == 3 || err.node == 4);
     CU_ASSERT(strstr(err.message, "node 3") != NULL);
@@ -263,7 +263,7 @@ static void test_mesh_boundary_verdicts(void) {
     /* The grid mirrored about x = 1.5, far from the disk. */
     memcpy(moved, pos, sizeof pos);
     for (i = 0; i < GRID_NODES; ++i) moved[i].x = 3.0 - moved[i].x;
-    ASSERT_INT_EQ(nts_scene_update_positions(s, moved, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_ERESHAPED);
     ASSERT_INT_EQ(err.body, 0);
     ASSERT_INT_EQ(err.loop, 0);
     CU_ASSERT(memcmp(nts_scene_positions(s), before, sizeof before) == 0);
@@ -280,7 +280,7 @@ static void test_mesh_boundary_verdicts(void) {
         nts_scene_body_loop(s, 0, 0, &l0);
         for (i = 1; i < n; ++i) ASSERT_INT_EQ(l[i], l0[n - i]);
     }
-    ASSERT_INT_EQ(nts_scene_update_positions(fresh, moved, &err), 0);
+    ASSERT_INT_EQ(update_both(fresh, moved, &err), 0);
     nts_scene_destroy(fresh);
     nts_scene_destroy(s);
 }
@@ -363,13 +363,13 @@ static void test_reference_survives_a_rebuild(void) {
 
     s = three_bodies(x0, NULL, &err);
     CU_ASSERT_FATAL(s != NULL);
-    ASSERT_INT_EQ(nts_scene_update_positions(s, p, &err), 0);
+    ASSERT_INT_EQ(update_both(s, p, &err), 0);
     first = snap(s);
     CU_ASSERT_FATAL(first.contacts > 0);
 
     /* The mirrored body needs a new scene; with the first positions as the
      * reference it gives the same bits (body 2 touches nothing). */
-    ASSERT_INT_EQ(nts_scene_update_positions(s, q, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(update_both(s, q, &err), NTS_ERESHAPED);
     ASSERT_INT_EQ(err.body, 2);
     again = three_bodies(q, x0, &err);
     CU_ASSERT_FATAL(again != NULL);
@@ -381,7 +381,7 @@ static void test_reference_survives_a_rebuild(void) {
     CU_ASSERT(memcmp(mirrored.forces, first.forces, 44 * sizeof(nts_vec2)) == 0);
 
     /* Back to p: body 2 turns over again, a new scene again, the same bits. */
-    ASSERT_INT_EQ(nts_scene_update_positions(again, p, &err), NTS_ERESHAPED);
+    ASSERT_INT_EQ(update_both(again, p, &err), NTS_ERESHAPED);
     back = three_bodies(p, x0, &err);
     CU_ASSERT_FATAL(back != NULL);
     returned = snap(back);
@@ -448,6 +448,132 @@ static void test_reference_errors_name_the_node(void) {
     }
 }
 
+/* The positions of a packing with one node (or body) of body j moved by
+ * `kind` at parameter h: 0 node 1 toward node 2 (the segment's length h
+ * times its own: degenerate below 1e-12 of its neighbours), 1 node 3 folded
+ * back past node 4 toward node 2's side at an angle h (a zero-angle spike at
+ * h = 0), 2 the body flattened to h times its height (zero area, spikes at
+ * its ends). */
+static void threshold_move(const nts_vec2* x0, nts_vec2* x, int n, int off, int m, int kind, double h) {
+    int k;
+    memcpy(x, x0, sizeof(nts_vec2) * (size_t)n);
+    if (kind == 0) {
+        x[off + 1] = nts_add(x0[off + 2], nts_scale(h, nts_sub(x0[off + 1], x0[off + 2])));
+    } else if (kind == 1) {
+        const nts_vec2 d = nts_sub(x0[off + 4], x0[off + 2]);
+        x[off + 3] = nts_add(x0[off + 4], nts_add(nts_scale(0.5, d), nts_scale(h, nts_v2(-d.y, d.x))));
+    } else {
+        double cy = 0.0;
+        for (k = 0; k < m; ++k) cy += x0[off + k].y / m;
+        for (k = 0; k < m; ++k) x[off + k].y = cy + h * (x0[off + k].y - cy);
+    }
+}
+
+/* nts_evaluate_positions checks new positions in the evaluation's segment
+ * pass, each loop's lengths rolled along it, its area summed there when the
+ * loop lies within one of the pass's slices and is stored as given, or after
+ * the pass otherwise. At each check's threshold (found by bisection on the
+ * update's own verdict, to adjacent doubles) it decides as the update does,
+ * with the same error (update_both): for bodies early, in the middle and at
+ * the end of the scene, given counter-clockwise and clockwise (stored
+ * reversed), in an open and a periodic box. */
+static void test_fused_checks_at_thresholds(void) {
+    int periodic, reversed, kind, jj;
+    for (periodic = 0; periodic < 2; ++periodic)
+        for (reversed = 0; reversed < 2; ++reversed) {
+            test_packing p = make_packing(144, 12, 1.0, 2.6, periodic, 31 + (unsigned)periodic);
+            nts_scene* s;
+            nts_vec2 *x0, *x;
+            int n, b, k;
+            const int bodies[4] = {0, 37, 90, 143};
+            if (reversed)
+                for (b = 0; b < p.count; b += 2) /* every other body clockwise */
+                    for (k = 1; k < p.bodies[b].node_count - k; ++k) {
+                        const nts_vec2 t = p.bodies[b].nodes[k];
+                        p.bodies[b].nodes[k] = p.bodies[b].nodes[p.bodies[b].node_count - k];
+                        p.bodies[b].nodes[p.bodies[b].node_count - k] = t;
+                    }
+            s = make_scene(p.bodies, p.count, p.lx, p.ly);
+            CU_ASSERT_FATAL(s != NULL);
+            if (reversed) CU_ASSERT(nts_scene_loops_reversed(s) == 72);
+            n = nts_scene_node_count(s);
+            x0 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+            x = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+            memcpy(x0, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+            for (jj = 0; jj < 4; ++jj)
+                for (kind = 0; kind < 3; ++kind) {
+                    const int j = bodies[jj], off = nts_scene_body_node_offset(s, j);
+                    const int m = nts_scene_body_node_count(s, j);
+                    double lo = 0.0, hi = 1.0; /* rejected at lo, accepted at hi */
+                    nts_error err;
+                    int it, d, rc;
+                    threshold_move(x0, x, n, off, m, kind, hi);
+                    ASSERT_INT_EQ(nts_scene_update_positions(s, x, &err), NTS_OK);
+                    threshold_move(x0, x, n, off, m, kind, lo);
+                    CU_ASSERT(nts_scene_update_positions(s, x, &err) != NTS_OK);
+                    for (it = 0; it < 200 && nextafter(lo, hi) < hi; ++it) { /* ~100 halvings */
+                        const double mid = lo + (hi - lo) / 2;
+                        threshold_move(x0, x, n, off, m, kind, mid);
+                        if (nts_scene_update_positions(s, x, &err) == NTS_OK) hi = mid;
+                        else lo = mid;
+                    }
+                    CU_ASSERT(nextafter(lo, hi) == hi);
+                    /* both sides of the threshold, and a few doubles on either side */
+                    for (d = 0; d < 2; ++d) {
+                        double h = d == 0 ? lo : hi;
+                        for (k = 0; k < 3; ++k) {
+                            threshold_move(x0, x, n, off, m, kind, h);
+                            rc = update_both(s, x, &err);
+                            CU_ASSERT(d == 0 ? rc != NTS_OK : rc == NTS_OK);
+                            h = d == 0 ? nextafter(h, -1.0) : nextafter(h, 2.0);
+                        }
+                    }
+                    ASSERT_INT_EQ(update_both(s, x0, &err), NTS_OK);
+                }
+            /* the coordinates' range: 1e100 is in, the next double out, a NaN out */
+            memcpy(x, x0, sizeof(nts_vec2) * (size_t)n);
+            x[n - 1].x = nextafter(1e100, HUGE_VAL);
+            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_EOUT_OF_RANGE);
+            x[n - 1].x = NAN;
+            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_ENONFINITE);
+            x[n - 1].x = -HUGE_VAL;
+            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_ENONFINITE);
+            free(x0);
+            free(x);
+            nts_scene_destroy(s);
+            free_packing(&p);
+        }
+}
+
+/* The coordinates' range where nothing else refuses the positions: a node
+ * inside a mesh (on no loop: the segment pass never reads it) given a NaN or
+ * a coordinate past 1e100, and a whole body scaled to 1.2e100 (its segments
+ * long enough to be neither degenerate nor out of range). The same errors
+ * from nts_evaluate_positions as from the update (update_both). */
+static void test_fused_range_off_the_loops(void) {
+    nts_vec2 pos[ALL_NODES], moved[ALL_NODES];
+    int tri[3 * GRID_TRIS], i;
+    nts_scene* s;
+    nts_error err;
+    grid_and_disk(pos, tri);
+    s = grid_scene(pos, tri, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    memcpy(moved, pos, sizeof pos);
+    moved[12].y = NAN; /* the grid's centre */
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_ENONFINITE);
+    ASSERT_INT_EQ(err.node, 12);
+    moved[12].y = -2e100;
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.node, 12);
+    memcpy(moved, pos, sizeof pos);
+    for (i = GRID_NODES; i < ALL_NODES; ++i) /* the disk, 1.2e100 across */
+        moved[i] = nts_v2(2e99 * (pos[i].x - 0.55) + 1e100, 2e99 * (pos[i].y + 0.29));
+    ASSERT_INT_EQ(update_both(s, moved, &err), NTS_EOUT_OF_RANGE);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(update_both(s, pos, &err), NTS_OK);
+    nts_scene_destroy(s);
+}
+
 void register_update_suite(void) {
     CU_pSuite s = CU_add_suite("update", NULL, NULL);
     ADD_TEST(s, test_random_moves_open);
@@ -457,4 +583,6 @@ void register_update_suite(void) {
     ADD_TEST(s, test_mesh_boundary_verdicts);
     ADD_TEST(s, test_reference_survives_a_rebuild);
     ADD_TEST(s, test_reference_errors_name_the_node);
+    ADD_TEST(s, test_fused_checks_at_thresholds);
+    ADD_TEST(s, test_fused_range_off_the_loops);
 }

@@ -127,3 +127,37 @@ int same_answer(const nts_scene* s, const nts_result* a, const nts_result* b, in
            same_bytes(a->forces, b->forces, a->forces != NULL ? nodes : 0, sizeof(nts_vec2)) &&
            same_bytes(a->pressure, b->pressure, a->pressure != NULL ? nodes : 0, sizeof(double));
 }
+
+int update_both(nts_scene* s, const nts_vec2* pos, nts_error* err) {
+    const size_t n = (size_t)nts_scene_node_count(s);
+    nts_vec2* before = (nts_vec2*)malloc(sizeof(nts_vec2) * (n ? n : 1));
+    nts_vec2* fused = (nts_vec2*)malloc(sizeof(nts_vec2) * (n ? n : 1));
+    nts_context *c1 = nts_context_create(), *c2 = nts_context_create();
+    nts_options opt = nts_default_options();
+    nts_result r1, r2;
+    nts_error e1, e2;
+    int rc1, rc;
+    CU_ASSERT_FATAL(before != NULL && fused != NULL && c1 != NULL && c2 != NULL);
+    opt.outputs = NTS_OUT_ALL;
+    memcpy(before, nts_scene_positions(s), sizeof(nts_vec2) * n);
+    rc1 = nts_evaluate_positions(c1, s, pos, &opt, &r1, &e1);
+    memcpy(fused, nts_scene_positions(s), sizeof(nts_vec2) * n);
+    if (rc1 == NTS_OK) CU_ASSERT(nts_scene_update_positions(s, before, &e2) == NTS_OK); /* back, for the update */
+    rc = nts_scene_update_positions(s, pos, err);
+    if (rc != rc1)
+        fprintf(stderr, "\n  update: %d (%s), evaluate_positions: %d (%s)\n", rc, err != NULL ? err->message : "",
+                rc1, e1.message);
+    CU_ASSERT(rc == rc1);
+    /* the same error, named the same way, and the same positions taken (or kept) */
+    if (rc != NTS_OK && err != NULL) CU_ASSERT(memcmp(err, &e1, sizeof e1) == 0);
+    CU_ASSERT(memcmp(fused, nts_scene_positions(s), sizeof(nts_vec2) * n) == 0);
+    if (rc == NTS_OK && rc1 == NTS_OK) {
+        CU_ASSERT(nts_evaluate(c2, s, &opt, &r2, &e2) == NTS_OK);
+        CU_ASSERT(same_answer(s, &r1, &r2, NTST_SUMMARY_WHOLE));
+    }
+    nts_context_destroy(c1);
+    nts_context_destroy(c2);
+    free(before);
+    free(fused);
+    return rc;
+}

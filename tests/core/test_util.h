@@ -70,4 +70,10 @@ double scene_energy(const nts_scene* s, const nts_options* opt);
 enum { NTST_SUMMARY_WHOLE = 1, NTST_SUMMARY_BUT_CELLS = 0 };
 int same_answer(const nts_scene* s, const nts_result* a, const nts_result* b, int summary);
 
+/* nts_scene_update_positions(s, pos, err), checked against
+ * nts_evaluate_positions on the same positions from the same scene: the same
+ * status, the same error record, the same positions taken (or kept), and when
+ * taken an answer equal bit for bit to nts_evaluate's after the update. */
+int update_both(nts_scene* s, const nts_vec2* pos, nts_error* err);
+
 #endif

@@ -658,6 +658,18 @@ NTS_API int nts_context_set_parallel(nts_context* ctx, const nts_parallel* backe
 NTS_API int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
                  nts_result* out, nts_error* err);
 
+/** A solver's step in one call: nts_scene_update_positions(scene, positions)
+ * then nts_evaluate, with the same answer, the same errors and the same scene
+ * afterwards, but the positions checked in the evaluation's own pass over the
+ * segments (each length computed once) rather than in a pass of their own.
+ * When a check fails the scene is unchanged, nothing is evaluated, and the
+ * error is the update's (the first fault in its order, named as it names it).
+ * A caller that must tell a rejection (to create the scene anew, after
+ * NTS_ERESHAPED) from a failed evaluation asks nts_scene_update_positions
+ * with the same positions: it fails only on a rejection. */
+NTS_API int nts_evaluate_positions(nts_context* ctx, nts_scene* scene, const nts_vec2* positions,
+                                   const nts_options* opt, nts_result* out, nts_error* err);
+
 #ifdef __cplusplus
 }
 #endif
