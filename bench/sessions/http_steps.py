@@ -166,9 +166,10 @@ def markdown(rows, repeats):
                              f"{r['surface_nodes']:,}" for r in big)
         lines += ["", f"Target (issue 10): (c) within 1.5x of (d) at 1e5 nodes and above; measured {c_ratios}. Below",
                   "1e4 nodes the fixed cost of an HTTP exchange on loopback (about 0.4 ms here) dominates a step.",
-                  "The binary step's server time includes reading the positions, the scene checks of",
-                  "`nts_scene_update_positions` (one pass over the nodes) and writing the forces. A session keeps a",
-                  "candidate list (docs/model.md §15): (c) replays it, (d) searches from scratch (the same answer).",
+                  "The binary step's server time includes reading the positions, their checks (made in the",
+                  "evaluation's segment pass: `nts_evaluate_positions`) and writing the forces. A session keeps a",
+                  "candidate list (docs/model.md §15): (c) replays it, (d) searches from scratch (the same answer);",
+                  "the step at equal work, from scratch in process, is in \"Kept candidates\" (1.00-1.04 times (d)).",
                   "Issue 27 §3 asks for (c) at most 1.03 times (d) and (b) at most 2.5 times (d); (b)/(d) measured "
                   + b_ratios + ". The JSON step's numbers are read by the codec's own exact reader",
                   "(`codec/src/numparse.c`: strtod's bits in less than half of strtod's time) and its answer written",
