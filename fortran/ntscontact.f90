@@ -305,6 +305,16 @@ module ntscontact
       integer(c_int) :: c_evaluate
     end function c_evaluate
 
+    function c_evaluate_positions(ctx, scene, positions, opt, res, err) bind(c, name="nts_evaluate_positions")
+      import :: c_ptr, c_int, c_double, nts_options, nts_result, nts_error
+      type(c_ptr), value :: ctx, scene
+      real(c_double), intent(in) :: positions(*)
+      type(nts_options), intent(in) :: opt
+      type(nts_result), intent(out) :: res
+      type(nts_error), intent(out) :: err
+      integer(c_int) :: c_evaluate_positions
+    end function c_evaluate_positions
+
     function c_triplets_to_csr(t, csr, err) bind(c, name="nts_triplets_to_csr")
       import :: c_int, nts_triplets, nts_csr, nts_error
       type(nts_triplets), intent(in) :: t
@@ -476,13 +486,18 @@ contains
 
   ! Evaluate contact at the scene's positions (nts_evaluate) and copy what
   ! `options%outputs` asks for into `out`. On an error `out` holds nothing
-  ! (its summary zero, its arrays deallocated).
-  subroutine ntsf_evaluate(s, options, out, status, err)
+  ! (its summary zero, its arrays deallocated). With `positions` ((2,
+  ! node_count), global order) a solver's step in one call
+  ! (nts_evaluate_positions): ntsf_update_positions then the evaluation, the
+  ! same answer and errors, the positions checked in the evaluation's own
+  ! pass over the segments; refused positions leave the scene as it was.
+  subroutine ntsf_evaluate(s, options, out, status, err, positions)
     type(ntsf_scene), intent(inout) :: s
     type(nts_options), intent(in) :: options
     type(ntsf_output), intent(inout) :: out
     integer, intent(out) :: status
     type(nts_error), intent(out), optional :: err
+    real(c_double), intent(in), optional :: positions(:, :)
     type(nts_result) :: r
     type(nts_error) :: e
     type(nts_warning), pointer :: w(:)
@@ -492,8 +507,12 @@ contains
     e = no_error()
     if (.not. c_associated(s%scene)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no scene (ntsf_scene_create first)")
-    else
+    else if (.not. present(positions)) then
       status = c_evaluate(s%context, s%scene, options, r, e)
+    else if (size(positions, 1) /= 2 .or. size(positions, 2) /= c_scene_node_count(s%scene)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "positions must be shaped (2, node_count)")
+    else
+      status = c_evaluate_positions(s%context, s%scene, positions, options, r, e)
     end if
     if (status == NTS_OK) then
       e = no_error()

@@ -151,6 +151,27 @@ program test_fortran
   call check(.not. same_bits([moved_out%summary%energy], [out%summary%energy]), &
     "the moved positions give another energy (the update took)")
 
+  ! The step in one call (positions=): the same bits as the update then the
+  ! evaluation, back at x0 and again at x1; refused positions change nothing.
+  call ntsf_evaluate(scene, opt, again, status, err, positions=x0)
+  call check(status == NTS_OK, "ntsf_evaluate(positions=x0): "//ntsf_error_message(err))
+  call check(ftest_reference(x0) == NTS_OK, "the C reference evaluates at the first positions")
+  call compare(again, n, "back at the first positions, in one call")
+  call check(ftest_reference(x1) == NTS_OK, "the C reference evaluates at the moved positions")
+  call ntsf_evaluate(scene, opt, again, status, err, positions=x1)
+  call check(status == NTS_OK .and. same_bits(flat(again%forces), flat(moved_out%forces)) .and. &
+    same_bits([again%summary%energy], [moved_out%summary%energy]), "the moved positions in one call: the same bits")
+  bad = x1
+  bad(1, n) = ieee_nan()
+  call ntsf_evaluate(scene, opt, again, status, err, positions=bad)
+  call check(status == NTS_ENONFINITE .and. err%code == NTS_ENONFINITE .and. .not. allocated(again%forces), &
+    "a NaN coordinate in one call: NTS_ENONFINITE, nothing out")
+  call ntsf_evaluate(scene, opt, again, status, err, positions=x1(:, 1:n - 1))
+  call check(status == NTS_EINVALID_ARGUMENT, "positions of the wrong shape in one call: NTS_EINVALID_ARGUMENT")
+  call ntsf_evaluate(scene, opt, again, status)
+  call check(status == NTS_OK .and. same_bits(flat(again%forces), flat(moved_out%forces)), &
+    "the refused positions in one call changed nothing")
+
   ! Errors: a coordinate that is not a number leaves the scene as it was.
   bad = x1
   bad(2, n) = ieee_nan()

@@ -35,8 +35,7 @@ program squares
   ! A step: the right square 0.01 further in, the same scene at new positions.
   x = reshape([bodies(1)%nodes, bodies(2)%nodes], [2, 8])
   x(1, 5:8) = x(1, 5:8) - 0.01_dp
-  call ntsf_update_positions(scene, x, status, err)
-  if (status == NTS_OK) call ntsf_evaluate(scene, opt, out, status, err)
+  call ntsf_evaluate(scene, opt, out, status, err, positions=x)
   if (status /= NTS_OK) error stop 1
   print '(a, es12.5)', "after the step: energy ", out%summary%energy
 
