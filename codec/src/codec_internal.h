@@ -149,6 +149,9 @@ int ntsj_attach_vtk(ntsj_response* out, const ntsj_scene* s, const nts_scene* sc
 int ntsj_code_known(const char* code);
 
 /* ------------------------------------------------------------ handle */
+/* Whether the request has used more than cfg->max_seconds since t0 (what
+ * ntsj_over_budget answers, without answering). */
+int ntsj_past_budget(const ntsj_config* cfg, double t0);
 
 /* Shared by ntsj_handle and the sessions (session.c). */
 double ntsj_now_ms(void);                 /* monotonic milliseconds */

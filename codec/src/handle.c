@@ -108,10 +108,15 @@ int ntsj_respond_core(ntsj_response* out, const ntsj_scene* s, const nts_error* 
  * core asks it during the evaluation too, through ntsj_arm_deadline); a
  * request over budget gets a limit_exceeded error (400) naming the limit,
  * never a late result. */
+int ntsj_past_budget(const ntsj_config* cfg, double t0) {
+    return cfg->max_seconds > 0.0 && ntsj_now_ms() - t0 > cfg->max_seconds * 1e3;
+}
+
 int ntsj_over_budget(const ntsj_config* cfg, double t0, ntsj_response* out, const char* phase, int* rc) {
-    double elapsed = ntsj_now_ms() - t0;
+    double elapsed;
     char msg[160];
-    if (!(cfg->max_seconds > 0.0) || elapsed <= cfg->max_seconds * 1e3) return 0;
+    if (!ntsj_past_budget(cfg, t0)) return 0;
+    elapsed = ntsj_now_ms() - t0;
     snprintf(msg, sizeof msg, "the request took %.3f ms up to %s, more than max_seconds = %g s", elapsed, phase,
              cfg->max_seconds);
     *rc = ntsj_respond_error(out, nts_status_name(NTS_ELIMIT), msg, "", cfg->pretty);

@@ -673,6 +673,9 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     /* In-process evaluation checks the positions in its own segment pass
      * (nts_evaluate_positions); a host's evaluator is given them taken. */
     fused = have_positions && cfg.evaluate == NULL;
+    /* A step refused here for its time has its positions taken all the same
+     * (or their fault answered first), as when they were taken apart. */
+    if (fused && ntsj_past_budget(&cfg, t0)) fused = 0;
     if (have_positions && !fused && (rc = take_positions(ss, &err)) != NTS_OK) {
         if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         return ntsj_respond_core(out, &ss->js, &err, rc, pretty);

@@ -4,7 +4,10 @@
  * (segments.c, nts_evaluate_positions) decide by the same bits. Each verdict
  * is symmetric in the loop's direction (a sum of two lengths, a maximum, the
  * product of two lengths by a power of two, |cross|), so it is the same for a
- * loop stored reversed; only the area and the perimeter are sums in order. */
+ * loop stored reversed; only the area and the perimeter are sums in order.
+ * The equalities hold in IEEE double arithmetic without contraction: the
+ * build passes -ffp-contract=off (CMakeLists.txt), and x86-64 has no x87
+ * doubles. */
 #ifndef NTSCONTACT_CHECKS_H
 #define NTSCONTACT_CHECKS_H
 

@@ -328,8 +328,10 @@ static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
 
 /* nts_evaluate, at the scene's positions (fresh NULL), or at new positions
  * `fresh` checked in the segment pass and taken when they pass
- * (nts_evaluate_positions: the scene is then not const). *taken: 0 when
- * fresh was rejected, the error being nts_scene_update_positions's. */
+ * (nts_evaluate_positions: the scene is then not const). *taken: 1 once
+ * they are, 0 when they are rejected (the error is then
+ * nts_scene_update_positions's to give), left as it was when the
+ * evaluation stops before they are judged. */
 static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh, const nts_options* opt,
                     nts_result* out, nts_error* err, int* taken) {
     search_env env;
@@ -386,6 +388,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             return NTS_OK;
         }
         memcpy(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count);
+        *taken = 1;
     }
     if (ss.bad < s->surface_count) {
         const int bad = ss.bad;
@@ -574,15 +577,27 @@ int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, n
 
 int nts_evaluate_positions(nts_context* ctx, nts_scene* s, const nts_vec2* positions, const nts_options* opt,
                            nts_result* out, nts_error* err) {
-    int taken = 1, rc;
-    if (s == NULL || positions == NULL) {
-        if (err != NULL) *err = nts_error_none();
-        return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
+    nts_result kept;
+    int taken = -1, rc;
+    if (out == NULL) { /* the two calls, in their order */
+        if ((rc = nts_scene_update_positions(s, positions, err)) != NTS_OK) return rc;
+        return nts_evaluate(ctx, s, opt, out, err);
     }
+    if (s == NULL || positions == NULL) return nts_scene_update_positions(s, positions, err);
+    kept = *out;
     rc = evaluate(ctx, s, positions, opt, out, err, &taken);
-    if (taken) return rc;
+    if (taken == 1) return rc;
+    if (taken < 0) {
+        /* Stopped before the positions were judged (a null argument, an
+         * option out of range, no memory): the two calls, in their order. */
+        *out = kept;
+        if ((rc = nts_scene_update_positions(s, positions, err)) != NTS_OK) return rc;
+        return nts_evaluate(ctx, s, opt, out, err);
+    }
     /* Rejected: the scene's own check finds the first fault in its order and
-     * names it (nts_scene_update_positions), and leaves the scene as it was. */
+     * names it (nts_scene_update_positions), and leaves the scene (and *out)
+     * as they were. */
+    *out = kept;
     rc = nts_scene_update_positions(s, positions, err);
     if (rc != NTS_OK) return rc;
     /* The two checks decide by the same bits (checks.h): a disagreement is a

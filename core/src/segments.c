@@ -246,6 +246,7 @@ static void acc_store(const share_acc* a, share_found* f) {
     f->ymin = a->y0;
     f->ymax = a->y1;
     f->moved2 = a->m2;
+    f->lmin = HUGE_VAL; /* the checking pass's, after */
 }
 
 /* Entry i's record, its node at pp and its segment tt of length len (-1:

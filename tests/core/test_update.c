@@ -470,79 +470,152 @@ static void threshold_move(const nts_vec2* x0, nts_vec2* x, int n, int off, int 
 }
 
 /* nts_evaluate_positions checks new positions in the evaluation's segment
- * pass, each loop's lengths rolled along it, its area summed there when the
- * loop lies within one of the pass's slices and is stored as given, or after
- * the pass otherwise. At each check's threshold (found by bisection on the
- * update's own verdict, to adjacent doubles) it decides as the update does,
- * with the same error (update_both): for bodies early, in the middle and at
- * the end of the scene, given counter-clockwise and clockwise (stored
- * reversed), in an open and a periodic box. */
-static void test_fused_checks_at_thresholds(void) {
-    int periodic, reversed, kind, jj;
-    for (periodic = 0; periodic < 2; ++periodic)
-        for (reversed = 0; reversed < 2; ++reversed) {
-            test_packing p = make_packing(144, 12, 1.0, 2.6, periodic, 31 + (unsigned)periodic);
-            nts_scene* s;
-            nts_vec2 *x0, *x;
-            int n, b, k;
-            const int bodies[4] = {0, 37, 90, 143};
-            if (reversed)
-                for (b = 0; b < p.count; b += 2) /* every other body clockwise */
-                    for (k = 1; k < p.bodies[b].node_count - k; ++k) {
-                        const nts_vec2 t = p.bodies[b].nodes[k];
-                        p.bodies[b].nodes[k] = p.bodies[b].nodes[p.bodies[b].node_count - k];
-                        p.bodies[b].nodes[p.bodies[b].node_count - k] = t;
-                    }
-            s = make_scene(p.bodies, p.count, p.lx, p.ly);
-            CU_ASSERT_FATAL(s != NULL);
-            if (reversed) CU_ASSERT(nts_scene_loops_reversed(s) == 72);
-            n = nts_scene_node_count(s);
-            x0 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
-            x = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
-            memcpy(x0, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
-            for (jj = 0; jj < 4; ++jj)
-                for (kind = 0; kind < 3; ++kind) {
-                    const int j = bodies[jj], off = nts_scene_body_node_offset(s, j);
-                    const int m = nts_scene_body_node_count(s, j);
-                    double lo = 0.0, hi = 1.0; /* rejected at lo, accepted at hi */
-                    nts_error err;
-                    int it, d, rc;
-                    threshold_move(x0, x, n, off, m, kind, hi);
-                    ASSERT_INT_EQ(nts_scene_update_positions(s, x, &err), NTS_OK);
-                    threshold_move(x0, x, n, off, m, kind, lo);
-                    CU_ASSERT(nts_scene_update_positions(s, x, &err) != NTS_OK);
-                    for (it = 0; it < 200 && nextafter(lo, hi) < hi; ++it) { /* ~100 halvings */
-                        const double mid = lo + (hi - lo) / 2;
-                        threshold_move(x0, x, n, off, m, kind, mid);
-                        if (nts_scene_update_positions(s, x, &err) == NTS_OK) hi = mid;
-                        else lo = mid;
-                    }
-                    CU_ASSERT(nextafter(lo, hi) == hi);
-                    /* both sides of the threshold, and a few doubles on either side */
-                    for (d = 0; d < 2; ++d) {
-                        double h = d == 0 ? lo : hi;
-                        for (k = 0; k < 3; ++k) {
-                            threshold_move(x0, x, n, off, m, kind, h);
-                            rc = update_both(s, x, &err);
-                            CU_ASSERT(d == 0 ? rc != NTS_OK : rc == NTS_OK);
-                            h = d == 0 ? nextafter(h, -1.0) : nextafter(h, 2.0);
-                        }
-                    }
-                    ASSERT_INT_EQ(update_both(s, x0, &err), NTS_OK);
+ * pass, a block of records at a time: each loop's lengths read from the
+ * records (a neighbour across a slice's edge computed again), its area
+ * summed there when the loop lies within one of the pass's 64 slices and is
+ * stored as given, or after the pass otherwise, the degenerate verdicts from
+ * the lengths' extremes unless the shortest is below the largest tolerance.
+ * At each check's threshold (found by bisection on the update's own verdict,
+ * to adjacent doubles) it decides as the update does, with the same error
+ * (update_both), for the bodies `bodies` of a packing of `count` 12-node
+ * bodies, every other one given clockwise (stored reversed) when `reversed`,
+ * all of it moved by `shift` (where the coordinates' resolution, not the
+ * neighbours, sets the degenerate tolerance). */
+static void thresholds_on(int count, int periodic, int reversed, double shift, const int* bodies, int nb) {
+    test_packing p = make_packing(count, 12, 1.0, 2.6, periodic, 31 + (unsigned)periodic);
+    nts_scene* s;
+    nts_vec2 *x0, *x;
+    int n, b, k, jj, kind;
+    for (b = 0; b < p.count; ++b)
+        for (k = 0; k < p.bodies[b].node_count; ++k) p.bodies[b].nodes[k] = nts_add(p.bodies[b].nodes[k], nts_v2(shift, shift));
+    if (reversed)
+        for (b = 0; b < p.count; b += 2) /* every other body clockwise */
+            for (k = 1; k < p.bodies[b].node_count - k; ++k) {
+                const nts_vec2 t = p.bodies[b].nodes[k];
+                p.bodies[b].nodes[k] = p.bodies[b].nodes[p.bodies[b].node_count - k];
+                p.bodies[b].nodes[p.bodies[b].node_count - k] = t;
+            }
+    s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    CU_ASSERT_FATAL(s != NULL);
+    if (reversed) ASSERT_INT_EQ(nts_scene_loops_reversed(s), (count + 1) / 2);
+    n = nts_scene_node_count(s);
+    x0 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    x = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    memcpy(x0, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+    for (jj = 0; jj < nb; ++jj)
+        for (kind = 0; kind < 3; ++kind) {
+            const int j = bodies[jj], off = nts_scene_body_node_offset(s, j);
+            const int m = nts_scene_body_node_count(s, j);
+            double lo = 0.0, hi = 1.0; /* rejected at lo, accepted at hi */
+            nts_error err;
+            int it, d, rc;
+            threshold_move(x0, x, n, off, m, kind, hi);
+            ASSERT_INT_EQ(nts_scene_update_positions(s, x, &err), NTS_OK);
+            threshold_move(x0, x, n, off, m, kind, lo);
+            if (nts_scene_update_positions(s, x, &err) == NTS_OK) {
+                /* only where the coordinates' round-off (1e6 times eps)
+                 * already turns the folded node off the line: no spike */
+                CU_ASSERT(shift != 0.0 && kind == 1);
+                continue;
+            }
+            for (it = 0; it < 200 && nextafter(lo, hi) < hi; ++it) { /* ~100 halvings */
+                const double mid = lo + (hi - lo) / 2;
+                threshold_move(x0, x, n, off, m, kind, mid);
+                if (nts_scene_update_positions(s, x, &err) == NTS_OK) hi = mid;
+                else lo = mid;
+            }
+            CU_ASSERT(nextafter(lo, hi) == hi);
+            /* both sides of the threshold, and a few doubles on either side */
+            for (d = 0; d < 2; ++d) {
+                double h = d == 0 ? lo : hi;
+                for (k = 0; k < 3; ++k) {
+                    threshold_move(x0, x, n, off, m, kind, h);
+                    rc = update_both(s, x, &err);
+                    CU_ASSERT(d == 0 ? rc != NTS_OK : rc == NTS_OK);
+                    h = d == 0 ? nextafter(h, -1.0) : nextafter(h, 2.0);
                 }
-            /* the coordinates' range: 1e100 is in, the next double out, a NaN out */
-            memcpy(x, x0, sizeof(nts_vec2) * (size_t)n);
-            x[n - 1].x = nextafter(1e100, HUGE_VAL);
-            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_EOUT_OF_RANGE);
-            x[n - 1].x = NAN;
-            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_ENONFINITE);
-            x[n - 1].x = -HUGE_VAL;
-            ASSERT_INT_EQ(update_both(s, x, NULL), NTS_ENONFINITE);
-            free(x0);
-            free(x);
-            nts_scene_destroy(s);
-            free_packing(&p);
+            }
+            ASSERT_INT_EQ(update_both(s, x0, &err), NTS_OK);
         }
+    {
+        /* the coordinates' range: the next double past 1e100 out, a NaN and an infinity out */
+        nts_error err;
+        memcpy(x, x0, sizeof(nts_vec2) * (size_t)n);
+        x[n - 1].x = nextafter(1e100, HUGE_VAL);
+        ASSERT_INT_EQ(update_both(s, x, &err), NTS_EOUT_OF_RANGE);
+        x[n - 1].x = NAN;
+        ASSERT_INT_EQ(update_both(s, x, &err), NTS_ENONFINITE);
+        x[n - 1].x = -HUGE_VAL;
+        ASSERT_INT_EQ(update_both(s, x, &err), NTS_ENONFINITE);
+    }
+    free(x0);
+    free(x);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+/* 144 bodies (1728 entries, slices of 27): bodies 0, 1 and 143 inside a
+ * slice, 2 across one (entries 24-35, the edge at 27: reversed when the
+ * even ones are), 7 across one (84-95, the edge at 81, always as given), 37
+ * and 90 inside; at the origin and moved by 1e6, open and periodic. */
+static void test_fused_checks_at_thresholds(void) {
+    static const int bodies[] = {0, 2, 7, 37, 90, 143};
+    int periodic, reversed, shifted;
+    for (periodic = 0; periodic < 2; ++periodic)
+        for (reversed = 0; reversed < 2; ++reversed)
+            for (shifted = 0; shifted < 2; ++shifted)
+                thresholds_on(144, periodic, reversed, shifted ? 1e6 : 0.0, bodies, 6);
+}
+
+/* 1600 bodies (19200 entries, slices of 300, blocks of 256 records): body 21
+ * (entries 252-263) across a block's edge inside a slice, body 24 (288-299)
+ * at a slice's end, body 25 (300-311) at the next one's start. */
+static void test_fused_checks_across_blocks(void) {
+    static const int bodies[] = {21, 24, 25};
+    thresholds_on(1600, 0, 1, 0.0, bodies, 3);
+    thresholds_on(1600, 1, 0, 0.0, bodies, 3);
+}
+
+/* What stops the evaluation before the positions are judged (an option out
+ * of range, a null context) gives what the two calls give, in their order:
+ * the positions taken, then the evaluation's error; refused positions the
+ * update's error, the scene and the result as they were. */
+static void test_fused_stops_before_the_checks(void) {
+    test_packing p = make_packing(16, 24, 1.0, 1.9, 0, 5);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context* ctx = nts_context_create();
+    nts_options opt = nts_default_options();
+    nts_result r;
+    nts_error err;
+    nts_vec2* x;
+    int n;
+    CU_ASSERT_FATAL(s != NULL && ctx != NULL);
+    n = nts_scene_node_count(s);
+    x = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    memcpy(x, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+    x[3].x += 1e-3;
+    opt.penalty = -1.0;
+    ASSERT_INT_EQ(nts_evaluate_positions(ctx, s, x, &opt, &r, &err), NTS_EINVALID_OPTION);
+    CU_ASSERT(memcmp(nts_scene_positions(s), x, sizeof(nts_vec2) * (size_t)n) == 0); /* taken, as the update takes them */
+    x[3].x += 1e-3;
+    ASSERT_INT_EQ(nts_evaluate_positions(NULL, s, x, &opt, &r, &err), NTS_EINVALID_ARGUMENT);
+    CU_ASSERT(memcmp(nts_scene_positions(s), x, sizeof(nts_vec2) * (size_t)n) == 0);
+    opt = nts_default_options();
+    ASSERT_INT_EQ(nts_evaluate_positions(ctx, s, x, &opt, &r, &err), NTS_OK);
+    {
+        const nts_result before = r;
+        x[5].y = NAN; /* refused: the update's error, the result as it was */
+        opt.penalty = -1.0;
+        ASSERT_INT_EQ(nts_evaluate_positions(ctx, s, x, &opt, &r, &err), NTS_ENONFINITE);
+        opt = nts_default_options();
+        ASSERT_INT_EQ(nts_evaluate_positions(ctx, s, x, &opt, &r, &err), NTS_ENONFINITE);
+        ASSERT_INT_EQ(err.node, 5 - nts_scene_body_node_offset(s, err.body));
+        CU_ASSERT(memcmp(&before, &r, sizeof r) == 0);
+    }
+    free(x);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    free_packing(&p);
 }
 
 /* The coordinates' range where nothing else refuses the positions: a node
@@ -585,4 +658,6 @@ void register_update_suite(void) {
     ADD_TEST(s, test_reference_errors_name_the_node);
     ADD_TEST(s, test_fused_checks_at_thresholds);
     ADD_TEST(s, test_fused_range_off_the_loops);
+    ADD_TEST(s, test_fused_checks_across_blocks);
+    ADD_TEST(s, test_fused_stops_before_the_checks);
 }
