@@ -683,6 +683,63 @@ static void section_threads(const char* dir, int max_threads) {
     fclose(f);
 }
 
+/* ns per surface node of a solver's step with a kept candidate list on
+ * scene s (its bodies as in b), options o: as build-bench/bin/kept_bench
+ * moves them (each body along a direction of its own, each node a fifth as
+ * much along its own, back and forth, a step moving a node 1/10 of what the
+ * default skin allows), each step's positions given in one call
+ * (nts_evaluate_positions). The median of `steps` timed steps after as many
+ * untimed (the list's first build among them); the builds the list makes
+ * between are in the timed steps (about one in ten). The scene is given its
+ * first positions back. */
+static double kept_step_ns(nts_scene* s, const scene_buf* b, const nts_options* o0, int steps) {
+    const int n = nts_scene_node_count(s), ns = nts_scene_surface_node_count(s);
+    nts_vec2* base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    nts_vec2* dir = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    nts_vec2* pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    double* dt = (double*)malloc(sizeof(double) * (size_t)steps);
+    nts_context* ctx = nts_context_create();
+    nts_candidates* kc = nts_candidates_create(-1.0);
+    nts_options o = *o0;
+    nts_result r;
+    nts_error err;
+    uint64_t rng = 4242u;
+    double amp, omega, med;
+    int body, at = 0, k, i;
+    if (!base || !dir || !pos || !dt || !ctx || !kc) { fprintf(stderr, "out of memory\n"); exit(2); }
+    memcpy(base, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+    for (body = 0; body < b->body_count; ++body) {
+        const double a = 6.283185307179586 * ntsx_urand(&rng);
+        for (k = 0; k < b->counts[body]; ++k, ++at) {
+            const double c = 6.283185307179586 * ntsx_urand(&rng);
+            dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
+        }
+    }
+    o.candidates = kc;
+    amp = 0.5 * o.search_radius;
+    omega = 0.3 * o.search_radius / (3.0 + 2.0 * o.alpha) / 10.0 / (1.2 * amp); /* eq. (29), K = 10 */
+    for (k = 1; k <= 2 * steps; ++k) {
+        const double a = amp * sin(omega * k);
+        double t0;
+        for (i = 0; i < n; ++i) pos[i] = nts_v2(base[i].x + a * dir[i].x, base[i].y + a * dir[i].y);
+        t0 = ntsx_now();
+        if (nts_evaluate_positions(ctx, s, pos, &o, &r, &err) != NTS_OK) {
+            fprintf(stderr, "kept step: %s\n", err.message);
+            exit(1);
+        }
+        if (k > steps) dt[k - steps - 1] = ntsx_now() - t0;
+    }
+    med = 1e9 * ntsx_median(dt, steps) / ns;
+    if (nts_scene_update_positions(s, base, &err) != NTS_OK) { fprintf(stderr, "back: %s\n", err.message); exit(1); }
+    nts_candidates_destroy(kc);
+    nts_context_destroy(ctx);
+    free(base);
+    free(dir);
+    free(pos);
+    free(dt);
+    return med;
+}
+
 /* Peer input: a non-periodic packing with our alpha = 0 gaps and time, for
  * bench/shapely_peer.py. */
 static void section_peer(const char* dir) {
@@ -695,6 +752,7 @@ static void section_peer(const char* dir) {
         nts_options o = nts_default_options();
         nts_result r;
         timing t, tg;
+        double kept;
         char path[1024];
         FILE* f;
         make_packing(&b, sizes[si], 0, 555u + (uint64_t)si);
@@ -711,6 +769,7 @@ static void section_peer(const char* dir) {
         tg = time_eval(s, &o, g_quick ? 0.05 : 0.3);
         o.outputs = nts_default_options().outputs;
         t = time_eval(s, &o, g_quick ? 0.05 : 0.3);
+        kept = kept_step_ns(s, &b, &o, g_quick ? 5 : 20);
         o.outputs = NTS_OUT_GAPS;
         eval_or_die(ctx, s, &o, &r);
         snprintf(path, sizeof path, "%s/peer_scene_%d.txt", dir, sizes[si]);
@@ -719,9 +778,11 @@ static void section_peer(const char* dir) {
         /* header: bodies, search radius, ns per node with the gaps output (wall,
          * median), with the default outputs (wall), surface nodes, ns per node
          * with the gaps output (CPU time, median), active contacts (g < 0) of
-         * the evaluation with the default outputs (for bench/pymunk_peer.py) */
-        fprintf(f, "%d %.17g %.3f %.3f %d %.3f %d\n", b.body_count, r.summary.search_radius, tg.eval, t.eval,
-                b.total, tg.eval_cpu, t.contacts);
+         * the evaluation with the default outputs, ns per node of a solver's
+         * step with a kept list (wall, median; kept_step_ns) with them (for
+         * bench/pymunk_peer.py) */
+        fprintf(f, "%d %.17g %.3f %.3f %d %.3f %d %.3f\n", b.body_count, r.summary.search_radius, tg.eval, t.eval,
+                b.total, tg.eval_cpu, t.contacts, kept);
         for (k = 0; k < b.body_count; ++k) {
             fprintf(f, "%d\n", b.counts[k]);
             for (i = 0; i < b.counts[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);

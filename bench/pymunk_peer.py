@@ -16,7 +16,10 @@ the steps after the first, wall and CPU), its arbiters (overlapping pairs)
 and contact points, and, from the scene file's header, our evaluation's ns
 per node and our active contacts (g < 0; default outputs, alpha 0, the
 explicit search radius r of that file; empty when the file is older than the
-header's seventh field).
+header's seventh field), and our solver's step with a kept candidate list on
+the same packing and options (the header's eighth field: `nts_bench`'s
+kept_step_ns, each body moved a little each step, the positions given in one
+call), the comparison issue 27 §5 asks for.
 
 Input: bench/results/peer_scene_N.txt (`nts_bench --sections peer`).
 Output: one row per size in peer_pymunk.csv.
@@ -38,6 +41,13 @@ def ours_contacts(path):
     with open(path) as f:
         head = f.readline().split()
     return int(head[6]) if len(head) > 6 else ""
+
+
+def ours_kept(path):
+    """Our ns per node of a solver's step with a kept list (the header's eighth field), or None."""
+    with open(path) as f:
+        head = f.readline().split()
+    return float(head[7]) if len(head) > 7 else None
 
 
 def step_packing(bodies, steps=6, dt=1e-3):
@@ -83,6 +93,8 @@ def main(argv):
             "pymunk_arbiters": arbiters, "pymunk_contact_points": points,
             "ours_active_contacts": ours_contacts(scene), "ours_ns_per_node_default": ours_default_ns,
             "pymunk_over_ours": (1e9 * wall / total) / ours_default_ns,
+            "ours_ns_per_node_kept_step": ours_kept(scene) if ours_kept(scene) is not None else "",
+            "pymunk_over_ours_kept": (1e9 * wall / total) / ours_kept(scene) if ours_kept(scene) else "",
             "pymunk_version": pymunk.version, "chipmunk_version": pymunk.chipmunk_version,
             "what_pymunk_computes": "rigid convex hulls; <= 2 contact points per overlapping pair; impulses",
             "what_we_compute": "every slave node: closest point on the smoothed surface, gap, force, energy, virial",
