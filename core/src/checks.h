@@ -52,6 +52,18 @@ static inline int nts_is_spike(nts_vec2 d_in, nts_vec2 d_out, double l_in, doubl
     return nts_dot(a, d_out) > 0.0 && fabs(nts_cross(a, d_out)) <= 64.0 * DBL_EPSILON * l_in * l_out;
 }
 
+/* One step of the shoelace (twice the signed area) along a loop, from the
+ * running sum of the steps so far (`cur`, relative to the loop's first node:
+ * subtracting first keeps precision when coordinates are large, and works
+ * across a periodic boundary) and the next minimum-image step d. The scene's
+ * check and the segment pass sum with it, step by step in the caller's
+ * order, for the same bits. */
+static inline void nts_shoelace_step(nts_vec2* cur, double* a2, nts_vec2 d) {
+    const nts_vec2 next = nts_add(*cur, d);
+    *a2 += nts_cross(*cur, next);
+    *cur = next;
+}
+
 /* A loop of twice the signed area a2 and perimeter perim encloses zero area.
  * perim^2 <= (n 2e100)^2: finite for any loop the limits allow. */
 static inline int nts_zero_area(double a2, double perim) { return !(fabs(a2) > 64.0 * DBL_EPSILON * perim * perim); }

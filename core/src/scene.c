@@ -96,17 +96,11 @@ static int check_loop(const nts_scene* s, const nts_vec2* pos, int body, int loo
             return fail(err, NTS_ESPIKE, body, loop, k, NODE_AT(k),
                         "body %d loop %d: zero-angle spike at node %d", body, loop, NODE_AT(k));
     }
-    /* Twice the signed area (shoelace) from consecutive minimum-image steps taken
-     * relative to the loop's first node: subtracting first keeps precision when
-     * coordinates are large, and works across a periodic boundary. */
+    /* Twice the signed area, relative to the loop's first node (checks.h). */
     a2 = 0.0;
     {
         nts_vec2 cur = nts_v2(0.0, 0.0);
-        for (k = 0; k < n; ++k) {
-            const nts_vec2 next = nts_add(cur, d[k]);
-            a2 += nts_cross(cur, next);
-            cur = next;
-        }
+        for (k = 0; k < n; ++k) nts_shoelace_step(&cur, &a2, d[k]);
     }
 #undef NODE_AT
     if (nts_zero_area(a2, perim))

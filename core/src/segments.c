@@ -402,12 +402,9 @@ static void segments_pass_checked(int begin, int end, int wi, void* p) {
                     cur = nts_v2(0.0, 0.0);
                     a2 = perim = 0.0;
                 }
-                { /* check_loop's shoelace and perimeter, in its order (kept when the loop is inline) */
-                    const nts_vec2 next = nts_add(cur, c->t);
-                    a2 += nts_cross(cur, next);
-                    cur = next;
-                    perim += c->len;
-                }
+                /* check_loop's shoelace and perimeter, in its order (kept when the loop is inline) */
+                nts_shoelace_step(&cur, &a2, c->t);
+                perim += c->len;
                 if (i == le - 1 && inline_sums) {
                     t->area_perim[2 * l] = a2;
                     t->area_perim[2 * l + 1] = perim;
@@ -448,9 +445,7 @@ static void loops_summed_after(const nts_context* ctx, const nts_scene* s, doubl
         if (loop_summed_inline(s, l)) continue;
         for (k = 0; k < m; ++k) {
             const seg_data* sd = &ctx->seg[ls + (rev ? m - 1 - k : k)];
-            const nts_vec2 next = nts_add(cur, sd->t);
-            a2 += nts_cross(cur, next);
-            cur = next;
+            nts_shoelace_step(&cur, &a2, sd->t);
             perim += sd->len;
         }
         area_perim[2 * l] = a2;
