@@ -33,6 +33,7 @@
  * depend on the radius it was searched with (a radius that finds nothing is
  * doubled, up to the scene's size), so the contacts found do not depend on
  * the order of the work, the threads or how space is binned. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,6 +54,8 @@ void nts_reach_free(nts_reach* r) {
     nts_free(r->grid_items);
     nts_free(r->unresolved_slaves);
     nts_free(r->beyond_slaves);
+    nts_free(r->outside);
+    nts_free(r->ask_at);
     memset(r, 0, sizeof *r);
 }
 
@@ -61,7 +64,8 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
            (size_t)r->seen_cap * sizeof(reach_seen) +
            (size_t)r->edge_cap * sizeof(reach_item) +
            (size_t)r->deep_cap * sizeof(candidate) + (size_t)r->shares_cap * sizeof(force_shares) +
-           (size_t)r->shape_cap * sizeof(double) + (size_t)(r->grid_start_cap + r->grid_items_cap) * sizeof(int);
+           (size_t)r->shape_cap * sizeof(double) + (size_t)(r->grid_start_cap + r->grid_items_cap) * sizeof(int) +
+           (size_t)r->outside_cap + (size_t)r->ask_at_cap * sizeof(int);
 }
 
 /* Whether X_k lies beyond body b's every node in direction n: then it is
@@ -76,11 +80,15 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
 static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
     const nts_vec2 xs = env->seg[k].p;
+    /* A node at or above -ext L_max along n decides: not beyond, whatever
+     * the extent (the bound below is at most that). */
+    const double fail = -env->ext * env->wide_lmax;
     double top = -HUGE_VAL, ax = 0.0, ay = 0.0;
     int m;
     for (m = s->body_node_start[b]; m < s->body_node_start[b + 1]; ++m) {
         const nts_vec2 d = nts_scene_diff(s, s->pos[m], xs);
         const double h = d.x * nx + d.y * ny;
+        if (h >= fail) return 0;
         top = h > top ? h : top;
         ax = fabs(d.x) > ax ? fabs(d.x) : ax;
         ay = fabs(d.y) > ay ? fabs(d.y) : ay;
@@ -89,7 +97,18 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
      * the body's nearest images: nothing is ruled out. */
     if (s->lx > 0.0 && !(ax < 0.25 * s->lx && ay < 0.25 * s->ly)) return 0;
     /* A contact surface's end reaches up to ext L_max past the hull (docs/model.md §13). */
-    return top < -1e-6 * (ax + ay) - env->ext * env->wide_lmax;
+    return top < -1e-6 * (ax + ay) + fail;
+}
+
+/* Whether slave k lies outside body b, asked along normal n: the body's
+ * circle when it is at hand (a long segment's end asked for its shape),
+ * else one pass over its nodes along n (beyond_body, for a body of at most
+ * WIDE_HULL nodes; a larger one is left to the search). Reads only. */
+enum { WIDE_HULL = 512 };
+static int outside_hull(const search_env* env, const nts_reach* r, int k, int b, double nx, double ny) {
+    const nts_scene* s = env->s;
+    if (r->shape[SHAPE * b + 3] >= 0.0) return nts_outside_circle(env, r->shape, b, env->seg[k].p);
+    return s->body_node_start[b + 1] - s->body_node_start[b] <= WIDE_HULL && beyond_body(env, k, b, nx, ny);
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -135,14 +154,12 @@ static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
 }
 
 /* Queue (k, body) with radius rho, asked by k's neighbour on side `from`
- * whose closest point on the body has normal n, unless k lies beyond the
- * body's every node in that direction (outside it: beyond_body, for a body
- * of at most WIDE_HULL nodes; a larger one is left to the search). A pair
+ * whose closest point on the body has normal n, unless k lies outside the
+ * body (outside_hull; `verdict`: that answer, found already, or -1). A pair
  * queued already records the second neighbour that asks; a pair settled
  * already is left alone. */
-enum { WIDE_HULL = 512 };
-static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
-                   double ny) {
+static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
+                        double ny, int verdict) {
     nts_reach* r = &ctx->reach;
     const nts_scene* s = env->s;
     reach_seen* p;
@@ -153,12 +170,8 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    /* The body's circle when it is at hand (a long segment's end asked for
-     * its shape), else one pass over its nodes along n. */
-    if (r->shape[SHAPE * body + 3] >= 0.0 ? nts_outside_circle(env, r->shape, body, env->seg[k].p)
-                                           : s->body_node_start[body + 1] - s->body_node_start[body] <= WIDE_HULL &&
-                                                 beyond_body(env, k, body, nx, ny))
-        return NTS_OK; /* settled: outside */
+    if (verdict < 0) verdict = outside_hull(env, r, k, body, nx, ny);
+    if (verdict) return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
     p->at = r->queue_count;
@@ -167,6 +180,47 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
     r->queue[r->queue_count].rho = rho;
     r->queue[r->queue_count++].from = from;
     return NTS_OK;
+}
+
+static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
+                   double ny) {
+    return enqueue_with(ctx, env, k, body, rho, from, nx, ny, -1);
+}
+
+/* The hull test of every ask the search left (REACH_ASK items), before they
+ * are queued one by one: each its own answer (outside_hull reads only), so
+ * they run in parallel, a chunk's items a task, into r->outside at the
+ * chunk's r->ask_at. The queue then takes the verdict of a pair's first ask
+ * as enqueue() would find it; the asks of pairs seen already (a second
+ * neighbour, or off the surface) were tested for nothing. */
+typedef struct verdict_task {
+    nts_context* ctx;
+    const search_env* env;
+} verdict_task;
+
+static void ask_verdicts(int begin, int end, int wi, void* p) {
+    const verdict_task* t = (const verdict_task*)p;
+    nts_reach* r = &t->ctx->reach;
+    const nts_scene* s = t->env->s;
+    int c, k;
+    (void)wi;
+    for (c = begin; c < end; ++c) {
+        const chunk_part* part = &t->ctx->chunks[c].part[STREAM_REACH];
+        const reach_item* it = (const reach_item*)part->data;
+        unsigned char* out;
+        if (part->count == 0) continue;
+        out = r->outside + r->ask_at[c];
+        for (k = 0; k < part->count; ++k) {
+            if (k + 4 < part->count && it[k + 4].kind == REACH_ASK) { /* the body's nodes, scattered: 4 items ahead */
+                const int m0 = s->body_node_start[it[k + 4].body], m1 = s->body_node_start[it[k + 4].body + 1];
+                int m;
+                NTS_PREFETCH(&t->env->seg[it[k + 4].slave]);
+                for (m = m0; m < m1 && m < m0 + 64; m += 4) NTS_PREFETCH(&s->pos[m]);
+            }
+            out[k] = it[k].kind == REACH_ASK && nts_node_on_surface(s, it[k].slave) &&
+                     outside_hull(t->env, r, it[k].slave, it[k].body, it[k].nx, it[k].ny);
+        }
+    }
 }
 
 /* Slave k, settled deep inside c->body (gap g < -r, normal n): its
@@ -493,24 +547,33 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
     for (i = 0; i < s->body_count; ++i) r->shape[SHAPE * i + 3] = -1.0;
     r->grid_built = 0;
 
-    /* 1. What the search asked for, chunk by chunk; its edges, gathered in
-     * slave order, then compared across. */
+    /* 1. What the search asked for, chunk by chunk (the hull tests first, in
+     * parallel); its edges, gathered in slave order, then compared across. */
+    if ((rc = nts_grow((void**)&r->ask_at, &r->ask_at_cap, ctx->chunk_count + 1, sizeof(int))) != NTS_OK) return rc;
+    r->ask_at[0] = 0;
+    for (c = 0; c < ctx->chunk_count; ++c) {
+        const long long next = (long long)r->ask_at[c] + ctx->chunks[c].part[STREAM_REACH].count;
+        if (next > INT_MAX) return NTS_ELIMIT;
+        r->ask_at[c + 1] = (int)next;
+    }
+    if ((rc = nts_grow((void**)&r->outside, &r->outside_cap, r->ask_at[ctx->chunk_count], 1)) != NTS_OK) return rc;
+    {
+        verdict_task vt;
+        vt.ctx = ctx;
+        vt.env = env;
+        nts_run_tasks(run, ask_verdicts, ctx->chunk_count, 1, &vt);
+    }
     for (c = 0; c < ctx->chunk_count && rc == NTS_OK; ++c) {
         const chunk_part* part = &ctx->chunks[c].part[STREAM_REACH];
         const reach_item* it = (const reach_item*)part->data;
+        const unsigned char* out = part->count > 0 ? r->outside + r->ask_at[c] : NULL;
         for (k = 0; k < part->count && rc == NTS_OK; ++k) {
-            if (k + 8 < part->count) { /* what an ask reads, scattered: asked for 8 items ahead */
-                NTS_PREFETCH(&env->seg[it[k + 8].slave]);
-                if (it[k + 8].body >= 0) {
-                    NTS_PREFETCH(&r->shape[SHAPE * it[k + 8].body]);
-                    NTS_PREFETCH(&s->pos[s->body_node_start[it[k + 8].body]]);
-                    if (r->seen_cap > 0)
-                        NTS_PREFETCH(&r->seen[pair_hash((long long)it[k + 8].slave * s->body_count + it[k + 8].body,
-                                                        r->seen_cap)]);
-                }
-            }
+            if (k + 8 < part->count && it[k + 8].body >= 0 && r->seen_cap > 0) /* asked for 8 items ahead */
+                NTS_PREFETCH(&r->seen[pair_hash((long long)it[k + 8].slave * s->body_count + it[k + 8].body,
+                                                r->seen_cap)]);
             if (it[k].kind == REACH_ASK) {
-                rc = enqueue(ctx, env, it[k].slave, it[k].body, it[k].value, it[k].from, it[k].nx, it[k].ny);
+                rc = enqueue_with(ctx, env, it[k].slave, it[k].body, it[k].value, it[k].from, it[k].nx, it[k].ny,
+                                  out[k]);
             } else if (it[k].kind == REACH_EDGE) {
                 if ((rc = nts_grow((void**)&r->edges, &r->edge_cap, r->edge_count + 1, sizeof(reach_item))) == NTS_OK)
                     r->edges[r->edge_count++] = it[k];

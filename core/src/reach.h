@@ -50,6 +50,12 @@ typedef struct nts_reach {
     int unresolved_cap;
     int* beyond_slaves;
     int beyond_cap;
+    /* The search's asks, chunk after chunk: whether each slave lies outside
+     * the body it asks about (reach.c: ask_verdicts), and each chunk's first. */
+    unsigned char* outside;
+    int outside_cap;
+    int* ask_at;
+    int ask_at_cap;
 } nts_reach;
 
 /* After the search, the pairs (slave, master body) next to those
