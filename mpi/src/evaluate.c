@@ -164,6 +164,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     slabs sl;
     nts_options po;
     double t0 = now(), t1, t_part, halo, r;
+    const nts_vec2* part_pos = NULL; /* a kept part's new positions (ntsm_part_move), for its evaluation */
     int rc = NTS_OK;
     memset(&sl, 0, sizeof sl);
     memset(out, 0, sizeof *out);
@@ -230,10 +231,9 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         sl.lo = m->lo_b;
         sl.hi = m->hi_b;
         sl.cut = m->cut_b;
-        rc = ntsm_part_move(m, &e);
+        rc = ntsm_part_move(m, &part_pos, &e);
         sl.cut = NULL;
-        if (rc == NTS_ERESHAPED) m->built = 0; /* the part renormalises: build it anew */
-        else if (rc != NTS_OK) goto out;
+        if (rc != NTS_OK) goto out;
     } else {
         m->built = 0;
     }
@@ -273,7 +273,8 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     sl.hi = m->hi_b;
     sl.cut = m->cut_b;
     if (m->stats.rebuilt) m->maps_whole = 0; /* a new part: its nodes' and entries' maps too */
-    rc = ntsm_part_maps(m, &sl, !m->maps_whole) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+    rc = ntsm_part_maps(m, &sl, !m->maps_whole, part_pos) == NTS_OK ? NTS_OK
+                                                                    : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     if (rc == NTS_OK) m->maps_whole = 1;
     sl.cut = NULL;
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
@@ -301,8 +302,18 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     nts_context_set_parts(m->ctx, 1);
     nts_context_set_owned(m->ctx, m->owned_mask);
     t_part = now();
-    if (m->part != NULL && (rc = nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e)) != NTS_OK)
-        ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+    /* A kept part takes its moved positions here, checked in the segment
+     * pass. Every body's verdicts are its own (its loops, its coordinates)
+     * and its owner took these very positions: the part cannot refuse
+     * them, nor renormalise (were it to, that is a bug, said so). */
+    if (m->part != NULL) {
+        rc = part_pos != NULL ? nts_evaluate_positions(m->ctx, m->part, part_pos, &po, &m->part_result, &e)
+                              : nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e);
+        if (rc == NTS_ERESHAPED)
+            rc = ntsm_fail(&e, NTS_EINTERNAL, "internal: a part would take anew positions its bodies' owners took");
+        else if (rc != NTS_OK)
+            ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+    }
     t_part = now() - t_part; /* this rank's own time, before waiting for the others */
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
     if (m->weights == NULL) balance(m, t_part, m->stats.owned_slaves);

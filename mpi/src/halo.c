@@ -152,9 +152,13 @@ done:
 }
 
 /* The kept decomposition's positions: each owned body's to the ranks it
- * went to, in the same order, into the part (same bits as sending the
- * bodies again). NTS_OK, NTS_ENOMEM, or NTS_ERESHAPED (then rebuild). */
-int ntsm_part_move(ntsm_scene* m, nts_error* err) {
+ * went to, in the same order, gathered in the part's node order into
+ * *moved (scratch, valid until the next move; NULL without a part) for the
+ * part's evaluation to take (nts_evaluate_positions: the positions checked
+ * in its segment pass, not apart: their owners checked them already, body
+ * by body, and a body's verdicts are its own). The same bits as sending the
+ * bodies again. NTS_OK, NTS_ENOMEM or NTS_ELIMIT, on every rank alike. */
+int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err) {
     const int P = m->size;
     int* sc = (int*)calloc(4u * (size_t)P, sizeof(int));
     nts_vec2* send = NULL;
@@ -163,6 +167,7 @@ int ntsm_part_move(ntsm_scene* m, nts_error* err) {
     long long n_send = 0, n_recv = 0;
     int k, r, a, rc = NTS_OK;
     const int nn = m->part ? nts_scene_node_count(m->part) : 0;
+    *moved = NULL;
     for (k = 0; k < m->count; ++k)
         for (r = 0; r < P; ++r) n_send += m->to[(size_t)k * P + r] ? m->own_defs[k].node_count : 0;
     for (a = 0; a < m->arrivals; ++a) n_recv += m->arrival_nodes[a];
@@ -200,22 +205,22 @@ int ntsm_part_move(ntsm_scene* m, nts_error* err) {
             at += m->arrival_nodes[a];
         }
     }
-    if (m->part != NULL && (rc = nts_scene_update_positions(m->part, pos, err)) != NTS_OK)
-        ntsm_global_body(err, m->part_ids, nts_scene_body_count(m->part));
-    rc = ntsm_agree(m, m->comm, m->rank, P, rc, err);
+    *moved = m->part != NULL ? pos : NULL;
 done:
     free(sc);
     return rc;
 }
 
-/* The part's entries: whether this rank owns each one's slave; and, when
- * the part is new (`all`), each entry's global index and each node's global
- * index, owner and place among its owner's nodes (kept while the part is). */
-int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all) {
+/* The part's entries: whether this rank owns each one's slave, at the
+ * positions `moved` (ntsm_part_move's, not yet the part's) or else the
+ * part's; and, when the part is new (`all`), each entry's global index and
+ * each node's global index, owner and place among its owner's nodes (kept
+ * while the part is). */
+int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* moved) {
     const int nb = m->part ? nts_scene_body_count(m->part) : 0;
     const int ne = m->part ? nts_scene_surface_node_count(m->part) : 0;
     const int nn = m->part ? nts_scene_node_count(m->part) : 0;
-    const nts_vec2* pos = m->part ? nts_scene_positions(m->part) : NULL;
+    const nts_vec2* pos = moved != NULL ? moved : m->part ? nts_scene_positions(m->part) : NULL;
     int b, e, owned = 0;
     if (!ntsm_grow(&m->entry_owned, &m->entry_cap, ne + 1, sizeof(int)) ||
         !ntsm_grow(&m->owned_mask, &m->owned_mask_cap, ne + 1, 1))

@@ -200,8 +200,8 @@ int ntsm_meets(const slabs* sl, int r, double a, double b);
 
 /* halo.c */
 int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, double ly, nts_error* err);
-int ntsm_part_move(ntsm_scene* m, nts_error* err);
-int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all);
+int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err);
+int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* moved);
 
 /* gather.c: the last ntsm_gather's arrays, freed */
 void ntsm_gathered_free(ntsm_scene* m);
