@@ -18,7 +18,7 @@ struct ntsm_engine {
     MPI_Comm comm;
     int rank, size, threads;
     ntsj_scene s;          /* this rank's bodies, as decoded */
-    nts_scene* own;        /* the same, built (the pointers of errors) */
+    nts_scene* own;        /* the same, built (the pointers of errors, friction): its first positions */
     int* ids;
     ntsm_scene* scene;
     long long counts[3];
@@ -247,12 +247,15 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
     if ((*error = agree_doc(e->comm, e->rank, mine)) != NULL) return -1;
     /* every rank updates (a collective), those given none with what they hold */
     {
-        const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions : nts_scene_positions(e->own);
+        /* (the distributed scene's own bodies are these, in this order: their
+         * positions are the current ones; e->own keeps its first, it is read
+         * for its topology only) */
+        const nts_scene* cur = e->scene->own != NULL ? e->scene->own : e->own;
+        const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions : nts_scene_positions(cur);
         if (ntsm_scene_update_positions(e->scene, p, &err) != 0) {
             *error = core_doc(e, &err);
             return -1;
         }
-        if (positions != NULL) nts_scene_update_positions(e->own, p, NULL);
     }
     if (ntsm_evaluate(e->scene, &opt, &r, &err) != 0) {
         *error = core_doc(e, &err);

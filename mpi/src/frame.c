@@ -59,8 +59,15 @@ int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_err
     double ext[7], red[7];
     int rc = len ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
     nts_frame mine;
+    /* This rank's segments' extremes and lengths alone: no median of its
+     * own (the whole's is found across the ranks below) and no cell size
+     * (the part's evaluation sets it), which a radius given and the brute
+     * force search spare (nts_scene_frame). */
+    nts_options fo = *opt;
+    fo.search_radius = 0.0;
+    fo.search = NTS_SEARCH_BRUTE_FORCE;
     memset(&mine, 0, sizeof mine);
-    if (rc == NTS_OK && n > 0 && (rc = nts_scene_frame(m->own_ctx, m->own, opt, &mine, len, err)) != NTS_OK)
+    if (rc == NTS_OK && n > 0 && (rc = nts_scene_frame(m->own_ctx, m->own, &fo, &mine, len, err)) != NTS_OK)
         ntsm_global_body(err, m->ids, m->count);
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, err)) != NTS_OK) {
         free(len);
