@@ -624,6 +624,21 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
     out->surface_nodes = s->surface_count;
     out->surface_ends = s->surf_ends > 0;
     run = nts_run_stock(0);
+    if (opt->search_radius >= 0.0 && opt->search != NTS_SEARCH_CELLS) {
+        /* neither the median nor the cells asked: the lengths and extremes
+         * alone, no segment data (a distributed host's own bodies) */
+        nts_segments_lengths(s, lengths, &run, &ss);
+        if (ss.bad < s->surface_count)
+            return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[ss.bad], s->surf_local[ss.bad],
+                             "a segment's length is outside [1e-100, 3e100]");
+        out->lmax = ss.lmax;
+        out->coord_max = ss.coord_max;
+        out->xmin = ss.xmin;
+        out->xmax = ss.xmax;
+        out->ymin = ss.ymin;
+        out->ymax = ss.ymax;
+        return NTS_OK;
+    }
     if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
         NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");

@@ -249,13 +249,24 @@ static void acc_store(const share_acc* a, share_found* f) {
     f->lmin = HUGE_VAL; /* the checking pass's, after */
 }
 
+/* A valid segment's part of the share's extremes: its length, its node's
+ * coordinates (the largest magnitude, the bounding box). */
+static inline NTS_ALWAYS_INLINE void acc_extremes(share_acc* a, nts_vec2 pp, double len) {
+    const double m = fabs(pp.x) > fabs(pp.y) ? fabs(pp.x) : fabs(pp.y);
+    a->lm = len > a->lm ? len : a->lm;
+    a->am = m > a->am ? m : a->am;
+    a->x0 = pp.x < a->x0 ? pp.x : a->x0;
+    a->x1 = pp.x > a->x1 ? pp.x : a->x1;
+    a->y0 = pp.y < a->y0 ? pp.y : a->y0;
+    a->y1 = pp.y > a->y1 ? pp.y : a->y1;
+}
+
 /* Entry i's record, its node at pp and its segment tt of length len (-1:
  * outside the supported range), and its part of the share's summary; b is
  * the share's first entry (its kept lengths start there in `scratch`). */
 static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, int i, int b, nts_vec2 pp, nts_vec2 tt, double len, share_acc* a) {
     const nts_scene* s = t->s;
     seg_data* sd = &t->ctx->seg[i];
-    double m;
     sd->p = pp;
     sd->t = tt;
     if (t->since != NULL) {
@@ -284,13 +295,7 @@ static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, int i, int b,
         a->cb += len < t->plan.lo;
         a->ci += (len >= t->plan.lo) & (len <= t->plan.hi);
     }
-    a->lm = len > a->lm ? len : a->lm;
-    m = fabs(pp.x) > fabs(pp.y) ? fabs(pp.x) : fabs(pp.y);
-    a->am = m > a->am ? m : a->am;
-    a->x0 = pp.x < a->x0 ? pp.x : a->x0;
-    a->x1 = pp.x > a->x1 ? pp.x : a->x1;
-    a->y0 = pp.y < a->y0 ? pp.y : a->y0;
-    a->y1 = pp.y > a->y1 ? pp.y : a->y1;
+    acc_extremes(a, pp, len);
 }
 
 static void segments_pass(int begin, int end, int wi, void* p) {
@@ -450,6 +455,65 @@ static void loops_summed_after(const nts_context* ctx, const nts_scene* s, doubl
         }
         area_perim[2 * l] = a2;
         area_perim[2 * l + 1] = perim;
+    }
+}
+
+/* The lengths and the extremes alone (nts_segments_lengths): each share's
+ * entries as the pass computes them, no record written. */
+typedef struct lengths_task {
+    const nts_scene* s;
+    double* lengths;
+    share_found* found;
+} lengths_task;
+
+static void lengths_pass(int begin, int end, int wi, void* p) {
+    const lengths_task* t = (const lengths_task*)p;
+    const nts_scene* s = t->s;
+    const int n = s->surface_count;
+    int q;
+    (void)wi;
+    for (q = begin; q < end; ++q) {
+        const int b = share_begin(n, q), e = share_begin(n, q + 1);
+        share_acc a;
+        int i;
+        acc_init(&a, n);
+        for (i = b; i < e; ++i) {
+            const nts_vec2 pp = s->pos[s->surf_node[i]];
+            nts_vec2 tt;
+            const double len = segment_length(s, s->pos, i, pp, &tt);
+            if (t->lengths != NULL) t->lengths[i] = len;
+            if (len < 0.0) {
+                if (i < a.first_bad) a.first_bad = i;
+            } else {
+                acc_extremes(&a, pp, len);
+            }
+        }
+        acc_store(&a, &t->found[q]);
+        t->found[q].rejected = 0;
+    }
+}
+
+void nts_segments_lengths(const nts_scene* s, double* lengths, const nts_run* run, seg_summary* out) {
+    share_found found[SHARES];
+    lengths_task t;
+    int q;
+    t.s = s;
+    t.lengths = lengths;
+    t.found = found;
+    nts_run_tasks(run, lengths_pass, SHARES, 1, &t);
+    memset(out, 0, sizeof *out);
+    out->bad = s->surface_count;
+    out->xmin = out->ymin = HUGE_VAL;
+    out->xmax = out->ymax = -HUGE_VAL;
+    for (q = 0; q < SHARES; ++q) { /* as nts_segments_compute combines them */
+        const share_found* f = &found[q];
+        if (f->first_bad < out->bad) out->bad = f->first_bad;
+        if (f->lmax > out->lmax) out->lmax = f->lmax;
+        if (f->amax > out->coord_max) out->coord_max = f->amax;
+        if (f->xmin < out->xmin) out->xmin = f->xmin;
+        if (f->xmax > out->xmax) out->xmax = f->xmax;
+        if (f->ymin < out->ymin) out->ymin = f->ymin;
+        if (f->ymax > out->ymax) out->ymax = f->ymax;
     }
 }
 

@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <ntscontact/distributed.h>
+
 #include "suites.h"
 #include "test_util.h"
 
@@ -176,10 +178,62 @@ static void test_force_direction_is_continuous_with_smoothing(void) {
     }
 }
 
+/* nts_scene_frame without the median and the cells (a distributed host's
+ * own bodies: a radius given, the brute-force search) takes the lengths and
+ * extremes alone, without the segment data: the same lengths and extremes,
+ * bit for bit, as the full pass, and the same error at a bad segment. */
+static int same_bits(const void* a, const void* b, size_t n) { return memcmp(a, b, n) == 0; }
+
+static void test_frame_lengths_alone(void) {
+    int periodic, size;
+    for (periodic = 0; periodic < 2; ++periodic)
+        for (size = 0; size < 2; ++size) {
+            /* 3 disks: fewer entries than the pass's 64 slices; 400: many in each */
+            test_packing p = make_packing(size ? 400 : 3, 48, 1.0, 1.93, periodic, 990u + (unsigned)(2 * size + periodic));
+            nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+            nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
+            nts_options full = nts_default_options(), light = nts_default_options();
+            const int n = nts_scene_surface_node_count(s);
+            double* l0 = (double*)malloc(sizeof(double) * (size_t)n);
+            double* l1 = (double*)malloc(sizeof(double) * (size_t)n);
+            nts_frame f0, f1, f2;
+            nts_error e0, e1;
+            nts_vec2 node[48];
+            light.search_radius = 0.0;
+            light.search = NTS_SEARCH_BRUTE_FORCE;
+            CU_ASSERT_FATAL(s != NULL && c0 != NULL && c1 != NULL && l0 != NULL && l1 != NULL);
+            CU_ASSERT_EQUAL(nts_scene_frame(c0, s, &full, &f0, l0, &e0), NTS_OK);
+            CU_ASSERT_EQUAL(nts_scene_frame(c1, s, &light, &f1, l1, &e1), NTS_OK);
+            CU_ASSERT_EQUAL(nts_scene_frame(c1, s, &light, &f2, NULL, &e1), NTS_OK);
+            CU_ASSERT(same_bits(l0, l1, sizeof(double) * (size_t)n));
+            CU_ASSERT(same_bits(&f0.lmax, &f1.lmax, sizeof(double)) && same_bits(&f0.coord_max, &f1.coord_max, sizeof(double)));
+            CU_ASSERT(same_bits(&f0.xmin, &f1.xmin, sizeof(double)) && same_bits(&f0.xmax, &f1.xmax, sizeof(double)));
+            CU_ASSERT(same_bits(&f0.ymin, &f1.ymin, sizeof(double)) && same_bits(&f0.ymax, &f1.ymax, sizeof(double)));
+            CU_ASSERT(same_bits(&f1, &f2, sizeof f1));
+            CU_ASSERT(f0.median > 0.0 && f0.cell_size > 0.0);
+            CU_ASSERT(f1.median == 0.0 && f1.cell_size == 0.0);
+            CU_ASSERT_EQUAL(f1.surface_nodes, n);
+            /* a segment of zero length in the last body (set_positions checks coordinates only) */
+            memcpy(node, p.bodies[p.count - 1].nodes, sizeof node);
+            node[7] = node[6];
+            CU_ASSERT_EQUAL(nts_scene_set_positions(s, p.count - 1, node, NULL), NTS_OK);
+            CU_ASSERT_EQUAL(nts_scene_frame(c0, s, &full, &f0, l0, &e0), NTS_EDEGENERATE_SEGMENT);
+            CU_ASSERT_EQUAL(nts_scene_frame(c1, s, &light, &f1, l1, &e1), NTS_EDEGENERATE_SEGMENT);
+            CU_ASSERT(e0.body == p.count - 1 && e1.body == e0.body && e1.node == e0.node && e0.node == 6);
+            free(l0);
+            free(l1);
+            nts_context_destroy(c0);
+            nts_context_destroy(c1);
+            nts_scene_destroy(s);
+            free_packing(&p);
+        }
+}
+
 void register_search_suite(void) {
     CU_pSuite s = CU_add_suite("search", NULL, NULL);
     ADD_TEST(s, test_cells_equal_brute_force_open);
     ADD_TEST(s, test_cells_equal_brute_force_periodic);
     ADD_TEST(s, test_far_apart_bodies_bounded_grid);
     ADD_TEST(s, test_force_direction_is_continuous_with_smoothing);
+    ADD_TEST(s, test_frame_lengths_alone);
 }
