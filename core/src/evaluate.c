@@ -387,7 +387,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             *taken = 0;
             return NTS_OK;
         }
-        memcpy(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count);
+        memmove(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count); /* (fresh may be the scene's own) */
         *taken = 1;
     }
     if (ss.bad < s->surface_count) {

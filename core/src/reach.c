@@ -192,7 +192,7 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
  * they run in parallel, a chunk's items a task, into r->outside at the
  * chunk's r->ask_at. The queue then takes the verdict of a pair's first ask
  * as enqueue() would find it; the asks of pairs seen already (a second
- * neighbour, or off the surface) were tested for nothing. */
+ * neighbour) were tested for nothing (those off the surface are not). */
 typedef struct verdict_task {
     nts_context* ctx;
     const search_env* env;
@@ -553,7 +553,7 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
     r->ask_at[0] = 0;
     for (c = 0; c < ctx->chunk_count; ++c) {
         const long long next = (long long)r->ask_at[c] + ctx->chunks[c].part[STREAM_REACH].count;
-        if (next > INT_MAX) return NTS_ELIMIT;
+        if (next > INT_MAX) return NTS_ENOMEM; /* (more asks than an int counts: no room for their verdicts) */
         r->ask_at[c + 1] = (int)next;
     }
     if ((rc = nts_grow((void**)&r->outside, &r->outside_cap, r->ask_at[ctx->chunk_count], 1)) != NTS_OK) return rc;

@@ -584,7 +584,7 @@ int nts_scene_set_positions(nts_scene* s, int body, const nts_vec2* nodes, nts_e
         int rc = check_node(nodes[i], body, i, err); /* the rule of nts_scene_create and updates */
         if (rc != NTS_OK) return rc;
     }
-    memcpy(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n);
+    memmove(s->pos + off, nodes, sizeof(nts_vec2) * (size_t)n); /* (nodes may be the scene's own) */
     return NTS_OK;
 }
 
@@ -688,7 +688,7 @@ int nts_scene_update_positions(nts_scene* s, const nts_vec2* pos, nts_error* err
                         "body %d: another loop became the outer one; create the scene anew", b);
         }
     }
-    memcpy(s->pos, pos, sizeof(nts_vec2) * (size_t)s->node_count);
+    memmove(s->pos, pos, sizeof(nts_vec2) * (size_t)s->node_count); /* (pos may be the scene's own) */
     return NTS_OK;
 }
 

@@ -238,6 +238,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         m->built = 0;
     }
     m->rebuild_next = 0;
+    if (!m->built) part_pos = NULL; /* a part built below holds the positions itself */
     if (!m->built) {
         const double skin = m->skin >= 0.0 ? m->skin : 0.3 * r;
         rc = ntsm_slabs_make(m, &f, m->lx, m->ly, &sl) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
@@ -309,10 +310,14 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     if (m->part != NULL) {
         rc = part_pos != NULL ? nts_evaluate_positions(m->ctx, m->part, part_pos, &po, &m->part_result, &e)
                               : nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e);
-        if (rc == NTS_ERESHAPED)
-            rc = ntsm_fail(&e, NTS_EINTERNAL, "internal: a part would take anew positions its bodies' owners took");
-        else if (rc != NTS_OK)
-            ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+        if (rc != NTS_OK) ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
+        if (rc == NTS_ERESHAPED) { /* the body's owner took these very positions: a bug, said so */
+            const int body = e.body, node = e.node;
+            rc = ntsm_fail(&e, NTS_EINTERNAL, "internal: a part would renormalise a body at positions its owner took");
+            e.body = body; /* (the global body, ntsm_global_body) */
+            e.node = node;
+            m->built = 0; /* the next evaluation builds the parts anew (every rank agrees on it) */
+        }
     }
     t_part = now() - t_part; /* this rank's own time, before waiting for the others */
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;

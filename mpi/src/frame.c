@@ -51,8 +51,8 @@ static double kth_across(MPI_Comm comm, double* v, int n, long long k) {
 
 /* The whole scene's frame: its segments' extremes reduced, and the median
  * (the k-th smallest of every rank's lengths, exactly: the lengths are
- * positive doubles, ordered as their bits, so at most 64 rounds of counting
- * find it). */
+ * positive doubles, ordered as their bits, so 8 rounds of counting, a byte
+ * each, find it: kth_across). */
 int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_error* err) {
     const int n = m->own != NULL ? nts_scene_surface_node_count(m->own) : 0;
     double* len = (double*)malloc(sizeof(double) * (size_t)(n + 1));

@@ -1,5 +1,6 @@
 /* Each rank's part (docs/distributed.md): the bodies that reach into its
  * slab, sent whole, and kept between evaluations while the skin allows. */
+#include <assert.h>
 #include <limits.h>
 #include <math.h>
 #include <stdint.h>
@@ -159,7 +160,7 @@ done:
  * by body, and a body's verdicts are its own). The same bits as sending the
  * bodies again. NTS_OK, NTS_ENOMEM or NTS_ELIMIT, on every rank alike. */
 int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err) {
-    const int P = m->size;
+    const int P = m->size, self = m->rank;
     int* sc = (int*)calloc(4u * (size_t)P, sizeof(int));
     nts_vec2* send = NULL;
     nts_vec2* recv = NULL;
@@ -168,8 +169,10 @@ int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err) {
     int k, r, a, rc = NTS_OK;
     const int nn = m->part ? nts_scene_node_count(m->part) : 0;
     *moved = NULL;
+    /* (this rank's own bodies in its part go straight into place, not
+     * through the buffers and the exchange) */
     for (k = 0; k < m->count; ++k)
-        for (r = 0; r < P; ++r) n_send += m->to[(size_t)k * P + r] ? m->own_defs[k].node_count : 0;
+        for (r = 0; r < P; ++r) n_send += m->to[(size_t)k * P + r] && r != self ? m->own_defs[k].node_count : 0;
     for (a = 0; a < m->arrivals; ++a) n_recv += m->arrival_nodes[a];
     send = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_SEND], sizeof(nts_vec2) * (size_t)(n_send + 1));
     recv = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_RECV], sizeof(nts_vec2) * (size_t)(n_recv + 1));
@@ -183,27 +186,44 @@ int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err) {
         long long at = 0;
         for (r = 0; r < P; ++r) {
             sc[P + r] = (int)(at * (long long)sizeof(nts_vec2));
-            for (k = 0; k < m->count; ++k)
+            for (k = 0; k < m->count && r != self; ++k)
                 if (m->to[(size_t)k * P + r]) {
                     memcpy(send + at, m->own_defs[k].nodes, sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
                     at += m->own_defs[k].node_count;
                 }
             sc[r] = (int)(at * (long long)sizeof(nts_vec2)) - sc[P + r];
-            if (r != m->rank) m->stats.bytes_sent += sc[r];
+            m->stats.bytes_sent += sc[r];
         }
     }
     MPI_Alltoall(sc, 1, MPI_INT, sc + 2 * P, 1, MPI_INT, m->comm);
     for (r = 0; r < P; ++r) {
         sc[3 * P + r] = r == 0 ? 0 : sc[3 * P + r - 1] + sc[2 * P + r - 1];
-        if (r != m->rank) m->stats.bytes_received += sc[2 * P + r];
+        m->stats.bytes_received += sc[2 * P + r];
     }
     MPI_Alltoallv(send, sc, sc + P, MPI_BYTE, recv, sc + 2 * P, sc + 3 * P, MPI_BYTE, m->comm);
     {
+        /* The arrivals in the order the part was built from: by source rank,
+         * each source's bodies in its order (ntsm_part_build). */
         long long at = 0;
-        for (a = 0; a < m->arrivals; ++a) {
-            memcpy(pos + m->arrival_off[a], recv + at, sizeof(nts_vec2) * (size_t)m->arrival_nodes[a]);
-            at += m->arrival_nodes[a];
+        for (r = 0, a = 0; r < P; ++r) {
+            if (r == self) {
+                for (k = 0; k < m->count; ++k)
+                    if (m->to[(size_t)k * P + r]) {
+                        assert(a < m->arrivals && m->arrival_nodes[a] == m->own_defs[k].node_count);
+                        memcpy(pos + m->arrival_off[a++], m->own_defs[k].nodes,
+                               sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
+                    }
+            } else {
+                const long long end = at + sc[2 * P + r] / (int)sizeof(nts_vec2);
+                while (at < end) {
+                    assert(a < m->arrivals);
+                    memcpy(pos + m->arrival_off[a], recv + at, sizeof(nts_vec2) * (size_t)m->arrival_nodes[a]);
+                    at += m->arrival_nodes[a++];
+                }
+                assert(at == end);
+            }
         }
+        assert(a == m->arrivals);
     }
     *moved = m->part != NULL ? pos : NULL;
 done:
@@ -231,13 +251,14 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* move
     }
     if (!ntsm_grow(&m->part_node, &m->part_node_cap, nn + 1, sizeof(long long)) ||
         !ntsm_grow(&m->node_owner, &m->node_owner_cap, nn + 1, sizeof(int)) ||
-        !ntsm_grow(&m->node_at, &m->node_at_cap, nn + 1, sizeof(int)))
+        !ntsm_grow(&m->node_at, &m->node_at_cap, nn + 1, sizeof(int)) ||
+        !ntsm_grow(&m->entry_node, &m->entry_node_cap, ne + 1, sizeof(int)))
         return NTS_ENOMEM;
-    for (b = 0; b < nb; ++b) {
+    for (b = 0; all && b < nb; ++b) {
         const int id = m->part_ids[b], n0 = nts_scene_body_node_offset(m->part, b);
         const int e0 = nts_scene_body_entry_start(m->part, b), e1 = nts_scene_body_entry_start(m->part, b + 1);
         int i;
-        for (i = 0; all && i < nts_scene_body_node_count(m->part, b); ++i) {
+        for (i = 0; i < nts_scene_body_node_count(m->part, b); ++i) {
             m->part_node[n0 + i] = m->node_off[id] + i;
             m->node_owner[n0 + i] = m->owner[id];
             m->node_at[n0 + i] = m->owner_node_at[id] + i;
@@ -245,11 +266,14 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* move
         for (e = e0; e < e1; ++e) {
             int body, node;
             nts_scene_entry(m->part, e, &body, &node);
-            if (all) m->entry_global[e] = m->entry_off[id] + (e - e0);
-            m->entry_owned[e] = ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[n0 + node])) == m->rank;
-            m->owned_mask[e] = (unsigned char)m->entry_owned[e];
-            owned += m->entry_owned[e];
+            m->entry_global[e] = m->entry_off[id] + (e - e0);
+            m->entry_node[e] = n0 + node;
         }
+    }
+    for (e = 0; e < ne; ++e) { /* who owns each slave: the slab its node lies in now */
+        m->entry_owned[e] = ntsm_slab_of(sl, m->size, ntsm_axis_of(sl, pos[m->entry_node[e]])) == m->rank;
+        m->owned_mask[e] = (unsigned char)m->entry_owned[e];
+        owned += m->entry_owned[e];
     }
     m->stats.owned_slaves = owned;
     m->stats.part_entries = ne;

@@ -8,6 +8,7 @@
 #ifndef NTSCONTACT_MPI_INTERNAL_H
 #define NTSCONTACT_MPI_INTERNAL_H
 
+#include <math.h>
 #include <stddef.h>
 
 #include <ntscontact/mpi.h>
@@ -152,6 +153,8 @@ struct ntsm_scene {
     int owned_mask_cap;
     long long* entry_global;
     int entry_cap;
+    int* entry_node;      /* part entry -> its slave's part node (kept while the part is) */
+    int entry_node_cap;
     nts_result part_result;
     unsigned outputs;
     /* the answer on this rank */
@@ -192,10 +195,31 @@ void ntsm_global_body(nts_error* err, const int* ids, int count);
 /* frame.c, slabs.c */
 int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_error* err);
 int ntsm_slabs_make(ntsm_scene* m, const nts_frame* f, double lx, double ly, slabs* sl);
-/* p's coordinate along the direction; the same within the period, if any. */
-double ntsm_axis_coord(const slabs* sl, nts_vec2 p);
-double ntsm_axis_of(const slabs* sl, nts_vec2 p);
-int ntsm_slab_of(const slabs* sl, int size, double c);
+/* p's coordinate along the direction (ntsm_axis_coord); the same within
+ * the period, if any (ntsm_axis_of); the slab holding coordinate c, the
+ * last r with cut[r] <= c (ntsm_slab_of). Inline: the part's maps ask
+ * them for every entry at every evaluation. */
+static inline double ntsm_axis_coord(const slabs* sl, nts_vec2 p) {
+    const double c = (sl->axis & 1) ? p.y : p.x;
+    return (sl->axis & 2) ? -c : c;
+}
+static inline double ntsm_axis_of(const slabs* sl, nts_vec2 p) {
+    double c = ntsm_axis_coord(sl, p);
+    if (sl->period > 0.0) {
+        c -= sl->period * floor(c / sl->period);
+        if (!(c < sl->period)) c = 0.0; /* a round-off at the top */
+    }
+    return c;
+}
+static inline int ntsm_slab_of(const slabs* sl, int size, double c) {
+    int lo = 0, hi = size - 1;
+    while (lo < hi) {
+        const int mid = (lo + hi + 1) / 2;
+        if (sl->cut[mid] <= c) lo = mid;
+        else hi = mid - 1;
+    }
+    return lo;
+}
 int ntsm_meets(const slabs* sl, int r, double a, double b);
 
 /* halo.c */

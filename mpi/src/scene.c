@@ -88,6 +88,7 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->entry_owned);
     free(m->owned_mask);
     free(m->entry_global);
+    free(m->entry_node);
     free(m->forces);
     free(m->pressure);
     ntsm_gathered_free(m);

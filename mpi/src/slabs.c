@@ -16,30 +16,6 @@
 
 enum { BINS = 4096 };
 
-double ntsm_axis_coord(const slabs* sl, nts_vec2 p) {
-    const double c = (sl->axis & 1) ? p.y : p.x;
-    return (sl->axis & 2) ? -c : c;
-}
-
-double ntsm_axis_of(const slabs* sl, nts_vec2 p) {
-    double c = ntsm_axis_coord(sl, p);
-    if (sl->period > 0.0) {
-        c -= sl->period * floor(c / sl->period);
-        if (!(c < sl->period)) c = 0.0; /* a round-off at the top */
-    }
-    return c;
-}
-
-int ntsm_slab_of(const slabs* sl, int size, double c) {
-    int lo = 0, hi = size - 1; /* the last r with cut[r] <= c */
-    while (lo < hi) {
-        const int mid = (lo + hi + 1) / 2;
-        if (sl->cut[mid] <= c) lo = mid;
-        else hi = mid - 1;
-    }
-    return lo;
-}
-
 static int bin_of(const slabs* sl, double c) {
     const double w = sl->hi - sl->lo;
     double q;

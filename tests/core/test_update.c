@@ -647,6 +647,39 @@ static void test_fused_range_off_the_loops(void) {
     nts_scene_destroy(s);
 }
 
+/* The scene's own positions given back (a host passing what
+ * nts_scene_positions gave, as the distributed engine does for a rank whose
+ * bodies did not move): each call takes them as they are, the same answer
+ * (the copy may overlap its source: memmove). */
+static void test_own_positions_given_back(void) {
+    test_packing p = make_packing(16, 32, 1.0, 1.93, 1, 515u);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r0, r1;
+    nts_error err;
+    const int n = nts_scene_node_count(s);
+    nts_vec2* before = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    nts_vec2* f0 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+    CU_ASSERT_FATAL(s != NULL && c != NULL && before != NULL && f0 != NULL);
+    memcpy(before, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+    CU_ASSERT_EQUAL_FATAL(nts_evaluate(c, s, &o, &r0, &err), NTS_OK);
+    CU_ASSERT(r0.summary.contacts > 0);
+    memcpy(f0, r0.forces, sizeof(nts_vec2) * (size_t)n);
+    CU_ASSERT_EQUAL(nts_scene_update_positions(s, nts_scene_positions(s), &err), NTS_OK);
+    CU_ASSERT_EQUAL(nts_scene_set_positions(s, 3, nts_scene_positions(s) + nts_scene_body_node_offset(s, 3), &err),
+                    NTS_OK);
+    CU_ASSERT_EQUAL(nts_evaluate_positions(c, s, nts_scene_positions(s), &o, &r1, &err), NTS_OK);
+    CU_ASSERT(memcmp(before, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n) == 0);
+    CU_ASSERT(memcmp(&r0.summary.energy, &r1.summary.energy, sizeof(double)) == 0);
+    CU_ASSERT(memcmp(f0, r1.forces, sizeof(nts_vec2) * (size_t)n) == 0);
+    free(before);
+    free(f0);
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 void register_update_suite(void) {
     CU_pSuite s = CU_add_suite("update", NULL, NULL);
     ADD_TEST(s, test_random_moves_open);
@@ -660,4 +693,5 @@ void register_update_suite(void) {
     ADD_TEST(s, test_fused_range_off_the_loops);
     ADD_TEST(s, test_fused_checks_across_blocks);
     ADD_TEST(s, test_fused_stops_before_the_checks);
+    ADD_TEST(s, test_own_positions_given_back);
 }

@@ -96,6 +96,75 @@ static scene_data make_scene(int count, int periodic) {
     return d;
 }
 
+/* Four bodies of other kinds placed among the disks (between four of them,
+ * pressed into them), appended to d: a triangle mesh with interior nodes
+ * (a fan around its centre), a ring with a hole (two loops), a disk whose
+ * contact surface is half its loop, and disks that may touch themselves
+ * (every third). Their loops and triangles are static: one scene at a time. */
+enum { FAN = 16, RING_OUT = 24, RING_IN = 12, HALF = 20 };
+static int fan_tri[3 * FAN], ring_loops[RING_OUT + RING_IN], ring_start[3], half_surface[2 * (HALF / 2)];
+static void add_specials(scene_data* d) {
+    const int extra = (FAN + 1) + (RING_OUT + RING_IN) + HALF + 20, b0 = d->bodies, n0 = d->offset[d->bodies];
+    const double cx[4] = {1.0, 3.0, 2.0, 4.0}, cy[4] = {1.0, 2.0, 3.0, 4.0};
+    int b, k, at = n0;
+    d->bodies += 4;
+    d->defs = (nts_body_def*)realloc(d->defs, sizeof(nts_body_def) * (size_t)d->bodies);
+    d->offset = (int*)realloc(d->offset, sizeof(int) * ((size_t)d->bodies + 1));
+    d->nodes = (nts_vec2*)realloc(d->nodes, sizeof(nts_vec2) * (size_t)(n0 + extra));
+    memset(d->defs + b0, 0, 4 * sizeof(nts_body_def));
+    d->offset[b0] = at; /* the fan: its centre last */
+    for (k = 0; k < FAN; ++k) {
+        d->nodes[at + k] = nts_v2(cx[0] + 0.3 * cos(2 * M_PI * k / FAN), cy[0] + 0.3 * sin(2 * M_PI * k / FAN));
+        fan_tri[3 * k] = FAN;
+        fan_tri[3 * k + 1] = k;
+        fan_tri[3 * k + 2] = (k + 1) % FAN;
+    }
+    d->nodes[at + FAN] = nts_v2(cx[0] + 0.01, cy[0] - 0.02);
+    at += FAN + 1;
+    d->offset[b0 + 1] = at; /* the ring: the outer loop counter-clockwise, the hole clockwise */
+    for (k = 0; k < RING_OUT; ++k) {
+        d->nodes[at + k] = nts_v2(cx[1] + 0.32 * cos(2 * M_PI * k / RING_OUT), cy[1] + 0.32 * sin(2 * M_PI * k / RING_OUT));
+        ring_loops[k] = k;
+    }
+    for (k = 0; k < RING_IN; ++k) {
+        d->nodes[at + RING_OUT + k] =
+            nts_v2(cx[1] + 0.15 * cos(-2 * M_PI * k / RING_IN), cy[1] + 0.15 * sin(-2 * M_PI * k / RING_IN));
+        ring_loops[RING_OUT + k] = RING_OUT + k;
+    }
+    ring_start[0] = 0;
+    ring_start[1] = RING_OUT;
+    ring_start[2] = RING_OUT + RING_IN;
+    at += RING_OUT + RING_IN;
+    d->offset[b0 + 2] = at; /* half a contact surface */
+    for (k = 0; k < HALF; ++k)
+        d->nodes[at + k] = nts_v2(cx[2] + 0.3 * cos(2 * M_PI * k / HALF), cy[2] + 0.3 * sin(2 * M_PI * k / HALF));
+    for (k = 0; k < HALF / 2; ++k) {
+        half_surface[2 * k] = k;
+        half_surface[2 * k + 1] = k + 1;
+    }
+    at += HALF;
+    d->offset[b0 + 3] = at; /* a C-shaped body that may touch itself: its arms' tips close to each other */
+    for (k = 0; k < 20; ++k) {
+        const double a = 0.35 + (2 * M_PI - 0.7) * k / 19, r = k % 2 == 0 ? 0.34 : 0.3;
+        d->nodes[at + k] = nts_v2(cx[3] + r * cos(a), cy[3] + r * sin(a));
+    }
+    at += 20;
+    d->offset[d->bodies] = at;
+    for (b = 0; b < d->bodies; ++b) { /* (realloc moved the nodes) */
+        d->defs[b].nodes = d->nodes + d->offset[b];
+        d->defs[b].node_count = d->offset[b + 1] - d->offset[b];
+    }
+    d->defs[b0].triangles = fan_tri;
+    d->defs[b0].triangle_count = FAN;
+    d->defs[b0 + 1].loop_nodes = ring_loops;
+    d->defs[b0 + 1].loop_start = ring_start;
+    d->defs[b0 + 1].loop_count = 2;
+    d->defs[b0 + 2].surface = half_surface;
+    d->defs[b0 + 2].surface_count = HALF / 2;
+    d->defs[b0 + 3].self_contact = 1;
+    for (b = 0; b < b0; b += 3) d->defs[b].self_contact = 1;
+}
+
 static void free_scene(scene_data* d) {
     free(d->defs);
     free(d->nodes);
@@ -147,12 +216,14 @@ static int compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const i
     return rebuilt;
 }
 
-static void run_case(int count, int periodic, const char* name) {
+static void run_case(int count, int periodic, int specials, const char* name) {
     scene_data d = make_scene(count, periodic);
     nts_scene_def def = nts_default_scene_def();
     nts_scene* whole;
     ntsm_scene* m;
-    nts_body_def* owned = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
+    nts_body_def* owned;
+    if (specials) add_specials(&d);
+    owned = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
     int* ids = (int*)calloc((size_t)d.bodies, sizeof(int));
     nts_vec2* moved = (nts_vec2*)calloc((size_t)d.offset[d.bodies], sizeof(nts_vec2));
     nts_vec2* mine_pos = (nts_vec2*)calloc((size_t)d.offset[d.bodies], sizeof(nts_vec2));
@@ -406,9 +477,11 @@ int main(int argc, char** argv) {
     MPI_Init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
-    run_case(300, 0, "open packing, a long wall, a big disk");
-    run_case(256, 1, "periodic packing");
-    run_case(2, 0, "two disks");
+    run_case(300, 0, 0, "open packing, a long wall, a big disk");
+    run_case(256, 1, 0, "periodic packing");
+    run_case(2, 0, 0, "two disks");
+    run_case(36, 0, 1, "open: a mesh, a ring with a hole, a surface, self-contact");
+    run_case(36, 1, 1, "periodic: a mesh, a ring with a hole, a surface, self-contact");
     affinity(1);
     affinity(0);
     bad_input();
