@@ -100,15 +100,23 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
     return top < -1e-6 * (ax + ay) + fail;
 }
 
-/* Whether slave k lies outside body b, asked along normal n: the body's
- * circle when it is at hand (a long segment's end asked for its shape),
- * else one pass over its nodes along n (beyond_body, for a body of at most
- * WIDE_HULL nodes; a larger one is left to the search). Reads only. */
-enum { WIDE_HULL = 512 };
-static int outside_hull(const search_env* env, const nts_reach* r, int k, int b, double nx, double ny) {
+/* Whether slave k lies outside body b, asked along normal n, by a rule of
+ * (k, b, n) alone, whatever the search met before (the kept lists' or the
+ * cells'; the evaluation's path must not change the queue): a body of at
+ * most WIDE_HULL nodes by one pass over its nodes along n (beyond_body,
+ * docs/model.md (20)); a larger one by the circle around its nodes
+ * (nts_body_shape, found once an evaluation: the caller's thread only).
+ * HULL_LATER: a larger body, asked from a worker (ask_verdicts). */
+enum { WIDE_HULL = 512, HULL_LATER = 2 };
+static int hull_small(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
-    if (r->shape[SHAPE * b + 3] >= 0.0) return nts_outside_circle(env, r->shape, b, env->seg[k].p);
-    return s->body_node_start[b + 1] - s->body_node_start[b] <= WIDE_HULL && beyond_body(env, k, b, nx, ny);
+    if (s->body_node_start[b + 1] - s->body_node_start[b] > WIDE_HULL) return HULL_LATER;
+    return beyond_body(env, k, b, nx, ny);
+}
+
+static int outside_hull(const search_env* env, nts_reach* r, int k, int b, double nx, double ny) {
+    const int v = hull_small(env, k, b, nx, ny);
+    return v != HULL_LATER ? v : nts_outside_circle(env, r->shape, b, env->seg[k].p);
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -155,7 +163,8 @@ static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
 
 /* Queue (k, body) with radius rho, asked by k's neighbour on side `from`
  * whose closest point on the body has normal n, unless k lies outside the
- * body (outside_hull; `verdict`: that answer, found already, or -1). A pair
+ * body (outside_hull; `verdict`: hull_small's answer, found already, or
+ * -1). A pair
  * queued already records the second neighbour that asks; a pair settled
  * already is left alone. */
 static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
@@ -170,7 +179,7 @@ static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    if (verdict < 0) verdict = outside_hull(env, r, k, body, nx, ny);
+    if (verdict < 0 || verdict == HULL_LATER) verdict = outside_hull(env, r, k, body, nx, ny);
     if (verdict) return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
@@ -188,11 +197,12 @@ static int enqueue(nts_context* ctx, const search_env* env, int k, int body, dou
 }
 
 /* The hull test of every ask the search left (REACH_ASK items), before they
- * are queued one by one: each its own answer (outside_hull reads only), so
- * they run in parallel, a chunk's items a task, into r->outside at the
- * chunk's r->ask_at. The queue then takes the verdict of a pair's first ask
- * as enqueue() would find it; the asks of pairs seen already (a second
- * neighbour) were tested for nothing (those off the surface are not). */
+ * are queued one by one: each its own answer (hull_small reads only; a
+ * larger body's circle is left to the queue), so they run in parallel, a
+ * chunk's items a task, into r->outside at the chunk's r->ask_at. The queue
+ * then takes the verdict of a pair's first ask as enqueue() would find it;
+ * the asks of pairs seen already (a second neighbour) were tested for
+ * nothing (those off the surface are not). */
 typedef struct verdict_task {
     nts_context* ctx;
     const search_env* env;
@@ -217,8 +227,9 @@ static void ask_verdicts(int begin, int end, int wi, void* p) {
                 NTS_PREFETCH(&t->env->seg[it[k + 4].slave]);
                 for (m = m0; m < m1 && m < m0 + 64; m += 4) NTS_PREFETCH(&s->pos[m]);
             }
-            out[k] = it[k].kind == REACH_ASK && nts_node_on_surface(s, it[k].slave) &&
-                     outside_hull(t->env, r, it[k].slave, it[k].body, it[k].nx, it[k].ny);
+            out[k] = (unsigned char)(it[k].kind == REACH_ASK && nts_node_on_surface(s, it[k].slave)
+                                         ? hull_small(t->env, it[k].slave, it[k].body, it[k].nx, it[k].ny)
+                                         : 0);
         }
     }
 }
