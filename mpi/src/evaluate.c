@@ -294,6 +294,10 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     /* 4. The part, with the whole's frame; its parts. */
     po = *opt;
     po.outputs &= ~(unsigned)NTS_OUT_FORCES; /* the parts carry them */
+    /* A solver's loop: the part keeps its candidates between evaluations
+     * while it is kept (the same bits as searching anew; a new part builds
+     * them anew); not when the parts are made anew every evaluation. */
+    po.candidates = m->skin != 0.0 ? m->part_kc : NULL;
     if (m->hist_count > 0) { /* friction's anchors of the part's bodies (§14) */
         rc = part_history(m, &e);
         if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;

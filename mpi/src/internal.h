@@ -109,6 +109,9 @@ struct ntsm_scene {
     int built, rebuild_next;
     int maps_whole;       /* the part's maps hold its nodes' and entries' (ntsm_part_maps), not only who owns each slave */
     double skin;          /* negative: 0.3 times the search radius */
+    /* The part's kept candidate list (docs/model.md §15), while the part is
+     * kept (skin not 0): a new part makes it build anew (a scene of its own). */
+    nts_candidates* part_kc;
     /* The slabs' shares of the surface nodes (slabs.c): the host's fixed
      * weights (NULL: balanced by measured time), the shares the slabs are
      * cut at (NULL: equal), each rank's measured speed (owned slaves a

@@ -81,6 +81,7 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     }
     nts_scene_destroy(m->part);
     nts_context_destroy(m->ctx);
+    nts_candidates_destroy(m->part_kc);
     free(m->part_ids);
     free(m->part_node);
     free(m->node_owner);
@@ -170,7 +171,9 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         }
         m->own_ctx = nts_context_create();
         m->ctx = nts_context_create();
-        if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL)) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+        m->part_kc = nts_candidates_create(-1.0);
+        if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL || m->part_kc == NULL))
+            rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     }
     if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
 

@@ -95,7 +95,10 @@ NTS_API int ntsm_scene_set_history(ntsm_scene* scene, const nts_anchor* anchors,
 
 /** Collective: evaluate. opt->history, opt->candidates and opt->cancel must
  * be NULL (NTS_EINVALID_ARGUMENT; friction's history is given by
- * ntsm_scene_set_history). NTS_OK or every rank's error. */
+ * ntsm_scene_set_history). While the decomposition is kept (a skin not 0,
+ * ntsm_scene_set_skin), each rank's part keeps its own candidate list
+ * between evaluations (docs/model.md §15; about 90 bytes a surface node of
+ * the part): the same bits as searching anew. NTS_OK or every rank's error. */
 NTS_API int ntsm_evaluate(ntsm_scene* scene, const nts_options* opt, ntsm_result* out, nts_error* err);
 
 /** Collective, after a successful ntsm_evaluate: the whole answer on `root`,
