@@ -614,48 +614,41 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
     seg_summary ss;
     search_env env;
     nts_run run;
-    int rc, i;
+    int rc, i, light;
     if (err != NULL) *err = nts_error_none();
     if (ctx == NULL || s == NULL || opt == NULL || out == NULL)
         return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
     if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
+    light = opt->search_radius >= 0.0 && opt->search != NTS_SEARCH_CELLS;
     memset(out, 0, sizeof *out);
     out->cell_size = 0.0;
     out->surface_nodes = s->surface_count;
     out->surface_ends = s->surf_ends > 0;
     run = nts_run_stock(0);
-    if (opt->search_radius >= 0.0 && opt->search != NTS_SEARCH_CELLS) {
+    if (light) {
         /* neither the median nor the cells asked: the lengths and extremes
          * alone, no segment data (a distributed host's own bodies) */
         nts_segments_lengths(s, lengths, &run, &ss);
-        if (ss.bad < s->surface_count)
-            return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[ss.bad], s->surf_local[ss.bad],
-                             "a segment's length is outside [1e-100, 3e100]");
-        out->lmax = ss.lmax;
-        out->coord_max = ss.coord_max;
-        out->xmin = ss.xmin;
-        out->xmax = ss.xmax;
-        out->ymin = ss.ymin;
-        out->ymax = ss.ymax;
-        return NTS_OK;
+    } else {
+        if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE),
+                           sizeof(int))) != NTS_OK ||
+            (rc = nts_segments_compute(ctx, s, NULL,
+                                       opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2
+                                                                                         : -1,
+                                       (double*)(void*)ctx->scratch, NULL, NULL, &run, &ss)) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
     }
-    if ((rc = nts_grow((void**)&ctx->scratch, &ctx->scratch_cap, 2 * (s->surface_count + NTS_SAMPLE), sizeof(int))) !=
-        NTS_OK)
-        return eval_fail(err, rc, -1, -1, "out of memory");
-    rc = nts_segments_compute(ctx, s, NULL,
-                              opt->search_radius < 0.0 && s->surface_count > 0 ? (s->surface_count - 1) / 2 : -1,
-                              (double*)(void*)ctx->scratch, NULL, NULL, &run, &ss);
-    if (rc != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
     if (ss.bad < s->surface_count)
         return eval_fail(err, NTS_EDEGENERATE_SEGMENT, s->surf_body[ss.bad], s->surf_local[ss.bad],
                          "a segment's length is outside [1e-100, 3e100]");
-    out->median = ss.kth;
     out->lmax = ss.lmax;
     out->coord_max = ss.coord_max;
     out->xmin = ss.xmin;
     out->xmax = ss.xmax;
     out->ymin = ss.ymin;
     out->ymax = ss.ymax;
+    if (light) return NTS_OK;
+    out->median = ss.kth;
     if (lengths != NULL)
         for (i = 0; i < s->surface_count; ++i) lengths[i] = ctx->seg[i].len;
     if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
