@@ -254,7 +254,8 @@ static int follow(nts_context* ctx, const search_env* env, int k, const candidat
  * point there within the largest radius (counted: r->unresolved): its chain
  * goes on past it, and the nodes beyond may lie within reach again. Its
  * neighbours that did not ask are searched out to that radius (no normal:
- * no hull test). */
+ * the pass over a small body's nodes rules nothing out; a larger body's
+ * circle may). */
 static int follow_beyond(nts_context* ctx, const search_env* env, reach_request q) {
     const seg_data* seg = env->seg;
     int rc = NTS_OK;

@@ -295,9 +295,10 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     po = *opt;
     po.outputs &= ~(unsigned)NTS_OUT_FORCES; /* the parts carry them */
     /* A solver's loop: the part keeps its candidates between evaluations
-     * while it is kept (the same bits as searching anew; a new part builds
-     * them anew); not when the parts are made anew every evaluation. */
-    po.candidates = m->skin != 0.0 ? m->part_kc : NULL;
+     * while it is kept (the same bits as searching anew), built by the
+     * first evaluation of a part kept (not by the one that makes a part:
+     * parts made every evaluation would pay for lists never replayed). */
+    po.candidates = m->skin != 0.0 && !m->stats.rebuilt ? m->part_kc : NULL;
     if (m->hist_count > 0) { /* friction's anchors of the part's bodies (§14) */
         rc = part_history(m, &e);
         if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
@@ -320,11 +321,16 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
             rc = ntsm_fail(&e, NTS_EINTERNAL, "internal: a part would renormalise a body at positions its owner took");
             e.body = body; /* (the global body, ntsm_global_body) */
             e.node = node;
-            m->built = 0; /* the next evaluation builds the parts anew (every rank agrees on it) */
         }
     }
     t_part = now() - t_part; /* this rank's own time, before waiting for the others */
-    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
+    if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) {
+        /* every rank has the error: on an internal one, every rank builds
+         * the parts anew next time (the collectives before then differ
+         * between a kept decomposition and a new one) */
+        if (rc == NTS_EINTERNAL) m->built = 0;
+        goto out;
+    }
     if (m->weights == NULL) balance(m, t_part, m->stats.owned_slaves);
     t1 = now();
     m->stats.seconds[2] = t1 - t0;

@@ -174,6 +174,7 @@ int ntsm_part_move(ntsm_scene* m, const nts_vec2** moved, nts_error* err) {
     for (k = 0; k < m->count; ++k)
         for (r = 0; r < P; ++r) n_send += m->to[(size_t)k * P + r] && r != self ? m->own_defs[k].node_count : 0;
     for (a = 0; a < m->arrivals; ++a) n_recv += m->arrival_nodes[a];
+    for (k = 0; k < m->count; ++k) n_recv -= m->to[(size_t)k * P + self] ? m->own_defs[k].node_count : 0;
     send = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_SEND], sizeof(nts_vec2) * (size_t)(n_send + 1));
     recv = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_RECV], sizeof(nts_vec2) * (size_t)(n_recv + 1));
     pos = (nts_vec2*)ntsm_scratch(&m->sc[SC_POS_PART], sizeof(nts_vec2) * (size_t)(nn + 1));

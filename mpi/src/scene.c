@@ -171,9 +171,8 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         }
         m->own_ctx = nts_context_create();
         m->ctx = nts_context_create();
-        m->part_kc = nts_candidates_create(-1.0);
-        if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL || m->part_kc == NULL))
-            rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
+        m->part_kc = nts_candidates_create(-1.0); /* (NULL: none, the same bits) */
+        if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL)) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     }
     if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
 
@@ -304,6 +303,10 @@ int ntsm_scene_set_history(ntsm_scene* m, const nts_anchor* anchors, int count) 
 void ntsm_scene_set_skin(ntsm_scene* m, double skin) {
     m->skin = skin;
     m->built = 0;
+    /* parts made every evaluation keep no candidate list: its memory given
+     * back (without one, an evaluation searches the cells: the same bits) */
+    nts_candidates_destroy(m->part_kc);
+    m->part_kc = skin != 0.0 ? nts_candidates_create(-1.0) : NULL;
 }
 
 int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {
