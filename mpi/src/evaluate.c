@@ -313,8 +313,13 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
      * and its owner took these very positions: the part cannot refuse
      * them, nor renormalise (were it to, that is a bug, said so). */
     if (m->part != NULL) {
+        const nts_candidates_info before = nts_candidates_get_info(po.candidates);
+        nts_candidates_info after;
         rc = part_pos != NULL ? nts_evaluate_positions(m->ctx, m->part, part_pos, &po, &m->part_result, &e)
                               : nts_evaluate(m->ctx, m->part, &po, &m->part_result, &e);
+        after = nts_candidates_get_info(po.candidates);
+        m->stats.candidates_replayed = rc == NTS_OK && after.evaluations > before.evaluations &&
+                                       after.builds == before.builds; /* the list held: replayed, not built */
         if (rc != NTS_OK) ntsm_global_body(&e, m->part_ids, nts_scene_body_count(m->part));
         if (rc == NTS_ERESHAPED) { /* the body's owner took these very positions: a bug, said so */
             const int body = e.body, node = e.node;

@@ -31,6 +31,7 @@ typedef struct ntsm_stats {
     int part_bodies;          /**< the bodies it held for the evaluation */
     int rebuilt;              /**< 1: the decomposition was made anew (else the kept one's positions moved) */
     double seconds[4];        /**< frame and decomposition, bodies' exchange, evaluation, sums */
+    int candidates_replayed;  /**< 1: the part's evaluation replayed its kept candidate list (it held: not built) */
 } ntsm_stats;
 
 /** The answer on one rank: the whole scene's summary and warnings, and the
