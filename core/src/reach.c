@@ -106,17 +106,18 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
  * most WIDE_HULL nodes by one pass over its nodes along n (beyond_body,
  * docs/model.md (20)); a larger one by the circle around its nodes
  * (nts_body_shape, found once an evaluation: the caller's thread only).
- * HULL_LATER: a larger body, asked from a worker (ask_verdicts). */
-enum { WIDE_HULL = 512, HULL_LATER = 2 };
+ * HULL_UNKNOWN: not found yet (a larger body asked from a worker,
+ * ask_verdicts, or no verdict at all), for outside_hull to find. */
+enum { WIDE_HULL = 512, HULL_UNKNOWN = 2 };
 static int hull_small(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
-    if (s->body_node_start[b + 1] - s->body_node_start[b] > WIDE_HULL) return HULL_LATER;
+    if (s->body_node_start[b + 1] - s->body_node_start[b] > WIDE_HULL) return HULL_UNKNOWN;
     return beyond_body(env, k, b, nx, ny);
 }
 
 static int outside_hull(const search_env* env, nts_reach* r, int k, int b, double nx, double ny) {
     const int v = hull_small(env, k, b, nx, ny);
-    return v != HULL_LATER ? v : nts_outside_circle(env, r->shape, b, env->seg[k].p);
+    return v != HULL_UNKNOWN ? v : nts_outside_circle(env, r->shape, b, env->seg[k].p);
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -164,7 +165,7 @@ static reach_seen* seen_find(nts_reach* r, long long key, int* fresh) {
 /* Queue (k, body) with radius rho, asked by k's neighbour on side `from`
  * whose closest point on the body has normal n, unless k lies outside the
  * body (outside_hull; `verdict`: hull_small's answer, found already, or
- * -1). A pair
+ * HULL_UNKNOWN). A pair
  * queued already records the second neighbour that asks; a pair settled
  * already is left alone. */
 static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
@@ -179,7 +180,7 @@ static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body
         if (p->at >= 0) r->queue[p->at].from |= from;
         return NTS_OK;
     }
-    if (verdict < 0 || verdict == HULL_LATER) verdict = outside_hull(env, r, k, body, nx, ny);
+    if (verdict == HULL_UNKNOWN) verdict = outside_hull(env, r, k, body, nx, ny);
     if (verdict) return NTS_OK; /* settled: outside */
     if ((rc = nts_grow((void**)&r->queue, &r->queue_cap, r->queue_count + 1, sizeof(reach_request))) != NTS_OK)
         return rc;
@@ -193,7 +194,7 @@ static int enqueue_with(nts_context* ctx, const search_env* env, int k, int body
 
 static int enqueue(nts_context* ctx, const search_env* env, int k, int body, double rho, int from, double nx,
                    double ny) {
-    return enqueue_with(ctx, env, k, body, rho, from, nx, ny, -1);
+    return enqueue_with(ctx, env, k, body, rho, from, nx, ny, HULL_UNKNOWN);
 }
 
 /* The hull test of every ask the search left (REACH_ASK items), before they
@@ -225,7 +226,8 @@ static void ask_verdicts(int begin, int end, int wi, void* p) {
                 const int m0 = s->body_node_start[it[k + 4].body], m1 = s->body_node_start[it[k + 4].body + 1];
                 int m;
                 NTS_PREFETCH(&t->env->seg[it[k + 4].slave]);
-                for (m = m0; m < m1 && m < m0 + 64; m += 4) NTS_PREFETCH(&s->pos[m]);
+                for (m = m0; m1 - m0 <= WIDE_HULL && m < m1 && m < m0 + 64; m += 4) /* (hull_small reads them) */
+                    NTS_PREFETCH(&s->pos[m]);
             }
             out[k] = (unsigned char)(it[k].kind == REACH_ASK && nts_node_on_surface(s, it[k].slave)
                                          ? hull_small(t->env, it[k].slave, it[k].body, it[k].nx, it[k].ny)

@@ -238,8 +238,8 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         m->built = 0;
     }
     m->rebuild_next = 0;
-    if (!m->built) part_pos = NULL; /* a part built below holds the positions itself */
     if (!m->built) {
+        part_pos = NULL; /* the part built here holds the positions itself */
         const double skin = m->skin >= 0.0 ? m->skin : 0.3 * r;
         rc = ntsm_slabs_make(m, &f, m->lx, m->ly, &sl) == NTS_OK ? NTS_OK : ntsm_fail(&e, NTS_ENOMEM, "out of memory");
         if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) goto out;
