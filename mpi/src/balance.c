@@ -23,21 +23,24 @@ static double gain_of(const double* seconds, const double* owned, int P) {
     return 1.0 - slaves / speeds / worst;
 }
 
-int ntsm_balance_step(double* speed, int* streak, const double* seconds, const double* owned, int P,
-                      const double* current, double* share) {
-    double sum = 0.0, total = 0.0, moved = 0.0, mean;
+int ntsm_balance_step(double* speed, double* lost, const double* seconds, const double* owned, int P,
+                      const double* current, double* share, double cost) {
+    double sum = 0.0, total = 0.0, moved = 0.0, mean, gain, worst = 0.0;
     int r, n = 0;
     for (r = 0; r < P; ++r) /* smoothed: a rank's speed changes over seconds, not one evaluation */
         if (owned[r] > 0.0 && seconds[r] > 0.0) {
             const double v = owned[r] / seconds[r];
             speed[r] = speed[r] > 0.0 ? 0.5 * speed[r] + 0.5 * v : v;
         }
-    if (P < 2 || !(gain_of(seconds, owned, P) >= NTSM_BALANCE_GAIN)) {
-        *streak = 0;
+    gain = P < 2 ? 0.0 : gain_of(seconds, owned, P);
+    if (!(gain >= NTSM_BALANCE_GAIN)) {
+        *lost *= 0.5; /* an unevenness that comes and goes (noise) predicts little */
         return 0;
     }
-    if (++*streak < NTSM_BALANCE_STREAK) return 0;
-    *streak = 0;
+    for (r = 0; r < P; ++r)
+        if (seconds[r] > worst) worst = seconds[r];
+    *lost += gain * worst; /* what cuts at these speeds would have saved */
+    if (!(*lost >= cost)) return 0; /* rent: the cut costs more than it has lost yet */
     for (r = 0; r < P; ++r)
         if (speed[r] > 0.0) sum += speed[r], ++n;
     if (n == 0) return 0;
@@ -55,5 +58,7 @@ int ntsm_balance_step(double* speed, int* streak, const double* seconds, const d
         moved = fmax(moved, fabs(share[r] - current[r]));
     }
     /* The same cuts again (the shares at their bounds): no rebuild for them. */
-    return moved > 0.02 / P;
+    if (!(moved > 0.02 / P)) return 0;
+    *lost = 0.0;
+    return 1;
 }

@@ -121,17 +121,23 @@ static int weights_shares(ntsm_scene* m) {
 }
 
 /* Balanced by measured time (no host weights): each rank's part took
- * `seconds` for `owned` slaves; when cuts by the ranks' speeds would make
- * the slowest part 5% shorter three evaluations in a row, the next
- * evaluation cuts the slabs at them (balance.c). The same gathered numbers
- * on every rank: the same decision and shares. Collective. */
-static void balance(ntsm_scene* m, double seconds, long long owned) {
+ * `seconds` for `owned` slaves, and `elapsed` since the evaluation began.
+ * When cuts by the ranks' speeds would make the slowest part at least 5%
+ * shorter and the time such unevenness has lost since the last cut has
+ * reached what a cut costs, the next evaluation cuts the slabs at them
+ * (balance.c). A cut costs about an evaluation that makes the parts: the
+ * last one's time (the slowest rank's) stands for it, the making itself
+ * and the next evaluation's candidate lists; nothing when the parts are
+ * made every evaluation (a skin of 0). The same gathered numbers on every
+ * rank: the same decision and shares. Collective. */
+static void balance(ntsm_scene* m, double seconds, long long owned, double elapsed) {
     const int P = m->size;
-    double mine[2], *all, *times, *counts, *current, *next;
+    double mine[3], *all, *times, *counts, *current, *next, slowest = 0.0;
     int r, fine, every;
     mine[0] = seconds;
     mine[1] = (double)owned;
-    all = (double*)malloc(sizeof(double) * 6u * (size_t)P);
+    mine[2] = elapsed;
+    all = (double*)malloc(sizeof(double) * 7u * (size_t)P);
     if (m->speed == NULL) m->speed = (double*)calloc((size_t)P, sizeof(double));
     if (m->share == NULL) m->share = (double*)malloc(sizeof(double) * (size_t)P);
     fine = all != NULL && m->speed != NULL && m->share != NULL;
@@ -140,17 +146,19 @@ static void balance(ntsm_scene* m, double seconds, long long owned) {
         free(all);
         return;
     }
-    MPI_Allgather(mine, 2, MPI_DOUBLE, all, 2, MPI_DOUBLE, m->comm);
-    times = all + 2 * P;
+    MPI_Allgather(mine, 3, MPI_DOUBLE, all, 3, MPI_DOUBLE, m->comm);
+    times = all + 3 * P;
     counts = times + P;
     current = counts + P;
     next = current + P;
     for (r = 0; r < P; ++r) {
-        times[r] = all[2 * r];
-        counts[r] = all[2 * r + 1];
+        times[r] = all[3 * r];
+        counts[r] = all[3 * r + 1];
+        slowest = fmax(slowest, all[3 * r + 2]);
         current[r] = m->share_on ? m->share[r] : 1.0 / P;
     }
-    if (ntsm_balance_step(m->speed, &m->uneven_steps, times, counts, P, current, next)) {
+    if (m->stats.rebuilt) m->recut_cost = m->skin == 0.0 ? 0.0 : slowest;
+    if (ntsm_balance_step(m->speed, &m->lost, times, counts, P, current, next, m->recut_cost)) {
         for (r = 0; r < P; ++r) m->share[r] = next[r];
         m->share_on = 1;
         m->rebuild_next = 1;
@@ -164,6 +172,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     slabs sl;
     nts_options po;
     double t0 = now(), t1, t_part, halo, r;
+    const double t_begin = t0;
     const nts_vec2* part_pos = NULL; /* a kept part's new positions (ntsm_part_move), for its evaluation */
     int rc = NTS_OK;
     memset(&sl, 0, sizeof sl);
@@ -336,7 +345,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         if (rc == NTS_EINTERNAL) m->built = 0;
         goto out;
     }
-    if (m->weights == NULL) balance(m, t_part, m->stats.owned_slaves);
+    if (m->weights == NULL) balance(m, t_part, m->stats.owned_slaves, now() - t_begin);
     t1 = now();
     m->stats.seconds[2] = t1 - t0;
     t0 = t1;

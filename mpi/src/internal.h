@@ -115,12 +115,14 @@ struct ntsm_scene {
     /* The slabs' shares of the surface nodes (slabs.c): the host's fixed
      * weights (NULL: balanced by measured time), the shares the slabs are
      * cut at (NULL: equal), each rank's measured speed (owned slaves a
-     * second, smoothed) and how many evaluations in a row were uneven. */
+     * second, smoothed), the seconds the uneven evaluations lost since the
+     * last cut, and what a cut costs (the last evaluation that made the
+     * parts, measured; balance.h). */
     double* weights;
     double* share; /* (size doubles, kept; used when share_on) */
     int share_on;
     double* speed;
-    int uneven_steps;
+    double lost, recut_cost;
     double halo_b, ext_b;
     double* cut_b;
     int axis_b;

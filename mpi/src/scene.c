@@ -314,6 +314,7 @@ int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {
     free(m->weights);
     m->weights = NULL;
     m->share_on = 0; /* equal shares until the next evaluation says otherwise */
+    m->lost = 0.0;
     m->built = 0;    /* the next evaluation cuts the slabs anew */
     if (weights == NULL) return NTS_OK;
     if ((m->weights = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) return NTS_ENOMEM;

@@ -1,5 +1,5 @@
 /* The slabs' balance by measured time (mpi/src/balance.c) on made-up part
- * times: when it cuts the slabs anew and at which shares. What every rank
+ * times and cut costs: when it cuts the slabs anew and at which shares. What every rank
  * decides from the same gathered numbers; the cuts themselves are tested
  * under MPI (test_mpi: weights 3:1, the same bits). Exit 0 when all holds. */
 #include <math.h>
@@ -23,15 +23,17 @@ static int failures;
 enum { MAXP = 4 };
 
 typedef struct run {
-    int P, streak;
+    int P;
+    double cost, lost;
     double speed[MAXP], current[MAXP], share[MAXP];
 } run;
 
-static run start(int P) {
+static run start(int P, double cost) {
     run r;
     int k;
     memset(&r, 0, sizeof r);
     r.P = P;
+    r.cost = cost;
     for (k = 0; k < P; ++k) r.current[k] = 1.0 / P;
     return r;
 }
@@ -42,7 +44,7 @@ static int step(run* r, const double* owned, const double* v) {
     double t[MAXP];
     int k, cut;
     for (k = 0; k < r->P; ++k) t[k] = owned[k] / v[k];
-    cut = ntsm_balance_step(r->speed, &r->streak, t, owned, r->P, r->current, r->share);
+    cut = ntsm_balance_step(r->speed, &r->lost, t, owned, r->P, r->current, r->share, r->cost);
     if (cut)
         for (k = 0; k < r->P; ++k) r->current[k] = r->share[k];
     return cut;
@@ -54,13 +56,26 @@ static void owned_at(const run* r, double n, double* owned) {
     for (k = 0; k < r->P; ++k) owned[k] = n * r->current[k];
 }
 
+/* The seconds an evaluation loses to unevenness: the slowest part's time
+ * less the time of parts cut at the speeds. */
+static double loss_of(const double* owned, const double* v, int P) {
+    double worst = 0.0, n = 0.0, speeds = 0.0;
+    int k;
+    for (k = 0; k < P; ++k) {
+        if (owned[k] / v[k] > worst) worst = owned[k] / v[k];
+        n += owned[k];
+        speeds += v[k];
+    }
+    return worst - n / speeds;
+}
+
 int main(void) {
     const double N = 5e5; /* slaves: parts of 0.1 s and more at these speeds */
-    double owned[MAXP], v[MAXP];
+    double owned[MAXP] = {0.0, 0.0, 0.0, 0.0}, v[MAXP] = {1.0, 1.0, 1.0, 1.0}, loss;
     int k, cuts;
 
-    { /* even ranks: never */
-        run r = start(2);
+    { /* even ranks: never, even when a cut costs nothing */
+        run r = start(2, 0.0);
         v[0] = v[1] = 4e6;
         for (k = 0, cuts = 0; k < 20; ++k) {
             owned_at(&r, N, owned);
@@ -68,13 +83,19 @@ int main(void) {
         }
         CHECK(cuts == 0, "even ranks cut %d times", cuts);
     }
-    { /* a rank 30% slower: cut at the third evaluation, in proportion to the speeds, then never again */
-        run r = start(2);
+    { /* a rank 30% slower: cut when the time lost reaches the cost (the
+       * fourth evaluation at 3.5 evaluations' loss), in proportion to the
+       * speeds, then never again */
+        run r = start(2, 0.0);
         v[0] = 4.5e6;
         v[1] = 4.5e6 / 1.3;
         owned_at(&r, N, owned);
-        CHECK(!step(&r, owned, v) && !step(&r, owned, v), "cut before three uneven evaluations");
-        CHECK(step(&r, owned, v), "no cut after three uneven evaluations");
+        loss = loss_of(owned, v, 2);
+        r.cost = 3.5 * loss;
+        CHECK(!step(&r, owned, v) && !step(&r, owned, v) && !step(&r, owned, v), "cut before the loss reached the cost");
+        CHECK(fabs(r.lost - 3.0 * loss) < 1e-12 * loss, "lost %.9g, expected three evaluations' %.9g", r.lost, 3.0 * loss);
+        CHECK(step(&r, owned, v), "no cut once the loss reached the cost");
+        CHECK(r.lost == 0.0, "a cut leaves %.9g lost", r.lost);
         CHECK(fabs(r.share[0] - 1.3 / 2.3) < 1e-12 && fabs(r.share[1] - 1.0 / 2.3) < 1e-12,
               "shares %.15g %.15g, expected 1.3/2.3 and 1/2.3", r.share[0], r.share[1]);
         for (k = 0, cuts = 0; k < 20; ++k) {
@@ -85,14 +106,33 @@ int main(void) {
         /* the speeds swap (another program on the first core): cut back */
         v[1] = 4.5e6;
         v[0] = 4.5e6 / 1.3;
-        for (k = 0, cuts = 0; k < 6 && !cuts; ++k) {
+        for (k = 0, cuts = 0; k < 10 && !cuts; ++k) {
             owned_at(&r, N, owned);
             cuts = step(&r, owned, v);
         }
         CHECK(cuts && r.current[0] < 0.5, "no cut back after the speeds swapped (share %.3f)", r.current[0]);
     }
-    { /* 10% slower: cuts would gain under 5%; not worth a rebuild */
-        run r = start(2);
+    { /* twice the cost: twice the evaluations before the cut */
+        run r = start(2, 0.0);
+        int first = 0, second = 0;
+        v[0] = 4.5e6;
+        v[1] = 4.5e6 / 1.5;
+        owned_at(&r, N, owned);
+        r.cost = 2.5 * loss_of(owned, v, 2);
+        for (k = 1; k <= 20 && !first; ++k) first = step(&r, owned, v) ? k : 0;
+        r = start(2, 5.0 * loss_of(owned, v, 2));
+        for (k = 1; k <= 20 && !second; ++k) second = step(&r, owned, v) ? k : 0;
+        CHECK(first == 3 && second == 5, "cuts at evaluations %d and %d, expected 3 and 5", first, second);
+    }
+    { /* parts made every evaluation (a cut costs nothing): cut at the first uneven evaluation */
+        run r = start(2, 0.0);
+        v[0] = 4.5e6;
+        v[1] = 4.5e6 / 1.3;
+        owned_at(&r, N, owned);
+        CHECK(step(&r, owned, v), "no cut at the first uneven evaluation when a cut costs nothing");
+    }
+    { /* 10% slower: cuts would gain under 5%; never, even at no cost */
+        run r = start(2, 0.0);
         v[0] = 4e6;
         v[1] = 4e6 / 1.1;
         for (k = 0, cuts = 0; k < 20; ++k) {
@@ -101,16 +141,20 @@ int main(void) {
         }
         CHECK(cuts == 0, "a 10%% slower rank cut %d times", cuts);
     }
-    { /* uneven, uneven, even, uneven, uneven: no streak of three */
-        run r = start(2);
+    { /* uneven and even in turn (noise): the loss halves at each even
+       * evaluation and never reaches 3.5 evaluations' worth; unevenness
+       * that then lasts does */
+        run r = start(2, 0.0);
         const double slow[2] = {4e6, 4e6 / 1.4}, even[2] = {4e6, 4e6};
         owned_at(&r, N, owned);
-        cuts = step(&r, owned, slow) + step(&r, owned, slow) + step(&r, owned, even);
-        cuts += step(&r, owned, slow) + step(&r, owned, slow);
-        CHECK(cuts == 0, "cut without three uneven evaluations in a row");
+        r.cost = 3.5 * loss_of(owned, slow, 2);
+        for (k = 0, cuts = 0; k < 20; ++k) cuts += step(&r, owned, slow) + step(&r, owned, even);
+        CHECK(cuts == 0, "noise cut %d times", cuts);
+        for (k = 0, cuts = 0; k < 4 && !cuts; ++k) cuts = step(&r, owned, slow);
+        CHECK(cuts, "lasting unevenness after noise: no cut");
     }
     { /* parts of a few milliseconds: noise */
-        run r = start(2);
+        run r = start(2, 0.0);
         v[0] = 4e6;
         v[1] = 1e6;
         for (k = 0, cuts = 0; k < 20; ++k) {
@@ -121,10 +165,11 @@ int main(void) {
         CHECK(cuts == 0, "parts under 5 ms cut %d times", cuts);
     }
     { /* a rank 10 times slower: the bounds, then no rebuild for the same cuts */
-        run r = start(2);
+        run r = start(2, 0.0);
         v[0] = 4e6;
         v[1] = 4e5;
         owned_at(&r, N, owned);
+        r.cost = 2.5 * loss_of(owned, v, 2);
         cuts = step(&r, owned, v) + step(&r, owned, v) + step(&r, owned, v);
         CHECK(cuts == 1 && r.current[1] > 1.0 / 11.0 + 0.02 && r.current[1] < 0.125,
               "shares %.4f %.4f: expected the slow rank raised towards a quarter of an equal share", r.current[0],
@@ -136,15 +181,16 @@ int main(void) {
         CHECK(cuts == 0, "the same bounded cuts rebuilt %d times", cuts);
     }
     { /* four ranks, one twice as slow; a rank that owns nothing has no speed measured */
-        run r = start(4);
+        run r = start(4, 0.0);
         for (k = 0; k < 4; ++k) v[k] = 4e6;
         v[2] = 2e6;
         owned_at(&r, N, owned);
+        r.cost = 2.5 * loss_of(owned, v, 4);
         cuts = step(&r, owned, v) + step(&r, owned, v) + step(&r, owned, v);
         CHECK(cuts == 1 && fabs(r.current[2] - 1.0 / 7.0) < 1e-12 && fabs(r.current[0] - 2.0 / 7.0) < 1e-12,
               "four ranks: shares %.6f %.6f %.6f %.6f, expected 2/7 2/7 1/7 2/7", r.current[0], r.current[1],
               r.current[2], r.current[3]);
-        r = start(4);
+        r = start(4, 0.0);
         owned[0] = owned[1] = owned[2] = N / 3.0;
         owned[3] = 0.0;
         for (k = 0; k < 4; ++k) v[k] = 4e6;
@@ -154,9 +200,6 @@ int main(void) {
         CHECK(cuts == 0 && r.speed[3] == 0.0, "a rank without slaves: %d cuts, speed %g", cuts, r.speed[3]);
         r.current[0] = r.current[1] = r.current[2] = 0.3;
         r.current[3] = 0.1;
-        r.streak = 0; /* (the ten steps above left one) */
-        cuts = step(&r, owned, v) + step(&r, owned, v);
-        CHECK(cuts == 0, "cut before three uneven evaluations in a row");
         cuts = step(&r, owned, v);
         CHECK(cuts == 1 && fabs(r.current[3] - 0.25) < 1e-12, "from uneven cuts, an idle rank: %d cuts, share %.6f",
               cuts, r.current[3]);
