@@ -11,6 +11,8 @@
  * (LAYOUT 1): the library's slabs follow either; or dealt in turn, disk b
  * to rank b mod P (LAYOUT 2: no slab can follow the host, so that about
  * half of the contributions go to another rank on 2 ranks).
+ * NTSM_BENCH_STEPS=1: each step's time, and whether it made the parts or
+ * replayed its candidate lists, on stderr.
  * usage: mpi_bench DISKS NODES_PER_DISK REPEATS [THREADS [SKIN [LAYOUT]]] */
 #include <math.h>
 #include <stdio.h>
@@ -109,6 +111,8 @@ int main(int argc, char** argv) {
             rebuilt += r.stats.rebuilt;
             MPI_Barrier(MPI_COMM_WORLD);
             times[rep] = MPI_Wtime() - t0;
+            if (rank == 0 && getenv("NTSM_BENCH_STEPS") != NULL) /* each step's time and whether it rebuilt */
+                fprintf(stderr, "step %d %.4f rebuilt %d replayed %d\n", rep, times[rep], r.stats.rebuilt, r.stats.candidates_replayed);
             for (k = 0; k < 4; ++k) ph[k] += r.stats.seconds[k] / repeats;
         }
         qsort(times, (size_t)repeats, sizeof(double), cmp_double);
