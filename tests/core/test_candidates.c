@@ -5,6 +5,7 @@
  * nodes wrapping across a periodic box, deep contacts and long segments
  * (the widened searches), friction, several threads; and the list is
  * replayed while it holds and built again when it cannot. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -254,6 +255,57 @@ static void test_step_at_the_skin(void) {
     free_packing(&p);
 }
 
+/* A pair that comes closer by nearly what the list allows (eq. (29)) is
+ * found by the replay. A spike's tip (alpha 0: its reach is exact along
+ * its segment's axis) and a diamond's vertex on that axis, r + 1.9 d apart
+ * at the build, each move d towards the other: a gap of r - 0.1 d, which
+ * the replay must find as the search from scratch does. */
+static void test_approach_at_the_limit(void) {
+    test_body* b = (test_body*)calloc(2, sizeof(test_body));
+    const double r = 0.1, skin = 0.03, d = 0.9 * skin / 3.0; /* (eq. (29): 3 + 2 ext + 2 alpha = 3) */
+    const nts_vec2 tip = nts_v2(0.0, 0.0), a = nts_v2(-1.0, 0.05);
+    nts_vec2 u, v, xs, c;
+    nts_scene* s;
+    nts_result res;
+    nts_context* ctx = NULL;
+    walk w;
+    double len;
+    CU_ASSERT_FATAL(b != NULL);
+    len = sqrt((tip.x - a.x) * (tip.x - a.x) + (tip.y - a.y) * (tip.y - a.y));
+    u = nts_v2((tip.x - a.x) / len, (tip.y - a.y) / len); /* the segment tip -> a's axis, outwards */
+    v = nts_v2(-u.y, u.x);
+    xs = nts_mul_add(tip, r + 1.9 * d, u);
+    c = nts_mul_add(xs, 0.15, u);
+    b[0].nodes[0] = tip; /* counter-clockwise: the segment from the tip first */
+    b[0].nodes[1] = a;
+    b[0].nodes[2] = nts_v2(-1.0, -0.05);
+    b[0].node_count = 3;
+    b[1].nodes[0] = xs;
+    b[1].nodes[1] = nts_mul_add(c, -0.15, v);
+    b[1].nodes[2] = nts_mul_add(c, 0.15, u);
+    b[1].nodes[3] = nts_mul_add(c, 0.15, v);
+    b[1].node_count = 4;
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.0, skin);
+    w.o.search_radius = r;
+    walk_step(&w, 1);
+    CU_ASSERT_FATAL(eval_scene(s, &w.o, &res, &ctx) == NTS_OK);
+    ASSERT_INT_EQ(res.summary.gaps, 0); /* r + 1.9 d apart */
+    nts_context_destroy(ctx);
+    ctx = NULL;
+    move(&w, 0, 3, nts_scale(d, u));
+    move(&w, 3, 4, nts_scale(-d, u));
+    walk_step(&w, 1);
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1); /* replayed */
+    CU_ASSERT_FATAL(eval_scene(s, &w.o, &res, &ctx) == NTS_OK);
+    CU_ASSERT(res.summary.gaps > 0); /* r - 0.1 d apart: the walk compared the replay's with it */
+    nts_context_destroy(ctx);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free(b);
+}
+
 /* A list is bound to its scene: another scene, or other options, build it
  * again; clear forgets it. */
 static void test_bound_to_scene_and_options(void) {
@@ -312,6 +364,7 @@ void register_candidates_suite(void) {
     ADD_TEST(s, test_random_walks_friction_threads);
     ADD_TEST(s, test_bodies_from_afar_and_deep);
     ADD_TEST(s, test_step_at_the_skin);
+    ADD_TEST(s, test_approach_at_the_limit);
     ADD_TEST(s, test_bound_to_scene_and_options);
     ADD_TEST(s, test_over_budget_searches_from_scratch);
     ADD_TEST(s, test_folded_loops_in_a_packing);
