@@ -173,19 +173,35 @@ static void free_scene(scene_data* d) {
 
 /* The distributed answer against the whole scene's, at the current positions. */
 static int last_replayed; /* this rank's part replayed its kept candidate list in compare's evaluation */
-static int compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count, const char* what,
-                   unsigned outputs) {
+/* ... with options `opt`, and friction's history h (NULL: none): its
+ * anchors given to both, the reference's answer committed to it. */
+static int compare_with(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count,
+                        const char* what, const nts_options* opt, nts_history* h) {
     nts_context* ctx = nts_context_create();
-    nts_options opt = nts_default_options();
+    nts_options ref_opt = *opt;
     nts_result ref;
     ntsm_result got;
     nts_error err;
+    const unsigned outputs = opt->outputs;
     int k, rc, at = 0, i, rebuilt = -1;
-    opt.outputs = outputs;
-    rc = nts_evaluate(ctx, whole, &opt, &ref, &err);
+    if (h != NULL) {
+        int n = 0;
+        const nts_anchor* anchors = nts_history_anchors(h, &n);
+        CHECK(ntsm_scene_set_history(m, anchors, n) == NTS_OK, "%s: history", what);
+        ref_opt.history = h;
+    }
+    rc = nts_evaluate(ctx, whole, &ref_opt, &ref, &err);
     CHECK(rc == 0, "%s: reference: %s", what, err.message);
-    rc = ntsm_evaluate(m, &opt, &got, &err);
+    rc = ntsm_evaluate(m, opt, &got, &err);
     CHECK(rc == 0, "%s: distributed: %s", what, err.message);
+    if (rc == 0 && h != NULL) {
+        CHECK(memcmp(&got.summary.dissipation, &ref.summary.dissipation, sizeof(double)) == 0 &&
+                  got.summary.sticking == ref.summary.sticking && got.summary.slipping == ref.summary.slipping,
+              "%s: friction: dissipation %.17g vs %.17g, sticking %d vs %d, slipping %d vs %d", what,
+              got.summary.dissipation, ref.summary.dissipation, got.summary.sticking, ref.summary.sticking,
+              got.summary.slipping, ref.summary.slipping);
+        CHECK(nts_history_commit(h, &ref) == NTS_OK, "%s: commit", what);
+    }
     if (rc == 0) {
         rebuilt = got.stats.rebuilt;
         last_sent = got.stats.bytes_sent;
@@ -216,6 +232,13 @@ static int compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const i
     }
     nts_context_destroy(ctx);
     return rebuilt;
+}
+
+static int compare(const scene_data* d, ntsm_scene* m, nts_scene* whole, const int* mine, int count, const char* what,
+                   unsigned outputs) {
+    nts_options opt = nts_default_options();
+    opt.outputs = outputs;
+    return compare_with(d, m, whole, mine, count, what, &opt, NULL);
 }
 
 static void run_case(int count, int periodic, int specials, const char* name) {
@@ -375,6 +398,96 @@ static void run_case(int count, int periodic, int specials, const char* name) {
     free_scene(&d);
 }
 
+/* The parts' kept candidate lists under what a solver's loop changes: two
+ * threads on every rank, friction's history carried from step to step, and
+ * the skin changed mid-run (smaller; 0: parts made every evaluation and no
+ * list; the default again). A random walk of small steps, each bitwise
+ * equal to one process; the lists replayed while the decomposition is kept,
+ * never with a skin of 0. */
+static void kept_lists(int periodic) {
+    const double skins[4] = {-1.0, 0.03, 0.0, -1.0};
+    scene_data d;
+    nts_scene_def def = nts_default_scene_def();
+    nts_scene* whole;
+    ntsm_scene* m;
+    nts_body_def* owned;
+    nts_vec2* mine_pos;
+    nts_history* h = nts_history_create();
+    nts_options opt = nts_default_options();
+    nts_error err;
+    int* ids;
+    int b, k, phase, step, count_mine = 0;
+    char what[96];
+    rng_state = periodic ? 99u : 98u;
+    d = make_scene(periodic ? 100 : 81, periodic);
+    owned = (nts_body_def*)calloc((size_t)d.bodies, sizeof(nts_body_def));
+    ids = (int*)calloc((size_t)d.bodies, sizeof(int));
+    mine_pos = (nts_vec2*)calloc((size_t)d.offset[d.bodies], sizeof(nts_vec2));
+    def.bodies = d.defs;
+    def.body_count = d.bodies;
+    def.lx = d.lx;
+    def.ly = d.ly;
+    whole = nts_scene_create(&def, &err);
+    CHECK(whole != NULL && h != NULL, "kept lists: whole scene: %s", err.message);
+    for (b = 0; b < d.bodies; ++b)
+        if ((7 * b) % size_ == rank_) {
+            owned[count_mine] = d.defs[b];
+            ids[count_mine++] = b;
+        }
+    m = ntsm_scene_create(MPI_COMM_WORLD, owned, ids, count_mine, d.lx, d.ly, nts_default_limits(), &err);
+    CHECK(m != NULL, "kept lists: distributed scene: %s", err.message);
+    opt.threads = 2;
+    opt.friction = 0.3;
+    opt.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+    if (m != NULL && whole != NULL && h != NULL) {
+        double* equal = (double*)malloc(sizeof(double) * (size_t)size_);
+        for (k = 0; k < size_; ++k) equal[k] = 1.0;
+        CHECK(ntsm_scene_set_weights(m, equal) == NTS_OK, "kept lists: equal weights");
+        free(equal);
+        for (phase = 0; phase < 4; ++phase) {
+            int replayed = 0, made = 0, all_replayed;
+            ntsm_scene_set_skin(m, skins[phase]);
+            for (step = 0; step < 5; ++step) {
+                int at = 0;
+                for (k = 0; k < d.offset[d.bodies]; ++k) { /* a walk, and every body slides along x */
+                    d.nodes[k].x += 0.004 * (rnd() - 0.5) + 0.002;
+                    d.nodes[k].y += 0.004 * (rnd() - 0.5);
+                }
+                for (k = 0; k < count_mine; ++k) {
+                    const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
+                    memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
+                    at += n;
+                }
+                CHECK(nts_scene_update_positions(whole, d.nodes, &err) == 0, "kept lists: %s", err.message);
+                CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "kept lists: %s", err.message);
+                snprintf(what, sizeof what, "kept lists (%s), skin %g, step %d", periodic ? "periodic" : "open",
+                         skins[phase], step);
+                made += compare_with(&d, m, whole, ids, count_mine, what, &opt, h) == 1;
+                replayed += last_replayed;
+            }
+            {
+                int n = 0;
+                nts_history_anchors(h, &n);
+                CHECK(n > 0, "kept lists: no friction anchor carried (the history is not exercised)");
+            }
+            MPI_Allreduce(&replayed, &all_replayed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+            if (skins[phase] == 0.0)
+                CHECK(all_replayed == 0 && made == 5, "kept lists: a skin of 0 replayed %d times, made the parts %d times",
+                      all_replayed, made);
+            else /* a new skin makes the parts anew, the next evaluation builds the lists, the others replay them */
+                CHECK(all_replayed >= 3, "kept lists: skin %g: the parts replayed their lists %d times of 5",
+                      skins[phase], all_replayed);
+        }
+    }
+    ntsm_scene_destroy(m);
+    nts_scene_destroy(whole);
+    nts_history_destroy(h);
+    free(owned);
+    free(ids);
+    free(mine_pos);
+    free_scene(&d);
+}
+
 /* A degenerate body on the last rank only: every rank gets its error. */
 static void bad_input(void) {
     nts_vec2 good[8], bad[4] = {{0, 0}, {1, 0}, {1, 0}, {0, 1}};
@@ -494,6 +607,8 @@ int main(int argc, char** argv) {
     run_case(36, 1, 1, "periodic: a mesh, a ring with a hole, a surface, self-contact");
     affinity(1);
     affinity(0);
+    kept_lists(0);
+    kept_lists(1);
     bad_input();
     MPI_Allreduce(&failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
     if (rank_ == 0) printf("%s\n", total == 0 ? "all equal" : "FAILED");
