@@ -127,12 +127,15 @@ static int weights_shares(ntsm_scene* m) {
  * reached what a cut costs, the next evaluation cuts the slabs at them
  * (balance.c). A cut costs about an evaluation that makes the parts: the
  * last one's time (the slowest rank's) stands for it, the making itself
- * and the next evaluation's candidate lists; nothing when the parts are
+ * and the next evaluation's candidate lists; not the scene's first (cold:
+ * its allocations and first touches of memory, twice a warm one here), and
+ * until another is measured, twice the slowest part's time (a made
+ * evaluation costs 1.5 to 1.8 kept ones here); nothing when the parts are
  * made every evaluation (a skin of 0). The same gathered numbers on every
  * rank: the same decision and shares. Collective. */
 static void balance(ntsm_scene* m, double seconds, long long owned, double elapsed) {
     const int P = m->size;
-    double mine[3], *all, *times, *counts, *current, *next, slowest = 0.0;
+    double mine[3], *all, *times, *counts, *current, *next, slowest = 0.0, worst = 0.0, cost;
     int r, fine, every;
     mine[0] = seconds;
     mine[1] = (double)owned;
@@ -155,10 +158,12 @@ static void balance(ntsm_scene* m, double seconds, long long owned, double elaps
         times[r] = all[3 * r];
         counts[r] = all[3 * r + 1];
         slowest = fmax(slowest, all[3 * r + 2]);
+        worst = fmax(worst, times[r]);
         current[r] = m->share_on ? m->share[r] : 1.0 / P;
     }
-    if (m->stats.rebuilt) m->recut_cost = m->skin == 0.0 ? 0.0 : slowest;
-    if (ntsm_balance_step(m->speed, &m->lost, times, counts, P, current, next, m->recut_cost)) {
+    if (m->stats.rebuilt && m->rebuilds > 1) m->recut_cost = slowest; /* (the scene's first is cold: allocations) */
+    cost = m->skin == 0.0 ? 0.0 : m->recut_cost > 0.0 ? m->recut_cost : 2.0 * worst;
+    if (ntsm_balance_step(m->speed, &m->lost, times, counts, P, current, next, cost)) {
         for (r = 0; r < P; ++r) m->share[r] = next[r];
         m->share_on = 1;
         m->rebuild_next = 1;
