@@ -112,7 +112,8 @@ int main(void) {
         }
         CHECK(cuts && r.current[0] < 0.5, "no cut back after the speeds swapped (share %.3f)", r.current[0]);
     }
-    { /* twice the cost: twice the evaluations before the cut */
+    { /* the cut waits until the loss reaches the cost: 2.5 and 4.5
+       * evaluations' loss, a cut at the third and the fifth */
         run r = start(2, 0.0);
         int first = 0, second = 0;
         v[0] = 4.5e6;
@@ -120,7 +121,7 @@ int main(void) {
         owned_at(&r, N, owned);
         r.cost = 2.5 * loss_of(owned, v, 2);
         for (k = 1; k <= 20 && !first; ++k) first = step(&r, owned, v) ? k : 0;
-        r = start(2, 5.0 * loss_of(owned, v, 2));
+        r = start(2, 4.5 * loss_of(owned, v, 2));
         for (k = 1; k <= 20 && !second; ++k) second = step(&r, owned, v) ? k : 0;
         CHECK(first == 3 && second == 5, "cuts at evaluations %d and %d, expected 3 and 5", first, second);
     }
@@ -141,16 +142,19 @@ int main(void) {
         }
         CHECK(cuts == 0, "a 10%% slower rank cut %d times", cuts);
     }
-    { /* uneven and even in turn (noise): the loss halves at each even
-       * evaluation and never reaches 3.5 evaluations' worth; unevenness
-       * that then lasts does */
+    { /* noise: each rank 40% slower in turn; the smoothed speeds lag behind
+       * it, so cuts at them would have cost as often as saved: no cut, the
+       * time lost stays under one evaluation's loss; then a rank slower
+       * for good is cut for within five evaluations */
         run r = start(2, 0.0);
-        const double slow[2] = {4e6, 4e6 / 1.4}, even[2] = {4e6, 4e6};
+        const double slow0[2] = {4e6 / 1.4, 4e6}, slow1[2] = {4e6, 4e6 / 1.4};
         owned_at(&r, N, owned);
-        r.cost = 3.5 * loss_of(owned, slow, 2);
-        for (k = 0, cuts = 0; k < 20; ++k) cuts += step(&r, owned, slow) + step(&r, owned, even);
-        CHECK(cuts == 0, "noise cut %d times", cuts);
-        for (k = 0, cuts = 0; k < 4 && !cuts; ++k) cuts = step(&r, owned, slow);
+        loss = loss_of(owned, slow1, 2);
+        r.cost = 3.5 * loss;
+        for (k = 0, cuts = 0; k < 20; ++k) cuts += step(&r, owned, slow0) + step(&r, owned, slow1);
+        CHECK(cuts == 0 && r.lost < loss, "noise cut %d times, lost %.3g (one evaluation's loss %.3g)", cuts, r.lost,
+              loss);
+        for (k = 0, cuts = 0; k < 5 && !cuts; ++k) cuts = step(&r, owned, slow1);
         CHECK(cuts, "lasting unevenness after noise: no cut");
     }
     { /* parts of a few milliseconds: noise */
