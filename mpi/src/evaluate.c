@@ -123,7 +123,7 @@ static int weights_shares(ntsm_scene* m) {
 /* Balanced by measured time (no host weights): each rank's part took
  * `seconds` for `owned` slaves, and `elapsed` since the evaluation began.
  * When cuts by the ranks' speeds would make the slowest part at least 5%
- * shorter and the time such unevenness has lost since the last cut has
+ * shorter and the time such cuts would have saved since the last cut has
  * reached what a cut costs, the next evaluation cuts the slabs at them
  * (balance.c). A cut costs about an evaluation that makes the parts: the
  * last one's time (the slowest rank's) stands for it, the making itself

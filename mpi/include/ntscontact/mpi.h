@@ -78,11 +78,12 @@ NTS_API void ntsm_scene_set_skin(ntsm_scene* scene, double skin);
 
 /** How many of the surface nodes each rank's slab takes (docs/distributed.md).
  * NULL (the default): equal shares at first, then balanced by measured time:
- * when cuts in proportion to each rank's measured speed would make the
- * slowest part at least 5% shorter and the time such unevenness has lost
- * since the last cut reaches what a cut costs (about an evaluation that
- * makes the parts; nothing with a skin of 0), the slabs are cut anew at
- * those speeds (a core shared with other work, unequal machines). Else
+ * when cuts in proportion to each rank's measured speed (smoothed) would
+ * make the slowest part at least 5% shorter and the time such cuts would
+ * have saved since the last cut reaches what a cut costs (about an
+ * evaluation that makes the parts; nothing with a skin of 0), the slabs
+ * are cut anew at those speeds (a core shared with other work, unequal
+ * machines; noise that moves between the ranks does not cut). Else
  * `weights` (one for each rank of the communicator, positive and finite):
  * each rank's relative speed, fixed (all equal: equal shares, never moved).
  * Call it on every rank with the same values (an evaluation checks:
