@@ -57,11 +57,15 @@ int ntsm_balance_step(double* speed, double* lost, const double* seconds, const 
     }
     mean /= n; /* (a rank that owned nothing counts at the others' mean) */
     /* What cuts at the speeds known before this evaluation (smoothed) would
-     * have saved in it, at the speeds it measured: an unevenness that lasts
-     * adds up; noise, which the smoothed speeds lag behind, saves as often
-     * as it costs. (A rank not measured before: at its speed now.) */
+     * have saved in it against the cuts in place, both at the speeds it
+     * measured (both of the same model: what the slaves owned now differ
+     * from the shares by, the cuts' rounding and the nodes' drift, no cut
+     * saves): an unevenness that lasts adds up; noise, which the smoothed
+     * speeds lag behind, saves as often as it costs. (A rank not measured
+     * before: at its speed now.) */
     cuts_at(speed, seconds, owned, P, 1, mean, share);
-    *lost = fmax(0.0, *lost + worst - slowest_at(share, slaves, speed, seconds, owned, P, 0, mean));
+    *lost = fmax(0.0, *lost + slowest_at(current, slaves, speed, seconds, owned, P, 0, mean) -
+                          slowest_at(share, slaves, speed, seconds, owned, P, 0, mean));
     for (r = 0; r < P; ++r) /* smoothed: a rank's speed changes over seconds, not one evaluation */
         if (owned[r] > 0.0 && seconds[r] > 0.0)
             speed[r] = speed[r] > 0.0 ? 0.5 * speed[r] + 0.5 * owned[r] / seconds[r] : owned[r] / seconds[r];

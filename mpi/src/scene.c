@@ -315,6 +315,7 @@ int ntsm_scene_set_weights(ntsm_scene* m, const double* weights) {
     m->weights = NULL;
     m->share_on = 0; /* equal shares until the next evaluation says otherwise */
     m->lost = 0.0;
+    if (m->speed != NULL) memset(m->speed, 0, sizeof(double) * (size_t)m->size); /* (measured anew) */
     m->built = 0;    /* the next evaluation cuts the slabs anew */
     if (weights == NULL) return NTS_OK;
     if ((m->weights = (double*)malloc(sizeof(double) * (size_t)m->size)) == NULL) return NTS_ENOMEM;

@@ -157,6 +157,35 @@ int main(void) {
         for (k = 0, cuts = 0; k < 5 && !cuts; ++k) cuts = step(&r, owned, slow1);
         CHECK(cuts, "lasting unevenness after noise: no cut");
     }
+    { /* equal speeds, the slaves owned off the shares (the cuts' rounding,
+       * the nodes' drift in a kept decomposition): no cut saves that, no
+       * time is lost */
+        run r = start(2, 0.1);
+        v[0] = v[1] = 4e6;
+        owned[0] = 0.52 * N;
+        owned[1] = 0.48 * N;
+        for (k = 0, cuts = 0; k < 100; ++k) cuts += step(&r, owned, v);
+        CHECK(cuts == 0 && r.lost == 0.0, "owned 52:48 at equal speeds: %d cuts, lost %.3g", cuts, r.lost);
+    }
+    { /* a rank 15% slower (cuts 7% better): cut, at the speeds' ratio; the
+       * speeds smoothed half and half */
+        run r = start(2, 0.0);
+        v[0] = 4e6;
+        v[1] = 4e6 / 1.15;
+        owned_at(&r, N, owned);
+        r.cost = 2.5 * loss_of(owned, v, 2);
+        for (k = 1, cuts = 0; k <= 3 && !cuts; ++k) cuts = step(&r, owned, v);
+        CHECK(cuts && k == 4 && fabs(r.current[0] - 1.15 / 2.15) < 1e-12, "15%% slower: cut %d at %d, share %.6f",
+              cuts, k - 1, r.current[0]);
+        r = start(2, 1.0);
+        owned_at(&r, N, owned);
+        v[1] = 4e6;
+        step(&r, owned, v);
+        v[0] = 2e6;
+        step(&r, owned, v);
+        CHECK(r.speed[0] == 0.5 * 4e6 + 0.5 * 2e6 && r.speed[1] == 4e6, "smoothed speeds %.9g %.9g", r.speed[0],
+              r.speed[1]);
+    }
     { /* parts of a few milliseconds: noise */
         run r = start(2, 0.0);
         v[0] = 4e6;
