@@ -186,6 +186,16 @@ int main(void) {
         CHECK(r.speed[0] == 0.5 * 4e6 + 0.5 * 2e6 && r.speed[1] == 4e6, "smoothed speeds %.9g %.9g", r.speed[0],
               r.speed[1]);
     }
+    { /* one evaluation 12% uneven after even ones, at no cost: the smoothed
+       * speeds barely moved (cuts at them gain under 5%), no cut */
+        run r = start(2, 0.0);
+        v[0] = v[1] = 4e6;
+        owned_at(&r, N, owned);
+        for (k = 0, cuts = 0; k < 10; ++k) cuts += step(&r, owned, v);
+        v[1] = 4e6 / 1.12;
+        cuts += step(&r, owned, v);
+        CHECK(cuts == 0, "one uneven evaluation after even ones cut %d times", cuts);
+    }
     { /* parts of a few milliseconds: noise */
         run r = start(2, 0.0);
         v[0] = 4e6;
