@@ -2,7 +2,6 @@
 #include "balance.h"
 
 #include <math.h>
-#include <stddef.h>
 
 /* Rank r's speed (slaves a second): the smoothed one (smooth != 0), else
  * what this evaluation measured; either, when the rank has none, the
@@ -31,6 +30,15 @@ static void cuts_at(const double* speed, const double* seconds, const double* ow
     for (r = 0; r < P; ++r) share[r] /= total;
 }
 
+/* The smoothed speeds take this evaluation's: a rank's speed changes over
+ * seconds, not one evaluation. */
+static void smooth_speeds(double* speed, const double* seconds, const double* owned, int P) {
+    int r;
+    for (r = 0; r < P; ++r)
+        if (owned[r] > 0.0 && seconds[r] > 0.0)
+            speed[r] = speed[r] > 0.0 ? 0.5 * speed[r] + 0.5 * owned[r] / seconds[r] : owned[r] / seconds[r];
+}
+
 /* The slowest part's time, rank r's share of `slaves` at its speed. */
 static double slowest_at(const double* share, double slaves, const double* speed, const double* seconds,
                          const double* owned, int P, int smooth, double mean) {
@@ -50,9 +58,7 @@ int ntsm_balance_step(double* speed, double* lost, const double* seconds, const 
         if (owned[r] > 0.0 && seconds[r] > 0.0) mean += owned[r] / seconds[r], ++n;
     }
     if (P < 2 || n == 0 || !(worst >= NTSM_BALANCE_MIN_SECONDS)) { /* noise, or nothing to say */
-        for (r = 0; r < P; ++r) /* (the speeds still follow) */
-            if (owned[r] > 0.0 && seconds[r] > 0.0)
-                speed[r] = speed[r] > 0.0 ? 0.5 * speed[r] + 0.5 * owned[r] / seconds[r] : owned[r] / seconds[r];
+        smooth_speeds(speed, seconds, owned, P); /* (the speeds still follow) */
         return 0;
     }
     mean /= n; /* (a rank that owned nothing counts at the others' mean) */
@@ -66,9 +72,7 @@ int ntsm_balance_step(double* speed, double* lost, const double* seconds, const 
     cuts_at(speed, seconds, owned, P, 1, mean, share);
     *lost = fmax(0.0, *lost + slowest_at(current, slaves, speed, seconds, owned, P, 0, mean) -
                           slowest_at(share, slaves, speed, seconds, owned, P, 0, mean));
-    for (r = 0; r < P; ++r) /* smoothed: a rank's speed changes over seconds, not one evaluation */
-        if (owned[r] > 0.0 && seconds[r] > 0.0)
-            speed[r] = speed[r] > 0.0 ? 0.5 * speed[r] + 0.5 * owned[r] / seconds[r] : owned[r] / seconds[r];
+    smooth_speeds(speed, seconds, owned, P);
     /* A cut at the speeds known now: new cuts (not the ones in place, as
      * the shares at their bounds can be), worth it at those speeds, and the
      * time lost since the last cut has reached its cost (rent, then buy). */

@@ -16,9 +16,10 @@
  * 0 when every evaluation makes them anyway). speed[P] (each rank's slaves
  * a second, smoothed; 0: not measured yet) and *lost carry over between
  * evaluations: the seconds that cuts at the smoothed speeds would have
- * saved since the last cut (each evaluation's at its own speeds; never
- * below 0). Returns 1 when the slabs should be cut anew at share[P]
- * (written then), 0 else: when such cuts differ from the ones in place,
+ * saved against the cuts in place since the last cut (each evaluation's
+ * at its own speeds; never below 0). share[P] is scratch. Returns 1 when
+ * the slabs should be cut anew at share[P], 0 else: when such cuts differ
+ * from the ones in place,
  * would make the slowest part at least NTSM_BALANCE_GAIN shorter at the
  * smoothed speeds, and the time lost has reached the cost (a rent-or-buy
  * rule: never more than twice the time of the best schedule of cuts, for

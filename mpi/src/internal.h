@@ -115,9 +115,9 @@ struct ntsm_scene {
     /* The slabs' shares of the surface nodes (slabs.c): the host's fixed
      * weights (NULL: balanced by measured time), the shares the slabs are
      * cut at (NULL: equal), each rank's measured speed (owned slaves a
-     * second, smoothed), the seconds the uneven evaluations lost since the
-     * last cut, and what a cut costs (the last evaluation that made the
-     * parts, measured; balance.h). */
+     * second, smoothed), the seconds cuts at those speeds would have saved
+     * since the last cut, and what a cut costs (the last warm evaluation
+     * that made the parts, measured; 0: none yet; evaluate.c, balance.h). */
     double* weights;
     double* share; /* (size doubles, kept; used when share_on) */
     int share_on;

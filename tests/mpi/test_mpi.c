@@ -171,6 +171,18 @@ static void free_scene(scene_data* d) {
     free(d->offset);
 }
 
+/* This rank's bodies' nodes of `all` (every body's, body after body), in
+ * its order, into mine; how many. */
+static int mine_of(const scene_data* d, const int* ids, int count, const nts_vec2* all, nts_vec2* mine) {
+    int k, at = 0;
+    for (k = 0; k < count; ++k) {
+        const int n = d->offset[ids[k] + 1] - d->offset[ids[k]];
+        memcpy(mine + at, all + d->offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
+        at += n;
+    }
+    return at;
+}
+
 /* The distributed answer against the whole scene's, at the current positions. */
 static int last_replayed; /* this rank's part replayed its kept candidate list in compare's evaluation */
 /* ... with options `opt`, and friction's history h (NULL: none): its
@@ -283,16 +295,12 @@ static void run_case(int count, int periodic, int specials, const char* name) {
          * step past the skin: the same bits either way. */
         for (step = 0; step < 6; ++step) {
             const double amp = step == 5 ? 0.2 : 0.004;
-            int at = 0, r2;
+            int r2;
             for (k = 0; k < d.offset[d.bodies]; ++k) {
                 d.nodes[k].x += amp * (rnd() - 0.5);
                 d.nodes[k].y += amp * (rnd() - 0.5);
             }
-            for (k = 0; k < count_mine; ++k) {
-                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
-                memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
-                at += n;
-            }
+            mine_of(&d, ids, count_mine, d.nodes, mine_pos);
             CHECK(nts_scene_update_positions(whole, d.nodes, &err) == 0, "%s: walk: %s", name, err.message);
             CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "%s: walk: %s", name, err.message);
             snprintf(what, sizeof what, "%s, walk %d", name, step);
@@ -313,13 +321,8 @@ static void run_case(int count, int periodic, int specials, const char* name) {
         {
             /* a NaN on the last rank only: every rank refuses the update and
              * keeps the positions it had (the next answer is the old one's) */
-            int at = 0, n_mine = 0, rc2;
-            for (k = 0; k < count_mine; ++k) {
-                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
-                memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
-                at += n;
-            }
-            n_mine = at;
+            const int n_mine = mine_of(&d, ids, count_mine, d.nodes, mine_pos);
+            int rc2;
             if (rank_ == size_ - 1 && n_mine > 0) mine_pos[n_mine - 1].x = NAN;
             for (k = 0; k < n_mine; ++k) mine_pos[k].y += 0.01; /* the others' would move */
             rc2 = ntsm_scene_update_positions(m, mine_pos, &err);
@@ -371,17 +374,12 @@ static void run_case(int count, int periodic, int specials, const char* name) {
             /* every body moves a third of the scene along x and turns a
              * little: most cross a rank (and the box's edge when periodic) */
             const double shift = step * 0.37 * sqrt((double)count), turn = 0.01 * step;
-            int at = 0;
             for (k = 0; k < d.offset[d.bodies]; ++k) {
                 const nts_vec2 p = d.nodes[k];
                 moved[k].x = p.x * cos(turn) - p.y * sin(turn) + shift;
                 moved[k].y = p.x * sin(turn) + p.y * cos(turn);
             }
-            for (k = 0; k < count_mine; ++k) {
-                const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
-                memcpy(mine_pos + at, moved + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
-                at += n;
-            }
+            mine_of(&d, ids, count_mine, moved, mine_pos);
             CHECK(nts_scene_update_positions(whole, moved, &err) == 0, "%s: move: %s", name, err.message);
             CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "%s: move: %s", name, err.message);
             snprintf(what, sizeof what, "%s, moved %d", name, step);
@@ -448,16 +446,11 @@ static void kept_lists(int periodic) {
             int replayed = 0, made = 0, all_replayed;
             ntsm_scene_set_skin(m, skins[phase]);
             for (step = 0; step < 5; ++step) {
-                int at = 0;
                 for (k = 0; k < d.offset[d.bodies]; ++k) { /* a walk, and every body slides along x */
                     d.nodes[k].x += 0.004 * (rnd() - 0.5) + 0.002;
                     d.nodes[k].y += 0.004 * (rnd() - 0.5);
                 }
-                for (k = 0; k < count_mine; ++k) {
-                    const int n = d.offset[ids[k] + 1] - d.offset[ids[k]];
-                    memcpy(mine_pos + at, d.nodes + d.offset[ids[k]], sizeof(nts_vec2) * (size_t)n);
-                    at += n;
-                }
+                mine_of(&d, ids, count_mine, d.nodes, mine_pos);
                 CHECK(nts_scene_update_positions(whole, d.nodes, &err) == 0, "kept lists: %s", err.message);
                 CHECK(ntsm_scene_update_positions(m, mine_pos, &err) == 0, "kept lists: %s", err.message);
                 snprintf(what, sizeof what, "kept lists (%s), skin %g, step %d", periodic ? "periodic" : "open",
