@@ -157,7 +157,9 @@ def test_context_manager_deletes(client, daemon, paths):
         s.contact()
 
 
-def test_bad_positions_are_refused_before_sending(client, paths, daemon):
+def test_bad_positions_are_refused(client, paths, daemon):
+    """Shapes refused by the client, a non-finite position by the service
+    (code and pointer alike): no step counted, the stored positions kept."""
     scene = load(paths, "two_disks")
     pos = positions_of(scene)
     with client.session(scene) as s:
@@ -170,6 +172,7 @@ def test_bad_positions_are_refused_before_sending(client, paths, daemon):
         with pytest.raises(InvalidScene) as e:
             s.contact(bad)
         assert e.value.code == "non_finite" and e.value.pointer == "/positions/7"
+        assert np.array_equal(s.positions(), pos)
         with pytest.raises(InvalidScene):
             s.contact({scene["bodies"][0]["id"]: pos[:3]})
         with pytest.raises(KeyError):
@@ -183,23 +186,31 @@ def test_bad_positions_are_refused_before_sending(client, paths, daemon):
         assert e.value.code == "invalid_option" and e.value.pointer == "/options/alpha"
 
 
-def test_binary_answers_keep_one_connection(client, paths):
+@pytest.mark.parametrize("wire", [True, False])
+def test_binary_answers_keep_one_connection(daemon, paths, wire):
     """A binary answer is read whole (one read of its Content-Length, not
-    requests' 10 kB chunks) and its connection goes back to the pool: 30
-    binary steps, a JSON one between, over one connection; the answer stays
-    the full call's."""
+    requests' 10 kB chunks) over one kept connection: the client's own
+    (``wire``, the default for http://) or urllib3's pool's. 30 binary steps,
+    a JSON one between, the session made and deleted, over one connection;
+    the answer stays the full call's."""
     scene = json.loads((paths.examples / "two_disks.json").read_text())
-    with client.session(scene) as s:
-        x = s.positions()
-        for k in range(30):
-            res = s.contact(x + 1e-6 * k, outputs=["forces"])
-            assert res.raw == {}  # the binary answer
-            if k == 15:
-                s.contact(x, outputs=["forces", "contacts"])
-        full = client.contact(with_positions(scene, x + 1e-6 * 29), outputs=["forces"])
-        assert np.array_equal(res.force_array(), full.force_array())
-    pools = client.http.adapters["http://"].poolmanager.pools
-    assert [pools[k].num_connections for k in pools.keys()] == [1]
+    with Client(daemon.base, timeout=60, wire=wire) as client:
+        with client.session(scene) as s:
+            x = s.positions()
+            for k in range(30):
+                res = s.contact(x + 1e-6 * k, outputs=["forces"])
+                assert res.raw == {}  # the binary answer
+                if k == 15:
+                    s.contact(x, outputs=["forces", "contacts"])
+            full = client.contact(with_positions(scene, x + 1e-6 * 29), outputs=["forces"])
+            assert np.array_equal(res.force_array(), full.force_array())
+        pools = client.http.adapters["http://"].poolmanager.pools
+        in_pool = [pools[k].num_connections for k in pools.keys()]
+        if wire:
+            assert client._wire is not None and client._wire.connections == 1
+            assert client._wire.exchanges == 30 + 1 + 1 + 2 and in_pool == []
+        else:
+            assert client._wire is None and in_pool == [1]
 
 
 def test_a_binary_answers_per_body_forces(client, paths):

@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 from urllib.parse import urlencode, urljoin
 
 import requests
 import urllib3
 from requests.adapters import HTTPAdapter
-from requests.cookies import extract_cookies_to_jar
+from requests.cookies import MockRequest, extract_cookies_to_jar
 from requests.structures import CaseInsensitiveDict
 from urllib3.util import parse_url
 from urllib3.util.retry import Retry
 
 from . import __version__
+from ._wire import Wire, WireError, WireTimeout
 from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
 from .result import Result
 from .scene import Scene, normalize_outputs
@@ -37,7 +38,7 @@ class Answer:
 
     status_code: int
     headers: Mapping[str, str]
-    content: bytes
+    content: Union[bytes, bytearray]
 
     @property
     def text(self) -> str:
@@ -46,6 +47,19 @@ class Answer:
     def json(self) -> Any:
         """The body as JSON (ValueError when it is not)."""
         return json.loads(self.content)
+
+
+class _SetCookies:
+    """An answer's Set-Cookie values as http.cookiejar reads a response."""
+
+    def __init__(self, values: List[str]) -> None:
+        self._values = values
+
+    def info(self) -> "_SetCookies":
+        return self
+
+    def get_all(self, name: str, default: Optional[List[str]] = None) -> List[str]:
+        return list(self._values) if name.lower() == "set-cookie" else (default or [])
 
 
 def _urllib3_timeout(t: Optional[TimeoutLike]) -> urllib3.Timeout:
@@ -88,6 +102,7 @@ class Client:
         http: Optional[requests.Session] = None,
         token: Optional[str] = None,
         verify: Union[bool, str] = True,
+        wire: bool = True,
     ) -> None:
         self.base_url = base_url.rstrip("/")
         self.timeout = timeout
@@ -116,11 +131,18 @@ class Client:
         if token is not None:  # the daemon's --token-file
             self.http.headers["Authorization"] = f"Bearer {token}"
         self.http.verify = verify  # for https: True, or the path of a CA bundle / the daemon's certificate
+        #: Calls to a plain http:// service on a kept connection of our own
+        #: (``_wire``), when requests' machinery is not needed; False: urllib3's pool.
+        self.wire = wire
+        self._wire: Optional[Wire] = None
 
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
         """Close the HTTP connection pool (``with Client(...)`` does it on exit)."""
+        if self._wire is not None:
+            with self._wire.lock:
+                self._wire.close()
         self.http.close()
 
     def __enter__(self) -> "Client":
@@ -225,22 +247,46 @@ class Client:
             self._base = (self.base_url, self._prepared_for(self.base_url + "/"), u.path or "", bool(u.auth))
         return self._base
 
-    def _pool(self, url: str) -> Optional[urllib3.HTTPConnectionPool]:
-        """The connection pool of requests' own adapter for ``url``, when none
-        of requests' per-call machinery is in play (no proxies or environment,
-        auth, params, hooks, cookies, credentials in the URL, or an adapter of
-        the caller's): then a call goes to it directly, the same pool,
-        retries, TLS settings and headers, without requests' 1 ms a call of
-        merging and hooks (a third of a session step at 66k nodes,
-        docs/benchmarks.md). None: through requests."""
+    def _direct(self, url: str) -> bool:
+        """Whether none of requests' per-call machinery is in play for ``url``
+        (no proxies or environment, auth, params, hooks, cookies, credentials
+        in the URL, or an adapter of the caller's): then a call may skip
+        requests' 1 ms of merging and hooks (a third of a session step at 66k
+        nodes, docs/benchmarks.md)."""
         h = self.http
         adapter = h.get_adapter(url)
-        _, prepared, _, credentials = self._base_parts()
-        if (adapter is not self._adapter or h.trust_env or h.proxies or h.auth is not None or len(h.cookies) > 0
-                or h.params or any(h.hooks.values()) or credentials
-                or not hasattr(adapter, "get_connection_with_tls_context")):
+        credentials = self._base_parts()[3]
+        return not (adapter is not self._adapter or h.trust_env or h.proxies or h.auth is not None
+                    or len(h.cookies) > 0 or h.params or any(h.hooks.values()) or credentials
+                    or not hasattr(adapter, "get_connection_with_tls_context"))
+
+    def _pool(self, url: str) -> Optional[urllib3.HTTPConnectionPool]:
+        """The connection pool of requests' own adapter for ``url`` when the
+        call may be direct: the same pool, retries, TLS settings and headers.
+        None: through requests."""
+        if not self._direct(url):
             return None
-        return adapter.get_connection_with_tls_context(prepared, h.verify, None, h.cert)
+        h = self.http
+        return self._adapter.get_connection_with_tls_context(self._base_parts()[1], h.verify, None, h.cert)
+
+    def _wire_for(self, url: str) -> Optional[Wire]:
+        """Our own kept connection (``_wire``) for a plain http:// service
+        when the call may be direct: about 0.1 ms a call on loopback where
+        urllib3's is 0.7 (docs/benchmarks.md). None: the pool or requests."""
+        if not self.wire or not url.startswith("http://") or not self._direct(url):
+            return None
+        w = self._wire
+        if w is None or w.base_url != self.base_url:
+            if w is not None:
+                with w.lock:
+                    w.close()
+            u = parse_url(self.base_url)
+            host = (u.host or "").strip("[]")
+            retry = self._adapter.max_retries
+            w = self._wire = Wire(host, u.port or 80, retries=int(retry.connect or 0),
+                                  backoff=float(retry.backoff_factor), netloc=u.netloc)
+            w.base_url = self.base_url
+        return w
 
     @staticmethod
     def _prepared_for(url: str) -> requests.PreparedRequest:
@@ -254,13 +300,24 @@ class Client:
 
     def _send(self, method: str, path: str, *, body: Optional[BodyLike] = None,
               headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
-              timeout: Optional[TimeoutLike] = None) -> Answer:
+              timeout: Optional[TimeoutLike] = None, while_waiting: Optional[Callable[[], None]] = None) -> Answer:
         """One call, its answer read whole (one read of its Content-Length, not
         requests' 10 kB chunks), the connection back to the pool. A failure
         to connect or to hear back raises :class:`ServiceUnavailable`,
-        :class:`Timeout` or :class:`TLSError`; an HTTP status is the caller's."""
+        :class:`Timeout` or :class:`TLSError`; an HTTP status is the caller's.
+        ``while_waiting``: the caller's work, called once, while the service
+        computes the answer when the call is on our own connection, else
+        before the call."""
         url = self.base_url + path
         t = self.timeout if timeout is None else timeout
+        wire = self._wire_for(url)
+        if wire is not None and wire.lock.acquire(blocking=False):  # (busy: another thread's call; the pool)
+            try:
+                return self._send_wire(wire, method, url, path, body, headers, params, t, while_waiting)
+            finally:
+                wire.lock.release()
+        if while_waiting is not None:
+            while_waiting()
         try:
             pool = self._pool(url)
             if pool is None:
@@ -304,14 +361,42 @@ class Client:
         except (requests.RequestException, urllib3.exceptions.HTTPError) as exc:
             raise NtsError(f"{method} {url}: {exc}", code="request_failed") from exc
 
+    def _send_wire(self, wire: Wire, method: str, url: str, path: str, body: Optional[BodyLike],
+                   headers: Optional[Mapping[str, str]], params: Optional[Mapping[str, str]],
+                   t: Optional[TimeoutLike], while_waiting: Optional[Callable[[], None]] = None) -> Answer:
+        """:meth:`_send` on our own connection: the same headers, cookies and
+        redirects as the pool's path, the same errors."""
+        merged = CaseInsensitiveDict(self.http.headers)
+        merged.update(headers or {})
+        target = (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
+        connect_t, read_t = t if isinstance(t, tuple) else (t, t)
+        try:
+            status, hdrs, content, cookies = wire.exchange(method, target, merged, body, connect_t, read_t,
+                                                           while_waiting)
+        except WireTimeout as exc:
+            raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
+        except WireError as exc:
+            what = "cannot connect" if exc.connect else "cannot connect, or the answer was cut"
+            raise ServiceUnavailable(f"{method} {url}: {what} ({exc})", code="unreachable") from exc
+        if cookies:  # kept as requests keeps them: later calls go through requests
+            self.http.cookies.extract_cookies(_SetCookies(cookies), MockRequest(self._prepared_for(url)))
+        location = hdrs.get("location") if status in (301, 302, 303, 307, 308) else None
+        if location:  # followed by requests, as the pool's path does
+            to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
+            return self._via_requests("GET" if to_get else method, urljoin(url, location),
+                                      None if to_get else body, headers, None, t)
+        return Answer(status, hdrs, content)
+
     def _call(self, method: str, path: str, *, body: Optional[BodyLike] = None,
               headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
               timeout: Optional[TimeoutLike] = None, body_ids: Optional[List[Any]] = None, expect_json: bool = True,
-              empty_ok: bool = False) -> Tuple[Dict[str, Any], Answer]:
+              empty_ok: bool = False, while_waiting: Optional[Callable[[], None]] = None
+              ) -> Tuple[Dict[str, Any], Answer]:
         """A call and its answer: a 4xx or 5xx raised as the service's error
         (its body's ids name the bodies), else the JSON object it carries
         (``{}`` when no JSON is expected, or for a 204 when ``empty_ok``)."""
-        resp = self._send(method, path, body=body, headers=headers, params=params, timeout=timeout)
+        resp = self._send(method, path, body=body, headers=headers, params=params, timeout=timeout,
+                          while_waiting=while_waiting)
         if resp.status_code >= 400:
             try:
                 doc = resp.json()

@@ -35,7 +35,7 @@ import json
 import os
 import threading
 from pathlib import Path
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 from . import __version__
 from .client import Client, SceneLike
@@ -357,7 +357,8 @@ class EngineSession(Session):
                 "memory_bytes": memory}
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any]) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
+                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """One step in the library: the positions read in place, the binary
         answer's forces given back as a view of the library's memory."""
         names = (ctypes.c_char_p * max(1, len(params)))(*(k.encode() for k in params))

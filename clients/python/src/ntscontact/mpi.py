@@ -33,7 +33,7 @@ import dataclasses
 import json
 import os
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -226,7 +226,8 @@ class DistributedSession(Session):
                 "steps": self.steps, "rank": self.comm.Get_rank(), "ranks": self.comm.Get_size()}
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any]) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
+                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         if self._closed or not self._handle:
             raise NtsError("the session is closed", code="closed")
         outputs = 0

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import warnings as _warnings
-from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -182,9 +182,10 @@ class Session:
                 raise InvalidScene(f"positions of shape {arr.shape}, expected ({self.nodes}, 2): every node, "
                                    "bodies in scene order, nodes in body order", code="invalid_value",
                                    pointer="/positions")
-        if not np.isfinite(arr).all():  # then find the first bad one (the common case pays one pass)
-            k = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
-            raise InvalidScene(f"position {k} is not finite", code="non_finite", pointer=f"/positions/{k}")
+        # Not read here for non-finite values: the service reads every position
+        # and refuses those with the same code and pointer ("non_finite",
+        # /positions/k), and a second pass here cost a quarter of a step's
+        # wall time at 66k nodes (docs/benchmarks.md).
         return np.ascontiguousarray(arr, dtype="<f8")
 
     # ------------------------------------------------------------ steps
@@ -226,11 +227,18 @@ class Session:
         # and the summary): the step's outputs, else the scene's.
         wanted = set(outs) if outs is not None else set(self._scene_outputs)
         binary = wanted <= _BINARY_OUTPUTS
-        # This step's own copy: the caller may move its array on, and another
-        # thread's step may replace the stored positions meanwhile.
-        stored = pos.astype("<f8", copy=True) if pos is not None else self._positions
-        # (the step sends the stored copy: the same numbers, one copy fewer)
-        doc, headers, content = self._post_step(stored if pos is not None else None, params, binary, timeout)
+        # This step's own copy (the caller may move its array on, and another
+        # thread's step may replace the stored positions meanwhile), made
+        # while the service computes: the step sends the caller's array.
+        copies: List[FloatArray] = []
+
+        def keep_copy() -> None:
+            if pos is not None and not copies:
+                copies.append(pos.astype("<f8", copy=True))
+
+        doc, headers, content = self._post_step(pos, params, binary, timeout, keep_copy)
+        keep_copy()  # (a path that did not call it)
+        stored = copies[0] if pos is not None else self._positions
         if pos is not None:
             self._positions = stored
         self.steps += 1
@@ -241,9 +249,11 @@ class Session:
         return result.warn()
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any]) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
+                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """``POST /v1/scenes/{id}/contact``: the JSON answer, or the binary
-        answer's headers and bytes."""
+        answer's headers and bytes; ``while_waiting`` called while the
+        service computes (or before)."""
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
@@ -258,7 +268,8 @@ class Session:
             data = memoryview(send).cast("B") if send is not None else b""
             try:
                 doc, resp = self._request("POST", f"/v1/scenes/{self.id}/contact", data=data, headers=headers,
-                                          params=params, timeout=timeout, expect_json=not binary)
+                                          params=params, timeout=timeout, expect_json=not binary,
+                                          while_waiting=while_waiting)
                 return doc, resp.headers, resp.content
             except NtsError as exc:
                 if attempt < 2 and exc.status == 404 and exc.code == "unknown_scene":
@@ -289,6 +300,7 @@ class Session:
             raise ServerError(f"a binary answer of {len(body)} bytes, expected {size}",
                               code="bad_response", status=200)
         forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
+        forces.flags.writeable = False  # the answer's own buffer (a bytearray from the wire)
         triplets = None
         if stiffness and not count:
             # Asked for, and no contact active: the empty 2N x 2N tangent, as
@@ -332,8 +344,9 @@ class Session:
 
     def _request(self, method: str, path: str, *, data: Optional[Union[bytes, memoryview]] = None,
                  headers: Optional[Dict[str, str]] = None, params: Optional[Dict[str, str]] = None,
-                 timeout: Optional[Any] = None, expect_json: bool = True) -> Tuple[Dict[str, Any], Answer]:
+                 timeout: Optional[Any] = None, expect_json: bool = True,
+                 while_waiting: Optional[Callable[[], None]] = None) -> Tuple[Dict[str, Any], Answer]:
         c = self.client
         t = timeout if timeout is not None else (self.timeout if self.timeout is not None else c.timeout)
         return c._call(method, path, body=data, headers=headers, params=params, timeout=t, body_ids=self.body_ids,
-                       expect_json=expect_json, empty_ok=True)
+                       expect_json=expect_json, empty_ok=True, while_waiting=while_waiting)
