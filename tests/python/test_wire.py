@@ -277,7 +277,7 @@ def test_a_call_abandoned_after_sending_leaves_no_answer_behind(scripted):
     """The caller's work between sending and reading fails (or an interrupt):
     the connection is dropped with the answer unread, and the next call
     reads its own answer, not that one."""
-    srv = scripted(lambda k, head, body: ok(json.dumps({"k": k}).encode()))
+    srv = scripted(lambda k, head, body: ok(json.dumps({"path": head.split(" ")[1]}).encode()))
     w = Wire("127.0.0.1", srv.port, retries=0)
 
     def fail():
@@ -285,5 +285,110 @@ def test_a_call_abandoned_after_sending_leaves_no_answer_behind(scripted):
     with pytest.raises(RuntimeError):
         w.exchange("GET", "/a", {}, None, 5, 5, while_waiting=fail)
     status, _, content, _ = w.exchange("GET", "/b", {}, None, 5, 5)
-    assert status == 200 and json.loads(content) == {"k": 1} and w.connections == 2
+    assert status == 200 and json.loads(content) == {"path": "/b"} and w.connections == 2
     w.close()
+
+
+@pytest.mark.parametrize("reused", [False, True])
+def test_an_answer_before_the_body_is_read(daemon_factory, reused):
+    """The daemon answers a body over --max-bytes before reading it (413)
+    and closes: the client reads that answer (PayloadTooLarge), on a new
+    connection or a kept one, and sends the request once."""
+    from ntscontact import PayloadTooLarge
+    d = daemon_factory("--max-bytes", "1k")
+    with Client(d.base, timeout=30) as c:
+        if reused:
+            assert c.health()["status"] == "ok"
+        before = c._wire.exchanges if c._wire else 0
+        with pytest.raises(PayloadTooLarge) as e:
+            c._call("POST", "/v1/contact", body=b" " * (16 << 20), headers={"Content-Type": "application/json"})
+        assert e.value.status == 413 and e.value.code == "payload_too_large"
+        assert c._wire.exchanges == before + 1 and c._wire.connections == 1
+        assert c.health()["status"] == "ok"  # and on: a new connection
+        assert c._wire.connections == 2
+
+
+def test_a_header_with_a_newline_is_refused_before_sending(scripted):
+    """A token read with its newline: refused as http.client refuses it, not
+    sent as a head that ends early."""
+    srv = scripted(lambda k, head, body: ok())
+    with Client(srv.url, timeout=10, token="t0k\n") as c:
+        with pytest.raises(ValueError):
+            c.health()
+    w = Wire("127.0.0.1", srv.port, retries=0)
+    for target in ("/a b", "/a\r\nX: 1"):
+        with pytest.raises(ValueError):
+            w.exchange("GET", target, {}, None, 5, 5)
+    with pytest.raises(ValueError):
+        w.exchange("GET", "/", {"X-A": "1\r\nX-B: 2"}, None, 5, 5)
+    assert srv.requests == []
+    # a Host or Content-Length of the caller's is not sent twice
+    w.exchange("POST", "/", {"Host": "elsewhere", "content-length": "99"}, b"ab", 5, 5)
+    head = srv.requests[0][0].lower()
+    assert head.count("host:") == 1 and head.count("content-length:") == 1 and "content-length: 2" in head
+    w.close()
+
+
+def test_descriptors_above_1024_keep_the_connection(scripted):
+    """select() refuses descriptors from 1024 on; a solver holding many
+    files must not open a connection a call."""
+    import resource
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 1200:
+        pytest.skip(f"the hard limit of descriptors is {hard}")
+    resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, 1200) if soft != resource.RLIM_INFINITY else soft, hard))
+    import os
+    held = []
+    try:
+        while len(held) < 1100:
+            held.append(os.open("/dev/null", os.O_RDONLY))
+        srv = scripted(lambda k, head, body: ok())
+        with Client(srv.url, timeout=10) as c:
+            for _ in range(5):
+                assert c.health()["status"] == "ok"
+            assert c._wire.sock.fileno() >= 1024 and c._wire.connections == 1
+        assert srv.connections == 1
+    finally:
+        for fd in held:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
+def test_connect_attempts_are_the_retries(monkeypatch):
+    """A refused connection: 1 + retries attempts, then unreachable."""
+    import ntscontact._wire as wire_mod
+    calls = []
+
+    def refuse(addr, timeout=None):
+        calls.append(addr)
+        raise ConnectionRefusedError("refused")
+    monkeypatch.setattr(wire_mod.socket, "create_connection", refuse)
+    with Client("http://127.0.0.1:9", timeout=5, retries=2, backoff=0.0) as c:
+        with pytest.raises(ServiceUnavailable):
+            c.health()
+    assert len(calls) == 3
+
+
+def test_a_new_base_url_retires_the_old_connection(scripted):
+    a = scripted(lambda k, head, body: ok(b'{"status": "a"}'))
+    b = scripted(lambda k, head, body: ok(b'{"status": "b"}'))
+    with Client(a.url, timeout=10) as c:
+        assert c.health()["status"] == "a"
+        old = c._wire
+        c.base_url = b.url
+        assert c.health()["status"] == "b"
+        assert old.retired and old.sock is None and c._wire is not old
+        wire = c._wire
+    assert wire.retired and wire.sock is None and c._wire is None
+
+
+def test_binary_answers_are_read_only(daemon, paths):
+    """The answer's arrays are views of its buffer: read-only on both paths
+    (forces, the tangent's values, the pressure)."""
+    scene = json.loads((paths.examples / "two_disks.json").read_text())
+    for wire in (True, False):
+        with Client(daemon.base, timeout=60, wire=wire) as c, c.session(scene) as s:
+            res = s.contact(outputs=["forces", "stiffness", "pressure"])
+            assert res.raw == {} and res.summary.contacts > 0
+            arrays = [res.force_array(), res.stiffness_triplets()[2]] + [res.pressure[i] for i in res.pressure]
+            assert all(not a.flags.writeable for a in arrays)

@@ -20,6 +20,7 @@ chunked and close-delimited answers, gzip or deflate bodies.
 
 from __future__ import annotations
 
+import re
 import select
 import socket
 import threading
@@ -29,6 +30,8 @@ from typing import Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 __all__ = ["Wire", "WireHeaders", "WireError", "WireTimeout"]
 
+_OWN_HEADERS = frozenset(("host", "content-length", "transfer-encoding", "accept-encoding"))
+_BAD_HEAD = re.compile(r"[\r\n\0]")
 _HEAD_LIMIT = 1 << 16  # an answer's head longer than this is refused (the daemon's are about 1 kB)
 _CHUNK = 1 << 16
 
@@ -72,8 +75,19 @@ class Wire:
         self.lock = threading.Lock()
         self.sock: Optional[socket.socket] = None
         self.base_url = ""  # the client's base_url it serves (Client._wire_for)
+        self.retired = False  # replaced or closed by its client: serves no more calls
         self.connections = 0  # connections opened (tests: one for many steps)
         self.exchanges = 0
+
+    def retire(self) -> None:
+        """No more calls: the connection closed now, or by the call on it
+        when it ends (another thread's: not waited for)."""
+        self.retired = True
+        if self.lock.acquire(blocking=False):
+            try:
+                self.close()
+            finally:
+                self.lock.release()
 
     def close(self) -> None:
         if self.sock is not None:
@@ -86,9 +100,14 @@ class Wire:
 
     def _dropped(self) -> bool:
         """The idle connection is readable: the peer closed it (or sent
-        something unasked); it cannot carry a request."""
+        something unasked); it cannot carry a request. (poll, not select:
+        select refuses descriptors from 1024 on, as a large solver holds.)"""
         assert self.sock is not None
         try:
+            if hasattr(select, "poll"):
+                p = select.poll()
+                p.register(self.sock, select.POLLIN)
+                return bool(p.poll(0))
             readable, _, _ = select.select([self.sock], [], [], 0)
         except (OSError, ValueError):
             return True
@@ -128,7 +147,18 @@ class Wire:
         answer is read: the caller's work done while the service computes."""
         payload = memoryview(body if body is not None else b"").cast("B")
         lines = [f"{method} {target} HTTP/1.1", f"Host: {self.netloc}"]
-        lines += [f"{k}: {v}" for k, v in headers.items()]
+        for k, v in headers.items():
+            if k.lower() in _OWN_HEADERS:  # framing is the wire's: never twice
+                continue
+            if not k or ":" in k or _BAD_HEAD.search(k) or _BAD_HEAD.search(str(v)):
+                # as http.client refuses them: a CR or LF in a value (a token
+                # read with its newline) would end the head there, and the
+                # daemon misread the rest
+                raise ValueError(f"invalid header {k!r}: {str(v)[:40]!r} (a CR, LF or NUL, or a bad name)")
+            lines.append(f"{k}: {v}")
+        if _BAD_HEAD.search(target) or " " in target:
+            raise ValueError(f"invalid target {target[:80]!r}")
+        lines.append("Accept-Encoding: gzip, deflate")  # what _read_answer decodes
         if payload.nbytes or method in ("POST", "PUT", "PATCH"):
             lines.append(f"Content-Length: {payload.nbytes}")
         head = ("\r\n".join(lines) + "\r\n\r\n").encode("latin-1")
@@ -140,17 +170,25 @@ class Wire:
             if self.sock is None:
                 self.sock = self._connect(connect_timeout)
             sock = self.sock
-            sock.settimeout(read_timeout)
+            sock.settimeout(connect_timeout)  # (urllib3 sends under the connect timeout, reads under the read one)
             try:
                 _send_all(sock, head, payload)
-            except OSError as exc:
+            except socket.timeout as exc:
                 self.close()
-                # A kept connection the peer closed as it was used: the
-                # request was not sent whole, so not served: once more anew.
-                if reused and attempt == 0 and not isinstance(exc, socket.timeout):
+                raise WireTimeout(f"no answer within the timeout (sending: {exc})") from exc
+            except OSError as exc:
+                # The daemon may have answered before reading the whole body
+                # (413, 401, 503: then it closes): that answer is the call's.
+                early = self._early_answer(sock, method, read_timeout)
+                if early is not None:
+                    self.exchanges += 1
+                    return early
+                self.close()
+                # A kept connection the peer closed as it was used, without a
+                # word: the request was not sent whole, so not served: once
+                # more on a new one.
+                if reused and attempt == 0:
                     continue
-                if isinstance(exc, socket.timeout):
-                    raise WireTimeout(f"no answer within the timeout (sending: {exc})") from exc
                 raise WireError(f"the connection failed while sending ({exc})") from exc
             except BaseException:  # (an interrupt): half a request must not stay on the connection
                 self.close()
@@ -159,6 +197,7 @@ class Wire:
         try:
             if while_waiting is not None:
                 while_waiting()
+            sock.settimeout(read_timeout)
             status, hdrs, content, cookies, keep = _read_answer(sock, method)
         except socket.timeout as exc:
             self.close()
@@ -169,9 +208,22 @@ class Wire:
         except BaseException:  # (an interrupt, or the caller's work failed): its answer is never read
             self.close()
             raise
-        if not keep:
+        if not keep or self.retired:
             self.close()
         self.exchanges += 1
+        return status, hdrs, content, cookies
+
+    def _early_answer(self, sock: socket.socket, method: str, read_timeout: Optional[float]
+                      ) -> Optional[Tuple[int, WireHeaders, Union[bytes, bytearray], List[str]]]:
+        """The answer the peer sent before the request was sent whole, if
+        any; the connection is closed either way."""
+        try:
+            sock.settimeout(read_timeout)
+            status, hdrs, content, cookies, _ = _read_answer(sock, method)
+        except (OSError, ValueError):
+            return None
+        finally:
+            self.close()
         return status, hdrs, content, cookies
 
 
@@ -212,17 +264,22 @@ def _read_answer(sock: socket.socket, method: str
         lines = bytes(buf[:end]).decode("latin-1").split("\r\n")
         rest = bytes(buf[end + 4:have])
         parts = lines[0].split(" ", 2)
-        if len(parts) < 2 or not parts[0].startswith("HTTP/") or not parts[1].isdigit():
+        if len(parts) < 2 or not parts[0].startswith("HTTP/") or len(parts[1]) != 3 or \
+                not all("0" <= ch <= "9" for ch in parts[1]):
             raise WireError(f"not an HTTP answer: {lines[0][:80]!r}")
         status = int(parts[1])
-        if 100 <= status < 200:
+        if 100 <= status < 200 and status != 101:  # interim answers (101 would switch protocols: final)
             buf = bytearray(rest) + bytearray(_CHUNK)
             have = len(rest)
             continue
         break
     hdrs = WireHeaders()
     cookies: List[str] = []
+    last = ""
     for line in lines[1:]:
+        if line[:1] in (" ", "\t") and last:  # an obsolete folded line continues the last header
+            hdrs[last] = f"{hdrs[last]} {line.strip()}"
+            continue
         k, sep, v = line.partition(":")
         if not sep:
             continue
@@ -230,6 +287,7 @@ def _read_answer(sock: socket.socket, method: str
         if k == "set-cookie":
             cookies.append(v)
         hdrs[k] = f"{hdrs[k]}, {v}" if k in hdrs else v
+        last = k
     version_10 = parts[0] == "HTTP/1.0"
     conn = hdrs.get("connection", "").lower()
     keep = "keep-alive" in conn if version_10 else "close" not in conn
@@ -237,17 +295,21 @@ def _read_answer(sock: socket.socket, method: str
     if method == "HEAD" or status in (204, 304):
         content = b""
     elif "chunked" in hdrs.get("transfer-encoding", "").lower():
-        content = _read_chunked(sock, rest)
+        content, clean = _read_chunked(sock, rest)
+        keep = keep and clean
     elif "content-length" in hdrs:
+        values = {v.strip() for v in hdrs["content-length"].split(",")}  # the same value twice is one
         try:
-            n = int(hdrs["content-length"])
+            n = int(values.pop()) if len(values) == 1 else -1
         except ValueError:
-            raise WireError(f"a bad Content-Length: {hdrs['content-length']!r}") from None
+            n = -1
         if n < 0:
-            raise WireError(f"a bad Content-Length: {n}")
+            raise WireError(f"a bad Content-Length: {hdrs['content-length']!r}")
         content = bytearray(n)
         got = min(n, len(rest))
         content[:got] = rest[:got]
+        if len(rest) > n:  # bytes past the answer: the connection's state is unknown
+            keep = False
         view = memoryview(content)
         while got < n:
             got += _recv_into(sock, view[got:])
@@ -261,12 +323,28 @@ def _read_answer(sock: socket.socket, method: str
         content = b"".join(chunks)
         keep = False
     coding = hdrs.get("content-encoding", "identity").lower()
-    if coding in ("gzip", "x-gzip", "deflate"):
-        try:
-            content = zlib.decompress(bytes(content), 47 if "gzip" in coding else zlib.MAX_WBITS)
-        except zlib.error:
-            content = zlib.decompress(bytes(content), -zlib.MAX_WBITS)  # raw deflate, as some servers send
+    if content and coding in ("gzip", "x-gzip", "deflate"):
+        content = _decode(bytes(content), coding)
     return status, hdrs, content, cookies, keep
+
+
+def _decode(data: bytes, coding: str) -> bytes:
+    """A gzip (every member) or deflate (zlib or raw) body decoded."""
+    try:
+        if "gzip" in coding:
+            out = []
+            while data:
+                d = zlib.decompressobj(47)
+                out.append(d.decompress(data))
+                out.append(d.flush())
+                data = d.unused_data
+            return b"".join(out)
+        try:
+            return zlib.decompress(data, zlib.MAX_WBITS)
+        except zlib.error:
+            return zlib.decompress(data, -zlib.MAX_WBITS)  # raw deflate, as some servers send
+    except zlib.error as exc:
+        raise WireError(f"a {coding} body that does not decode ({exc})") from exc
 
 
 class _Reader:
@@ -300,7 +378,7 @@ class _Reader:
         self.buf += piece
 
 
-def _read_chunked(sock: socket.socket, first: bytes) -> bytes:
+def _read_chunked(sock: socket.socket, first: bytes) -> Tuple[bytes, bool]:
     r = _Reader(sock, first)
     out = bytearray()
     while True:
@@ -312,7 +390,7 @@ def _read_chunked(sock: socket.socket, first: bytes) -> bytes:
         if size == 0:
             while r.line():  # trailers, then the empty line
                 pass
-            return bytes(out)
+            return bytes(out), not r.buf  # (bytes past the answer: the connection's state is unknown)
         out += r.take(size)
         if r.take(2) != b"\r\n":
             raise WireError("a chunk not followed by CRLF")

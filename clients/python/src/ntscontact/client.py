@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import threading
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 from urllib.parse import urlencode, urljoin
@@ -135,14 +136,16 @@ class Client:
         #: (``_wire``), when requests' machinery is not needed; False: urllib3's pool.
         self.wire = wire
         self._wire: Optional[Wire] = None
+        self._wire_lock = threading.Lock()
 
     # ------------------------------------------------------------ lifecycle
 
     def close(self) -> None:
         """Close the HTTP connection pool (``with Client(...)`` does it on exit)."""
-        if self._wire is not None:
-            with self._wire.lock:
-                self._wire.close()
+        with self._wire_lock:
+            if self._wire is not None:
+                self._wire.retire()  # (another thread's call on it closes it when it ends)
+                self._wire = None
         self.http.close()
 
     def __enter__(self) -> "Client":
@@ -274,19 +277,23 @@ class Client:
         when the call may be direct: about 0.1 ms a call on loopback where
         urllib3's is 0.7 (docs/benchmarks.md). None: the pool or requests."""
         if not self.wire or not url.startswith("http://") or not self._direct(url):
+            with self._wire_lock:  # (https now, or the machinery: the wire kept for nothing)
+                if self._wire is not None:
+                    self._wire.retire()
+                    self._wire = None
             return None
-        w = self._wire
-        if w is None or w.base_url != self.base_url:
-            if w is not None:
-                with w.lock:
-                    w.close()
-            u = parse_url(self.base_url)
-            host = (u.host or "").strip("[]")
-            retry = self._adapter.max_retries
-            w = self._wire = Wire(host, u.port or 80, retries=int(retry.connect or 0),
-                                  backoff=float(retry.backoff_factor), netloc=u.netloc)
-            w.base_url = self.base_url
-        return w
+        with self._wire_lock:  # one wire a client: made and replaced by one thread at a time
+            w = self._wire
+            if w is None or w.base_url != self.base_url:
+                if w is not None:
+                    w.retire()
+                u = parse_url(self.base_url)
+                host = (u.host or "").strip("[]")
+                retry = self._adapter.max_retries
+                w = self._wire = Wire(host, u.port or 80, retries=int(retry.connect or 0),
+                                      backoff=float(retry.backoff_factor), netloc=u.netloc)
+                w.base_url = self.base_url
+            return w
 
     @staticmethod
     def _prepared_for(url: str) -> requests.PreparedRequest:
@@ -313,7 +320,8 @@ class Client:
         wire = self._wire_for(url)
         if wire is not None and wire.lock.acquire(blocking=False):  # (busy: another thread's call; the pool)
             try:
-                return self._send_wire(wire, method, url, path, body, headers, params, t, while_waiting)
+                if not wire.retired:  # (replaced or closed meanwhile: the pool)
+                    return self._send_wire(wire, method, url, path, body, headers, params, t, while_waiting)
             finally:
                 wire.lock.release()
         if while_waiting is not None:

@@ -41,7 +41,7 @@ from .engine import EngineUnavailable, locate
 from .errors import InvalidScene, NtsError, error_from_response
 from .result import Result
 from .scene import Scene
-from .session import FloatArray, PositionsLike, Session
+from .session import FloatArray, PositionsLike, Session, refuse_non_finite
 
 __all__ = ["DistributedEngine", "DistributedSession", "LIBRARY_NAME", "find_library"]
 
@@ -193,6 +193,7 @@ class DistributedSession(Session):
         out = None
         try:
             out = super()._as_positions(positions)
+            refuse_non_finite(out)  # (the library would name /bodies/b/nodes/n: the client's pointer, as before)
         except Exception as exc:  # any: the other ranks must hear of it, not wait
             failure = exc
         self._agree(failure)

@@ -42,6 +42,14 @@ _BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness", "pressur
 _OCTET = "application/octet-stream"
 
 
+def refuse_non_finite(arr: FloatArray) -> None:
+    """InvalidScene ``non_finite`` naming ``/positions/k``, the first row of
+    ``arr`` with a NaN or an infinity (the service's own code and pointer)."""
+    if not np.isfinite(arr).all():  # then find the first bad one (the common case pays one pass)
+        k = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
+        raise InvalidScene(f"position {k} is not finite", code="non_finite", pointer=f"/positions/{k}")
+
+
 class BodyArrays(Mapping[BodyId, FloatArray]):
     """A binary answer's per-body arrays, ``{body_id: view}`` in scene order: each
     body's view of the one array is cut when asked for (a dict of them all cost
@@ -182,10 +190,12 @@ class Session:
                 raise InvalidScene(f"positions of shape {arr.shape}, expected ({self.nodes}, 2): every node, "
                                    "bodies in scene order, nodes in body order", code="invalid_value",
                                    pointer="/positions")
-        # Not read here for non-finite values: the service reads every position
-        # and refuses those with the same code and pointer ("non_finite",
-        # /positions/k), and a second pass here cost a quarter of a step's
-        # wall time at 66k nodes (docs/benchmarks.md).
+        # Not read here for non-finite values: the service (the daemon, or the
+        # in-process engine: the same codec) reads every position and refuses
+        # those with this code and pointer (refuse_non_finite's), and a second
+        # pass here cost a quarter of a step's wall time at 66k nodes
+        # (docs/benchmarks.md). The distributed engine's library names the
+        # body's node instead: ntscontact.mpi checks them first.
         return np.ascontiguousarray(arr, dtype="<f8")
 
     # ------------------------------------------------------------ steps
@@ -299,8 +309,9 @@ class Session:
         if len(body) != size:
             raise ServerError(f"a binary answer of {len(body)} bytes, expected {size}",
                               code="bad_response", status=200)
+        # Views of the answer's own buffer, read-only (the wire reads it into a bytearray)
+        body = memoryview(body).toreadonly()
         forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
-        forces.flags.writeable = False  # the answer's own buffer (a bytearray from the wire)
         triplets = None
         if stiffness and not count:
             # Asked for, and no contact active: the empty 2N x 2N tangent, as
