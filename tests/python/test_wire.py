@@ -392,3 +392,17 @@ def test_binary_answers_are_read_only(daemon, paths):
             assert res.raw == {} and res.summary.contacts > 0
             arrays = [res.force_array(), res.stiffness_triplets()[2]] + [res.pressure[i] for i in res.pressure]
             assert all(not a.flags.writeable for a in arrays)
+
+
+def test_a_redirect_to_nowhere_is_unreachable(scripted):
+    """A redirect is followed through requests; its failure reads as the
+    client's own (ServiceUnavailable), not a bare requests exception."""
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    dead = s.getsockname()[1]
+    s.close()
+    srv = scripted(lambda k, head, body: f"HTTP/1.1 307 Temporary Redirect\r\nLocation: http://127.0.0.1:{dead}/v1/"
+                                         "health\r\nContent-Length: 0\r\n\r\n".encode())
+    with Client(srv.url, timeout=5, retries=0) as c:
+        with pytest.raises(ServiceUnavailable):
+            c.health()

@@ -389,10 +389,20 @@ class Client:
         if cookies:  # kept as requests keeps them: later calls go through requests
             self.http.cookies.extract_cookies(_SetCookies(cookies), MockRequest(self._prepared_for(url)))
         location = hdrs.get("location") if status in (301, 302, 303, 307, 308) else None
-        if location:  # followed by requests, as the pool's path does
+        if location:  # followed by requests, as the pool's path does, its failures said alike
             to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
-            return self._via_requests("GET" if to_get else method, urljoin(url, location),
-                                      None if to_get else body, headers, None, t)
+            to = urljoin(url, location)
+            try:
+                return self._via_requests("GET" if to_get else method, to, None if to_get else body, headers, None, t)
+            except requests.Timeout as exc:
+                raise Timeout(f"{method} {to}: no answer within the timeout ({exc})", code="timeout") from exc
+            except requests.exceptions.SSLError as exc:
+                raise tls_error(method, to, exc) from exc
+            except requests.ConnectionError as exc:
+                raise ServiceUnavailable(f"{method} {to}: cannot connect, or the answer was cut ({exc})",
+                                         code="unreachable") from exc
+            except requests.RequestException as exc:
+                raise NtsError(f"{method} {to}: {exc}", code="request_failed") from exc
         return Answer(status, hdrs, content)
 
     def _call(self, method: str, path: str, *, body: Optional[BodyLike] = None,
