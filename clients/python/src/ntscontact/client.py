@@ -274,8 +274,8 @@ class Client:
 
     def _wire_for(self, url: str) -> Optional[Wire]:
         """Our own kept connection (``_wire``) for a plain http:// service
-        when the call may be direct: about 0.1 ms a call on loopback where
-        urllib3's is 0.7 (docs/benchmarks.md). None: the pool or requests."""
+        when the call may be direct: a 1,024-node step 0.54-0.57 ms where
+        urllib3's took 1.2-1.35 (docs/benchmarks.md). None: the pool or requests."""
         if not self.wire or not url.startswith("http://") or not self._direct(url):
             with self._wire_lock:  # (https now, or the machinery: the wire kept for nothing)
                 if self._wire is not None:
