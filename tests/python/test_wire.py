@@ -117,7 +117,8 @@ def test_one_connection_and_the_head_sent(scripted):
     with Client(srv.url + "/api", timeout=10, token="t0k") as c:
         for _ in range(5):
             assert c.health()["status"] == "ok"
-        answer = c._send("POST", "/v1/x", body=b"abc", params={"a": "1"}, headers={"Content-Type": "text/plain"})
+        answer = c._send("POST", "/v1/x", body=b"abc", params={"a": "1"},
+                         headers={"Content-Type": "text/plain", "accept": "x/y"})
         assert answer.headers["nts-elapsed-ms"] == "1.5" and answer.headers.get("NTS-ELAPSED-MS") == "1.5"
     assert srv.connections == 1 and len(srv.requests) == 6
     head, body = srv.requests[-1]
@@ -126,6 +127,8 @@ def test_one_connection_and_the_head_sent(scripted):
     fields = {k.lower(): v.strip() for k, _, v in (ln.partition(":") for ln in lines[1:])}
     assert fields["content-length"] == "3" and fields["authorization"] == "Bearer t0k"
     assert fields["user-agent"].startswith("ntscontact-python/") and fields["content-type"] == "text/plain"
+    # the call's Accept replaces the client's (names in any case), never both
+    assert head.lower().count("\r\naccept:") == 1 and fields["accept"] == "x/y"
 
 
 def test_answers_chunked_close_delimited_compressed_and_after_100(scripted):

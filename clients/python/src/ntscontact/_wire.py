@@ -34,6 +34,7 @@ _OWN_HEADERS = frozenset(("host", "content-length", "transfer-encoding", "accept
 _BAD_HEAD = re.compile(r"[\r\n\0]")
 _HEAD_LIMIT = 1 << 16  # an answer's head longer than this is refused (the daemon's are about 1 kB)
 _CHUNK = 1 << 16
+_FIRST = 1 << 14  # the first read of an answer: its head and the start of its body
 
 
 class WireError(OSError):
@@ -249,7 +250,7 @@ def _recv_into(sock: socket.socket, view: memoryview) -> int:
 
 def _read_answer(sock: socket.socket, method: str
                  ) -> Tuple[int, WireHeaders, Union[bytes, bytearray], List[str], bool]:
-    buf = bytearray(_CHUNK)
+    buf = bytearray(_FIRST)  # (the daemon's heads are about 1 kB; it grows to the head's limit)
     have = 0
     while True:  # interim 1xx answers are skipped
         while True:
@@ -259,7 +260,7 @@ def _read_answer(sock: socket.socket, method: str
             if have >= _HEAD_LIMIT:
                 raise WireError("an answer's head longer than 64 kB")
             if have == len(buf):
-                buf.extend(bytes(_CHUNK))
+                buf.extend(bytes(len(buf)))
             have += _recv_into(sock, memoryview(buf)[have:])
         lines = bytes(buf[:end]).decode("latin-1").split("\r\n")
         rest = bytes(buf[end + 4:have])
@@ -273,12 +274,12 @@ def _read_answer(sock: socket.socket, method: str
             have = len(rest)
             continue
         break
-    hdrs = WireHeaders()
+    raw: Dict[str, str] = {}  # (a plain dict while parsing: WireHeaders' lookups lower-case every key)
     cookies: List[str] = []
     last = ""
     for line in lines[1:]:
         if line[:1] in (" ", "\t") and last:  # an obsolete folded line continues the last header
-            hdrs[last] = f"{hdrs[last]} {line.strip()}"
+            raw[last] = f"{raw[last]} {line.strip()}"
             continue
         k, sep, v = line.partition(":")
         if not sep:
@@ -286,8 +287,9 @@ def _read_answer(sock: socket.socket, method: str
         k, v = k.strip().lower(), v.strip()
         if k == "set-cookie":
             cookies.append(v)
-        hdrs[k] = f"{hdrs[k]}, {v}" if k in hdrs else v
+        raw[k] = f"{raw[k]}, {v}" if k in raw else v
         last = k
+    hdrs = WireHeaders(raw)
     version_10 = parts[0] == "HTTP/1.0"
     conn = hdrs.get("connection", "").lower()
     keep = "keep-alive" in conn if version_10 else "close" not in conn

@@ -374,8 +374,12 @@ class Client:
                    t: Optional[TimeoutLike], while_waiting: Optional[Callable[[], None]] = None) -> Answer:
         """:meth:`_send` on our own connection: the same headers, cookies and
         redirects as the pool's path, the same errors."""
-        merged = CaseInsensitiveDict(self.http.headers)
-        merged.update(headers or {})
+        merged = dict(self.http.headers)  # the call's headers over the session's, names matched in any case
+        if headers:
+            names = {k.lower(): k for k in merged}
+            for k, v in headers.items():
+                merged.pop(names.get(k.lower(), k), None)
+                merged[k] = v
         target = (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
         connect_t, read_t = t if isinstance(t, tuple) else (t, t)
         try:
