@@ -5,6 +5,7 @@ never sent or cut) and against the daemon (the same answers as urllib3's
 path, bit for bit, from several threads at once)."""
 import gzip
 import json
+import select
 import socket
 import threading
 import time
@@ -167,7 +168,9 @@ def test_connection_close_and_an_idle_connection_closed_by_the_peer(scripted):
         assert c.health()["status"] == "ok"  # 0: closed after it
         assert c.health()["status"] == "ok"  # 1: a new connection
         assert c.health()["status"] == "ok"  # 2
-        time.sleep(0.2)  # the close reaches the client
+        ready = select.poll()  # the server's close has reached the client (no sleep: a busy machine is slow)
+        ready.register(c._wire.sock, select.POLLIN)
+        assert ready.poll(60000)
         assert c.health()["status"] == "ok"  # 3: a new connection, the request sent once
         assert c._wire.connections == 3
     assert len(srv.requests) == 4 and srv.connections == 3
@@ -176,7 +179,7 @@ def test_connection_close_and_an_idle_connection_closed_by_the_peer(scripted):
 def test_an_answer_cut_or_never_sent(scripted):
     """A request sent whole is never sent again: the connection closed with
     no answer is ServiceUnavailable, a truncated body too; no answer within
-    the read timeout is Timeout (and takes about that long, not forever)."""
+    the read timeout is Timeout."""
     srv = scripted(lambda k, head, body: None)
     with Client(srv.url, timeout=10) as c:
         with pytest.raises(ServiceUnavailable) as e:
@@ -193,10 +196,9 @@ def test_an_answer_cut_or_never_sent(scripted):
     gate = threading.Event()
     srv = scripted(lambda k, head, body: (gate.wait(30), ok())[1])
     with Client(srv.url, timeout=0.5) as c:
-        t0 = time.monotonic()
-        with pytest.raises(Timeout) as e:
+        with pytest.raises(Timeout) as e:  # (the answer comes only once the gate opens, after this)
             c.health()
-        assert e.value.code == "timeout" and time.monotonic() - t0 < 20
+        assert e.value.code == "timeout"
         gate.set()
     assert len(srv.requests) == 1
 
