@@ -411,3 +411,19 @@ def test_a_redirect_to_nowhere_is_unreachable(scripted):
     with Client(srv.url, timeout=5, retries=0) as c:
         with pytest.raises(ServiceUnavailable):
             c.health()
+
+
+@pytest.mark.parametrize("answer", [
+    b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n-5\r\n{\"status\": \"ok\"}\r\n0\r\n\r\n",
+    b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n0x10\r\n{\"status\": \"ok\"}\r\n0\r\n\r\n",
+    b"HTTP/1.1 200 OK\r\nContent-Length: -5\r\n\r\n{\"status\": \"ok\"}",
+    b"HTTP/1.1 200 OK\r\nContent-Length: +16\r\n\r\n{\"status\": \"ok\"}",
+    b"HTTP/1.1 200 OK\r\nContent-Length: 16, 17\r\n\r\n{\"status\": \"ok\"}",
+])
+def test_bad_framing_is_refused(scripted, answer):
+    """A chunk size or Content-Length that is not plain digits (a negative
+    size would have cut the body from the wrong end) is the answer cut."""
+    srv = scripted(lambda k, head, body: (answer, "close"))
+    with Client(srv.url, timeout=10, retries=0) as c:
+        with pytest.raises(ServiceUnavailable):
+            c.health()

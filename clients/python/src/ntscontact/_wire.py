@@ -301,11 +301,8 @@ def _read_answer(sock: socket.socket, method: str
         keep = keep and clean
     elif "content-length" in hdrs:
         values = {v.strip() for v in hdrs["content-length"].split(",")}  # the same value twice is one
-        try:
-            n = int(values.pop()) if len(values) == 1 else -1
-        except ValueError:
-            n = -1
-        if n < 0:
+        n = int(next(iter(values))) if len(values) == 1 and next(iter(values)).isdigit() else -1
+        if n < 0:  # (digits only: int() would take "+5", "-5", "5_0")
             raise WireError(f"a bad Content-Length: {hdrs['content-length']!r}")
         content = bytearray(n)
         got = min(n, len(rest))
@@ -385,10 +382,9 @@ def _read_chunked(sock: socket.socket, first: bytes) -> Tuple[bytes, bool]:
     out = bytearray()
     while True:
         size_line = r.line().split(b";", 1)[0].strip()
-        try:
-            size = int(size_line, 16)
-        except ValueError:
-            raise WireError(f"a bad chunk size: {size_line[:40]!r}") from None
+        if not size_line or size_line.strip(b"0123456789abcdefABCDEF"):  # (int() would take "-5", "0x5", "5_0")
+            raise WireError(f"a bad chunk size: {size_line[:40]!r}")
+        size = int(size_line, 16)
         if size == 0:
             while r.line():  # trailers, then the empty line
                 pass

@@ -12,7 +12,6 @@ import requests
 import urllib3
 from requests.adapters import HTTPAdapter
 from requests.cookies import MockRequest, extract_cookies_to_jar
-from requests.structures import CaseInsensitiveDict
 from urllib3.util import parse_url
 from urllib3.util.retry import Retry
 
@@ -318,24 +317,25 @@ class Client:
         url = self.base_url + path
         t = self.timeout if timeout is None else timeout
         wire = self._wire_for(url)
+        sent: Optional[Tuple[Answer, Optional[str]]] = None
         if wire is not None and wire.lock.acquire(blocking=False):  # (busy: another thread's call; the pool)
             try:
                 if not wire.retired:  # (replaced or closed meanwhile: the pool)
-                    return self._send_wire(wire, method, url, path, body, headers, params, t, while_waiting)
+                    sent = self._send_wire(wire, method, url, path, body, headers, params, t, while_waiting)
             finally:
                 wire.lock.release()
-        if while_waiting is not None:
+        if sent is None and while_waiting is not None:
             while_waiting()
         try:
+            if sent is not None:  # (a redirect followed as on the pool's path, its failures said alike)
+                answer, location = sent
+                return self._follow(method, url, answer.status_code, location, body, headers, t) if location else answer
             pool = self._pool(url)
             if pool is None:
                 return self._via_requests(method, url, body, headers, params, t)
-            merged = CaseInsensitiveDict(self.http.headers)
-            merged.update(headers or {})
-            target = (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
-            resp = pool.urlopen(method, target, body=body, headers=merged, redirect=False, assert_same_host=False,
-                                preload_content=False, decode_content=False, retries=self._adapter.max_retries,
-                                timeout=_urllib3_timeout(t))
+            resp = pool.urlopen(method, self._target(path, params), body=body, headers=self._merged(headers),
+                                redirect=False, assert_same_host=False, preload_content=False,
+                                decode_content=False, retries=self._adapter.max_retries, timeout=_urllib3_timeout(t))
             try:
                 content = resp.read(decode_content=True)
             finally:
@@ -343,11 +343,8 @@ class Client:
             if "set-cookie" in resp.headers:  # kept as requests keeps them: later calls go through requests
                 extract_cookies_to_jar(self.http.cookies, self._prepared_for(url), resp)
             location = resp.get_redirect_location()
-            if location:  # requests follows redirects, from here on as it would have (rebuild_method)
-                status = resp.status
-                to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
-                return self._via_requests("GET" if to_get else method, urljoin(url, location),
-                                          None if to_get else body, headers, None, t)
+            if location:
+                return self._follow(method, url, resp.status, location, body, headers, t)
             return Answer(resp.status, resp.headers, content)
         except urllib3.exceptions.MaxRetryError as exc:  # requests' reading of it
             reason = exc.reason
@@ -371,20 +368,15 @@ class Client:
 
     def _send_wire(self, wire: Wire, method: str, url: str, path: str, body: Optional[BodyLike],
                    headers: Optional[Mapping[str, str]], params: Optional[Mapping[str, str]],
-                   t: Optional[TimeoutLike], while_waiting: Optional[Callable[[], None]] = None) -> Answer:
-        """:meth:`_send` on our own connection: the same headers, cookies and
-        redirects as the pool's path, the same errors."""
-        merged = dict(self.http.headers)  # the call's headers over the session's, names matched in any case
-        if headers:
-            names = {k.lower(): k for k in merged}
-            for k, v in headers.items():
-                merged.pop(names.get(k.lower(), k), None)
-                merged[k] = v
-        target = (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
+                   t: Optional[TimeoutLike], while_waiting: Optional[Callable[[], None]] = None
+                   ) -> Tuple[Answer, Optional[str]]:
+        """:meth:`_send` on our own connection: the answer, and where a
+        redirect sends the call (for :meth:`_follow`); the same headers,
+        cookies and errors as the pool's path."""
         connect_t, read_t = t if isinstance(t, tuple) else (t, t)
         try:
-            status, hdrs, content, cookies = wire.exchange(method, target, merged, body, connect_t, read_t,
-                                                           while_waiting)
+            status, hdrs, content, cookies = wire.exchange(method, self._target(path, params), self._merged(headers),
+                                                           body, connect_t, read_t, while_waiting)
         except WireTimeout as exc:
             raise Timeout(f"{method} {url}: no answer within the timeout ({exc})", code="timeout") from exc
         except WireError as exc:
@@ -393,21 +385,29 @@ class Client:
         if cookies:  # kept as requests keeps them: later calls go through requests
             self.http.cookies.extract_cookies(_SetCookies(cookies), MockRequest(self._prepared_for(url)))
         location = hdrs.get("location") if status in (301, 302, 303, 307, 308) else None
-        if location:  # followed by requests, as the pool's path does, its failures said alike
-            to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
-            to = urljoin(url, location)
-            try:
-                return self._via_requests("GET" if to_get else method, to, None if to_get else body, headers, None, t)
-            except requests.Timeout as exc:
-                raise Timeout(f"{method} {to}: no answer within the timeout ({exc})", code="timeout") from exc
-            except requests.exceptions.SSLError as exc:
-                raise tls_error(method, to, exc) from exc
-            except requests.ConnectionError as exc:
-                raise ServiceUnavailable(f"{method} {to}: cannot connect, or the answer was cut ({exc})",
-                                         code="unreachable") from exc
-            except requests.RequestException as exc:
-                raise NtsError(f"{method} {to}: {exc}", code="request_failed") from exc
-        return Answer(status, hdrs, content)
+        return Answer(status, hdrs, content), location
+
+    def _merged(self, headers: Optional[Mapping[str, str]]) -> Dict[str, str]:
+        """The call's headers over the client's, names matched in any case."""
+        merged = dict(self.http.headers)
+        if headers:
+            names = {k.lower(): k for k in merged}
+            for k, v in headers.items():
+                merged.pop(names.get(k.lower(), k), None)
+                merged[k] = v
+        return merged
+
+    def _target(self, path: str, params: Optional[Mapping[str, str]]) -> str:
+        """The request target: base_url's path prefix, the path, the query."""
+        return (self._base_parts()[2] + path or "/") + ("?" + urlencode(params) if params else "")
+
+    def _follow(self, method: str, url: str, status: int, location: str, body: Optional[BodyLike],
+                headers: Optional[Mapping[str, str]], t: Optional[TimeoutLike]) -> Answer:
+        """A redirect followed through requests, as requests would have from
+        here on (its rebuild_method)."""
+        to_get = (status in (302, 303) and method != "HEAD") or (status == 301 and method == "POST")
+        return self._via_requests("GET" if to_get else method, urljoin(url, location),
+                                  None if to_get else body, headers, None, t)
 
     def _call(self, method: str, path: str, *, body: Optional[BodyLike] = None,
               headers: Optional[Mapping[str, str]] = None, params: Optional[Mapping[str, str]] = None,
