@@ -1,5 +1,6 @@
 /* Contact suite: outputs on demand, determinism, allocation-free reuse,
  * periodic wrap, forces aligned with the input nodes. */
+#include <float.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -208,6 +209,56 @@ static void test_overflow_is_an_error_not_nan(void) {
     nts_scene_destroy(s);
 }
 
+/* Forces that overflow while the energy does not: a long master's end node
+ * pushed by four slaves a gap of 0.5 to 1 deep (its share of each force
+ * 0.97-0.98 at alpha 0), the penalty P such that their sum exceeds the
+ * largest double (about 2.9 P) while the energy (1.25 P) and each slave's
+ * own force (at most P) do not. An error naming the penalty on every path that sums
+ * forces: the search's own (one thread), the force shares (two threads) and
+ * the records (contacts asked for); a tenth of the penalty is fine. */
+static void test_force_overflow_is_an_error(void) {
+    test_body b[2];
+    nts_scene* s;
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_context* ctx = nts_context_create();
+    nts_error err;
+    static const nts_vec2 master[4] = {{0.0, 0.0}, {100.0, 0.0}, {100.0, 10.0}, {0.0, 10.0}};
+    static const nts_vec2 slave[4] = {{2.0, 9.0}, {3.0, 9.0}, {3.0, 9.5}, {2.0, 9.5}};
+    static const unsigned paths[3] = {0u, 0u, NTS_OUT_CONTACTS};
+    static const int threads[3] = {1, 2, 1};
+    int k, i;
+    memset(b, 0, sizeof b);
+    for (i = 0; i < 4; ++i) {
+        b[0].nodes[i] = master[i];
+        b[1].nodes[i] = slave[i];
+    }
+    b[0].node_count = b[1].node_count = 4;
+    s = make_scene(b, 2, 0, 0);
+    CU_ASSERT_FATAL(s != NULL);
+    o.alpha = 0.0;
+    for (k = 0; k < 3; ++k) {
+        double fmax = 0.0;
+        o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | paths[k];
+        o.threads = threads[k];
+        o.penalty = 1e307;
+        ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), 0);
+        for (i = 0; i < 8; ++i) fmax = fabs(r.forces[i].y) > fmax ? fabs(r.forces[i].y) : fmax;
+        /* the premise, at a tenth of the penalty: ten times the end node's
+         * force overflows, ten times any other force or the energy does not */
+        CU_ASSERT(fabs(r.forces[3].y) == fmax && 10.0 * fmax > DBL_MAX);
+        for (i = 0; i < 8; ++i)
+            if (i != 3) CU_ASSERT(10.0 * fabs(r.forces[i].x) < DBL_MAX && 10.0 * fabs(r.forces[i].y) < DBL_MAX);
+        CU_ASSERT(r.summary.energy > 0.0 && 10.0 * r.summary.energy < DBL_MAX);
+        ASSERT_INT_EQ(r.summary.contacts, 4);
+        o.penalty = 1e308;
+        ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), NTS_ENONFINITE);
+        CU_ASSERT(strcmp(err.option, "penalty") == 0);
+    }
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+}
+
 /* A context trimmed after a large evaluation holds no more than a new one,
  * and evaluates again to the same bits (a session gives back what one step
  * with gaps on a wide radius grew: server/src/sessions.c). */
@@ -259,6 +310,7 @@ void register_contact_suite(void) {
     ADD_TEST(s, test_bitwise_deterministic_and_allocation_free);
     ADD_TEST(s, test_periodic_contact_across_the_boundary);
     ADD_TEST(s, test_box_too_small_is_an_error);
+    ADD_TEST(s, test_force_overflow_is_an_error);
     ADD_TEST(s, test_interior_nodes_get_zero_force);
     ADD_TEST(s, test_overflow_is_an_error_not_nan);
     ADD_TEST(s, test_trim_gives_back_and_keeps_results);
