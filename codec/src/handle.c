@@ -4,6 +4,7 @@
  * Every fault on the way becomes an error document with a stable code, the
  * JSON pointer of the value at fault and the HTTP status of that code. */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
+#include <assert.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -129,23 +130,26 @@ static int virial_ok(nts_virial v) { return isfinite(v.xx) && isfinite(v.yy) && 
 /* Finite input can still overflow (a penalty of 1e200 times gaps of 1e100): the
  * contract has no NaN, no Infinity and no null, so such a result is refused as
  * non_finite. The pointer is the penalty whatever the outputs asked for (so
- * --validate answers alike); the message names the first node at fault. */
+ * --validate answers alike); the message names the first contact or gap at
+ * fault (an overflowing force the core refuses itself, with the pointer). */
 int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts_result* r, ntsj_fault* f) {
     const nts_summary* sm = &r->summary;
-    int b, k, i;
-    if (r->forces) {
-        for (b = 0; b < s->body_count; ++b) {
+    int i;
+    /* The forces are not read again: the core answers NTS_ENONFINITE when
+     * one overflows (nts_evaluate), and a pass over every node cost 6% of a
+     * step of a mesh of 66k nodes (1,776 on its surface). */
+#ifndef NDEBUG
+    {
+        int b, k;
+        for (b = 0; r->forces && b < s->body_count; ++b) {
             int off = nts_scene_body_node_offset(scene, b), n = nts_scene_body_node_count(scene, b);
-            for (k = 0; k < n; ++k) {
-                if (!vec_ok(r->forces[off + k])) {
-                    ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "/options/penalty",
-                                   "the contact force on /bodies/%d/nodes/%d overflows a double (reduce the penalty "
-                                   "or the coordinates)", b, k);
-                    return 1;
-                }
-            }
+            for (k = 0; k < n; ++k) assert(vec_ok(r->forces[off + k]));
         }
     }
+#else
+    (void)s;
+    (void)scene;
+#endif
     for (i = 0; r->contacts && i < r->contact_count; ++i) {
         const nts_contact* c = &r->contacts[i];
         if (!vec_ok(c->force) || !virial_ok(c->virial) || !isfinite(c->gap) || !vec_ok(c->point) ||

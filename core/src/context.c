@@ -157,6 +157,7 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
         ctx->workers[i].last_count = 0;
         ctx->workers[i].last_slave = ctx->workers[i].first_slave = -1;
         ctx->workers[i].fifo_head = ctx->workers[i].fifo_count = 0;
+        ctx->workers[i].forces_bad = 0;
         ctx->workers[i].spill_used[STREAM_RECORDS] = ctx->workers[i].spill_used[STREAM_REACH] = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].owned_gaps = 0;

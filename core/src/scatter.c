@@ -88,13 +88,6 @@ static void chunk_friction(nts_context* ctx, const search_env* env, chunk_info* 
         }
 }
 
-static int forces_finite(const nts_vec2* F, int n0, int n1) {
-    int i;
-    for (i = n0; i < n1; ++i)
-        if (!nts_is_valid_vec2(F[i])) return 0;
-    return 1;
-}
-
 /* A chunk's active contacts and their sums. */
 static void chunk_sums(const search_env* env, chunk_info* ch) {
     const candidate* rec = chunk_recs(ch);
@@ -126,13 +119,18 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
     chunk_node_span(ch, ch->sh, ch->sums.active);
 }
 
-/* Add the forces of shares sh[0..n) on nodes [n0, n1), in order. */
-static void shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int n1) {
-    int k, q;
+/* Add the forces of shares sh[0..n) on nodes [n0, n1), in order; 1 when a
+ * sum it wrote is not finite (law_add_shares says why that is enough). */
+static int shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int n1) {
+    int k, q, bad = 0;
     for (k = 0; k < n; ++k)
         for (q = 0; q < 4 && sh[k].node[q] >= 0; ++q)
-            if (sh[k].node[q] >= n0 && sh[k].node[q] < n1)
-                F[sh[k].node[q]] = nts_add(F[sh[k].node[q]], share_force(&sh[k], q));
+            if (sh[k].node[q] >= n0 && sh[k].node[q] < n1) {
+                const nts_vec2 f = nts_add(F[sh[k].node[q]], share_force(&sh[k], q));
+                F[sh[k].node[q]] = f;
+                bad |= !nts_is_valid_vec2(f);
+            }
+    return bad;
 }
 
 /* The forces on nodes [n0, n1) from the chunks' force shares, in chunk
@@ -143,14 +141,13 @@ static void shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int
  * of them overflowed. */
 static int forces_range(nts_context* ctx, int n0, int n1) {
     nts_vec2* F = ctx->forces;
-    int c;
+    int c, bad = 0;
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
     for (c = 0; c < ctx->chunk_count; ++c) {
         const chunk_info* ch = &ctx->chunks[c];
-        if (ch->node_hi >= n0 && ch->node_lo < n1) shares_range(F, ch->sh, ch->sums.active, n0, n1);
+        if (ch->node_hi >= n0 && ch->node_lo < n1) bad |= shares_range(F, ch->sh, ch->sums.active, n0, n1);
     }
-    shares_range(F, ctx->reach.shares, ctx->reach.deep_count, n0, n1);
-    return forces_finite(F, n0, n1) ? 0 : 1;
+    return bad | shares_range(F, ctx->reach.shares, ctx->reach.deep_count, n0, n1);
 }
 
 typedef struct scatter_task {
@@ -399,8 +396,9 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
                                                  : contact_shares(env, &reach->deep[k]);
     }
     if (want_forces && env->direct) {
-        for (k = 0; k < reach->deep_count; ++k) law_add_shares(ctx->forces, &reach->shares[k]);
-        overflow |= !forces_finite(ctx->forces, 0, s->node_count);
+        /* (each add says whether it overflowed: no pass over every node) */
+        for (k = 0; k < reach->deep_count; ++k) overflow |= law_add_shares(ctx->forces, &reach->shares[k]);
+        for (c = 0; c < run->workers; ++c) overflow |= ctx->workers[c].forces_bad;
     } else if (want_forces) {
         /* Each thread adds the forces on its range of nodes, so every node's
          * sum runs in record order whatever the threads; the shares are

@@ -95,6 +95,7 @@ typedef struct worker {
      * forces_delayed). */
     force_shares fifo[FORCE_DELAY];
     int fifo_head, fifo_count;
+    int forces_bad;    /* the direct path wrote a force that is not finite (law_add_shares) */
     long long gaps;    /* closest points within r found (kept or not) */
     long long owned_gaps; /* those of the slaves search_env.owned marks (a distributed host's) */
     contact_sums* sums;/* the current chunk's, when the search sums as it goes (direct or shares) */
@@ -314,7 +315,7 @@ static inline void scatter_direct(const search_env* env, worker* w, const candid
     sh = contact_shares(env, b);
     for (q = 0; q < 4 && sh.node[q] >= 0; ++q) NTS_PREFETCH_W(&env->forces[sh.node[q]]);
     if (w->fifo_count == FORCE_DELAY) {
-        law_add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->forces_bad |= law_add_shares(env->forces, &w->fifo[w->fifo_head]);
         w->fifo[w->fifo_head] = sh;
         w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
     } else {
@@ -325,7 +326,7 @@ static inline void scatter_direct(const search_env* env, worker* w, const candid
 /* The forces still delayed, at the end of the worker's range. */
 static inline void scatter_direct_drain(const search_env* env, worker* w) {
     for (; w->fifo_count > 0; --w->fifo_count) {
-        law_add_shares(env->forces, &w->fifo[w->fifo_head]);
+        w->forces_bad |= law_add_shares(env->forces, &w->fifo[w->fifo_head]);
         w->fifo_head = (w->fifo_head + 1) % FORCE_DELAY;
     }
     w->fifo_head = 0;

@@ -210,53 +210,68 @@ static void test_overflow_is_an_error_not_nan(void) {
 }
 
 /* Forces that overflow while the energy does not: a long master's end node
- * pushed by four slaves a gap of 0.5 to 1 deep (its share of each force
- * 0.97-0.98 at alpha 0), the penalty P such that their sum exceeds the
- * largest double (about 2.9 P) while the energy (1.25 P) and each slave's
- * own force (at most P) do not. An error naming the penalty on every path that sums
- * forces: the search's own (one thread), the force shares (two threads) and
- * the records (contacts asked for); a tenth of the penalty is fine. */
+ * (node 3) pushed by the four nodes of a square 0.5 to 1 deep (its share of
+ * each force 0.97-0.98 at alpha 0), the penalty P such that their sum
+ * exceeds the largest double (about 2.9 P) while the energy (1.25 P) and
+ * each slave's own force (at most P) do not; then a small polygon's twelve
+ * shallow contacts on the master's bottom edge, before or after the square's
+ * in slave order (the search's own path adds a force when eight more have
+ * come, or at the end). An error naming the penalty on every path that
+ * sums forces: the search's own (one thread; the radius given, so the
+ * square is found by the search, or the default, by the deep contacts'
+ * growth), the force shares (two
+ * threads) and the records (contacts asked for); at a tenth of the penalty
+ * every value is finite, and ten times only node 3's force is not. */
 static void test_force_overflow_is_an_error(void) {
-    test_body b[2];
-    nts_scene* s;
+    test_body b[3], t;
+    nts_scene* scenes[2];
     nts_options o = nts_default_options();
     nts_result r;
     nts_context* ctx = nts_context_create();
     nts_error err;
     static const nts_vec2 master[4] = {{0.0, 0.0}, {100.0, 0.0}, {100.0, 10.0}, {0.0, 10.0}};
-    static const nts_vec2 slave[4] = {{2.0, 9.0}, {3.0, 9.0}, {3.0, 9.5}, {2.0, 9.5}};
-    static const unsigned paths[3] = {0u, 0u, NTS_OUT_CONTACTS};
-    static const int threads[3] = {1, 2, 1};
-    int k, i;
+    static const nts_vec2 square[4] = {{2.0, 9.0}, {3.0, 9.0}, {3.0, 9.5}, {2.0, 9.5}};
+    static const unsigned paths[5] = {0u, 0u, 0u, 0u, NTS_OUT_CONTACTS};
+    static const int threads[5] = {1, 1, 1, 2, 1};
+    static const double radius[5] = {2.0, 2.0, -1.0, -1.0, -1.0};
+    static const int order[5] = {0, 1, 0, 0, 0}; /* the square before the polygon, or after */
+    int k, i, n;
     memset(b, 0, sizeof b);
     for (i = 0; i < 4; ++i) {
         b[0].nodes[i] = master[i];
-        b[1].nodes[i] = slave[i];
+        b[1].nodes[i] = square[i];
     }
     b[0].node_count = b[1].node_count = 4;
-    s = make_scene(b, 2, 0, 0);
-    CU_ASSERT_FATAL(s != NULL);
+    make_polygon(&b[2], 12, 0.05, nts_v2(50.0, 0.06), 0.0);
+    scenes[0] = make_scene(b, 3, 0, 0);
+    t = b[1];
+    b[1] = b[2];
+    b[2] = t;
+    scenes[1] = make_scene(b, 3, 0, 0);
+    CU_ASSERT_FATAL(scenes[0] != NULL && scenes[1] != NULL);
+    n = nts_scene_node_count(scenes[0]);
     o.alpha = 0.0;
-    for (k = 0; k < 3; ++k) {
+    for (k = 0; k < 5; ++k) {
+        nts_scene* s = scenes[order[k]];
         double fmax = 0.0;
         o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | paths[k];
         o.threads = threads[k];
+        o.search_radius = radius[k];
         o.penalty = 1e307;
         ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), 0);
-        for (i = 0; i < 8; ++i) fmax = fabs(r.forces[i].y) > fmax ? fabs(r.forces[i].y) : fmax;
-        /* the premise, at a tenth of the penalty: ten times the end node's
-         * force overflows, ten times any other force or the energy does not */
+        ASSERT_INT_EQ(r.summary.contacts, 16);
+        for (i = 0; i < n; ++i) fmax = fabs(r.forces[i].y) > fmax ? fabs(r.forces[i].y) : fmax;
         CU_ASSERT(fabs(r.forces[3].y) == fmax && 10.0 * fmax > DBL_MAX);
-        for (i = 0; i < 8; ++i)
+        for (i = 0; i < n; ++i)
             if (i != 3) CU_ASSERT(10.0 * fabs(r.forces[i].x) < DBL_MAX && 10.0 * fabs(r.forces[i].y) < DBL_MAX);
         CU_ASSERT(r.summary.energy > 0.0 && 10.0 * r.summary.energy < DBL_MAX);
-        ASSERT_INT_EQ(r.summary.contacts, 4);
         o.penalty = 1e308;
         ASSERT_INT_EQ(nts_evaluate(ctx, s, &o, &r, &err), NTS_ENONFINITE);
         CU_ASSERT(strcmp(err.option, "penalty") == 0);
     }
     nts_context_destroy(ctx);
-    nts_scene_destroy(s);
+    nts_scene_destroy(scenes[0]);
+    nts_scene_destroy(scenes[1]);
 }
 
 /* A context trimmed after a large evaluation holds no more than a new one,

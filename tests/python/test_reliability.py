@@ -88,7 +88,9 @@ def test_soak_verdict(soak_result):
 # past its value: a scene that breaks one exits 3 from the CLI and gets a 4xx
 # from the daemon, with a stable code and a message naming the limit.
 import json  # noqa: E402
+import struct  # noqa: E402
 import subprocess  # noqa: E402
+import sys  # noqa: E402
 import urllib.error  # noqa: E402
 import urllib.request  # noqa: E402
 
@@ -198,3 +200,56 @@ def test_overflowing_result_over_http(daemon):
     status, doc = _post(daemon, OVERFLOW.read_bytes())
     assert status == 400, doc
     assert doc["error"]["code"] == "non_finite" and doc["error"]["pointer"] == "/options/penalty"
+
+
+# Forces that overflow while the energy and the virial do not: a long master's
+# end node pushed by a square's four nodes (2.925 P on it, the virial 2.5 P,
+# the energy 1.25 P). The core refuses it (the codec no longer reads every
+# force again); at 6e307 every value is finite, at 6.6e307 only that force is
+# not.
+FORCE_OVERFLOW = OVERFLOW.parent / "overflow-force-only.json"
+
+
+def _with_penalty(penalty):
+    doc = json.loads(FORCE_OVERFLOW.read_bytes())
+    doc["options"]["penalty"] = penalty
+    return json.dumps(doc).encode()
+
+
+def test_overflowing_force_is_an_input_error(paths, daemon):
+    fine = _cli(paths, stdin=_with_penalty(6e307))
+    assert fine.returncode == 0, fine.stderr
+    doc = json.loads(fine.stdout)
+    forces = [f for b in doc["bodies"] for f in b["forces"]]
+    worst = max(abs(v) for f in forces for v in f)
+    assert worst == abs(doc["bodies"][0]["forces"][3][1]) and worst * 1.1 > sys.float_info.max
+    assert all(abs(v) * 1.1 < sys.float_info.max for f in forces for v in f if abs(v) != worst)
+    summary = doc["summary"]
+    assert summary["energy"] * 1.1 < sys.float_info.max and summary["virial"]["yy"] * 1.1 < sys.float_info.max
+    body = FORCE_OVERFLOW.read_bytes()
+    # (not --validate: it computes no force, only the energy and the virial)
+    proc = _cli(paths, stdin=body)
+    assert proc.returncode == 3, (proc.stdout[:300], proc.stderr)
+    assert proc.stderr.decode().startswith('ntscontact: non_finite at "/options/penalty": '), proc.stderr
+    status, err = _post(daemon, body)
+    assert status == 400 and err["error"]["code"] == "non_finite", err
+    assert err["error"]["pointer"] == "/options/penalty"
+    # A session's binary step (the codec's answer path without its own pass).
+    status, created = _post(daemon, _with_penalty(6e307), "/v1/scenes")
+    assert status == 201, created
+    url = daemon.url(f"/v1/scenes/{created['id']}/contact")
+    pos = b"".join(struct.pack("<dd", *p) for b in json.loads(body)["bodies"] for p in b["nodes"])
+    for penalty, want in (("6e307", 200), ("6.6e307", 400), ("6e307", 200)):
+        req = urllib.request.Request(f"{url}?penalty={penalty}", data=pos, headers={
+            "Content-Type": "application/octet-stream", "Accept": "application/octet-stream"})
+        try:
+            with urllib.request.urlopen(req, timeout=30) as resp:
+                status, answer = resp.status, resp.read()
+        except urllib.error.HTTPError as e:
+            status, answer = e.code, e.read()
+        assert status == want, (penalty, answer[:200])
+        if want == 400:
+            err = json.loads(answer)["error"]
+            assert err["code"] == "non_finite" and err["pointer"] == "/options/penalty", err
+        else:
+            assert len(answer) == 16 * 8 and all(abs(v) < float("inf") for v in struct.unpack("<16d", answer))

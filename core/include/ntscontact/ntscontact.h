@@ -654,7 +654,10 @@ NTS_API int nts_context_set_parallel(nts_context* ctx, const nts_parallel* backe
  * of one slave), never by which thread ran which part: evaluating the same
  * scene at the same positions with the same options and thread count again
  * allocates nothing, whatever the schedule, and a context never holds more
- * than a fixed multiple of the largest needs it has met. */
+ * than a fixed multiple of the largest needs it has met. On success every
+ * force, the energy, the virial and the tangent are finite: finite input
+ * whose result overflows a double is NTS_ENONFINITE with err->option
+ * "penalty". */
 NTS_API int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_options* opt,
                  nts_result* out, nts_error* err);
 
