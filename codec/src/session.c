@@ -28,6 +28,8 @@ struct ntsj_session {
     nts_scene* scene;    /* the authority on the stored positions */
     nts_context* ctx;
     nts_vec2* next;      /* node_count: a step's positions before the core takes them */
+    const nts_vec2* in;  /* the step's positions: next, or the binary request's own bytes when they can be
+                            read in place (little-endian doubles, aligned); valid during the step only */
     int limits_set;
     nts_limits limits;
     unsigned long long steps;
@@ -295,15 +297,19 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, ntsj_f
                        n, (unsigned long)expected, (unsigned long)length);
         return -1;
     }
-    if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
+    if (host_is_little_endian() && sizeof(nts_vec2) == 16 && (uintptr_t)(const void*)body % sizeof(double) == 0) {
+        /* read in place: a copy of 16 N bytes less a step (the core copies
+         * them into the scene once they pass its checks) */
+        ss->in = (const nts_vec2*)(const void*)body;
+    } else if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
         memcpy(ss->next, body, expected);
     } else {
         const unsigned char* p = (const unsigned char*)body;
         for (k = 0; k < n; ++k) ss->next[k] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
     }
     for (k = 0; k < n; ++k) {
-        if (!isfinite(ss->next[k].x)) return position_fault(ss, k, "x", f);
-        if (!isfinite(ss->next[k].y)) return position_fault(ss, k, "y", f);
+        if (!isfinite(ss->in[k].x)) return position_fault(ss, k, "x", f);
+        if (!isfinite(ss->in[k].y)) return position_fault(ss, k, "y", f);
     }
     return 0;
 }
@@ -491,7 +497,7 @@ static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_
 
 /* ------------------------------------------------------------------- steps */
 
-/* The positions in ss->next would make another scene, or fail a check: build
+/* The positions in ss->in would make another scene, or fail a check: build
  * it as ntsj_handle would. On success the new scene replaces the old one. */
 static int rebuild(ntsj_session* ss, nts_error* err) {
     nts_scene_def def;
@@ -499,7 +505,7 @@ static int rebuild(ntsj_session* ss, nts_error* err) {
     int b;
     for (b = 0; b < ss->js.body_count; ++b) {
         int off = nts_scene_body_node_offset(ss->scene, b);
-        memcpy(ss->js.nodes[b], ss->next + off, sizeof(nts_vec2) * (size_t)ss->js.defs[b].node_count);
+        memcpy(ss->js.nodes[b], ss->in + off, sizeof(nts_vec2) * (size_t)ss->js.defs[b].node_count);
     }
     def = scene_def_of(&ss->js, &ss->limits);
     fresh = nts_scene_create(&def, err);
@@ -509,11 +515,11 @@ static int rebuild(ntsj_session* ss, nts_error* err) {
     return NTS_OK;
 }
 
-/* The positions read into ss->next taken by the scene, or, when they change
+/* The positions read (ss->in) taken by the scene, or, when they change
  * its normalisation (or fail a check), a scene made anew from them (whose
  * creation names any fault). */
 static int take_positions(ntsj_session* ss, nts_error* err) {
-    if (nts_scene_update_positions(ss->scene, ss->next, err) == NTS_OK) return NTS_OK;
+    if (nts_scene_update_positions(ss->scene, ss->in, err) == NTS_OK) return NTS_OK;
     return rebuild(ss, err);
 }
 
@@ -615,6 +621,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     if (cfg.max_depth <= 0) cfg.max_depth = 32;
     held = nts_context_memory_bytes(ss->ctx) + nts_candidates_bytes(ss->candidates);
     opt = ss->js.options;
+    ss->in = ss->next; /* (read_binary may point it at the request's bytes) */
 
     if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
         if (read_binary(ss, st->body, st->length, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
@@ -690,9 +697,9 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
         eo.candidates = ss->candidates; /* replayed while it holds (§15) */
         capped = cap_candidates(ss, &cfg, &eo);
-        rc = fused ? nts_evaluate_positions(ss->ctx, ss->scene, ss->next, &eo, &result, &err)
+        rc = fused ? nts_evaluate_positions(ss->ctx, ss->scene, ss->in, &eo, &result, &err)
                    : session_evaluate(ss, &cfg, &eo, &result, &err);
-        if (rc != NTS_OK && fused && nts_scene_update_positions(ss->scene, ss->next, NULL) != NTS_OK) {
+        if (rc != NTS_OK && fused && nts_scene_update_positions(ss->scene, ss->in, NULL) != NTS_OK) {
             /* the positions refused (the update refuses exactly those):
              * a scene made anew from them, or the reason it cannot be */
             if ((rc = rebuild(ss, &err)) != NTS_OK) {

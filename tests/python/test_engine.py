@@ -214,6 +214,42 @@ def test_forces_are_a_read_only_view_of_the_answer(engine, paths):
     assert np.array_equal(f, want)  # the view outlives its session
 
 
+def unaligned(arr):
+    """A copy of float64 array `arr` one byte past an 8-byte boundary."""
+    raw = np.zeros(arr.nbytes + 9, dtype=np.uint8)
+    start = (1 - raw.ctypes.data) % 8
+    out = np.frombuffer(raw.data, dtype="<f8", count=arr.size, offset=start).reshape(arr.shape)
+    out[...] = arr
+    assert out.ctypes.data % 8 != 0 and not out.flags.aligned
+    return out
+
+
+def test_positions_read_in_place_or_copied_give_the_same_answers(engine, paths):
+    """A step's positions are read where they lie when they are aligned
+    little-endian doubles (the daemon's request body, a numpy array), else
+    copied first: the same answers, the same faults."""
+    scene = load(paths, "jittered_packing")
+    with engine.session(scene) as es, engine.session(scene) as us:
+        for k, pos in enumerate(walk(scene, 4, 17)):
+            outs = ["forces", "energy", "virial"] if k % 2 else ["forces", "contacts"]
+            got, want = us.contact(unaligned(pos), outputs=outs), es.contact(pos, outputs=outs)
+            assert np.array_equal(got.force_array().view(np.uint64), want.force_array().view(np.uint64))
+            assert got.summary.energy == want.summary.energy and got.contacts == want.contacts
+        for value in (np.nan, np.inf):
+            bad = pos.copy()
+            bad[7, 1] = value
+            faults = []
+            for s, arr in ((es, bad), (us, unaligned(bad))):
+                with pytest.raises(InvalidScene) as info:
+                    s.contact(arr)
+                faults.append((info.value.code, info.value.pointer, info.value.message))
+            assert faults[0] == faults[1] and faults[0][:2] == ("non_finite", "/positions/7"), faults
+        # a refused step keeps the stored positions (in place: the request's bytes are not kept)
+        got, want = us.contact(outputs=["forces"]), es.contact(outputs=["forces"])
+        assert np.array_equal(got.force_array(), want.force_array())
+        assert np.array_equal(got.force_array(), engine.contact(with_positions(scene, pos)).force_array())
+
+
 def test_session_errors_are_the_daemons(engine, client, paths):
     scene = load(paths, "two_disks")
     with engine.session(scene) as es, client.session(scene) as hs:
