@@ -42,7 +42,8 @@ def replace_section(path, title, section):
         doc = doc.rstrip("\n") + "\n\n" + section
     else:
         end = doc.find("\n## ", start + len(title))
-        doc = doc[:start] + section + (doc[end + 1:] if end >= 0 else "")
+        # one blank line before the next section's title
+        doc = doc[:start] + (section.rstrip("\n") + "\n\n" + doc[end + 1:] if end >= 0 else section)
     path.write_text(doc)
 
 
