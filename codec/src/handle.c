@@ -284,10 +284,12 @@ int ntsj_handle(const char* json, size_t length, const ntsj_config* config, ntsj
         ntsj_deadline deadline;
         opt.history = history;
         /* The summary is always complete: energy and virial are always computed.
-         * Validation evaluates too (with no arrays): faults that depend on the
-         * options and the whole scene (a periodic box too small for the search
-         * reach) only show there, and "valid" must mean "evaluates". */
-        opt.outputs = cfg.mode == NTSJ_VALIDATE ? 0u : (opt.outputs | NTS_OUT_ENERGY | NTS_OUT_VIRIAL);
+         * Validation evaluates too, with the same outputs (none of them
+         * written): faults that depend on the options and the whole scene (a
+         * periodic box too small for the search reach, a force or a tangent
+         * that overflows a double) only show there, and "valid" must mean
+         * "evaluates". */
+        opt.outputs |= NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
         if (cfg.vtk && cfg.mode != NTSJ_VALIDATE) opt.outputs |= NTS_OUT_FORCES | NTS_OUT_CONTACTS;
         ntsj_arm_deadline(&opt, &deadline, &cfg, t0);
         ctx = nts_context_create();

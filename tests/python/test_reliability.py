@@ -227,13 +227,17 @@ def test_overflowing_force_is_an_input_error(paths, daemon):
     summary = doc["summary"]
     assert summary["energy"] * 1.1 < sys.float_info.max and summary["virial"]["yy"] * 1.1 < sys.float_info.max
     body = FORCE_OVERFLOW.read_bytes()
-    # (not --validate: it computes no force, only the energy and the virial)
-    proc = _cli(paths, stdin=body)
-    assert proc.returncode == 3, (proc.stdout[:300], proc.stderr)
-    assert proc.stderr.decode().startswith('ntscontact: non_finite at "/options/penalty": '), proc.stderr
-    status, err = _post(daemon, body)
-    assert status == 400 and err["error"]["code"] == "non_finite", err
-    assert err["error"]["pointer"] == "/options/penalty"
+    # "valid" means "evaluates": --validate computes the forces the scene asks for
+    # (it computed none, and called this scene valid)
+    for mode in ([], ["--validate"]):
+        proc = _cli(paths, *mode, stdin=body)
+        assert proc.returncode == 3, (mode, proc.stdout[:300], proc.stderr)
+        assert proc.stderr.decode().startswith('ntscontact: non_finite at "/options/penalty": '), proc.stderr
+    assert _cli(paths, "--validate", stdin=_with_penalty(6e307)).returncode == 0
+    for path in ("/v1/contact", "/v1/validate"):
+        status, err = _post(daemon, body, path)
+        assert status == 400 and err["error"]["code"] == "non_finite", (path, err)
+        assert err["error"]["pointer"] == "/options/penalty"
     # A session's binary step (the codec's answer path without its own pass).
     status, created = _post(daemon, _with_penalty(6e307), "/v1/scenes")
     assert status == 201, created
