@@ -217,11 +217,11 @@ static void test_overflow_is_an_error_not_nan(void) {
  * shallow contacts on the master's bottom edge, before or after the square's
  * in slave order (the search's own path adds a force when eight more have
  * come, or at the end). An error naming the penalty on every path that
- * sums forces: the search's own (one thread; the radius given, so the
- * square is found by the search, or the default, by the deep contacts'
- * growth), the force shares (two
- * threads) and the records (contacts asked for); at a tenth of the penalty
- * every value is finite, and ten times only node 3's force is not. */
+ * sums forces: the search's own (one thread), the force shares (two
+ * threads) and the records (contacts asked for), each with the radius
+ * given (the square found by the search: the chunks' adds) and the default
+ * (found by the deep contacts' growth: their own adds); at a tenth of the
+ * penalty every value is finite, and ten times only node 3's force is not. */
 static void test_force_overflow_is_an_error(void) {
     test_body b[3], t;
     nts_scene* scenes[2];
@@ -231,10 +231,10 @@ static void test_force_overflow_is_an_error(void) {
     nts_error err;
     static const nts_vec2 master[4] = {{0.0, 0.0}, {100.0, 0.0}, {100.0, 10.0}, {0.0, 10.0}};
     static const nts_vec2 square[4] = {{2.0, 9.0}, {3.0, 9.0}, {3.0, 9.5}, {2.0, 9.5}};
-    static const unsigned paths[5] = {0u, 0u, 0u, 0u, NTS_OUT_CONTACTS};
-    static const int threads[5] = {1, 1, 1, 2, 1};
-    static const double radius[5] = {2.0, 2.0, -1.0, -1.0, -1.0};
-    static const int order[5] = {0, 1, 0, 0, 0}; /* the square before the polygon, or after */
+    static const unsigned paths[7] = {0u, 0u, 0u, 0u, NTS_OUT_CONTACTS, 0u, NTS_OUT_CONTACTS};
+    static const int threads[7] = {1, 1, 1, 2, 1, 2, 1};
+    static const double radius[7] = {2.0, 2.0, -1.0, -1.0, -1.0, 2.0, 2.0};
+    static const int order[7] = {0, 1, 0, 0, 0, 0, 0}; /* the square before the polygon, or after */
     int k, i, n;
     memset(b, 0, sizeof b);
     for (i = 0; i < 4; ++i) {
@@ -251,7 +251,7 @@ static void test_force_overflow_is_an_error(void) {
     CU_ASSERT_FATAL(scenes[0] != NULL && scenes[1] != NULL);
     n = nts_scene_node_count(scenes[0]);
     o.alpha = 0.0;
-    for (k = 0; k < 5; ++k) {
+    for (k = 0; k < 7; ++k) {
         nts_scene* s = scenes[order[k]];
         double fmax = 0.0;
         o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | paths[k];
