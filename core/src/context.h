@@ -82,6 +82,11 @@ struct nts_context {
     int chunk_cap, chunk_count;
     nts_vec2* forces;
     int forces_cap;
+    /* The scene (nts_scene.serial; 0: none) whose forces were the last
+     * written in forces[]: every node of it off its surface still holds
+     * zero there (the adds reach surface nodes only), so that its next
+     * direct path zeroes the surface nodes alone (evaluate.c). */
+    unsigned long long forces_serial;
     double* pressure;  /* NTS_OUT_PRESSURE (pressure.c) */
     int pressure_cap;
     force_shares* shares; /* each active record's forces, computed once (records kept) */

@@ -514,9 +514,19 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     env.shares = nthreads > 1 && !env.keep_all && !ctx->parts_on;
     env.want_forces = (opt->outputs & NTS_OUT_FORCES) != 0u;
     if (env.direct && env.want_forces) {
+        /* A mesh's interior nodes (most of its nodes) get no force: when this
+         * scene wrote forces[] last, they still hold zero, and only the
+         * surface nodes' forces are cleared (the adds reach no other). */
+        const int clean = ctx->forces_serial == s->serial && 2 * (long long)s->surface_count <= s->node_count;
+        ctx->forces_serial = 0;
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
-        memset(ctx->forces, 0, sizeof(nts_vec2) * (size_t)s->node_count);
+        if (clean) {
+            for (i = 0; i < s->surface_count; ++i) ctx->forces[s->surf_node[i]] = nts_v2(0.0, 0.0);
+        } else {
+            memset(ctx->forces, 0, sizeof(nts_vec2) * (size_t)s->node_count);
+        }
+        ctx->forces_serial = s->serial;
         env.forces = ctx->forces;
     }
     /* Each chunk taken by whichever worker is free (a worker that the

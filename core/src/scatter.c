@@ -413,6 +413,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
          * sum runs in record order whatever the threads; the shares are
          * computed once, in parallel by chunk, not by every thread. */
         int at = 0;
+        ctx->forces_serial = 0; /* until every range is zeroed (forces_range) */
         if ((rc = nts_grow((void**)&ctx->forces, &ctx->forces_cap, s->node_count, sizeof(nts_vec2))) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (env->shares) { /* the search kept them, chunk by chunk */
@@ -433,6 +434,7 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         /* One part of the nodes per worker (any parts give the same bits). */
         task.parts = run->workers;
         nts_run_each(run, forces_task, task.parts, &task);
+        ctx->forces_serial = s->serial;
         overflow |= task.bad;
     }
     /* Finite input can still overflow (a huge penalty or huge coordinates):

@@ -185,6 +185,89 @@ static void test_interior_nodes_get_zero_force(void) {
     nts_scene_destroy(s);
 }
 
+/* A mesh whose nodes are mostly inside (a 12 x 12 grid of nodes, 44 of 144
+ * on its boundary) pressed by a disk: a context that evaluated it last
+ * clears only the surface nodes' forces (the interior ones still hold
+ * zero). Every evaluation, on a context that has seen other scenes (a
+ * larger one with forces on most of its nodes, on one thread and on two;
+ * the same mesh on two threads; a trim) or this one at other positions,
+ * gives a fresh context's forces bit for bit, interior zeros included. */
+static void test_mesh_forces_on_a_context_used_before(void) {
+    enum { G = 12 };
+    nts_vec2 grid[G * G];
+    int tri[6 * (G - 1) * (G - 1)];
+    test_body disk, other[2];
+    nts_body_def defs[2];
+    nts_scene_def def = nts_default_scene_def();
+    nts_options o = nts_default_options();
+    nts_context* ctx = nts_context_create();
+    nts_scene *s, *big;
+    nts_error err;
+    nts_result r, want;
+    int i, j, t = 0, k, n;
+    for (j = 0; j < G; ++j)
+        for (i = 0; i < G; ++i) grid[j * G + i] = nts_v2(2.0 * i / (G - 1), 2.0 * j / (G - 1));
+    for (j = 0; j + 1 < G; ++j)
+        for (i = 0; i + 1 < G; ++i) {
+            const int a = j * G + i;
+            tri[t++] = a, tri[t++] = a + 1, tri[t++] = a + G + 1;
+            tri[t++] = a, tri[t++] = a + G + 1, tri[t++] = a + G;
+        }
+    make_polygon(&disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
+    memset(defs, 0, sizeof defs);
+    defs[0].nodes = grid;
+    defs[0].node_count = G * G;
+    defs[0].triangles = tri;
+    defs[0].triangle_count = t / 3;
+    defs[1].nodes = disk.nodes;
+    defs[1].node_count = disk.node_count;
+    def.bodies = defs;
+    def.body_count = 2;
+    s = nts_scene_create(&def, &err);
+    CU_ASSERT_FATAL(s != NULL);
+    n = nts_scene_node_count(s);
+    CU_ASSERT_FATAL(2 * nts_scene_surface_node_count(s) <= n);
+    /* two disks pressed deep into each other: forces on most of their nodes */
+    make_polygon(&other[0], 200, 1.0, nts_v2(0, 0), 0.0);
+    make_polygon(&other[1], 200, 1.0, nts_v2(0.6, 0), 0.1);
+    big = make_scene(other, 2, 0, 0);
+    CU_ASSERT_FATAL(big != NULL);
+    o.penalty = 10.0;
+    for (k = 0; k < 8; ++k) {
+        nts_context* fresh = nts_context_create();
+        nts_vec2 pos[G * G + 24];
+        /* the disk a little lower each time, the mesh as it is */
+        memcpy(pos, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+        for (i = G * G; i < n; ++i) pos[i].y -= 0.01 * k;
+        CU_ASSERT_FATAL(nts_scene_update_positions(s, pos, &err) == 0);
+        o.threads = k == 6 ? 2 : 1;
+        if (k == 3 || k == 6) { /* another scene between, on one thread or two */
+            int nonzero = 0;
+            CU_ASSERT_FATAL(nts_evaluate(ctx, big, &o, &r, &err) == 0);
+            for (i = 0; i < n; ++i) nonzero += r.forces[i].x != 0.0 || r.forces[i].y != 0.0;
+            CU_ASSERT(nonzero > n / 2); /* where the mesh's interior forces lie */
+            o.threads = 1;
+        }
+        if (k == 4) {
+            o.threads = 2;
+            CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+            o.threads = 1;
+        }
+        if (k == 5) nts_context_trim(ctx);
+        CU_ASSERT_FATAL(nts_evaluate(fresh, s, &o, &want, &err) == 0);
+        CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r, &err) == 0);
+        CU_ASSERT(want.summary.contacts > 0);
+        CU_ASSERT(memcmp(r.forces, want.forces, sizeof(nts_vec2) * (size_t)n) == 0);
+        for (i = 0; i < n; ++i)
+            if (i % G != 0 && i % G != G - 1 && i / G != 0 && i / G != G - 1 && i < G * G)
+                CU_ASSERT(r.forces[i].x == 0.0 && r.forces[i].y == 0.0);
+        nts_context_destroy(fresh);
+    }
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    nts_scene_destroy(big);
+}
+
 static void test_overflow_is_an_error_not_nan(void) {
     /* Finite input whose energy overflows (gaps ~1e88, eps g^2 ~1e376): an
      * error naming the penalty, never Inf or NaN out of the library. */
@@ -326,6 +409,7 @@ void register_contact_suite(void) {
     ADD_TEST(s, test_periodic_contact_across_the_boundary);
     ADD_TEST(s, test_box_too_small_is_an_error);
     ADD_TEST(s, test_force_overflow_is_an_error);
+    ADD_TEST(s, test_mesh_forces_on_a_context_used_before);
     ADD_TEST(s, test_interior_nodes_get_zero_force);
     ADD_TEST(s, test_overflow_is_an_error_not_nan);
     ADD_TEST(s, test_trim_gives_back_and_keeps_results);
