@@ -9,9 +9,10 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 
 
-def start_daemon(max_body="512M"):
-    """ntscontactd on a free loopback port, one evaluation thread: (process, port)."""
-    proc = subprocess.Popen([str(BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
+def start_daemon(max_body="512M", binary=None):
+    """ntscontactd (BUILD's, or `binary`) on a free loopback port, one
+    evaluation thread: (process, port)."""
+    proc = subprocess.Popen([str(binary or BUILD / "bin" / "ntscontactd"), "--port", "0", "--quiet", "--threads", "1",
                              "--max-bytes", max_body, "--session-memory", "8G"],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     line = proc.stdout.readline().decode()
