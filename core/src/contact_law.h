@@ -125,20 +125,24 @@ static inline void law_sum_friction(contact_sums* cs, double eps, double g, nts_
     }
 }
 
-/* Add a contact's force shares into F, node by node in order (every path
- * adds them the same way: the same bits). Returns 1 when a sum it wrote is
- * not finite. Every force is a sum of shares from zero, and a sum that has
- * overflowed never turns finite again (infinity plus a finite share stays
- * infinite, plus the other infinity is NaN, and NaN stays NaN): the adds'
- * own verdicts say whether every force is finite, without a pass over all
- * the nodes (most of a mesh's are inside, never touched). */
+/* Add share q of a contact's forces into F (every path adds them the same
+ * way: the same bits). Returns 1 when the sum it wrote is not finite. Every
+ * force is a sum of shares from zero, and a sum that has overflowed never
+ * turns finite again (infinity plus a finite share stays infinite, plus the
+ * other infinity is NaN, and NaN stays NaN): the adds' own verdicts say
+ * whether every force is finite, without a pass over all the nodes (most of
+ * a mesh's are inside, never touched). */
+static inline int law_add_share(nts_vec2* F, const force_shares* sh, int q) {
+    const nts_vec2 f = nts_add(F[sh->node[q]], share_force(sh, q));
+    F[sh->node[q]] = f;
+    return !nts_is_valid_vec2(f);
+}
+
+/* Add a contact's force shares into F, node by node in order; 1 when a sum
+ * it wrote is not finite. */
 static inline int law_add_shares(nts_vec2* F, const force_shares* sh) {
     int q, bad = 0;
-    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) {
-        const nts_vec2 f = nts_add(F[sh->node[q]], share_force(sh, q));
-        F[sh->node[q]] = f;
-        bad |= !nts_is_valid_vec2(f);
-    }
+    for (q = 0; q < 4 && sh->node[q] >= 0; ++q) bad |= law_add_share(F, sh, q);
     return bad;
 }
 

@@ -120,7 +120,7 @@ static void chunk_shares(nts_context* ctx, const search_env* env, chunk_info* ch
 }
 
 /* Add the forces of shares sh[0..n) on nodes [n0, n1), in order; 1 when a
- * sum it wrote is not finite (law_add_shares says why that is enough). */
+ * sum it wrote is not finite (law_add_share says why that is enough). */
 enum { SHARES_AHEAD = 8 };
 static int shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int n1) {
     int k, q, bad = 0;
@@ -133,11 +133,7 @@ static int shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int 
                 if (sh[k + SHARES_AHEAD].node[q] >= n0 && sh[k + SHARES_AHEAD].node[q] < n1)
                     NTS_PREFETCH_W(&F[sh[k + SHARES_AHEAD].node[q]]);
         for (q = 0; q < 4 && sh[k].node[q] >= 0; ++q)
-            if (sh[k].node[q] >= n0 && sh[k].node[q] < n1) {
-                const nts_vec2 f = nts_add(F[sh[k].node[q]], share_force(&sh[k], q));
-                F[sh[k].node[q]] = f;
-                bad |= !nts_is_valid_vec2(f);
-            }
+            if (sh[k].node[q] >= n0 && sh[k].node[q] < n1) bad |= law_add_share(F, &sh[k], q);
     }
     return bad;
 }

@@ -143,32 +143,38 @@ static void test_box_too_small_is_an_error(void) {
     nts_scene_destroy(s);
 }
 
+/* A triangle mesh (nodes, triangles) and a polygon `disk`: the scene. */
+static nts_scene* mesh_and_disk(const nts_vec2* nodes, int node_count, const int* tri, int triangle_count,
+                                const test_body* disk) {
+    nts_body_def defs[2];
+    nts_scene_def def = nts_default_scene_def();
+    nts_error err;
+    memset(defs, 0, sizeof defs);
+    defs[0].nodes = nodes;
+    defs[0].node_count = node_count;
+    defs[0].triangles = tri;
+    defs[0].triangle_count = triangle_count;
+    defs[1].nodes = disk->nodes;
+    defs[1].node_count = disk->node_count;
+    def.bodies = defs;
+    def.body_count = 2;
+    return nts_scene_create(&def, &err);
+}
+
 static void test_interior_nodes_get_zero_force(void) {
     /* A triangle-mesh body (square with a centre node) pressed by a disk: the
      * interior node's force is exactly zero, forces align with the input nodes. */
     nts_vec2 pts[5] = {{0, 0}, {2, 0}, {1, 1}, {2, 2}, {0, 2}};
     int tri[12] = {0, 1, 2, 1, 3, 2, 3, 4, 2, 4, 0, 2};
     test_body disk;
-    nts_body_def defs[2];
-    nts_scene_def def = nts_default_scene_def();
     nts_options o = nts_default_options();
-    nts_error err;
     nts_result r;
     nts_context* ctx;
     nts_scene* s;
     double fx = 0, fy = 0;
     int i;
     make_polygon(&disk, 16, 0.5, nts_v2(1.0, 2.45), 0.05);
-    memset(defs, 0, sizeof defs);
-    defs[0].nodes = pts;
-    defs[0].node_count = 5;
-    defs[0].triangles = tri;
-    defs[0].triangle_count = 4;
-    defs[1].nodes = disk.nodes;
-    defs[1].node_count = disk.node_count;
-    def.bodies = defs;
-    def.body_count = 2;
-    s = nts_scene_create(&def, &err);
+    s = mesh_and_disk(pts, 5, tri, 4, &disk);
     CU_ASSERT_FATAL(s != NULL);
     CU_ASSERT_FATAL(eval_scene(s, &o, &r, &ctx) == 0);
     CU_ASSERT(r.summary.contacts > 0);
@@ -197,8 +203,6 @@ static void test_mesh_forces_on_a_context_used_before(void) {
     nts_vec2 grid[G * G];
     int tri[6 * (G - 1) * (G - 1)];
     test_body disk, other[2];
-    nts_body_def defs[2];
-    nts_scene_def def = nts_default_scene_def();
     nts_options o = nts_default_options();
     nts_context* ctx = nts_context_create();
     nts_scene *s, *big;
@@ -214,16 +218,7 @@ static void test_mesh_forces_on_a_context_used_before(void) {
             tri[t++] = a, tri[t++] = a + G + 1, tri[t++] = a + G;
         }
     make_polygon(&disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
-    memset(defs, 0, sizeof defs);
-    defs[0].nodes = grid;
-    defs[0].node_count = G * G;
-    defs[0].triangles = tri;
-    defs[0].triangle_count = t / 3;
-    defs[1].nodes = disk.nodes;
-    defs[1].node_count = disk.node_count;
-    def.bodies = defs;
-    def.body_count = 2;
-    s = nts_scene_create(&def, &err);
+    s = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
     CU_ASSERT_FATAL(s != NULL);
     n = nts_scene_node_count(s);
     CU_ASSERT_FATAL(2 * nts_scene_surface_node_count(s) <= n);
