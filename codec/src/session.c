@@ -44,6 +44,11 @@ struct ntsj_session {
      * while it holds (the same answer, bit for bit); NULL with
      * "session": {"keep_candidates": false}. */
     nts_candidates* candidates;
+    /* The nodes on loops, each once, ascending: the positions and forces of a
+     * surface exchange (?nodes=surface), in that order. Fixed at creation (a
+     * rebuild keeps the topology). */
+    int* surface;
+    int surface_count;
 };
 
 static size_t decoded_bytes(const ntsj_scene* s) {
@@ -71,7 +76,8 @@ ntsj_session_info ntsj_session_get_info(const ntsj_session* ss) {
     i.memory_bytes = sizeof *ss + decoded_bytes(&ss->js) + nts_scene_memory_bytes(ss->scene) +
                      nts_context_memory_bytes(ss->ctx) + (size_t)i.nodes * sizeof(nts_vec2) +
                      nts_contact_memory_bytes(ss->memory) + nts_history_bytes(ss->history) +
-                     nts_history_bytes(ss->staged) + nts_candidates_bytes(ss->candidates);
+                     nts_history_bytes(ss->staged) + nts_candidates_bytes(ss->candidates) +
+                     (size_t)ss->surface_count * sizeof(int);
     return i;
 }
 
@@ -88,6 +94,7 @@ void ntsj_session_destroy(ntsj_session* ss) {
     nts_candidates_destroy(ss->candidates);
     nts_scene_destroy(ss->scene);
     nts_free(ss->next);
+    nts_free(ss->surface);
     ntsj_scene_free(&ss->js);
     nts_free(ss);
 }
@@ -142,6 +149,42 @@ static nts_options eval_options(nts_options o, int answer_binary, int vtk) {
     if (answer_binary) o.outputs |= NTS_OUT_FORCES;
     if (vtk) o.outputs |= NTS_OUT_FORCES | NTS_OUT_CONTACTS;
     return o;
+}
+
+/* The nodes on the scene's loops, each once, in ascending global order
+ * (ss->surface): a surface exchange carries their positions and forces,
+ * the only ones contact reads and writes (a mesh's interior nodes get no
+ * force). */
+static int surface_list(ntsj_session* ss) {
+    const nts_scene* s = ss->scene;
+    const int n = nts_scene_node_count(s), nb = nts_scene_body_count(s);
+    unsigned char* on = (unsigned char*)nts_alloc(n > 0 ? (size_t)n : 1u);
+    int b, l, k, count = 0;
+    if (on == NULL) return NTS_ENOMEM;
+    memset(on, 0, n > 0 ? (size_t)n : 1u);
+    for (b = 0; b < nb; ++b) {
+        const int off = nts_scene_body_node_offset(s, b), loops = nts_scene_body_loop_count(s, b);
+        for (l = 0; l < loops; ++l) {
+            const int* idx = NULL;
+            const int len = nts_scene_body_loop(s, b, l, &idx);
+            for (k = 0; k < len; ++k) on[off + idx[k]] = 1;
+        }
+    }
+    for (k = 0; k < n; ++k) count += on[k];
+    ss->surface = (int*)nts_alloc(sizeof(int) * (size_t)(count > 0 ? count : 1));
+    if (ss->surface == NULL) {
+        nts_free(on);
+        return NTS_ENOMEM;
+    }
+    for (k = 0, ss->surface_count = 0; k < n; ++k)
+        if (on[k]) ss->surface[ss->surface_count++] = k;
+    nts_free(on);
+    return NTS_OK;
+}
+
+const int* ntsj_session_surface(const ntsj_session* ss, int* count) {
+    *count = ss != NULL ? ss->surface_count : 0;
+    return ss != NULL ? ss->surface : NULL;
 }
 
 int ntsj_session_create(const char* json, size_t length, const ntsj_config* config, ntsj_session** out,
@@ -222,7 +265,8 @@ int ntsj_session_create(const char* json, size_t length, const ntsj_config* conf
         ss->history = nts_history_create();
         ss->staged = nts_history_create();
     }
-    if (ss->ctx == NULL || ss->next == NULL || (ss->js.keep_contacts && ss->memory == NULL) ||
+    if (ss->ctx == NULL || ss->next == NULL || surface_list(ss) != NTS_OK ||
+        (ss->js.keep_contacts && ss->memory == NULL) ||
         (ss->js.keep_candidates && ss->candidates == NULL) ||
         (keeps_history && (ss->history == NULL || ss->staged == NULL))) {
         ntsj_session_destroy(ss);
@@ -279,25 +323,48 @@ static double read_le_double(const unsigned char* p) {
     return d;
 }
 
-static int position_fault(const ntsj_session* ss, int k, const char* what, ntsj_fault* f) {
+/* Position k of the request (node `node`: k itself, unless `surface`, an
+ * exchange of the surface nodes alone) is not finite: named at
+ * /positions/k, its body's node in the message. */
+static int position_fault(const ntsj_session* ss, int k, int node, int surface, const char* what, ntsj_fault* f) {
     int b, nb = nts_scene_body_count(ss->scene);
-    for (b = nb - 1; b > 0 && nts_scene_body_node_offset(ss->scene, b) > k; --b) continue;
-    ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "", "position %d (/bodies/%d/nodes/%d) has a non-finite %s", k, b,
-                   k - nts_scene_body_node_offset(ss->scene, b), what);
+    for (b = nb - 1; b > 0 && nts_scene_body_node_offset(ss->scene, b) > node; --b) continue;
+    if (!surface)
+        ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "", "position %d (/bodies/%d/nodes/%d) has a non-finite %s", k,
+                       b, node - nts_scene_body_node_offset(ss->scene, b), what);
+    else
+        ntsj_fault_set(f, nts_status_name(NTS_ENONFINITE), "",
+                       "surface position %d (node %d, /bodies/%d/nodes/%d) has a non-finite %s", k, node, b,
+                       node - nts_scene_body_node_offset(ss->scene, b), what);
     snprintf(f->pointer, sizeof f->pointer, "/positions/%d", k);
     return -1;
 }
 
-static int read_binary(ntsj_session* ss, const char* body, size_t length, ntsj_fault* f) {
+/* A binary step's positions: every node's (16 N bytes), or in a surface
+ * exchange the surface nodes' (16 S bytes, ss->surface's order) written
+ * over a copy of the stored positions. */
+static int read_binary(ntsj_session* ss, const char* body, size_t length, int surface, ntsj_fault* f) {
     int n = nts_scene_node_count(ss->scene), k;
-    size_t expected = (size_t)n * 16u;
+    const int m = surface ? ss->surface_count : n;
+    size_t expected = (size_t)m * 16u;
     if (length != expected) {
-        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "",
-                       "expected 16*N = 16 * %d = %lu bytes (little-endian float64, x then y for every node), got %lu",
-                       n, (unsigned long)expected, (unsigned long)length);
+        if (surface)
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "",
+                           "expected 16*S = 16 * %d = %lu bytes (little-endian float64, x then y for every surface node, "
+                           "in the order of GET /v1/scenes/{id}/surface), got %lu",
+                           m, (unsigned long)expected, (unsigned long)length);
+        else
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "",
+                           "expected 16*N = 16 * %d = %lu bytes (little-endian float64, x then y for every node), got %lu",
+                           n, (unsigned long)expected, (unsigned long)length);
         return -1;
     }
-    if (host_is_little_endian() && sizeof(nts_vec2) == 16 && (uintptr_t)(const void*)body % sizeof(double) == 0) {
+    if (surface) {
+        const unsigned char* p = (const unsigned char*)body;
+        memcpy(ss->next, nts_scene_positions(ss->scene), sizeof(nts_vec2) * (size_t)n);
+        for (k = 0; k < m; ++k)
+            ss->next[ss->surface[k]] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
+    } else if (host_is_little_endian() && sizeof(nts_vec2) == 16 && (uintptr_t)(const void*)body % sizeof(double) == 0) {
         /* read in place: a copy of 16 N bytes less a step (the core copies
          * them into the scene once they pass its checks) */
         ss->in = (const nts_vec2*)(const void*)body;
@@ -315,11 +382,13 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, ntsj_f
  * apart, or when the evaluation refused them: the core checks every
  * coordinate itself (nts_evaluate_positions), and a pass over 16 N bytes
  * before it cost a tenth of a step of a 66k-node mesh. */
-static int binary_fault(ntsj_session* ss, ntsj_fault* f) {
-    int n = nts_scene_node_count(ss->scene), k;
-    for (k = 0; k < n; ++k) {
-        if (!isfinite(ss->in[k].x)) return position_fault(ss, k, "x", f);
-        if (!isfinite(ss->in[k].y)) return position_fault(ss, k, "y", f);
+static int binary_fault(ntsj_session* ss, int surface, ntsj_fault* f) {
+    const int m = surface ? ss->surface_count : nts_scene_node_count(ss->scene);
+    int k;
+    for (k = 0; k < m; ++k) {
+        const int node = surface ? ss->surface[k] : k;
+        if (!isfinite(ss->in[node].x)) return position_fault(ss, k, node, surface, "x", f);
+        if (!isfinite(ss->in[node].y)) return position_fault(ss, k, node, surface, "y", f);
     }
     return 0;
 }
@@ -347,7 +416,7 @@ static int read_json_positions(ntsj_session* ss, const cJSON* v, ntsj_fault* f) 
         }
         ss->next[k] = nts_v2(x->valuedouble, y->valuedouble);
         if (!isfinite(ss->next[k].x) || !isfinite(ss->next[k].y))
-            return position_fault(ss, k, isfinite(ss->next[k].x) ? "y" : "x", f);
+            return position_fault(ss, k, k, 0, isfinite(ss->next[k].x) ? "y" : "x", f);
         ++k;
     }
     return 0;
@@ -476,9 +545,36 @@ static int json_options(const cJSON* v, nts_options* o, ntsj_fault* f) {
     return 0;
 }
 
+/* Query parameter "nodes" (read before the body, whose length it decides):
+ * "all" (the default: every node's position and force) or "surface" (the
+ * surface nodes' alone, ss->surface's order: a binary body, or none, and a
+ * binary answer). */
+static int query_nodes(const ntsj_step* st, int* surface, ntsj_fault* f) {
+    int k, seen = 0;
+    *surface = 0;
+    for (k = 0; k < st->param_count; ++k) {
+        const char* name = st->param_names[k] ? st->param_names[k] : "";
+        const char* val = st->param_values[k] ? st->param_values[k] : "";
+        if (strcmp(name, "nodes") != 0) continue;
+        if (seen++ || (strcmp(val, "all") != 0 && strcmp(val, "surface") != 0)) {
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "/nodes",
+                           seen > 1 ? "query parameter nodes given twice" : "nodes=%.32s: expected all or surface", val);
+            return -1;
+        }
+        *surface = strcmp(val, "surface") == 0;
+    }
+    if (*surface && (st->kind == NTSJ_STEP_JSON || !st->answer_binary)) {
+        ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "/nodes",
+                       "nodes=surface exchanges raw float64 positions and forces: send application/octet-stream (or "
+                       "no body) and accept application/octet-stream");
+        return -1;
+    }
+    return 0;
+}
+
 /* Query parameters (binary steps): the same names, values as text; and
  * "commit" (true or false: whether a step's friction anchors become the
- * session's history, §14), which is not an option. */
+ * session's history, §14), which is not an option; "nodes" (query_nodes). */
 static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_fault* f) {
     int k, seen_commit = 0;
     for (k = 0; k < st->param_count; ++k) {
@@ -487,6 +583,7 @@ static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_
         char ptr[96];
         nts_option_value v;
         int i;
+        if (strcmp(name, "nodes") == 0) continue; /* query_nodes */
         if (strcmp(name, "commit") == 0) {
             if (seen_commit++ || (strcmp(val, "true") != 0 && strcmp(val, "false") != 0)) {
                 ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), "/commit",
@@ -548,13 +645,21 @@ static void put_le64(char* p, double d) {
 
 /* The forces (16 N bytes), then with the tangent its triplets: count int32
  * rows, count int32 cols, count float64 values; then with the pressure its N
- * float64 (docs/model.md (21)); all little-endian (docs/sessions.md). */
-static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result* r) {
-    int n = nts_scene_node_count(scene), k;
+ * float64 (docs/model.md (21)); all little-endian (docs/sessions.md). In a
+ * surface exchange the forces and the pressure are the surface nodes' (S in
+ * ss->surface's order), the triplets' indices still global. */
+static void encode_binary(ntsj_buf* b, const ntsj_session* ss, const nts_result* r, int surface) {
+    const int n = surface ? ss->surface_count : nts_scene_node_count(ss->scene);
+    int k;
     size_t bytes = (size_t)n * 16u, tb = (size_t)r->stiffness.count * 16u;
     size_t pb = r->pressure != NULL ? (size_t)n * 8u : 0u; /* the pressure, when asked: after the tangent */
     if (ntsj_buf_reserve(b, bytes + tb + pb + 1) != 0) return;
-    if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
+    if (surface) {
+        for (k = 0; k < n; ++k) {
+            put_le64(b->data + 16 * (size_t)k, r->forces[ss->surface[k]].x);
+            put_le64(b->data + 16 * (size_t)k + 8, r->forces[ss->surface[k]].y);
+        }
+    } else if (host_is_little_endian() && sizeof(nts_vec2) == 16) {
         memcpy(b->data, r->forces, bytes);
     } else {
         for (k = 0; k < 2 * n; ++k) put_le64(b->data + 8 * (size_t)k, k % 2 ? r->forces[k / 2].y : r->forces[k / 2].x);
@@ -564,7 +669,8 @@ static void encode_binary(ntsj_buf* b, const nts_scene* scene, const nts_result*
         put_le32(b->data + bytes + 4 * ((size_t)r->stiffness.count + (size_t)k), r->stiffness.cols[k]);
         put_le64(b->data + bytes + 8 * (size_t)r->stiffness.count + 8 * (size_t)k, r->stiffness.values[k]);
     }
-    for (k = 0; pb > 0 && k < n; ++k) put_le64(b->data + bytes + tb + 8 * (size_t)k, r->pressure[k]);
+    for (k = 0; pb > 0 && k < n; ++k)
+        put_le64(b->data + bytes + tb + 8 * (size_t)k, r->pressure[surface ? ss->surface[k] : k]);
     b->len = bytes + tb + pb;
     b->data[b->len] = '\0';
 }
@@ -621,7 +727,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     ntsj_buf b;
     const nts_contact_match* match = NULL;
     nts_contact_changes changes;
-    int rc, pretty = cfg.pretty, have_positions = 0, binary = 0, fused, capped, commit = 1;
+    int rc, pretty = cfg.pretty, have_positions = 0, binary = 0, fused, capped, commit = 1, surface = 0;
     size_t held, grown = 0;
 
     memset(out, 0, sizeof *out);
@@ -633,8 +739,9 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     opt = ss->js.options;
     ss->in = ss->next; /* (read_binary may point it at the request's bytes) */
 
+    if (query_nodes(st, &surface, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
     if (st->kind == NTSJ_STEP_BINARY && st->length > 0) {
-        if (read_binary(ss, st->body, st->length, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+        if (read_binary(ss, st->body, st->length, surface, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
         have_positions = binary = 1;
     } else if (st->kind == NTSJ_STEP_JSON && st->length > 0 && cfg.max_depth >= 3 &&
                fast_positions_step(ss, st->body, st->length, &commit)) {
@@ -693,7 +800,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     /* A step refused here for its time has its positions taken all the same
      * (or their fault answered first), as when they were taken apart. */
     if (fused && ntsj_past_budget(&cfg, t0)) fused = 0;
-    if (have_positions && !fused && binary && binary_fault(ss, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+    if (have_positions && !fused && binary && binary_fault(ss, surface, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
     if (have_positions && !fused && (rc = take_positions(ss, &err)) != NTS_OK) {
         if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
@@ -714,7 +821,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
             /* the positions refused (the update refuses exactly those):
              * a non-finite one named where the request has it, else a
              * scene made anew from them, or the reason it cannot be */
-            if (binary && binary_fault(ss, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+            if (binary && binary_fault(ss, surface, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
             if ((rc = rebuild(ss, &err)) != NTS_OK) {
                 if (rc == NTS_ENOMEM)
                     return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
@@ -744,7 +851,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
     ntsj_buf_init(&b);
     if (cfg.step_memory > 0) b.max = cfg.step_memory - grown; /* the answer: what is left */
     if (st->answer_binary) {
-        encode_binary(&b, ss->scene, &result);
+        encode_binary(&b, ss, &result, surface);
     } else {
         /* The encoder writes what the scene's options ask for: this step's. */
         nts_options keep = ss->js.options;

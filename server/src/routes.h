@@ -46,6 +46,7 @@
     XX(SCENES,        "/v1/scenes",              "POST",              NONE,    JSON, TOKEN, answer_create,   "/v1/scenes",              0) \
     XX(SCENE,         "/v1/scenes/{id}",         "GET, HEAD, DELETE", SESSION, NONE, TOKEN, answer_scene,    "/v1/scenes/{id}",         0) \
     XX(SCENE_CONTACT, "/v1/scenes/{id}/contact", "POST",              SESSION, STEP, TOKEN, answer_step,     "/v1/scenes/{id}/contact", 1) \
+    XX(SCENE_SURFACE, "/v1/scenes/{id}/surface", "GET, HEAD",         SESSION, NONE, TOKEN, answer_surface,  "/v1/scenes/{id}/surface", 0) \
     XX(METRICS,       "/metrics",                "GET, HEAD",         NONE,    NONE, TOKEN, answer_metrics,  "/metrics",                0)
 /* clang-format on */
 

@@ -180,6 +180,30 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
     return reply(c, r, MHD_HTTP_OK, "ok", doc, (size_t)n, free, "application/json", NULL, 0);
 }
 
+/* GET or HEAD /v1/scenes/{id}/surface: the session's surface nodes
+ * (ntsj_session_surface), the order of a step with ?nodes=surface. The list
+ * is fixed at creation: read without the step lock. */
+static enum MHD_Result answer_surface(struct MHD_Connection* c, ntsd_request* r) {
+    ntsd_server* s = r->server;
+    ntsd_session_entry* e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client) : NULL;
+    const int* nodes;
+    int count, k;
+    size_t cap, n = 0;
+    char* doc;
+    if (e == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message, NULL, 0);
+    nodes = ntsj_session_surface(e->session, &count);
+    cap = 32 + 12 * (size_t)count; /* an int and a comma each */
+    doc = malloc(cap);
+    if (doc != NULL) {
+        n = (size_t)snprintf(doc, cap, "{\"count\":%d,\"nodes\":[", count);
+        for (k = 0; k < count; ++k) n += (size_t)snprintf(doc + n, cap - n, k ? ",%d" : "%d", nodes[k]);
+        n += (size_t)snprintf(doc + n, cap - n, "]}\n");
+    }
+    ntsd_sessions_release(&s->sessions, e);
+    if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
+    return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
+}
+
 /* GET /metrics: a snapshot of the counters, formatted outside the lock. */
 static enum MHD_Result answer_metrics(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_server* s = r->server;

@@ -267,7 +267,8 @@ def test_a_session_belongs_to_its_token(paths, tmp_path):
         assert status == 201
         missing = other.request("GET", "/v1/scenes/" + "A" * 43)
         for method, path in (("GET", f"/v1/scenes/{sid}"), ("POST", f"/v1/scenes/{sid}/contact"),
-                             ("DELETE", f"/v1/scenes/{sid}"), ("HEAD", f"/v1/scenes/{sid}")):
+                             ("GET", f"/v1/scenes/{sid}/surface"), ("DELETE", f"/v1/scenes/{sid}"),
+                             ("HEAD", f"/v1/scenes/{sid}")):
             status, _, body = other.request(method, path)
             assert status == 404, (method, status, body)
             if method != "HEAD":  # the same answer as for an id that does not exist

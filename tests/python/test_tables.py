@@ -99,6 +99,8 @@ def test_a_binary_steps_query_parameters_are_the_tables_step_options():
     step = {r["json"]: r for r in OPTIONS if r["doors"] == "ALL"}
     # commit (friction's history, docs/model.md §14) is a query parameter but not an option
     assert query.pop("commit")["schema"] == {"enum": ["true", "false"]}
+    # nodes (a surface exchange: which nodes' positions and forces travel) neither
+    assert query.pop("nodes")["schema"] == {"enum": ["all", "surface"]}
     assert set(query) == set(step)
     for name, p in query.items():
         want = schema_of(step[name])

@@ -205,7 +205,7 @@ typedef struct ntsj_session_info {
 typedef enum ntsj_step_body {
     NTSJ_STEP_EMPTY = 0,  /**< evaluate at the stored positions */
     NTSJ_STEP_JSON = 1,   /**< {"positions": [[x, y], ...], "options": {...}}, both optional */
-    NTSJ_STEP_BINARY = 2  /**< exactly 16 N bytes: little-endian float64, x then y per node */
+    NTSJ_STEP_BINARY = 2  /**< exactly 16 N bytes: little-endian float64, x then y per node (16 S with nodes=surface) */
 } ntsj_step_body;
 
 /** One step of a session: its body and how to answer it. */
@@ -215,7 +215,8 @@ typedef struct ntsj_step {
     size_t length;           /**< the bytes of `body` */
     int answer_binary;   /**< answer the forces as raw bytes (ntsj_response.binary) */
     /** Option overrides as text, for binary steps (a URL's query): penalty, alpha,
-     * search_radius, solver, outputs (comma-separated names, empty for none). */
+     * search_radius, solver, outputs (comma-separated names, empty for none);
+     * commit (true or false); nodes (all, or surface: ntsj_session_surface). */
     /** @{ */
     int param_count;
     const char* const* param_names;
@@ -259,6 +260,13 @@ NTS_API int ntsj_session_step(ntsj_session* session, const ntsj_step* step, cons
  * kept ones (nothing to do for a session that keeps none, or after a failed
  * step). */
 NTS_API void ntsj_session_commit(ntsj_session* session);
+/** The session's surface nodes: the nodes on its scene's loops (a mesh's
+ * boundary, every node of a polygon), each once, in ascending global order;
+ * *count of them. A step with the query parameter nodes=surface takes and
+ * answers their positions and forces alone, in this order (16 S bytes each
+ * way: the only nodes contact reads or pushes). Fixed for the session's
+ * life; NULL and 0 for NULL. */
+NTS_API const int* ntsj_session_surface(const ntsj_session* session, int* count);
 
 /** The summary of a successful binary session answer as header pairs, in the
  * daemon's order: NTS-Energy, NTS-Virial, NTS-Contacts, ..., friction's three
