@@ -184,7 +184,7 @@ class Client:
 
     def session(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None,
                 keep_contacts: bool = False, keep_candidates: bool = True,
-                skin: Optional[float] = None) -> Session:
+                skin: Optional[float] = None, exchange: str = "all") -> Session:
         """``POST /v1/scenes``: a :class:`Session` holding ``scene`` in the service, for
         a solver loop (``with client.session(scene) as s: s.contact(x)``). The
         session is deleted when the ``with`` block ends (or on ``close()``).
@@ -192,9 +192,11 @@ class Client:
         (their match to the last step's), the summary ``contact_changes``.
         ``keep_candidates`` (default on) and ``skin`` (a length; default 0.3 times
         the search radius): the session's kept candidate list (docs/sessions.md),
-        which changes the time of a step, never its answer."""
+        which changes the time of a step, never its answer. ``exchange="surface"``:
+        binary steps send and receive the surface nodes' rows alone
+        (``?nodes=surface``), the same answers (docs/sessions.md)."""
         return Session(self, scene, timeout=timeout, keep_contacts=keep_contacts, keep_candidates=keep_candidates,
-                       skin=skin)
+                       skin=skin, exchange=exchange)
 
     def validate(self, scene: SceneLike, *, timeout: Optional[TimeoutLike] = None) -> Dict[str, Any]:
         """``POST /v1/validate``: the service's check of a scene without evaluating it.

@@ -37,6 +37,8 @@ import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
+import numpy as np
+
 from . import __version__
 from .client import Client, SceneLike
 from .errors import NtsError, ServerError, error_from_response
@@ -109,6 +111,7 @@ def _load(path: Path) -> ctypes.CDLL:
             "ntsj_engine_step": (vp, [vp, vp, i, vp, sz, i, i, ctypes.POINTER(cp), ctypes.POINTER(cp)]),
             "ntsj_engine_session_counts": (None, [vp, ctypes.POINTER(ctypes.c_longlong)]),
             "ntsj_session_destroy": (None, [vp]),
+            "ntsj_session_surface": (ctypes.POINTER(i), [vp, ctypes.POINTER(i)]),
             "ntsj_answer_ok": (i, [vp]),
             "ntsj_answer_status": (i, [vp]),
             "ntsj_answer_code": (cp, [vp]),
@@ -284,11 +287,12 @@ class Engine:
         return doc
 
     def session(self, scene: SceneLike, *, timeout: Optional[Any] = None, keep_contacts: bool = False,
-                keep_candidates: bool = True, skin: Optional[float] = None) -> "EngineSession":
+                keep_candidates: bool = True, skin: Optional[float] = None,
+                exchange: str = "all") -> "EngineSession":
         """:meth:`Client.session <ntscontact.Client.session>` in process: an
         :class:`EngineSession`, the :class:`~ntscontact.Session` API."""
         return EngineSession(self, scene, timeout=timeout, keep_contacts=keep_contacts,
-                             keep_candidates=keep_candidates, skin=skin)
+                             keep_candidates=keep_candidates, skin=skin, exchange=exchange)
 
 
 class EngineSession(Session):
@@ -321,6 +325,16 @@ class EngineSession(Session):
         self.surface_nodes = counts[2]
         if counts[1] != self.nodes:
             raise ServerError(f"the engine counts {counts[1]} nodes, the scene has {self.nodes}", code="bad_response")
+        if self.exchange == "surface":
+            self.surface = self._check_surface(self._surface_nodes())
+
+    def _surface_nodes(self) -> List[int]:
+        count = ctypes.c_int(0)
+        with self._step_lock:
+            if self._closed or not self._handle:
+                raise NtsError("the session is closed", code="closed")
+            ptr = self._lib.ntsj_session_surface(self._handle, ctypes.byref(count))
+            return [int(ptr[k]) for k in range(count.value)] if ptr else []
 
     def _counts(self) -> List[int]:
         """bodies, nodes, surface nodes, steps, bytes: read between steps."""
@@ -357,10 +371,12 @@ class EngineSession(Session):
                 "memory_bytes": memory}
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
-                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None,
+                   surface: bool = False) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """One step in the library: the positions read in place, the binary
         answer's forces given back as a view of the library's memory."""
+        if surface and pos is not None and self.surface is not None:
+            pos = np.ascontiguousarray(pos[self.surface])
         names = (ctypes.c_char_p * max(1, len(params)))(*(k.encode() for k in params))
         values = (ctypes.c_char_p * max(1, len(params)))(*(v.encode() for v in params.values()))
         kind, data, length = _STEP_EMPTY, None, 0

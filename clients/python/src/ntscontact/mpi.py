@@ -227,8 +227,9 @@ class DistributedSession(Session):
                 "steps": self.steps, "rank": self.comm.Get_rank(), "ranks": self.comm.Get_size()}
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
-                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None,
+                   surface: bool = False) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+        # (surface: never; a distributed session exchanges every node of its rank)
         if self._closed or not self._handle:
             raise NtsError("the session is closed", code="closed")
         outputs = 0

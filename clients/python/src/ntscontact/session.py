@@ -11,6 +11,12 @@ forces, energy and virial are asked for, the forces come back the same way
 gaps need the JSON answer; the positions are still sent raw. Global order is
 bodies in the scene's order, nodes in each body's order.
 
+With ``exchange="surface"`` a binary step sends the positions of the
+surface nodes alone (the nodes on the scene's loops, :attr:`Session.surface`)
+and receives their forces alone: a mesh's interior nodes, which contact
+neither reads nor pushes, do not travel. The results are the same, bit for
+bit; :meth:`Result.force_array` still has every node (zeros inside).
+
 If the service no longer knows the session (it expired or was evicted, the
 daemon restarted, or a load balancer sent the step to another daemon), the
 session is created again from the scene it holds and the step retried once.
@@ -84,8 +90,11 @@ class Session:
 
     def __init__(self, client: Any, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
                  timeout: Optional[Any] = None, keep_contacts: bool = False, keep_candidates: bool = True,
-                 skin: Optional[float] = None) -> None:
+                 skin: Optional[float] = None, exchange: str = "all") -> None:
+        if exchange not in ("all", "surface"):
+            raise ValueError(f"exchange must be 'all' or 'surface', not {exchange!r}")
         self.client = client
+        self.exchange = exchange
         self.timeout = timeout
         if isinstance(scene, Scene):
             scene.check()
@@ -123,6 +132,9 @@ class Session:
             [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2) for b in bodies])
         self.id = ""
         self.surface_nodes = 0
+        #: With ``exchange="surface"``: the surface nodes' global indices,
+        #: ascending (``GET /v1/scenes/{id}/surface``), the rows a step sends.
+        self.surface: Optional[npt.NDArray[np.int64]] = None
         self.recreated = 0
         self.steps = 0
         self._closed = False
@@ -137,6 +149,18 @@ class Session:
         if int(doc.get("nodes", -1)) != self.nodes:
             raise ServerError(f"the service counts {doc.get('nodes')} nodes, the scene has {self.nodes}",
                               code="bad_response")
+        if self.exchange == "surface":
+            self.surface = self._check_surface(self._surface_nodes())
+
+    def _surface_nodes(self) -> Sequence[int]:
+        doc, _ = self._request("GET", f"/v1/scenes/{self.id}/surface")
+        return list(doc.get("nodes") or [])
+
+    def _check_surface(self, nodes: Sequence[int]) -> npt.NDArray[np.int64]:
+        idx = np.asarray(nodes, dtype=np.int64)
+        if idx.ndim != 1 or len(idx) == 0 or idx[0] < 0 or idx[-1] >= self.nodes or np.any(np.diff(idx) <= 0):
+            raise ServerError("the service's surface nodes are not ascending node indices", code="bad_response")
+        return idx
 
     def close(self) -> None:
         """``DELETE /v1/scenes/{id}`` (a session the service no longer has is fine)."""
@@ -237,6 +261,11 @@ class Session:
         # and the summary): the step's outputs, else the scene's.
         wanted = set(outs) if outs is not None else set(self._scene_outputs)
         binary = wanted <= _BINARY_OUTPUTS
+        # The surface nodes alone travel when the answer is binary (contacts
+        # and gaps come in JSON, which carries every node).
+        surface = binary and self.surface is not None
+        if surface:
+            params["nodes"] = "surface"
         # This step's own copy (the caller may move its array on, and another
         # thread's step may replace the stored positions meanwhile), made
         # while the service computes: the step sends the caller's array.
@@ -246,24 +275,25 @@ class Session:
             if pos is not None and not copies:
                 copies.append(pos.astype("<f8", copy=True))
 
-        doc, headers, content = self._post_step(pos, params, binary, timeout, keep_copy)
+        doc, headers, content = self._post_step(pos, params, binary, timeout, keep_copy, surface)
         keep_copy()  # (a path that did not call it)
         stored = copies[0] if pos is not None else self._positions
         if pos is not None:
             self._positions = stored
         self.steps += 1
-        result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted) if binary
-                  else Result.from_dict(doc))
+        result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted, surface)
+                  if binary else Result.from_dict(doc))
         # the stored positions are replaced, never written in place: shared, not copied
         result._scene = (self._scene_factory, stored)
         return result.warn()
 
     def _post_step(self, pos: Optional[FloatArray], params: Dict[str, str], binary: bool,
-                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None
-                   ) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
+                   timeout: Optional[Any], while_waiting: Optional[Callable[[], None]] = None,
+                   surface: bool = False) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """``POST /v1/scenes/{id}/contact``: the JSON answer, or the binary
         answer's headers and bytes; ``while_waiting`` called while the
-        service computes (or before)."""
+        service computes (or before); ``surface``: the surface nodes' rows
+        of the positions sent (``?nodes=surface``)."""
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
@@ -274,6 +304,8 @@ class Session:
             # After a re-creation the new session holds the scene's first
             # positions: send ours explicitly.
             send = pos if pos is not None else (self._positions if attempt else None)
+            if surface and send is not None and self.surface is not None:
+                send = np.ascontiguousarray(send[self.surface])  # 16 S bytes
             # (sent from the array's own memory: no copy of 16 N bytes)
             data = memoryview(send).cast("B") if send is not None else b""
             try:
@@ -300,18 +332,26 @@ class Session:
     def _scene_factory(self) -> Scene:
         return Scene.from_json(self._body)
 
-    def _binary_result(self, h: Mapping[str, str], body: Any, stiffness: bool, pressure: bool = False) -> Result:
+    def _binary_result(self, h: Mapping[str, str], body: Any, stiffness: bool, pressure: bool = False,
+                       surface: bool = False) -> Result:
         """A binary answer read: ``body`` the bytes (any buffer: the daemon's
         answer, or the in-process engine's memory, viewed without a copy), ``h``
-        the summary headers."""
+        the summary headers; ``surface``: the forces and pressures are the
+        surface nodes' (:attr:`surface`), set into arrays of every node."""
         count = int(h.get("NTS-Stiffness-Triplets", 0) or 0)
-        size = 16 * self.nodes + 16 * count + (8 * self.nodes if pressure else 0)
+        rows = len(self.surface) if surface and self.surface is not None else self.nodes
+        size = 16 * rows + 16 * count + (8 * rows if pressure else 0)
         if len(body) != size:
             raise ServerError(f"a binary answer of {len(body)} bytes, expected {size}",
                               code="bad_response", status=200)
         # Views of the answer's own buffer, read-only (the wire reads it into a bytearray)
         body = memoryview(body).toreadonly()
-        forces = np.frombuffer(body, dtype="<f8", count=2 * self.nodes).reshape(self.nodes, 2)
+        forces = np.frombuffer(body, dtype="<f8", count=2 * rows).reshape(rows, 2)
+        if rows != self.nodes:
+            every = np.zeros((self.nodes, 2))
+            every[self.surface] = forces
+            every.flags.writeable = False  # as the views of a whole answer are
+            forces = every
         triplets = None
         if stiffness and not count:
             # Asked for, and no contact active: the empty 2N x 2N tangent, as
@@ -319,11 +359,11 @@ class Session:
             empty = np.zeros(0, dtype=np.int64)
             triplets = (empty, empty, np.zeros(0, dtype=np.float64), 2 * self.nodes)
         elif count:
-            off = 16 * self.nodes
-            rows = np.frombuffer(body, dtype="<i4", count=count, offset=off)
-            cols = np.frombuffer(body, dtype="<i4", count=count, offset=off + 4 * count)
+            off = 16 * rows
+            trows = np.frombuffer(body, dtype="<i4", count=count, offset=off)
+            tcols = np.frombuffer(body, dtype="<i4", count=count, offset=off + 4 * count)
             values = np.frombuffer(body, dtype="<f8", count=count, offset=off + 8 * count)
-            triplets = (rows, cols, values, 2 * self.nodes)
+            triplets = (trows, tcols, values, 2 * self.nodes)
         try:
             virial = [float(v) for v in h["NTS-Virial"].split(",")]
             vd = {"xx": virial[0], "yy": virial[1], "xy": virial[2]}
@@ -346,7 +386,12 @@ class Session:
         per_body = BodyArrays(forces, self._offsets, self.body_ids, self._index)
         per_body_p: Mapping[BodyId, FloatArray] = {}
         if pressure:  # after the forces and the tangent
-            p = np.frombuffer(body, dtype="<f8", count=self.nodes, offset=16 * self.nodes + 16 * count)
+            p = np.frombuffer(body, dtype="<f8", count=rows, offset=16 * rows + 16 * count)
+            if rows != self.nodes:
+                every_p = np.zeros(self.nodes)
+                every_p[self.surface] = p
+                every_p.flags.writeable = False
+                p = every_p
             per_body_p = BodyArrays(p, self._offsets, self.body_ids, self._index)
         return Result(summary=summary, forces=per_body, contacts=[], gaps=[], raw={}, warnings=warned,
                       _force_array=forces, _triplets=triplets, pressure=per_body_p)

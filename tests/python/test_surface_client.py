@@ -1,0 +1,83 @@
+"""The Python client's surface exchange (`client.session(scene,
+exchange="surface")`, docs/sessions.md): the session knows the surface nodes,
+its binary steps send and receive their rows alone, and every result equals
+the one of a session exchanging every node, bit for bit (forces with zeros
+inside, pressures, the tangent, the summary); contacts and gaps still come
+whole in JSON; the in-process engine does the same."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import BUILD, positions_of
+
+ntscontact = pytest.importorskip("ntscontact")
+from ntscontact import Client, Engine  # noqa: E402
+
+from test_surface_exchange import boundary_nodes, grid_mesh_and_disk  # noqa: E402
+
+LIBRARY = BUILD / "lib" / "libntscontact_engine.so"
+
+
+@pytest.fixture
+def client(daemon):
+    with Client(daemon.base, timeout=60) as c:
+        yield c
+
+
+def scenes(paths):
+    return [json.loads((paths.examples / "triangle_meshes.json").read_text()), grid_mesh_and_disk(10)]
+
+
+def same(a, b):
+    assert np.array_equal(a.force_array(), b.force_array())
+    assert a.summary.contacts == b.summary.contacts and a.summary.energy == b.summary.energy
+    assert np.array_equal(a.summary.virial, b.summary.virial)
+    assert a.summary.max_penetration == b.summary.max_penetration and a.summary.gaps == b.summary.gaps
+
+
+def walk(opener, scene):
+    """Steps of two sessions, one exchanging the surface, at the same random positions."""
+    pos0 = positions_of(scene)
+    rng = np.random.default_rng(3)
+    scale = 0.003 * np.ptp(pos0, axis=0).max()
+    with opener(scene, exchange="surface") as s, opener(scene) as t:
+        assert s.surface is not None and t.surface is None
+        assert s.surface.tolist() == boundary_nodes(scene) and len(s.surface) < s.nodes
+        active = 0
+        for k in range(6):
+            pos = pos0 + scale * rng.standard_normal(pos0.shape)
+            outs = ["forces", "energy", "virial", "stiffness", "pressure"]
+            a, b = s.contact(pos, outputs=outs), t.contact(pos, outputs=outs)
+            same(a, b)
+            f = a.force_array()
+            assert f.shape == pos.shape and not f.flags.writeable
+            assert not np.any(np.delete(f, s.surface, axis=0))
+            for body in a.forces:  # per body, as the whole answer gives it
+                assert np.array_equal(a.forces[body], b.forces[body])
+                assert np.array_equal(a.pressure[body], b.pressure[body])
+            ta, tb = a.stiffness, b.stiffness
+            assert (ta != tb).nnz == 0 and ta.shape == tb.shape == (2 * s.nodes, 2 * s.nodes)
+            active += a.summary.contacts
+            # at the stored positions, and with contacts asked (a JSON answer, every node)
+            same(s.contact(), t.contact())
+            ja, jb = s.contact(pos, outputs=["forces", "contacts"]), t.contact(pos, outputs=["forces", "contacts"])
+            same(ja, jb)
+            assert ja.contacts == jb.contacts
+        assert active > 0
+        assert np.array_equal(s.positions(), t.positions())
+
+
+def test_surface_sessions_answer_as_whole_ones(client, paths):
+    for scene in scenes(paths):
+        walk(client.session, scene)
+    with pytest.raises(ValueError):
+        client.session(scenes(paths)[0], exchange="boundary")
+
+
+def test_engine_surface_sessions_answer_as_whole_ones(paths):
+    if not LIBRARY.is_file():
+        pytest.fail(f"{LIBRARY} is not built (NTS_BUILD_DIR={BUILD})")
+    with Engine(library=LIBRARY) as e:
+        for scene in scenes(paths):
+            walk(e.session, scene)
