@@ -341,8 +341,10 @@ static int position_fault(const ntsj_session* ss, int k, int node, int surface, 
 }
 
 /* A binary step's positions: every node's (16 N bytes), or in a surface
- * exchange the surface nodes' (16 S bytes, ss->surface's order) written
- * over a copy of the stored positions. */
+ * exchange the surface nodes' (16 S bytes, ss->surface's order) put in
+ * their places of ss->next, whose other entries the evaluation does not
+ * read (nts_evaluate_surface_positions; complete_surface before any other
+ * use). */
 static int read_binary(ntsj_session* ss, const char* body, size_t length, int surface, ntsj_fault* f) {
     int n = nts_scene_node_count(ss->scene), k;
     const int m = surface ? ss->surface_count : n;
@@ -361,7 +363,6 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, int su
     }
     if (surface) {
         const unsigned char* p = (const unsigned char*)body;
-        memcpy(ss->next, nts_scene_positions(ss->scene), sizeof(nts_vec2) * (size_t)n);
         for (k = 0; k < m; ++k)
             ss->next[ss->surface[k]] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
     } else if (host_is_little_endian() && sizeof(nts_vec2) == 16 && (uintptr_t)(const void*)body % sizeof(double) == 0) {
@@ -375,6 +376,22 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, int su
         for (k = 0; k < n; ++k) ss->next[k] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
     }
     return 0;
+}
+
+/* A surface exchange's positions made every node's, for the paths that
+ * read them all (the update's check, a rebuild): the stored positions of
+ * the nodes off the loops. */
+static void complete_surface(ntsj_session* ss) {
+    const nts_vec2* stored = nts_scene_positions(ss->scene);
+    const int n = nts_scene_node_count(ss->scene);
+    int k, j = 0;
+    for (k = 0; k < n; ++k) {
+        if (j < ss->surface_count && ss->surface[j] == k) {
+            ++j;
+            continue;
+        }
+        ss->next[k] = stored[k];
+    }
 }
 
 /* A binary step's first non-finite coordinate, named as its place in the
@@ -801,6 +818,7 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
      * (or their fault answered first), as when they were taken apart. */
     if (fused && ntsj_past_budget(&cfg, t0)) fused = 0;
     if (have_positions && !fused && binary && binary_fault(ss, surface, &fault) != 0) return ntsj_respond_fault(out, &fault, pretty);
+    if (have_positions && !fused && surface) complete_surface(ss);
     if (have_positions && !fused && (rc = take_positions(ss, &err)) != NTS_OK) {
         if (rc == NTS_ENOMEM) return ntsj_respond_error(out, nts_status_name(NTS_ENOMEM), "out of memory", "", pretty);
         return ntsj_respond_core(out, &ss->js, &err, rc, pretty);
@@ -815,8 +833,11 @@ static int session_step(ntsj_session* ss, const ntsj_step* st, const ntsj_config
         eo.history = ss->history; /* each step a trial from the committed anchors (§14) */
         eo.candidates = ss->candidates; /* replayed while it holds (§15) */
         capped = cap_candidates(ss, &cfg, &eo);
-        rc = fused ? nts_evaluate_positions(ss->ctx, ss->scene, ss->in, &eo, &result, &err)
-                   : session_evaluate(ss, &cfg, &eo, &result, &err);
+        /* (a surface exchange: the loops' nodes alone read and taken) */
+        rc = fused && surface ? nts_evaluate_surface_positions(ss->ctx, ss->scene, ss->in, &eo, &result, &err)
+             : fused          ? nts_evaluate_positions(ss->ctx, ss->scene, ss->in, &eo, &result, &err)
+                              : session_evaluate(ss, &cfg, &eo, &result, &err);
+        if (rc != NTS_OK && fused && surface && have_positions) complete_surface(ss);
         if (rc != NTS_OK && fused && nts_scene_update_positions(ss->scene, ss->in, NULL) != NTS_OK) {
             /* the positions refused (the update refuses exactly those):
              * a non-finite one named where the request has it, else a

@@ -331,9 +331,12 @@ static int self_slabs_build(nts_context* ctx, const nts_scene* s) {
  * (nts_evaluate_positions: the scene is then not const). *taken: 1 once
  * they are, 0 when they are rejected (the error is then
  * nts_scene_update_positions's to give), left as it was when the
- * evaluation stops before they are judged. */
+ * evaluation stops before they are judged. `loops_only`: only the nodes on
+ * the loops are read from fresh and taken (nts_evaluate_surface_positions:
+ * the segment pass reads no other; the others keep their stored positions,
+ * checked when they were taken). */
 static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh, const nts_options* opt,
-                    nts_result* out, nts_error* err, int* taken) {
+                    nts_result* out, nts_error* err, int* taken, int loops_only) {
     search_env env;
     seg_summary ss;
     double h;
@@ -347,7 +350,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         return eval_fail(err, NTS_EINVALID_ARGUMENT, -1, -1, "null argument");
     if ((rc = nts_options_validate(opt, err)) != NTS_OK) return rc;
     memset(out, 0, sizeof *out);
-    if (fresh != NULL && !nts_scene_interior_in_range(s, fresh)) {
+    if (fresh != NULL && !loops_only && !nts_scene_interior_in_range(s, fresh)) {
         *taken = 0;
         return NTS_OK; /* the caller's check names the coordinate */
     }
@@ -387,7 +390,12 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             *taken = 0;
             return NTS_OK;
         }
-        memmove(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count); /* (fresh may be the scene's own) */
+        if (loops_only) {
+            nts_vec2* pos = ((nts_scene*)s)->pos;
+            for (i = 0; i < s->surface_count; ++i) pos[s->surf_node[i]] = fresh[s->surf_node[i]];
+        } else {
+            memmove(s->pos, fresh, sizeof(nts_vec2) * (size_t)s->node_count); /* (fresh may be the scene's own) */
+        }
         *taken = 1;
     }
     if (ss.bad < s->surface_count) {
@@ -582,39 +590,61 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
 }
 
 int nts_evaluate(nts_context* ctx, const nts_scene* s, const nts_options* opt, nts_result* out, nts_error* err) {
-    return evaluate(ctx, s, NULL, opt, out, err, NULL);
+    return evaluate(ctx, s, NULL, opt, out, err, NULL, 0);
 }
 
-int nts_evaluate_positions(nts_context* ctx, nts_scene* s, const nts_vec2* positions, const nts_options* opt,
-                           nts_result* out, nts_error* err) {
+/* nts_evaluate_positions and nts_evaluate_surface_positions: `positions`
+ * are every node's, or (loops_only) read at the loops' nodes alone and
+ * completed, on the slow paths, with the stored positions of the others. */
+static int evaluate_at(nts_context* ctx, nts_scene* s, const nts_vec2* positions, const nts_options* opt,
+                       nts_result* out, nts_error* err, int loops_only) {
     nts_result kept;
-    int taken = -1, rc;
-    if (out == NULL) { /* the two calls, in their order */
-        if ((rc = nts_scene_update_positions(s, positions, err)) != NTS_OK) return rc;
-        return nts_evaluate(ctx, s, opt, out, err);
-    }
-    if (s == NULL || positions == NULL) return nts_scene_update_positions(s, positions, err);
-    kept = *out;
-    rc = evaluate(ctx, s, positions, opt, out, err, &taken);
-    if (taken == 1) return rc;
-    if (taken < 0) {
-        /* Stopped before the positions were judged (a null argument, an
-         * option out of range, no memory): the two calls, in their order. */
+    nts_vec2* whole = NULL;
+    int taken = -1, rc, i;
+    if (out != NULL && s != NULL && positions != NULL) {
+        kept = *out;
+        rc = evaluate(ctx, s, positions, opt, out, err, &taken, loops_only);
+        if (taken == 1) return rc;
         *out = kept;
-        if ((rc = nts_scene_update_positions(s, positions, err)) != NTS_OK) return rc;
-        return nts_evaluate(ctx, s, opt, out, err);
+    }
+    if (loops_only && s != NULL && positions != NULL) {
+        /* Every node's positions for the update's check: the stored ones
+         * with the loops' nodes given. */
+        whole = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)(s->node_count > 0 ? s->node_count : 1));
+        if (whole == NULL) return eval_fail(err, NTS_ENOMEM, -1, -1, "out of memory");
+        memcpy(whole, s->pos, sizeof(nts_vec2) * (size_t)s->node_count);
+        for (i = 0; i < s->surface_count; ++i) whole[s->surf_node[i]] = positions[s->surf_node[i]];
+        positions = whole;
+    }
+    if (taken != 0) {
+        /* Stopped before the positions were judged (a null argument, an
+         * option out of range, no memory), or no result asked for: the two
+         * calls, in their order. */
+        rc = nts_scene_update_positions(s, positions, err);
+        nts_free(whole);
+        return rc != NTS_OK ? rc : nts_evaluate(ctx, s, opt, out, err);
     }
     /* Rejected: the scene's own check finds the first fault in its order and
      * names it (nts_scene_update_positions), and leaves the scene (and *out)
      * as they were. */
-    *out = kept;
     rc = nts_scene_update_positions(s, positions, err);
+    nts_free(whole);
     if (rc != NTS_OK) return rc;
     /* The two checks decide by the same bits (checks.h): a disagreement is a
      * fault of this library, said as one rather than hidden behind a slower
      * right answer. The positions are taken; nts_evaluate gives the answer. */
     return eval_fail(err, NTS_EINTERNAL, -1, -1, "the checks of the positions in the segment pass refused what the "
                                                  "scene's own check takes");
+}
+
+int nts_evaluate_positions(nts_context* ctx, nts_scene* s, const nts_vec2* positions, const nts_options* opt,
+                           nts_result* out, nts_error* err) {
+    return evaluate_at(ctx, s, positions, opt, out, err, 0);
+}
+
+int nts_evaluate_surface_positions(nts_context* ctx, nts_scene* s, const nts_vec2* positions,
+                                   const nts_options* opt, nts_result* out, nts_error* err) {
+    return evaluate_at(ctx, s, positions, opt, out, err, 1);
 }
 
 /* The frame of a scene (ntscontact/distributed.h): what nts_evaluate's first

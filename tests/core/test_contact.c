@@ -263,6 +263,99 @@ static void test_mesh_forces_on_a_context_used_before(void) {
     nts_scene_destroy(big);
 }
 
+/* nts_evaluate_surface_positions reads and takes the loops' nodes alone: an
+ * 8 x 8 grid mesh (36 of its 64 nodes inside) pressed by a disk, stepped on
+ * one scene with the interior entries NaN, answers as nts_evaluate_positions
+ * on a second scene given its stored positions with the loops' nodes
+ * replaced, bit for bit, and the first scene keeps its interior nodes where
+ * they were (a step of every node moves them, on both). Refused positions (a
+ * NaN on a loop, a segment of length zero, the mesh mirrored) give the
+ * update's error, the same fields, and leave the scene as it was. */
+static void test_surface_positions_are_the_whole_step(void) {
+    enum { G = 8 };
+    nts_vec2 grid[G * G], part[G * G + 24], whole[G * G + 24], before[G * G + 24];
+    int tri[6 * (G - 1) * (G - 1)];
+    unsigned char on[G * G + 24];
+    test_body disk;
+    nts_options o = nts_default_options();
+    nts_context *ca = nts_context_create(), *cb = nts_context_create();
+    nts_scene *sa, *sb;
+    nts_error ea, eb;
+    nts_result ra, rb;
+    int i, j, t = 0, k, n, b, l, inside = 0, active = 0;
+    test_rng rng = {5};
+    for (j = 0; j < G; ++j)
+        for (i = 0; i < G; ++i) grid[j * G + i] = nts_v2(2.0 * i / (G - 1), 2.0 * j / (G - 1));
+    for (j = 0; j + 1 < G; ++j)
+        for (i = 0; i + 1 < G; ++i) {
+            const int a = j * G + i;
+            tri[t++] = a, tri[t++] = a + 1, tri[t++] = a + G + 1;
+            tri[t++] = a, tri[t++] = a + G + 1, tri[t++] = a + G;
+        }
+    make_polygon(&disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
+    sa = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
+    sb = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
+    CU_ASSERT_FATAL(sa != NULL && sb != NULL && ca != NULL && cb != NULL);
+    n = nts_scene_node_count(sa);
+    memset(on, 0, sizeof on);
+    for (b = 0; b < 2; ++b)
+        for (l = 0; l < nts_scene_body_loop_count(sa, b); ++l) {
+            const int* idx;
+            const int len = nts_scene_body_loop(sa, b, l, &idx);
+            for (i = 0; i < len; ++i) on[nts_scene_body_node_offset(sa, b) + idx[i]] = 1;
+        }
+    for (i = 0; i < n; ++i) inside += !on[i];
+    CU_ASSERT_FATAL(inside == (G - 2) * (G - 2));
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_STIFFNESS;
+    for (k = 0; k < 8; ++k) {
+        for (i = 0; i < n; ++i) {
+            const nts_vec2 p = nts_scene_positions(sa)[i];
+            whole[i] = nts_v2(p.x + 0.01 * (rng_uniform(&rng) - 0.5), p.y + 0.01 * (rng_uniform(&rng) - 0.5) -
+                                                                          (i >= G * G ? 0.005 : 0.0));
+        }
+        if (k == 3) { /* every node moved, the interior too: on both */
+            CU_ASSERT_FATAL(nts_evaluate_positions(ca, sa, whole, &o, &ra, &ea) == 0);
+            CU_ASSERT_FATAL(nts_evaluate_positions(cb, sb, whole, &o, &rb, &eb) == 0);
+        } else {
+            for (i = 0; i < n; ++i) part[i] = on[i] ? whole[i] : nts_v2(NAN, NAN);
+            for (i = 0; i < n; ++i)
+                if (!on[i]) whole[i] = nts_scene_positions(sb)[i];
+            CU_ASSERT_FATAL(nts_evaluate_surface_positions(ca, sa, part, &o, &ra, &ea) == 0);
+            CU_ASSERT_FATAL(nts_evaluate_positions(cb, sb, whole, &o, &rb, &eb) == 0);
+        }
+        CU_ASSERT(memcmp(nts_scene_positions(sa), nts_scene_positions(sb), sizeof(nts_vec2) * (size_t)n) == 0);
+        CU_ASSERT(memcmp(ra.forces, rb.forces, sizeof(nts_vec2) * (size_t)n) == 0);
+        CU_ASSERT(memcmp(&ra.summary.energy, &rb.summary.energy, sizeof(double)) == 0);
+        CU_ASSERT(memcmp(&ra.summary.virial, &rb.summary.virial, sizeof ra.summary.virial) == 0);
+        CU_ASSERT(ra.stiffness.count == rb.stiffness.count);
+        if (ra.stiffness.count == rb.stiffness.count && ra.stiffness.count > 0)
+            CU_ASSERT(memcmp(ra.stiffness.values, rb.stiffness.values, sizeof(double) * (size_t)ra.stiffness.count) == 0);
+        active += ra.summary.contacts;
+    }
+    CU_ASSERT(active > 0);
+    /* refused: a NaN on a loop, two consecutive loop nodes at one place, the mesh mirrored */
+    memcpy(before, nts_scene_positions(sa), sizeof(nts_vec2) * (size_t)n);
+    for (k = 0; k < 3; ++k) {
+        for (i = 0; i < n; ++i) part[i] = on[i] ? before[i] : nts_v2(NAN, NAN);
+        if (k == 0) part[G - 1].y = NAN;
+        if (k == 1) part[2] = part[1];
+        if (k == 2)
+            for (i = 0; i < G * G; ++i) part[i].x = on[i] ? 2.0 - part[i].x : part[i].x;
+        for (i = 0; i < n; ++i) whole[i] = on[i] ? part[i] : before[i];
+        ra = rb;
+        j = nts_evaluate_surface_positions(ca, sa, part, &o, &ra, &ea);
+        CU_ASSERT(j != 0 && j == nts_scene_update_positions(sb, whole, &eb));
+        CU_ASSERT(ea.code == eb.code && ea.body == eb.body && ea.loop == eb.loop && ea.loop_pos == eb.loop_pos &&
+                  ea.node == eb.node && strcmp(ea.message, eb.message) == 0);
+        CU_ASSERT(memcmp(nts_scene_positions(sa), before, sizeof(nts_vec2) * (size_t)n) == 0);
+        CU_ASSERT(memcmp(&ra, &rb, sizeof ra) == 0); /* the result left as it was */
+    }
+    nts_context_destroy(ca);
+    nts_context_destroy(cb);
+    nts_scene_destroy(sa);
+    nts_scene_destroy(sb);
+}
+
 static void test_overflow_is_an_error_not_nan(void) {
     /* Finite input whose energy overflows (gaps ~1e88, eps g^2 ~1e376): an
      * error naming the penalty, never Inf or NaN out of the library. */
@@ -405,6 +498,7 @@ void register_contact_suite(void) {
     ADD_TEST(s, test_box_too_small_is_an_error);
     ADD_TEST(s, test_force_overflow_is_an_error);
     ADD_TEST(s, test_mesh_forces_on_a_context_used_before);
+    ADD_TEST(s, test_surface_positions_are_the_whole_step);
     ADD_TEST(s, test_interior_nodes_get_zero_force);
     ADD_TEST(s, test_overflow_is_an_error_not_nan);
     ADD_TEST(s, test_trim_gives_back_and_keeps_results);

@@ -173,6 +173,39 @@ def test_surface_steps_answer_as_steps_with_every_node(daemon, paths, validators
     assert ja == jb
 
 
+def test_a_surface_step_that_makes_another_scene(daemon, paths, validators):
+    """The surface nodes mirrored (the mesh's loop turns over: the scene is
+    made anew from every node's positions, the interior ones the stored
+    ones) and then back: the same answers, or the same error, as a session
+    stepping every node to the same positions."""
+    scene = grid_mesh_and_disk()
+    a, b = create(daemon, scene)["id"], create(daemon, scene)["id"]
+    surface = surface_of(daemon, a, validators)
+    base = positions_of(scene)
+    mirrored = base.copy()
+    mirrored[surface, 0] = 2.0 - mirrored[surface, 0]
+    for pos in (mirrored, base, mirrored):
+        ra = step(daemon, a, np.ascontiguousarray(pos[surface], dtype="<f8").tobytes(),
+                  {"nodes": "surface", "outputs": OUTPUTS})
+        whole = base.copy()  # the interior as created: no step moved it
+        whole[surface] = pos[surface]
+        rb = step(daemon, b, whole.astype("<f8").tobytes(), {"outputs": OUTPUTS})
+        assert ra.status_code == rb.status_code
+        if rb.status_code != 200:
+            assert ra.json() == rb.json()
+            continue
+        fa, ta, pa, ha = parts(ra, len(surface))
+        fb, tb, pb, hb = parts(rb, len(base))
+        assert np.array_equal(fa, fb[surface]) and np.array_equal(pa, pb[surface]) and ta == tb and ha == hb
+    ja = requests.post(daemon.url(f"/v1/scenes/{a}/contact"), json={}, timeout=60)
+    jb = requests.post(daemon.url(f"/v1/scenes/{b}/contact"), json={}, timeout=60)
+    assert ja.status_code == jb.status_code == 200
+    da, db = ja.json(), jb.json()
+    da["summary"].pop("elapsed_ms")
+    db["summary"].pop("elapsed_ms")
+    assert da == db
+
+
 def test_bad_surface_steps_are_4xx_naming_the_place(daemon, paths, validators):
     scene = grid_mesh_and_disk()
     sid = create(daemon, scene)["id"]

@@ -673,6 +673,18 @@ NTS_API int nts_evaluate(nts_context* ctx, const nts_scene* scene, const nts_opt
 NTS_API int nts_evaluate_positions(nts_context* ctx, nts_scene* scene, const nts_vec2* positions,
                                    const nts_options* opt, nts_result* out, nts_error* err);
 
+/** nts_evaluate_positions for a step that moves only the nodes on the
+ * scene's loops (a mesh's boundary, every node of a polygon:
+ * nts_scene_body_loop), the only nodes contact reads: `positions` is indexed
+ * by global node as there, but only the loops' entries are read and taken;
+ * the other nodes keep their stored positions, and their entries may hold
+ * anything. The same answer, errors and scene afterwards as
+ * nts_evaluate_positions given the stored positions with the loops' nodes
+ * replaced, without a pass over the other nodes (a mesh's interior) on the
+ * way: a step costs what the surface costs. */
+NTS_API int nts_evaluate_surface_positions(nts_context* ctx, nts_scene* scene, const nts_vec2* positions,
+                                           const nts_options* opt, nts_result* out, nts_error* err);
+
 #ifdef __cplusplus
 }
 #endif
