@@ -363,8 +363,11 @@ static int read_binary(ntsj_session* ss, const char* body, size_t length, int su
     }
     if (surface) {
         const unsigned char* p = (const unsigned char*)body;
-        for (k = 0; k < m; ++k)
-            ss->next[ss->surface[k]] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
+        const int le = host_is_little_endian() && sizeof(nts_vec2) == 16;
+        for (k = 0; k < m; ++k) {
+            if (le) memcpy(&ss->next[ss->surface[k]], p + 16 * (size_t)k, 16);
+            else ss->next[ss->surface[k]] = nts_v2(read_le_double(p + 16 * (size_t)k), read_le_double(p + 16 * (size_t)k + 8));
+        }
     } else if (host_is_little_endian() && sizeof(nts_vec2) == 16 && (uintptr_t)(const void*)body % sizeof(double) == 0) {
         /* read in place: a copy of 16 N bytes less a step (the core copies
          * them into the scene once they pass its checks) */
@@ -671,7 +674,9 @@ static void encode_binary(ntsj_buf* b, const ntsj_session* ss, const nts_result*
     size_t bytes = (size_t)n * 16u, tb = (size_t)r->stiffness.count * 16u;
     size_t pb = r->pressure != NULL ? (size_t)n * 8u : 0u; /* the pressure, when asked: after the tangent */
     if (ntsj_buf_reserve(b, bytes + tb + pb + 1) != 0) return;
-    if (surface) {
+    if (surface && host_is_little_endian() && sizeof(nts_vec2) == 16) {
+        for (k = 0; k < n; ++k) memcpy(b->data + 16 * (size_t)k, &r->forces[ss->surface[k]], 16);
+    } else if (surface) {
         for (k = 0; k < n; ++k) {
             put_le64(b->data + 16 * (size_t)k, r->forces[ss->surface[k]].x);
             put_le64(b->data + 16 * (size_t)k + 8, r->forces[ss->surface[k]].y);

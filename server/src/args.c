@@ -23,6 +23,7 @@ static const char usage[] =
     "  POST   /v1/scenes               keep a scene for a solver loop (a session)\n"
     "  POST   /v1/scenes/{id}/contact  one step of a session: new positions in\n"
     "  GET    /v1/scenes/{id}          a session's description\n"
+    "  GET    /v1/scenes/{id}/surface  its surface nodes (steps with ?nodes=surface)\n"
     "  DELETE /v1/scenes/{id}          drop a session\n"
     "  GET    /v1/health               status, version, build, limits, counters\n"
     "  GET    /metrics                 Prometheus text format\n"

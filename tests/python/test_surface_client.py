@@ -81,3 +81,46 @@ def test_engine_surface_sessions_answer_as_whole_ones(paths):
     with Engine(library=LIBRARY) as e:
         for scene in scenes(paths):
             walk(e.session, scene)
+
+
+def test_surface_sessions_store_what_the_service_holds_and_recreate(client, daemon, paths, tmp_path):
+    """A surface step stores the surface rows it sent, the other nodes as they
+    were (what the service holds); a session the service lost is created
+    again (its surface asked anew) and the step answered as before."""
+    import requests
+
+    scene = grid_mesh_and_disk(10)
+    pos0 = positions_of(scene)
+    p1 = pos0 + 0.003
+    p1[-24:, 1] -= 0.01  # the disk a little deeper
+    with client.session(scene, exchange="surface") as s, client.session(scene) as t:
+        r1 = s.contact(p1)
+        stored = pos0.copy()
+        stored[s.surface] = p1[s.surface]
+        assert np.array_equal(s.positions(), stored)
+        want = t.contact(stored)
+        same(r1, want)
+        assert r1.summary.contacts > 0
+        p2 = p1 + 0.001
+        r2 = s.contact(p2)  # the rows of this step replace those of the last
+        stored[s.surface] = p2[s.surface]
+        assert np.array_equal(s.positions(), stored)
+        w2 = t.contact(stored)
+        same(r2, w2)
+        # the result knows its positions (the stored ones): the same picture
+        r2.to_vtk(tmp_path / "surface.vtu")
+        w2.to_vtk(tmp_path / "whole.vtu")
+        assert (tmp_path / "surface.vtu").read_bytes() == (tmp_path / "whole.vtu").read_bytes()
+        # lost behind the client's back: the stored surface rows sent to the new session
+        first = s.id
+        assert requests.delete(daemon.url(f"/v1/scenes/{first}"), timeout=10).status_code == 204
+        again = s.contact()
+        assert s.recreated == 1 and s.id != first and s.surface.tolist() == boundary_nodes(scene)
+        same(again, r2)
+        assert requests.delete(daemon.url(f"/v1/scenes/{s.id}"), timeout=10).status_code == 204
+        p3 = p2 - 0.002
+        again = s.contact(p3)
+        stored[s.surface] = p3[s.surface]
+        assert s.recreated == 2
+        same(again, t.contact(stored))
+        assert np.array_equal(s.positions(), stored)

@@ -37,7 +37,6 @@ import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
-import numpy as np
 
 from . import __version__
 from .client import Client, SceneLike
@@ -375,8 +374,6 @@ class EngineSession(Session):
                    surface: bool = False) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """One step in the library: the positions read in place, the binary
         answer's forces given back as a view of the library's memory."""
-        if surface and pos is not None and self.surface is not None:
-            pos = np.ascontiguousarray(pos[self.surface])
         names = (ctypes.c_char_p * max(1, len(params)))(*(k.encode() for k in params))
         values = (ctypes.c_char_p * max(1, len(params)))(*(v.encode() for v in params.values()))
         kind, data, length = _STEP_EMPTY, None, 0

@@ -371,6 +371,7 @@ class Result:
         if scene is None and self._scene is not None:
             scene, positions = self._scene
             scene = scene() if callable(scene) else scene
+            positions = positions() if callable(positions) else positions
         if scene is None:
             raise ValueError("to_vtk needs the scene the result belongs to: to_vtk(path, scene)")
         write_vtu(path, scene, self, positions)

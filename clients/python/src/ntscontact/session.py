@@ -130,6 +130,9 @@ class Session:
         # must be sent to go on where the lost one was.
         self._positions: FloatArray = np.concatenate(
             [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2) for b in bodies])
+        # A surface exchange's last rows sent, not yet set into _positions
+        # (_stored: only when every node's positions are asked for).
+        self._rows: Optional[FloatArray] = None
         self.id = ""
         self.surface_nodes = 0
         #: With ``exchange="surface"``: the surface nodes' global indices,
@@ -190,12 +193,21 @@ class Session:
     # ------------------------------------------------------------ positions
 
     def positions(self) -> FloatArray:
-        """A copy of the stored positions, (N, 2) in global order."""
-        return self._positions.copy()
+        """A copy of the stored positions, (N, 2) in global order (with
+        ``exchange="surface"``: the surface nodes' as last sent, the others'
+        as last sent with every node, as the service holds them)."""
+        return self._stored().copy()
+
+    def _stored(self) -> FloatArray:
+        if self._rows is not None and self.surface is not None:
+            whole = self._positions.copy()  # (never written in place: results share it)
+            whole[self.surface] = self._rows
+            self._positions, self._rows = whole, None
+        return self._positions
 
     def _as_positions(self, positions: PositionsLike) -> FloatArray:
         if isinstance(positions, Mapping):
-            out = self._positions.copy()
+            out = self._stored().copy()
             for body_id, value in positions.items():
                 try:
                     k = self._index[(type(body_id), body_id)]
@@ -268,18 +280,32 @@ class Session:
             params["nodes"] = "surface"
         # This step's own copy (the caller may move its array on, and another
         # thread's step may replace the stored positions meanwhile), made
-        # while the service computes: the step sends the caller's array.
+        # while the service computes: the step sends the caller's array. A
+        # surface exchange's copy is the rows it sends.
         copies: List[FloatArray] = []
+        rows = np.ascontiguousarray(pos[self.surface]) if surface and pos is not None else None
 
         def keep_copy() -> None:
-            if pos is not None and not copies:
+            if pos is not None and rows is None and not copies:
                 copies.append(pos.astype("<f8", copy=True))
 
-        doc, headers, content = self._post_step(pos, params, binary, timeout, keep_copy, surface)
+        doc, headers, content = self._post_step(rows if rows is not None else pos, params, binary, timeout,
+                                                keep_copy, surface)
         keep_copy()  # (a path that did not call it)
-        stored = copies[0] if pos is not None else self._positions
-        if pos is not None:
-            self._positions = stored
+        stored: Any
+        if rows is not None:
+            # (the rows replace those of the step before: the same nodes)
+            base, idx, self._rows = self._positions, self.surface, rows
+
+            def made() -> FloatArray:  # the stored positions after this step, made if asked (to_vtk)
+                whole = base.copy()
+                whole[idx] = rows
+                return whole
+            stored = made
+        else:
+            stored = copies[0] if pos is not None else self._stored()
+            if pos is not None:
+                self._positions, self._rows = stored, None
         self.steps += 1
         result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted, surface)
                   if binary else Result.from_dict(doc))
@@ -292,8 +318,8 @@ class Session:
                    surface: bool = False) -> Tuple[Dict[str, Any], Mapping[str, str], Any]:
         """``POST /v1/scenes/{id}/contact``: the JSON answer, or the binary
         answer's headers and bytes; ``while_waiting`` called while the
-        service computes (or before); ``surface``: the surface nodes' rows
-        of the positions sent (``?nodes=surface``)."""
+        service computes (or before); ``surface``: ``pos`` holds the surface
+        nodes' rows alone (``?nodes=surface``)."""
         headers = {"Content-Type": _OCTET}
         if binary:
             headers["Accept"] = _OCTET
@@ -303,8 +329,8 @@ class Session:
         for attempt in range(3):
             # After a re-creation the new session holds the scene's first
             # positions: send ours explicitly.
-            send = pos if pos is not None else (self._positions if attempt else None)
-            if surface and send is not None and self.surface is not None:
+            send = pos if pos is not None else (self._stored() if attempt else None)
+            if surface and pos is None and send is not None and self.surface is not None:
                 send = np.ascontiguousarray(send[self.surface])  # 16 S bytes
             # (sent from the array's own memory: no copy of 16 N bytes)
             data = memoryview(send).cast("B") if send is not None else b""
