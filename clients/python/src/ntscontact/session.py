@@ -283,7 +283,7 @@ class Session:
         # while the service computes: the step sends the caller's array. A
         # surface exchange's copy is the rows it sends.
         copies: List[FloatArray] = []
-        rows = np.ascontiguousarray(pos[self.surface]) if surface and pos is not None else None
+        rows = np.take(pos, self.surface, axis=0) if surface and pos is not None else None
 
         def keep_copy() -> None:
             if pos is not None and rows is None and not copies:
@@ -331,7 +331,7 @@ class Session:
             # positions: send ours explicitly.
             send = pos if pos is not None else (self._stored() if attempt else None)
             if surface and pos is None and send is not None and self.surface is not None:
-                send = np.ascontiguousarray(send[self.surface])  # 16 S bytes
+                send = np.take(send, self.surface, axis=0)  # 16 S bytes
             # (sent from the array's own memory: no copy of 16 N bytes)
             data = memoryview(send).cast("B") if send is not None else b""
             try:
@@ -375,7 +375,8 @@ class Session:
         forces = np.frombuffer(body, dtype="<f8", count=2 * rows).reshape(rows, 2)
         if rows != self.nodes:
             every = np.zeros((self.nodes, 2))
-            every[self.surface] = forces
+            # (rows of 16 bytes set at once: a tenth of the time of a 2-D scatter)
+            every.view(np.complex128).reshape(-1)[self.surface] = forces.view(np.complex128).reshape(-1)
             every.flags.writeable = False  # as the views of a whole answer are
             forces = every
         triplets = None
