@@ -183,7 +183,7 @@ static int surface_list(ntsj_session* ss) {
 }
 
 const int* ntsj_session_surface(const ntsj_session* ss, int* count) {
-    *count = ss != NULL ? ss->surface_count : 0;
+    if (count != NULL) *count = ss != NULL ? ss->surface_count : 0;
     return ss != NULL ? ss->surface : NULL;
 }
 

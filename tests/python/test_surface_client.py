@@ -124,3 +124,60 @@ def test_surface_sessions_store_what_the_service_holds_and_recreate(client, daem
         assert s.recreated == 2
         same(again, t.contact(stored))
         assert np.array_equal(s.positions(), stored)
+
+
+def test_surface_then_whole_steps_store_the_last_sent(client, paths):
+    """A whole step after surface steps stores every node it sent; a
+    surface step after it, its rows over those; a result's picture is drawn
+    at the positions it was evaluated at."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from ntscontact.plot import plot
+
+    scene = grid_mesh_and_disk(10)
+    pos0 = positions_of(scene)
+    with client.session(scene, exchange="surface") as s:
+        r1 = s.contact(pos0 + 0.001)
+        p2 = pos0 - 0.002
+        s.contact(p2, outputs=["forces", "contacts"])  # a JSON answer: every node sent
+        assert np.array_equal(s.positions(), p2)
+        p3 = pos0 + 0.003
+        r3 = s.contact(p3)
+        want = p2.copy()
+        want[s.surface] = p3[s.surface]
+        assert np.array_equal(s.positions(), want)
+        assert np.array_equal(r3._positions(), want)
+        first = pos0.copy()
+        first[s.surface] = pos0[s.surface] + 0.001
+        assert np.array_equal(r1._positions(), first)
+        ax = plot(ntscontact.Scene.from_dict(scene), r3)
+        drawn = np.concatenate([np.asarray(line.get_xydata()) for line in ax.lines])
+        assert np.isin(drawn[:, 0], want[:, 0]).any()
+
+
+def test_engine_a_surface_step_after_a_refused_whole_one(paths):
+    """A whole step refused for a NaN inside the mesh, its positions copied
+    (an unaligned array) before the check: a surface step after it that
+    makes the scene anew (the mesh mirrored) takes the stored positions of
+    the nodes it does not send, as a whole session given them does."""
+    from ntscontact import InvalidScene
+    from test_engine import unaligned
+
+    if not LIBRARY.is_file():
+        pytest.fail(f"{LIBRARY} is not built (NTS_BUILD_DIR={BUILD})")
+    scene = grid_mesh_and_disk(10)
+    pos0 = positions_of(scene)
+    with Engine(library=LIBRARY) as e, e.session(scene, exchange="surface") as s, e.session(scene) as t:
+        inside = np.setdiff1d(np.arange(len(pos0)), s.surface)
+        bad = pos0.copy()
+        bad[inside[3], 0] = np.nan
+        with pytest.raises(InvalidScene) as err:
+            s.contact(unaligned(bad), outputs=["forces", "contacts"])  # every node sent, refused
+        assert err.value.code == "non_finite" and err.value.pointer == f"/positions/{inside[3]}"
+        mirrored = pos0.copy()
+        mirrored[s.surface, 0] = 2.0 - mirrored[s.surface, 0]
+        for pos in (mirrored, pos0):
+            whole = pos0.copy()
+            whole[s.surface] = pos[s.surface]
+            same(s.contact(pos), t.contact(whole))

@@ -37,7 +37,6 @@ import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
-
 from . import __version__
 from .client import Client, SceneLike
 from .errors import NtsError, ServerError, error_from_response

@@ -58,7 +58,7 @@ def plot(scene: Any, result: Any = None, ax: Any = None, *, positions: Optional[
     from .vtk import on_surface, surface_loops
 
     if positions is None and result is not None and getattr(result, "_scene", None) is not None:
-        positions = result._scene[1]
+        positions = result._positions()
     x = scene.positions() if positions is None else np.asarray(positions, dtype=np.float64)
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 6))

@@ -360,6 +360,14 @@ class Result:
             "virial": np.array([c.virial for c in self.contacts], dtype=np.float64).reshape(m, 3),
         }
 
+    def _positions(self) -> Any:
+        """The positions this result was evaluated at, when the client knows
+        them (made on demand after a surface exchange's step), else None."""
+        if self._scene is None:
+            return None
+        positions = self._scene[1]
+        return positions() if callable(positions) else positions
+
     def to_vtk(self, path: Any, scene: Any = None) -> None:
         """Write a ParaView file (``.vtu``): surfaces, forces, contacts with
         their gaps and normals (:mod:`ntscontact.vtk`). ``scene`` is the scene at
@@ -371,7 +379,7 @@ class Result:
         if scene is None and self._scene is not None:
             scene, positions = self._scene
             scene = scene() if callable(scene) else scene
-            positions = positions() if callable(positions) else positions
+            positions = self._positions()
         if scene is None:
             raise ValueError("to_vtk needs the scene the result belongs to: to_vtk(path, scene)")
         write_vtu(path, scene, self, positions)
