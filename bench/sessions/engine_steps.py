@@ -3,7 +3,8 @@
 (issue 28, item 1).
 
 Scenes: square packings of pressed 64-node disks (bench/load/make_scene.py) of
-256, 25,600 and 102,400 nodes, and the 66k-node FEM scene of python_steps.py. Each
+256, 25,600 and 102,400 nodes, and the 66k-node FEM scene of python_steps.py,
+with every node and with a surface exchange (exchange="surface"). Each
 round moves every node (a fresh frame) and takes, interleaved:
 
   engine      s.contact(x).force_array() on an Engine session (the default: a
@@ -45,13 +46,14 @@ import ntscontact  # noqa: E402
 SECTION = "## In process: the engine from Python"
 
 
-def measure(engine, client, name, scene, repeats):
+def measure(engine, client, name, scene, repeats, exchange="all"):
     x0 = np.concatenate([scene.body(i).nodes for i in scene.body_ids])
     rng = np.random.default_rng(len(x0))
     frames = [x0 + rng.normal(scale=1e-5, size=x0.shape) for _ in range(repeats + 1)]
     t_kept, t_off, t_c, t_http = [], [], [], []
-    with engine.session(scene) as kept, engine.session(scene, keep_candidates=False) as off, \
-            client.session(scene) as http:
+    with engine.session(scene, exchange=exchange) as kept, \
+            engine.session(scene, keep_candidates=False, exchange=exchange) as off, \
+            client.session(scene, exchange=exchange) as http:
         for s in (kept, off, http):  # warm: the first step builds what the next ones reuse
             s.contact(frames[0]).force_array()
         for x in frames[1:]:
@@ -89,7 +91,8 @@ def markdown(rows, repeats, commit, build_type):
              "`Client(url).session` to a local daemon. The forces of the three are checked equal, bit for bit,",
              "every round. **door** = engine from scratch / C, what Python and ctypes add at equal work;",
              "**engine / C** = a solver's step in Python against the C evaluation from scratch (target,",
-             "issue 28: at most 1.1 at 25,600 and 1e5 nodes).", "",
+             "issue 28: at most 1.1 at 25,600 and 1e5 nodes). The last row is the FEM scene's steps with",
+             "`exchange=\"surface\"` on all three sessions (the surface nodes' rows alone go in and out).", "",
              "| scene | nodes | engine | engine, from scratch | C | http | door | engine / C | http / engine |",
              "|---|---:|---:|---:|---:|---:|---|---|---:|"]
     for r in rows:
@@ -123,6 +126,10 @@ def main():
             for name, scene in scenes:
                 rows.append(measure(engine, client, name, scene, a.repeats))
                 print(json.dumps(rows[-1]), flush=True)
+            # the same FEM steps exchanging the surface nodes' rows alone (?nodes=surface)
+            rows.append(measure(engine, client, "FEM, surface exchange", fem_scene(a.fem_nodes), a.repeats,
+                                exchange="surface"))
+            print(json.dumps(rows[-1]), flush=True)
     finally:
         proc.terminate()
         proc.wait(timeout=60)
