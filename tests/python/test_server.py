@@ -178,7 +178,8 @@ def test_openapi_document_references_resolve(daemon, paths):
     doc = r.json()
     assert doc["openapi"].startswith("3.1.")
     assert set(doc["paths"]) == {"/v1/contact", "/metrics", "/v1/validate", "/v1/health", "/v1/schemas/{name}",
-                                 "/v1/openapi.json", "/v1/scenes", "/v1/scenes/{id}", "/v1/scenes/{id}/contact"}
+                                 "/v1/openapi.json", "/v1/scenes", "/v1/scenes/{id}", "/v1/scenes/{id}/contact",
+                                 "/v1/scenes/{id}/surface"}
     assert set(doc["paths"]["/v1/contact"]) == {"post"}
     refs = collect_refs(doc, [])
     external = {ref for ref in refs if not ref.startswith("#")}
