@@ -161,6 +161,22 @@ static nts_scene* mesh_and_disk(const nts_vec2* nodes, int node_count, const int
     return nts_scene_create(&def, &err);
 }
 
+/* A g x g grid mesh of the square [0, 2]^2 (grid: g^2 nodes, tri: 6 (g -
+ * 1)^2 indices) and a 24-gon pressed into its top edge (*disk): the scene. */
+static nts_scene* grid_and_disk(int g, nts_vec2* grid, int* tri, test_body* disk) {
+    int i, j, t = 0;
+    for (j = 0; j < g; ++j)
+        for (i = 0; i < g; ++i) grid[j * g + i] = nts_v2(2.0 * i / (g - 1), 2.0 * j / (g - 1));
+    for (j = 0; j + 1 < g; ++j)
+        for (i = 0; i + 1 < g; ++i) {
+            const int a = j * g + i;
+            tri[t++] = a, tri[t++] = a + 1, tri[t++] = a + g + 1;
+            tri[t++] = a, tri[t++] = a + g + 1, tri[t++] = a + g;
+        }
+    make_polygon(disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
+    return mesh_and_disk(grid, g * g, tri, t / 3, disk);
+}
+
 static void test_interior_nodes_get_zero_force(void) {
     /* A triangle-mesh body (square with a centre node) pressed by a disk: the
      * interior node's force is exactly zero, forces align with the input nodes. */
@@ -208,17 +224,8 @@ static void test_mesh_forces_on_a_context_used_before(void) {
     nts_scene *s, *big;
     nts_error err;
     nts_result r, want;
-    int i, j, t = 0, k, n;
-    for (j = 0; j < G; ++j)
-        for (i = 0; i < G; ++i) grid[j * G + i] = nts_v2(2.0 * i / (G - 1), 2.0 * j / (G - 1));
-    for (j = 0; j + 1 < G; ++j)
-        for (i = 0; i + 1 < G; ++i) {
-            const int a = j * G + i;
-            tri[t++] = a, tri[t++] = a + 1, tri[t++] = a + G + 1;
-            tri[t++] = a, tri[t++] = a + G + 1, tri[t++] = a + G;
-        }
-    make_polygon(&disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
-    s = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
+    int i, k, n;
+    s = grid_and_disk(G, grid, tri, &disk);
     CU_ASSERT_FATAL(s != NULL);
     n = nts_scene_node_count(s);
     CU_ASSERT_FATAL(2 * nts_scene_surface_node_count(s) <= n);
@@ -282,19 +289,10 @@ static void test_surface_positions_are_the_whole_step(void) {
     nts_scene *sa, *sb;
     nts_error ea, eb;
     nts_result ra, rb;
-    int i, j, t = 0, k, n, b, l, inside = 0, active = 0;
+    int i, j, k, n, b, l, inside = 0, active = 0;
     test_rng rng = {5};
-    for (j = 0; j < G; ++j)
-        for (i = 0; i < G; ++i) grid[j * G + i] = nts_v2(2.0 * i / (G - 1), 2.0 * j / (G - 1));
-    for (j = 0; j + 1 < G; ++j)
-        for (i = 0; i + 1 < G; ++i) {
-            const int a = j * G + i;
-            tri[t++] = a, tri[t++] = a + 1, tri[t++] = a + G + 1;
-            tri[t++] = a, tri[t++] = a + G + 1, tri[t++] = a + G;
-        }
-    make_polygon(&disk, 24, 0.5, nts_v2(0.9, 2.45), 0.05);
-    sa = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
-    sb = mesh_and_disk(grid, G * G, tri, t / 3, &disk);
+    sa = grid_and_disk(G, grid, tri, &disk);
+    sb = grid_and_disk(G, grid, tri, &disk);
     CU_ASSERT_FATAL(sa != NULL && sb != NULL && ca != NULL && cb != NULL);
     n = nts_scene_node_count(sa);
     memset(on, 0, sizeof on);
