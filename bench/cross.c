@@ -11,6 +11,17 @@
  *       scaling section's scenes), default options with alpha 0 and 0.2,
  *       one thread: median CPU and wall time per surface node of a warm
  *       evaluation.
+ *   nts_cross loop FILE.csv [--quick] [--steps S] [--per-build K]
+ *       kept_bench's solver loop (its scenes, about 1e4, 1e5 and 1e6 surface
+ *       nodes, --quick the first two; its motion, X + A sin(w k) u with A
+ *       half the default search radius and K steps between a kept list's
+ *       builds) on this release's default options, one thread: each of S
+ *       steps (default 20) after S warm ones gives the positions to the scene
+ *       (nts_scene_update_positions) and evaluates. One CSV row per scene:
+ *       the default radius, the last step's contacts, and the wall time per
+ *       surface node of the evaluations and of the steps (median over the
+ *       steps). bench/release_loop.py runs it built against release 0.2 and
+ *       against this tree, beside kept_bench (issue 27: "today's evaluation").
  *   nts_cross dump DIR
  *       For a fixed set of scenes and options, with the search radius given
  *       (the median segment, computed here, so that releases whose default
@@ -106,6 +117,79 @@ static int run_time(const char* path, int quick) {
             fflush(f);
             nts_context_destroy(ctx);
         }
+        nts_scene_destroy(s);
+        ntsx_scene_free(&b);
+    }
+    fclose(f);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ loop */
+
+static int run_loop(const char* path, int quick, int steps, double per_build) {
+    static const int targets[] = {10000, 100000, 1000000}; /* kept_bench's */
+    FILE* f = fopen(path, "w");
+    int t;
+    if (f == NULL) {
+        fprintf(stderr, "nts_cross: cannot write %s\n", path);
+        return 1;
+    }
+    fprintf(f, "surface_nodes,search_radius,contacts,steps,eval_ns,step_ns\n");
+    for (t = 0; t < (quick ? 2 : 3); ++t) {
+        ntsx_scene b;
+        ntsx_packing_def def = ntsx_default_packing(targets[t] / 48, 1, 2026u + (uint64_t)t);
+        nts_scene* s;
+        nts_context* ctx = nts_context_create();
+        nts_options o = nts_default_options();
+        nts_result r;
+        nts_error err;
+        nts_vec2 *base, *dir, *pos;
+        double *te, *ts, amp, omega, radius;
+        uint64_t rng = 77u + (uint64_t)t; /* kept_bench's directions */
+        int n, k, i, body, at = 0;
+        ntsx_packing(&b, &def);
+        s = scene_of(&b);
+        n = nts_scene_node_count(s);
+        base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+        dir = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+        pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+        te = (double*)malloc(sizeof(double) * (size_t)steps);
+        ts = (double*)malloc(sizeof(double) * (size_t)steps);
+        if (!ctx || !base || !dir || !pos || !te || !ts) die("out of memory", NULL);
+        memcpy(base, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
+        for (body = 0; body < b.body_count; ++body) {
+            const double a = 6.283185307179586 * ntsx_urand(&rng);
+            for (k = 0; k < b.counts[body]; ++k, ++at) {
+                const double c = 6.283185307179586 * ntsx_urand(&rng);
+                dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
+            }
+        }
+        evaluate(ctx, s, &o, &r);
+        radius = r.summary.search_radius;
+        amp = 0.5 * radius;
+        omega = 0.3 * radius / (3.0 + 2.0 * o.alpha) / per_build / (1.2 * amp); /* as kept_bench */
+        for (k = 1; k <= 2 * steps; ++k) { /* steps 1..S warm, S+1..2S timed: kept_bench's first round */
+            const double a = amp * sin(omega * k);
+            double t0, t1;
+            for (i = 0; i < n; ++i) pos[i] = nts_v2(base[i].x + a * dir[i].x, base[i].y + a * dir[i].y);
+            t0 = ntsx_now();
+            if (nts_scene_update_positions(s, pos, &err) != 0) die("update", &err);
+            t1 = ntsx_now();
+            evaluate(ctx, s, &o, &r);
+            if (k > steps) {
+                te[k - steps - 1] = 1e9 * (ntsx_now() - t1) / nts_scene_surface_node_count(s);
+                ts[k - steps - 1] = 1e9 * (ntsx_now() - t0) / nts_scene_surface_node_count(s);
+            }
+        }
+        fprintf(f, "%d,%.17g,%d,%d,%.3f,%.3f\n", nts_scene_surface_node_count(s), radius, r.summary.contacts, steps,
+                ntsx_median(te, steps), ntsx_median(ts, steps));
+        fflush(f);
+        free(base);
+        free(dir);
+        free(pos);
+        free(te);
+        free(ts);
+        nts_context_destroy(ctx);
         nts_scene_destroy(s);
         ntsx_scene_free(&b);
     }
@@ -246,6 +330,17 @@ int main(int argc, char** argv) {
     if (argc == 3 && strcmp(argv[1], "memory") == 0) return run_memory(atoi(argv[2]) > 0 ? atoi(argv[2]) : 1);
     if (argc >= 3 && strcmp(argv[1], "time") == 0) return run_time(argv[2], argc > 3 && strcmp(argv[3], "--quick") == 0);
     if (argc == 3 && strcmp(argv[1], "dump") == 0) return run_dump(argv[2]);
-    fprintf(stderr, "usage: %s time FILE.csv [--quick] | dump DIR | memory EVALS\n", argv[0]);
+    if (argc >= 3 && strcmp(argv[1], "loop") == 0) {
+        int quick = 0, steps = 20, i;
+        double per_build = 10.0;
+        for (i = 3; i < argc; ++i) {
+            if (strcmp(argv[i], "--quick") == 0) quick = 1;
+            else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) steps = atoi(argv[++i]);
+            else if (strcmp(argv[i], "--per-build") == 0 && i + 1 < argc) per_build = atof(argv[++i]);
+            else break;
+        }
+        if (i == argc && steps >= 1 && per_build > 0.0) return run_loop(argv[2], quick, steps, per_build);
+    }
+    fprintf(stderr, "usage: %s time FILE.csv [--quick] | loop FILE.csv [--quick] [--steps S] [--per-build K] | dump DIR | memory EVALS\n", argv[0]);
     return 2;
 }

@@ -67,9 +67,10 @@ def table(header, rows):
 
 # ---------------------------------------------------------------- running
 
-def build_previous(args, log):
+def build_previous(args, log, build_type="RelWithDebInfo"):
     """nts_bench of the previous release: a git worktree at args.before, built
-    into BUILD/prev (only the core and the bench). Returns the binary's path."""
+    into BUILD/prev (only the core and the bench; CMake's build_type). Returns
+    the binary's path."""
     src = os.path.join(args.build, "prev-src")
     out = os.path.join(args.build, "prev")
     t0 = time.time()
@@ -79,10 +80,11 @@ def build_previous(args, log):
     if os.path.isdir(src) and sh("git -C %s rev-parse HEAD" % src) != rev:
         subprocess.run(["git", "worktree", "remove", "--force", src], cwd=ROOT, capture_output=True)
     if not os.path.isdir(src):
+        subprocess.run(["git", "worktree", "prune"], cwd=ROOT, capture_output=True)  # a removed one's entry
         p = subprocess.run(["git", "worktree", "add", "--detach", src, rev], cwd=ROOT, capture_output=True, text=True)
         if p.returncode != 0:
             raise SystemExit("git worktree add failed: " + p.stderr)
-    for cmd in (["cmake", "-S", src, "-B", out, "-DCMAKE_BUILD_TYPE=RelWithDebInfo", "-DNTS_BUILD_TESTS=OFF",
+    for cmd in (["cmake", "-S", src, "-B", out, "-DCMAKE_BUILD_TYPE=" + build_type, "-DNTS_BUILD_TESTS=OFF",
                  "-DNTS_COMPONENTS=bench"],
                 ["cmake", "--build", out, "-j", "2", "--target", "nts_bench"]):
         p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
