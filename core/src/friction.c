@@ -100,7 +100,7 @@ void nts_friction_eval(const search_env* env, const candidate* b, friction_out* 
     memset(out, 0, sizeof *out);
     out->tau = nts_v2(-n.y, n.x);
     out->mu = friction_pair_mu(s, sb, b->body, env->mu);
-    out->eps_t = law_penalty(env->eps_t, env->per_length, s->surf_trib[i]);
+    out->eps_t = law_penalty(env->eps_t, env->per_length, s->surf_trib, i);
     out->anchor = anchor_here(env, b);
     out->from = out->anchor;
     out->f = law_slave_force(eg, n);

@@ -277,7 +277,7 @@ int nts_kept_collect(const search_env* env, nts_candidates* kc, int c);
 
 /* The slave's penalty (docs/model.md §10) for record b. */
 static inline double record_penalty(const search_env* env, const candidate* b) {
-    return law_penalty(env->eps, env->per_length, env->s->surf_trib[b->slave]);
+    return law_penalty(env->eps, env->per_length, env->s->surf_trib, b->slave);
 }
 
 /* Add active record b to the sums. */
