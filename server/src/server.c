@@ -185,7 +185,9 @@ static enum MHD_Result answer_scene(struct MHD_Connection* c, ntsd_request* r) {
  * is fixed at creation: read without the step lock. */
 static enum MHD_Result answer_surface(struct MHD_Connection* c, ntsd_request* r) {
     ntsd_server* s = r->server;
-    ntsd_session_entry* e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client) : NULL;
+    /* A read of what the session holds: not a use (as GET /v1/scenes/{id}). */
+    ntsd_session_entry* e =
+        r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client, 0) : NULL;
     const int* nodes;
     int count, k;
     size_t cap, n = 0;
@@ -199,7 +201,7 @@ static enum MHD_Result answer_surface(struct MHD_Connection* c, ntsd_request* r)
         for (k = 0; k < count; ++k) n += (size_t)snprintf(doc + n, cap - n, k ? ",%d" : "%d", nodes[k]);
         n += (size_t)snprintf(doc + n, cap - n, "]}\n");
     }
-    ntsd_sessions_release(&s->sessions, e);
+    ntsd_sessions_release(&s->sessions, e, 0);
     if (doc == NULL) return reply_error(c, r, ntsj_code_name(NTSJ_OVERLOADED), "out of memory", NULL, 0);
     return reply(c, r, MHD_HTTP_OK, "ok", doc, n, free, "application/json", NULL, 0);
 }
@@ -389,7 +391,7 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
         resp_error(r, ntsj_code_name(NTSJ_INVALID_VALUE), "too many query parameters");
         return;
     }
-    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client) : NULL;
+    e = r->route.scene_id[0] ? ntsd_sessions_acquire(&s->sessions, r->route.scene_id, r->client, 1) : NULL;
     if (e == NULL) {
         resp_error(r, ntsj_code_name(NTSJ_UNKNOWN_SCENE), unknown_scene_message);
         return;
@@ -420,7 +422,7 @@ static void evaluate_step(ntsd_request* r, const ntsj_config* jc) {
     budget_answer(r);
     if (r->resp.ok) ntsj_session_commit(e->session);
     pthread_mutex_unlock(&e->step_lock);
-    ntsd_sessions_release(&s->sessions, e);
+    ntsd_sessions_release(&s->sessions, e, 1);
 }
 
 /* The work of each body route, on the codec's configuration for this request. */

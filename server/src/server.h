@@ -194,8 +194,11 @@ void ntsd_sessions_free(ntsd_sessions* st);
 int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* client, const char* given_id,
                       char id_out[NTSD_SESSION_ID_MAX + 1]);
 /* The session of `id` if `client` owns it, held until ntsd_sessions_release;
- * NULL otherwise (missing and foreign look the same). */
-ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, const char* client);
+ * NULL otherwise (missing and foreign look the same). `use`: a step, which
+ * makes the session the most recently used and restarts its idle time (at
+ * the release too); 0 for a read of what the session holds (GET .../surface),
+ * which, like GET /v1/scenes/{id}, keeps no session alive. */
+ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, const char* client, int use);
 /* What one step may add to a held session: --session-memory less what it
  * holds (at least 1; ntsj_config.step_memory). */
 size_t ntsd_sessions_step_room(ntsd_sessions* st, const ntsd_session_entry* e);
@@ -207,7 +210,7 @@ size_t ntsd_sessions_step_room(ntsd_sessions* st, const ntsd_session_entry* e);
  * not enough. The caller then trims it (ntsj_session_trim) and calls again
  * with `last` set, which may evict. 0 otherwise. */
 int ntsd_sessions_settle(ntsd_sessions* st, ntsd_session_entry* e, size_t memory, int stepped, int last);
-void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e);
+void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, int use);
 /* 0, or -1 when `client` has no such session. */
 int ntsd_sessions_remove(ntsd_sessions* st, const char* id, const char* client);
 void ntsd_sessions_sweep(ntsd_sessions* st); /* drop the expired ones */

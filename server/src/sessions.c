@@ -374,7 +374,7 @@ int ntsd_sessions_add(ntsd_sessions* st, ntsj_session* session, const char* clie
     return 0;
 }
 
-ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, const char* client) {
+ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, const char* client, int use) {
     ntsd_session_entry* e;
     double now = ntsd_now();
     pthread_mutex_lock(&st->lock);
@@ -382,8 +382,10 @@ ntsd_session_entry* ntsd_sessions_acquire(ntsd_sessions* st, const char* id, con
     e = find_owned(st, id, client);
     if (e != NULL) {
         e->users++;
-        e->last_used = now;
-        move_to_front(st, e);
+        if (use) {
+            e->last_used = now;
+            move_to_front(st, e);
+        }
     }
     pthread_mutex_unlock(&st->lock);
     return e;
@@ -427,9 +429,9 @@ int ntsd_sessions_settle(ntsd_sessions* st, ntsd_session_entry* e, size_t steppe
     return over && !last;
 }
 
-void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e) {
+void ntsd_sessions_release(ntsd_sessions* st, ntsd_session_entry* e, int use) {
     pthread_mutex_lock(&st->lock);
-    e->last_used = ntsd_now();
+    if (use) e->last_used = ntsd_now();
     e->users--;
     if (e->doomed && e->users == 0) {
         pthread_mutex_unlock(&st->lock);

@@ -6,6 +6,7 @@ and forces alone, and answers bit for bit what a step with every node
 answers at the same positions, the other nodes where they were stored; bad
 input gets a 4xx naming its place."""
 import json
+import time
 from collections import Counter
 
 import jsonschema
@@ -244,3 +245,26 @@ def test_bad_surface_steps_are_4xx_naming_the_place(daemon, paths, validators):
     assert step(daemon, sid, b"", {"nodes": "surface"}).content == before
     # nodes=all is the default
     assert step(daemon, sid, b"", {"nodes": "all"}).content == step(daemon, sid, b"", {}).content
+
+
+def test_reading_the_surface_is_not_a_use(daemon, paths, validators):
+    """GET .../surface, like GET /v1/scenes/{id}, leaves the session's idle
+    time running (it keeps no session alive); a step restarts it."""
+    scene = grid_mesh_and_disk()
+    sid = create(daemon, scene)["id"]
+
+    def idle():
+        r = requests.get(daemon.url(f"/v1/scenes/{sid}"), timeout=60)
+        assert r.status_code == 200, r.text
+        return r.json()["idle_s"]
+
+    before = idle()
+    while before < 1.0:  # idle long enough that a restart would show, even on a busy machine
+        time.sleep(0.05)
+        before = idle()
+    surface_of(daemon, sid, validators)
+    assert idle() >= before
+    surface = surface_of(daemon, sid, validators)
+    assert step(daemon, sid, positions_of(scene)[surface].astype("<f8").tobytes(),
+                {"nodes": "surface"}).status_code == 200
+    assert idle() < before
