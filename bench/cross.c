@@ -11,17 +11,20 @@
  *       scaling section's scenes), default options with alpha 0 and 0.2,
  *       one thread: median CPU and wall time per surface node of a warm
  *       evaluation.
- *   nts_cross loop FILE.csv [--quick] [--steps S] [--per-build K]
+ *   nts_cross loop FILE.csv [--quick] [--steps S] [--rounds R] [--per-build K]
  *       kept_bench's solver loop (its scenes, about 1e4, 1e5 and 1e6 surface
  *       nodes, --quick the first two; its motion, X + A sin(w k) u with A
  *       half the default search radius and K steps between a kept list's
- *       builds) on this release's default options, one thread: each of S
- *       steps (default 20) after S warm ones gives the positions to the scene
+ *       builds; its steps: S warm (default 20), then R rounds of S (default
+ *       3), round j steps jS + 1 .. (j + 1)S) on this release's default
+ *       options, one thread: each step gives the positions to the scene
  *       (nts_scene_update_positions) and evaluates. One CSV row per scene:
  *       the default radius, the last step's contacts, and the wall time per
- *       surface node of the evaluations and of the steps (median over the
- *       steps). bench/release_loop.py runs it built against release 0.2 and
- *       against this tree, beside kept_bench (issue 27: "today's evaluation").
+ *       surface node of the evaluations and of the steps, each round's mean
+ *       over its steps, the median over the rounds: kept_bench's figures
+ *       for the same steps. bench/release_loop.py runs it built against
+ *       release 0.2 and against this tree, beside kept_bench (issue 27:
+ *       "today's evaluation").
  *   nts_cross dump DIR
  *       For a fixed set of scenes and options, with the search radius given
  *       (the median segment, computed here, so that releases whose default
@@ -126,7 +129,7 @@ static int run_time(const char* path, int quick) {
 
 /* ------------------------------------------------------------------ loop */
 
-static int run_loop(const char* path, int quick, int steps, double per_build) {
+static int run_loop(const char* path, int quick, int steps, int rounds, double per_build) {
     static const int targets[] = {10000, 100000, 1000000}; /* kept_bench's */
     FILE* f = fopen(path, "w");
     int t;
@@ -134,7 +137,7 @@ static int run_loop(const char* path, int quick, int steps, double per_build) {
         fprintf(stderr, "nts_cross: cannot write %s\n", path);
         return 1;
     }
-    fprintf(f, "surface_nodes,search_radius,contacts,steps,eval_ns,step_ns\n");
+    fprintf(f, "surface_nodes,search_radius,contacts,steps,rounds,eval_ns,step_ns\n");
     for (t = 0; t < (quick ? 2 : 3); ++t) {
         ntsx_scene b;
         ntsx_packing_def def = ntsx_default_packing(targets[t] / 48, 1, 2026u + (uint64_t)t);
@@ -153,8 +156,8 @@ static int run_loop(const char* path, int quick, int steps, double per_build) {
         base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
         dir = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
         pos = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
-        te = (double*)malloc(sizeof(double) * (size_t)steps);
-        ts = (double*)malloc(sizeof(double) * (size_t)steps);
+        te = (double*)calloc((size_t)rounds, sizeof(double));
+        ts = (double*)calloc((size_t)rounds, sizeof(double));
         if (!ctx || !base || !dir || !pos || !te || !ts) die("out of memory", NULL);
         memcpy(base, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
         for (body = 0; body < b.body_count; ++body) {
@@ -168,21 +171,22 @@ static int run_loop(const char* path, int quick, int steps, double per_build) {
         radius = r.summary.search_radius;
         amp = 0.5 * radius;
         omega = 0.3 * radius / (3.0 + 2.0 * o.alpha) / per_build / (1.2 * amp); /* as kept_bench */
-        for (k = 1; k <= 2 * steps; ++k) { /* steps 1..S warm, S+1..2S timed: kept_bench's first round */
-            const double a = amp * sin(omega * k);
-            double t0, t1;
+        for (k = 1; k <= (rounds + 1) * steps; ++k) { /* steps 1..S warm, then round j: jS+1..(j+1)S */
+            const double a = amp * sin(omega * k), per = 1e9 / steps / nts_scene_surface_node_count(s);
+            double t0, t1, t2;
             for (i = 0; i < n; ++i) pos[i] = nts_v2(base[i].x + a * dir[i].x, base[i].y + a * dir[i].y);
             t0 = ntsx_now();
             if (nts_scene_update_positions(s, pos, &err) != 0) die("update", &err);
             t1 = ntsx_now();
             evaluate(ctx, s, &o, &r);
+            t2 = ntsx_now();
             if (k > steps) {
-                te[k - steps - 1] = 1e9 * (ntsx_now() - t1) / nts_scene_surface_node_count(s);
-                ts[k - steps - 1] = 1e9 * (ntsx_now() - t0) / nts_scene_surface_node_count(s);
+                te[(k - 1) / steps - 1] += per * (t2 - t1);
+                ts[(k - 1) / steps - 1] += per * (t2 - t0);
             }
         }
-        fprintf(f, "%d,%.17g,%d,%d,%.3f,%.3f\n", nts_scene_surface_node_count(s), radius, r.summary.contacts, steps,
-                ntsx_median(te, steps), ntsx_median(ts, steps));
+        fprintf(f, "%d,%.17g,%d,%d,%d,%.3f,%.3f\n", nts_scene_surface_node_count(s), radius, r.summary.contacts,
+                steps, rounds, ntsx_median(te, rounds), ntsx_median(ts, rounds));
         fflush(f);
         free(base);
         free(dir);
@@ -331,16 +335,18 @@ int main(int argc, char** argv) {
     if (argc >= 3 && strcmp(argv[1], "time") == 0) return run_time(argv[2], argc > 3 && strcmp(argv[3], "--quick") == 0);
     if (argc == 3 && strcmp(argv[1], "dump") == 0) return run_dump(argv[2]);
     if (argc >= 3 && strcmp(argv[1], "loop") == 0) {
-        int quick = 0, steps = 20, i;
+        int quick = 0, steps = 20, rounds = 3, i;
         double per_build = 10.0;
         for (i = 3; i < argc; ++i) {
             if (strcmp(argv[i], "--quick") == 0) quick = 1;
             else if (strcmp(argv[i], "--steps") == 0 && i + 1 < argc) steps = atoi(argv[++i]);
+            else if (strcmp(argv[i], "--rounds") == 0 && i + 1 < argc) rounds = atoi(argv[++i]);
             else if (strcmp(argv[i], "--per-build") == 0 && i + 1 < argc) per_build = atof(argv[++i]);
             else break;
         }
-        if (i == argc && steps >= 1 && per_build > 0.0) return run_loop(argv[2], quick, steps, per_build);
+        if (i == argc && steps >= 1 && rounds >= 1 && per_build > 0.0)
+            return run_loop(argv[2], quick, steps, rounds, per_build);
     }
-    fprintf(stderr, "usage: %s time FILE.csv [--quick] | loop FILE.csv [--quick] [--steps S] [--per-build K] | dump DIR | memory EVALS\n", argv[0]);
+    fprintf(stderr, "usage: %s time FILE.csv [--quick] | loop FILE.csv [--quick] [--steps S] [--rounds R] [--per-build K] | dump DIR | memory EVALS\n", argv[0]);
     return 2;
 }

@@ -20,8 +20,10 @@ itself on this one, on kept_bench's scenes and motion:
 - `kept_bench` of this tree (BUILD/bin/kept_bench): the same loop with a kept
   candidate list, positions in one call (nts_evaluate_positions).
 
-A round runs the three one after the other for each K (steps between a kept
-list's builds, eq. (29)); each ratio is taken within its round. Prints a
+A round runs the three one after the other, in an order rotated from round to
+round, for each K (steps between a kept list's builds, eq. (29)); each ratio
+is taken within its round. All three time the same steps (S warm, then 3 of
+S), each figure the median over those 3 of the mean over their steps. Prints a
 Markdown table per K. 41e9e21 finds fewer contacts at the same radius (its
 default dropped the active contacts deeper than the radius: issue 22), so it
 does less work than this tree.
@@ -45,7 +47,7 @@ def loop_rows(exe, args, per_build):
     """nts_cross loop: {surface_nodes: row}."""
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "loop.csv")
-        cmd = [exe, "loop", path, "--steps", str(args.steps), "--per-build", str(per_build)]
+        cmd = [exe, "loop", path, "--steps", str(args.steps), "--rounds", "3", "--per-build", str(per_build)]
         if args.quick:
             cmd.append("--quick")
         subprocess.run(cmd, check=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
@@ -53,7 +55,8 @@ def loop_rows(exe, args, per_build):
 
 
 def kept_rows(exe, args, per_build):
-    """kept_bench (3 rounds of its own): {surface_nodes: (scratch eval ns, kept step ns, contacts)}."""
+    """kept_bench (3 rounds of its own, the steps nts_cross loop --rounds 3 times):
+    {surface_nodes: (scratch eval ns, kept step ns, contacts)}."""
     cmd = [exe, "--rounds", "3", "--steps", str(args.steps), "--per-build", str(per_build)]
     if args.quick:
         cmd.append("--quick")
@@ -90,8 +93,14 @@ def main():
     kept = os.path.join(args.build, "bin", "kept_bench")
     for k in args.per_build:
         got = []
-        for _ in range(args.rounds):
-            a, b, c = loop_rows(old, args, k), loop_rows(cur, args, k), kept_rows(kept, args, k)
+        for j in range(args.rounds):
+            # the three programs in a rotated order each round (a drift of the
+            # machine's speed hits each at every place)
+            runs = [lambda: loop_rows(old, args, k), lambda: loop_rows(cur, args, k), lambda: kept_rows(kept, args, k)]
+            got_j = [None] * 3
+            for q in range(3):
+                got_j[(q + j) % 3] = runs[(q + j) % 3]()
+            a, b, c = got_j
             for n in a:
                 if a[n]["search_radius"] != b[n]["search_radius"]:
                     raise SystemExit("not the same scene: radius %s against %s" % (a[n]["search_radius"],
@@ -101,16 +110,17 @@ def main():
                                                                                     args.before))
         r = args.before
         print("| surface nodes | contacts %s / now | %s: evaluation ns/node | now: evaluation from scratch "
-              "ns/node | now: kept step ns/node | kept step / %s's evaluation (median; range) | "
-              "evaluation from scratch / %s's (median; range) |" % (r, r, r, r))
-        print("|---:|---|---:|---:|---:|---|---|")
+              "ns/node (nts_cross; kept_bench) | now: kept step ns/node | kept step / %s's evaluation (median; "
+              "range) | evaluation from scratch / %s's (median; range) |" % (r, r, r, r))
+        print("|---:|---|---:|---|---:|---|---|")
         for n in sorted(got[0][0]):
             e02 = [float(g[0][n]["eval_ns"]) for g in got]
             enow = [float(g[1][n]["eval_ns"]) for g in got]
             knot = [g[2][n][1] for g in got]
-            print("| %d | %s / %s | %.1f | %.1f | %.1f | %s | %s |" % (
+            kscratch = [g[2][n][0] for g in got]
+            print("| %d | %s / %s | %.1f | %.1f; %.1f | %.1f | %s | %s |" % (
                 n, got[0][0][n]["contacts"], got[0][1][n]["contacts"], statistics.median(e02),
-                statistics.median(enow), statistics.median(knot),
+                statistics.median(enow), statistics.median(kscratch), statistics.median(knot),
                 spread([x / y for x, y in zip(knot, e02)]), spread([x / y for x, y in zip(enow, e02)])))
         sys.stdout.flush()
     print("\n" + "; ".join(log), file=sys.stderr)

@@ -196,6 +196,32 @@ def test_a_client_at_its_quota_evicts_its_own_oldest(paths, tmp_path):
         assert d.stop() == 0
 
 
+@pytest.mark.parametrize("read", ["surface", "metadata", "step"])
+def test_reading_a_session_leaves_its_place_among_the_least_recently_used(paths, tmp_path, read):
+    """A client at its quota of 2 reads its older session (its surface, its
+    metadata: not a use; a step: a use), then creates a third: the older is
+    evicted unless the read was a step, which makes the newer the least
+    recently used."""
+    d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--max-sessions", "8",
+                     "--max-sessions-per-client", "2")
+    try:
+        me = Client(d)
+        older, newer = (me.create()[1] for _ in range(2))
+        if read == "step":
+            assert me.step(older) == 200
+        else:
+            status, _, _ = me.request("GET", f"/v1/scenes/{older}" + ("/surface" if read == "surface" else ""))
+            assert status == 200
+        status, third = me.create()
+        assert status == 201
+        gone, kept = (newer, older) if read == "step" else (older, newer)
+        assert me.step(gone) == 404 and me.step(kept) == 200 and me.step(third) == 200
+        assert health(d)["evicted_own"] == 1
+        me.close()
+    finally:
+        assert d.stop() == 0
+
+
 @pytest.mark.parametrize("max_sessions,quota", [("2", 2), ("8", 4), ("64", 16), ("1000", 250)])
 def test_the_default_quota_is_a_quarter_of_the_store_at_least_4(paths, tmp_path, max_sessions, quota):
     d = start_daemon(paths.bin / "ntscontactd", tmp_path / "d.log", "--max-sessions", max_sessions)
