@@ -148,8 +148,7 @@ static int run_loop(const char* path, int quick, int steps, int rounds, double p
         nts_error err;
         nts_vec2 *base, *dir, *pos;
         double *te, *ts, amp, omega, radius;
-        uint64_t rng = 77u + (uint64_t)t; /* kept_bench's directions */
-        int n, k, i, body, at = 0;
+        int n, k, i;
         ntsx_packing(&b, &def);
         s = scene_of(&b);
         n = nts_scene_node_count(s);
@@ -160,13 +159,7 @@ static int run_loop(const char* path, int quick, int steps, int rounds, double p
         ts = (double*)calloc((size_t)rounds, sizeof(double));
         if (!ctx || !base || !dir || !pos || !te || !ts) die("out of memory", NULL);
         memcpy(base, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
-        for (body = 0; body < b.body_count; ++body) {
-            const double a = 6.283185307179586 * ntsx_urand(&rng);
-            for (k = 0; k < b.counts[body]; ++k, ++at) {
-                const double c = 6.283185307179586 * ntsx_urand(&rng);
-                dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
-            }
-        }
+        ntsx_motion_directions(b.counts, b.body_count, 77u + (uint64_t)t, dir); /* kept_bench's */
         evaluate(ctx, s, &o, &r);
         radius = r.summary.search_radius;
         amp = 0.5 * radius;

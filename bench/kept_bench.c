@@ -121,7 +121,6 @@ int main(int argc, char** argv) {
         double *energy, *ta, *tsa, *tf, *tb, *ratio, *door, e0, s0, e1, s1, e2, s2, radius;
         long long builds0;
         int k;
-        uint64_t rng = 77u + (uint64_t)t;
         ntsx_packing(&b, &d);
         L.s = ntsx_scene_create(&b, &err);
         if (L.s == NULL) die("scene", &err);
@@ -140,17 +139,7 @@ int main(int argc, char** argv) {
         ratio = (double*)malloc(sizeof(double) * (size_t)rounds);
         door = (double*)malloc(sizeof(double) * (size_t)rounds);
         memcpy(base, nts_scene_positions(L.s), sizeof(nts_vec2) * (size_t)L.nodes);
-        {
-            /* a direction per body, and a fifth as much per node (|u_i| <= 1.2) */
-            int body, at = 0;
-            for (body = 0; body < b.body_count; ++body) {
-                const double a = 6.283185307179586 * ntsx_urand(&rng);
-                for (k = 0; k < b.counts[body]; ++k, ++at) {
-                    const double c = 6.283185307179586 * ntsx_urand(&rng);
-                    dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
-                }
-            }
-        }
+        ntsx_motion_directions(b.counts, b.body_count, 77u + (uint64_t)t, dir);
         L.base = base;
         L.dir = dir;
         o0.threads = threads;

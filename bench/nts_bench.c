@@ -703,18 +703,11 @@ static double kept_step_ns(nts_scene* s, const scene_buf* b, const nts_options* 
     nts_options o = *o0;
     nts_result r;
     nts_error err;
-    uint64_t rng = 4242u;
     double amp, omega, med;
-    int body, at = 0, k, i;
+    int k, i;
     if (!base || !dir || !pos || !dt || !ctx || !kc) { fprintf(stderr, "out of memory\n"); exit(2); }
     memcpy(base, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)n);
-    for (body = 0; body < b->body_count; ++body) {
-        const double a = 6.283185307179586 * ntsx_urand(&rng);
-        for (k = 0; k < b->counts[body]; ++k, ++at) {
-            const double c = 6.283185307179586 * ntsx_urand(&rng);
-            dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
-        }
-    }
+    ntsx_motion_directions(b->counts, b->body_count, 4242u, dir);
     o.candidates = kc;
     amp = 0.5 * o.search_radius;
     omega = 0.3 * o.search_radius / (3.0 + 2.0 * o.alpha) / 10.0 / (1.2 * amp); /* eq. (29), K = 10 */

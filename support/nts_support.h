@@ -21,6 +21,11 @@ double ntsx_median(double* v, int n);
 
 /* splitmix64, uniform in [0, 1): the same sequence on every platform. */
 double ntsx_urand(uint64_t* state);
+/* The directions of a solver loop's motion (kept_bench, nts_cross loop,
+ * nts_bench's kept step): per body a unit direction, and per node a fifth as
+ * much along its own (|u_i| <= 1.2), drawn from `seed`; counts[b] nodes a
+ * body, dir gets every node's in body order. */
+void ntsx_motion_directions(const int* counts, int body_count, uint64_t seed, nts_vec2* dir);
 
 /* A scene under construction: per body its nodes and, optionally, explicit
  * loops and its own alpha; the circle a disk approximates (cx, cy, R). */

@@ -108,6 +108,18 @@ double ntsx_urand(uint64_t* state) {
     return (double)(z >> 11) * (1.0 / 9007199254740992.0);
 }
 
+void ntsx_motion_directions(const int* counts, int body_count, uint64_t seed, nts_vec2* dir) {
+    uint64_t rng = seed;
+    int body, k, at = 0;
+    for (body = 0; body < body_count; ++body) {
+        const double a = 6.283185307179586 * ntsx_urand(&rng);
+        for (k = 0; k < counts[body]; ++k, ++at) {
+            const double c = 6.283185307179586 * ntsx_urand(&rng);
+            dir[at] = nts_v2(cos(a) + 0.2 * cos(c), sin(a) + 0.2 * sin(c));
+        }
+    }
+}
+
 ntsx_packing_def ntsx_default_packing(int particles, int periodic, uint64_t seed) {
     ntsx_packing_def d;
     d.particles = particles;
