@@ -33,7 +33,7 @@ static inline int nts_cells_clamp(double v, int n) {
     if (v >= (double)(n - 1)) return n - 1;
     return (int)v;
 }
-static inline nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
+static inline NTS_ALWAYS_INLINE nts_cell_place nts_cells_place(const nts_cells* c, nts_vec2 p) {
     nts_cell_place q;
     q.x = p.x - c->x0;
     q.y = p.y - c->y0;

@@ -20,10 +20,11 @@ static double wall_time(void) {
 
 /* The cell side that suits most masters: the 95th percentile of their reach
  * (around the middle of their segment, with the allowances), from a sample
- * of REACH_SAMPLE masters at a fixed stride, for the options' alpha and for
- * alpha = 0 (the finest grid the options could ask for). It only sets the
- * cell side, never a result, so a sample is as good as all. 0 when no body
- * offers a surface. `scratch`: 2 REACH_SAMPLE doubles. */
+ * of REACH_SAMPLE masters at a fixed stride, for the options' alpha and,
+ * when `finest` is asked, for alpha = 0 (the finest grid the options could
+ * ask for). It only sets the cell side, never a result, so a sample is as
+ * good as all. 0 when no body offers a surface. `scratch`: 2 REACH_SAMPLE
+ * doubles. */
 enum { REACH_SAMPLE = 1024 };
 static void typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double ext, double r, double pad,
                           double* scratch, double* typical, double* finest) {
@@ -34,12 +35,15 @@ static void typical_reach(const nts_context* ctx, const nts_scene* s, double alp
         const int e = (int)((long long)i * n / m), b = s->surf_body[e];
         if (s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, e)) continue;
         scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha), ext), r, pad);
-        sharp[count++] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0), ext), r, pad);
+        if (finest != NULL)
+            sharp[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0), ext), r, pad);
+        ++count;
     }
-    *typical = *finest = 0.0;
+    *typical = 0.0;
+    if (finest != NULL) *finest = 0.0;
     if (count == 0) return;
     *typical = nts_select_kth(scratch, count, (int)(0.95 * (double)(count - 1)));
-    *finest = nts_select_kth(sharp, count, (int)(0.95 * (double)(count - 1)));
+    if (finest != NULL) *finest = nts_select_kth(sharp, count, (int)(0.95 * (double)(count - 1)));
 }
 
 /* The largest alpha that shapes a surface: the options' and the bodies' own. */
@@ -69,30 +73,32 @@ static double longest_reach(const nts_scene* s, const search_env* env, const seg
 }
 
 /* The cell side the grid starts from: the typical reach, or the longest
- * when it is at most half again as much; `min_cells` the room for alpha = 0. */
+ * when it is at most half again as much; `min_cells` (when asked) the room
+ * for alpha = 0. */
 static double first_side(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
                          int* min_cells) {
     const double hmax = longest_reach(s, env, ss);
     double typical, finest;
     typical_reach(ctx, s, env->alpha, env->ext, env->r, frame_pad(s, ss), (double*)(void*)ctx->scratch, &typical,
-                  &finest);
+                  min_cells != NULL ? &finest : NULL);
     /* The cells are smaller with a smaller alpha (the corners reach less):
      * room for the grid of alpha = 0, so that a warm context allocates
      * nothing when only the options' alpha changes. */
-    *min_cells = finest > 0.0 ? nts_cells_count(s, ss, finest) : 0;
+    if (min_cells != NULL) *min_cells = finest > 0.0 ? nts_cells_count(s, ss, finest) : 0;
     return hmax <= 1.5 * typical || !(typical > 0.0) ? hmax : typical;
 }
 
 /* nts_summary.cell_size: the side of the cells a search from scratch
  * starts from (first_side), with or without a kept list, so that every door
- * gives the same summary (the long lists may coarsen the grid after). */
+ * gives the same summary (the long lists may coarsen the grid after). A
+ * kept step computes it too: without the room for alpha = 0, which only a
+ * build of the cells needs. */
 static double summary_cell_side(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss) {
-    int min_cells;
-    return nts_cells_side(s, ss, first_side(ctx, s, env, ss, &min_cells));
+    return nts_cells_side(s, ss, first_side(ctx, s, env, ss, NULL));
 }
 
 static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* env, const seg_summary* ss,
-                       const nts_run* run) {
+                       const nts_run* run, double* first) {
     /* At most this many (long master, cell) pairs: a few per surface node. */
     const long long budget = 4LL * s->surface_count + 4096;
     const double pad = frame_pad(s, ss), hmax = longest_reach(s, env, ss);
@@ -100,7 +106,7 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
     int round, rc, min_cells = 0;
     for (round = 0;; ++round) {
         if (round == 0) {
-            hc = first_side(ctx, s, env, ss, &min_cells);
+            hc = *first = first_side(ctx, s, env, ss, &min_cells);
         } else {
             hc = 2.0 * hc < hmax ? 2.0 * hc : hmax;
         }
@@ -117,9 +123,13 @@ static int build_cells(nts_context* ctx, const nts_scene* s, const search_env* e
  * replays kept lists, for a widened search that reaches past them (reach.c). */
 int nts_cells_now(nts_context* ctx, search_env* env) {
     const nts_scene* s = env->s;
+    double first;
     int rc;
     if (env->cells != NULL) return NTS_OK;
-    if ((rc = build_cells(ctx, s, env, env->ss, env->run)) != NTS_OK) return rc;
+    if ((rc = build_cells(ctx, s, env, env->ss, env->run, &first)) != NTS_OK) return rc;
+    /* nts_summary.cell_size, unless set (by a distributed frame, or before
+     * a widened search built the cells): what summary_cell_side gives */
+    if (env->cell_side < 0.0) env->cell_side = nts_cells_side(s, env->ss, first);
     env->cells = &ctx->cells;
     env->keys = &ctx->keys;
     if (ctx->long_count > 0) {
@@ -485,6 +495,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
      * radius beyond which an image could be nearer than the minimum one. */
     env.grow = opt->search_radius < 0.0;
     env.coarse = 2.0 * env.r;
+    env.kept_ahead = kept_ahead(s->surface_count);
     env.wide_lmax = (1.0 + env.ext) * ss.lmax;
     env.wide_pad = 1e-12 * (ss.coord_max + (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) + s->lx + s->ly);
     if (s->lx > 0.0)
@@ -495,11 +506,14 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     if (env.reach_max < env.r) env.reach_max = env.r;
     if (opt->search == NTS_SEARCH_CELLS && s->surface_count > 0) {
         int cells = 1;
+        env.cell_side = -1.0; /* set by nts_cells_now when it builds the cells */
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
-        env.cell_side = ctx->frame_set && ctx->frame.cell_size >= 0.0 ? ctx->frame.cell_size
-                                                                      : summary_cell_side(ctx, s, &env, &ss);
+        if (ctx->frame_set && ctx->frame.cell_size >= 0.0)
+            env.cell_side = ctx->frame.cell_size;
+        else if (env.cell_side < 0.0)
+            env.cell_side = summary_cell_side(ctx, s, &env, &ss);
     } else {
         /* The minimum image's round-off, for brute force's reach test. */
         env.brute_pad = 1e-12 * (ss.coord_max + s->lx + s->ly);

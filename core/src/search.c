@@ -23,7 +23,7 @@
  * minimum image, nts_min_image_1), the near-pair test done once for both
  * axes. `periodic` is a compile-time constant at every call (the search is
  * instantiated twice), so an open scene pays nothing for the box. */
-static inline nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
+static inline NTS_ALWAYS_INLINE nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
     nts_vec2 d = nts_sub(p, q);
     if (!periodic) return d;
     if (fabs(d.x) < env->qx && fabs(d.y) < env->qy) {
@@ -611,8 +611,10 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
  * which hold every master the cells could give it (the list is valid:
  * candidates.c), so the same candidates, the same records, bit for bit. */
 enum { KEPT_AHEAD = 4 };
+
 static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
-                                                 const int periodic, const int surfaces, const int selfc) {
+                                                 const int periodic, const int surfaces, const int selfc,
+                                                 const int ahead_on) {
     const nts_scene* s = env->s;
     const nts_candidates* kc = env->kept;
     const int *lo = kept_lo(kc), *mid = kept_mid(kc);
@@ -626,7 +628,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
             w->status = NTS_ECANCELLED;
             break;
         }
-        if (i == begin)
+        if (i == begin && ahead_on)
             for (k = 1; k < KEPT_AHEAD && i + k < end; ++k) { /* the first slaves' masters */
                 const int a = i + k;
                 int q;
@@ -640,7 +642,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
         /* The masters' segment data are scattered over memory (other
          * bodies' entries): asked for KEPT_AHEAD slaves ahead, so that they
          * arrive while the slaves between are searched. */
-        if (i + KEPT_AHEAD < end) {
+        if (ahead_on && i + KEPT_AHEAD < end) {
             const int a = i + KEPT_AHEAD;
             const int* ahead = kc->chunk[a / KEPT_CHUNK];
             for (k = lo[a]; k < mid[a]; ++k) {
@@ -828,15 +830,18 @@ static NTS_NOINLINE void cells_open_surfaces(const search_env* env, worker* w, i
 static NTS_NOINLINE void cells_periodic_surfaces(const search_env* env, worker* w, int begin, int end) {
     search_cells(env, w, begin, end, 1, 1, 0);
 }
+/* (with and without the lines asked for ahead: search_env.kept_ahead) */
 static NTS_NOINLINE void kept_open(const search_env* env, worker* w, int begin, int end) {
-    search_kept(env, w, begin, end, 0, 0, 0);
+    if (env->kept_ahead) search_kept(env, w, begin, end, 0, 0, 0, 1);
+    else search_kept(env, w, begin, end, 0, 0, 0, 0);
 }
 static NTS_NOINLINE void kept_periodic(const search_env* env, worker* w, int begin, int end) {
-    search_kept(env, w, begin, end, 1, 0, 0);
+    if (env->kept_ahead) search_kept(env, w, begin, end, 1, 0, 0, 1);
+    else search_kept(env, w, begin, end, 1, 0, 0, 0);
 }
 static NTS_NOINLINE void kept_surfaces(const search_env* env, worker* w, int begin, int end) {
-    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, 1, 0);
-    else search_kept(env, w, begin, end, 0, 1, 0);
+    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, 1, 0, env->kept_ahead);
+    else search_kept(env, w, begin, end, 0, 1, 0, env->kept_ahead);
 }
 /* A scene where some body meets itself (docs/model.md §16): instances of
  * their own, so that every other scene runs the code it ran before. */
@@ -858,8 +863,8 @@ static NTS_NOINLINE void cells_self(const search_env* env, worker* w, int begin,
     }
 }
 static NTS_NOINLINE void kept_self(const search_env* env, worker* w, int begin, int end) {
-    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, env->surf_flag != NULL, 1);
-    else search_kept(env, w, begin, end, 0, env->surf_flag != NULL, 1);
+    if (env->lx > 0.0 || env->ly > 0.0) search_kept(env, w, begin, end, 1, env->surf_flag != NULL, 1, env->kept_ahead);
+    else search_kept(env, w, begin, end, 0, env->surf_flag != NULL, 1, env->kept_ahead);
 }
 
 void nts_search_range(const search_env* env, worker* w, int begin, int end) {

@@ -357,6 +357,36 @@ static void test_over_budget_searches_from_scratch(void) {
     free_packing(&p);
 }
 
+/* A packing whose segment records outgrow a core's cache (36,000 surface
+ * entries, over search.h's KEPT_AHEAD_BYTES): the replay asks for the
+ * masters' lines ahead there, and answers bit for bit as from scratch, open
+ * and periodic, through small steps, a kick past the skin and a wrap. */
+static void test_random_walks_large(void) {
+    int periodic;
+    for (periodic = 0; periodic < 2; ++periodic) {
+        test_packing p = make_packing(900, 40, 1.0, 1.93, periodic, 3100 + (unsigned)periodic);
+        nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+        test_rng g = {0x2545f4914f6cdd1dULL + (unsigned long long)periodic};
+        nts_candidates_info info;
+        walk w;
+        int step, i;
+        CU_ASSERT_FATAL(s != NULL);
+        CU_ASSERT_FATAL(nts_scene_surface_node_count(s) > 32768);
+        walk_open(&w, s, 0.2, -1.0);
+        for (step = 0; step < 10; ++step) {
+            jitter(&w, &g, step == 6 ? 0.015 : 0.0008);
+            if (periodic && step == 8)
+                for (i = 0; i < w.n; i += 5) w.pos[i].x += p.lx; /* another image */
+            walk_step(&w, 1);
+        }
+        info = nts_candidates_get_info(w.kc);
+        CU_ASSERT(info.builds >= 2 && info.kept > 0); /* replayed, and built again after the kick */
+        walk_close(&w);
+        nts_scene_destroy(s);
+        free_packing(&p);
+    }
+}
+
 void register_candidates_suite(void) {
     CU_pSuite s = CU_add_suite("candidates", NULL, NULL);
     ADD_TEST(s, test_random_walks_open);
@@ -368,4 +398,5 @@ void register_candidates_suite(void) {
     ADD_TEST(s, test_bound_to_scene_and_options);
     ADD_TEST(s, test_over_budget_searches_from_scratch);
     ADD_TEST(s, test_folded_loops_in_a_packing);
+    ADD_TEST(s, test_random_walks_large);
 }
