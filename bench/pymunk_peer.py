@@ -23,6 +23,15 @@ call), the comparison issue 27 §5 asks for.
 
 Input: bench/results/peer_scene_N.txt (`nts_bench --sections peer`).
 Output: one row per size in peer_pymunk.csv.
+
+Paired rounds (`--rounds R [--nts-bench PATH]`): each round runs
+`nts_bench --sections peer` into a directory of its own, then pymunk right
+after on the packings it wrote (the median of 20 steps after the first,
+as ours is of 20), so that each round's ratio compares two runs seconds
+apart; printed: per size the medians over the rounds, each round's ratio
+pymunk / ours kept, and their median (the figure issue 27 §5 asks for:
+above 1, ours is faster). This VM's speed moves by 30% between runs, so a
+single run's ratio says little.
 """
 import csv
 import os
@@ -79,12 +88,52 @@ def step_packing(bodies, steps=6, dt=1e-3):
     return float(np.median(wall[1:])), float(np.median(cpu[1:])), arbiters, points
 
 
-def main(argv):
+def scenes_in(results):
     import glob
+    return sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),
+                  key=lambda p: int(p.rsplit("_", 1)[1].split(".")[0]))
+
+
+def paired_rounds(rounds, nts_bench):
+    """Each round: our kept step (nts_bench) then pymunk's, seconds apart; a table of the ratios."""
+    import subprocess
+    import tempfile
+    per_size = {}
+    for q in range(rounds):
+        with tempfile.TemporaryDirectory(prefix="nts-peer-") as tmp:
+            try:
+                run = subprocess.run([nts_bench, "--out", tmp, "--sections", "peer"], capture_output=True, text=True)
+            except OSError as e:
+                sys.exit(f"cannot run {nts_bench}: {e}")
+            if run.returncode != 0 or not scenes_in(tmp):
+                sys.exit(f"{nts_bench} wrote no peer scenes (exit {run.returncode}): {run.stderr.strip()}")
+            for scene in scenes_in(tmp):
+                bodies, _, _, _, total, _ = read_scene(scene)
+                wall, _, _, _ = step_packing(bodies, steps=21)
+                ours = ours_kept(scene)
+                row = per_size.setdefault(len(bodies), {"nodes": total, "pymunk": [], "ours": [], "ratio": []})
+                row["pymunk"].append(1e9 * wall / total)
+                row["ours"].append(ours)
+                row["ratio"].append(1e9 * wall / total / ours)
+        print(f"round {q + 1} of {rounds} done", file=sys.stderr)
+    print("| particles | surface nodes | pymunk ns/node per step (median) | ours: kept step ns/node (median) "
+          "| pymunk / ours kept (median; range) | rounds (sorted) |")
+    print("|---:|---:|---:|---:|---|---|")
+    for particles, row in sorted(per_size.items()):
+        ratios = sorted(row["ratio"])
+        print(f"| {particles} | {row['nodes']} | {np.median(row['pymunk']):.1f} | {np.median(row['ours']):.1f} "
+              f"| {np.median(ratios):.3f} ({ratios[0]:.3f}-{ratios[-1]:.3f}) "
+              f"| {', '.join(f'{x:.2f}' for x in ratios)} |")
+
+
+def main(argv):
+    if len(argv) > 1 and argv[1] == "--rounds":
+        nts_bench = argv[4] if len(argv) > 4 and argv[3] == "--nts-bench" else "build-bench/bin/nts_bench"
+        paired_rounds(int(argv[2]), nts_bench)
+        return
     results = argv[1] if len(argv) > 1 else "bench/results"
     rows = []
-    for scene in sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),
-                        key=lambda p: int(p.rsplit("_", 1)[1].split(".")[0])):
+    for scene in scenes_in(results):
         bodies, r, ours_gaps_ns, ours_default_ns, total, _ = read_scene(scene)
         wall, cpu, arbiters, points = step_packing(bodies)
         rows.append({
