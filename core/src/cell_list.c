@@ -102,37 +102,49 @@ static void offsets_count(int begin, int end, int wi, void* p) {
     }
 }
 
-/* Block u of cells: its total over every slice. */
+/* Block u of cells: its total over every slice. `S`: the slices, a
+ * constant at the usual call (two threads: two slices), so that the loop
+ * over them unrolls. */
+static inline NTS_ALWAYS_INLINE void block_total(const offsets_task* t, int u, const int S) {
+    const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
+    int sum = 0, cc, v;
+    for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc)
+        for (v = 0; v < S; ++v) sum += t->hist[(size_t)v * (size_t)t->ncell + cc];
+    t->total[u] = sum;
+}
+
 static void offsets_total(int begin, int end, int wi, void* p) {
     const offsets_task* t = (const offsets_task*)p;
     int u;
     (void)wi;
     for (u = begin; u < end; ++u) {
-        const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
-        int sum = 0, cc, v;
-        for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc)
-            for (v = 0; v < t->slices; ++v) sum += t->hist[(size_t)v * (size_t)t->ncell + cc];
-        t->total[u] = sum;
+        if (t->slices == 2) block_total(t, u, 2);
+        else block_total(t, u, t->slices);
     }
 }
 
 /* Block u of cells: each (cell, slice)'s first place, from the block's start. */
+static inline NTS_ALWAYS_INLINE void block_place(const offsets_task* t, int u, const int S) {
+    const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
+    int place = t->total[u], cc, v;
+    for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc) {
+        t->c->cell_start[cc] = place;
+        for (v = 0; v < S; ++v) {
+            int* h = t->hist + (size_t)v * (size_t)t->ncell + cc;
+            const int k = *h;
+            *h = place;
+            place += k;
+        }
+    }
+}
+
 static void offsets_place(int begin, int end, int wi, void* p) {
     const offsets_task* t = (const offsets_task*)p;
     int u;
     (void)wi;
     for (u = begin; u < end; ++u) {
-        const int c1 = nts_slice_begin(t->ncell, t->slices, u + 1);
-        int place = t->total[u], cc, v;
-        for (cc = nts_slice_begin(t->ncell, t->slices, u); cc < c1; ++cc) {
-            t->c->cell_start[cc] = place;
-            for (v = 0; v < t->slices; ++v) {
-                int* h = t->hist + (size_t)v * (size_t)t->ncell + cc;
-                const int k = *h;
-                *h = place;
-                place += k;
-            }
-        }
+        if (t->slices == 2) block_place(t, u, 2);
+        else block_place(t, u, t->slices);
     }
 }
 
