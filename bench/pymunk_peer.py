@@ -111,6 +111,8 @@ def paired_rounds(rounds, nts_bench):
                 bodies, _, _, _, total, _ = read_scene(scene)
                 wall, _, _, _ = step_packing(bodies, steps=21)
                 ours = ours_kept(scene)
+                if not ours:
+                    sys.exit(f"{scene}: no kept step's time in its header (an nts_bench older than the kept step)")
                 row = per_size.setdefault(len(bodies), {"nodes": total, "pymunk": [], "ours": [], "ratio": []})
                 row["pymunk"].append(1e9 * wall / total)
                 row["ours"].append(ours)
@@ -127,11 +129,19 @@ def paired_rounds(rounds, nts_bench):
 
 
 def main(argv):
-    if len(argv) > 1 and argv[1] == "--rounds":
-        nts_bench = argv[4] if len(argv) > 4 and argv[3] == "--nts-bench" else "build-bench/bin/nts_bench"
-        paired_rounds(int(argv[2]), nts_bench)
+    import argparse
+    ap = argparse.ArgumentParser(description="pymunk against our evaluation and kept step (issue 27 §5)")
+    ap.add_argument("results", nargs="?", default="bench/results",
+                    help="the directory of nts_bench's peer_scene_N.txt (without --rounds)")
+    ap.add_argument("--rounds", type=int, help="paired rounds, each running nts_bench anew")
+    ap.add_argument("--nts-bench", default="build-bench/bin/nts_bench", help="with --rounds: the nts_bench to run")
+    a = ap.parse_args(argv[1:])
+    if a.rounds is not None:
+        if a.rounds < 1:
+            ap.error("--rounds must be at least 1")
+        paired_rounds(a.rounds, a.nts_bench)
         return
-    results = argv[1] if len(argv) > 1 else "bench/results"
+    results = a.results
     rows = []
     for scene in scenes_in(results):
         bodies, r, ours_gaps_ns, ours_default_ns, total, _ = read_scene(scene)

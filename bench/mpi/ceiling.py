@@ -8,7 +8,9 @@ R 0 -1 LAYOUT` runs under callgrind on 1 rank and on 2 ranks (`mpirun -np P
 step's instructions on a rank are the difference between the two runs over
 R2 - R1 steps, counting the code of mpi_bench (the core, libntscontact_mpi,
 the bench) and the C library's calls, not Open MPI's (a rank waiting for
-its peer spins in the MPI library). On one rank the bench also evaluates the
+its peer spins in the MPI library; the C library's calls Open MPI makes
+itself, its shared-memory copies and its event loop's waits, are counted
+with ours, a small part). On one rank the bench also evaluates the
 whole scene with nts_evaluate for its table; that call (from main) is taken
 out. Printed per layout: one rank's instructions per node and step, each of
 two ranks', their sum against one rank (the work the distribution adds) and
@@ -26,10 +28,18 @@ import sys
 import tempfile
 
 ENTRY = re.compile(r"\s*([\d,]+)\s+\(\s*[\d.]+%\)\s+(\S+)(?:\s+\[(.+)\])?$")
+C_LIBRARY = re.compile(r"^lib[cm]([.-]|$)")  # libc.so.6, libm.so.6, libc-2.31.so
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def ours(path, bench):
-    """Exclusive instructions of the bench's own code and the C library's calls."""
+    """Exclusive instructions of the bench's own code and the C library's calls.
+
+    A line without an object is code inlined from another source file
+    (callgrind_annotate names the file, not the object): counted when that
+    file is this repository's, left out otherwise (another library's
+    headers; with a Release build, which has no line information, every
+    line names its object)."""
     out = subprocess.run(["callgrind_annotate", "--threshold=100", path], capture_output=True, text=True,
                          check=True).stdout
     total = 0
@@ -37,8 +47,12 @@ def ours(path, bench):
         m = ENTRY.match(line)
         if m is None or "PROGRAM TOTALS" in line:
             continue
-        obj = os.path.basename(m.group(3)) if m.group(3) else bench  # no object: inlined in the bench
-        if obj == bench or obj.startswith("libc.so") or obj.startswith("libm.so"):
+        if m.group(3):
+            obj = os.path.basename(m.group(3))
+            counted = obj == bench or C_LIBRARY.match(obj) is not None
+        else:
+            counted = m.group(2).startswith(ROOT + os.sep)
+        if counted:
             total += int(m.group(1).replace(",", ""))
     return total
 

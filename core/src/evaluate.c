@@ -127,8 +127,9 @@ int nts_cells_now(nts_context* ctx, search_env* env) {
     int rc;
     if (env->cells != NULL) return NTS_OK;
     if ((rc = build_cells(ctx, s, env, env->ss, env->run, &first)) != NTS_OK) return rc;
-    /* nts_summary.cell_size, unless set (by a distributed frame, or before
-     * a widened search built the cells): what summary_cell_side gives */
+    /* nts_summary.cell_size (what summary_cell_side gives), unless already
+     * set: a widened search builds the cells after it is (reach.c); evaluate()
+     * puts a distributed frame's in its place after this */
     if (env->cell_side < 0.0) env->cell_side = nts_cells_side(s, env->ss, first);
     env->cells = &ctx->cells;
     env->keys = &ctx->keys;

@@ -371,6 +371,7 @@ static void test_random_walks_large(void) {
         walk w;
         int step, i;
         CU_ASSERT_FATAL(s != NULL);
+        /* over KEPT_AHEAD_BYTES / sizeof(seg_data) = 2 MB / 64 B entries */
         CU_ASSERT_FATAL(nts_scene_surface_node_count(s) > 32768);
         walk_open(&w, s, 0.2, -1.0);
         for (step = 0; step < 10; ++step) {
@@ -380,7 +381,8 @@ static void test_random_walks_large(void) {
             walk_step(&w, 1);
         }
         info = nts_candidates_get_info(w.kc);
-        CU_ASSERT(info.builds >= 2 && info.kept > 0); /* replayed, and built again after the kick */
+        /* built again after the kick, and replayed most steps */
+        CU_ASSERT(info.builds >= 2 && info.evaluations - info.builds >= 5);
         walk_close(&w);
         nts_scene_destroy(s);
         free_packing(&p);
