@@ -16,15 +16,20 @@
 /* Every output (records kept: scatter.c makes the force shares) and the
  * forces, energy and virial alone (the search keeps the shares): each
  * thread adds the shares of the chunks whose nodes reach its range. */
-static void check_threads(int periodic, double alpha, nts_solver solver) {
-    test_packing p = make_packing(64, 40, 1.0, 1.93, periodic, 500 + (unsigned)periodic);
+/* Thread counts: 1 to 7, and past the backend's blocks kept on its stack
+ * (parallel_omp.c: 16); chunks of the search: 3 with 64 disks, 16 with 400
+ * (more ranges than threads: each thread its block, then the others'). */
+static const int thread_counts[] = {1, 2, 3, 4, 5, 6, 7, 17, 40};
+
+static void check_threads_of(int disks, int periodic, double alpha, nts_solver solver) {
+    test_packing p = make_packing(disks, 40, 1.0, 1.93, periodic, 500 + (unsigned)periodic);
     nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
     nts_context *c0 = nts_context_create(), *c1 = nts_context_create();
     nts_options o = nts_default_options();
     nts_result r0, r1;
     nts_error err;
     const unsigned outputs[2] = {NTS_OUT_ALL, NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL};
-    int th, k;
+    int t, k;
     CU_ASSERT_FATAL(s != NULL && c0 != NULL && c1 != NULL);
     o.alpha = alpha;
     o.solver = solver;
@@ -33,14 +38,15 @@ static void check_threads(int periodic, double alpha, nts_solver solver) {
         o.threads = 1;
         CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == 0);
         CU_ASSERT(r0.summary.contacts > 50);
-        for (th = 1; th <= 7; ++th) {
+        for (t = 0; t < (int)(sizeof thread_counts / sizeof thread_counts[0]); ++t) {
+            const int th = thread_counts[t];
             int same;
             o.threads = th;
             CU_ASSERT_FATAL(nts_evaluate(c1, s, &o, &r1, &err) == 0);
             same = same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE);
             if (!same)
-                fprintf(stderr, "\n  threads %d differ from serial (periodic %d alpha %g outputs %u)\n", th, periodic,
-                        alpha, outputs[k]);
+                fprintf(stderr, "\n  threads %d differ from serial (%d disks, periodic %d alpha %g outputs %u)\n", th,
+                        disks, periodic, alpha, outputs[k]);
             CU_ASSERT(same);
         }
     }
@@ -48,6 +54,11 @@ static void check_threads(int periodic, double alpha, nts_solver solver) {
     nts_context_destroy(c1);
     nts_scene_destroy(s);
     free_packing(&p);
+}
+
+static void check_threads(int periodic, double alpha, nts_solver solver) {
+    check_threads_of(64, periodic, alpha, solver);
+    check_threads_of(400, periodic, alpha, solver);
 }
 
 static void test_threads_bitwise_open(void) {
