@@ -3,6 +3,7 @@
  * search.h, reach.h, scatter.h, context.h; docs/architecture.md); this one sizes
  * the search (radius, cell side) and runs the stages in order, timing each
  * for nts_context_profile. */
+#include <assert.h>
 #include <float.h>
 #include <limits.h>
 #include <stdio.h>
@@ -18,6 +19,35 @@ static double wall_time(void) {
     return nts_wall_seconds();
 }
 
+/* Sample i's reach (and at alpha 0, `sharp`), or -1 when its master offers
+ * nothing (a slave body's, or off the contact surface). */
+typedef struct reach_sample_task {
+    const nts_context* ctx;
+    const nts_scene* s;
+    double alpha, ext, r, pad;
+    int m;
+    double *reach, *sharp; /* sharp NULL: not asked */
+} reach_sample_task;
+
+static void reach_samples(int begin, int end, int wi, void* p) {
+    const reach_sample_task* t = (const reach_sample_task*)p;
+    const nts_scene* s = t->s;
+    const int n = s->surface_count;
+    int i;
+    (void)wi;
+    for (i = begin; i < end; ++i) {
+        const int e = (int)((long long)i * n / t->m), b = s->surf_body[e];
+        const int offers = s->body_role[b] != NTS_ROLE_SLAVE && nts_on_surface(s, e);
+        t->reach[i] = offers ? reach_allowed(reach_at_middle(t->ctx->seg, e, alpha_of_body(s, b, t->alpha), t->ext),
+                                             t->r, t->pad)
+                             : -1.0;
+        if (t->sharp != NULL)
+            t->sharp[i] =
+                offers ? reach_allowed(reach_at_middle(t->ctx->seg, e, alpha_of_body(s, b, 0.0), t->ext), t->r, t->pad)
+                       : -1.0;
+    }
+}
+
 /* The cell side that suits most masters: the 95th percentile of their reach
  * (around the middle of their segment, with the allowances), from a sample
  * of REACH_SAMPLE masters at a fixed stride, for the options' alpha and,
@@ -27,16 +57,27 @@ static double wall_time(void) {
  * doubles. */
 enum { REACH_SAMPLE = 1024 };
 static void typical_reach(const nts_context* ctx, const nts_scene* s, double alpha, double ext, double r, double pad,
-                          double* scratch, double* typical, double* finest) {
+                          double* scratch, double* typical, double* finest, const nts_run* run) {
     const int n = s->surface_count, m = n < REACH_SAMPLE ? n : REACH_SAMPLE;
     double* sharp = scratch + REACH_SAMPLE;
+    reach_sample_task t;
     int i, count = 0;
+    /* the samples' reaches in parallel (scattered reads: most of the
+     * time), then those of masters that offer something, in sample order */
+    t.ctx = ctx;
+    t.s = s;
+    t.alpha = alpha;
+    t.ext = ext;
+    t.r = r;
+    t.pad = pad;
+    t.m = m;
+    t.reach = scratch;
+    t.sharp = finest != NULL ? sharp : NULL;
+    nts_run_each(run, reach_samples, m, &t);
     for (i = 0; i < m; ++i) {
-        const int e = (int)((long long)i * n / m), b = s->surf_body[e];
-        if (s->body_role[b] == NTS_ROLE_SLAVE || !nts_on_surface(s, e)) continue;
-        scratch[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, alpha), ext), r, pad);
-        if (finest != NULL)
-            sharp[count] = reach_allowed(reach_at_middle(ctx->seg, e, alpha_of_body(s, b, 0.0), ext), r, pad);
+        if (scratch[i] < 0.0) continue;
+        scratch[count] = scratch[i];
+        if (finest != NULL) sharp[count] = sharp[i];
         ++count;
     }
     *typical = 0.0;
@@ -79,8 +120,9 @@ static double first_side(nts_context* ctx, const nts_scene* s, const search_env*
                          int* min_cells) {
     const double hmax = longest_reach(s, env, ss);
     double typical, finest;
+    assert(env->run != NULL);
     typical_reach(ctx, s, env->alpha, env->ext, env->r, frame_pad(s, ss), (double*)(void*)ctx->scratch, &typical,
-                  min_cells != NULL ? &finest : NULL);
+                  min_cells != NULL ? &finest : NULL, env->run);
     /* The cells are smaller with a smaller alpha (the corners reach less):
      * room for the grid of alpha = 0, so that a warm context allocates
      * nothing when only the options' alpha changes. */
@@ -713,6 +755,7 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
         env.alpha = opt->alpha;
         env.ext = s->surf_ends > 0 ? opt->surface_extension : 0.0;
         env.r = opt->search_radius >= 0.0 ? opt->search_radius : ss.kth;
+        env.run = &run;
         out->cell_size = summary_cell_side(ctx, s, &env, &ss);
     }
     return NTS_OK;

@@ -138,6 +138,18 @@ static int shares_range(nts_vec2* F, const force_shares* sh, int n, int n0, int 
     return bad;
 }
 
+/* shares_range for shares whose every node is in the range (most chunks'
+ * with one part of the nodes per thread): no test of each node. */
+static int shares_all(nts_vec2* F, const force_shares* sh, int n) {
+    int k, q, bad = 0;
+    for (k = 0; k < n; ++k) {
+        if (k + SHARES_AHEAD < n)
+            for (q = 0; q < 4 && sh[k + SHARES_AHEAD].node[q] >= 0; ++q) NTS_PREFETCH_W(&F[sh[k + SHARES_AHEAD].node[q]]);
+        bad |= law_add_shares(F, &sh[k]);
+    }
+    return bad;
+}
+
 /* The forces on nodes [n0, n1) from the chunks' force shares, in chunk
  * order and in record order within a chunk, then the deep contacts' (in
  * their order): each thread reads the shares of every chunk whose nodes
@@ -150,7 +162,8 @@ static int forces_range(nts_context* ctx, int n0, int n1) {
     memset(F + n0, 0, sizeof(nts_vec2) * (size_t)(n1 - n0));
     for (c = 0; c < ctx->chunk_count; ++c) {
         const chunk_info* ch = &ctx->chunks[c];
-        if (ch->node_hi >= n0 && ch->node_lo < n1) bad |= shares_range(F, ch->sh, ch->sums.active, n0, n1);
+        if (ch->node_lo >= n0 && ch->node_hi < n1) bad |= shares_all(F, ch->sh, ch->sums.active);
+        else if (ch->node_hi >= n0 && ch->node_lo < n1) bad |= shares_range(F, ch->sh, ch->sums.active, n0, n1);
     }
     return bad | shares_range(F, ctx->reach.shares, ctx->reach.deep_count, n0, n1);
 }

@@ -96,7 +96,9 @@ static kth_plan kth_prepare(const nts_scene* s, const nts_vec2* pos, int k, doub
     if (rlo < 0) rlo = 0;
     if (rhi > NTS_SAMPLE - 1) rhi = NTS_SAMPLE - 1;
     plan.lo = nts_select_kth(sample, NTS_SAMPLE, rlo);
-    plan.hi = nts_select_kth(sample, NTS_SAMPLE, rhi);
+    /* the selection leaves every value past rlo at least plan.lo: the
+     * rhi-th of them all is the (rhi - rlo - 1)-th of those */
+    plan.hi = rhi > rlo ? nts_select_kth(sample + rlo + 1, NTS_SAMPLE - rlo - 1, rhi - rlo - 1) : plan.lo;
     return plan;
 }
 

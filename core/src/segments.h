@@ -65,7 +65,8 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* p
  * lengths[i] when not NULL (-1: outside the supported range; written
  * whatever `bad` says): no segment data written, nothing allocated. */
 void nts_segments_lengths(const nts_scene* s, double* lengths, const nts_run* run, seg_summary* out);
-/* The k-th smallest of v[0..n) (v is reordered): quickselect, O(n log n) at worst. */
+/* The k-th smallest of v[0..n) (v is reordered: every value before k is at
+ * most it, every value after at least it): quickselect, O(n log n) at worst. */
 double nts_select_kth(double* v, int n, int k);
 
 #endif
