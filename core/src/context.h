@@ -10,8 +10,9 @@
 #include "reach.h"
 #include <ntscontact/distributed.h>
 
-/* The slaves are searched in chunks of CHUNK_SLAVES entries, each taken by
- * whichever thread is free (so a thread that the machine slows down takes
+/* The slaves are searched in chunks of CHUNK_SLAVES entries, handed out by
+ * the backend (the stock one: each thread its contiguous block of them, then
+ * the others' that are left, so a thread that the machine slows down takes
  * fewer); a chunk's records go to one pool for all the chunks, wherever they
  * ran, and the scatter reads the chunks in order: slave order, whoever ran
  * them. The scatter also leaves each chunk's partial sums here, added in

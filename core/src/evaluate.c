@@ -565,9 +565,10 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     ctx->phase[1] = t1 - t0;
     t0 = t1;
 
-    /* 3. Local search, chunk by chunk, each chunk taken by whichever thread
-     * is free and its records kept in one pool for all the chunks (the
-     * scatter reads them in chunk order, whoever ran them). */
+    /* 3. Local search, chunk by chunk, the chunks handed out by the backend
+     * (parallel_omp.c: a contiguous block per thread, then stolen by
+     * whichever thread is free) and their records kept in one pool for all
+     * the chunks (the scatter reads them in chunk order, whoever ran them). */
     nchunk = (s->surface_count + CHUNK_SLAVES - 1) / CHUNK_SLAVES;
     if ((rc = nts_workers_prepare(ctx, nthreads, s->body_count, nchunk)) != NTS_OK)
         return eval_fail(err, rc, -1, -1, "out of memory");
@@ -594,8 +595,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         ctx->forces_serial = s->serial;
         env.forces = ctx->forces;
     }
-    /* Each chunk taken by whichever worker is free (a worker that the
-     * machine slows down takes fewer). */
+    /* (a worker that the machine slows down takes fewer chunks) */
     st.ctx = ctx;
     st.env = &env;
     nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
