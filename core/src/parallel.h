@@ -11,6 +11,8 @@
 #ifndef NTSCONTACT_PARALLEL_H
 #define NTSCONTACT_PARALLEL_H
 
+#include <stdint.h>
+
 #include "internal.h"
 
 /* The workers of one evaluation and the backend that runs them. */
@@ -59,6 +61,23 @@ static inline size_t nts_atomic_add_size(size_t* p, size_t v) {
     return __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 #else
 #error "ntscontact needs an atomic fetch-and-add for this compiler (parallel.h)"
+#endif
+}
+/* A 64-bit word read and swapped atomically (parallel_omp.c's blocks):
+ * relaxed, as the parallel region's start and end order the rest. */
+static inline uint64_t nts_atomic_load_u64(uint64_t* p) {
+#if defined(__GNUC__)
+    return __atomic_load_n(p, __ATOMIC_RELAXED);
+#else
+#error "ntscontact needs an atomic load for this compiler (parallel.h)"
+#endif
+}
+/* *p = desired if *p == *expected (1); else *expected = *p (0). */
+static inline int nts_atomic_cas_u64(uint64_t* p, uint64_t* expected, uint64_t desired) {
+#if defined(__GNUC__)
+    return __atomic_compare_exchange_n(p, expected, desired, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED);
+#else
+#error "ntscontact needs an atomic compare-and-swap for this compiler (parallel.h)"
 #endif
 }
 static inline void nts_atomic_or(int* p, int v) {

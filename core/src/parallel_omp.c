@@ -2,15 +2,15 @@
  * min_range items, run before enqueue returns. One range per thread at most
  * (nts_run_each): range q on thread q, as schedule(static) did, so that the
  * loops over the same entries run where the last one left them in cache.
- * More ranges than threads (the search's chunks): each thread takes the
- * ranges of its own contiguous block in order, then steals one at a time
- * from the back of another's, so that a thread the machine slows down takes
- * fewer. Contiguous blocks, not ranges dealt in turn (schedule(dynamic)):
- * neighbouring chunks search neighbouring slaves against the same masters,
- * and a thread that runs both reads them from its own cache (two threads on
- * the benchmark packing: 62 -> 58 ns a node at 1e5, 87 -> 83 at 1e6). */
+ * More ranges than threads (the search's chunks): the ranges are cut into
+ * contiguous blocks, one per thread (at most STACK_BLOCKS; past that,
+ * threads share them); each thread takes its block's ranges in order, then
+ * steals one at a time from the back of the others', so that a thread the
+ * machine slows down takes fewer. Contiguous blocks, not ranges dealt in
+ * turn (schedule(dynamic)): neighbouring chunks search neighbouring slaves
+ * against the same masters, and a thread that runs both reads them from its
+ * own cache (docs/benchmarks.md, "Two threads, paired"). */
 #include <stdint.h>
-#include <stdlib.h>
 
 #include <omp.h>
 
@@ -22,36 +22,37 @@ static void run_range(nts_task_fn* task, int q, int count, int min_range, void* 
     task((int)b, (int)e, omp_get_thread_num(), tc);
 }
 
-/* A thread's block of ranges [lo, hi), both in one word (lo the low half)
- * so that its owner (from the front) and a thief (from the back) take
- * ranges with one compare-and-swap each; a line of its own. */
+/* A block of ranges [lo, hi), both in one word (lo the low half) so that
+ * its owners (from the front) and a thief (from the back) take ranges with
+ * one compare-and-swap each; a line of its own. */
 typedef struct block {
     uint64_t w;
     char pad[64 - sizeof(uint64_t)];
 } block;
 
+/* At most this many blocks (on the stack: enqueue allocates nothing). */
 enum { STACK_BLOCKS = 16 };
 
 /* Take one range of b: the first (front) or the last; -1 when it is empty. */
 static int block_take(block* b, int front) {
-    uint64_t w = __atomic_load_n(&b->w, __ATOMIC_RELAXED);
+    uint64_t w = nts_atomic_load_u64(&b->w);
     for (;;) { /* retried only when another thread took one of b's ranges */
         const uint32_t lo = (uint32_t)w, hi = (uint32_t)(w >> 32);
         uint64_t next;
         if (lo >= hi) return -1;
         next = front ? (w & ~(uint64_t)0xffffffffu) | (uint64_t)(lo + 1) : (uint64_t)(hi - 1) << 32 | lo;
-        if (__atomic_compare_exchange_n(&b->w, &w, next, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
-            return front ? (int)lo : (int)(hi - 1);
+        if (nts_atomic_cas_u64(&b->w, &w, next)) return front ? (int)lo : (int)(hi - 1);
     }
 }
 
-/* Thread t's ranges: its block's, then the others' from their backs. */
-static void run_blocks(block* blocks, int threads, nts_task_fn* task, int count, int min_range, void* tc) {
-    const int t = omp_get_thread_num();
+/* Thread t's ranges: its block's (block t mod nb), then the others' from
+ * their backs, each until it is empty. */
+static void run_blocks(block* blocks, int nb, nts_task_fn* task, int count, int min_range, void* tc) {
+    const int t = omp_get_thread_num() % nb;
     int q, v;
     while ((q = block_take(&blocks[t], 1)) >= 0) run_range(task, q, count, min_range, tc);
-    for (v = 1; v < threads; ++v) /* each other block until it is empty */
-        while ((q = block_take(&blocks[(t + v) % threads], 0)) >= 0) run_range(task, q, count, min_range, tc);
+    for (v = 1; v < nb; ++v)
+        while ((q = block_take(&blocks[(t + v) % nb], 0)) >= 0) run_range(task, q, count, min_range, tc);
 }
 
 static void* omp_enqueue(nts_task_fn* task, int count, int min_range, void* tc, void* user) {
@@ -63,21 +64,15 @@ static void* omp_enqueue(nts_task_fn* task, int count, int min_range, void* tc, 
 #pragma omp parallel for num_threads(ranges) schedule(static, 1)
         for (q = 0; q < ranges; ++q) run_range(task, q, count, min_range, tc);
     } else {
-        block stack[STACK_BLOCKS];
-        block* blocks = threads <= STACK_BLOCKS ? stack : (block*)malloc(sizeof(block) * (size_t)threads);
-        if (blocks == NULL) { /* no room for the blocks: ranges dealt in turn */
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-            for (q = 0; q < ranges; ++q) run_range(task, q, count, min_range, tc);
-            return NULL;
-        }
-        for (q = 0; q < threads; ++q) {
-            const uint64_t lo = (uint64_t)((long long)ranges * q / threads);
-            const uint64_t hi = (uint64_t)((long long)ranges * (q + 1) / threads);
+        block blocks[STACK_BLOCKS];
+        const int nb = threads < STACK_BLOCKS ? threads : STACK_BLOCKS;
+        for (q = 0; q < nb; ++q) {
+            const uint64_t lo = (uint64_t)((long long)ranges * q / nb);
+            const uint64_t hi = (uint64_t)((long long)ranges * (q + 1) / nb);
             blocks[q].w = hi << 32 | lo;
         }
 #pragma omp parallel num_threads(threads)
-        run_blocks(blocks, threads, task, count, min_range, tc);
-        if (blocks != stack) free(blocks);
+        run_blocks(blocks, nb, task, count, min_range, tc);
     }
     return NULL; /* done: no finish */
 }

@@ -618,7 +618,7 @@ int nts_reach_grow(nts_context* ctx, search_env* env, long long found, const nts
         if (env->cancel != NULL && env->cancel(env->cancel_user)) return NTS_ECANCELLED;
         if ((rc = nts_grow((void**)&r->hits, &r->hits_cap, q1, sizeof(candidate))) != NTS_OK) return rc;
         /* A round of a few pairs runs in the caller's thread (not worth the
-         * workers); else ranges of 16, taken by whichever worker is free. */
+         * workers); else ranges of 16, handed out by the backend. */
         /* (a pair that finds nothing at its rho tries twice it, maybe past
          * what the kept lists cover: wide() then tries the body's entries) */
         for (q = q0; q < q1 && rc == NTS_OK; ++q)

@@ -98,12 +98,13 @@ static kth_plan kth_prepare(const nts_scene* s, const nts_vec2* pos, int k, doub
     plan.lo = nts_select_kth(sample, NTS_SAMPLE, rlo);
     /* the selection leaves every value past rlo at least plan.lo: the
      * rhi-th of them all is the (rhi - rlo - 1)-th of those */
-    plan.hi = rhi > rlo ? nts_select_kth(sample + rlo + 1, NTS_SAMPLE - rlo - 1, rhi - rlo - 1) : plan.lo;
+    assert(rlo < rhi && rhi < NTS_SAMPLE);
+    plan.hi = nts_select_kth(sample + rlo + 1, NTS_SAMPLE - rlo - 1, rhi - rlo - 1);
     return plan;
 }
 
-/* The pass runs over SHARES fixed slices of the entries (in parallel, each
- * taken by whichever thread is free), each keeping the lengths in the
+/* The pass runs over SHARES fixed slices of the entries (in parallel, as
+ * the backend hands them out), each keeping the lengths in the
  * bracket from its own first entry on in `scratch`; the value selected does
  * not depend on their order anyway. */
 enum { SHARES = 64 };
@@ -538,8 +539,8 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* p
     t.found = found;
     t.since = since;
     t.area_perim = area_perim;
-    /* Each share taken by whichever worker is free; the minima and maxima
-     * are exact, whatever the order they are taken in. */
+    /* Whichever worker takes a share, the minima and maxima are exact,
+     * whatever the order they are taken in. */
     nts_run_tasks(run, area_perim != NULL && n > 0 ? segments_pass_checked : segments_pass, SHARES, 1, &t);
     for (q = 0; q < SHARES; ++q) {
         const share_found* f = &found[q];
