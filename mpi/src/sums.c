@@ -306,20 +306,32 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                 }
             }
         }
-        for (r = 0, n_sh = 0; r < P; ++r) {
-            fill[r] = n_sh;
-            n_sh += counts[r];
+        {
+            int ranks_to = 0; /* the ranks this one sends shares to */
+            for (r = 0, n_sh = 0; r < P; ++r) {
+                fill[r] = n_sh;
+                n_sh += counts[r];
+                ranks_to += counts[r] > 0;
+            }
+            /* Shares for one rank alone (two ranks, or a slab with one
+             * neighbour that owns nodes here) are grouped already: sent
+             * from where they are, not copied (layout 2 on two ranks: 16 MB
+             * a step). */
+            if (ranks_to == 1)
+                sh = tmp;
+            else if (rc == NTS_OK &&
+                     (sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) ==
+                         NULL)
+                rc = NTS_ENOMEM;
+            if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"),
+                                 err)) != NTS_OK)
+                goto done;
+            /* each rank's shares in key order (the chunks' contacts, then
+             * the deep ones), so that a node only one other rank's contacts
+             * touch can take them as they come (below) */
+            if (sh != tmp)
+                for (k = 0; k < n_tmp; ++k) sh[fill[dest[k]]++] = tmp[k];
         }
-        if (rc == NTS_OK &&
-            (sh = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_OUT], sizeof(share_msg) * (size_t)(n_sh + 1))) == NULL)
-            rc = NTS_ENOMEM;
-        if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc == NTS_OK ? rc : ntsm_fail(err, rc, "out of memory"), err)) !=
-            NTS_OK)
-            goto done;
-        /* each rank's shares in key order (the chunks' contacts, then the
-         * deep ones), so that a node only one other rank's contacts touch
-         * can take them as they come (below) */
-        for (k = 0; k < n_tmp; ++k) sh[fill[dest[k]]++] = tmp[k];
 
         /* the owned slaves' closest points within r, and their deep contacts */
         cnt[1] = (m->part ? nts_context_owned_gaps(m->ctx) : 0) + cnt[2];
