@@ -58,7 +58,7 @@ int ntsm_grow(void* pp, int* cap, long long count, size_t size) {
 
 /* A body as bytes: its header, alpha and friction, nodes, reference,
  * loop_start, loop_nodes, triangles, surface (each 8-byte aligned). */
-enum { H_ID, H_NODES, H_LOOPS, H_LOOPLEN, H_TRIS, H_ROLE, H_HAS_ALPHA, H_SURF, H_HAS_FRIC, H_SELF, H_COUNT };
+enum { H_ID, H_NODES, H_LOOPS, H_LOOPLEN, H_TRIS, H_ROLE, H_HAS_ALPHA, H_SURF, H_HAS_FRIC, H_SELF, H_PARTS, H_COUNT };
 
 void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* reference) {
     int h[H_COUNT];
@@ -74,6 +74,7 @@ void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* re
     h[H_SURF] = d->surface != NULL ? d->surface_count : -1;
     h[H_HAS_FRIC] = d->has_friction;
     h[H_SELF] = d->self_contact;
+    h[H_PARTS] = 0;
     ad[0] = d->alpha;
     ad[1] = d->friction;
     ntsm_bytes_put(b, h, sizeof h);
@@ -101,6 +102,10 @@ void* ntsm_scratch(scratch* s, size_t need) {
 }
 
 size_t ntsm_al8(size_t n) { return (n + 7u) & ~(size_t)7u; }
+
+void ntsm_body_set_parts(char* p, int parts) { ((int*)(void*)p)[H_PARTS] = parts; }
+
+int ntsm_body_parts(const char* p) { return ((const int*)(const void*)p)[H_PARTS]; }
 
 /* The body at p (pointers into p); returns the bytes it takes. */
 size_t ntsm_body_read(const char* p, nts_body_def* d, int* id) {

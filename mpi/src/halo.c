@@ -14,7 +14,7 @@
 
 
 typedef struct part_body {
-    int id, arrival;
+    int id, arrival, parts;
     size_t at;
 } part_body;
 
@@ -65,7 +65,10 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
         for (k = 0; k < m->count; ++k)
             if (to[(size_t)k * P + r]) {
                 const size_t bytes_k = (k + 1 < m->count ? m->own_at[k + 1] : m->own_bytes.n) - m->own_at[k];
+                int parts = 0, v;
+                for (v = 0; v < P; ++v) parts += to[(size_t)k * P + v];
                 memcpy(send + at, m->own_bytes.p + m->own_at[k], bytes_k);
+                ntsm_body_set_parts(send + at, parts); /* how many parts hold it (sums.c) */
                 at += bytes_k;
             }
     }
@@ -95,6 +98,7 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
             else {
                 pb[got].at = p;
                 pb[got].arrival = got;
+                pb[got].parts = ntsm_body_parts(m->recv.p + p);
                 p += ntsm_body_read(m->recv.p + p, &d, &id);
                 pb[got++].id = id;
             }
@@ -105,7 +109,12 @@ int ntsm_part_build(ntsm_scene* m, const slabs* sl, double halo, double lx, doub
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
     if (rc == NTS_OK && !ntsm_grow(&m->part_ids, &m->part_cap_ids, got + 1, sizeof(int)))
         rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
-    for (k = 0; k < got && rc == NTS_OK; ++k) ntsm_body_read(m->recv.p + pb[k].at, &defs[k], &m->part_ids[k]);
+    if (rc == NTS_OK && !ntsm_grow(&m->part_single, &m->part_single_cap, got + 1, 1))
+        rc = ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    for (k = 0; k < got && rc == NTS_OK; ++k) {
+        ntsm_body_read(m->recv.p + pb[k].at, &defs[k], &m->part_ids[k]);
+        m->part_single[k] = pb[k].parts == 1;
+    }
     /* each arrival's nodes and place in the part, for the positions of the
      * evaluations that keep this decomposition */
     free(m->arrival_nodes);
@@ -253,7 +262,9 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* move
     if (!ntsm_grow(&m->part_node, &m->part_node_cap, nn + 1, sizeof(long long)) ||
         !ntsm_grow(&m->node_owner, &m->node_owner_cap, nn + 1, sizeof(int)) ||
         !ntsm_grow(&m->node_at, &m->node_at_cap, nn + 1, sizeof(int)) ||
-        !ntsm_grow(&m->entry_node, &m->entry_node_cap, ne + 1, sizeof(int)))
+        !ntsm_grow(&m->entry_node, &m->entry_node_cap, ne + 1, sizeof(int)) ||
+        !ntsm_grow(&m->node_single, &m->node_single_cap, nn + 1, 1) ||
+        !ntsm_grow(&m->ps_slot, &m->ps_slot_cap, nn + 1, sizeof(int)))
         return NTS_ENOMEM;
     for (b = 0; all && b < nb; ++b) {
         const int id = m->part_ids[b], n0 = nts_scene_body_node_offset(m->part, b);
@@ -263,6 +274,8 @@ int ntsm_part_maps(ntsm_scene* m, const slabs* sl, int all, const nts_vec2* move
             m->part_node[n0 + i] = m->node_off[id] + i;
             m->node_owner[n0 + i] = m->owner[id];
             m->node_at[n0 + i] = m->owner_node_at[id] + i;
+            m->node_single[n0 + i] = m->part_single[b];
+            m->ps_slot[n0 + i] = -1;
         }
         for (e = e0; e < e1; ++e) {
             int body, node;

@@ -25,7 +25,7 @@ typedef struct bytes {
  * (deep, slave entry, master body, place), to the rank that owns the node. */
 typedef struct share_msg {
     int at;    /* the node among its owner's nodes */
-    int entry; /* global slave entry */
+    int entry; /* global slave entry; -1: the node's whole force, summed by the one rank that touches it */
     int body;  /* global master body */
     int dq;    /* deep << 2 | place in the contact (0: the slave) */
     double fx, fy;
@@ -66,7 +66,7 @@ typedef struct scratch {
 } scratch;
 enum {
     SC_SHARES_OUT, SC_SHARES_IN, SC_SUMS_OUT, SC_SUMS_SORTED, SC_SUMS_IN, SC_SUMS_TMP,
-    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_MIXED, SC_MIXED_ALL, SC_DEEP_AT, SC_CHUNKS, SC_CHUNK_SUMS, SC_EXCHANGE, SC_SHARES_TMP, SC_SHARES_DEST, SC_OLD_POS, SC_COUNT
+    SC_SUMS_START, SC_DEEP, SC_POS_SEND, SC_POS_RECV, SC_POS_PART, SC_MIXED, SC_MIXED_ALL, SC_DEEP_AT, SC_CHUNKS, SC_CHUNK_SUMS, SC_EXCHANGE, SC_SHARES_TMP, SC_SHARES_DEST, SC_OLD_POS, SC_PRESUM_NODE, SC_PRESUM_F, SC_COUNT
 };
 
 /* The slabs: cuts along one axis (docs/distributed.md). */
@@ -153,6 +153,17 @@ struct ntsm_scene {
     int* node_owner;      /* part node -> its owner rank, and its place among the owner's nodes */
     int* node_at;
     int node_owner_cap, node_at_cap;
+    /* Part bodies in no other rank's part (part_single, by part body;
+     * node_single, by part node): every contact that touches their nodes
+     * is this rank's, so its forces on another rank's node of theirs go as
+     * one sum a node (sums.c); ps_slot: each part node's place among those
+     * sums during ntsm_sums, -1 otherwise (kept -1 between calls). */
+    unsigned char* part_single;
+    int part_single_cap;
+    unsigned char* node_single;
+    int node_single_cap;
+    int* ps_slot;
+    int ps_slot_cap;
     int* entry_owned;     /* part entry -> 1 when this rank owns its slave */
     unsigned char* owned_mask; /* the same, for the core (nts_context_set_owned) */
     int owned_mask_cap;
@@ -188,6 +199,10 @@ int ntsm_grow(void* pp, int* cap, long long count, size_t size);
 size_t ntsm_al8(size_t n);
 void ntsm_body_write(bytes* b, const nts_body_def* d, int id, const nts_vec2* reference);
 size_t ntsm_body_read(const char* p, nts_body_def* d, int* id);
+/* The number of ranks a body's bytes at p went to (ntsm_part_build sets it
+ * in the copies it sends; 0 elsewhere). */
+void ntsm_body_set_parts(char* p, int parts);
+int ntsm_body_parts(const char* p);
 
 /* `need` bytes of s (NULL when they cannot be had). */
 void* ntsm_scratch(scratch* s, size_t need);

@@ -86,6 +86,9 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m->part_node);
     free(m->node_owner);
     free(m->node_at);
+    free(m->part_single);
+    free(m->node_single);
+    free(m->ps_slot);
     free(m->entry_owned);
     free(m->owned_mask);
     free(m->entry_global);

@@ -234,6 +234,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         share_msg* tmp = NULL;                            /* the shares in key order, */
         int* dest = NULL;                                 /* and their destinations */
         int n_deep_at = 0, n_own = 0, n_tmp = 0, tmp_cap = 0;
+        int* ps_node = NULL;                              /* the part nodes summed here for another rank, */
+        nts_vec2* ps_f = NULL;                            /* and their sums so far */
+        int n_ps = 0, ps_cap = 0;
         if (sm == NULL || deep_mine == NULL || lists == NULL || src == NULL) rc = NTS_ENOMEM;
         if (rc == NTS_OK && want_forces && !ntsm_grow(&m->forces, &m->forces_cap, m->own_nodes + 1, sizeof(nts_vec2)))
             rc = NTS_ENOMEM;
@@ -284,7 +287,32 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             if (!want_forces || p->deep != again) continue; /* a deep contact's forces come after the chunks' */
             for (q = 0; q < 4 && p->nodes[q] >= 0; ++q) {
                 const int owner = m->node_owner[p->nodes[q]], at = m->node_at[p->nodes[q]];
-                if (owner != m->rank) {
+                if (owner != m->rank && m->node_single[p->nodes[q]]) {
+                    /* Another rank's node of a body in this part alone:
+                     * every contribution to it is this rank's, so it is
+                     * summed here in the order the owner would add them
+                     * (from zero, key order) and sent once (below). */
+                    const int n = p->nodes[q];
+                    int slot = m->ps_slot[n];
+                    if (slot < 0) {
+                        if (n_ps == ps_cap) {
+                            const long long cap = 2LL * ps_cap + 1024;
+                            ps_cap = cap > INT_MAX ? INT_MAX : (int)cap;
+                            ps_node = (int*)ntsm_scratch(&m->sc[SC_PRESUM_NODE], sizeof(int) * (size_t)ps_cap);
+                            ps_f = (nts_vec2*)ntsm_scratch(&m->sc[SC_PRESUM_F], sizeof(nts_vec2) * (size_t)ps_cap);
+                            if (ps_node == NULL || ps_f == NULL || n_ps == ps_cap) {
+                                rc = NTS_ENOMEM;
+                                break;
+                            }
+                        }
+                        slot = m->ps_slot[n] = n_ps++;
+                        ps_node[slot] = n;
+                        ps_f[slot].x = 0.0;
+                        ps_f[slot].y = 0.0;
+                    }
+                    ps_f[slot].x = ps_f[slot].x + p->force[q].x;
+                    ps_f[slot].y = ps_f[slot].y + p->force[q].y;
+                } else if (owner != m->rank) {
                     if (n_tmp == tmp_cap) { /* grown as the shares come: none on one rank */
                         const long long cap = 2LL * tmp_cap + 1024;
                         tmp_cap = cap > INT_MAX ? INT_MAX : (int)cap;
@@ -305,6 +333,31 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     own_at[4 * (size_t)own + q] = at;
                 }
             }
+        }
+        /* The sums for other ranks' nodes, each one message after the
+         * keyed shares (entry -1: the owner adds it to zero, which gives it
+         * back unchanged); every slot back to -1, whatever happened. */
+        for (k = 0; k < n_ps; ++k) {
+            const int n = ps_node[k];
+            m->ps_slot[n] = -1;
+            if (rc != NTS_OK) continue;
+            if (n_tmp == tmp_cap) {
+                const long long cap = 2LL * tmp_cap + 1024;
+                tmp_cap = cap > INT_MAX ? INT_MAX : (int)cap;
+                tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
+                dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
+                if (tmp == NULL || dest == NULL || n_tmp == tmp_cap) {
+                    rc = NTS_ENOMEM;
+                    continue;
+                }
+            }
+            counts[m->node_owner[n]]++;
+            dest[n_tmp] = m->node_owner[n];
+            memset(&tmp[n_tmp], 0, sizeof tmp[n_tmp]);
+            tmp[n_tmp].at = m->node_at[n];
+            tmp[n_tmp].entry = -1;
+            tmp[n_tmp].fx = ps_f[k].x;
+            tmp[n_tmp++].fy = ps_f[k].y;
         }
         {
             int ranks_to = 0; /* the ranks this one sends shares to */
@@ -372,12 +425,19 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             size_t z;
             share_msg* all;
             for (r = 0, at0 = 0; r < P; at0 += from[r++])
-                for (k = at0; k < at0 + from[r]; ++k) src_tag(src, rs[k].at, r);
+                for (k = at0; k < at0 + from[r]; ++k)
+                    if (rs[k].entry >= 0) src_tag(src, rs[k].at, r);
             /* the others', each rank's in its order, on the nodes that
              * contacts of that rank alone touch */
             for (r = 0, at0 = 0; r < P; at0 += from[r++])
                 for (k = at0; k < at0 + from[r]; ++k) {
                     const int at = rs[k].at;
+                    if (rs[k].entry < 0) { /* a node's whole force: no other contribution */
+                        assert(src[at] == SRC_NONE);
+                        m->forces[at].x = m->forces[at].x + rs[k].fx;
+                        m->forces[at].y = m->forces[at].y + rs[k].fy;
+                        continue;
+                    }
                     if (src[at] != r) {
                         ++n_mixed;
                         continue;
