@@ -295,15 +295,20 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     const int n = p->nodes[q];
                     int slot = m->ps_slot[n];
                     if (slot < 0) {
-                        if (n_ps == ps_cap) {
+                        if (n_ps == ps_cap) { /* (the old room kept when none is had: the slots are reset below) */
                             const long long cap = 2LL * ps_cap + 1024;
-                            ps_cap = cap > INT_MAX ? INT_MAX : (int)cap;
-                            ps_node = (int*)ntsm_scratch(&m->sc[SC_PRESUM_NODE], sizeof(int) * (size_t)ps_cap);
-                            ps_f = (nts_vec2*)ntsm_scratch(&m->sc[SC_PRESUM_F], sizeof(nts_vec2) * (size_t)ps_cap);
-                            if (ps_node == NULL || ps_f == NULL || n_ps == ps_cap) {
+                            const int want = cap > INT_MAX ? INT_MAX : (int)cap;
+                            int* nodes = (int*)ntsm_scratch(&m->sc[SC_PRESUM_NODE], sizeof(int) * (size_t)want);
+                            nts_vec2* f = nodes != NULL ? (nts_vec2*)ntsm_scratch(&m->sc[SC_PRESUM_F],
+                                                                                  sizeof(nts_vec2) * (size_t)want)
+                                                        : NULL;
+                            if (nodes != NULL) ps_node = nodes; /* (a failed realloc leaves the old block) */
+                            if (f == NULL || n_ps == want) {
                                 rc = NTS_ENOMEM;
                                 break;
                             }
+                            ps_f = f;
+                            ps_cap = want;
                         }
                         slot = m->ps_slot[n] = n_ps++;
                         ps_node[slot] = n;
@@ -454,7 +459,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             rc = all != NULL ? NTS_OK : ntsm_fail(err, NTS_ENOMEM, "out of memory");
             if ((rc = ntsm_agree(m, m->comm, m->rank, P, rc, err)) != NTS_OK) goto done;
             for (k = 0, n_mixed = 0; k < got && total > 0; ++k)
-                if (src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
+                if (rs[k].entry >= 0 && src[rs[k].at] == SRC_MIXED) all[n_mixed++] = rs[k];
             for (z = 0; z < 4 * (size_t)n_own && total > 0; ++z)
                 if (own_at[z] >= 0 && src[own_at[z]] == SRC_MIXED) all[n_mixed++] = share_of(m, &parts[own_k[z / 4]], (int)(z % 4));
             assert(n_mixed == total);
