@@ -15,6 +15,7 @@ nts_profile nts_context_profile(const nts_context* ctx) {
     p.cells = ctx->phase[1];
     p.search = ctx->phase[2];
     p.scatter = ctx->phase[3];
+    p.median_from = ctx->median_from;
     return p;
 }
 

@@ -109,6 +109,7 @@ struct nts_context {
     nts_reach reach;
     nts_warning warnings[NTS_WARN_COUNT_]; /* the last result's (nts_result.warnings) */
     double phase[4];    /* seconds of the last evaluation: segments, cells, local search, scatter */
+    int median_from;    /* nts_profile.median_from */
     nts_parallel host;  /* the host's backend (nts_context_set_parallel), when host_set */
     int host_set;
     /* A distributed host's seam (ntscontact/distributed.h, distributed.c):

@@ -473,6 +473,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     }
     t1 = wall_time();
     ctx->phase[0] = t1 - t0;
+    ctx->median_from = ss.kth_from;
     t0 = t1;
 
     /* 2. The search radius, the cells and the masters. */

@@ -171,11 +171,12 @@ static void bracket_gather(int begin, int end, int wi, void* p) {
 }
 
 static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double lo, double hi, int* hist,
-                             const nts_run* run) {
+                             const nts_run* run, int* from) {
     int cnt_bin[SHARES];
     int u, q, bin, below = 0;
     long long at = 0;
     bracket_task t;
+    *from = 1;
     if (!(hi > lo)) return lo; /* every kept length is lo */
     t.v = v;
     t.cnt_in = cnt_in;
@@ -199,6 +200,7 @@ static double kth_in_bracket(double* v, int n, const int* cnt_in, int k, double 
         if (at != b) memmove(v + at, v + b, sizeof(double) * (size_t)cnt_bin[q]);
         at += cnt_bin[q];
     }
+    *from = (int)at;
     return nts_select_kth(v, (int)at, k - below);
 }
 
@@ -565,6 +567,7 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* p
     out->ymin = ymin;
     out->ymax = ymax;
     out->kth = 0.0;
+    out->kth_from = 0;
     out->moved = sqrt(m2);
     if (area_perim != NULL && bad < n) rejected = out->rejected = 1; /* a length outside the range: degenerate */
     if (area_perim != NULL && !rejected) {
@@ -591,12 +594,13 @@ int nts_segments_compute(nts_context* ctx, const nts_scene* s, const nts_vec2* p
         if (below <= k && k < below + inside) {
             /* the sample's room holds the histograms now */
             out->kth = kth_in_bracket(scratch, n, cnt_in, k - (int)below, t.plan.lo, t.plan.hi,
-                                      (int*)(void*)(scratch + n), run);
+                                      (int*)(void*)(scratch + n), run, &out->kth_from);
             return NTS_OK;
         }
     }
     for (q = 0; q < n; ++q) scratch[q] = ctx->seg[q].len;
     out->kth = nts_select_kth(scratch, n, k);
+    out->kth_from = n;
     return NTS_OK;
 }
 

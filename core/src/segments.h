@@ -37,6 +37,8 @@ typedef struct seg_summary {
     double coord_max;
     double xmin, xmax, ymin, ymax;
     double kth;
+    int kth_from; /* the lengths the k-th was selected among at last: all n when the bracket missed it or
+                   * there are too few to sample, the one bin of the bracket's that holds it else; 0: none */
     double moved; /* the largest displacement of a node since `since` (nts_segments_compute), or 0 */
 } seg_summary;
 

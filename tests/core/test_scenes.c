@@ -672,6 +672,47 @@ static void test_cancel_hook(void) {
     free_packing(&p);
 }
 
+/* The default radius, the median segment, is selected among the sampled
+ * bracket's one bin when the scene has enough segments to sample, at one
+ * thread and several: a bracket that missed the median would give the
+ * same answer through a selection among every length, so only the count
+ * shows it (nts_profile.median_from). Smaller scenes select among all; an
+ * explicit radius selects nothing. */
+static void test_median_bracket_holds(void) {
+    test_packing p = make_packing(576, 40, 1.0, 1.93, 1, 77); /* 23,040 entries: past 4 x 4,096 */
+    test_packing q = make_packing(64, 40, 1.0, 1.93, 1, 78);  /* 2,560 */
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_scene* small = make_scene(q.bodies, q.count, q.lx, q.ly);
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    int th, n;
+    CU_ASSERT_FATAL(s != NULL && small != NULL && c != NULL);
+    n = nts_scene_surface_node_count(s);
+    CU_ASSERT_FATAL(n > 4 * 4096);
+    for (th = 1; th <= 3; ++th) {
+        nts_profile pr;
+        o.threads = th;
+        ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), 0);
+        pr = nts_context_profile(c);
+        if (!(pr.median_from > 0 && pr.median_from <= n / 64))
+            fprintf(stderr, "\n  median selected among %d of %d lengths (%d threads)\n", pr.median_from, n, th);
+        CU_ASSERT(pr.median_from > 0 && pr.median_from <= n / 64);
+    }
+    o.threads = 1;
+    ASSERT_INT_EQ(nts_evaluate(c, small, &o, &r, &err), 0);
+    ASSERT_INT_EQ(nts_context_profile(c).median_from, nts_scene_surface_node_count(small));
+    o.search_radius = 0.05;
+    ASSERT_INT_EQ(nts_evaluate(c, s, &o, &r, &err), 0);
+    ASSERT_INT_EQ(nts_context_profile(c).median_from, 0);
+    nts_context_destroy(c);
+    nts_scene_destroy(s);
+    nts_scene_destroy(small);
+    free_packing(&p);
+    free_packing(&q);
+}
+
 /* nts_context_profile is wall clock, with or without OpenMP: an evaluation
  * whose cancel hook sleeps 50 ms (and cancels nothing) lasts at least 50 ms of
  * wall clock, phases summed, whatever the machine's speed. The build without
@@ -736,4 +777,5 @@ void register_scenes_suite(void) {
     ADD_TEST(s, test_candidate_budget);
     ADD_TEST(s, test_cancel_hook);
     ADD_TEST(s, test_profile_is_wall_clock);
+    ADD_TEST(s, test_median_bracket_holds);
 }

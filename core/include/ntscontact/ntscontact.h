@@ -605,6 +605,13 @@ typedef struct nts_profile {
     /** seconds per phase @{ */
     double segments, cells, search, scatter;
     /** @} */
+    /** How many segment lengths the default radius (the median segment) was
+     * selected among at last: every surface segment when the scene has too
+     * few to sample (at most 4 x 4,096) or the sampled bracket missed the
+     * median (the answer is the same, only slower), a few when the bracket
+     * held it; 0 when no median was needed (an explicit search radius, or a
+     * distributed part, which takes the whole scene's). A diagnostic. */
+    int median_from;
 } nts_profile;
 /** The profile of the context's last evaluation (zero for NULL). */
 NTS_API nts_profile nts_context_profile(const nts_context* ctx);
