@@ -129,6 +129,26 @@ static int exchange_failed(nts_error* err, int limit) {
                  : ntsm_fail(err, NTS_ENOMEM, "out of memory");
 }
 
+/* Room in the outgoing shares (*tmp, with their destinations *dest) for
+ * the one after the first n: grown by doubling as the shares come; 0 when
+ * none can be had (the old room, and what it holds, are kept). */
+static int tmp_room(ntsm_scene* m, share_msg** tmp, int** dest, int* cap, int n) {
+    long long want;
+    share_msg* t;
+    int* d;
+    if (n < *cap) return 1;
+    want = 2LL * *cap + 1024;
+    if (want > INT_MAX) want = INT_MAX;
+    if (n >= want) return 0;
+    t = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)want);
+    if (t != NULL) *tmp = t;
+    d = t != NULL ? (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)want) : NULL;
+    if (d != NULL) *dest = d;
+    if (t == NULL || d == NULL) return 0;
+    *cap = (int)want;
+    return 1;
+}
+
 /* An own node's source: SRC_NONE, the one rank whose contacts touch it,
  * or SRC_MIXED (several). */
 enum { SRC_NONE = -1, SRC_MIXED = -2 };
@@ -318,15 +338,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
                     ps_f[slot].x = ps_f[slot].x + p->force[q].x;
                     ps_f[slot].y = ps_f[slot].y + p->force[q].y;
                 } else if (owner != m->rank) {
-                    if (n_tmp == tmp_cap) { /* grown as the shares come: none on one rank */
-                        const long long cap = 2LL * tmp_cap + 1024;
-                        tmp_cap = cap > INT_MAX ? INT_MAX : (int)cap;
-                        tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
-                        dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
-                        if (tmp == NULL || dest == NULL || n_tmp == tmp_cap) {
-                            rc = NTS_ENOMEM;
-                            break;
-                        }
+                    if (!tmp_room(m, &tmp, &dest, &tmp_cap, n_tmp)) { /* grown as the shares come: none on one rank */
+                        rc = NTS_ENOMEM;
+                        break;
                     }
                     counts[owner]++;
                     dest[n_tmp] = owner;
@@ -346,15 +360,9 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             const int n = ps_node[k];
             m->ps_slot[n] = -1;
             if (rc != NTS_OK) continue;
-            if (n_tmp == tmp_cap) {
-                const long long cap = 2LL * tmp_cap + 1024;
-                tmp_cap = cap > INT_MAX ? INT_MAX : (int)cap;
-                tmp = (share_msg*)ntsm_scratch(&m->sc[SC_SHARES_TMP], sizeof(share_msg) * (size_t)tmp_cap);
-                dest = (int*)ntsm_scratch(&m->sc[SC_SHARES_DEST], sizeof(int) * (size_t)tmp_cap);
-                if (tmp == NULL || dest == NULL || n_tmp == tmp_cap) {
-                    rc = NTS_ENOMEM;
-                    continue;
-                }
+            if (!tmp_room(m, &tmp, &dest, &tmp_cap, n_tmp)) {
+                rc = NTS_ENOMEM;
+                continue;
             }
             counts[m->node_owner[n]]++;
             dest[n_tmp] = m->node_owner[n];
