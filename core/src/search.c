@@ -684,9 +684,8 @@ static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts
 static inline int kept_ring_key(const master_keys* keys, const double* base, int e, float fx, float fy,
                                 double inner, double ring) {
     const double dx = (double)fx - (double)keys->x[e], dy = (double)fy - (double)keys->y[e], d2 = dx * dx + dy * dy;
-    const double ri = base[e] + inner, ro = base[e] + ring; /* (ri <= ro) */
-    if (ri >= 0.0 && d2 <= ri * ri) return 2;
-    return ro >= 0.0 && d2 <= ro * ro;
+    const double ri = base[e] + inner, ro = base[e] + ring; /* (ri <= ro, so the first test implies the second) */
+    return ((ri >= 0.0) & (d2 <= ri * ri)) + ((ro >= 0.0) & (d2 <= ro * ro)); /* (no branch: it is hard to predict) */
 }
 
 /* Append master j in `ring` to the slave's list, buf[from .. *at), the inner
@@ -734,11 +733,28 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
             for (e0 = st.begin[q]; e0 < st.end[q];) {
                 const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                 const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
-                int k;
-                for (k = 0; k < n; ++k)
-                    if (kept_add(&kc->chunk[c], &kc->chunk_cap[c], &at, &inner, keys->entry[kept[k]],
-                                 kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s)) != NTS_OK)
-                        return NTS_ENOMEM;
+                int k, *b;
+                if (at + n >= kc->chunk_cap[c] &&
+                    nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], at + n + 1, sizeof(int)) != NTS_OK)
+                    return NTS_ENOMEM;
+                b = kc->chunk[c];
+                for (k = 0; k < n; ++k) {
+                    /* kept_add without a branch (whether a master is kept,
+                     * and in which ring, is hard to predict): j appended,
+                     * then swapped with the first outer one when inner; a
+                     * master in neither is written past the list's end and
+                     * left there. */
+                    const int j = keys->entry[kept[k]];
+                    const int ring = kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s);
+                    const int two = ring >> 1, m = -two; /* (m: every bit set when inner, as a mask) */
+                    int v;
+                    b[at] = j;
+                    v = b[inner];
+                    b[at] = (v & m) | (j & ~m);
+                    b[inner] = (j & m) | (v & ~m);
+                    at += ring != 0;
+                    inner += two;
+                }
                 e0 = e1;
             }
         }
