@@ -300,6 +300,107 @@ static void test_oom_deep_contacts(void) {
     sweep(&t, &opt);
 }
 
+/* One step of a kept list's loop (nts_evaluate_positions, or nts_evaluate
+ * when pos is NULL) under the failing hook: either the answer from scratch
+ * `ref`, bit for bit, or NTS_ENOMEM; after a refusal the same step, nothing
+ * failing any more, must give `ref`. Returns 1 when a refusal surfaced.
+ * nts_evaluate surfaces every refusal; nts_evaluate_positions may absorb
+ * one met before it judged the positions (it then takes them and
+ * evaluates as two calls, evaluate.c: evaluate_at), with the right answer. */
+static int kept_step(nts_context* ctx, nts_scene* s, const nts_vec2* pos, const nts_options* opt,
+                     const result_copy* ref) {
+    nts_error err;
+    nts_result res;
+    const long refused = g_fa.failed;
+    int rc = pos != NULL ? nts_evaluate_positions(ctx, s, pos, opt, &res, &err) : nts_evaluate(ctx, s, opt, &res, &err);
+    if (rc == NTS_OK) {
+        CU_ASSERT(same_result(ref, &res));
+        if (pos == NULL) CU_ASSERT_EQUAL(g_fa.failed, refused);
+        return 0;
+    }
+    CU_ASSERT(g_fa.failed > refused);
+    CU_ASSERT_EQUAL(rc, NTS_ENOMEM);
+    CU_ASSERT_EQUAL(err.code, NTS_ENOMEM);
+    g_fa.fail_at = 0;
+    rc = pos != NULL ? nts_evaluate_positions(ctx, s, pos, opt, &res, &err) : nts_evaluate(ctx, s, opt, &res, &err);
+    CU_ASSERT_EQUAL(rc, NTS_OK);
+    if (rc == NTS_OK) CU_ASSERT(same_result(ref, &res));
+    return 1;
+}
+
+/* A kept candidate list (docs/model.md §15) has buffers of its own, grown
+ * by its builds (each slave's list, in every chunk) and by its replays: the
+ * list built, replayed, then built again after disk b moved past the skin,
+ * failing allocation N = 1, 2, ... of the whole loop. A list whose build
+ * failed must not be replayed as if it held. */
+static void test_oom_kept(void) {
+    test_scene t;
+    nts_options fresh = all_outputs(0, NTS_SEARCH_CELLS), opt;
+    result_copy ref0, ref1;
+    nts_vec2* moved;
+    nts_error err;
+    nts_result res;
+    nts_scene* s;
+    nts_context* ctx;
+    long n;
+    int i, node_count, done = 0;
+    make_scene(&t, 0.0, 0.0);
+    CU_ASSERT_FATAL(reference(&t, &fresh, &ref0) == 0);
+    /* the moved positions (disk b, nodes 24..47, 0.1 deeper into disk a: more
+     * than half the default skin, 0.3 r = 0.09) and their answer from scratch */
+    s = nts_scene_create(&t.def, &err);
+    ctx = nts_context_create();
+    CU_ASSERT_FATAL(s != NULL && ctx != NULL);
+    node_count = nts_scene_node_count(s);
+    moved = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)node_count);
+    CU_ASSERT_FATAL(moved != NULL);
+    memcpy(moved, nts_scene_positions(s), sizeof(nts_vec2) * (size_t)node_count);
+    for (i = DISK_NODES; i < 2 * DISK_NODES; ++i) moved[i].x -= 0.1;
+    CU_ASSERT_FATAL(nts_scene_update_positions(s, moved, &err) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &fresh, &res, &err) == NTS_OK);
+    copy_result(&ref1, &res, node_count);
+    CU_ASSERT(memcmp(&ref0.summary, &ref1.summary, sizeof ref0.summary) != 0); /* the move changes the answer */
+    nts_context_destroy(ctx);
+    nts_scene_destroy(s);
+    for (n = 1; n <= 100000 && !done; ++n) {
+        nts_candidates* kc = NULL;
+        int failed_here = 0;
+        fa_install(n);
+        ctx = NULL;
+        s = nts_scene_create(&t.def, &err);
+        if (s == NULL) {
+            CU_ASSERT_EQUAL(err.code, NTS_ENOMEM);
+            failed_here = 1;
+        } else if ((kc = nts_candidates_create(-1.0)) == NULL || (ctx = nts_context_create()) == NULL) {
+            failed_here = 1;
+        } else {
+            nts_candidates_info info;
+            opt = fresh;
+            opt.candidates = kc;
+            failed_here |= kept_step(ctx, s, NULL, &opt, &ref0);  /* the build */
+            failed_here |= kept_step(ctx, s, NULL, &opt, &ref0);  /* a replay */
+            failed_here |= kept_step(ctx, s, moved, &opt, &ref1); /* past the skin: built again */
+            failed_here |= kept_step(ctx, s, moved, &opt, &ref1); /* a replay */
+            info = nts_candidates_get_info(kc);
+            CU_ASSERT(info.evaluations >= 4);
+            if (!failed_here) CU_ASSERT(info.builds == 2); /* the lists were used, twice built */
+        }
+        if (failed_here) CU_ASSERT(g_fa.failed > 0);
+        nts_context_destroy(ctx);
+        nts_candidates_destroy(kc);
+        nts_scene_destroy(s);
+        CU_ASSERT_EQUAL(g_fa.live, 0);
+        if (g_fa.live != 0) break;
+        done = g_fa.failed == 0;
+    }
+    fa_remove();
+    CU_ASSERT(done);
+    CU_ASSERT(n > 20);
+    free(moved);
+    free_copy(&ref0);
+    free_copy(&ref1);
+}
+
 /* A context that has evaluated a small scene grows for a bigger one: failures
  * during that growth leave the context usable for both. */
 static void test_oom_context_regrowth(void) {
@@ -376,4 +477,5 @@ void register_alloc_suite(void) {
     CU_add_test(s, "fail every allocation: two threads", test_oom_threads);
     CU_add_test(s, "fail every allocation: deep contacts", test_oom_deep_contacts);
     CU_add_test(s, "fail every allocation: context regrowth", test_oom_context_regrowth);
+    CU_add_test(s, "fail every allocation: kept candidates", test_oom_kept);
 }
