@@ -66,6 +66,8 @@ nts_candidates_info nts_candidates_get_info(const nts_candidates* kc) {
     i.moved = kc->moved;
     i.skin = kc->skin;
     i.kept = kc->kept;
+    i.ahead_replays = kc->ahead_replays;
+    i.plain_replays = kc->plain_replays;
     return i;
 }
 
@@ -157,6 +159,49 @@ void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg) {
     for (c = 0; c < (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK; ++c) kc->kept += kc->chunk_used[c];
     kc->built = 1;
     ++kc->builds;
+    kc->ahead_skip = 1; /* this evaluation's replay is not timed */
+}
+
+/* Asking for a replay's masters' lines a few slaves ahead (search.c,
+ * search_kept) pays when they are far (a scene's segment records larger
+ * than the caches) and costs a loop over each list when they are near. Where
+ * one turns into the other depends on the machine: on one VM the step without
+ * it took 0.87 of the time at 4,786 nodes and 1.02 at 47,830, the prefetch
+ * paying from 1e5 nodes; on another (2 cores of an AMD EPYC, 1 MB of L2 a
+ * core, 32 MB of L3) without it took 0.90 at 48,000 nodes and 0.93 at 1e5,
+ * and 1.02 at 1e6 (docs/benchmarks.md). So: never while the records fit
+ * 2 MB; above, each way's search time is kept as a running mean (a quarter
+ * the newest), each way is tried first, and then the faster is taken but
+ * for one replay in AHEAD_EXPLORE, which takes the other so that its mean
+ * follows the scene and the machine. The replay of a build's own
+ * evaluation is not timed (its caches hold what the build read). */
+enum { KEPT_AHEAD_BYTES = 2 << 20, AHEAD_EXPLORE = 8 };
+
+int nts_kept_ahead(nts_candidates* kc, int surface_count) {
+    int ahead;
+    if (!((double)surface_count * (double)sizeof(seg_data) > (double)KEPT_AHEAD_BYTES)) {
+        ++kc->plain_replays;
+        return 0;
+    }
+    if (kc->ahead_s[1] == 0.0) ahead = 1;
+    else if (kc->ahead_s[0] == 0.0) ahead = 0;
+    else {
+        ahead = kc->ahead_s[1] <= kc->ahead_s[0];
+        if ((kc->ahead_replays + kc->plain_replays) % AHEAD_EXPLORE == AHEAD_EXPLORE - 1) ahead = !ahead;
+    }
+    if (ahead) ++kc->ahead_replays;
+    else ++kc->plain_replays;
+    return ahead;
+}
+
+void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds) {
+    double* m = &kc->ahead_s[ahead != 0];
+    if (kc->ahead_skip) {
+        kc->ahead_skip = 0;
+        return;
+    }
+    if (!(seconds > 0.0)) seconds = 1e-9; /* (a clock too coarse: still "timed") */
+    *m = *m == 0.0 ? seconds : 0.75 * *m + 0.25 * seconds;
 }
 
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale) {

@@ -51,6 +51,13 @@ struct nts_candidates {
     int key_base_cap;
     long long evaluations, builds, cell_builds, kept;
     int backoff;               /* evaluations left before a build is tried again (one was over budget) */
+    /* Whether a replay asks for the masters' lines ahead (nts_kept_ahead):
+     * each way's search time a replay, a running mean (0: not timed yet),
+     * whether the next timing is a build's own (not taken), and the replays
+     * that asked and that did not. */
+    double ahead_s[2];
+    int ahead_skip;
+    long long ahead_replays, plain_replays;
 };
 
 /* Whether the lists hold, for scene s whose nodes moved at most `moved`
@@ -72,6 +79,12 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
 void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg);
 /* Give back every buffer (a build over its budget: what it grew is not held). */
 void nts_kept_drop(nts_candidates* kc);
+/* Whether this replay of the lists (of a scene of `surface_count` entries)
+ * asks for its masters' lines ahead (search_env.kept_ahead), and what its
+ * search took, in seconds, once it ran (nts_kept_ahead_timed). It decides
+ * no result: the same masters are tried in the same order either way. */
+int nts_kept_ahead(nts_candidates* kc, int surface_count);
+void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds);
 /* key_base for the `count` keys of the build's cells (their frame's `scale`). */
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale);
 

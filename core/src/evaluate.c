@@ -539,7 +539,6 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
      * radius beyond which an image could be nearer than the minimum one. */
     env.grow = opt->search_radius < 0.0;
     env.coarse = 2.0 * env.r;
-    env.kept_ahead = kept_ahead(s->surface_count);
     env.wide_lmax = (1.0 + env.ext) * ss.lmax;
     env.wide_pad = 1e-12 * (ss.coord_max + (ss.xmax - ss.xmin) + (ss.ymax - ss.ymin) + s->lx + s->ly);
     if (s->lx > 0.0)
@@ -553,6 +552,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         env.cell_side = -1.0; /* set by nts_cells_now when it builds the cells */
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");
+        if (env.kept != NULL) env.kept_ahead = nts_kept_ahead(opt->candidates, s->surface_count);
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
         if (ctx->frame_set && ctx->frame.cell_size >= 0.0)
             env.cell_side = ctx->frame.cell_size;
@@ -599,7 +599,13 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     /* (a worker that the machine slows down takes fewer chunks) */
     st.ctx = ctx;
     st.env = &env;
-    nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
+    if (env.kept != NULL) { /* (the replay's time, for its choice of asking ahead: nts_kept_ahead) */
+        const double ts = wall_time();
+        nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
+        nts_kept_ahead_timed(opt->candidates, env.kept_ahead, wall_time() - ts);
+    } else {
+        nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
+    }
     {
         long long records = 0, owned_gaps = 0;
         int limited = 0, status = NTS_OK;

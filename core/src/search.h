@@ -158,7 +158,7 @@ typedef struct search_env {
      * nts_cells_now builds from the segment summary `ss` on `run`. */
     const nts_candidates* kept;
     double kept_shift;
-    int kept_ahead;          /* the kept masters' lines asked for ahead (kept_ahead below) */
+    int kept_ahead;          /* the kept masters' lines asked for ahead (nts_kept_ahead) */
     double cell_side;        /* nts_summary.cell_size (evaluate.c: summary_cell_side) */
     const seg_summary* ss;
     const nts_run* run;
@@ -238,16 +238,6 @@ static inline int record_masters(const search_env* env, const candidate* b, int 
 
 /* The local search of slaves [begin, end) into worker w. */
 void nts_search_range(const search_env* env, worker* w, int begin, int end);
-/* Whether a replay of kept lists asks for the masters' lines ahead
- * (search_env.kept_ahead): only when the segment records outgrow twice a
- * core's own cache (1 MB here). Below, they are there already, and the
- * loop that asks costs a kept step about a tenth of its time (4,786 nodes:
- * the step without it 0.87 of the time with it; 48k nodes: 1.02, no gain;
- * from 1e5 the prefetch pays: docs/benchmarks.md). It decides no result. */
-enum { KEPT_AHEAD_BYTES = 2 << 20 };
-static inline int kept_ahead(int surface_count) {
-    return (double)surface_count * (double)sizeof(seg_data) > (double)KEPT_AHEAD_BYTES;
-}
 /* A widened search around slave entry k, in worker w: the best
  * candidate on body `body` among its features within `rho` of the slave;
  * or, when body < 0, on every other body b that offers a surface, within

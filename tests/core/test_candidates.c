@@ -116,6 +116,9 @@ static void check_walk(int periodic, double alpha, double friction, int threads)
     /* replayed most steps, built again after the kicks */
     CU_ASSERT(info.builds >= 2 && info.builds <= 20);
     CU_ASSERT(info.kept > 0);
+    /* 36 x 40 entries: segment records under 2 MB, no replay asks ahead */
+    ASSERT_INT_EQ(info.ahead_replays, 0);
+    ASSERT_INT_EQ(info.plain_replays, info.evaluations); /* (a build replays the list it built) */
     walk_close(&w);
     nts_scene_destroy(s);
     free_packing(&p);
@@ -383,6 +386,11 @@ static void test_random_walks_large(void) {
         info = nts_candidates_get_info(w.kc);
         /* built again after the kick, and replayed most steps */
         CU_ASSERT(info.builds >= 2 && info.evaluations - info.builds >= 5);
+        /* every replay's answer the fresh one's (walk_step), both ways of
+         * asking for the masters' lines timed after each build: both ran,
+         * at least twice each (a trial each after each of the two builds) */
+        CU_ASSERT(info.ahead_replays >= 2 && info.plain_replays >= 2);
+        ASSERT_INT_EQ(info.ahead_replays + info.plain_replays, info.evaluations);
         walk_close(&w);
         nts_scene_destroy(s);
         free_packing(&p);

@@ -515,6 +515,12 @@ typedef struct nts_candidates_info {
     double moved, skin;
     /** @} */
     long long kept; /**< masters kept at the last build */
+    /** the evaluations that replayed the lists asking for their masters'
+     * lines ahead, and those that did not (a choice of speed alone: each
+     * gives the same answer; above 2 MB of segment records each way is
+     * timed, the faster taken, the other tried one replay in 8) @{ */
+    long long ahead_replays, plain_replays;
+    /** @} */
 } nts_candidates_info;
 /** The counts of `candidates` (all zero for NULL). */
 NTS_API nts_candidates_info nts_candidates_get_info(const nts_candidates* candidates);
