@@ -124,6 +124,11 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
         kc->chunk_used = used;
         kc->chunk_slots = chunks;
     }
+    if (kc->scene != s || kc->serial != s->serial || kc->surface_count != s->surface_count) {
+        /* another scene: its replays' times are its own (nts_kept_ahead) */
+        kc->ahead_s[0] = kc->ahead_s[1] = 0.0;
+        kc->ahead_timed = 0;
+    }
     kc->scene = s;
     kc->serial = s->serial;
     kc->surface_count = s->surface_count;
@@ -159,7 +164,7 @@ void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg) {
     for (c = 0; c < (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK; ++c) kc->kept += kc->chunk_used[c];
     kc->built = 1;
     ++kc->builds;
-    kc->ahead_skip = 1; /* this evaluation's replay is not timed */
+    kc->ahead_built = 1; /* this evaluation's replay is not timed */
 }
 
 /* Asking for a replay's masters' lines a few slaves ahead (search.c,
@@ -172,22 +177,27 @@ void nts_kept_end(nts_candidates* kc, const nts_scene* s, const seg_data* seg) {
  * and 1.02 at 1e6 (docs/benchmarks.md). So: never while the records fit
  * 2 MB; above, each way's search time is kept as a running mean (a quarter
  * the newest), each way is tried first, and then the faster is taken but
- * for one replay in AHEAD_EXPLORE, which takes the other so that its mean
- * follows the scene and the machine. The replay of a build's own
- * evaluation is not timed (its caches hold what the build read). */
+ * for one timed replay in AHEAD_EXPLORE, which takes the other so that its
+ * mean follows the scene and the machine. The replay of a build's own
+ * evaluation is not timed (its caches hold what the build read) and takes
+ * the faster; a search that stopped early is not timed either (evaluate.c
+ * times only one that completed). */
 enum { KEPT_AHEAD_BYTES = 2 << 20, AHEAD_EXPLORE = 8 };
 
 int nts_kept_ahead(nts_candidates* kc, int surface_count) {
+    const int built = kc->ahead_built;
     int ahead;
+    kc->ahead_built = 0;
+    kc->ahead_take = 0;
     if (!((double)surface_count * (double)sizeof(seg_data) > (double)KEPT_AHEAD_BYTES)) {
-        ++kc->plain_replays;
-        return 0;
-    }
-    if (kc->ahead_s[1] == 0.0) ahead = 1;
-    else if (kc->ahead_s[0] == 0.0) ahead = 0;
-    else {
+        ahead = 0;
+    } else if (kc->ahead_s[1] == 0.0 || kc->ahead_s[0] == 0.0) {
+        ahead = kc->ahead_s[1] == 0.0 || built; /* each way tried first (a build's replay asks) */
+        kc->ahead_take = !built;
+    } else {
         ahead = kc->ahead_s[1] <= kc->ahead_s[0];
-        if ((kc->ahead_replays + kc->plain_replays) % AHEAD_EXPLORE == AHEAD_EXPLORE - 1) ahead = !ahead;
+        if (!built && kc->ahead_timed % AHEAD_EXPLORE == AHEAD_EXPLORE - 1) ahead = !ahead;
+        kc->ahead_take = !built;
     }
     if (ahead) ++kc->ahead_replays;
     else ++kc->plain_replays;
@@ -196,12 +206,11 @@ int nts_kept_ahead(nts_candidates* kc, int surface_count) {
 
 void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds) {
     double* m = &kc->ahead_s[ahead != 0];
-    if (kc->ahead_skip) {
-        kc->ahead_skip = 0;
-        return;
-    }
+    if (!kc->ahead_take) return;
+    kc->ahead_take = 0;
     if (!(seconds > 0.0)) seconds = 1e-9; /* (a clock too coarse: still "timed") */
     *m = *m == 0.0 ? seconds : 0.75 * *m + 0.25 * seconds;
+    ++kc->ahead_timed;
 }
 
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale) {

@@ -52,11 +52,13 @@ struct nts_candidates {
     long long evaluations, builds, cell_builds, kept;
     int backoff;               /* evaluations left before a build is tried again (one was over budget) */
     /* Whether a replay asks for the masters' lines ahead (nts_kept_ahead):
-     * each way's search time a replay, a running mean (0: not timed yet),
-     * whether the next timing is a build's own (not taken), and the replays
-     * that asked and that did not. */
+     * each way's search time a replay for this scene, a running mean (0: not
+     * timed yet), the replays timed, whether this evaluation built the lists
+     * (its replay is not timed) and whether its time is to be taken, and
+     * the evaluations that asked and that did not. */
     double ahead_s[2];
-    int ahead_skip;
+    long long ahead_timed;
+    int ahead_built, ahead_take;
     long long ahead_replays, plain_replays;
 };
 

@@ -396,7 +396,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     search_task st;
     nts_run run;
     int i, rc, nthreads, nchunk;
-    double t0 = wall_time(), t1;
+    double t0 = wall_time(), t1, search_s;
 
     if (err != NULL) *err = nts_error_none();
     if (ctx == NULL || s == NULL || opt == NULL || out == NULL)
@@ -599,13 +599,9 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     /* (a worker that the machine slows down takes fewer chunks) */
     st.ctx = ctx;
     st.env = &env;
-    if (env.kept != NULL) { /* (the replay's time, for its choice of asking ahead: nts_kept_ahead) */
-        const double ts = wall_time();
-        nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
-        nts_kept_ahead_timed(opt->candidates, env.kept_ahead, wall_time() - ts);
-    } else {
-        nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
-    }
+    search_s = wall_time();
+    nts_run_tasks(&run, search_chunks, nchunk, 1, &st);
+    search_s = wall_time() - search_s;
     {
         long long records = 0, owned_gaps = 0;
         int limited = 0, status = NTS_OK;
@@ -626,6 +622,8 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             return rc;
         }
         if (status != NTS_OK) return eval_fail(err, status, -1, -1, "out of memory");
+        /* a replay's search that completed: its time, for its choice of asking ahead (nts_kept_ahead) */
+        if (env.kept != NULL) nts_kept_ahead_timed(opt->candidates, env.kept_ahead, search_s);
         ctx->owned_gaps = owned_gaps;
         if ((rc = nts_chunks_settle(ctx, nthreads, env.shares)) != NTS_OK)
             return eval_fail(err, rc, -1, -1, "out of memory");

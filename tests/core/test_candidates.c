@@ -361,9 +361,10 @@ static void test_over_budget_searches_from_scratch(void) {
 }
 
 /* A packing whose segment records outgrow a core's cache (36,000 surface
- * entries, over search.h's KEPT_AHEAD_BYTES): the replay asks for the
- * masters' lines ahead there, and answers bit for bit as from scratch, open
- * and periodic, through small steps, a kick past the skin and a wrap. */
+ * entries, over candidates.c's KEPT_AHEAD_BYTES): the replay may ask for the
+ * masters' lines ahead there (nts_kept_ahead), and answers bit for bit as
+ * from scratch either way, open and periodic, through small steps, a kick
+ * past the skin and a wrap. */
 static void test_random_walks_large(void) {
     int periodic;
     for (periodic = 0; periodic < 2; ++periodic) {
@@ -386,10 +387,11 @@ static void test_random_walks_large(void) {
         info = nts_candidates_get_info(w.kc);
         /* built again after the kick, and replayed most steps */
         CU_ASSERT(info.builds >= 2 && info.evaluations - info.builds >= 5);
-        /* every replay's answer the fresh one's (walk_step), both ways of
-         * asking for the masters' lines timed after each build: both ran,
-         * at least twice each (a trial each after each of the two builds) */
-        CU_ASSERT(info.ahead_replays >= 2 && info.plain_replays >= 2);
+        /* every replay's answer the fresh one's (walk_step), whichever way
+         * it asked for the masters' lines: both ways ran (each is tried in
+         * the first two replays that are not a build's, whatever the
+         * timings; there are at least 5) */
+        CU_ASSERT(info.ahead_replays >= 1 && info.plain_replays >= 1);
         ASSERT_INT_EQ(info.ahead_replays + info.plain_replays, info.evaluations);
         walk_close(&w);
         nts_scene_destroy(s);

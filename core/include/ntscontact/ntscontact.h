@@ -515,10 +515,11 @@ typedef struct nts_candidates_info {
     double moved, skin;
     /** @} */
     long long kept; /**< masters kept at the last build */
-    /** the evaluations that replayed the lists asking for their masters'
-     * lines ahead, and those that did not (a choice of speed alone: each
-     * gives the same answer; above 2 MB of segment records each way is
-     * timed, the faster taken, the other tried one replay in 8) @{ */
+    /** of the evaluations that used the lists (built or replayed), those
+     * whose search asked for the masters' lines ahead and those that did
+     * not: a choice of speed alone, each giving the same answer (never
+     * below 2 MB of segment records; above, each way's search is timed and
+     * the faster taken, the other tried one timed replay in 8) @{ */
     long long ahead_replays, plain_replays;
     /** @} */
 } nts_candidates_info;
