@@ -688,17 +688,27 @@ static inline int kept_ring_key(const master_keys* keys, const double* base, int
     return ((ri >= 0.0) & (d2 <= ri * ri)) + ((ro >= 0.0) & (d2 <= ro * ro)); /* (no branch: it is hard to predict) */
 }
 
-/* Append master j in `ring` to the slave's list, buf[from .. *at), the inner
- * ones first (up to *inner). */
+/* Append master j in `ring` (0: not kept) to the slave's list, buf[from ..
+ * *at), the inner ones first (up to *inner), in room already there for it
+ * (buf[*at] may be written). Without a branch (whether a master is kept, and
+ * in which ring, is hard to predict): j appended, then swapped with the first
+ * outer one when inner (a mask of every bit); a master in neither is written
+ * past the list's end and left there. */
+static inline void kept_push(int* buf, int* at, int* inner, int j, int ring) {
+    const int m = -(ring >> 1);
+    int v;
+    buf[*at] = j;
+    v = buf[*inner];
+    buf[*at] = (v & m) | (j & ~m);
+    buf[*inner] = (j & m) | (v & ~m);
+    *at += ring != 0;
+    *inner -= m;
+}
+
+/* kept_push, growing the list's room first when needed. */
 static inline int kept_add(int** buf, int* cap, int* at, int* inner, int j, int ring) {
-    if (ring == 0) return NTS_OK;
-    if (*at == *cap && nts_grow((void**)buf, cap, *at + 1, sizeof(int)) != NTS_OK) return NTS_ENOMEM;
-    (*buf)[*at] = j;
-    if (ring == 2) {
-        (*buf)[*at] = (*buf)[*inner];
-        (*buf)[(*inner)++] = j;
-    }
-    ++*at;
+    if (*at >= *cap && nts_grow((void**)buf, cap, *at + 1, sizeof(int)) != NTS_OK) return NTS_ENOMEM;
+    kept_push(*buf, at, inner, j, ring);
     return NTS_OK;
 }
 
@@ -733,28 +743,14 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
             for (e0 = st.begin[q]; e0 < st.end[q];) {
                 const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
                 const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
-                int k, *b;
+                int k;
+                /* the room for the range's masters, asked for once */
                 if (at + n >= kc->chunk_cap[c] &&
                     nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], at + n + 1, sizeof(int)) != NTS_OK)
                     return NTS_ENOMEM;
-                b = kc->chunk[c];
-                for (k = 0; k < n; ++k) {
-                    /* kept_add without a branch (whether a master is kept,
-                     * and in which ring, is hard to predict): j appended,
-                     * then swapped with the first outer one when inner; a
-                     * master in neither is written past the list's end and
-                     * left there. */
-                    const int j = keys->entry[kept[k]];
-                    const int ring = kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s);
-                    const int two = ring >> 1, m = -two; /* (m: every bit set when inner, as a mask) */
-                    int v;
-                    b[at] = j;
-                    v = b[inner];
-                    b[at] = (v & m) | (j & ~m);
-                    b[inner] = (j & m) | (v & ~m);
-                    at += ring != 0;
-                    inner += two;
-                }
+                for (k = 0; k < n; ++k)
+                    kept_push(kc->chunk[c], &at, &inner, keys->entry[kept[k]],
+                              kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s));
                 e0 = e1;
             }
         }
