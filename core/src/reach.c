@@ -37,6 +37,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "parallel.h"
 #include "context.h"
@@ -68,6 +71,53 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
            (size_t)r->outside_cap + (size_t)r->ask_at_cap * sizeof(int);
 }
 
+/* The largest (X_m - xs) . n and |X_m - xs| by axis over nodes [m, e),
+ * without a branch: max[0] the first, max[1] and max[2] the others (each as
+ * large as on entry at least), the products and sums those of the
+ * node-by-node loop (beyond_body). In a periodic box the differences are
+ * the minimum images as nts_min_image_1 gives them within a quarter box
+ * (d + 0.0); 0 when some node lies farther (max untouched: the caller takes
+ * the block node by node). */
+enum { BEYOND_BLOCK = 8 };
+static int block_extent(const nts_scene* s, int m, int e, nts_vec2 xs, double nx, double ny, double max[3]) {
+#if defined(__SSE2__)
+    const nts_vec2* pos = s->pos;
+    const int periodic = s->lx > 0.0 || s->ly > 0.0;
+    const __m128d x = _mm_setr_pd(xs.x, xs.y), n = _mm_setr_pd(nx, ny), sign = _mm_set1_pd(-0.0);
+    /* (adding -0.0 changes no value, adding +0.0 turns -0 into +0) */
+    const __m128d zero = periodic ? _mm_setzero_pd() : sign;
+    const __m128d quarter = periodic ? _mm_setr_pd(0.25 * s->lx, 0.25 * s->ly) : _mm_set1_pd(HUGE_VAL);
+    __m128d h = _mm_set1_pd(max[0]), a = _mm_setr_pd(max[1], max[2]), far = _mm_setzero_pd();
+    for (; m + 1 < e; m += 2) {
+        const __m128d d0 = _mm_sub_pd(_mm_loadu_pd(&pos[m].x), x), d1 = _mm_sub_pd(_mm_loadu_pd(&pos[m + 1].x), x);
+        const __m128d a0 = _mm_andnot_pd(sign, d0), a1 = _mm_andnot_pd(sign, d1);
+        const __m128d p0 = _mm_mul_pd(_mm_add_pd(d0, zero), n), p1 = _mm_mul_pd(_mm_add_pd(d1, zero), n);
+        far = _mm_or_pd(far, _mm_or_pd(_mm_cmpnlt_pd(a0, quarter), _mm_cmpnlt_pd(a1, quarter)));
+        /* (dx nx + dy ny of the two nodes: their lows plus their highs) */
+        h = _mm_max_pd(_mm_add_pd(_mm_unpacklo_pd(p0, p1), _mm_unpackhi_pd(p0, p1)), h);
+        a = _mm_max_pd(a0, a);
+        a = _mm_max_pd(a1, a);
+    }
+    if (m < e) {
+        const __m128d d0 = _mm_sub_pd(_mm_loadu_pd(&pos[m].x), x), a0 = _mm_andnot_pd(sign, d0);
+        const __m128d p0 = _mm_mul_pd(_mm_add_pd(d0, zero), n);
+        const __m128d h0 = _mm_add_sd(p0, _mm_unpackhi_pd(p0, p0)); /* (in its low lane) */
+        far = _mm_or_pd(far, _mm_cmpnlt_pd(a0, quarter));
+        h = _mm_max_pd(_mm_unpacklo_pd(h0, h0), h);
+        a = _mm_max_pd(a0, a);
+    }
+    if (_mm_movemask_pd(far) != 0) return 0;
+    h = _mm_max_pd(h, _mm_unpackhi_pd(h, h));
+    max[0] = _mm_cvtsd_f64(h);
+    max[1] = _mm_cvtsd_f64(a);
+    max[2] = _mm_cvtsd_f64(_mm_unpackhi_pd(a, a));
+    return 1;
+#else
+    (void)s, (void)m, (void)e, (void)xs, (void)nx, (void)ny, (void)max;
+    return 0;
+#endif
+}
+
 /* Whether X_k lies beyond body b's every node in direction n: then it is
  * outside the body, whose smoothed surface lies in its nodes' convex hull
  * (a corner curve is a convex combination of three nodes, eq. (2)-(3); the
@@ -80,24 +130,34 @@ size_t nts_reach_memory_bytes(const nts_reach* r) {
 static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
     const nts_vec2 xs = env->seg[k].p;
+    const int m1 = s->body_node_start[b + 1];
     /* A node at or above -ext L_max along n decides: not beyond, whatever
      * the extent (the bound below is at most that). */
     const double fail = -env->ext * env->wide_lmax;
-    double top = -HUGE_VAL, ax = 0.0, ay = 0.0;
-    int m;
-    for (m = s->body_node_start[b]; m < s->body_node_start[b + 1]; ++m) {
-        const nts_vec2 d = nts_scene_diff(s, s->pos[m], xs);
-        const double h = d.x * nx + d.y * ny;
-        if (h >= fail) return 0;
-        top = h > top ? h : top;
-        ax = fabs(d.x) > ax ? fabs(d.x) : ax;
-        ay = fabs(d.y) > ay ? fabs(d.y) : ay;
+    double top = -HUGE_VAL, mx[3];
+    int m, q;
+    mx[1] = mx[2] = 0.0;
+    /* A block at a time (block_extent), the block's verdict after it: the
+     * same verdict as node by node. */
+    for (m = s->body_node_start[b]; m < m1; m += BEYOND_BLOCK) {
+        const int e = m1 - m > BEYOND_BLOCK ? m + BEYOND_BLOCK : m1;
+        mx[0] = -HUGE_VAL;
+        if (!block_extent(s, m, e, xs, nx, ny, mx))
+            for (q = m; q < e; ++q) {
+                const nts_vec2 d = nts_scene_diff(s, s->pos[q], xs);
+                const double h = d.x * nx + d.y * ny;
+                mx[0] = h > mx[0] ? h : mx[0];
+                mx[1] = fabs(d.x) > mx[1] ? fabs(d.x) : mx[1];
+                mx[2] = fabs(d.y) > mx[2] ? fabs(d.y) : mx[2];
+            }
+        if (mx[0] >= fail) return 0;
+        top = mx[0] > top ? mx[0] : top;
     }
     /* In a periodic box, nodes a quarter of a side or more away may not be
      * the body's nearest images: nothing is ruled out. */
-    if (s->lx > 0.0 && !(ax < 0.25 * s->lx && ay < 0.25 * s->ly)) return 0;
+    if (s->lx > 0.0 && !(mx[1] < 0.25 * s->lx && mx[2] < 0.25 * s->ly)) return 0;
     /* A contact surface's end reaches up to ext L_max past the hull (docs/model.md §13). */
-    return top < -1e-6 * (ax + ay) + fail;
+    return top < -1e-6 * (mx[1] + mx[2]) + fail;
 }
 
 /* Whether slave k lies outside body b, asked along normal n, by a rule of

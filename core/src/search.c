@@ -967,8 +967,15 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
         const nts_candidates* kc = env->kept;
         const int* items = kc->chunk[k / KEPT_CHUNK];
         const int hi = kept_hi(kc)[k];
-        for (j = kept_lo(kc)[k]; j < hi; ++j)
-            if (body < 0 || env->seg[items[j]].body == body) wide_try(env, w, xs, own, items[j], body, rho, shape, periodic);
+        if (body < 0) {
+            for (j = kept_lo(kc)[k]; j < hi; ++j) wide_try(env, w, xs, own, items[j], body, rho, shape, periodic);
+        } else {
+            /* A body's entries are consecutive: the others' are passed by
+             * their number, without reading their records (scattered). */
+            body_entries(s, body, &e0, &e1);
+            for (j = kept_lo(kc)[k]; j < hi; ++j)
+                if (items[j] >= e0 && items[j] < e1) wide_try(env, w, xs, own, items[j], body, rho, shape, periodic);
+        }
         return;
     }
     if (body >= 0) body_entries(s, body, &e0, &e1);
