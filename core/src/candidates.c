@@ -84,7 +84,8 @@ int nts_kept_valid(nts_candidates* kc, const nts_scene* s, double moved, double 
      * reach plus r + factor * moved at the build (each term with the
      * round-off allowance of reach_allowed). */
     need = (r + kc->factor * kc->moved) * (1.0 + 1e-9) + kc->pad + pad;
-    return need <= kc->inner && kc->moved <= 1e300;
+    /* (and no farther than the inner lists were pruned for, eq. (32)) */
+    return need <= kc->inner && kc->moved <= kc->hold;
 }
 
 double nts_kept_shift(const nts_candidates* kc, double pad) {
@@ -141,6 +142,7 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
     /* Eq. (29): the slave and the master's middle each move at most `moved`,
      * and its reach grows at most (1 + 2 ext + 2 alpha) moved. */
     kc->factor = 3.0 + 2.0 * ext + 2.0 * alpha_max;
+    kc->hold = kc->skin / kc->factor;
     kc->moved = 0.0;
     /* Eq. (30): a widened search around e asks for at most r plus its
      * longer segment (reach.c: a neighbour's gap and the segment between,

@@ -31,6 +31,12 @@ struct nts_candidates {
      * of the frame, and the factor of the largest displacement in the test
      * of validity (eq. (29)). */
     double r, skin, inner, outer, pad, factor;
+    /* The largest displacement the lists hold for, skin / factor: a master
+     * that can offer nothing at any positions within it of the build's is
+     * kept out of the inner ring (eq. (32)), so the lists also end when
+     * some node moves farther (were the search radius to shrink, eq. (29)
+     * alone would allow more). */
+    double hold;
     /* Per surface entry, the radius of its list's outer ring (eq. (30)):
      * inner + its longer segment (at least r, at most 4 r) + 2 skin / factor,
      * enough for the widened searches that ask for it; outer the largest. */

@@ -256,6 +256,7 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     }
     nts_kept_end(kc, s, ctx->seg);
     env->kept = kc;
+    env->kept_prune = kc;
     env->kept_shift = nts_kept_shift(kc, env->wide_pad);
     return NTS_OK;
 }

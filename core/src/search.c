@@ -612,6 +612,114 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
  * candidates.c), so the same candidates, the same records, bit for bit. */
 enum { KEPT_AHEAD = 4 };
 
+/* Eq. (32), for a slave at d from X_j on segment t of length len
+ * (p = d . t, L2 = len^2): whether s = p / L2 stays above h (side 1) or
+ * below it (side -1) at any positions where every node lies within mu of
+ * where it lies now. f = side (d - h t) . t > 0 loses at most
+ * 2 mu |d - h t| + c mu |t| + 2 c mu^2: d - h t, the slave less an affine
+ * combination of the segment's ends with weights 1 - h and h, moves at most
+ * c mu, c = 1 + |1 - h| + |h| <= 2 + 2 ext, and t at most 2 mu. `ra` bounds
+ * |d - h t| (from the distances to the ends, |d| + |h| len or
+ * |d - t| + |1 - h| len), `cb` is the rest (stays_rest), each with the
+ * allowances for the round-off of the product the exact test computes. */
+static inline int param_stays(double p, double L2, double h, double side, double ra, double mu, double cb) {
+    return side * (p - h * L2) > (2.0 * mu * ra + cb) * (1.0 + 1e-9);
+}
+
+/* param_stays's bound on |d - h t|, D and E bounds on |d| and |d - t|
+ * (norm_above; plus the positions' round-off, slack). */
+static inline double stays_ra(double D, double E, double len, double h, double slack) {
+    const double a0 = D + fabs(h) * len, a1 = E + fabs(1.0 - h) * len;
+    return (a0 < a1 ? a0 : a1) + slack;
+}
+
+/* param_stays's other terms for a segment of length len, the slave D from
+ * its first node: c mu (len + 2 mu) with c its largest, and the round-off
+ * of f. */
+static inline double stays_rest(double len, double D, double mu, double ext) {
+    return (2.0 + 2.0 * ext) * mu * (len + 2.0 * mu) + 1e-9 * (D + len) * len;
+}
+
+/* An upper bound on |v| without a root (at most 8% above it): the larger
+ * coordinate plus (sqrt 2 - 1) the smaller, which squared exceeds |v|^2 by
+ * 2 (sqrt 2 - 1) (max min - min^2) >= 0 (the factor rounded up). */
+static inline double norm_above(nts_vec2 v) {
+    const double x = fabs(v.x), y = fabs(v.y);
+    return (x > y ? x : y) + 0.41421357 * (x > y ? y : x);
+}
+
+/* Eq. (32): whether master j offers a slave at xs nothing at any positions
+ * within mu of the build's, by try_master's own conditions: no flat (s_j
+ * stays above hi or below lo), and no corner or vertex (none at X_j, or s_j
+ * stays above max(alpha, 0), or s_{j-1} below 1 - alpha). Most masters the
+ * reach around the middle keeps are so: the neighbours of the segment a
+ * slave faces. X_{j-1} + t_{j-1} is X_j (up to the round-off in slack): the
+ * slave's distance to X_j serves both segments. */
+static inline NTS_ALWAYS_INLINE int kept_dead(const search_env* env, double mu, double slack, nts_vec2 xs, int j,
+                                              const int periodic, const int surfaces) {
+    const seg_data* m = &env->seg[j];
+    const double alpha = alpha_of_body(env->s, m->body, env->alpha), ext = env->ext;
+    const nts_vec2 d = search_diff(env, xs, m->p, periodic), e = nts_sub(d, m->t);
+    const double D = norm_above(d), E = norm_above(e), p = nts_dot(d, m->t), L2 = m->len * m->len;
+    const double cb = stays_rest(m->len, D, mu, ext);
+    /* (alpha >= 0: without surfaces lo is ac) */
+    const double ac = alpha > 0.0 ? alpha : 0.0, hp = 1.0 - alpha;
+    double lo = ac, hi = 1.0 - alpha;
+    int corner = 1, flat_dead;
+    if (surfaces) { /* (as try_master: a contact surface's ends, docs/model.md §13) */
+        const unsigned f = env->surf_flag[j];
+        if (!(f & NTS_SF_PREV)) {
+            lo = -ext;
+            corner = 0;
+        }
+        if (!(f & NTS_SF_NEXT)) hi = 1.0 + ext;
+    }
+    {
+        /* the two tests about alpha, on either side, share their terms */
+        const double fa = p - ac * L2, ma = (2.0 * mu * stays_ra(D, E, m->len, ac, slack) + cb) * (1.0 + 1e-9);
+        flat_dead = param_stays(p, L2, hi, 1.0, stays_ra(D, E, m->len, hi, slack), mu, cb) |
+                    (surfaces ? param_stays(p, L2, lo, -1.0, stays_ra(D, E, m->len, lo, slack), mu, cb) : -fa > ma);
+        if (!flat_dead) return 0;
+        if (!corner || fa > ma) return 1;
+    }
+    {
+        /* the previous segment's record only now (it may be out of cache) */
+        const seg_data* sp = &env->seg[m->prev];
+        const nts_vec2 dp = search_diff(env, xs, sp->p, periodic);
+        const double DP = norm_above(dp);
+        return param_stays(nts_dot(dp, sp->t), sp->len * sp->len, hp, -1.0, stays_ra(DP, D, sp->len, hp, 2.0 * slack), mu,
+                           stays_rest(sp->len, DP, mu, ext));
+    }
+}
+
+enum { KEPT_PRUNE = 64 };
+/* Slave i's inner masters that offer nothing while the list holds go to
+ * the outer ring, which only the widened searches read (eq. (32)): done by
+ * the build's own replay, right after it tried them (their records in
+ * cache). The order of the tries decides nothing (try_master). */
+static inline NTS_ALWAYS_INLINE void kept_prune(const search_env* env, nts_candidates* kc, int i, const int periodic,
+                                                const int surfaces) {
+    int* buf = kc->chunk[i / KEPT_CHUNK];
+    int* mid = kc->span + env->s->surface_count;
+    const nts_vec2 xs = env->seg[i].p;
+    /* (the largest displacement the lists hold for, with the frame's round-off) */
+    const double mu = kc->hold * (1.0 + 1e-9) + 2.0 * kc->pad, slack = 2.0 * kc->pad;
+    const int lo = kc->span[i], n = mid[i] - lo;
+    int gone[KEPT_PRUNE], q, alive = lo, dead = 0;
+    if (n > KEPT_PRUNE) return; /* (a slave among more masters than that: kept as they are) */
+    /* the live ones to the front in their order, the dead after them: every
+     * write made, the places moved by the verdicts (hard to predict) */
+    for (q = lo; q < lo + n; ++q) {
+        const int j = buf[q], v = kept_dead(env, mu, slack, xs, j, periodic, surfaces);
+        buf[alive] = j;
+        gone[dead] = j;
+        alive += !v;
+        dead += v;
+    }
+    for (q = 0; q < dead; ++q) buf[alive + dead - 1 - q] = gone[q]; /* (a few: no library call) */
+    mid[i] = alive;
+}
+
 static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
                                                  const int periodic, const int surfaces, const int selfc,
                                                  const int ahead_on) {
@@ -651,6 +759,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
             }
         }
         for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
+        if (env->kept_prune != NULL) kept_prune(env, env->kept_prune, i, periodic, surfaces);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else {

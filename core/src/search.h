@@ -159,6 +159,7 @@ typedef struct search_env {
     const nts_candidates* kept;
     double kept_shift;
     int kept_ahead;          /* the kept masters' lines asked for ahead (nts_kept_ahead) */
+    nts_candidates* kept_prune; /* the lists just built, which this replay prunes (eq. (32)), or NULL */
     double cell_side;        /* nts_summary.cell_size (evaluate.c: summary_cell_side) */
     const seg_summary* ss;
     const nts_run* run;

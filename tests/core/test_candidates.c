@@ -309,6 +309,130 @@ static void test_approach_at_the_limit(void) {
     free(b);
 }
 
+/* A master that offers nothing at the build is kept out of a slave's
+ * inner list only when no positions within the displacement the list holds
+ * for could make it offer (eq. (32)), rotation included. Alpha 0, a search
+ * radius as long as the segment (1): a slave node 0.8 above the line of the
+ * top edge of a triangle and delta = 2.6 mu past its end (at the build its
+ * closest point is the vertex there). Then the edge turns (its ends move mu
+ * apart across it) and the slave moves mu along it: the edge's flat now
+ * offers. A bound without the turn (c mu |t| + 2 c mu^2 alone, eq. (32)
+ * without 2 mu |d - h t|) would have dropped the edge at delta > 2 mu +
+ * 4 mu^2; the replay must find it, as the search from scratch does. */
+static void test_turn_at_the_limit(void) {
+    test_body* b = (test_body*)calloc(2, sizeof(test_body));
+    const double r = 1.0, skin = 0.3, mu = 0.99 * skin / 3.0, delta = 2.6 * mu;
+    nts_scene* s;
+    nts_result res;
+    nts_context* ctx = NULL;
+    walk w;
+    int k, flat = 0;
+    CU_ASSERT_FATAL(b != NULL);
+    /* counter-clockwise: the top edge runs from (1, 0) to (0, 0), its outward normal +y */
+    b[0].nodes[0] = nts_v2(0.0, 0.0);
+    b[0].nodes[1] = nts_v2(0.5, -0.8);
+    b[0].nodes[2] = nts_v2(1.0, 0.0);
+    b[0].node_count = 3;
+    b[1].nodes[0] = nts_v2(-delta, 0.8);
+    b[1].nodes[1] = nts_v2(-delta + 0.3, 1.4);
+    b[1].nodes[2] = nts_v2(-delta - 0.3, 1.4);
+    b[1].node_count = 3;
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.0, skin);
+    w.o.search_radius = r;
+    walk_step(&w, 1);
+    move(&w, 0, 1, nts_v2(0.0, -mu)); /* the edge's end at (0, 0) down */
+    move(&w, 2, 1, nts_v2(0.0, mu));  /* its end at (1, 0) up: it turns towards the slave's side of its end */
+    move(&w, 3, 1, nts_v2(mu, 0.0));  /* the slave along it */
+    walk_step(&w, 1);
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1); /* replayed */
+    CU_ASSERT_FATAL(eval_scene(s, &w.o, &res, &ctx) == NTS_OK);
+    for (k = 0; k < res.gap_count; ++k)
+        flat |= res.gaps[k].slave_body == 1 && res.gaps[k].slave_node == 0 && res.gaps[k].kind == NTS_KIND_SEGMENT;
+    CU_ASSERT(flat); /* the edge's flat, which the walk compared the replay's with */
+    nts_context_destroy(ctx);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free(b);
+}
+
+/* The search radius asked for shrinks between two steps (1 to 0.5): eq.
+ * (29) alone would replay the list for displacements up to
+ * (r_b + skin - r) / 3 = 0.27, past the skin / 3 = 0.1 it was pruned for
+ * (eq. (32)); so the list holds for no more than that, and is built again.
+ * The edge of test_turn_at_the_limit, the slave 0.2 above its line and 0.4
+ * past its end (out of the inner list at the build), turned by 0.25 at
+ * each end and the slave moved 0.25 along it: the flat offers at 0.47. */
+static void test_radius_shrinks_past_the_hold(void) {
+    test_body* b = (test_body*)calloc(2, sizeof(test_body));
+    const double skin = 0.3, m = 0.25, delta = 0.4;
+    nts_scene* s;
+    walk w;
+    CU_ASSERT_FATAL(b != NULL);
+    b[0].nodes[0] = nts_v2(0.0, 0.0);
+    b[0].nodes[1] = nts_v2(0.5, -0.8);
+    b[0].nodes[2] = nts_v2(1.0, 0.0);
+    b[0].node_count = 3;
+    b[1].nodes[0] = nts_v2(-delta, 0.2);
+    b[1].nodes[1] = nts_v2(-delta + 0.3, 0.8);
+    b[1].nodes[2] = nts_v2(-delta - 0.3, 0.8);
+    b[1].node_count = 3;
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.0, skin);
+    w.o.search_radius = 1.0;
+    walk_step(&w, 1);
+    w.o.search_radius = 0.5;
+    move(&w, 0, 1, nts_v2(0.0, -m));
+    move(&w, 2, 1, nts_v2(0.0, m));
+    move(&w, 3, 1, nts_v2(m, 0.0));
+    walk_step(&w, 1);
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 2);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free(b);
+}
+
+/* Every node displaced from where the list was built by just under what it
+ * holds for (eq. (29): skin / 3 at alpha 0), each in a direction of its own,
+ * afresh every step: segments turn and stretch every way the list allows,
+ * and each replay gives the answer from scratch (the masters kept out of
+ * the inner lists, eq. (32), among them). */
+static void test_displaced_to_the_limit(void) {
+    test_packing p = make_packing(25, 24, 1.0, 1.96, 0, 4242);
+    nts_scene* s = make_scene(p.bodies, p.count, 0.0, 0.0);
+    test_rng g = {0x51ed2701ULL};
+    nts_vec2* base;
+    nts_result res;
+    nts_context* ctx = NULL;
+    walk w;
+    double hold;
+    int step, i;
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.0, -1.0);
+    CU_ASSERT_FATAL(eval_scene(s, &w.o, &res, &ctx) == NTS_OK);
+    w.o.search_radius = res.summary.search_radius; /* the median segment, fixed */
+    nts_context_destroy(ctx);
+    base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)w.n);
+    CU_ASSERT_FATAL(base != NULL);
+    memcpy(base, w.pos, sizeof(nts_vec2) * (size_t)w.n);
+    walk_step(&w, 1);
+    hold = nts_candidates_get_info(w.kc).skin / 3.0;
+    for (step = 0; step < 40; ++step) {
+        for (i = 0; i < w.n; ++i) {
+            const double a = 6.283185307179586 * rng_uniform(&g);
+            w.pos[i] = nts_add(base[i], nts_v2(0.999 * hold * cos(a), 0.999 * hold * sin(a)));
+        }
+        walk_step(&w, step % 2 + 1);
+    }
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1); /* every step replayed the first build */
+    walk_close(&w);
+    free(base);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 /* A list is bound to its scene: another scene, or other options, build it
  * again; clear forgets it. */
 static void test_bound_to_scene_and_options(void) {
@@ -407,6 +531,9 @@ void register_candidates_suite(void) {
     ADD_TEST(s, test_bodies_from_afar_and_deep);
     ADD_TEST(s, test_step_at_the_skin);
     ADD_TEST(s, test_approach_at_the_limit);
+    ADD_TEST(s, test_turn_at_the_limit);
+    ADD_TEST(s, test_displaced_to_the_limit);
+    ADD_TEST(s, test_radius_shrinks_past_the_hold);
     ADD_TEST(s, test_bound_to_scene_and_options);
     ADD_TEST(s, test_over_budget_searches_from_scratch);
     ADD_TEST(s, test_folded_loops_in_a_packing);
