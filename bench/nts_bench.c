@@ -690,9 +690,10 @@ static void section_threads(const char* dir, int max_threads) {
  * default skin allows), each step's positions given in one call
  * (nts_evaluate_positions). The median of `steps` timed steps after as many
  * untimed (the list's first build among them); the builds the list makes
- * between are in the timed steps (about one in ten). The scene is given its
- * first positions back. */
-static double kept_step_ns(nts_scene* s, const scene_buf* b, const nts_options* o0, int steps) {
+ * between are in the timed steps (about one in ten), so the median is a
+ * step between builds: *mean, the mean of the same steps, counts the
+ * builds' share too. The scene is given its first positions back. */
+static double kept_step_ns(nts_scene* s, const scene_buf* b, const nts_options* o0, int steps, double* mean) {
     const int n = nts_scene_node_count(s), ns = nts_scene_surface_node_count(s);
     nts_vec2* base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
     nts_vec2* dir = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
@@ -722,6 +723,9 @@ static double kept_step_ns(nts_scene* s, const scene_buf* b, const nts_options* 
         }
         if (k > steps) dt[k - steps - 1] = ntsx_now() - t0;
     }
+    *mean = 0.0;
+    for (k = 0; k < steps; ++k) *mean += dt[k];
+    *mean = 1e9 * *mean / steps / ns;
     med = 1e9 * ntsx_median(dt, steps) / ns;
     if (nts_scene_update_positions(s, base, &err) != NTS_OK) { fprintf(stderr, "back: %s\n", err.message); exit(1); }
     nts_candidates_destroy(kc);
@@ -745,7 +749,7 @@ static void section_peer(const char* dir) {
         nts_options o = nts_default_options();
         nts_result r;
         timing t, tg;
-        double kept;
+        double kept, kept_mean;
         char path[1024];
         FILE* f;
         make_packing(&b, sizes[si], 0, 555u + (uint64_t)si);
@@ -762,7 +766,7 @@ static void section_peer(const char* dir) {
         tg = time_eval(s, &o, g_quick ? 0.05 : 0.3);
         o.outputs = nts_default_options().outputs;
         t = time_eval(s, &o, g_quick ? 0.05 : 0.3);
-        kept = kept_step_ns(s, &b, &o, g_quick ? 5 : 20);
+        kept = kept_step_ns(s, &b, &o, g_quick ? 5 : 20, &kept_mean);
         o.outputs = NTS_OUT_GAPS;
         eval_or_die(ctx, s, &o, &r);
         snprintf(path, sizeof path, "%s/peer_scene_%d.txt", dir, sizes[si]);
@@ -772,10 +776,11 @@ static void section_peer(const char* dir) {
          * median), with the default outputs (wall), surface nodes, ns per node
          * with the gaps output (CPU time, median), active contacts (g < 0) of
          * the evaluation with the default outputs, ns per node of a solver's
-         * step with a kept list (wall, median; kept_step_ns) with them (for
+         * step with a kept list (wall, median; kept_step_ns) with them, and
+         * the mean of the same steps, builds included (for
          * bench/pymunk_peer.py) */
-        fprintf(f, "%d %.17g %.3f %.3f %d %.3f %d %.3f\n", b.body_count, r.summary.search_radius, tg.eval, t.eval,
-                b.total, tg.eval_cpu, t.contacts, kept);
+        fprintf(f, "%d %.17g %.3f %.3f %d %.3f %d %.3f %.3f\n", b.body_count, r.summary.search_radius, tg.eval, t.eval,
+                b.total, tg.eval_cpu, t.contacts, kept, kept_mean);
         for (k = 0; k < b.body_count; ++k) {
             fprintf(f, "%d\n", b.counts[k]);
             for (i = 0; i < b.counts[k]; ++i) fprintf(f, "%.17g %.17g\n", b.nodes[k][i].x, b.nodes[k][i].y);
