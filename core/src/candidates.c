@@ -66,6 +66,7 @@ nts_candidates_info nts_candidates_get_info(const nts_candidates* kc) {
     i.moved = kc->moved;
     i.skin = kc->skin;
     i.kept = kc->kept;
+    i.pruned = kc->pruned;
     i.ahead_replays = kc->ahead_replays;
     i.plain_replays = kc->plain_replays;
     return i;
@@ -143,6 +144,7 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
      * and its reach grows at most (1 + 2 ext + 2 alpha) moved. */
     kc->factor = 3.0 + 2.0 * ext + 2.0 * alpha_max;
     kc->hold = kc->skin / kc->factor;
+    kc->pruned = 0;
     kc->moved = 0.0;
     /* Eq. (30): a widened search around e asks for at most r plus its
      * longer segment (reach.c: a neighbour's gap and the segment between,

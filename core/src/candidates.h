@@ -46,7 +46,9 @@ struct nts_candidates {
     nts_vec2* x;               /* surface entries' positions at the build */
     int x_cap;
     /* Slave e's masters: chunk[e / KEPT_CHUNK][lo[e] .. hi[e]), those within
-     * the inner radius first, up to mid[e]; hi[e] = -1: not a slave. */
+     * the inner radius first, up to mid[e], but for those the build's replay
+     * found cannot offer (eq. (32)), which it moved past mid[e]; hi[e] = -1:
+     * not a slave. */
     int* span;                 /* lo, mid, hi: 3 surface_count */
     int span_cap;
     int** chunk;
@@ -56,6 +58,7 @@ struct nts_candidates {
     double* key_base;          /* per master key of the build's cells: sqrt(reach2) - outer (scaled) + 1e-6 */
     int key_base_cap;
     long long evaluations, builds, cell_builds, kept;
+    long long pruned;          /* of kept, those the last build's replay moved out of the inner lists */
     int backoff;               /* evaluations left before a build is tried again (one was over budget) */
     /* Whether a replay asks for the masters' lines ahead (nts_kept_ahead):
      * each way's search time a replay for this scene, a running mean (0: not

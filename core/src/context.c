@@ -162,6 +162,7 @@ int nts_workers_prepare(nts_context* ctx, int count, int body_count, int chunks)
         ctx->workers[i].spill_used[STREAM_RECORDS] = ctx->workers[i].spill_used[STREAM_REACH] = 0;
         ctx->workers[i].gaps = 0;
         ctx->workers[i].owned_gaps = 0;
+        ctx->workers[i].pruned = 0;
         ctx->workers[i].best_count = 0;
         ctx->workers[i].best_most = 0;
         ctx->workers[i].status = NTS_OK;

@@ -609,6 +609,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         for (i = 0; i < nthreads; ++i) {
             records += ctx->workers[i].gaps;
             owned_gaps += ctx->workers[i].owned_gaps;
+            if (env.kept_prune != NULL) env.kept_prune->pruned += ctx->workers[i].pruned; /* (0 at its build) */
             if (ctx->workers[i].status == NTS_ELIMIT) limited = 1;
             else if (ctx->workers[i].status != NTS_OK && status == NTS_OK) status = ctx->workers[i].status;
         }

@@ -696,9 +696,10 @@ enum { KEPT_PRUNE = 64 };
 /* Slave i's inner masters that offer nothing while the list holds go to
  * the outer ring, which only the widened searches read (eq. (32)): done by
  * the build's own replay, right after it tried them (their records in
- * cache). The order of the tries decides nothing (try_master). */
-static inline NTS_ALWAYS_INLINE void kept_prune(const search_env* env, nts_candidates* kc, int i, const int periodic,
-                                                const int surfaces) {
+ * cache). The order of the tries decides nothing (try_master). Returns how
+ * many went. */
+static inline NTS_ALWAYS_INLINE int kept_prune(const search_env* env, nts_candidates* kc, int i, const int periodic,
+                                               const int surfaces) {
     int* buf = kc->chunk[i / KEPT_CHUNK];
     int* mid = kc->span + env->s->surface_count;
     const nts_vec2 xs = env->seg[i].p;
@@ -706,7 +707,7 @@ static inline NTS_ALWAYS_INLINE void kept_prune(const search_env* env, nts_candi
     const double mu = kc->hold * (1.0 + 1e-9) + 2.0 * kc->pad, slack = 2.0 * kc->pad;
     const int lo = kc->span[i], n = mid[i] - lo;
     int gone[KEPT_PRUNE], q, alive = lo, dead = 0;
-    if (n > KEPT_PRUNE) return; /* (a slave among more masters than that: kept as they are) */
+    if (n > KEPT_PRUNE) return 0; /* (a slave among more masters than that: kept as they are) */
     /* the live ones to the front in their order, the dead after them: every
      * write made, the places moved by the verdicts (hard to predict) */
     for (q = lo; q < lo + n; ++q) {
@@ -718,6 +719,7 @@ static inline NTS_ALWAYS_INLINE void kept_prune(const search_env* env, nts_candi
     }
     for (q = 0; q < dead; ++q) buf[alive + dead - 1 - q] = gone[q]; /* (a few: no library call) */
     mid[i] = alive;
+    return dead;
 }
 
 static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* w, int begin, int end,
@@ -759,7 +761,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
             }
         }
         for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
-        if (env->kept_prune != NULL) kept_prune(env, env->kept_prune, i, periodic, surfaces);
+        if (env->kept_prune != NULL) w->pruned += kept_prune(env, env->kept_prune, i, periodic, surfaces);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else {

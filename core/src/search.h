@@ -98,6 +98,7 @@ typedef struct worker {
     int forces_bad;    /* the direct path wrote a force that is not finite (law_add_shares) */
     long long gaps;    /* closest points within r found (kept or not) */
     long long owned_gaps; /* those of the slaves search_env.owned marks (a distributed host's) */
+    long long pruned;  /* masters kept_prune moved out of the inner lists (search_env.kept_prune) */
     contact_sums* sums;/* the current chunk's, when the search sums as it goes (direct or shares) */
     int status;
     /* Workers sit side by side in one array and update their counts all the

@@ -427,6 +427,134 @@ static void test_displaced_to_the_limit(void) {
         walk_step(&w, step % 2 + 1);
     }
     ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1); /* every step replayed the first build */
+    /* the build kept masters out of the inner lists (about 2 in 5 of those
+     * within the inner radius, docs/benchmarks.md) */
+    CU_ASSERT(nts_candidates_get_info(w.kc).pruned > 0);
+    CU_ASSERT(nts_candidates_get_info(w.kc).pruned < nts_candidates_get_info(w.kc).kept);
+    walk_close(&w);
+    free(base);
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
+/* The tightest case of eq. (32): a slave on the line of an edge, 0.995 of
+ * 2 mu past its end (mu the displacement the list holds for); the master
+ * body moves mu back along the edge and the slave mu towards it: the flat
+ * offers. A bound short of (32) by 2% would have kept the edge out. */
+static void test_colinear_at_the_limit(void) {
+    test_body* b = (test_body*)calloc(2, sizeof(test_body));
+    const double skin = 0.003, mu = 0.9999 * skin / 3.0, delta = 0.995 * 2.0 * mu;
+    nts_scene* s;
+    walk w;
+    CU_ASSERT_FATAL(b != NULL);
+    b[0].nodes[0] = nts_v2(0.0, 0.0);
+    b[0].nodes[1] = nts_v2(0.5, -0.8);
+    b[0].nodes[2] = nts_v2(1.0, 0.0);
+    b[0].node_count = 3;
+    b[1].nodes[0] = nts_v2(-delta, 0.0);
+    b[1].nodes[1] = nts_v2(-delta - 0.6, 0.3);
+    b[1].nodes[2] = nts_v2(-delta - 0.6, -0.3);
+    b[1].node_count = 3;
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.0, skin);
+    w.o.search_radius = 1.0;
+    walk_step(&w, 1);
+    move(&w, 0, 3, nts_v2(-mu, 0.0));
+    move(&w, 3, 1, nts_v2(mu, 0.0));
+    walk_step(&w, 1);
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1);
+    walk_close(&w);
+    nts_scene_destroy(s);
+    free(b);
+}
+
+/* Contact surfaces with ends (docs/model.md §13: a flat reaches ext past
+ * an end, no corner across it), bodies with alphas of their own: every node
+ * displaced by just under what the list holds for, at random, by turns of
+ * whole bodies and by neighbours pulled apart, and each replay gives the
+ * answer from scratch though the build kept masters out of the inner lists
+ * (eq. (32), whose bounds at a surface's ends are -ext and 1 + ext). */
+static void test_surfaces_displaced_to_the_limit(void) {
+    enum { BODIES = 12 };
+    test_packing p = make_packing(BODIES, 32, 1.0, 1.95, 0, 31);
+    test_rng g = {0x2545f4914f6cdd1dULL};
+    nts_body_def defs[BODIES];
+    int surf[BODIES][64];
+    nts_scene_def sd = nts_default_scene_def();
+    nts_scene* s;
+    nts_error err;
+    nts_vec2* base;
+    walk w;
+    double alpha_max = 0.15, hold;
+    int b, i, k, step;
+    memset(defs, 0, sizeof defs);
+    for (b = 0; b < BODIES; ++b) {
+        const int m = p.bodies[b].node_count, start = (int)(m * rng_uniform(&g));
+        int c = 0;
+        defs[b].nodes = p.bodies[b].nodes;
+        defs[b].node_count = m;
+        if (b % 3 == 1) {
+            defs[b].has_alpha = 1;
+            defs[b].alpha = b % 2 ? 0.0 : 0.35;
+            if (defs[b].alpha > alpha_max) alpha_max = defs[b].alpha;
+        }
+        if (b % 4 == 3) continue; /* no surface: the whole boundary */
+        for (k = 0; k < 3 * m / 4; ++k) { /* an arc of the boundary, with gaps: many ends */
+            const int a0 = (start + k) % m;
+            if (k % 7 == 3) continue;
+            surf[b][2 * c] = a0;
+            surf[b][2 * c + 1] = (a0 + 1) % m;
+            ++c;
+        }
+        defs[b].surface = surf[b];
+        defs[b].surface_count = c;
+    }
+    sd.bodies = defs;
+    sd.body_count = BODIES;
+    s = nts_scene_create(&sd, &err);
+    if (s == NULL) fprintf(stderr, "\n  scene: %s\n", err.message);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(&w, s, 0.15, 0.06);
+    w.o.search_radius = 0.2; /* (about a segment, 0.196) */
+    w.o.surface_extension = 0.3;
+    base = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)w.n);
+    CU_ASSERT_FATAL(base != NULL);
+    memcpy(base, w.pos, sizeof(nts_vec2) * (size_t)w.n);
+    walk_step(&w, 1);
+    hold = 0.06 / (3.0 + 2.0 * 0.3 + 2.0 * alpha_max); /* eq. (29) */
+    for (step = 0; step < 24; ++step) {
+        for (b = 0; b < BODIES; ++b) {
+            const int off = nts_scene_body_node_offset(s, b), m = p.bodies[b].node_count;
+            const double turn = 2.0 * rng_uniform(&g) - 1.0;
+            nts_vec2 c = nts_v2(0.0, 0.0);
+            double rim = 0.0;
+            for (i = 0; i < m; ++i) c = nts_add(c, nts_scale(1.0 / m, base[off + i]));
+            for (i = 0; i < m; ++i) {
+                const nts_vec2 d = nts_sub(base[off + i], c);
+                rim = sqrt(nts_dot(d, d)) > rim ? sqrt(nts_dot(d, d)) : rim;
+            }
+            for (i = 0; i < m; ++i) {
+                nts_vec2 u;
+                if (step % 3 == 0) { /* each node its own way */
+                    const double a = 6.283185307179586 * rng_uniform(&g);
+                    u = nts_v2(cos(a), sin(a));
+                } else if (step % 3 == 1) { /* the body turned about its middle, the hold at its rim */
+                    const nts_vec2 d = nts_sub(base[off + i], c);
+                    const double th = turn / rim;
+                    u = nts_v2(d.x * (cos(th) - 1.0) - d.y * sin(th), d.x * sin(th) + d.y * (cos(th) - 1.0));
+                } else { /* neighbours pulled apart: segments turn and stretch */
+                    const double a = (i % 2 ? 0.0 : 3.141592653589793) + (b % 2 ? 1.5707963 : 0.0) + 0.3 * rng_uniform(&g);
+                    u = nts_v2(cos(a), sin(a));
+                }
+                if (nts_dot(u, u) > 1.0) u = nts_scale(1.0 / sqrt(nts_dot(u, u)), u);
+                w.pos[off + i] = nts_add(base[off + i], nts_scale(0.9999 * hold, u));
+            }
+        }
+        walk_step(&w, step % 2 + 1);
+    }
+    ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1); /* every step replayed the first build */
+    CU_ASSERT(nts_candidates_get_info(w.kc).pruned > 0);
     walk_close(&w);
     free(base);
     nts_scene_destroy(s);
@@ -532,7 +660,9 @@ void register_candidates_suite(void) {
     ADD_TEST(s, test_step_at_the_skin);
     ADD_TEST(s, test_approach_at_the_limit);
     ADD_TEST(s, test_turn_at_the_limit);
+    ADD_TEST(s, test_colinear_at_the_limit);
     ADD_TEST(s, test_displaced_to_the_limit);
+    ADD_TEST(s, test_surfaces_displaced_to_the_limit);
     ADD_TEST(s, test_radius_shrinks_past_the_hold);
     ADD_TEST(s, test_bound_to_scene_and_options);
     ADD_TEST(s, test_over_budget_searches_from_scratch);

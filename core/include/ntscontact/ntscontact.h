@@ -522,6 +522,10 @@ typedef struct nts_candidates_info {
      * the faster taken, the other tried one timed replay in 8) @{ */
     long long ahead_replays, plain_replays;
     /** @} */
+    /** of `kept`, the masters the last build's own evaluation moved out of
+     * the inner lists that replays try: those that can offer their slave
+     * nothing while the lists hold (docs/model.md eq. (32)) */
+    long long pruned;
 } nts_candidates_info;
 /** The counts of `candidates` (all zero for NULL). */
 NTS_API nts_candidates_info nts_candidates_get_info(const nts_candidates* candidates);
