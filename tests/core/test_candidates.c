@@ -309,6 +309,38 @@ static void test_approach_at_the_limit(void) {
     free(b);
 }
 
+/* The edge tests' scene: a triangle whose top edge runs from (1, 0) to
+ * (0, 0) (counter-clockwise, its outward normal +y), and a slave triangle
+ * with its first node at `at`, the others at at + u and at + v
+ * (counter-clockwise); alpha 0, the search radius 1, the list built with
+ * `skin` at these positions. */
+static nts_scene* edge_open(walk* w, test_body** bp, nts_vec2 at, nts_vec2 u, nts_vec2 v, double skin) {
+    test_body* b = (test_body*)calloc(2, sizeof(test_body));
+    nts_scene* s;
+    CU_ASSERT_FATAL(b != NULL);
+    b[0].nodes[0] = nts_v2(0.0, 0.0);
+    b[0].nodes[1] = nts_v2(0.5, -0.8);
+    b[0].nodes[2] = nts_v2(1.0, 0.0);
+    b[0].node_count = 3;
+    b[1].nodes[0] = at;
+    b[1].nodes[1] = nts_add(at, u);
+    b[1].nodes[2] = nts_add(at, v);
+    b[1].node_count = 3;
+    s = make_scene(b, 2, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    walk_open(w, s, 0.0, skin);
+    w->o.search_radius = 1.0;
+    walk_step(w, 1);
+    *bp = b;
+    return s;
+}
+
+static void edge_close(walk* w, nts_scene* s, test_body* b) {
+    walk_close(w);
+    nts_scene_destroy(s);
+    free(b);
+}
+
 /* A master that offers nothing at the build is kept out of a slave's
  * inner list only when no positions within the displacement the list holds
  * for could make it offer (eq. (32)), rotation included. Alpha 0, a search
@@ -320,28 +352,13 @@ static void test_approach_at_the_limit(void) {
  * without 2 mu |d - h t|) would have dropped the edge at delta > 2 mu +
  * 4 mu^2; the replay must find it, as the search from scratch does. */
 static void test_turn_at_the_limit(void) {
-    test_body* b = (test_body*)calloc(2, sizeof(test_body));
-    const double r = 1.0, skin = 0.3, mu = 0.99 * skin / 3.0, delta = 2.6 * mu;
-    nts_scene* s;
+    const double skin = 0.3, mu = 0.99 * skin / 3.0, delta = 2.6 * mu;
+    test_body* b;
     nts_result res;
     nts_context* ctx = NULL;
     walk w;
     int k, flat = 0;
-    CU_ASSERT_FATAL(b != NULL);
-    /* counter-clockwise: the top edge runs from (1, 0) to (0, 0), its outward normal +y */
-    b[0].nodes[0] = nts_v2(0.0, 0.0);
-    b[0].nodes[1] = nts_v2(0.5, -0.8);
-    b[0].nodes[2] = nts_v2(1.0, 0.0);
-    b[0].node_count = 3;
-    b[1].nodes[0] = nts_v2(-delta, 0.8);
-    b[1].nodes[1] = nts_v2(-delta + 0.3, 1.4);
-    b[1].nodes[2] = nts_v2(-delta - 0.3, 1.4);
-    b[1].node_count = 3;
-    s = make_scene(b, 2, 0.0, 0.0);
-    CU_ASSERT_FATAL(s != NULL);
-    walk_open(&w, s, 0.0, skin);
-    w.o.search_radius = r;
-    walk_step(&w, 1);
+    nts_scene* s = edge_open(&w, &b, nts_v2(-delta, 0.8), nts_v2(0.3, 0.6), nts_v2(-0.3, 0.6), skin);
     move(&w, 0, 1, nts_v2(0.0, -mu)); /* the edge's end at (0, 0) down */
     move(&w, 2, 1, nts_v2(0.0, mu));  /* its end at (1, 0) up: it turns towards the slave's side of its end */
     move(&w, 3, 1, nts_v2(mu, 0.0));  /* the slave along it */
@@ -352,9 +369,7 @@ static void test_turn_at_the_limit(void) {
         flat |= res.gaps[k].slave_body == 1 && res.gaps[k].slave_node == 0 && res.gaps[k].kind == NTS_KIND_SEGMENT;
     CU_ASSERT(flat); /* the edge's flat, which the walk compared the replay's with */
     nts_context_destroy(ctx);
-    walk_close(&w);
-    nts_scene_destroy(s);
-    free(b);
+    edge_close(&w, s, b);
 }
 
 /* The search radius asked for shrinks between two steps (1 to 0.5): eq.
@@ -365,33 +380,17 @@ static void test_turn_at_the_limit(void) {
  * past its end (out of the inner list at the build), turned by 0.25 at
  * each end and the slave moved 0.25 along it: the flat offers at 0.47. */
 static void test_radius_shrinks_past_the_hold(void) {
-    test_body* b = (test_body*)calloc(2, sizeof(test_body));
     const double skin = 0.3, m = 0.25, delta = 0.4;
-    nts_scene* s;
+    test_body* b;
     walk w;
-    CU_ASSERT_FATAL(b != NULL);
-    b[0].nodes[0] = nts_v2(0.0, 0.0);
-    b[0].nodes[1] = nts_v2(0.5, -0.8);
-    b[0].nodes[2] = nts_v2(1.0, 0.0);
-    b[0].node_count = 3;
-    b[1].nodes[0] = nts_v2(-delta, 0.2);
-    b[1].nodes[1] = nts_v2(-delta + 0.3, 0.8);
-    b[1].nodes[2] = nts_v2(-delta - 0.3, 0.8);
-    b[1].node_count = 3;
-    s = make_scene(b, 2, 0.0, 0.0);
-    CU_ASSERT_FATAL(s != NULL);
-    walk_open(&w, s, 0.0, skin);
-    w.o.search_radius = 1.0;
-    walk_step(&w, 1);
+    nts_scene* s = edge_open(&w, &b, nts_v2(-delta, 0.2), nts_v2(0.3, 0.6), nts_v2(-0.3, 0.6), skin);
     w.o.search_radius = 0.5;
     move(&w, 0, 1, nts_v2(0.0, -m));
     move(&w, 2, 1, nts_v2(0.0, m));
     move(&w, 3, 1, nts_v2(m, 0.0));
     walk_step(&w, 1);
     ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 2);
-    walk_close(&w);
-    nts_scene_destroy(s);
-    free(b);
+    edge_close(&w, s, b);
 }
 
 /* Every node displaced from where the list was built by just under what it
@@ -442,31 +441,15 @@ static void test_displaced_to_the_limit(void) {
  * body moves mu back along the edge and the slave mu towards it: the flat
  * offers. A bound short of (32) by 2% would have kept the edge out. */
 static void test_colinear_at_the_limit(void) {
-    test_body* b = (test_body*)calloc(2, sizeof(test_body));
     const double skin = 0.003, mu = 0.9999 * skin / 3.0, delta = 0.995 * 2.0 * mu;
-    nts_scene* s;
+    test_body* b;
     walk w;
-    CU_ASSERT_FATAL(b != NULL);
-    b[0].nodes[0] = nts_v2(0.0, 0.0);
-    b[0].nodes[1] = nts_v2(0.5, -0.8);
-    b[0].nodes[2] = nts_v2(1.0, 0.0);
-    b[0].node_count = 3;
-    b[1].nodes[0] = nts_v2(-delta, 0.0);
-    b[1].nodes[1] = nts_v2(-delta - 0.6, 0.3);
-    b[1].nodes[2] = nts_v2(-delta - 0.6, -0.3);
-    b[1].node_count = 3;
-    s = make_scene(b, 2, 0.0, 0.0);
-    CU_ASSERT_FATAL(s != NULL);
-    walk_open(&w, s, 0.0, skin);
-    w.o.search_radius = 1.0;
-    walk_step(&w, 1);
+    nts_scene* s = edge_open(&w, &b, nts_v2(-delta, 0.0), nts_v2(-0.6, 0.3), nts_v2(-0.6, -0.3), skin);
     move(&w, 0, 3, nts_v2(-mu, 0.0));
     move(&w, 3, 1, nts_v2(mu, 0.0));
     walk_step(&w, 1);
     ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1);
-    walk_close(&w);
-    nts_scene_destroy(s);
-    free(b);
+    edge_close(&w, s, b);
 }
 
 /* Contact surfaces with ends (docs/model.md §13: a flat reaches ext past
