@@ -662,10 +662,9 @@ static inline NTS_ALWAYS_INLINE int kept_dead(const search_env* env, double mu, 
     const nts_vec2 d = search_diff(env, xs, m->p, periodic), e = nts_sub(d, m->t);
     const double D = norm_above(d), E = norm_above(e), p = nts_dot(d, m->t), L2 = m->len * m->len;
     const double cb = stays_rest(m->len, D, mu, ext);
-    /* (alpha >= 0: without surfaces lo is ac) */
     const double ac = alpha > 0.0 ? alpha : 0.0, hp = 1.0 - alpha;
-    double lo = ac, hi = 1.0 - alpha;
-    int corner = 1, flat_dead;
+    double lo = alpha, hi = 1.0 - alpha;
+    int corner = 1;
     if (surfaces) { /* (as try_master: a contact surface's ends, docs/model.md §13) */
         const unsigned f = env->surf_flag[j];
         if (!(f & NTS_SF_PREV)) {
@@ -674,14 +673,10 @@ static inline NTS_ALWAYS_INLINE int kept_dead(const search_env* env, double mu, 
         }
         if (!(f & NTS_SF_NEXT)) hi = 1.0 + ext;
     }
-    {
-        /* the two tests about alpha, on either side, share their terms */
-        const double fa = p - ac * L2, ma = (2.0 * mu * stays_ra(D, E, m->len, ac, slack) + cb) * (1.0 + 1e-9);
-        flat_dead = param_stays(p, L2, hi, 1.0, stays_ra(D, E, m->len, hi, slack), mu, cb) |
-                    (surfaces ? param_stays(p, L2, lo, -1.0, stays_ra(D, E, m->len, lo, slack), mu, cb) : -fa > ma);
-        if (!flat_dead) return 0;
-        if (!corner || fa > ma) return 1;
-    }
+    if (!(param_stays(p, L2, hi, 1.0, stays_ra(D, E, m->len, hi, slack), mu, cb) |
+          param_stays(p, L2, lo, -1.0, stays_ra(D, E, m->len, lo, slack), mu, cb)))
+        return 0; /* a flat may offer */
+    if (!corner || param_stays(p, L2, ac, 1.0, stays_ra(D, E, m->len, ac, slack), mu, cb)) return 1;
     {
         /* the previous segment's record only now (it may be out of cache) */
         const seg_data* sp = &env->seg[m->prev];
