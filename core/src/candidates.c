@@ -86,7 +86,7 @@ int nts_kept_valid(nts_candidates* kc, const nts_scene* s, double moved, double 
      * round-off allowance of reach_allowed). */
     need = (r + kc->factor * kc->moved) * (1.0 + 1e-9) + kc->pad + pad;
     /* (and no farther than the inner lists were pruned for, eq. (32)) */
-    return need <= kc->inner && kc->moved <= kc->hold;
+    return need <= kc->inner && kc->moved <= kept_hold(kc);
 }
 
 double nts_kept_shift(const nts_candidates* kc, double pad) {
@@ -143,7 +143,6 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
     /* Eq. (29): the slave and the master's middle each move at most `moved`,
      * and its reach grows at most (1 + 2 ext + 2 alpha) moved. */
     kc->factor = 3.0 + 2.0 * ext + 2.0 * alpha_max;
-    kc->hold = kc->skin / kc->factor;
     kc->pruned = 0;
     kc->moved = 0.0;
     /* Eq. (30): a widened search around e asks for at most r plus its

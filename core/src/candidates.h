@@ -31,12 +31,6 @@ struct nts_candidates {
      * of the frame, and the factor of the largest displacement in the test
      * of validity (eq. (29)). */
     double r, skin, inner, outer, pad, factor;
-    /* The largest displacement the lists hold for, skin / factor: a master
-     * that can offer nothing at any positions within it of the build's is
-     * kept out of the inner ring (eq. (32)), so the lists also end when
-     * some node moves farther (were the search radius to shrink, eq. (29)
-     * alone would allow more). */
-    double hold;
     /* Per surface entry, the radius of its list's outer ring (eq. (30)):
      * inner + its longer segment (at least r, at most 4 r) + 2 skin / factor,
      * enough for the widened searches that ask for it; outer the largest. */
@@ -98,6 +92,13 @@ int nts_kept_ahead(nts_candidates* kc, int surface_count);
 void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds);
 /* key_base for the `count` keys of the build's cells (their frame's `scale`). */
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale);
+
+/* The largest displacement the lists hold for, skin / factor: a master
+ * that can offer nothing at any positions within it of the build's is kept
+ * out of the inner ring (eq. (32)), so the lists also end when some node
+ * moves farther (were the search radius to shrink, eq. (29) alone would
+ * allow more). */
+static inline double kept_hold(const nts_candidates* kc) { return kc->skin / kc->factor; }
 
 static inline const int* kept_lo(const nts_candidates* kc) { return kc->span; }
 static inline const int* kept_mid(const nts_candidates* kc) { return kc->span + kc->surface_count; }

@@ -699,7 +699,7 @@ static inline NTS_ALWAYS_INLINE int kept_prune(const search_env* env, nts_candid
     int* mid = kc->span + env->s->surface_count;
     const nts_vec2 xs = env->seg[i].p;
     /* (the largest displacement the lists hold for, with the frame's round-off) */
-    const double mu = kc->hold * (1.0 + 1e-9) + 2.0 * kc->pad, slack = 2.0 * kc->pad;
+    const double mu = kept_hold(kc) * (1.0 + 1e-9) + 2.0 * kc->pad, slack = 2.0 * kc->pad;
     const int lo = kc->span[i], n = mid[i] - lo;
     int gone[KEPT_PRUNE], q, alive = lo, dead = 0;
     if (n > KEPT_PRUNE) return 0; /* (a slave among more masters than that: kept as they are) */
