@@ -48,25 +48,26 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from shapely_peer import read_scene  # noqa: E402
 
 
-def ours_contacts(path):
-    """Our active contacts from the scene header's seventh field, or "" when absent."""
+def header_field(path, k, kind, absent):
+    """Field k (0-based) of the scene file's header as `kind`, or `absent` when the header is shorter."""
     with open(path) as f:
         head = f.readline().split()
-    return int(head[6]) if len(head) > 6 else ""
+    return kind(head[k]) if len(head) > k else absent
+
+
+def ours_contacts(path):
+    """Our active contacts from the scene header's seventh field, or "" when absent."""
+    return header_field(path, 6, int, "")
 
 
 def ours_kept(path):
     """Our ns per node of a solver's step with a kept list (the header's eighth field), or None."""
-    with open(path) as f:
-        head = f.readline().split()
-    return float(head[7]) if len(head) > 7 else None
+    return header_field(path, 7, float, None)
 
 
 def ours_kept_mean(path):
     """The mean of the same steps, the list's builds included (the ninth field), or None."""
-    with open(path) as f:
-        head = f.readline().split()
-    return float(head[8]) if len(head) > 8 else None
+    return header_field(path, 8, float, None)
 
 
 def step_packing(bodies, steps=6, dt=1e-3):
