@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "candidates.h"
+#include "masters.h"
 
 nts_candidates* nts_candidates_create(double skin) {
     nts_candidates* kc = (nts_candidates*)nts_alloc(sizeof *kc);
@@ -51,7 +52,7 @@ size_t nts_candidates_bytes(const nts_candidates* kc) {
     if (kc == NULL) return 0;
     n = sizeof *kc + (size_t)kc->x_cap * sizeof(nts_vec2) + (size_t)kc->span_cap * sizeof(int) +
         (size_t)kc->chunk_slots * (sizeof(int*) + 2 * sizeof(int)) + (size_t)kc->ring_cap * sizeof(double) +
-        (size_t)kc->key_base_cap * sizeof(double);
+        (size_t)kc->key_base_cap * sizeof(float);
     for (c = 0; c < kc->chunk_slots; ++c) n += (size_t)kc->chunk_cap[c] * sizeof(int);
     return n;
 }
@@ -219,8 +220,17 @@ void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds) {
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale) {
     const double outer = kc->outer * scale;
     int e;
-    if (nts_grow((void**)&kc->key_base, &kc->key_base_cap, count > 0 ? count : 1, sizeof(double)) != NTS_OK)
+    if (nts_grow((void**)&kc->key_base, &kc->key_base_cap, count + KEY_PAD, sizeof(float)) != NTS_OK)
         return NTS_ENOMEM;
-    for (e = 0; e < count; ++e) kc->key_base[e] = sqrt((double)reach2[e]) - outer + 1e-6;
+    /* The slack covers the round-off of the test that reads these
+     * (search.c, ring_keys), in float in the keys' frame (|values| <= 2, a
+     * radius at most 1): the slave's coordinates rounded to float (2^-21 an
+     * axis, as the keys' own: masters.c), a base and a radius rounded to
+     * float and added (3 2^-24 relative), and the squares and their sums
+     * (3 2^-24 relative): at most about 1.5e-6 on a distance of at most 2.
+     * 4e-6 covers it with room; a key that the exact test would not keep
+     * costs a try, never an answer. */
+    for (e = 0; e < count; ++e) kc->key_base[e] = (float)(sqrt((double)reach2[e]) - outer + 4e-6);
+    for (e = count; e < count + KEY_PAD; ++e) kc->key_base[e] = -1.0f; /* read 4 at a time, never kept */
     return NTS_OK;
 }

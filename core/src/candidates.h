@@ -49,7 +49,7 @@ struct nts_candidates {
     int* chunk_cap;
     int* chunk_used;
     int chunk_slots;
-    double* key_base;          /* per master key of the build's cells: sqrt(reach2) - outer (scaled) + 1e-6 */
+    float* key_base;           /* per master key of the build's cells: sqrt(reach2) - outer (scaled) + slack */
     int key_base_cap;
     long long evaluations, builds, cell_builds, kept;
     long long pruned;          /* of kept, those the last build's replay moved out of the inner lists */
@@ -90,7 +90,8 @@ void nts_kept_drop(nts_candidates* kc);
  * no result: the same masters are tried in the same order either way. */
 int nts_kept_ahead(nts_candidates* kc, int surface_count);
 void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds);
-/* key_base for the `count` keys of the build's cells (their frame's `scale`). */
+/* key_base for the `count` keys of the build's cells (their frame's `scale`),
+ * and KEY_PAD more past them (masters.h), never kept. */
 int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale);
 
 /* The largest displacement the lists hold for, skin / factor: a master

@@ -779,44 +779,108 @@ static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts
     return dist <= reach_allowed(reach, ring, kc->pad);
 }
 
-/* kept_ring from master key e, for a slave at (fx, fy) in the keys' frame
- * (masters.h), with the inner radius and the slave's ring in that frame:
- * the key's reach is the cells' radius (kc->outer) plus the master's reach,
- * widened, so the master's own reach plus either radius is the key's less
- * the difference: base[e] (nts_kept_key_bases), with 1e-6 (the frame is
- * [0, 1]) for the floats' round-off. Reads no segment data (scattered over
- * memory), takes no square root: a master kept that the exact test would
- * not keep costs a try, never an answer. */
-static inline int kept_ring_key(const master_keys* keys, const double* base, int e, float fx, float fy,
-                                double inner, double ring) {
-    const double dx = (double)fx - (double)keys->x[e], dy = (double)fy - (double)keys->y[e], d2 = dx * dx + dy * dy;
-    const double ri = base[e] + inner, ro = base[e] + ring; /* (ri <= ro, so the first test implies the second) */
-    return ((ri >= 0.0) & (d2 <= ri * ri)) + ((ro >= 0.0) & (d2 <= ro * ro)); /* (no branch: it is hard to predict) */
+/* kept_ring from the keys [e0, e1) of a stencil's range, for a slave at
+ * (fx, fy) in the keys' frame (masters.h), with the inner radius and the
+ * slave's ring in that frame: a key's reach is the cells' radius
+ * (kc->outer) plus the master's reach, widened, so the master's own reach
+ * plus either radius is the key's less the difference: base[e]
+ * (nts_kept_key_bases, with an allowance for the round-off of this test in
+ * float). Reads no segment data (scattered over memory), takes no square
+ * root, and decides without a branch (whether a master is kept, and in which
+ * ring, is hard to predict): a master kept that the exact test would not
+ * keep costs a try, never an answer. The keys (not their entries) within
+ * the inner radius are appended at in[*ni], those within the ring alone at
+ * out[*no], each in key order; a slave's own body's keys are passed (but a
+ * body that meets itself: own0 = own1 = 0). Each side is written 4 lanes at
+ * a time, so both need 4 places past what they keep. */
+#if defined(__SSE2__)
+static inline NTS_ALWAYS_INLINE void ring4(const master_keys* k, const float* base, __m128 vx, __m128 vy, __m128 vin,
+                                           __m128 vring, const own_range* o, int e, int* in, int* ni, int* out,
+                                           int* no) {
+    const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
+    const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
+    const __m128 b = _mm_loadu_ps(base + e), zero = _mm_setzero_ps();
+    const __m128 ri = _mm_add_ps(b, vin), ro = _mm_add_ps(b, vring);
+    const __m128 wi = _mm_and_ps(_mm_cmpge_ps(ri, zero), _mm_cmple_ps(d2, _mm_mul_ps(ri, ri)));
+    const __m128 wo = _mm_and_ps(_mm_cmpge_ps(ro, zero), _mm_cmple_ps(d2, _mm_mul_ps(ro, ro)));
+    const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
+    const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
+    const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
+    const __m128 valid = _mm_castsi128_ps(_mm_andnot_si128(own, _mm_cmplt_epi32(at, o->vend)));
+    const int mi = _mm_movemask_ps(_mm_and_ps(wi, valid)), mo = _mm_movemask_ps(_mm_andnot_ps(wi, _mm_and_ps(wo, valid)));
+    const __m128i ve = _mm_set1_epi32(e);
+    _mm_storeu_si128((__m128i*)(void*)(in + *ni),
+                     _mm_add_epi32(ve, _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mi])));
+    _mm_storeu_si128((__m128i*)(void*)(out + *no),
+                     _mm_add_epi32(ve, _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mo])));
+    *ni += KEEP_COUNT[mi];
+    *no += KEEP_COUNT[mo];
 }
 
-/* Append master j in `ring` (0: not kept) to the slave's list, buf[from ..
- * *at), the inner ones first (up to *inner), in room already there for it
- * (buf[*at] may be written). Without a branch (whether a master is kept, and
- * in which ring, is hard to predict): j appended, then swapped with the first
- * outer one when inner (a mask of every bit); a master in neither is written
- * past the list's end and left there. */
-static inline void kept_push(int* buf, int* at, int* inner, int j, int ring) {
-    const int m = -(ring >> 1);
-    int v;
-    buf[*at] = j;
-    v = buf[*inner];
-    buf[*at] = (v & m) | (j & ~m);
-    buf[*inner] = (j & m) | (v & ~m);
-    *at += ring != 0;
-    *inner -= m;
+static inline NTS_ALWAYS_INLINE void ring_keys(const master_keys* k, const float* base, float fx, float fy, float inner,
+                                               float ring, int own0, int own1, int e0, int e1, int* in, int* ni,
+                                               int* out, int* no) {
+    const __m128 vx = _mm_set1_ps(fx), vy = _mm_set1_ps(fy), vin = _mm_set1_ps(inner), vring = _mm_set1_ps(ring);
+    own_range o;
+    int e;
+    o.vlo = _mm_set1_epi32(own0 - 1);
+    o.vhi = _mm_set1_epi32(own1);
+    o.vend = _mm_set1_epi32(e1);
+    for (e = e0; e < e1; e += 4) ring4(k, base, vx, vy, vin, vring, &o, e, in, ni, out, no);
 }
+#else
+static inline void ring_keys(const master_keys* k, const float* base, float fx, float fy, float inner, float ring,
+                             int own0, int own1, int e0, int e1, int* in, int* ni, int* out, int* no) {
+    int e;
+    for (e = e0; e < e1; ++e) {
+        const float dx = fx - k->x[e], dy = fy - k->y[e], d2 = dx * dx + dy * dy;
+        const float ri = base[e] + inner, ro = base[e] + ring;
+        const int other = k->entry[e] < own0 || k->entry[e] >= own1;
+        const int wi = other & (ri >= 0.0f) & (d2 <= ri * ri), wo = other & !wi & (ro >= 0.0f) & (d2 <= ro * ro);
+        in[*ni] = e;
+        out[*no] = e;
+        *ni += wi;
+        *no += wo;
+    }
+}
+#endif
 
-/* kept_push, growing the list's room first when needed. */
+/* Master j in `ring` (kept_ring: 0, not kept) appended to a slave's list,
+ * buf[from .. *at), the inner ones first (up to *inner), growing its room
+ * when needed: j appended, then swapped with the first outer one when inner
+ * (the lists' order decides no answer). */
 static inline int kept_add(int** buf, int* cap, int* at, int* inner, int j, int ring) {
+    if (ring == 0) return NTS_OK;
     if (*at >= *cap && nts_grow((void**)buf, cap, *at + 1, sizeof(int)) != NTS_OK) return NTS_ENOMEM;
-    kept_push(*buf, at, inner, j, ring);
+    (*buf)[*at] = j;
+    if (ring == 2) {
+        (*buf)[*at] = (*buf)[*inner];
+        (*buf)[(*inner)++] = j;
+    }
+    ++*at;
     return NTS_OK;
 }
+
+#ifndef NDEBUG
+/* (asserts on) ring_keys keeps every master of another body in the
+ * stencil that the exact test keeps (kept_ring), in the inner part (the
+ * list's first ni) when that test says inner. */
+static void kept_check(const search_env* env, const nts_candidates* kc, int i, const nts_stencil* st, int own0,
+                       int own1, const int* list, int ni, int no, const int periodic) {
+    int q, e, k;
+    for (q = 0; q < st->n; ++q)
+        for (e = st->begin[q]; e < st->end[q]; ++e) {
+            const int j = env->keys->entry[e];
+            const int want = j >= own0 && j < own1 ? 0 : kept_ring(env, kc, env->seg[i].p, kc->ring[i], j, periodic);
+            int at = -1;
+            for (k = 0; k < ni + no && at < 0; ++k)
+                if (list[k] == j) at = k;
+            assert(want == 0 || (at >= 0 && (want == 1 || at < ni)));
+            (void)want;
+            (void)at;
+        }
+}
+#endif
 
 static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_candidates* kc, int c, const int periodic,
                                                  const int surfaces) {
@@ -827,7 +891,6 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
     int* lo = kc->span;
     int* mid = kc->span + s->surface_count;
     int* hi = kc->span + 2 * s->surface_count;
-    int kept[KEPT];
     nts_stencil st;
     int last_cell = -1, i, q, at = 0;
     st.n = 0;
@@ -836,30 +899,34 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
         const int own0 = self ? 0 : s->loop_start[s->body_loop_start[bi]];
         const int own1 = self ? 0 : s->loop_start[s->body_loop_start[bi + 1]];
         const nts_vec2 xs = env->seg[i].p;
-        const double inner_s = kc->inner * cl->scale, ring_s = kc->ring[i] * cl->scale;
+        const float inner_s = (float)(kc->inner * cl->scale), ring_s = (float)(kc->ring[i] * cl->scale);
         nts_cell_place p;
-        int inner = at, e0;
+        int inner = at, ni = 0, no = 0, stage, k;
+        int* buf;
         lo[i] = mid[i] = at;
         hi[i] = -1;
         if (s->body_role[bi] == NTS_ROLE_MASTER || (surfaces && !(env->surf_flag[i] & NTS_SF_NODE))) continue;
         p = nts_cells_place(cl, xs);
         slave_stencil(cl, p, &st, &last_cell);
-        for (q = 0; q < st.n; ++q) {
-            const float fx = (float)(p.x * cl->scale - st.shift_x[q]), fy = (float)(p.y * cl->scale - st.shift_y[q]);
-            for (e0 = st.begin[q]; e0 < st.end[q];) {
-                const int e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
-                const int n = near_keys(keys, fx, fy, own0, own1, e0, e1, kept);
-                int k;
-                /* the room for the range's masters, asked for once */
-                if (at + n >= kc->chunk_cap[c] &&
-                    nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], at + n + 1, sizeof(int)) != NTS_OK)
-                    return NTS_ENOMEM;
-                for (k = 0; k < n; ++k)
-                    kept_push(kc->chunk[c], &at, &inner, keys->entry[kept[k]],
-                              kept_ring_key(keys, kc->key_base, kept[k], fx, fy, inner_s, ring_s));
-                e0 = e1;
-            }
-        }
+        /* The inner ones from `at` on, the ring's staged past room for all
+         * the stencil's keys, then moved after them (each side 4 past). */
+        stage = at + st.keys + 4;
+        if (stage + st.keys + 4 >= kc->chunk_cap[c] &&
+            nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], stage + st.keys + 5, sizeof(int)) != NTS_OK)
+            return NTS_ENOMEM;
+        buf = kc->chunk[c];
+        for (q = 0; q < st.n; ++q)
+            ring_keys(keys, kc->key_base, (float)(p.x * cl->scale - st.shift_x[q]),
+                      (float)(p.y * cl->scale - st.shift_y[q]), inner_s, ring_s, own0, own1, st.begin[q], st.end[q],
+                      buf + at, &ni, buf + stage, &no);
+        /* keys to entries: the inner ones in place, the ring's moved */
+        for (k = 0; k < ni; ++k) buf[at + k] = keys->entry[buf[at + k]];
+        for (k = 0; k < no; ++k) buf[at + ni + k] = keys->entry[buf[stage + k]];
+#ifndef NDEBUG
+        kept_check(env, kc, i, &st, own0, own1, buf + at, ni, no, periodic);
+#endif
+        inner = at + ni;
+        at += ni + no;
         if (env->long_start != NULL) {
             int e;
             for (e = env->long_start[last_cell]; e < env->long_start[last_cell + 1]; ++e) {
