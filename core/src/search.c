@@ -755,8 +755,10 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
                 NTS_PREFETCH(&env->seg[ahead[k] - (ahead[k] > 0)]);
             }
         }
-        for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
+        /* (at the build: first out of the inner list what cannot offer,
+         * there at any positions the list holds for, so here too) */
         if (env->kept_prune != NULL) w->pruned += kept_prune(env, env->kept_prune, i, periodic, surfaces);
+        for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else {
