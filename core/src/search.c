@@ -690,9 +690,9 @@ static inline NTS_ALWAYS_INLINE int kept_dead(const search_env* env, double mu, 
 enum { KEPT_PRUNE = 64 };
 /* Slave i's inner masters that offer nothing while the list holds go to
  * the outer ring, which only the widened searches read (eq. (32)): done by
- * the build's own replay, right after it tried them (their records in
- * cache). The order of the tries decides nothing (try_master). Returns how
- * many went. */
+ * the build's own replay, just before it tries those left (their records
+ * then in cache). The order of the tries decides nothing (try_master).
+ * Returns how many went. */
 static inline NTS_ALWAYS_INLINE int kept_prune(const search_env* env, nts_candidates* kc, int i, const int periodic,
                                                const int surfaces) {
     int* buf = kc->chunk[i / KEPT_CHUNK];
@@ -809,7 +809,8 @@ static inline NTS_ALWAYS_INLINE void ring4(const master_keys* k, const float* ba
     const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
     const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
     const __m128 valid = _mm_castsi128_ps(_mm_andnot_si128(own, _mm_cmplt_epi32(at, o->vend)));
-    const int mi = _mm_movemask_ps(_mm_and_ps(wi, valid)), mo = _mm_movemask_ps(_mm_andnot_ps(wi, _mm_and_ps(wo, valid)));
+    const int mi = _mm_movemask_ps(_mm_and_ps(wi, valid));
+    const int mo = _mm_movemask_ps(_mm_andnot_ps(wi, _mm_and_ps(wo, valid)));
     const __m128i ve = _mm_set1_epi32(e);
     _mm_storeu_si128((__m128i*)(void*)(in + *ni),
                      _mm_add_epi32(ve, _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mi])));
