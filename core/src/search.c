@@ -11,6 +11,7 @@
  * (masters.c) that it keeps every master the second could accept, so the
  * result is that of trying every master, bit for bit. */
 #include <math.h>
+#include <string.h>
 
 #include "corner.h"
 #include "reach.h"
@@ -792,8 +793,8 @@ static inline int kept_ring(const search_env* env, const nts_candidates* kc, nts
  * ring, is hard to predict): a master kept that the exact test would not
  * keep costs a try, never an answer. The keys (not their entries) within
  * the inner radius are appended at in[*ni], those within the ring alone at
- * out[*no], each in key order; a slave's own body's keys are passed (but a
- * body that meets itself: own0 = own1 = 0). Each side is written 4 lanes at
+ * out[*no], each in key order; a slave's own body's keys are left out (but
+ * a body that meets itself: own0 = own1 = 0). Each side is written 4 lanes at
  * a time, so both need 4 places past what they keep. */
 #if defined(__SSE2__)
 static inline NTS_ALWAYS_INLINE void ring4(const master_keys* k, const float* base, __m128 vx, __m128 vy, __m128 vin,
@@ -867,7 +868,8 @@ static inline int kept_add(int** buf, int* cap, int* at, int* inner, int j, int 
 #ifndef NDEBUG
 /* (asserts on) ring_keys keeps every master of another body in the
  * stencil that the exact test keeps (kept_ring), in the inner part (the
- * list's first ni) when that test says inner. */
+ * list's first ni) when that test says inner. It costs the stencil's keys
+ * times the list's length a slave: for the asserts-on builds alone. */
 static void kept_check(const search_env* env, const nts_candidates* kc, int i, const nts_stencil* st, int own0,
                        int own1, const int* list, int ni, int no, const int periodic) {
     int q, e, k;
@@ -885,8 +887,28 @@ static void kept_check(const search_env* env, const nts_candidates* kc, int i, c
 }
 #endif
 
-static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_candidates* kc, int c, const int periodic,
-                                                 const int surfaces) {
+/* A slave's ring masters, held until its inner ones are all written: on
+ * the stack, and past that on the heap (given back when the chunk is done).
+ * It grows with what is kept, never with the stencil's keys. */
+typedef struct kept_stage {
+    int* p;
+    int cap;
+    int local[512];
+} kept_stage;
+
+static int stage_room(kept_stage* sg, int need) {
+    int* p;
+    if (need <= sg->cap) return NTS_OK;
+    if (sg->p != sg->local) return nts_grow((void**)&sg->p, &sg->cap, need, sizeof(int));
+    if ((p = (int*)nts_alloc(sizeof(int) * (size_t)need * 2)) == NULL) return NTS_ENOMEM;
+    memcpy(p, sg->local, sizeof sg->local);
+    sg->p = p;
+    sg->cap = need * 2;
+    return NTS_OK;
+}
+
+static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_candidates* kc, int c, kept_stage* sg,
+                                                 const int periodic, const int surfaces) {
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
     const master_keys* keys = env->keys;
@@ -904,27 +926,37 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
         const nts_vec2 xs = env->seg[i].p;
         const float inner_s = (float)(kc->inner * cl->scale), ring_s = (float)(kc->ring[i] * cl->scale);
         nts_cell_place p;
-        int inner = at, ni = 0, no = 0, stage, k;
+        int inner = at, ni = 0, no = 0, k;
         int* buf;
         lo[i] = mid[i] = at;
         hi[i] = -1;
         if (s->body_role[bi] == NTS_ROLE_MASTER || (surfaces && !(env->surf_flag[i] & NTS_SF_NODE))) continue;
         p = nts_cells_place(cl, xs);
         slave_stencil(cl, p, &st, &last_cell);
-        /* The inner ones from `at` on, the ring's staged past room for all
-         * the stencil's keys, then moved after them (each side 4 past). */
-        stage = at + st.keys + 4;
-        if (stage + st.keys + 4 >= kc->chunk_cap[c] &&
-            nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], stage + st.keys + 5, sizeof(int)) != NTS_OK)
+        /* The inner ones from `at` on, the ring's staged, then put after
+         * them; the room asked for a batch of keys at a time (each side 4
+         * past what it keeps), so that it follows what is kept. */
+        for (q = 0; q < st.n; ++q) {
+            const float fx = (float)(p.x * cl->scale - st.shift_x[q]), fy = (float)(p.y * cl->scale - st.shift_y[q]);
+            int e0, e1;
+            for (e0 = st.begin[q]; e0 < st.end[q]; e0 = e1) {
+                e1 = st.end[q] - e0 > KEPT - 4 ? e0 + KEPT - 4 : st.end[q];
+                if ((at + ni + (e1 - e0) + 4 >= kc->chunk_cap[c] &&
+                     nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], at + ni + (e1 - e0) + 5, sizeof(int)) !=
+                         NTS_OK) ||
+                    stage_room(sg, no + (e1 - e0) + 4) != NTS_OK)
+                    return NTS_ENOMEM;
+                ring_keys(keys, kc->key_base, fx, fy, inner_s, ring_s, own0, own1, e0, e1, kc->chunk[c] + at, &ni, sg->p,
+                          &no);
+            }
+        }
+        if (at + ni + no >= kc->chunk_cap[c] &&
+            nts_grow((void**)&kc->chunk[c], &kc->chunk_cap[c], at + ni + no + 1, sizeof(int)) != NTS_OK)
             return NTS_ENOMEM;
+        /* keys to entries */
         buf = kc->chunk[c];
-        for (q = 0; q < st.n; ++q)
-            ring_keys(keys, kc->key_base, (float)(p.x * cl->scale - st.shift_x[q]),
-                      (float)(p.y * cl->scale - st.shift_y[q]), inner_s, ring_s, own0, own1, st.begin[q], st.end[q],
-                      buf + at, &ni, buf + stage, &no);
-        /* keys to entries: the inner ones in place, the ring's moved */
         for (k = 0; k < ni; ++k) buf[at + k] = keys->entry[buf[at + k]];
-        for (k = 0; k < no; ++k) buf[at + ni + k] = keys->entry[buf[stage + k]];
+        for (k = 0; k < no; ++k) buf[at + ni + k] = keys->entry[sg->p[k]];
 #ifndef NDEBUG
         kept_check(env, kc, i, &st, own0, own1, buf + at, ni, no, periodic);
 #endif
@@ -952,9 +984,17 @@ static inline NTS_ALWAYS_INLINE int kept_collect(const search_env* env, nts_cand
 
 int nts_kept_collect(const search_env* env, nts_candidates* kc, int c) {
     const int periodic = env->lx > 0.0 || env->ly > 0.0;
+    kept_stage sg;
+    int rc;
     assert(env->cells != NULL);
-    if (env->surf_flag != NULL) return periodic ? kept_collect(env, kc, c, 1, 1) : kept_collect(env, kc, c, 0, 1);
-    return periodic ? kept_collect(env, kc, c, 1, 0) : kept_collect(env, kc, c, 0, 0);
+    sg.p = sg.local;
+    sg.cap = (int)(sizeof sg.local / sizeof sg.local[0]);
+    if (env->surf_flag != NULL)
+        rc = periodic ? kept_collect(env, kc, c, &sg, 1, 1) : kept_collect(env, kc, c, &sg, 0, 1);
+    else
+        rc = periodic ? kept_collect(env, kc, c, &sg, 1, 0) : kept_collect(env, kc, c, &sg, 0, 0);
+    if (sg.p != sg.local) nts_free(sg.p);
+    return rc;
 }
 
 /* Brute force (for tests): every master of every other body, culled only by
