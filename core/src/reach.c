@@ -177,7 +177,7 @@ static int hull_small(const search_env* env, int k, int b, double nx, double ny)
 
 static int outside_hull(const search_env* env, nts_reach* r, int k, int b, double nx, double ny) {
     const int v = hull_small(env, k, b, nx, ny);
-    return v != HULL_UNKNOWN ? v : nts_outside_circle(env, r->shape, b, env->seg[k].p);
+    return v != HULL_UNKNOWN ? v : nts_outside_bounds(env, r->shape, b, env->seg[k].p);
 }
 
 /* ----------------------------------------------------------- the pairs */
@@ -363,7 +363,11 @@ static void body_cells(const search_env* env, double* shape, int b, int* cx0, in
     const nts_cells* cl = env->cells;
     const double* c = nts_body_shape(env, shape, b);
     const nts_cell_place q = nts_cells_place(cl, s->pos[s->body_node_start[b]]);
-    const double pad = 2.0 * env->wide_pad;
+    /* More than nts_outside_bounds allows (a contact surface's ends reach
+     * ext L_max past the nodes, and the round-off): the cells listed hold
+     * every point that test lets in, and it decides. */
+    const double pad = 4.0 * env->wide_pad + env->ext * env->wide_lmax +
+                       1e-8 * (fabs(c[4]) + fabs(c[5]) + fabs(c[6]) + fabs(c[7]));
     *ncx = grid_span(q.x + c[4] - pad, q.x + c[5] + pad, cl->inv_hx, cl->nx, cl->periodic, cx0);
     *ncy = grid_span(q.y + c[6] - pad, q.y + c[7] + pad, cl->inv_hy, cl->ny, cl->periodic, cy0);
 }
@@ -459,7 +463,7 @@ static int coarse(nts_context* ctx, search_env* env, worker* w, int i, double l)
             for (k = r->grid_start[cell]; k < r->grid_start[cell + 1] && rc == NTS_OK; ++k) {
                 const int b = r->grid_items[k];
                 double rb;
-                if ((b == own && !self_body(env, own)) || nts_outside_circle(env, r->shape, b, env->seg[i].p)) continue;
+                if ((b == own && !self_body(env, own)) || nts_outside_bounds(env, r->shape, b, env->seg[i].p)) continue;
                 rb = nts_body_shape(env, r->shape, b)[3];
                 rb = (rb < rho ? rb : rho) * (1.0 + 1e-9) + env->wide_pad;
                 nts_search_wide(env, w, i, b, rb, NULL);

@@ -68,10 +68,10 @@ size_t nts_reach_memory_bytes(const nts_reach* r);
 /* shape.c: body b's shape, once per evaluation (shape[SHAPE b + 3] < 0
  * until then): a circle around its nodes, centre relative to its first node
  * and radius squared, the deepest a point inside can lie below its surface,
- * and its bounding box. A point outside the circle is outside the body
- * (nts_outside_circle). */
+ * and its bounding box. A point outside the circle or the box is outside
+ * the body (nts_outside_bounds). */
 const double* nts_body_shape(const search_env* env, double* shape, int b);
-int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x);
+int nts_outside_bounds(const search_env* env, double* shape, int b, nts_vec2 x);
 void nts_reach_free(nts_reach* r);
 
 #endif

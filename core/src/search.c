@@ -1134,7 +1134,7 @@ static inline NTS_ALWAYS_INLINE void wide_try(const search_env* env, worker* w, 
         return;
     if (body < 0) {
         const double depth = nts_body_shape(env, shape, b)[3] * (1.0 + 1e-9) + env->wide_pad; /* with round-off */
-        if (nts_outside_circle(env, shape, b, xs)) return; /* outside the body: no active contact there */
+        if (nts_outside_bounds(env, shape, b, xs)) return; /* outside the body: no active contact there */
         if (depth < rb) rb = depth;
     }
     d = search_diff(env, xs, m->p, periodic);

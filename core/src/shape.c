@@ -74,15 +74,32 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
     return c;
 }
 
-/* Whether X lies outside body b's circle (allowing for the round-off of the
- * minimum images): then it is outside the body. */
-int nts_outside_circle(const search_env* env, double* shape, int b, nts_vec2 x) {
+/* Whether [q - pad, q + pad] misses [lo, hi] for every image q + k l of
+ * q (l = 0: open, the interval itself). */
+static int misses(double q, double pad, double lo, double hi, double l) {
+    double k;
+    if (!(l > 0.0)) return q + pad < lo || q - pad > hi;
+    if (hi - lo + 2.0 * pad >= l) return 0;
+    k = ceil((lo - pad - q) / l); /* the first image at or past lo - pad */
+    return q + k * l - pad > hi;
+}
+
+/* Whether X lies outside body b's circle or outside its bounding box (any
+ * image of it, in a periodic box), allowing for the round-off of the
+ * minimum images: then it is outside the body. A rule of the pair alone,
+ * which every search applies the same (the body grid of reach.c lists a
+ * body in the cells its box overlaps, and this decides): for a loop that
+ * crosses itself, whose gaps can be negative outside its hull, it is what
+ * settles such points outside, whichever search asks. */
+int nts_outside_bounds(const search_env* env, double* shape, int b, nts_vec2 x) {
     const nts_scene* s = env->s;
     const double* c = nts_body_shape(env, shape, b);
     const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
     const double dx = q.x - c[0], dy = q.y - c[1];
+    /* a contact surface's ends reach up to ext L_max past the nodes (docs/model.md §13) */
+    const double pad = env->ext * env->wide_lmax + 2.0 * env->wide_pad + 1e-9 * (fabs(q.x) + fabs(q.y));
+    if (misses(q.x, pad, c[4], c[5], s->lx) || misses(q.y, pad, c[6], c[7], s->ly)) return 1;
     if (env->ext > 0.0) {
-        /* a contact surface's ends reach up to ext L_max past the nodes (docs/model.md §13) */
         const double R = sqrt(c[2]) * (1.0 + 1e-9) + env->ext * env->wide_lmax + 2.0 * env->wide_pad;
         return dx * dx + dy * dy > R * R;
     }
