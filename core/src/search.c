@@ -286,16 +286,30 @@ typedef struct own_range {
     __m128i vlo, vhi, vend;
 } own_range;
 
+static inline NTS_ALWAYS_INLINE own_range own_range_of(int own0, int own1, int e1) {
+    own_range o;
+    o.vlo = _mm_set1_epi32(own0 - 1);
+    o.vhi = _mm_set1_epi32(own1);
+    o.vend = _mm_set1_epi32(e1);
+    return o;
+}
+
+/* The lanes of keys e .. e + 3 that are before the range's end and of
+ * another body than the slave's (all bits of a lane set). */
+static inline NTS_ALWAYS_INLINE __m128i other_lanes(const master_keys* k, const own_range* o, int e) {
+    const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
+    const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
+    const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
+    return _mm_andnot_si128(own, _mm_cmplt_epi32(at, o->vend));
+}
+
 /* Four keys from e on: append those kept to kept[n], return the new n. */
 static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m128 vy, const own_range* o, int e,
                                           int* kept, int n) {
     const __m128 dx = _mm_sub_ps(vx, _mm_loadu_ps(k->x + e)), dy = _mm_sub_ps(vy, _mm_loadu_ps(k->y + e));
     const __m128 d2 = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
-    const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
-    const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
-    const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
     const __m128i near = _mm_castps_si128(_mm_cmple_ps(d2, _mm_loadu_ps(k->reach2 + e)));
-    const __m128i in = _mm_andnot_si128(own, _mm_and_si128(near, _mm_cmplt_epi32(at, o->vend)));
+    const __m128i in = _mm_and_si128(near, other_lanes(k, o, e));
     const int mask = _mm_movemask_ps(_mm_castsi128_ps(in));
     _mm_storeu_si128((__m128i*)(void*)(kept + n),
                      _mm_add_epi32(_mm_set1_epi32(e), _mm_loadu_si128((const __m128i*)(const void*)KEEP_LANES[mask])));
@@ -308,11 +322,8 @@ static inline NTS_ALWAYS_INLINE int near4(const master_keys* k, __m128 vx, __m12
 static inline NTS_ALWAYS_INLINE int near_keys(const master_keys* k, float sx, float sy, int own0, int own1, int e0,
                                               int e1, int* kept) {
     const __m128 vx = _mm_set1_ps(sx), vy = _mm_set1_ps(sy);
-    own_range o;
+    const own_range o = own_range_of(own0, own1, e1);
     int e, n = 0;
-    o.vlo = _mm_set1_epi32(own0 - 1);
-    o.vhi = _mm_set1_epi32(own1);
-    o.vend = _mm_set1_epi32(e1);
     n = near4(k, vx, vy, &o, e0, kept, n);
     n = near4(k, vx, vy, &o, e0 + 4, kept, n);
     for (e = e0 + 8; e < e1; e += 4) n = near4(k, vx, vy, &o, e, kept, n);
@@ -806,10 +817,7 @@ static inline NTS_ALWAYS_INLINE void ring4(const master_keys* k, const float* ba
     const __m128 ri = _mm_add_ps(b, vin), ro = _mm_add_ps(b, vring);
     const __m128 wi = _mm_and_ps(_mm_cmpge_ps(ri, zero), _mm_cmple_ps(d2, _mm_mul_ps(ri, ri)));
     const __m128 wo = _mm_and_ps(_mm_cmpge_ps(ro, zero), _mm_cmple_ps(d2, _mm_mul_ps(ro, ro)));
-    const __m128i at = _mm_add_epi32(_mm_set1_epi32(e), _mm_setr_epi32(0, 1, 2, 3));
-    const __m128i entry = _mm_loadu_si128((const __m128i*)(const void*)(k->entry + e));
-    const __m128i own = _mm_and_si128(_mm_cmpgt_epi32(entry, o->vlo), _mm_cmplt_epi32(entry, o->vhi));
-    const __m128 valid = _mm_castsi128_ps(_mm_andnot_si128(own, _mm_cmplt_epi32(at, o->vend)));
+    const __m128 valid = _mm_castsi128_ps(other_lanes(k, o, e));
     const int mi = _mm_movemask_ps(_mm_and_ps(wi, valid));
     const int mo = _mm_movemask_ps(_mm_andnot_ps(wi, _mm_and_ps(wo, valid)));
     const __m128i ve = _mm_set1_epi32(e);
@@ -825,11 +833,8 @@ static inline NTS_ALWAYS_INLINE void ring_keys(const master_keys* k, const float
                                                float ring, int own0, int own1, int e0, int e1, int* in, int* ni,
                                                int* out, int* no) {
     const __m128 vx = _mm_set1_ps(fx), vy = _mm_set1_ps(fy), vin = _mm_set1_ps(inner), vring = _mm_set1_ps(ring);
-    own_range o;
+    const own_range o = own_range_of(own0, own1, e1);
     int e;
-    o.vlo = _mm_set1_epi32(own0 - 1);
-    o.vhi = _mm_set1_epi32(own1);
-    o.vend = _mm_set1_epi32(e1);
     for (e = e0; e < e1; e += 4) ring4(k, base, vx, vy, vin, vring, &o, e, in, ni, out, no);
 }
 #else

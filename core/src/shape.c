@@ -97,10 +97,11 @@ int nts_outside_bounds(const search_env* env, double* shape, int b, nts_vec2 x) 
     const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
     const double dx = q.x - c[0], dy = q.y - c[1];
     /* a contact surface's ends reach up to ext L_max past the nodes (docs/model.md §13) */
-    const double pad = env->ext * env->wide_lmax + 2.0 * env->wide_pad + 1e-9 * (fabs(q.x) + fabs(q.y));
+    const double past = env->ext * env->wide_lmax + 2.0 * env->wide_pad;
+    const double pad = past + 1e-9 * (fabs(q.x) + fabs(q.y));
     if (misses(q.x, pad, c[4], c[5], s->lx) || misses(q.y, pad, c[6], c[7], s->ly)) return 1;
     if (env->ext > 0.0) {
-        const double R = sqrt(c[2]) * (1.0 + 1e-9) + env->ext * env->wide_lmax + 2.0 * env->wide_pad;
+        const double R = sqrt(c[2]) * (1.0 + 1e-9) + past;
         return dx * dx + dy * dy > R * R;
     }
     return dx * dx + dy * dy > c[2] * (1.0 + 1e-9) + 4.0 * env->wide_pad * env->wide_pad;
