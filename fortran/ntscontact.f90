@@ -103,8 +103,8 @@ module ntscontact
 
   ! nts_default_options() gives every field its default; set what you need.
   ! `outputs` is C's unsigned: the flags fit in its 31 low bits. The pointers
-  ! (cancel, history, candidates) stay null from Fortran: this module does
-  ! not wrap friction histories or kept candidate lists.
+  ! (cancel, history, candidates) are the C library's: give ntsf_evaluate an
+  ! ntsf_history or ntsf_candidates instead (it sets them), and leave these null.
   type, bind(c), public :: nts_options
     real(c_double) :: alpha, penalty, search_radius
     integer(c_int) :: solver
@@ -173,6 +173,19 @@ module ntscontact
     integer(c_int) :: nnz, size
   end type nts_csr
 
+  ! What the evaluations did with a kept candidate list (ntsf_candidates_info):
+  ! how many used it, how many of those built it, how many needed the cells
+  ! of the deep contacts' search all the same, the largest displacement of a
+  ! node since the last build, the skin of that build, the masters it kept;
+  ! the replays that asked for the masters' lines ahead and those that did
+  ! not (a choice of speed alone), and the kept masters that the last build
+  ! moved out of the lists that replays try (docs/model.md eq. (32)).
+  type, bind(c), public :: nts_candidates_info
+    integer(c_long_long) :: evaluations, builds, cell_builds
+    real(c_double) :: moved, skin
+    integer(c_long_long) :: kept, ahead_replays, plain_replays, pruned
+  end type nts_candidates_info
+
   ! ------------------------------------------------------ the Fortran API
 
   ! One body, as nts_body_def (ntscontact.h) but with arrays and 1-based node
@@ -204,7 +217,35 @@ module ntscontact
     private
     type(c_ptr) :: scene = c_null_ptr
     type(c_ptr) :: context = c_null_ptr
+    ! The last evaluation's C result when it succeeded (its arrays are the
+    ! context's until the next evaluation): what ntsf_history_commit keeps.
+    type(nts_result) :: last
+    logical :: has_last = .false.
   end type ntsf_scene
+
+  ! A kept candidate list (a Verlet list, docs/model.md §15) for a solver's
+  ! loop of evaluations of one scene whose nodes move a little between them:
+  ! given to ntsf_evaluate (candidates=), it keeps each slave node's masters
+  ! within their reach plus a skin, and is built again only when some node
+  ! has moved far enough that it could miss one. The answer is that of an
+  ! evaluation without it, bit for bit, always; only the time differs. From
+  ! ntsf_candidates_create to ntsf_candidates_destroy (no finaliser, as
+  ! ntsf_scene); one per scene and loop.
+  type, public :: ntsf_candidates
+    private
+    type(c_ptr) :: list = c_null_ptr
+  end type ntsf_candidates
+
+  ! A friction history (docs/model.md §14): where each contact stuck.
+  ! Every evaluation given it (ntsf_evaluate, history=) is a trial from it;
+  ! ntsf_history_commit makes an evaluation's anchors the new history (an
+  ! explicit loop commits every step, an implicit one the converged
+  ! iterate). From ntsf_history_create to ntsf_history_destroy; one per
+  ! scene and sequence of steps.
+  type, public :: ntsf_history
+    private
+    type(c_ptr) :: history = c_null_ptr
+  end type ntsf_history
 
   ! A sparse matrix in compressed sparse rows, 1-based: row i holds the
   ! columns col(row_ptr(i) : row_ptr(i + 1) - 1), increasing, each once, and
@@ -235,6 +276,9 @@ module ntscontact
   public :: ntsf_scene_create, ntsf_scene_destroy, ntsf_evaluate, ntsf_update_positions
   public :: ntsf_node_count, ntsf_body_count, ntsf_strerror, ntsf_status_name, ntsf_warning_name
   public :: ntsf_error_message, ntsf_layout_ok
+  public :: ntsf_candidates_create, ntsf_candidates_destroy, ntsf_candidates_clear, ntsf_candidates_info
+  public :: ntsf_history_create, ntsf_history_destroy, ntsf_history_clear, ntsf_history_commit
+  public :: ntsf_history_count
 
   ! --------------------------------------------------------- the C library
 
@@ -352,6 +396,57 @@ module ntscontact
       integer(c_size_t) :: c_strlen
     end function c_strlen
 
+    function c_candidates_create(skin) bind(c, name="nts_candidates_create")
+      import :: c_ptr, c_double
+      real(c_double), value :: skin
+      type(c_ptr) :: c_candidates_create
+    end function c_candidates_create
+
+    subroutine c_candidates_destroy(list) bind(c, name="nts_candidates_destroy")
+      import :: c_ptr
+      type(c_ptr), value :: list
+    end subroutine c_candidates_destroy
+
+    subroutine c_candidates_clear(list) bind(c, name="nts_candidates_clear")
+      import :: c_ptr
+      type(c_ptr), value :: list
+    end subroutine c_candidates_clear
+
+    pure function c_candidates_get_info(list) bind(c, name="nts_candidates_get_info")
+      import :: c_ptr, nts_candidates_info
+      type(c_ptr), value :: list
+      type(nts_candidates_info) :: c_candidates_get_info
+    end function c_candidates_get_info
+
+    function c_history_create() bind(c, name="nts_history_create")
+      import :: c_ptr
+      type(c_ptr) :: c_history_create
+    end function c_history_create
+
+    subroutine c_history_destroy(history) bind(c, name="nts_history_destroy")
+      import :: c_ptr
+      type(c_ptr), value :: history
+    end subroutine c_history_destroy
+
+    subroutine c_history_clear(history) bind(c, name="nts_history_clear")
+      import :: c_ptr
+      type(c_ptr), value :: history
+    end subroutine c_history_clear
+
+    function c_history_commit(history, res) bind(c, name="nts_history_commit")
+      import :: c_ptr, c_int, nts_result
+      type(c_ptr), value :: history
+      type(nts_result), intent(in) :: res
+      integer(c_int) :: c_history_commit
+    end function c_history_commit
+
+    ! fortran/ntscontact_glue.c: how many anchors a history holds (0 for NULL).
+    pure function c_history_count(history) bind(c, name="ntsf_c_history_count")
+      import :: c_ptr, c_int
+      type(c_ptr), value :: history
+      integer(c_int) :: c_history_count
+    end function c_history_count
+
     ! fortran/ntscontact_glue.c: n bytes of the C string src into dest.
     pure subroutine c_copy_string(dest, src, n) bind(c, name="ntsf_c_copy_string")
       import :: c_ptr, c_char, c_size_t
@@ -441,6 +536,7 @@ contains
     if (c_associated(s%scene)) call c_scene_destroy(s%scene)
     s%context = c_null_ptr
     s%scene = c_null_ptr
+    s%has_last = .false.
   end subroutine ntsf_scene_destroy
 
   ! All nodes of all bodies (0 for an empty handle).
@@ -491,13 +587,20 @@ contains
   ! (nts_evaluate_positions): ntsf_update_positions then the evaluation, the
   ! same answer and errors, the positions checked in the evaluation's own
   ! pass over the segments; refused positions leave the scene as it was.
-  subroutine ntsf_evaluate(s, options, out, status, err, positions)
+  ! With `candidates` (created, not destroyed) the evaluation keeps or
+  ! replays that kept candidate list, and with `history` it is a trial from
+  ! that friction history (options%candidates and options%history are set
+  ! from them, in a copy of `options`).
+  subroutine ntsf_evaluate(s, options, out, status, err, positions, candidates, history)
     type(ntsf_scene), intent(inout) :: s
     type(nts_options), intent(in) :: options
     type(ntsf_output), intent(inout) :: out
     integer, intent(out) :: status
     type(nts_error), intent(out), optional :: err
     real(c_double), intent(in), optional :: positions(:, :)
+    type(ntsf_candidates), intent(inout), optional :: candidates
+    type(ntsf_history), intent(in), optional :: history
+    type(nts_options) :: o
     type(nts_result) :: r
     type(nts_error) :: e
     type(nts_warning), pointer :: w(:)
@@ -505,17 +608,27 @@ contains
     integer :: n
 
     e = no_error()
+    s%has_last = .false.
+    o = options
+    if (present(candidates)) o%candidates = candidates%list
+    if (present(history)) o%history = history%history
     if (.not. c_associated(s%scene)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no scene (ntsf_scene_create first)")
+    else if (present(candidates) .and. .not. c_associated(candidates%list)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no candidate list (ntsf_candidates_create first)")
+    else if (present(history) .and. .not. c_associated(history%history)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no history (ntsf_history_create first)")
     else if (.not. present(positions)) then
-      status = c_evaluate(s%context, s%scene, options, r, e)
+      status = c_evaluate(s%context, s%scene, o, r, e)
     else if (size(positions, 1) /= 2 .or. size(positions, 2) /= c_scene_node_count(s%scene)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "positions must be shaped (2, node_count)")
     else
-      status = c_evaluate_positions(s%context, s%scene, positions, options, r, e)
+      status = c_evaluate_positions(s%context, s%scene, positions, o, r, e)
     end if
     if (status == NTS_OK) then
       e = no_error()
+      s%last = r
+      s%has_last = .true.
       n = ntsf_node_count(s)
       out%summary = r%summary
       ! Assignment reallocates only when the shape changed (Fortran 2003).
@@ -548,6 +661,116 @@ contains
     if (status /= NTS_OK) call clear_output(out)
     if (present(err)) err = e
   end subroutine ntsf_evaluate
+
+  ! ---------------------------------------------------- kept candidates
+
+  ! An empty kept candidate list, built by the first evaluation given it.
+  ! skin: the margin beyond the search radius, a length >= 0 (absent: 0.3
+  ! times the search radius at each build, the default). A handle that held
+  ! a list gives it up first. status NTS_OK, NTS_EINVALID_ARGUMENT (a skin
+  ! that is negative, above 1e300 or not a number) or NTS_ENOMEM.
+  subroutine ntsf_candidates_create(kc, status, skin, err)
+    type(ntsf_candidates), intent(inout) :: kc
+    integer, intent(out) :: status
+    real(c_double), intent(in), optional :: skin
+    type(nts_error), intent(out), optional :: err
+    type(nts_error) :: e
+    real(c_double) :: margin
+    call ntsf_candidates_destroy(kc)
+    e = no_error()
+    margin = -1 ! C's default: 0.3 times the search radius at each build
+    status = NTS_OK
+    if (present(skin)) then
+      ! (written so that a NaN fails it too)
+      if (skin >= 0 .and. skin <= 1.0e300_c_double) then
+        margin = skin
+      else
+        status = fail(e, NTS_EINVALID_ARGUMENT, -1, "skin must be a length >= 0 and at most 1e300")
+      end if
+    end if
+    if (status == NTS_OK) then
+      kc%list = c_candidates_create(margin)
+      if (.not. c_associated(kc%list)) status = fail(e, NTS_ENOMEM, -1, "out of memory (the candidate list)")
+    end if
+    if (present(err)) err = e
+  end subroutine ntsf_candidates_create
+
+  ! The list is freed; the handle is empty (destroying an empty one does nothing).
+  subroutine ntsf_candidates_destroy(kc)
+    type(ntsf_candidates), intent(inout) :: kc
+    if (c_associated(kc%list)) call c_candidates_destroy(kc%list)
+    kc%list = c_null_ptr
+  end subroutine ntsf_candidates_destroy
+
+  ! Forget the lists (the next evaluation builds them); its counts stay.
+  subroutine ntsf_candidates_clear(kc)
+    type(ntsf_candidates), intent(inout) :: kc
+    if (c_associated(kc%list)) call c_candidates_clear(kc%list)
+  end subroutine ntsf_candidates_clear
+
+  ! What the evaluations did with the list (all zero for an empty handle).
+  pure function ntsf_candidates_info(kc) result(info)
+    type(ntsf_candidates), intent(in) :: kc
+    type(nts_candidates_info) :: info
+    info = c_candidates_get_info(kc%list) ! (C's answer for NULL: all zero)
+  end function ntsf_candidates_info
+
+  ! ---------------------------------------------------- friction history
+
+  ! An empty friction history (no contact stuck yet). A handle that held
+  ! one gives it up first. status NTS_OK or NTS_ENOMEM.
+  subroutine ntsf_history_create(h, status)
+    type(ntsf_history), intent(inout) :: h
+    integer, intent(out) :: status
+    call ntsf_history_destroy(h)
+    h%history = c_history_create()
+    status = NTS_OK
+    if (.not. c_associated(h%history)) status = NTS_ENOMEM
+  end subroutine ntsf_history_create
+
+  ! The history is freed; the handle is empty (destroying an empty one does nothing).
+  subroutine ntsf_history_destroy(h)
+    type(ntsf_history), intent(inout) :: h
+    if (c_associated(h%history)) call c_history_destroy(h%history)
+    h%history = c_null_ptr
+  end subroutine ntsf_history_destroy
+
+  ! Forget every committed anchor.
+  subroutine ntsf_history_clear(h)
+    type(ntsf_history), intent(inout) :: h
+    if (c_associated(h%history)) call c_history_clear(h%history)
+  end subroutine ntsf_history_clear
+
+  ! The anchors of scene s's last evaluation become the history
+  ! (nts_history_commit): that evaluation is the step the solver accepts.
+  ! Give it the history (history=) and friction on (options%friction > 0 or
+  ! a body's own); an evaluation without friction has no anchors, and
+  ! committing it empties the history. status NTS_OK, NTS_ENOMEM (the
+  ! history then unchanged), or NTS_EINVALID_ARGUMENT: no history, or no
+  ! successful evaluation of s since it was created or last failed.
+  subroutine ntsf_history_commit(h, s, status, err)
+    type(ntsf_history), intent(inout) :: h
+    type(ntsf_scene), intent(in) :: s
+    integer, intent(out) :: status
+    type(nts_error), intent(out), optional :: err
+    type(nts_error) :: e
+    e = no_error()
+    if (.not. c_associated(h%history)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no history (ntsf_history_create first)")
+    else if (.not. (c_associated(s%scene) .and. s%has_last)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no evaluation to commit (the scene's last one failed, or none)")
+    else
+      status = c_history_commit(h%history, s%last)
+      if (status /= NTS_OK) status = fail(e, int(status, c_int), -1, ntsf_strerror(status)//" (the history's commit)")
+    end if
+    if (present(err)) err = e
+  end subroutine ntsf_history_commit
+
+  ! How many anchors (stuck contacts) the history holds (0 for an empty handle).
+  pure integer function ntsf_history_count(h)
+    type(ntsf_history), intent(in) :: h
+    ntsf_history_count = c_history_count(h%history)
+  end function ntsf_history_count
 
   ! ------------------------------------------------------------- messages
 
@@ -598,10 +821,10 @@ contains
   ! `detail` names the first that differs. ntsf_scene_create asks first.
   logical function ntsf_layout_ok(detail)
     character(len=:), allocatable, intent(out), optional :: detail
-    character(len=*), parameter :: layout_names(14) = [character(len=13) :: &
+    character(len=*), parameter :: layout_names(15) = [character(len=19) :: &
       "nts_vec2", "nts_virial", "nts_error", "nts_limits", "nts_summary", "nts_options", &
       "nts_body_def", "nts_scene_def", "nts_triplets", "nts_warning", "nts_result", "nts_csr", &
-      "nts_role", "nts_solver"]
+      "nts_role", "nts_solver", "nts_candidates_info"]
     integer(c_size_t) :: here(size(layout_names)), there
     type(nts_vec2) :: v
     type(nts_virial) :: vi
@@ -615,11 +838,13 @@ contains
     type(nts_warning) :: w
     type(nts_result) :: r
     type(nts_csr) :: c
+    type(nts_candidates_info) :: ci
     integer(c_int) :: en
     integer :: k
 
     here = [c_sizeof(v), c_sizeof(vi), c_sizeof(e), c_sizeof(l), c_sizeof(su), c_sizeof(o), c_sizeof(bd), &
-            c_sizeof(sd), c_sizeof(t), c_sizeof(w), c_sizeof(r), c_sizeof(c), c_sizeof(en), c_sizeof(en)]
+            c_sizeof(sd), c_sizeof(t), c_sizeof(w), c_sizeof(r), c_sizeof(c), c_sizeof(en), c_sizeof(en), &
+            c_sizeof(ci)]
     ntsf_layout_ok = .true.
     if (present(detail)) detail = ""
     do k = 1, size(here)

@@ -38,6 +38,15 @@ static struct {
     nts_result res;
 } ref;
 
+/* A sequence of steps with friction (ftest_friction_step): the scene, its
+ * context and its history kept from step to step, as a solver keeps them. */
+static struct {
+    nts_scene* scene;
+    nts_context* ctx;
+    nts_history* history;
+    nts_result res;
+} fric;
+
 /* The functions the Fortran program binds to (no header: only it calls them). */
 int ftest_load(const char* path);
 int ftest_body_count(void);
@@ -52,6 +61,8 @@ void ftest_reference_triplets(int* rows, int* cols, double* values);
 int ftest_status_table(int* values, int max);
 int ftest_output_table(int* bits, int max);
 int ftest_warning_table(int* values, int max);
+int ftest_friction_step(const double* positions, double friction, int commit);
+void ftest_friction_out(double* xy, double* sums, int* counts);
 void ftest_free(void);
 
 static int refuse(const char* what, const char* name) {
@@ -222,16 +233,17 @@ void ftest_scene_options(double* alpha, double* penalty, double* search_radius, 
     *ly = file.ly;
 }
 
-/* A fresh scene of the file's bodies at `positions` (2 * node_count doubles,
- * global order; NULL: the file's own), evaluated with the file's options and
- * outputs forces, energy, virial and stiffness. Returns the status. */
-int ftest_reference(const double* positions) {
+/* A scene of the file's bodies at `positions` (2 * node_count doubles,
+ * global order; NULL: the file's own), or NULL with *err set. */
+static nts_scene* file_scene(const double* positions, nts_error* err) {
     nts_scene_def def = nts_default_scene_def();
     nts_body_def* defs = (nts_body_def*)calloc((size_t)file.body_count + 1, sizeof(nts_body_def));
-    nts_options opt = nts_default_options();
-    nts_error err;
-    int b, offset = 0, rc;
-    if (defs == NULL) return NTS_ENOMEM;
+    nts_scene* scene;
+    int b, offset = 0;
+    if (defs == NULL) {
+        err->code = NTS_ENOMEM;
+        return NULL;
+    }
     for (b = 0; b < file.body_count; ++b) {
         const file_body* fb = &file.bodies[b];
         defs[b].nodes = positions ? (const nts_vec2*)(const void*)(positions + 2 * offset) : fb->nodes;
@@ -247,10 +259,20 @@ int ftest_reference(const double* positions) {
     def.body_count = file.body_count;
     def.lx = file.lx;
     def.ly = file.ly;
-    nts_scene_destroy(ref.scene);
-    ref.scene = nts_scene_create(&def, &err);
+    scene = nts_scene_create(&def, err);
     free(defs);
-    if (ref.scene == NULL) return err.code;
+    return scene;
+}
+
+/* A fresh scene of the file's bodies at `positions` (NULL: the file's own),
+ * evaluated with the file's options and outputs forces, energy, virial and
+ * stiffness. Returns the status. */
+int ftest_reference(const double* positions) {
+    nts_options opt = nts_default_options();
+    nts_error err;
+    int rc;
+    nts_scene_destroy(ref.scene);
+    if ((ref.scene = file_scene(positions, &err)) == NULL) return err.code;
     if (ref.ctx == NULL && (ref.ctx = nts_context_create()) == NULL) return NTS_ENOMEM;
     opt.alpha = file.alpha;
     opt.penalty = file.penalty;
@@ -259,6 +281,47 @@ int ftest_reference(const double* positions) {
     rc = nts_evaluate(ref.ctx, ref.scene, &opt, &ref.res, &err);
     if (rc != NTS_OK) fprintf(stderr, "reference.c: %s: %s\n", nts_status_name(rc), err.message);
     return rc;
+}
+
+/* One step of a sequence with friction coefficient `friction`: the
+ * sequence's scene (created at the first step's positions) given
+ * `positions` and evaluated from its history (forces, energy, virial), and
+ * with `commit` the step's anchors made the history. Returns the status. */
+int ftest_friction_step(const double* positions, double friction, int commit) {
+    nts_options opt = nts_default_options();
+    nts_error err;
+    int rc;
+    if (fric.scene == NULL && (fric.scene = file_scene(positions, &err)) == NULL) return err.code;
+    if (fric.ctx == NULL && (fric.ctx = nts_context_create()) == NULL) return NTS_ENOMEM;
+    if (fric.history == NULL && (fric.history = nts_history_create()) == NULL) return NTS_ENOMEM;
+    opt.alpha = file.alpha;
+    opt.penalty = file.penalty;
+    opt.search_radius = file.search_radius;
+    opt.friction = friction;
+    opt.history = fric.history;
+    opt.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL;
+    rc = nts_evaluate_positions(fric.ctx, fric.scene, (const nts_vec2*)(const void*)positions, &opt, &fric.res, &err);
+    if (rc != NTS_OK) fprintf(stderr, "reference.c: %s: %s\n", nts_status_name(rc), err.message);
+    if (rc == NTS_OK && commit) rc = nts_history_commit(fric.history, &fric.res);
+    return rc;
+}
+
+/* The last friction step's forces, its sums (energy, dissipation, the
+ * virial's xx, yy, xy, yx) and counts (contacts, sticking, slipping, the
+ * history's anchors). */
+void ftest_friction_out(double* xy, double* sums, int* counts) {
+    const nts_summary* su = &fric.res.summary;
+    memcpy(xy, fric.res.forces, sizeof(nts_vec2) * (size_t)file.node_count);
+    sums[0] = su->energy;
+    sums[1] = su->dissipation;
+    sums[2] = su->virial.xx;
+    sums[3] = su->virial.yy;
+    sums[4] = su->virial.xy;
+    sums[5] = su->virial.yx;
+    counts[0] = su->contacts;
+    counts[1] = su->sticking;
+    counts[2] = su->slipping;
+    nts_history_anchors(fric.history, &counts[3]);
 }
 
 void ftest_reference_summary(double* energy, double* virial, int* contacts, double* max_penetration) {
@@ -331,4 +394,8 @@ void ftest_free(void) {
     nts_scene_destroy(ref.scene);
     nts_context_destroy(ref.ctx);
     memset(&ref, 0, sizeof ref);
+    nts_scene_destroy(fric.scene);
+    nts_context_destroy(fric.ctx);
+    nts_history_destroy(fric.history);
+    memset(&fric, 0, sizeof fric);
 }

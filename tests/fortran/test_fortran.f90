@@ -10,6 +10,10 @@
 !   columns increasing;
 ! - positions moved through ntsf_update_positions (a session's step), then
 !   evaluated, against a fresh C scene created at those positions;
+! - a solver's loop with a kept candidate list (ntsf_candidates): every step
+!   against a fresh C scene at its positions, the list built and replayed;
+! - a sequence of steps with friction and a history (ntsf_history) against
+!   the same sequence through the C API, and the history's effect;
 ! and the error paths: a zero-length segment, a node index out of range, a
 ! coordinate that is not a number (the scene then unchanged), positions of
 ! the wrong shape, an invalid option, a destroyed handle. Also the module's
@@ -86,6 +90,18 @@ program test_fortran
       integer(c_int), value :: max
       integer(c_int) :: ftest_warning_table
     end function ftest_warning_table
+    function ftest_friction_step(positions, friction, commit) bind(c, name="ftest_friction_step")
+      import :: c_int, c_double
+      real(c_double), intent(in) :: positions(*)
+      real(c_double), value :: friction
+      integer(c_int), value :: commit
+      integer(c_int) :: ftest_friction_step
+    end function ftest_friction_step
+    subroutine ftest_friction_out(xy, sums, counts) bind(c, name="ftest_friction_out")
+      import :: c_int, c_double
+      real(c_double), intent(out) :: xy(*), sums(6)
+      integer(c_int), intent(out) :: counts(4)
+    end subroutine ftest_friction_out
     subroutine ftest_free() bind(c, name="ftest_free")
     end subroutine ftest_free
   end interface
@@ -191,6 +207,9 @@ program test_fortran
   call check(.not. allocated(again%forces) .and. again%summary%contacts == 0, "a failed evaluation gives nothing")
   opt = options_of_file()
 
+  call check_kept(bodies, x0, n, lx, ly, out%summary%search_radius)
+  call check_friction(bodies, x0, n, lx, ly, out%summary%search_radius)
+
   call ntsf_scene_destroy(scene)
   call ntsf_scene_destroy(scene) ! twice: nothing
   call ntsf_evaluate(scene, opt, again, status)
@@ -199,7 +218,8 @@ program test_fortran
 
   if (failures == 0) write (*, fmt('(a, i0, a, i0, a, i0, a, es22.16, a)')) "fortran: ", n, " nodes, ", &
     out%summary%contacts, " contacts, tangent nnz ", size(out%tangent%val), ", energy ", out%summary%energy, &
-    ", forces, energy, virial and tangent equal to the C API bitwise, before and after an update of positions"
+    ", forces, energy, virial and tangent equal to the C API bitwise, before and after an update of positions, "// &
+    "over a kept candidate list's steps and a friction sequence's"
   call finish()
 
 contains
@@ -284,6 +304,152 @@ contains
       at = at + size(b(k)%nodes, 2)
     end do
   end function all_nodes
+
+  ! x0 moved: node i by amplitude a along a direction of its own.
+  function moved(x0, a) result(x)
+    real(c_double), intent(in) :: x0(:, :), a
+    real(c_double) :: x(size(x0, 1), size(x0, 2))
+    integer :: i
+    do i = 1, size(x0, 2)
+      x(1, i) = x0(1, i) + a * sin(1.7_c_double * i)
+      x(2, i) = x0(2, i) + a * cos(1.3_c_double * i)
+    end do
+  end function moved
+
+  ! A solver's loop with a kept candidate list: each step's answer against a
+  ! fresh C scene at its positions (compare: forces, energy, virial, contact
+  ! count, maximum penetration and tangent, bit for bit), while the list is
+  ! built, replayed over steps well within its skin, built again after a
+  ! jump past it and after a clear; and the handle's errors.
+  subroutine check_kept(b, x0, count, box_x, box_y, radius)
+    type(ntsf_body), intent(in) :: b(:)
+    real(c_double), intent(in) :: x0(:, :), box_x, box_y, radius
+    integer, intent(in) :: count
+    ! the steps' amplitudes, in search radii: 0.4% more each step (the
+    ! skin, 0.3 radii, allows about 8% between builds), then a jump of 40%
+    ! (built again), two steps from there (replayed), back to the start
+    real(c_double), parameter :: amp(10) = [0.0_c_double, 0.004_c_double, 0.008_c_double, 0.012_c_double, &
+      0.016_c_double, 0.02_c_double, 0.4_c_double, 0.404_c_double, 0.408_c_double, 0.0_c_double]
+    type(ntsf_scene) :: ks
+    type(ntsf_candidates) :: kc
+    type(ntsf_output) :: ko
+    type(nts_options) :: o
+    type(nts_error) :: e
+    type(nts_candidates_info) :: info
+    real(c_double) :: x(2, count)
+    integer :: st, k
+    character(len=2) :: tag
+
+    o = options_of_file()
+    call ntsf_scene_create(ks, b, st, lx=box_x, ly=box_y, err=e)
+    call check(st == NTS_OK, "kept: ntsf_scene_create: "//ntsf_error_message(e))
+    call ntsf_evaluate(ks, o, ko, st, e, candidates=kc)
+    call check(st == NTS_EINVALID_ARGUMENT .and. .not. allocated(ko%forces), &
+      "an empty candidate list handle: NTS_EINVALID_ARGUMENT, nothing out")
+    call ntsf_candidates_create(kc, st, skin=-1.0_c_double, err=e)
+    call check(st == NTS_EINVALID_ARGUMENT .and. e%code == NTS_EINVALID_ARGUMENT, "a negative skin is refused")
+    call ntsf_candidates_create(kc, st, skin=ieee_nan())
+    call check(st == NTS_EINVALID_ARGUMENT, "a skin that is not a number is refused")
+    call ntsf_candidates_create(kc, st)
+    call check(st == NTS_OK, "ntsf_candidates_create")
+    do k = 1, size(amp)
+      write (tag, fmt('(i2)')) k
+      x = moved(x0, amp(k) * radius)
+      call ntsf_evaluate(ks, o, ko, st, e, positions=x, candidates=kc)
+      call check(st == NTS_OK, "kept step "//tag//": "//ntsf_error_message(e))
+      call check(ftest_reference(x) == NTS_OK, "the C reference evaluates at kept step "//tag)
+      call compare(ko, count, "at kept step "//tag)
+      if (k == 6 .or. k == 9) info = ntsf_candidates_info(kc)
+      if (k == 6) call check(info%builds == 1 .and. info%evaluations == 6 .and. info%kept > 0, &
+        "the list is built once and replayed over the small steps")
+      if (k == 9) call check(info%builds == 2 .and. info%evaluations == 9, "the jump builds it again, once")
+    end do
+    info = ntsf_candidates_info(kc)
+    call check(info%builds == 3, "back to the start: built again")
+    call ntsf_candidates_clear(kc)
+    call ntsf_evaluate(ks, o, ko, st, e, positions=x, candidates=kc)
+    info = ntsf_candidates_info(kc)
+    call check(st == NTS_OK .and. info%builds == 4, "after a clear the next evaluation builds it")
+    call ntsf_candidates_destroy(kc)
+    call ntsf_candidates_destroy(kc) ! twice: nothing
+    info = ntsf_candidates_info(kc)
+    call check(info%evaluations == 0 .and. info%builds == 0, "a destroyed list's counts are zero")
+    call ntsf_evaluate(ks, o, ko, st, e, candidates=kc)
+    call check(st == NTS_EINVALID_ARGUMENT, "a destroyed candidate list: NTS_EINVALID_ARGUMENT")
+    call ntsf_scene_destroy(ks)
+  end subroutine check_kept
+
+  ! A sequence of steps with friction: the last body slides while the
+  ! others stay, each step a trial from the history and then committed, as
+  ! an explicit solver does; each step's forces, energy, dissipation,
+  ! virial and stick/slip counts against the same sequence through the C
+  ! API, bit for bit. The history must matter: from the second step on,
+  ! the same positions evaluated without it give other forces.
+  subroutine check_friction(b, x0, count, box_x, box_y, radius)
+    type(ntsf_body), intent(in) :: b(:)
+    real(c_double), intent(in) :: x0(:, :), box_x, box_y, radius
+    integer, intent(in) :: count
+    type(ntsf_scene) :: fs
+    type(ntsf_history) :: h
+    type(ntsf_output) :: fo, fresh
+    type(nts_options) :: o
+    type(nts_error) :: e
+    real(c_double) :: x(2, count), f(2, count), sums(6)
+    integer(c_int) :: counts(4)
+    integer :: st, k, first
+    character(len=2) :: tag
+
+    o = options_of_file()
+    o%outputs = ior(ior(NTS_OUT_FORCES, NTS_OUT_ENERGY), NTS_OUT_VIRIAL)
+    o%friction = 0.4_c_double
+    first = count - size(b(size(b))%nodes, 2) + 1 ! the last body's first node
+    call ntsf_scene_create(fs, b, st, lx=box_x, ly=box_y, err=e)
+    call check(st == NTS_OK, "friction: ntsf_scene_create: "//ntsf_error_message(e))
+    call ntsf_history_commit(h, fs, st, e)
+    call check(st == NTS_EINVALID_ARGUMENT, "a commit to an empty history handle: NTS_EINVALID_ARGUMENT")
+    call ntsf_history_create(h, st)
+    call check(st == NTS_OK .and. ntsf_history_count(h) == 0, "ntsf_history_create: empty")
+    call ntsf_history_commit(h, fs, st, e)
+    call check(st == NTS_EINVALID_ARGUMENT .and. len(ntsf_error_message(e)) > 0, &
+      "a commit before any evaluation: NTS_EINVALID_ARGUMENT")
+    do k = 0, 3
+      write (tag, fmt('(i2)')) k
+      x = x0
+      x(1, first:) = x0(1, first:) + 0.03_c_double * k * radius
+      x(2, first:) = x0(2, first:) + 0.02_c_double * k * radius
+      call ntsf_evaluate(fs, o, fo, st, e, positions=x, history=h)
+      call check(st == NTS_OK, "friction step "//tag//": "//ntsf_error_message(e))
+      call check(ftest_friction_step(x, o%friction, 1_c_int) == NTS_OK, "the C sequence's step "//tag)
+      call ftest_friction_out(f, sums, counts)
+      call check(allocated(fo%forces), "friction step "//tag//": forces")
+      if (.not. allocated(fo%forces)) exit
+      call check(same_bits(flat(fo%forces), flat(f)), "friction step "//tag//": forces equal C's")
+      call check(same_bits([fo%summary%energy, fo%summary%dissipation, fo%summary%virial%xx, &
+        fo%summary%virial%yy, fo%summary%virial%xy, fo%summary%virial%yx], sums), &
+        "friction step "//tag//": energy, dissipation and virial equal C's")
+      call check(fo%summary%contacts == counts(1) .and. fo%summary%sticking == counts(2) .and. &
+        fo%summary%slipping == counts(3), "friction step "//tag//": contacts, sticking and slipping equal C's")
+      call ntsf_history_commit(h, fs, st, e)
+      call check(st == NTS_OK .and. ntsf_history_count(h) == counts(4), &
+        "friction step "//tag//": committed, the anchors C's")
+      if (k >= 1) then
+        call ntsf_evaluate(fs, o, fresh, st, e, positions=x)
+        call check(st == NTS_OK .and. .not. same_bits(flat(fresh%forces), flat(fo%forces)), &
+          "friction step "//tag//": without the history, other forces (the history took)")
+      end if
+    end do
+    call check(counts(1) > 0 .and. ntsf_history_count(h) > 0, "the sequence has stuck contacts (else it says little)")
+    call ntsf_history_clear(h)
+    call check(ntsf_history_count(h) == 0, "a cleared history holds no anchor")
+    o%penalty = -1
+    call ntsf_evaluate(fs, o, fo, st, e, positions=x, history=h)
+    call ntsf_history_commit(h, fs, st, e)
+    call check(st == NTS_EINVALID_ARGUMENT, "a commit after a failed evaluation: NTS_EINVALID_ARGUMENT")
+    call ntsf_history_destroy(h)
+    call ntsf_history_destroy(h) ! twice: nothing
+    call check(ntsf_history_count(h) == 0, "a destroyed history holds no anchor")
+    call ntsf_scene_destroy(fs)
+  end subroutine check_friction
 
   ! The module's answer against the C reference's last evaluation.
   subroutine compare(o, count, where)
