@@ -278,7 +278,7 @@ module ntscontact
   public :: ntsf_error_message, ntsf_layout_ok
   public :: ntsf_candidates_create, ntsf_candidates_destroy, ntsf_candidates_clear, ntsf_candidates_info
   public :: ntsf_history_create, ntsf_history_destroy, ntsf_history_clear, ntsf_history_commit
-  public :: ntsf_history_count
+  public :: ntsf_history_count, ntsf_surface_nodes
 
   ! --------------------------------------------------------- the C library
 
@@ -358,6 +358,39 @@ module ntscontact
       type(nts_error), intent(out) :: err
       integer(c_int) :: c_evaluate_positions
     end function c_evaluate_positions
+
+    function c_evaluate_surface_positions(ctx, scene, positions, opt, res, err) &
+      bind(c, name="nts_evaluate_surface_positions")
+      import :: c_ptr, c_int, c_double, nts_options, nts_result, nts_error
+      type(c_ptr), value :: ctx, scene
+      real(c_double), intent(in) :: positions(*)
+      type(nts_options), intent(in) :: opt
+      type(nts_result), intent(out) :: res
+      type(nts_error), intent(out) :: err
+      integer(c_int) :: c_evaluate_surface_positions
+    end function c_evaluate_surface_positions
+
+    pure function c_scene_body_node_count(scene, body) bind(c, name="nts_scene_body_node_count")
+      import :: c_ptr, c_int
+      type(c_ptr), value :: scene
+      integer(c_int), value :: body
+      integer(c_int) :: c_scene_body_node_count
+    end function c_scene_body_node_count
+
+    pure function c_scene_body_loop_count(scene, body) bind(c, name="nts_scene_body_loop_count")
+      import :: c_ptr, c_int
+      type(c_ptr), value :: scene
+      integer(c_int), value :: body
+      integer(c_int) :: c_scene_body_loop_count
+    end function c_scene_body_loop_count
+
+    function c_scene_body_loop(scene, body, loop, nodes) bind(c, name="nts_scene_body_loop")
+      import :: c_ptr, c_int
+      type(c_ptr), value :: scene
+      integer(c_int), value :: body, loop
+      type(c_ptr), intent(out) :: nodes
+      integer(c_int) :: c_scene_body_loop
+    end function c_scene_body_loop
 
     function c_triplets_to_csr(t, csr, err) bind(c, name="nts_triplets_to_csr")
       import :: c_int, nts_triplets, nts_csr, nts_error
@@ -587,11 +620,15 @@ contains
   ! (nts_evaluate_positions): ntsf_update_positions then the evaluation, the
   ! same answer and errors, the positions checked in the evaluation's own
   ! pass over the segments; refused positions leave the scene as it was.
+  ! With `surface_only` .true. as well, only the loops' nodes of `positions`
+  ! are read and taken (ntsf_surface_nodes; nts_evaluate_surface_positions):
+  ! a mesh's interior nodes keep their stored positions, their entries may
+  ! hold anything, and the step costs what the surface costs.
   ! With `candidates` (created, not destroyed) the evaluation keeps or
   ! replays that kept candidate list, and with `history` it is a trial from
   ! that friction history (options%candidates and options%history are set
   ! from them, in a copy of `options`).
-  subroutine ntsf_evaluate(s, options, out, status, err, positions, candidates, history)
+  subroutine ntsf_evaluate(s, options, out, status, err, positions, candidates, history, surface_only)
     type(ntsf_scene), intent(inout) :: s
     type(nts_options), intent(in) :: options
     type(ntsf_output), intent(inout) :: out
@@ -600,7 +637,9 @@ contains
     real(c_double), intent(in), optional :: positions(:, :)
     type(ntsf_candidates), intent(inout), optional :: candidates
     type(ntsf_history), intent(in), optional :: history
+    logical, intent(in), optional :: surface_only
     type(nts_options) :: o
+    logical :: surface
     type(nts_result) :: r
     type(nts_error) :: e
     type(nts_warning), pointer :: w(:)
@@ -609,6 +648,8 @@ contains
 
     e = no_error()
     s%has_last = .false.
+    surface = .false.
+    if (present(surface_only)) surface = surface_only
     o = options
     if (present(candidates)) o%candidates = candidates%list
     if (present(history)) o%history = history%history
@@ -619,9 +660,15 @@ contains
     else if (present(history) .and. .not. c_associated(history%history)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no history (ntsf_history_create first)")
     else if (.not. present(positions)) then
-      status = c_evaluate(s%context, s%scene, o, r, e)
+      if (surface) then
+        status = fail(e, NTS_EINVALID_ARGUMENT, -1, "surface_only needs positions")
+      else
+        status = c_evaluate(s%context, s%scene, o, r, e)
+      end if
     else if (size(positions, 1) /= 2 .or. size(positions, 2) /= c_scene_node_count(s%scene)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "positions must be shaped (2, node_count)")
+    else if (surface) then
+      status = c_evaluate_surface_positions(s%context, s%scene, positions, o, r, e)
     else
       status = c_evaluate_positions(s%context, s%scene, positions, o, r, e)
     end if
@@ -661,6 +708,41 @@ contains
     if (status /= NTS_OK) call clear_output(out)
     if (present(err)) err = e
   end subroutine ntsf_evaluate
+
+  ! The nodes contact reads: every node of the scene's loops (a mesh's
+  ! boundary, every node of a polygon), as 1-based global node indices, body
+  ! by body and loop by loop in each loop's order. The other nodes (a mesh's
+  ! interior) get no force. Empty for an empty handle.
+  subroutine ntsf_surface_nodes(s, nodes)
+    type(ntsf_scene), intent(in) :: s
+    integer(c_int), allocatable, intent(out) :: nodes(:)
+    integer(c_int), pointer :: loop(:)
+    type(c_ptr) :: p
+    integer(c_int) :: b, l, m, first
+    integer :: at
+    if (.not. c_associated(s%scene)) then
+      allocate (nodes(0))
+      return
+    end if
+    at = 0
+    do b = 0, c_scene_body_count(s%scene) - 1
+      do l = 0, c_scene_body_loop_count(s%scene, b) - 1
+        at = at + c_scene_body_loop(s%scene, b, l, p)
+      end do
+    end do
+    allocate (nodes(at))
+    at = 0
+    first = 1 ! the body's first node, global and 1-based
+    do b = 0, c_scene_body_count(s%scene) - 1
+      do l = 0, c_scene_body_loop_count(s%scene, b) - 1
+        m = c_scene_body_loop(s%scene, b, l, p)
+        call c_f_pointer(p, loop, [m])
+        nodes(at + 1:at + m) = loop + first
+        at = at + m
+      end do
+      first = first + c_scene_body_node_count(s%scene, b)
+    end do
+  end subroutine ntsf_surface_nodes
 
   ! ---------------------------------------------------- kept candidates
 

@@ -63,6 +63,7 @@ int ftest_output_table(int* bits, int max);
 int ftest_warning_table(int* values, int max);
 int ftest_friction_step(const double* positions, double friction, int commit);
 void ftest_friction_out(double* xy, double* sums, int* counts);
+int ftest_surface_node_count(void);
 void ftest_free(void);
 
 static int refuse(const char* what, const char* name) {
@@ -347,6 +348,9 @@ void ftest_reference_triplets(int* rows, int* cols, double* values) {
     memcpy(cols, t->cols, sizeof(int) * (size_t)t->count);
     memcpy(values, t->values, sizeof(double) * (size_t)t->count);
 }
+
+/* The reference scene's nodes on loops (nts_scene_surface_node_count). */
+int ftest_surface_node_count(void) { return nts_scene_surface_node_count(ref.scene); }
 
 /* The tables in their C order; each returns how many rows it has (and
  * writes at most `max`), so the Fortran side sees a row it lacks too. */

@@ -10,6 +10,8 @@
 !   columns increasing;
 ! - positions moved through ntsf_update_positions (a session's step), then
 !   evaluated, against a fresh C scene created at those positions;
+! - a step that gives only the loops' nodes (surface_only, ntsf_surface_nodes),
+!   the other entries not a number, against a fresh C scene;
 ! - a solver's loop with a kept candidate list (ntsf_candidates): every step
 !   against a fresh C scene at its positions, the list built and replayed;
 ! - a sequence of steps with friction and a history (ntsf_history) against
@@ -102,6 +104,10 @@ program test_fortran
       real(c_double), intent(out) :: xy(*), sums(6)
       integer(c_int), intent(out) :: counts(4)
     end subroutine ftest_friction_out
+    function ftest_surface_node_count() bind(c, name="ftest_surface_node_count")
+      import :: c_int
+      integer(c_int) :: ftest_surface_node_count
+    end function ftest_surface_node_count
     subroutine ftest_free() bind(c, name="ftest_free")
     end subroutine ftest_free
   end interface
@@ -207,6 +213,7 @@ program test_fortran
   call check(.not. allocated(again%forces) .and. again%summary%contacts == 0, "a failed evaluation gives nothing")
   opt = options_of_file()
 
+  call check_surface(bodies, x0, x1, n, lx, ly)
   call check_kept(bodies, x0, n, lx, ly, out%summary%search_radius)
   call check_friction(bodies, x0, n, lx, ly, out%summary%search_radius)
 
@@ -315,6 +322,60 @@ contains
       x(2, i) = x0(2, i) + a * cos(1.3_c_double * i)
     end do
   end function moved
+
+  ! A step that gives the loops' nodes alone (surface_only): the other
+  ! entries of the positions not a number, the answer that of a fresh C
+  ! scene at the stored positions with the loops' nodes moved, and the scene
+  ! then at those positions; ntsf_surface_nodes lists every node of the
+  ! loops once (else a NaN would reach one the evaluation reads).
+  subroutine check_surface(b, x0, x1, nodes, box_x, box_y)
+    type(ntsf_body), intent(in) :: b(:)
+    real(c_double), intent(in) :: x0(:, :), x1(:, :), box_x, box_y
+    integer, intent(in) :: nodes
+    type(ntsf_scene) :: ss, none
+    type(ntsf_output) :: so, again
+    type(nts_options) :: o
+    type(nts_error) :: e
+    integer(c_int), allocatable :: surf(:)
+    logical :: on(nodes)
+    real(c_double) :: xr(2, nodes), xj(2, nodes)
+    integer :: st, k
+
+    o = options_of_file()
+    call ntsf_scene_create(ss, b, st, lx=box_x, ly=box_y, err=e)
+    call check(st == NTS_OK, "surface: ntsf_scene_create: "//ntsf_error_message(e))
+    call ntsf_surface_nodes(ss, surf)
+    call check(ftest_reference(x0) == NTS_OK, "the C reference evaluates (surface)")
+    call check(size(surf) == ftest_surface_node_count(), "ntsf_surface_nodes: as many as the C scene's loop nodes")
+    call check(all(surf >= 1 .and. surf <= nodes), "ntsf_surface_nodes: 1-based global nodes")
+    on = .false.
+    do k = 1, size(surf)
+      if (surf(k) >= 1 .and. surf(k) <= nodes) on(surf(k)) = .true.
+    end do
+    call check(count(on) == size(surf), "ntsf_surface_nodes: each node once")
+    xr = x0
+    xr(:, surf) = x1(:, surf)
+    xj = x1
+    do k = 1, nodes
+      if (.not. on(k)) xj(:, k) = ieee_nan()
+    end do
+    call ntsf_evaluate(ss, o, so, st, e, positions=xj, surface_only=.true.)
+    call check(st == NTS_OK, "a surface-only step: "//ntsf_error_message(e))
+    call check(ftest_reference(xr) == NTS_OK, "the C reference evaluates at the surface step's positions")
+    call compare(so, nodes, "after a surface-only step")
+    call ntsf_evaluate(ss, o, again, st, e)
+    call check(st == NTS_OK .and. same_bits(flat(again%forces), flat(so%forces)), &
+      "the scene holds the surface step's positions")
+    if (size(surf) < nodes) then
+      call ntsf_evaluate(ss, o, again, st, e, positions=xj)
+      call check(st == NTS_ENONFINITE, "the same positions for every node: the interior's NaN refused")
+    end if
+    call ntsf_evaluate(ss, o, again, st, e, surface_only=.true.)
+    call check(st == NTS_EINVALID_ARGUMENT, "surface_only without positions: NTS_EINVALID_ARGUMENT")
+    call ntsf_surface_nodes(none, surf)
+    call check(size(surf) == 0, "an empty handle has no surface nodes")
+    call ntsf_scene_destroy(ss)
+  end subroutine check_surface
 
   ! A solver's loop with a kept candidate list: each step's answer against a
   ! fresh C scene at its positions (compare: forces, energy, virial, contact
