@@ -49,6 +49,10 @@ module ntscontact
   public :: NTS_SOLVER_CLOSED_FORM, NTS_SOLVER_NEWTON
   public :: NTS_SEARCH_CELLS, NTS_SEARCH_BRUTE_FORCE
   public :: NTS_PENALTY_PER_NODE, NTS_PENALTY_PER_LENGTH
+  ! A contact's master feature (geometry.h's nts_kind) and friction state
+  ! (ntscontact.h's nts_friction_state): ntsf_contact%kind and %state.
+  integer, parameter, public :: NTS_KIND_SEGMENT = 0, NTS_KIND_CORNER = 1, NTS_KIND_VERTEX = 2
+  integer, parameter, public :: NTS_FRICTIONLESS = 0, NTS_STICK = 1, NTS_SLIP = 2
 
   ! Status codes: base.h's NTS_ERRNO_MAP, in its order (tests/fortran checks
   ! every value against the C table, and that none is missing).
@@ -155,6 +159,18 @@ module ntscontact
     integer(c_long_long) :: count
   end type nts_warning
 
+  type, bind(c) :: nts_contact
+    integer(c_int) :: slave_body, slave_node, master_body, kind, master_count
+    integer(c_int) :: master_nodes(3)
+    real(c_double) :: weights(3), param, gap
+    type(nts_vec2) :: normal, point, force
+    type(nts_virial) :: virial
+    real(c_double) :: penalty
+    type(nts_vec2) :: tangential_force
+    real(c_double) :: slip
+    integer(c_int) :: state, reserved
+  end type nts_contact
+
   type, bind(c) :: nts_result
     type(nts_summary) :: summary
     type(c_ptr) :: warnings
@@ -258,6 +274,26 @@ module ntscontact
     real(c_double), allocatable :: val(:)           ! nnz
   end type ntsf_csr
 
+  ! One closest point (nts_contact), its indices 1-based: the slave node and
+  ! the master body, the master feature (NTS_KIND_*) and its nodes inside the
+  ! master body with their shape functions' weights (0 past master_count),
+  ! the parameter (s on a segment, xi on a corner), the signed gap (< 0:
+  ! penetrating), the master's outward unit normal and the closest point,
+  ! the force on the slave (the whole, with friction's tangential part), its
+  ! virial, the penalty, and with friction the tangential force, this step's
+  ! slip and the state (NTS_FRICTIONLESS, NTS_STICK, NTS_SLIP).
+  type, public :: ntsf_contact
+    integer :: slave_body = 0, slave_node = 0, master_body = 0
+    integer :: kind = NTS_KIND_SEGMENT
+    integer :: master_count = 0
+    integer :: master_nodes(3) = 0
+    real(c_double) :: weights(3) = 0, param = 0, gap = 0
+    real(c_double) :: normal(2) = 0, point(2) = 0, force(2) = 0
+    real(c_double) :: virial(4) = 0 ! xx, yy, xy, yx
+    real(c_double) :: penalty = 0, tangential_force(2) = 0, slip = 0
+    integer :: state = NTS_FRICTIONLESS
+  end type ntsf_contact
+
   ! What an evaluation gives. The arrays are allocated when their output was
   ! asked for (nts_options%outputs) and kept between evaluations when their
   ! shape does not change, so that a solver's loop does not allocate.
@@ -270,6 +306,10 @@ module ntscontact
     ! how many contacts each concerns; empty when nothing is missing.
     integer(c_int), allocatable :: warning_codes(:)
     integer(c_long_long), allocatable :: warning_counts(:)
+    ! NTS_OUT_CONTACTS: the active contacts (gap < 0); NTS_OUT_GAPS: every
+    ! closest point within the search radius and every deeper active one;
+    ! each in slave order, then master body
+    type(ntsf_contact), allocatable :: contacts(:), gaps(:)
   end type ntsf_output
 
   public :: nts_default_options, nts_default_limits
@@ -699,6 +739,8 @@ contains
         out%warning_codes = [integer(c_int) ::]
         out%warning_counts = [integer(c_long_long) ::]
       end if
+      call contacts_of(r%contacts, r%contact_count, iand(options%outputs, NTS_OUT_CONTACTS) /= 0, out%contacts)
+      call contacts_of(r%gaps, r%gap_count, iand(options%outputs, NTS_OUT_GAPS) /= 0, out%gaps)
       if (iand(options%outputs, NTS_OUT_STIFFNESS) /= 0) then
         status = csr_of(r%stiffness, out%tangent, e)
       else
@@ -903,10 +945,10 @@ contains
   ! `detail` names the first that differs. ntsf_scene_create asks first.
   logical function ntsf_layout_ok(detail)
     character(len=:), allocatable, intent(out), optional :: detail
-    character(len=*), parameter :: layout_names(15) = [character(len=19) :: &
+    character(len=*), parameter :: layout_names(16) = [character(len=19) :: &
       "nts_vec2", "nts_virial", "nts_error", "nts_limits", "nts_summary", "nts_options", &
       "nts_body_def", "nts_scene_def", "nts_triplets", "nts_warning", "nts_result", "nts_csr", &
-      "nts_role", "nts_solver", "nts_candidates_info"]
+      "nts_role", "nts_solver", "nts_candidates_info", "nts_contact"]
     integer(c_size_t) :: here(size(layout_names)), there
     type(nts_vec2) :: v
     type(nts_virial) :: vi
@@ -921,12 +963,13 @@ contains
     type(nts_result) :: r
     type(nts_csr) :: c
     type(nts_candidates_info) :: ci
+    type(nts_contact) :: ct
     integer(c_int) :: en
     integer :: k
 
     here = [c_sizeof(v), c_sizeof(vi), c_sizeof(e), c_sizeof(l), c_sizeof(su), c_sizeof(o), c_sizeof(bd), &
             c_sizeof(sd), c_sizeof(t), c_sizeof(w), c_sizeof(r), c_sizeof(c), c_sizeof(en), c_sizeof(en), &
-            c_sizeof(ci)]
+            c_sizeof(ci), c_sizeof(ct)]
     ntsf_layout_ok = .true.
     if (present(detail)) detail = ""
     do k = 1, size(here)
@@ -1071,6 +1114,44 @@ contains
     if (allocated(m%val)) deallocate (m%val)
   end subroutine clear_csr
 
+  ! The C result's `count` records at p as ntsf_contact, 1-based (asked:
+  ! the output was asked for; else `to` is deallocated). Kept allocated
+  ! between evaluations while the count does not change.
+  subroutine contacts_of(p, count, asked, to)
+    type(c_ptr), intent(in) :: p
+    integer(c_int), intent(in) :: count
+    logical, intent(in) :: asked
+    type(ntsf_contact), allocatable, intent(inout) :: to(:)
+    type(nts_contact), pointer :: c(:)
+    integer :: k
+    if (allocated(to)) then
+      if (.not. asked .or. size(to) /= count) deallocate (to)
+    end if
+    if (.not. asked) return
+    if (.not. allocated(to)) allocate (to(count))
+    if (count == 0) return
+    call c_f_pointer(p, c, [count])
+    do k = 1, count
+      to(k)%slave_body = c(k)%slave_body + 1
+      to(k)%slave_node = c(k)%slave_node + 1
+      to(k)%master_body = c(k)%master_body + 1
+      to(k)%kind = c(k)%kind
+      to(k)%master_count = c(k)%master_count
+      to(k)%master_nodes = c(k)%master_nodes + 1 ! C's -1 past master_count: 0
+      to(k)%weights = c(k)%weights
+      to(k)%param = c(k)%param
+      to(k)%gap = c(k)%gap
+      to(k)%normal = [c(k)%normal%x, c(k)%normal%y]
+      to(k)%point = [c(k)%point%x, c(k)%point%y]
+      to(k)%force = [c(k)%force%x, c(k)%force%y]
+      to(k)%virial = [c(k)%virial%xx, c(k)%virial%yy, c(k)%virial%xy, c(k)%virial%yx]
+      to(k)%penalty = c(k)%penalty
+      to(k)%tangential_force = [c(k)%tangential_force%x, c(k)%tangential_force%y]
+      to(k)%slip = c(k)%slip
+      to(k)%state = c(k)%state
+    end do
+  end subroutine contacts_of
+
   subroutine clear_output(out)
     type(ntsf_output), intent(inout) :: out
     out%summary = nts_summary(0, 0, 0, 0, 0, 0.0_c_double, nts_virial(0.0_c_double, 0.0_c_double, 0.0_c_double, &
@@ -1079,6 +1160,8 @@ contains
     if (allocated(out%pressure)) deallocate (out%pressure)
     if (allocated(out%warning_codes)) deallocate (out%warning_codes)
     if (allocated(out%warning_counts)) deallocate (out%warning_counts)
+    if (allocated(out%contacts)) deallocate (out%contacts)
+    if (allocated(out%gaps)) deallocate (out%gaps)
     call clear_csr(out%tangent)
   end subroutine clear_output
 

@@ -22,7 +22,7 @@ size_t ntsf_c_sizeof(int which) {
         sizeof(nts_vec2),     sizeof(nts_virial),    sizeof(nts_error),    sizeof(nts_limits),
         sizeof(nts_summary),  sizeof(nts_options),   sizeof(nts_body_def), sizeof(nts_scene_def),
         sizeof(nts_triplets), sizeof(nts_warning),   sizeof(nts_result),   sizeof(nts_csr),
-        sizeof(nts_role),     sizeof(nts_solver),    sizeof(nts_candidates_info),
+        sizeof(nts_role),     sizeof(nts_solver),    sizeof(nts_candidates_info), sizeof(nts_contact),
     };
     if (which < 0 || (size_t)which >= sizeof sizes / sizeof sizes[0]) return 0;
     return sizes[which];

@@ -64,6 +64,9 @@ int ftest_warning_table(int* values, int max);
 int ftest_friction_step(const double* positions, double friction, int commit);
 void ftest_friction_out(double* xy, double* sums, int* counts);
 int ftest_surface_node_count(void);
+int ftest_reference_record_count(int gaps);
+void ftest_reference_record(int gaps, int k, int* ints, double* reals);
+void ftest_kind_state_values(int* values);
 void ftest_free(void);
 
 static int refuse(const char* what, const char* name) {
@@ -278,7 +281,7 @@ int ftest_reference(const double* positions) {
     opt.alpha = file.alpha;
     opt.penalty = file.penalty;
     opt.search_radius = file.search_radius;
-    opt.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_STIFFNESS;
+    opt.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_VIRIAL | NTS_OUT_STIFFNESS | NTS_OUT_CONTACTS | NTS_OUT_GAPS;
     rc = nts_evaluate(ref.ctx, ref.scene, &opt, &ref.res, &err);
     if (rc != NTS_OK) fprintf(stderr, "reference.c: %s: %s\n", nts_status_name(rc), err.message);
     return rc;
@@ -347,6 +350,41 @@ void ftest_reference_triplets(int* rows, int* cols, double* values) {
     memcpy(rows, t->rows, sizeof(int) * (size_t)t->count);
     memcpy(cols, t->cols, sizeof(int) * (size_t)t->count);
     memcpy(values, t->values, sizeof(double) * (size_t)t->count);
+}
+
+/* The reference's contacts (gaps 0) or gaps (1): how many, and record k's
+ * fields as C has them (0-based): ints slave body, slave node, master body,
+ * kind, master count, master nodes (3), state; reals weights (3), param,
+ * gap, normal, point, force (2 each), virial (xx, yy, xy, yx), penalty,
+ * tangential force (2), slip. */
+int ftest_reference_record_count(int gaps) { return gaps ? ref.res.gap_count : ref.res.contact_count; }
+
+void ftest_reference_record(int gaps, int k, int* ints, double* reals) {
+    const nts_contact* c = gaps ? &ref.res.gaps[k] : &ref.res.contacts[k];
+    const double r[22] = {c->weights[0], c->weights[1], c->weights[2], c->param, c->gap, c->normal.x, c->normal.y,
+                          c->point.x, c->point.y, c->force.x, c->force.y, c->virial.xx, c->virial.yy, c->virial.xy,
+                          c->virial.yx, c->penalty, c->tangential_force.x, c->tangential_force.y, c->slip, 0.0, 0.0,
+                          0.0};
+    ints[0] = c->slave_body;
+    ints[1] = c->slave_node;
+    ints[2] = c->master_body;
+    ints[3] = (int)c->kind;
+    ints[4] = c->master_count;
+    ints[5] = c->master_nodes[0];
+    ints[6] = c->master_nodes[1];
+    ints[7] = c->master_nodes[2];
+    ints[8] = c->state;
+    memcpy(reals, r, sizeof(double) * 19);
+}
+
+/* geometry.h's kinds and ntscontact.h's friction states, in order. */
+void ftest_kind_state_values(int* values) {
+    values[0] = NTS_KIND_SEGMENT;
+    values[1] = NTS_KIND_CORNER;
+    values[2] = NTS_KIND_VERTEX;
+    values[3] = NTS_FRICTIONLESS;
+    values[4] = NTS_STICK;
+    values[5] = NTS_SLIP;
 }
 
 /* The reference scene's nodes on loops (nts_scene_surface_node_count). */

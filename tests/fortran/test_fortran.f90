@@ -104,6 +104,21 @@ program test_fortran
       real(c_double), intent(out) :: xy(*), sums(6)
       integer(c_int), intent(out) :: counts(4)
     end subroutine ftest_friction_out
+    function ftest_reference_record_count(gaps) bind(c, name="ftest_reference_record_count")
+      import :: c_int
+      integer(c_int), value :: gaps
+      integer(c_int) :: ftest_reference_record_count
+    end function ftest_reference_record_count
+    subroutine ftest_reference_record(gaps, k, ints, reals) bind(c, name="ftest_reference_record")
+      import :: c_int, c_double
+      integer(c_int), value :: gaps, k
+      integer(c_int), intent(out) :: ints(9)
+      real(c_double), intent(out) :: reals(19)
+    end subroutine ftest_reference_record
+    subroutine ftest_kind_state_values(values) bind(c, name="ftest_kind_state_values")
+      import :: c_int
+      integer(c_int), intent(out) :: values(6)
+    end subroutine ftest_kind_state_values
     function ftest_surface_node_count() bind(c, name="ftest_surface_node_count")
       import :: c_int
       integer(c_int) :: ftest_surface_node_count
@@ -278,7 +293,8 @@ contains
     real(c_double) :: bx, by
     o = nts_default_options()
     call ftest_scene_options(o%alpha, o%penalty, o%search_radius, bx, by)
-    o%outputs = ior(ior(NTS_OUT_FORCES, NTS_OUT_ENERGY), ior(NTS_OUT_VIRIAL, NTS_OUT_STIFFNESS))
+    o%outputs = ior(ior(ior(NTS_OUT_FORCES, NTS_OUT_ENERGY), ior(NTS_OUT_VIRIAL, NTS_OUT_STIFFNESS)), &
+      ior(NTS_OUT_CONTACTS, NTS_OUT_GAPS))
   end function options_of_file
 
   ! The file's bodies as the module takes them: node indices 1-based.
@@ -461,7 +477,7 @@ contains
     character(len=2) :: tag
 
     o = options_of_file()
-    o%outputs = ior(ior(NTS_OUT_FORCES, NTS_OUT_ENERGY), NTS_OUT_VIRIAL)
+    o%outputs = ior(ior(NTS_OUT_FORCES, NTS_OUT_ENERGY), ior(NTS_OUT_VIRIAL, NTS_OUT_CONTACTS))
     o%friction = 0.4_c_double
     first = count - size(b(size(b))%nodes, 2) + 1 ! the last body's first node
     call ntsf_scene_create(fs, b, st, lx=box_x, ly=box_y, err=e)
@@ -490,6 +506,9 @@ contains
         "friction step "//tag//": energy, dissipation and virial equal C's")
       call check(fo%summary%contacts == counts(1) .and. fo%summary%sticking == counts(2) .and. &
         fo%summary%slipping == counts(3), "friction step "//tag//": contacts, sticking and slipping equal C's")
+      call check(size(fo%contacts) == counts(1) .and. size(pack(fo%contacts, fo%contacts%state == NTS_STICK)) == &
+        counts(2) .and. size(pack(fo%contacts, fo%contacts%state == NTS_SLIP)) == counts(3), &
+        "friction step "//tag//": the contacts' states are the summary's")
       call ntsf_history_commit(h, fs, st, e)
       call check(st == NTS_OK .and. ntsf_history_count(h) == counts(4), &
         "friction step "//tag//": committed, the anchors C's")
@@ -535,7 +554,35 @@ contains
     allocate (rows(max(nt, 1)), cols(max(nt, 1)), vals(max(nt, 1)))
     call ftest_reference_triplets(rows, cols, vals)
     call check_csr(o%tangent, rows(1:nt), cols(1:nt), vals(1:nt), 2 * count, where)
+    call check_records(o%contacts, 0, "contacts "//where)
+    call check_records(o%gaps, 1, "gaps "//where)
   end subroutine compare
+
+  ! The module's contacts or gaps against the C reference's records: the
+  ! indices one more (C's -1 past a feature's nodes: 0), every real the same bits.
+  subroutine check_records(rec, gaps, where)
+    type(ntsf_contact), allocatable, intent(in) :: rec(:)
+    integer, intent(in) :: gaps
+    character(len=*), intent(in) :: where
+    integer(c_int) :: ints(9), m
+    real(c_double) :: reals(19)
+    integer :: k, bad
+    m = ftest_reference_record_count(int(gaps, c_int))
+    call check(allocated(rec), where//": allocated")
+    if (.not. allocated(rec)) return
+    call check(size(rec) == m, where//": as many as C's")
+    if (size(rec) /= m) return
+    bad = 0
+    do k = 1, m
+      call ftest_reference_record(int(gaps, c_int), int(k - 1, c_int), ints, reals)
+      if (.not. (rec(k)%slave_body == ints(1) + 1 .and. rec(k)%slave_node == ints(2) + 1 .and. &
+          rec(k)%master_body == ints(3) + 1 .and. rec(k)%kind == ints(4) .and. rec(k)%master_count == ints(5) .and. &
+          all(rec(k)%master_nodes == ints(6:8) + 1) .and. rec(k)%state == ints(9) .and. &
+          same_bits([rec(k)%weights, rec(k)%param, rec(k)%gap, rec(k)%normal, rec(k)%point, rec(k)%force, &
+          rec(k)%virial, rec(k)%penalty, rec(k)%tangential_force, rec(k)%slip], reals))) bad = bad + 1
+    end do
+    call check(bad == 0, where//": every record C's")
+  end subroutine check_records
 
   ! The CSR against the triplets: rows and columns 1-based, each row's
   ! columns strictly increasing, and every entry the sum of its triplets in
@@ -685,6 +732,9 @@ contains
     call check(m == size(warnings), "the module has every warning of NTS_WARNING_MAP")
     if (m == size(warnings)) call check(all(c(1:m) == warnings), "its warning codes are C's")
     call check(ntsf_status_name(NTS_OK) == "ok", "ntsf_status_name(NTS_OK) is ok")
+    call ftest_kind_state_values(c(1:6))
+    call check(all(c(1:6) == [NTS_KIND_SEGMENT, NTS_KIND_CORNER, NTS_KIND_VERTEX, NTS_FRICTIONLESS, NTS_STICK, &
+      NTS_SLIP]), "its kinds and friction states are C's")
   end subroutine check_tables
 
   function c_text(chars) result(text)
