@@ -1,6 +1,7 @@
 /* The kept candidate list (nts_candidates, docs/model.md §15): its object,
  * the test of its validity before each evaluation, and the bookkeeping of a
  * build (evaluate.c runs the build; search.c fills and reads the lists). */
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -217,20 +218,26 @@ void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds) {
     ++kc->ahead_timed;
 }
 
-int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale) {
-    const double outer = kc->outer * scale;
-    int e;
-    if (nts_grow((void**)&kc->key_base, &kc->key_base_cap, count + KEY_PAD, sizeof(float)) != NTS_OK)
-        return NTS_ENOMEM;
+int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale, double coord) {
     /* The slack covers the round-off of the test that reads these
      * (search.c, ring_keys), in float in the keys' frame (|values| <= 2, a
      * radius at most 1): the slave's coordinates rounded to float (2^-21 an
      * axis, as the keys' own: masters.c), a base and a radius rounded to
      * float and added (3 2^-24 relative), and the squares and their sums
-     * (3 2^-24 relative): at most about 1.5e-6 on a distance of at most 2.
-     * 4e-6 covers it with room; a key that the exact test would not keep
-     * costs a try, never an answer. */
-    for (e = 0; e < count; ++e) kc->key_base[e] = (float)(sqrt((double)reach2[e]) - outer + 4e-6);
+     * (3 2^-24 relative): at most about 1.5e-6 on a distance of at most 2;
+     * 4e-6 covers it with room. And the rounding that the keys' frame has
+     * and the exact test (kept_ring) has not: a key's middle X_j + t_j / 2
+     * rounded in absolute coordinates, then placed in the cells (a periodic
+     * box's wrap), at most an ulp of `coord` (the largest coordinate plus
+     * the box's sides) an axis, 4 DBL_EPSILON coord scaled (nothing at
+     * moderate coordinates; at 1e7 with cells of 6e-5, 1.5e-4 of the
+     * frame). A key that the exact test would not keep costs a try, never
+     * an answer. */
+    const double outer = kc->outer * scale, slack = 4e-6 + 4.0 * DBL_EPSILON * coord * scale;
+    int e;
+    if (nts_grow((void**)&kc->key_base, &kc->key_base_cap, count + KEY_PAD, sizeof(float)) != NTS_OK)
+        return NTS_ENOMEM;
+    for (e = 0; e < count; ++e) kc->key_base[e] = (float)(sqrt((double)reach2[e]) - outer + slack);
     for (e = count; e < count + KEY_PAD; ++e) kc->key_base[e] = -1.0f; /* read 4 at a time, never kept */
     return NTS_OK;
 }

@@ -90,9 +90,10 @@ void nts_kept_drop(nts_candidates* kc);
  * no result: the same masters are tried in the same order either way. */
 int nts_kept_ahead(nts_candidates* kc, int surface_count);
 void nts_kept_ahead_timed(nts_candidates* kc, int ahead, double seconds);
-/* key_base for the `count` keys of the build's cells (their frame's `scale`),
- * and KEY_PAD more past them (masters.h), never kept. */
-int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale);
+/* key_base for the `count` keys of the build's cells (their frame's `scale`;
+ * `coord` the largest coordinate plus a periodic box's sides), and KEY_PAD
+ * more past them (masters.h), never kept. */
+int nts_kept_key_bases(nts_candidates* kc, const float* reach2, int count, double scale, double coord);
 
 /* The largest displacement the lists hold for, skin / factor: a master
  * that can offer nothing at any positions within it of the build's is kept

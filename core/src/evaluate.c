@@ -238,7 +238,9 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     env->long_m = wide.long_m;
     env->long_start = wide.long_start;
     env->long_items = wide.long_items;
-    if ((rc = nts_kept_key_bases(kc, ctx->keys.reach2, ctx->keys.count, ctx->cells.scale)) != NTS_OK) return rc;
+    if ((rc = nts_kept_key_bases(kc, ctx->keys.reach2, ctx->keys.count, ctx->cells.scale,
+                                  env->ss->coord_max + s->lx + s->ly)) != NTS_OK)
+        return rc;
     nchunk = (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK;
     ct.env = &wide;
     ct.kc = kc;
