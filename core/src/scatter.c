@@ -508,9 +508,10 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
         for (i = 0; i < ctx->stiffness.count; ++i)
             if (!isfinite(ctx->stiffness.values[i]))
                 return overflow_error(err, "the tangent overflows a double (penalty too large)");
-        out->stiffness.rows = ctx->stiffness.rows;
-        out->stiffness.cols = ctx->stiffness.cols;
-        out->stiffness.values = ctx->stiffness.values;
+        /* (an empty array is NULL, whatever the context held before) */
+        out->stiffness.rows = ctx->stiffness.count > 0 ? ctx->stiffness.rows : NULL;
+        out->stiffness.cols = ctx->stiffness.count > 0 ? ctx->stiffness.cols : NULL;
+        out->stiffness.values = ctx->stiffness.count > 0 ? ctx->stiffness.values : NULL;
         out->stiffness.count = ctx->stiffness.count;
         out->stiffness.size = 2 * s->node_count;
     }
@@ -535,13 +536,16 @@ int nts_scatter(nts_context* ctx, const nts_scene* s, const nts_options* opt, co
     sum->dissipation = dissipation;
     sum->sticking = sticking;
     sum->slipping = slipping;
-    out->anchors = env->friction ? ctx->anchors : NULL;
+    /* An empty array is NULL, on a fresh context or on one whose buffers
+     * held the last evaluation's: the result does not depend on what the
+     * context evaluated before. */
+    out->anchors = env->friction && ncontact > 0 ? ctx->anchors : NULL;
     out->anchor_count = env->friction ? ncontact : 0;
     out->forces = want_forces ? ctx->forces : NULL;
     out->pressure = want_pressure ? ctx->pressure : NULL;
-    out->contacts = want_contacts ? ctx->contacts : NULL;
+    out->contacts = want_contacts && ncontact > 0 ? ctx->contacts : NULL;
     out->contact_count = want_contacts ? ncontact : 0;
-    out->gaps = want_gaps ? ctx->gaps : NULL;
+    out->gaps = want_gaps && total > 0 ? ctx->gaps : NULL;
     out->gap_count = want_gaps ? (int)total : 0;
     set_warnings(ctx, out);
     return NTS_OK;

@@ -2,6 +2,7 @@
  * central differences, virial = -sum f (X - Xs) = eps g^2 n n; and metamorphic
  * tests (translation, rotation, scaling, body permutation, loop start shift,
  * clockwise input). */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -279,6 +280,59 @@ static void test_loop_start_and_direction(void) {
     free_packing(&w);
 }
 
+/* A result does not depend on what the context evaluated before: an empty
+ * array is NULL (contacts, gaps, the tangent's triplets, friction's
+ * anchors), on a fresh context as on one whose buffers held the last
+ * evaluation's many (they were that evaluation's stale pointers). */
+static void check_empty_arrays(const nts_result* r, const char* where) {
+    if (!(r->contacts == NULL && r->gaps == NULL && r->stiffness.rows == NULL && r->stiffness.cols == NULL &&
+          r->stiffness.values == NULL && r->anchors == NULL))
+        fprintf(stderr, "\n  %s: an empty array is not NULL\n", where);
+    ASSERT_INT_EQ(r->contact_count + r->gap_count + r->stiffness.count + r->anchor_count, 0);
+    CU_ASSERT(r->contacts == NULL && r->gaps == NULL && r->anchors == NULL);
+    CU_ASSERT(r->stiffness.rows == NULL && r->stiffness.cols == NULL && r->stiffness.values == NULL);
+    CU_ASSERT(r->forces != NULL && r->pressure != NULL); /* asked, and never empty */
+}
+
+static void test_empty_arrays_whatever_came_before(void) {
+    const nts_vec2 a[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, near[4] = {{0.2, 0.9}, {1.2, 0.9}, {1.2, 1.9}, {0.2, 1.9}},
+                   far[4] = {{5, 5}, {6, 5}, {6, 6}, {5, 6}};
+    nts_body_def d[2];
+    nts_scene_def sd = nts_default_scene_def();
+    nts_scene *apart, *pressed;
+    nts_context* c = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error e;
+    memset(d, 0, sizeof d);
+    d[0].nodes = a;
+    d[0].node_count = 4;
+    d[1].nodes = far;
+    d[1].node_count = 4;
+    sd.bodies = d;
+    sd.body_count = 2;
+    apart = nts_scene_create(&sd, &e);
+    d[1].nodes = near;
+    pressed = nts_scene_create(&sd, &e);
+    CU_ASSERT_FATAL(apart != NULL && pressed != NULL && c != NULL);
+    o.outputs = NTS_OUT_ALL;
+    o.friction = 0.3;
+    CU_ASSERT_FATAL(nts_evaluate(c, apart, &o, &r, &e) == NTS_OK);
+    check_empty_arrays(&r, "a fresh context");
+    CU_ASSERT_FATAL(nts_evaluate(c, pressed, &o, &r, &e) == NTS_OK);
+    CU_ASSERT(r.contact_count > 0 && r.gap_count > 0 && r.stiffness.count > 0 && r.anchor_count > 0);
+    CU_ASSERT(r.contacts != NULL && r.gaps != NULL && r.stiffness.rows != NULL && r.anchors != NULL);
+    CU_ASSERT_FATAL(nts_evaluate(c, apart, &o, &r, &e) == NTS_OK);
+    check_empty_arrays(&r, "after an evaluation with contacts");
+    o.threads = 2;
+    CU_ASSERT_FATAL(nts_evaluate(c, pressed, &o, &r, &e) == NTS_OK);
+    CU_ASSERT_FATAL(nts_evaluate(c, apart, &o, &r, &e) == NTS_OK);
+    check_empty_arrays(&r, "two threads, after an evaluation with contacts");
+    nts_context_destroy(c);
+    nts_scene_destroy(apart);
+    nts_scene_destroy(pressed);
+}
+
 void register_invariants_suite(void) {
     CU_pSuite s = CU_add_suite("invariants", NULL, NULL);
     ADD_TEST(s, test_net_force_and_torque_vanish);
@@ -289,4 +343,5 @@ void register_invariants_suite(void) {
     ADD_TEST(s, test_scaling);
     ADD_TEST(s, test_permuting_bodies);
     ADD_TEST(s, test_loop_start_and_direction);
+    ADD_TEST(s, test_empty_arrays_whatever_came_before);
 }

@@ -428,10 +428,12 @@ typedef struct nts_result {
      * tributary length; 0 for a node in no contact or on no surface. Global
      * node order, or NULL unless NTS_OUT_PRESSURE. */
     const double* pressure;
-    const nts_contact* contacts;/**< active contacts, slave order; NULL unless NTS_OUT_CONTACTS */
+    const nts_contact* contacts;/**< active contacts, slave order; NULL unless NTS_OUT_CONTACTS and some
+                                   (every array here is NULL when its count is 0, whatever the
+                                   context evaluated before) */
     int contact_count;          /**< how many `contacts` */
     const nts_contact* gaps;    /**< all closest points within r and the deep contacts, slave order;
-                                   NULL unless NTS_OUT_GAPS */
+                                   NULL unless NTS_OUT_GAPS and some */
     int gap_count;              /**< how many `gaps` */
     /** The consistent tangent of the active contacts (docs/model.md, "Tangent
      * stiffness"): duplicates summed; symmetric without friction (with
