@@ -226,6 +226,17 @@ module ntscontact
     logical :: self_contact = .false.               ! .true.: its nodes meet its own surface too (docs/model.md §16)
   end type ntsf_body
 
+  ! The context's last evaluation: its C result when it succeeded (its
+  ! arrays are the context's until the next evaluation), what
+  ! ntsf_history_commit keeps. Held by pointer, so that the copies of a
+  ! handle (which share its context) share it too: a commit through any
+  ! copy keeps the context's last evaluation, never a stale result whose
+  ! arrays a later evaluation has moved.
+  type :: scene_last
+    type(nts_result) :: r
+    logical :: ok = .false.
+  end type scene_last
+
   ! A scene and its evaluation context: from ntsf_scene_create to
   ! ntsf_scene_destroy. No finaliser on purpose: an assignment copies the
   ! handle, and two copies finalised would free the scene twice.
@@ -233,10 +244,7 @@ module ntscontact
     private
     type(c_ptr) :: scene = c_null_ptr
     type(c_ptr) :: context = c_null_ptr
-    ! The last evaluation's C result when it succeeded (its arrays are the
-    ! context's until the next evaluation): what ntsf_history_commit keeps.
-    type(nts_result) :: last
-    logical :: has_last = .false.
+    type(scene_last), pointer :: last => null()
   end type ntsf_scene
 
   ! A kept candidate list (a Verlet list, docs/model.md §15) for a solver's
@@ -589,7 +597,8 @@ contains
           status = NTS_OK
           e = no_error() ! C leaves the record alone on success
           s%context = c_context_create()
-          if (.not. c_associated(s%context)) then
+          if (c_associated(s%context)) allocate (s%last, stat=b)
+          if (.not. (c_associated(s%context) .and. associated(s%last))) then
             call ntsf_scene_destroy(s)
             status = fail(e, NTS_ENOMEM, -1, "out of memory (the evaluation context)")
           end if
@@ -607,9 +616,10 @@ contains
     type(ntsf_scene), intent(inout) :: s
     if (c_associated(s%context)) call c_context_destroy(s%context)
     if (c_associated(s%scene)) call c_scene_destroy(s%scene)
+    if (associated(s%last)) deallocate (s%last)
     s%context = c_null_ptr
     s%scene = c_null_ptr
-    s%has_last = .false.
+    s%last => null()
   end subroutine ntsf_scene_destroy
 
   ! All nodes of all bodies (0 for an empty handle).
@@ -687,7 +697,7 @@ contains
     integer :: n
 
     e = no_error()
-    s%has_last = .false.
+    if (associated(s%last)) s%last%ok = .false.
     surface = .false.
     if (present(surface_only)) surface = surface_only
     o = options
@@ -714,8 +724,8 @@ contains
     end if
     if (status == NTS_OK) then
       e = no_error()
-      s%last = r
-      s%has_last = .true.
+      s%last%r = r
+      s%last%ok = .true.
       n = ntsf_node_count(s)
       out%summary = r%summary
       ! Assignment reallocates only when the shape changed (Fortran 2003).
@@ -881,10 +891,12 @@ contains
     e = no_error()
     if (.not. c_associated(h%history)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no history (ntsf_history_create first)")
-    else if (.not. (c_associated(s%scene) .and. s%has_last)) then
+    else if (.not. associated(s%last)) then
+      status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no scene (ntsf_scene_create first)")
+    else if (.not. s%last%ok) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no evaluation to commit (the scene's last one failed, or none)")
     else
-      status = c_history_commit(h%history, s%last)
+      status = c_history_commit(h%history, s%last%r)
       if (status /= NTS_OK) status = fail(e, int(status, c_int), -1, ntsf_strerror(status)//" (the history's commit)")
     end if
     if (present(err)) err = e

@@ -466,7 +466,7 @@ contains
     type(ntsf_body), intent(in) :: b(:)
     real(c_double), intent(in) :: x0(:, :), box_x, box_y, radius
     integer, intent(in) :: count
-    type(ntsf_scene) :: fs
+    type(ntsf_scene) :: fs, copy
     type(ntsf_history) :: h
     type(ntsf_output) :: fo, fresh
     type(nts_options) :: o
@@ -525,6 +525,16 @@ contains
     call ntsf_evaluate(fs, o, fo, st, e, positions=x, history=h)
     call ntsf_history_commit(h, fs, st, e)
     call check(st == NTS_EINVALID_ARGUMENT, "a commit after a failed evaluation: NTS_EINVALID_ARGUMENT")
+    ! A copy of the handle shares its context, and so its last evaluation:
+    ! a commit through one copy keeps the last evaluation through any.
+    o%penalty = -o%penalty
+    call ntsf_evaluate(fs, o, fo, st, e, positions=x, history=h)
+    call check(st == NTS_OK, "the sequence's scene evaluates again")
+    copy = fs
+    o%penalty = -1
+    call ntsf_evaluate(copy, o, fresh, st, e, positions=x, history=h)
+    call ntsf_history_commit(h, fs, st, e)
+    call check(st == NTS_EINVALID_ARGUMENT, "a commit after a copy's failed evaluation: NTS_EINVALID_ARGUMENT")
     call ntsf_history_destroy(h)
     call ntsf_history_destroy(h) ! twice: nothing
     call check(ntsf_history_count(h) == 0, "a destroyed history holds no anchor")
