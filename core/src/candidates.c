@@ -139,7 +139,11 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
     kc->alpha = alpha;
     kc->ext = ext;
     kc->r = r;
-    kc->skin = kc->skin_asked >= 0.0 ? kc->skin_asked : 0.3 * r;
+    /* The default skin: 0.3 r, and the two round-off pads that the test of
+     * (29) adds (nothing at moderate coordinates; where the coordinates
+     * dwarf the segments, 1e7 against 1e-7, the pads alone exceeded 0.3 r
+     * and no list ever held). */
+    kc->skin = kc->skin_asked >= 0.0 ? kc->skin_asked : 0.3 * r + 2.0 * pad;
     kc->inner = r + kc->skin;
     kc->pad = pad;
     /* Eq. (29): the slave and the master's middle each move at most `moved`,

@@ -497,7 +497,8 @@ NTS_API int nts_friction_on(const nts_scene* scene, const nts_options* options);
 /** An empty list (built by the first evaluation that uses it through
  * nts_options.candidates), or NULL when out of memory.
  * skin: the margin beyond the search radius, a length >= 0; negative: 0.3
- * times the search radius at each build (the default). */
+ * times the search radius at each build (the default; plus the round-off
+ * allowances of docs/model.md eq. (29), nothing at moderate coordinates). */
 NTS_API nts_candidates* nts_candidates_create(double skin);
 /** Frees the list; NULL is a no-op. */
 NTS_API void nts_candidates_destroy(nts_candidates* candidates);
