@@ -418,12 +418,18 @@ module ntscontact
       integer(c_int) :: c_evaluate_surface_positions
     end function c_evaluate_surface_positions
 
-    pure function c_scene_body_node_count(scene, body) bind(c, name="nts_scene_body_node_count")
+    pure function c_scene_surface_node_count(scene) bind(c, name="nts_scene_surface_node_count")
+      import :: c_ptr, c_int
+      type(c_ptr), value :: scene
+      integer(c_int) :: c_scene_surface_node_count
+    end function c_scene_surface_node_count
+
+    pure function c_scene_body_node_offset(scene, body) bind(c, name="nts_scene_body_node_offset")
       import :: c_ptr, c_int
       type(c_ptr), value :: scene
       integer(c_int), value :: body
-      integer(c_int) :: c_scene_body_node_count
-    end function c_scene_body_node_count
+      integer(c_int) :: c_scene_body_node_offset
+    end function c_scene_body_node_offset
 
     pure function c_scene_body_loop_count(scene, body) bind(c, name="nts_scene_body_loop_count")
       import :: c_ptr, c_int
@@ -770,29 +776,22 @@ contains
     integer(c_int), allocatable, intent(out) :: nodes(:)
     integer(c_int), pointer :: loop(:)
     type(c_ptr) :: p
-    integer(c_int) :: b, l, m, first
+    integer(c_int) :: b, l, m
     integer :: at
     if (.not. c_associated(s%scene)) then
       allocate (nodes(0))
       return
     end if
+    ! (the scene's surface nodes are its loops' entries, each once)
+    allocate (nodes(c_scene_surface_node_count(s%scene)))
     at = 0
-    do b = 0, c_scene_body_count(s%scene) - 1
-      do l = 0, c_scene_body_loop_count(s%scene, b) - 1
-        at = at + c_scene_body_loop(s%scene, b, l, p)
-      end do
-    end do
-    allocate (nodes(at))
-    at = 0
-    first = 1 ! the body's first node, global and 1-based
     do b = 0, c_scene_body_count(s%scene) - 1
       do l = 0, c_scene_body_loop_count(s%scene, b) - 1
         m = c_scene_body_loop(s%scene, b, l, p)
         call c_f_pointer(p, loop, [m])
-        nodes(at + 1:at + m) = loop + first
+        nodes(at + 1:at + m) = loop + c_scene_body_node_offset(s%scene, b) + 1 ! global, 1-based
         at = at + m
       end do
-      first = first + c_scene_body_node_count(s%scene, b)
     end do
   end subroutine ntsf_surface_nodes
 
