@@ -9,6 +9,28 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 
 
+def provenance():
+    """Where a table comes from: the day, the commit (marked when the tree
+    has changes) and the machine's processor and cores."""
+    import datetime
+    import platform
+
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True).stdout.strip()
+
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    if git("status", "--porcelain", "--untracked-files=no"):
+        commit += " with changes"
+    cpu = platform.processor() or "unknown processor"
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return (f"Measured {datetime.date.today().isoformat()}, commit {commit}, on {os.cpu_count()} cores of "
+            f"{cpu} ({BUILD.name}'s binaries).")
+
+
 def start_daemon(max_body="512M", binary=None):
     """ntscontactd (BUILD's, or `binary`) on a free loopback port, one
     evaluation thread: (process, port)."""

@@ -39,9 +39,10 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import request, start_daemon, write_results  # noqa: E402
+from common import provenance, request, start_daemon, write_results  # noqa: E402
 
 NODES_PER_DISK = 64
+HEALTH_EXCHANGES = 200
 SECTION = "## Sessions over HTTP"
 
 
@@ -116,6 +117,13 @@ def measure(port, side, repeats, rounds):
         conn.close()
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=600)
     request(conn, "DELETE", f"/v1/scenes/{sid}")
+    # The fixed cost of an exchange on this machine: a bodyless request and
+    # its small answer on the same kind of kept connection (GET /v1/health).
+    health = []
+    for _ in range(HEALTH_EXCHANGES):
+        t0 = time.perf_counter()
+        request(conn, "GET", "/v1/health")
+        health.append(time.perf_counter() - t0)
     conn.close()
     med = statistics.median
     return {
@@ -134,6 +142,7 @@ def measure(port, side, repeats, rounds):
         "b_over_d_min": min(x / y for x, y in zip(b, d)),
         "b_over_d_max": max(x / y for x, y in zip(b, d)),
         "c_over_d": med([x / y for x, y in zip(c, d)]),
+        "exchange_ms": 1e3 * med(health),
     }
 
 
@@ -147,7 +156,8 @@ def markdown(rows, repeats):
              "evaluation thread. (a) `POST /v1/contact` with the whole scene; (b) a session step with JSON",
              "positions and a JSON answer; (c) a session step with binary positions in and binary forces out;",
              "(d) `nts_evaluate` alone in process on a warm context (codec_bench's median).",
-             "`bench/sessions/http_steps.py` writes this section and `bench/results/sessions_http.csv`.", "",
+             "`bench/sessions/http_steps.py` writes this section and `bench/results/sessions_http.csv`.",
+             provenance(), "",
              "| surface nodes | (a) full JSON | (b) session + JSON | (c) session + binary | (d) evaluate | (b)/(d) "
              "| (c)/(d) | (a)/(c) | request (a) / (c) | server time of (b) / (c) |",
              "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -165,7 +175,10 @@ def markdown(rows, repeats):
         b_ratios = ", ".join(f"{r['b_over_d']:.2f} (rounds {r['b_over_d_min']:.2f}-{r['b_over_d_max']:.2f}) at "
                              f"{r['surface_nodes']:,}" for r in big)
         lines += ["", f"Target (issue 10): (c) within 1.5x of (d) at 1e5 nodes and above; measured {c_ratios}. Below",
-                  "1e4 nodes the fixed cost of an HTTP exchange on loopback (about 0.4 ms here) dominates a step.",
+                  "1e4 nodes the fixed cost of an HTTP exchange on loopback dominates a step: "
+                  f"{1e3 * statistics.median(r['exchange_ms'] for r in rows):.0f} us here (the median "
+                  f"of {HEALTH_EXCHANGES} bodyless `GET /v1/health` on a kept connection, median over the sizes), "
+                  f"against (d) {1e3 * rows[0]['d_evaluate_ms']:.0f} us at {rows[0]['surface_nodes']:,} nodes.",
                   "The binary step's server time includes reading the positions, their checks (made in the",
                   "evaluation's segment pass: `nts_evaluate_positions`) and writing the forces. A session keeps a",
                   "candidate list (docs/model.md §15): (c) replays it, (d) searches from scratch (the same answer);",

@@ -40,7 +40,7 @@ BUILD = pathlib.Path(os.environ.get("NTS_BUILD_DIR", str(REPO / "build")))
 sys.path.insert(0, str(REPO / "bench" / "load"))
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from make_scene import scene as make_scene  # noqa: E402
-from common import start_daemon, write_results  # noqa: E402
+from common import provenance, start_daemon, write_results  # noqa: E402
 
 import ntscontact  # noqa: E402
 from ntscontact.mesh import disk_mesh  # noqa: E402
@@ -192,7 +192,7 @@ def markdown(rows, repeats):
              "client library, no numpy result). **daemon: in / out** is the daemon's own account of a step",
              "outside its `NTS-Elapsed-Ms` (`/v1/health` `time_s`, per step): receiving the request's body",
              "and sending the answer; **floor** is (receiving + handling + sending) / daemon, the ratio a client",
-             "that cost nothing would see.",
+             "that cost nothing would see.", "", provenance(),
              "", "| scene | nodes | full: request | full | session: request | session | daemon | session / daemon "
              "| urllib3 / daemon | bare / daemon | daemon: in / out | floor | speed-up |",
              "|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|"]
