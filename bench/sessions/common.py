@@ -19,7 +19,7 @@ def provenance():
         return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True).stdout.strip()
 
     commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    if git("status", "--porcelain", "--untracked-files=no"):
+    if git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs", ":!bench/results"):  # (what runs)
         commit += " with changes"
     cpu = platform.processor() or "unknown processor"
     try:
