@@ -13,6 +13,10 @@
 #include "parallel.h"
 #include "scatter.h"
 
+/* The message of an evaluation stopped by the caller's cancel (the build of
+ * a kept list, the search, the deep contacts' growth). */
+static const char CANCELLED[] = "the evaluation was cancelled (a deadline passed, or the caller asked)";
+
 /* Wall clock for the phase profile (nts_context_profile): monotonic, with
  * or without OpenMP (clock() would count the CPU time of the process). */
 static double wall_time(void) {
@@ -189,13 +193,22 @@ typedef struct collect_task {
     nts_candidates* kc;
 } collect_task;
 
-/* Chunks [begin, end) of the kept lists; a chunk's failure in its count. */
+/* Chunks [begin, end) of the kept lists; a chunk's failure in its count.
+ * The caller's cancel is asked before each chunk (KEPT_CHUNK = 1024 slaves,
+ * as the search asks it), so that a deadline does not wait for a whole
+ * build; a chunk it stops is NTS_ECANCELLED. */
 static void collect_chunks(int begin, int end, int t, void* p) {
     const collect_task* ct = (const collect_task*)p;
+    const search_env* env = ct->env;
     int c;
     (void)t;
     for (c = begin; c < end; ++c) {
-        const int rc = nts_kept_collect(ct->env, ct->kc, c);
+        int rc;
+        if (env->cancel != NULL && env->cancel(env->cancel_user)) {
+            ct->kc->chunk_used[c] = NTS_ECANCELLED;
+            continue;
+        }
+        rc = nts_kept_collect(env, ct->kc, c);
         if (rc != NTS_OK) ct->kc->chunk_used[c] = rc;
     }
 }
@@ -248,6 +261,7 @@ static int kept_prepare(nts_context* ctx, search_env* env, nts_candidates* kc, i
     nts_run_tasks(env->run, collect_chunks, nchunk, 1, &ct);
     for (c = 0; c < nchunk; ++c) {
         if (kc->chunk_used[c] == NTS_ENOMEM) return NTS_ENOMEM;
+        if (kc->chunk_used[c] == NTS_ECANCELLED) return NTS_ECANCELLED; /* (not built: the next one builds) */
         if (kc->chunk_used[c] < 0) {
             /* over budget: from scratch for the next 16 evaluations, and
              * what the build grew given back */
@@ -554,7 +568,8 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         int cells = 1;
         env.cell_side = -1.0; /* set by nts_cells_now when it builds the cells */
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
-            return eval_fail(err, rc, -1, -1, "out of memory");
+            return eval_fail(err, rc, -1, -1,
+                             rc == NTS_ECANCELLED ? CANCELLED : "out of memory");
         if (env.kept != NULL) env.kept_ahead = nts_kept_ahead(opt->candidates, s->surface_count);
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
         if (ctx->frame_set && ctx->frame.cell_size >= 0.0)
@@ -616,8 +631,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             else if (ctx->workers[i].status != NTS_OK && status == NTS_OK) status = ctx->workers[i].status;
         }
         if (status == NTS_ECANCELLED || (status == NTS_OK && env.cancel != NULL && env.cancel(env.cancel_user)))
-            return eval_fail(err, NTS_ECANCELLED, -1, -1, "the evaluation was cancelled (a deadline passed, or the "
-                                                          "caller asked)");
+            return eval_fail(err, NTS_ECANCELLED, -1, -1, CANCELLED);
         if (limited || records > env.max_records) {
             char msg[192];
             snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius: "
@@ -635,7 +649,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
          * counted (an explicit one). */
         rc = nts_reach_grow(ctx, &env, records, &run);
         if (rc == NTS_ECANCELLED)
-            return eval_fail(err, rc, -1, -1, "the evaluation was cancelled (a deadline passed, or the caller asked)");
+            return eval_fail(err, rc, -1, -1, CANCELLED);
         if (rc == NTS_ELIMIT) {
             char msg[192];
             snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius and "

@@ -676,6 +676,53 @@ static void test_far_from_the_origin(void) {
     }
 }
 
+static int g_build_asks, g_build_cancel_at;
+static int cancel_at(void* user) {
+    int n;
+    (void)user;
+#ifdef _OPENMP
+#pragma omp atomic capture
+#endif
+    n = ++g_build_asks;
+    return n >= g_build_cancel_at;
+}
+
+/* A build asks the caller's cancel every 1024 slaves, as the search does
+ * (nts_options.cancel), so that a deadline does not wait for a whole build:
+ * cancelled at its first ask or halfway, the evaluation is NTS_ECANCELLED
+ * and the list is not built (the build's count stays 0: before, the build
+ * ran to its end and the search was cancelled after it); the next
+ * evaluation builds it and answers as from scratch, for any thread count. */
+static void test_cancel_stops_a_build(void) {
+    test_packing p = make_packing(144, 40, 1.0, 1.93, 1, 21); /* 5,760 slaves: 6 chunks of the build */
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    int th, at;
+    CU_ASSERT_FATAL(s != NULL);
+    for (th = 0; th <= 2; ++th)
+        for (at = 1; at <= 3; at += 2) {
+            walk w;
+            nts_options o;
+            nts_result r;
+            nts_error err;
+            walk_open(&w, s, 0.2, -1.0);
+            o = w.o;
+            o.candidates = w.kc;
+            o.threads = th;
+            o.cancel = cancel_at;
+            g_build_asks = 0;
+            g_build_cancel_at = at;
+            ASSERT_INT_EQ(nts_evaluate(w.kept, s, &o, &r, &err), NTS_ECANCELLED);
+            CU_ASSERT(strstr(err.message, "cancelled") != NULL);
+            ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 0);
+            CU_ASSERT(g_build_asks >= at && g_build_asks <= 6); /* a chunk asks once */
+            walk_step(&w, th); /* no cancel: built now, the answer from scratch */
+            ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1);
+            walk_close(&w);
+        }
+    nts_scene_destroy(s);
+    free_packing(&p);
+}
+
 void register_candidates_suite(void) {
     CU_pSuite s = CU_add_suite("candidates", NULL, NULL);
     ADD_TEST(s, test_random_walks_open);
@@ -694,4 +741,5 @@ void register_candidates_suite(void) {
     ADD_TEST(s, test_folded_loops_in_a_packing);
     ADD_TEST(s, test_random_walks_large);
     ADD_TEST(s, test_far_from_the_origin);
+    ADD_TEST(s, test_cancel_stops_a_build);
 }
