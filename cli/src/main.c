@@ -4,6 +4,7 @@
  *
  * Exit status: 0 done, 2 usage (bad flags, unreadable files), 3 invalid input
  * (one line on stderr: code, JSON pointer, message), 1 internal error. */
+#define _POSIX_C_SOURCE 200809L /* fileno (a build without OpenMP has no -pthread to imply it) */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
