@@ -101,6 +101,7 @@ int nts_kept_begin(nts_candidates* kc, const nts_scene* s, const seg_data* seg, 
     const int chunks = (s->surface_count + KEPT_CHUNK - 1) / KEPT_CHUNK;
     int c, e;
     kc->built = 0;
+    kc->kept = 0; /* (nts_kept_end counts them: a build cancelled or failed keeps none) */
     if (nts_grow((void**)&kc->span, &kc->span_cap, 3 * s->surface_count, sizeof(int)) != NTS_OK ||
         nts_grow((void**)&kc->ring, &kc->ring_cap, s->surface_count, sizeof(double)) != NTS_OK ||
         nts_grow((void**)&kc->x, &kc->x_cap, s->surface_count, sizeof(nts_vec2)) != NTS_OK)

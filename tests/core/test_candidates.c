@@ -690,35 +690,48 @@ static int cancel_at(void* user) {
 /* A build asks the caller's cancel every 1024 slaves, as the search does
  * (nts_options.cancel), so that a deadline does not wait for a whole build:
  * cancelled at its first ask or halfway, the evaluation is NTS_ECANCELLED
- * and the list is not built (the build's count stays 0: before, the build
- * ran to its end and the search was cancelled after it); the next
- * evaluation builds it and answers as from scratch, for any thread count. */
+ * and nothing is built or kept (the build's count stays as it was: before,
+ * the build ran to its end and the search was cancelled after it); the
+ * next evaluation builds the list and answers as from scratch, for any
+ * thread count. Both a first build and one after a list that held. */
 static void test_cancel_stops_a_build(void) {
     test_packing p = make_packing(144, 40, 1.0, 1.93, 1, 21); /* 5,760 slaves: 6 chunks of the build */
     nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
-    int th, at;
+    test_rng g = {0x51ed2701a3c5b9e7ULL};
+    int th, at, first;
     CU_ASSERT_FATAL(s != NULL);
     for (th = 0; th <= 2; ++th)
-        for (at = 1; at <= 3; at += 2) {
-            walk w;
-            nts_options o;
-            nts_result r;
-            nts_error err;
-            walk_open(&w, s, 0.2, -1.0);
-            o = w.o;
-            o.candidates = w.kc;
-            o.threads = th;
-            o.cancel = cancel_at;
-            g_build_asks = 0;
-            g_build_cancel_at = at;
-            ASSERT_INT_EQ(nts_evaluate(w.kept, s, &o, &r, &err), NTS_ECANCELLED);
-            CU_ASSERT(strstr(err.message, "cancelled") != NULL);
-            ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 0);
-            CU_ASSERT(g_build_asks >= at && g_build_asks <= 6); /* a chunk asks once */
-            walk_step(&w, th); /* no cancel: built now, the answer from scratch */
-            ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, 1);
-            walk_close(&w);
-        }
+        for (at = 1; at <= 3; at += 2)
+            for (first = 0; first <= 1; ++first) {
+                walk w;
+                nts_options o;
+                nts_result r;
+                nts_error err;
+                long long built = 0;
+                walk_open(&w, s, 0.2, -1.0);
+                if (!first) {
+                    walk_step(&w, th); /* a list that holds, then a kick past its skin */
+                    built = nts_candidates_get_info(w.kc).builds;
+                    ASSERT_INT_EQ(built, 1);
+                    CU_ASSERT(nts_candidates_get_info(w.kc).kept > 0);
+                    jitter(&w, &g, 0.03);
+                    CU_ASSERT_FATAL(nts_scene_update_positions(s, w.pos, &err) == NTS_OK);
+                }
+                o = w.o;
+                o.candidates = w.kc;
+                o.threads = th;
+                o.cancel = cancel_at;
+                g_build_asks = 0;
+                g_build_cancel_at = at;
+                ASSERT_INT_EQ(nts_evaluate(w.kept, s, &o, &r, &err), NTS_ECANCELLED);
+                CU_ASSERT(strstr(err.message, "cancelled") != NULL);
+                ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, built);
+                ASSERT_INT_EQ(nts_candidates_get_info(w.kc).kept, 0); /* none kept, none counted */
+                CU_ASSERT(g_build_asks >= at && g_build_asks <= 6);  /* a chunk asks once */
+                walk_step(&w, th); /* no cancel: built now, the answer from scratch */
+                ASSERT_INT_EQ(nts_candidates_get_info(w.kc).builds, built + 1);
+                walk_close(&w);
+            }
     nts_scene_destroy(s);
     free_packing(&p);
 }
