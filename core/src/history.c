@@ -116,8 +116,10 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
         const nts_anchor* a = &in[k];
         const int need = a->kind == NTS_KIND_SEGMENT ? 2 : a->kind == NTS_KIND_CORNER ? 3 : 1;
         int q, n;
+        /* a body meets itself only where it has self-contact (docs/model.md
+         * §16): then its own anchors are pairs too, as its evaluations give */
         if (a->slave_body < 0 || a->slave_body >= s->body_count || a->master_body < 0 ||
-            a->master_body >= s->body_count || a->master_body == a->slave_body) {
+            a->master_body >= s->body_count || (a->master_body == a->slave_body && !s->body_self[a->slave_body])) {
             rc = fail_anchor(err, k, "no such pair of bodies");
             break;
         }
@@ -140,6 +142,11 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
                 rc = fail_anchor(err, k, q < need ? "a node that is not on the master body's boundary"
                                                   : "more nodes than its kind has (-1 past them)");
         }
+        if (rc != NTS_OK) break;
+        /* (T) of §16: no feature of a body's own that holds the slave node counts */
+        if (a->master_body == a->slave_body)
+            for (q = 0; q < need && rc == NTS_OK; ++q)
+                if (a->nodes[q] == a->slave_node) rc = fail_anchor(err, k, "a feature of its own that holds the slave node");
         if (rc != NTS_OK) break;
         if ((need >= 2 && !consecutive(s, entry_of, a->master_body, a->nodes[0], a->nodes[1])) ||
             (need == 3 && !consecutive(s, entry_of, a->master_body, a->nodes[1], a->nodes[2])) ||

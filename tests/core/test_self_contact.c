@@ -539,6 +539,71 @@ static void test_same_bits_every_way(void) {
     nts_context_destroy(c1);
 }
 
+/* Friction's anchors of a body on itself (the horseshoe's arms rubbing):
+ * an evaluation gives them, and nts_history_set takes them back, as a
+ * stateless request's "history" or `ntscontact --history-in` gives what
+ * `--history-out` wrote (it refused them: "no such pair of bodies", and
+ * a distributed scene, which carries its history that way, failed its
+ * second step); the next step with the set history is the committed one's,
+ * bit for bit. A body without self-contact still has no pair with itself,
+ * and no own feature may hold the slave node ((T) of §16). */
+static void test_self_contact_history_round_trip(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_history *h = nts_history_create(), *back = nts_history_create();
+    nts_options o = nts_default_options();
+    nts_result r0, r1;
+    nts_error err;
+    nts_scene *s, *off;
+    const nts_anchor* a;
+    nts_anchor bad;
+    int count = 0, k, self_pairs = 0, i;
+    nts_vec2 x[MAXN];
+    horseshoe(&sh, -0.03);
+    s = one_body(&sh, 1, 0.0, 0.0);
+    off = one_body(&sh, 0, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL && off != NULL && ctx != NULL && h != NULL && back != NULL);
+    o.alpha = 0.2;
+    o.search_radius = 0.3;
+    o.penalty = 100.0;
+    o.friction = 0.3;
+    o.outputs = NTS_OUT_ALL;
+    o.history = h;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r0, &err) == 0);
+    CU_ASSERT_FATAL(nts_history_commit(h, &r0) == 0);
+    a = nts_history_anchors(h, &count);
+    for (k = 0; k < count; ++k) self_pairs += a[k].slave_body == 0 && a[k].master_body == 0;
+    CU_ASSERT_FATAL(count > 0 && self_pairs == count);
+    ASSERT_INT_EQ(nts_history_set(back, s, a, count, &err), NTS_OK);
+    /* a step on: slid along the arms, the committed history and the set one */
+    for (i = 0; i < sh.n; ++i) x[i] = nts_v2(sh.p[i].x, sh.p[i].y + (sh.p[i].x > 0.0 ? 0.01 : 0.0));
+    CU_ASSERT_FATAL(nts_scene_set_positions(s, 0, x, &err) == 0);
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r0, &err) == 0);
+    o.history = back;
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r1, &err) == 0);
+    CU_ASSERT(same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
+    CU_ASSERT(r1.summary.contacts > 0);
+    o.history = NULL; /* (the history matters: without it, other forces) */
+    CU_ASSERT_FATAL(nts_evaluate(ctx, s, &o, &r1, &err) == 0);
+    CU_ASSERT(!same_answer(s, &r0, &r1, NTST_SUMMARY_WHOLE));
+    /* refused: the same anchor on the body without self-contact, and one
+     * whose feature holds its slave node */
+    bad = a[0];
+    ASSERT_INT_EQ(nts_history_set(back, off, &bad, 1, &err), NTS_EINVALID_HISTORY);
+    CU_ASSERT(strstr(err.message, "no such pair of bodies") != NULL);
+    bad.nodes[0] = bad.slave_node;
+    bad.nodes[1] = (bad.slave_node + 1) % sh.n;
+    bad.nodes[2] = -1;
+    bad.kind = NTS_KIND_SEGMENT;
+    ASSERT_INT_EQ(nts_history_set(back, s, &bad, 1, &err), NTS_EINVALID_HISTORY);
+    CU_ASSERT(strstr(err.message, "holds the slave node") != NULL);
+    nts_history_destroy(h);
+    nts_history_destroy(back);
+    nts_scene_destroy(s);
+    nts_scene_destroy(off);
+    nts_context_destroy(ctx);
+}
+
 static void test_self_contact_is_zero_or_one(void) {
     static shape sh;
     nts_body_def d;
@@ -566,4 +631,5 @@ void register_self_contact_suite(void) {
     ADD_TEST(s, test_ring_meets_its_own_image);
     ADD_TEST(s, test_same_bits_every_way);
     ADD_TEST(s, test_self_contact_is_zero_or_one);
+    ADD_TEST(s, test_self_contact_history_round_trip);
 }

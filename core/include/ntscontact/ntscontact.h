@@ -456,9 +456,10 @@ NTS_API nts_history* nts_history_create(void);
 /** Frees the history and its anchors; NULL is a no-op. */
 NTS_API void nts_history_destroy(nts_history* history);
 /** Set the anchors from a list (a stateless request's "history"), checked
- * against the scene: bodies and nodes in range, the feature's nodes those of
- * one segment, corner or vertex of the master body's loops, a finite param,
- * each key once. 0, NTS_ENOMEM, or NTS_EINVALID_ARGUMENT naming the entry
+ * against the scene: bodies and nodes in range (a body with itself only
+ * where it has self-contact, and then no feature holding the slave node), the
+ * feature's nodes those of one segment, corner or vertex of the master
+ * body's loops, a finite param, each key once. 0, NTS_ENOMEM, or NTS_EINVALID_ARGUMENT naming the entry
  * (err->option "history", err->item). */
 NTS_API int nts_history_set(nts_history* history, const nts_scene* scene, const nts_anchor* anchors, int count,
                             nts_error* err);
