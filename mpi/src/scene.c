@@ -178,6 +178,20 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         if (rc == NTS_OK && (m->own_ctx == NULL || m->ctx == NULL)) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     }
     if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+    {
+        /* One box for the whole: a rank's own would silently give its
+         * slaves other minimum images (or none) than one process does. */
+        double box[2];
+        box[0] = lx;
+        box[1] = ly;
+        MPI_Bcast(box, 2, MPI_DOUBLE, 0, comm);
+        if (!(box[0] == lx && box[1] == ly)) {
+            rc = ntsm_fail(&e, NTS_EINVALID_ARGUMENT, "the ranks' periodic boxes differ: lx and ly must be the same on "
+                                                      "every rank (0 and 0: no box)");
+            snprintf(e.option, sizeof e.option, "%s", "periodic");
+        }
+        if (ntsm_agree(m, comm, rank, size, rc, &e) != NTS_OK) goto failed;
+    }
 
     /* The whole: every body's owner, nodes and surface entries. */
     counts = (int*)malloc(sizeof(int) * (size_t)size);

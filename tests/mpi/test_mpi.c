@@ -514,6 +514,44 @@ static void bad_input(void) {
     if (rank_ == 0) printf("bad input on rank %d: every rank got \"%s\" (body %d)\n", size_ - 1, err.message, err.body);
 }
 
+/* The ranks must give one periodic box: the last rank's own (another lx,
+ * or none against a box) is refused on every rank with the same error,
+ * never evaluated with its own minimum images (it was: an answer, silently
+ * not one process's). */
+static void boxes_differ(void) {
+    nts_vec2 nodes[8];
+    nts_body_def def;
+    nts_error err;
+    ntsm_scene* m;
+    int k, id = rank_, variant, codes[2], all[2];
+    for (k = 0; k < 8; ++k) {
+        nodes[k].x = 3.0 * rank_ + 1.5 + cos(2 * M_PI * k / 8);
+        nodes[k].y = 1.5 + sin(2 * M_PI * k / 8);
+    }
+    memset(&def, 0, sizeof def);
+    def.nodes = nodes;
+    def.node_count = 8;
+    for (variant = 0; variant < 2; ++variant) {
+        const double lx = 3.0 * size_ + 3.0, ly = 20.0;
+        const int last = rank_ == size_ - 1 && size_ > 1;
+        m = ntsm_scene_create(MPI_COMM_WORLD, &def, &id, 1, last ? (variant == 0 ? lx + 1.0 : 0.0) : lx,
+                              last && variant == 1 ? 0.0 : ly, nts_default_limits(), &err);
+        if (size_ == 1) { /* one rank: nothing to differ */
+            CHECK(m != NULL, "one rank's box refused: %s", err.message);
+            ntsm_scene_destroy(m);
+            continue;
+        }
+        CHECK(m == NULL && err.code == NTS_EINVALID_ARGUMENT && strstr(err.message, "periodic boxes differ") != NULL,
+              "differing boxes (variant %d): %s", variant, m != NULL ? "accepted" : err.message);
+        if (m != NULL) ntsm_scene_destroy(m);
+        codes[0] = err.code;
+        codes[1] = -err.code;
+        MPI_Allreduce(codes, all, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        CHECK(all[0] == err.code && -all[1] == err.code, "differing boxes: not the same error on every rank");
+    }
+    if (rank_ == 0 && size_ > 1) printf("differing boxes: every rank refused them\n");
+}
+
 /* A host that owns rows of bodies (a square periodic box, or an open scene
  * with its wall and big disk on the last rank), then the same scene turned a
  * quarter (the same bodies in the same order, the same owners, so the same
@@ -603,6 +641,7 @@ int main(int argc, char** argv) {
     kept_lists(0); /* (open: the wall and the big disk too; an evaluation on more ranks than cores costs a
                     * scheduler's slice a collective round, the periodic case would double the suite's time) */
     bad_input();
+    boxes_differ();
     MPI_Allreduce(&failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
     if (rank_ == 0) printf("%s\n", total == 0 ? "all equal" : "FAILED");
     MPI_Finalize();

@@ -49,8 +49,10 @@ typedef struct ntsm_result {
 
 /** Collective: the bodies this rank owns, `ids[k]` the global index of
  * bodies[k] (every index 0..B-1 on exactly one rank), the periodic box and
- * the limits the same on every rank. The bodies are copied. NULL on error,
- * with *err the same on every rank (err->body a global index). */
+ * the limits the same on every rank (boxes that differ are
+ * NTS_EINVALID_ARGUMENT, err->option "periodic"). The bodies are copied.
+ * NULL on error, with *err the same on every rank (err->body a global
+ * index). */
 NTS_API ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
                               double ly, nts_limits limits, nts_error* err);
 /** Frees this rank's part of the scene (not collective); NULL is a no-op. */
