@@ -225,14 +225,14 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
                     if (n > 1) qsort(kc, (size_t)n, sizeof(keyed_contact), cmp_keyed_contact);
                     if ((m->g_contacts = (nts_contact*)malloc(sizeof(nts_contact) * (size_t)(n + 1))) == NULL) ok = 0;
                     for (k = 0; ok && k < n; ++k) m->g_contacts[k] = kc[k].c;
-                    out->contacts = m->g_contacts;
+                    out->contacts = n > 0 ? m->g_contacts : NULL; /* (as nts_evaluate: none, NULL) */
                     out->contact_count = n;
                 } else {
                     keyed_anchor* ka = (keyed_anchor*)(void*)all;
                     if (n > 1) qsort(ka, (size_t)n, sizeof(keyed_anchor), cmp_keyed_anchor);
                     if ((m->g_anchors = (nts_anchor*)malloc(sizeof(nts_anchor) * (size_t)(n + 1))) == NULL) ok = 0;
                     for (k = 0; ok && k < n; ++k) m->g_anchors[k] = ka[k].a;
-                    out->anchors = m->g_anchors;
+                    out->anchors = n > 0 ? m->g_anchors : NULL;
                     out->anchor_count = n;
                 }
             }
@@ -260,7 +260,7 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
             if (n > 1) qsort(kc, (size_t)n, sizeof(keyed_contact), cmp_keyed_contact);
             if ((m->g_gaps = (nts_contact*)malloc(sizeof(nts_contact) * (size_t)(n + 1))) == NULL) ok = 0;
             for (k = 0; ok && k < n; ++k) m->g_gaps[k] = kc[k].c;
-            out->gaps = m->g_gaps;
+            out->gaps = n > 0 ? m->g_gaps : NULL;
             out->gap_count = n;
         }
         free(all);
@@ -302,16 +302,16 @@ int ntsm_gather(ntsm_scene* m, int root, nts_result* out, nts_error* err) {
                 m->g_cols[k] = kt[k].col;
                 m->g_vals[k] = kt[k].v;
             }
-            out->stiffness.rows = m->g_rows;
-            out->stiffness.cols = m->g_cols;
-            out->stiffness.values = m->g_vals;
+            out->stiffness.rows = n > 0 ? m->g_rows : NULL;
+            out->stiffness.cols = n > 0 ? m->g_cols : NULL;
+            out->stiffness.values = n > 0 ? m->g_vals : NULL;
             out->stiffness.count = n;
         }
         free(all);
         b.n = 0;
         if (!all_ok(m, ok)) goto oom;
     }
-    if (m->rank == root) out->stiffness.size = (int)(2 * nodes);
+    if (m->rank == root && (m->outputs & NTS_OUT_STIFFNESS)) out->stiffness.size = (int)(2 * nodes); /* (as nts_evaluate) */
     free(b.p);
     rc = ntsm_agree(m, m->comm, m->rank, m->size, NTS_OK, &e);
     if (err != NULL) *err = e;

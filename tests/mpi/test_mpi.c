@@ -236,6 +236,22 @@ static int compare_with(const scene_data* d, ntsm_scene* m, nts_scene* whole, co
                       "%s: body %d node %d: force differs", what, b, i);
             at += n;
         }
+        {
+            /* the whole answer on rank 0, shaped as nts_evaluate's: the
+             * counts, an empty array NULL, the tangent's size only when asked */
+            nts_result g;
+            const int grc = ntsm_gather(m, 0, &g, &err);
+            CHECK(grc == 0, "%s: gather: %s", what, err.message);
+            if (grc == 0 && rank_ == 0)
+                CHECK(g.contact_count == ref.contact_count && (g.contacts == NULL) == (ref.contacts == NULL) &&
+                          g.gap_count == ref.gap_count && (g.gaps == NULL) == (ref.gaps == NULL) &&
+                          g.anchor_count == ref.anchor_count && (g.anchors == NULL) == (ref.anchors == NULL) &&
+                          g.stiffness.count == ref.stiffness.count && g.stiffness.size == ref.stiffness.size &&
+                          (g.stiffness.rows == NULL) == (ref.stiffness.rows == NULL),
+                      "%s: gathered: contacts %d/%d gaps %d/%d anchors %d/%d triplets %d/%d size %d/%d", what,
+                      g.contact_count, ref.contact_count, g.gap_count, ref.gap_count, g.anchor_count, ref.anchor_count,
+                      g.stiffness.count, ref.stiffness.count, g.stiffness.size, ref.stiffness.size);
+        }
         if (rank_ == 0)
             printf("%s: %d ranks, %d contacts (%d deep), energy %.17g, bitwise equal; this rank sent %lld bytes, "
                    "held %d of %d surface entries\n",
