@@ -568,8 +568,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
         int cells = 1;
         env.cell_side = -1.0; /* set by nts_cells_now when it builds the cells */
         if (opt->candidates != NULL && (rc = kept_prepare(ctx, &env, opt->candidates, &cells)) != NTS_OK)
-            return eval_fail(err, rc, -1, -1,
-                             rc == NTS_ECANCELLED ? CANCELLED : "out of memory");
+            return eval_fail(err, rc, -1, -1, rc == NTS_ECANCELLED ? CANCELLED : "out of memory");
         if (env.kept != NULL) env.kept_ahead = nts_kept_ahead(opt->candidates, s->surface_count);
         if (cells && (rc = nts_cells_now(ctx, &env)) != NTS_OK) return eval_fail(err, rc, -1, -1, "out of memory");
         if (ctx->frame_set && ctx->frame.cell_size >= 0.0)

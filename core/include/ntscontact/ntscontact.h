@@ -459,8 +459,9 @@ NTS_API void nts_history_destroy(nts_history* history);
  * against the scene: bodies and nodes in range (a body with itself only
  * where it has self-contact, and then no feature holding the slave node), the
  * feature's nodes those of one segment, corner or vertex of the master
- * body's loops, a finite param, each key once. 0, NTS_ENOMEM, or NTS_EINVALID_ARGUMENT naming the entry
- * (err->option "history", err->item). */
+ * body's loops, a finite param, each key once. 0, NTS_ENOMEM,
+ * NTS_EINVALID_ARGUMENT (a NULL argument), or NTS_EINVALID_HISTORY naming
+ * the entry (err->option "history", err->item). */
 NTS_API int nts_history_set(nts_history* history, const nts_scene* scene, const nts_anchor* anchors, int count,
                             nts_error* err);
 /** The result's anchors (one per active contact, nts_result.anchors) become
