@@ -310,6 +310,19 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
     return rc;
 }
 
+const char* ntsj_json_check(const char* json, size_t length, int max_depth, char* pointer, size_t pointer_size,
+                            char* message, size_t message_size) {
+    ntsj_fault fault;
+    memset(&fault, 0, sizeof fault);
+    if (pointer_size) pointer[0] = '\0';
+    if (message_size) message[0] = '\0';
+    if (json == NULL) json = "";
+    if (ntsj_scan(json, length, max_depth < 1 ? ntsj_default_config().max_depth : max_depth, &fault) == 0) return NULL;
+    if (pointer_size) snprintf(pointer, pointer_size, "%s", fault.pointer);
+    if (message_size) snprintf(message, message_size, "%s", fault.message);
+    return fault.code != NULL ? fault.code : ntsj_code_name(NTSJ_INVALID_JSON);
+}
+
 size_t ntsj_memory_estimate(const char* json, size_t length) {
     /* Every value but the first follows a ',', a ':' or an opening bracket;
      * counting those (in strings too) can only over-count. */

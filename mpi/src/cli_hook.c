@@ -254,6 +254,40 @@ static void json_write(FILE* f, const cJSON* v) {
     }
 }
 
+/* The first number in v that is not finite (a JSON number beyond the
+ * doubles, such as 1e999, which cJSON reads as infinite): 1, its JSON
+ * pointer (RFC 6901) written at at[len..size). The strict scan before it
+ * bounds the depth. */
+static int first_non_finite(const cJSON* v, char* at, size_t size, size_t len) {
+    const cJSON* c;
+    int k = 0;
+    at[len] = '\0';
+    if (cJSON_IsNumber(v)) return !(v->valuedouble - v->valuedouble == 0.0);
+    if (!cJSON_IsObject(v) && !cJSON_IsArray(v)) return 0;
+    for (c = v->child; c != NULL; c = c->next, ++k) {
+        size_t n = len;
+        if (n + 1 < size) at[n++] = '/';
+        if (cJSON_IsArray(v)) {
+            n += (size_t)snprintf(at + n, n < size ? size - n : 0, "%d", k);
+        } else {
+            const char* q;
+            for (q = c->string != NULL ? c->string : ""; *q != '\0' && n + 2 < size; ++q) {
+                if (*q == '~' || *q == '/') { /* RFC 6901's escapes */
+                    at[n++] = '~';
+                    at[n++] = *q == '~' ? '0' : '1';
+                } else {
+                    at[n++] = *q;
+                }
+            }
+        }
+        if (n >= size) n = size - 1;
+        at[n] = '\0';
+        if (first_non_finite(c, at, size, n)) return 1;
+        at[len] = '\0';
+    }
+    return 0;
+}
+
 /* --part PATTERN: each rank reads its own part of the scene, PATTERN with
  * "%d" its rank (a scene document of its bodies, "options" the same in
  * every part). Rank 0 puts the parts together (the whole's bodies in rank
@@ -331,9 +365,21 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
             cJSON* whole = NULL;
             cJSON* bodies = NULL;
             for (r = 0; r < size && *status == 0; ++r) {
-                cJSON* part = cJSON_ParseWithLength(texts + counts[size + r], (size_t)counts[r]);
+                /* Each part read as strictly as a request (cJSON alone would
+                 * take trailing data or 010), its faults named in it. */
+                char where[256], why[256];
+                const char* code = ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0, where, sizeof where,
+                                                   why, sizeof why);
+                cJSON* part = code == NULL ? cJSON_ParseWithLength(texts + counts[size + r], (size_t)counts[r]) : NULL;
                 cJSON* pb = part != NULL ? cJSON_GetObjectItemCaseSensitive(part, "bodies") : NULL;
-                if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
+                if (code != NULL) {
+                    fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n", code, where, r, why);
+                    *status = 3;
+                } else if (part != NULL && first_non_finite(part, where, sizeof where, 0)) {
+                    fprintf(stderr, "ntscontact-mpi: non_finite at \"%s\" of part %d: a number beyond the doubles\n",
+                            where, r);
+                    *status = 3;
+                } else if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
                     fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
                                     "\"bodies\"\n", r);
                     *status = 3;

@@ -280,3 +280,38 @@ def test_part_each_rank_reads_its_own(tmp_path):
                                                          options={"penalty": 4.0})))
     got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
     assert got.returncode == 3 and b"options differ" in got.stderr, got.stderr.decode()
+
+
+@pytest.mark.parametrize("fault, code, where", [
+    ("trailing", b"invalid_json", b'at "" of part 1: unexpected data after the JSON value'),
+    ("leading_zero", b"invalid_json", b'at "/options/penalty" of part 1: leading zero'),
+    ("overflow", b"non_finite", b'at "/bodies/0/nodes/2/1" of part 1'),
+    ("bom", b"invalid_json", b'at "" of part 1'),
+])
+def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
+    """--part: each part is checked as a request is (strict RFC 8259; a
+    number beyond the doubles is refused), and the fault is named in its
+    part (JSON pointer, part index), on rank 0, with the input's exit code 3.
+    cJSON alone took trailing data and a leading zero, and 1e999 came out
+    as invalid JSON at a place of the assembled request."""
+    scene = packing(8, 21)
+    scene["options"] = {"penalty": 2.0}
+    share = [scene["bodies"][:4], scene["bodies"][4:]]
+    (tmp_path / "part_0.json").write_text(json.dumps(dict(scene, bodies=share[0])))
+    text = json.dumps(dict(scene, bodies=share[1]))
+    if fault == "trailing":
+        text += " {}"
+    elif fault == "leading_zero":
+        text = text.replace('"penalty": 2.0', '"penalty": 02.0')
+    elif fault == "overflow":
+        nodes = share[1][0]["nodes"]
+        text = text.replace(json.dumps(nodes[2]), "[%r, 1e999]" % nodes[2][0], 1)
+    else:
+        text = "\ufeff" + text
+    (tmp_path / "part_1.json").write_text(text, encoding="utf-8")
+    argv = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
+    got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
+    assert got.returncode == 3, got.stderr.decode()
+    assert got.stdout == b""
+    line = [s for s in got.stderr.splitlines() if s.startswith(b"ntscontact-mpi:")]
+    assert len(line) == 1 and code in line[0] and where in line[0], got.stderr.decode()

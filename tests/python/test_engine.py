@@ -419,3 +419,38 @@ def test_each_result_knows_its_own_positions_whatever_the_threads(paths):
         for t in threads:
             t.join()
     assert bad == []
+
+
+@pytest.mark.parametrize("text, code, pointer", [
+    ('{"a": [1, 2.5e3, "x", true, null]}', None, None),
+    ('{"a": 1} x', "invalid_json", ""),
+    ('{"a": [1, 02]}', "invalid_json", "/a/1"),
+    ('{"a": "\\u0000"}', "invalid_json", "/a"),
+    ('[' * 40 + ']' * 40, "too_deep", None),
+    ('', "invalid_json", ""),
+    ('{"a~b": {"c/d": [0, tru]}}', "invalid_json", "/a~0b/c~1d/1"),
+])
+def test_json_check_is_the_requests_own_scan(text, code, pointer):
+    """ntsj_json_check (codec.h), the check ntscontact-mpi's --part runs on
+    each part: NULL for JSON, else the code a request would get, with its
+    pointer and a message that says where (line, column), each cut to
+    the room given and NUL-terminated."""
+    import ctypes
+    lib = ctypes.CDLL(str(LIBRARY))
+    check = lib.ntsj_json_check
+    check.restype = ctypes.c_char_p
+    check.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_int, ctypes.c_char_p, ctypes.c_size_t,
+                      ctypes.c_char_p, ctypes.c_size_t]
+    data = text.encode()
+    where, why = ctypes.create_string_buffer(b"\xff" * 256), ctypes.create_string_buffer(b"\xff" * 256)
+    got = check(data, len(data), 0, where, 256, why, 256)
+    if code is None:
+        assert got is None and where.value == b"" and why.value == b""
+        return
+    assert got is not None and got.decode() == code
+    if pointer is not None:
+        assert where.value.decode() == pointer
+    assert b"column" in why.value or code == "too_deep", why.value
+    small, tiny = ctypes.create_string_buffer(b"\xff" * 8), ctypes.create_string_buffer(b"\xff" * 4)
+    assert check(data, len(data), 0, small, 3, tiny, 4).decode() == code
+    assert len(small.raw[:3].split(b"\0")[0]) <= 2 and len(tiny.value) <= 3 and small.raw[3:8] == b"\xff" * 5

@@ -132,6 +132,16 @@ NTS_API void ntsj_response_free(ntsj_response* response);
 #define NTSJ_BYTES_PER_VALUE 136
 NTS_API size_t ntsj_memory_estimate(const char* json, size_t length);
 
+/** Check json[0..length) as every request is checked before it is read:
+ * strict RFC 8259 (no trailing data, no leading zero, no "\u0000"), UTF-8,
+ * nesting within max_depth (< 1: the default config's). Returns NULL when it
+ * is JSON, else its stable code ("invalid_json", "too_deep", ...) with the
+ * fault's JSON pointer and message (with its line and column) copied to pointer
+ * and message, NUL-terminated and truncated to their sizes. For front ends
+ * that read JSON of their own (ntscontact-mpi's --part). */
+NTS_API const char* ntsj_json_check(const char* json, size_t length, int max_depth, char* pointer,
+                                    size_t pointer_size, char* message, size_t message_size);
+
 /** An error document {"error": {"code", "message", "pointer"}} for front ends
  * (the server's 404/405/413/415/503). Returned buffer is freed with nts_free. */
 NTS_API char* ntsj_error_document(const char* code, const char* message, const char* pointer);
