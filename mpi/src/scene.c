@@ -105,6 +105,61 @@ static void own_defs_point(ntsm_scene* m) {
     for (k = 0; k < m->count; ++k) ntsm_body_read(m->own_bytes.p + m->own_at[k], &m->own_defs[k], &id);
 }
 
+/* One process names the failing body that comes first in the whole's
+ * order; a rank's own scene fails at its first in the rank's order, which
+ * the caller's deal need not keep ascending. So, after a failure at local
+ * body e->body, each body of a lower global index is tried alone, lowest
+ * first, and the first that fails alone is the one named (a body's own
+ * faults are its own; a fault of the whole, a limit on a sum, stays as
+ * found). The error path only, in O(n log n) and one scene a body: a
+ * scene that holds is made once. */
+typedef struct id_at {
+    int id, at; /* a body's global index, and its place on this rank */
+} id_at;
+
+static int by_global(const void* a, const void* b) {
+    const int x = ((const id_at*)a)->id, y = ((const id_at*)b)->id;
+    return (x > y) - (x < y);
+}
+
+static void lowest_failing(const nts_scene_def* def, const int* ids, nts_error* e) {
+    const int count = def->body_count, failing = ids[e->body];
+    id_at* order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
+    int n = 0, k;
+    if (order == NULL) return; /* (the first failure stays named) */
+    for (k = 0; k < count; ++k)
+        if (ids[k] < failing) {
+            order[n].id = ids[k];
+            order[n++].at = k;
+        }
+    qsort(order, (size_t)n, sizeof(id_at), by_global);
+    for (k = 0; k < n; ++k) {
+        nts_scene_def one = *def;
+        nts_error e1 = nts_error_none();
+        nts_scene* s;
+        one.bodies = def->bodies + order[k].at;
+        one.body_count = 1;
+        if ((s = nts_scene_create(&one, &e1)) != NULL) {
+            nts_scene_destroy(s);
+            continue;
+        }
+        if (e1.code != NTS_ENOMEM && e1.body == 0) {
+            /* its fault as the rank's scene names it: body order[k].at, local */
+            int used = 0, local = -1;
+            char msg[sizeof e1.message + 32];
+            if (sscanf(e1.message, "body %d%n", &local, &used) == 1 && local == 0) {
+                snprintf(msg, sizeof msg, "body %d%s", order[k].at, e1.message + used);
+                memcpy(e1.message, msg, sizeof e1.message - 1);
+                e1.message[sizeof e1.message - 1] = '\0';
+            }
+            e1.body = order[k].at;
+            *e = e1;
+        }
+        break; /* (a fault not its own alone: the first failure stays named) */
+    }
+    free(order);
+}
+
 ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const int* ids, int count, double lx,
                               double ly, nts_limits limits, nts_error* err) {
     ntsm_scene* m = (ntsm_scene*)calloc(1, sizeof *m);
@@ -169,6 +224,7 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
             m->own = nts_scene_create(&def, &e);
             if (m->own == NULL) {
                 rc = e.code != 0 ? e.code : NTS_ENOMEM;
+                if (e.body >= 0 && e.body < count && rc != NTS_ENOMEM) lowest_failing(&def, m->ids, &e);
                 ntsm_global_body(&e, m->ids, count);
             }
         }

@@ -568,6 +568,56 @@ static void boxes_differ(void) {
     if (rank_ == 0 && size_ > 1) printf("differing boxes: every rank refused them\n");
 }
 
+/* One process names the first failing body of the whole; a rank that
+ * holds its bodies in descending global order, two of them bad (the lower
+ * one held second), must name the lower one too, with one
+ * process's message, on every rank (it named the first it held). */
+static void lowest_failing_body(void) {
+    const int per = 3, total = per * size_;
+    nts_vec2* nodes = (nts_vec2*)calloc((size_t)total * 8, sizeof(nts_vec2));
+    nts_body_def* all = (nts_body_def*)calloc((size_t)total, sizeof(nts_body_def));
+    nts_body_def mine[3];
+    int ids[3], b, k, codes[2], both[2];
+    const int low = total - 3, high = total - 1; /* both on the last rank, held high first */
+    nts_scene_def def = nts_default_scene_def();
+    nts_error want, err;
+    nts_scene* whole;
+    ntsm_scene* m;
+    for (b = 0; b < total; ++b) {
+        for (k = 0; k < 8; ++k) {
+            nodes[8 * b + k].x = 3.0 * b + 1.5 + cos(2 * M_PI * k / 8);
+            nodes[8 * b + k].y = 1.5 + sin(2 * M_PI * k / 8);
+        }
+        all[b].nodes = nodes + 8 * b;
+        all[b].node_count = 8;
+    }
+    nodes[8 * low + 5] = nodes[8 * low + 4];   /* a segment of zero length, */
+    nodes[8 * high + 3] = nodes[8 * high + 2]; /* two: the checks go a fault at a time, body by body */
+    def.bodies = all;
+    def.body_count = total;
+    whole = nts_scene_create(&def, &want);
+    CHECK(whole == NULL && want.body == low, "one process: body %d refused, want %d", want.body, low);
+    nts_scene_destroy(whole);
+    for (k = 0; k < per; ++k) { /* rank r: bodies 3 r + 2, 3 r + 1, 3 r */
+        ids[k] = per * rank_ + per - 1 - k;
+        mine[k] = all[ids[k]];
+    }
+    m = ntsm_scene_create(MPI_COMM_WORLD, mine, ids, per, 0.0, 0.0, nts_default_limits(), &err);
+    CHECK(m == NULL && err.code == want.code && err.body == want.body && strcmp(err.message, want.message) == 0,
+          "lowest failing body: got %s (body %d, code %d), want \"%s\" (body %d, code %d)",
+          m != NULL ? "a scene" : err.message, err.body, err.code, want.message, want.body, want.code);
+    ntsm_scene_destroy(m);
+    codes[0] = err.body;
+    codes[1] = -err.body;
+    MPI_Allreduce(codes, both, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    CHECK(both[0] == err.body && -both[1] == err.body, "lowest failing body: not the same on every rank");
+    if (rank_ == 0)
+        printf("two bad bodies held in descending order: rank 0 named body %d, one process body %d\n", err.body,
+               want.body);
+    free(nodes);
+    free(all);
+}
+
 /* A host that owns rows of bodies (a square periodic box, or an open scene
  * with its wall and big disk on the last rank), then the same scene turned a
  * quarter (the same bodies in the same order, the same owners, so the same
@@ -658,6 +708,7 @@ int main(int argc, char** argv) {
                     * scheduler's slice a collective round, the periodic case would double the suite's time) */
     bad_input();
     boxes_differ();
+    lowest_failing_body();
     MPI_Allreduce(&failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
     if (rank_ == 0) printf("%s\n", total == 0 ? "all equal" : "FAILED");
     MPI_Finalize();
