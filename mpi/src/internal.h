@@ -90,6 +90,7 @@ struct ntsm_scene {
     nts_context* own_ctx;
     int own_nodes;
     int* own_node_at;     /* count + 1: each owned body's first node among this rank's */
+    nts_limits own_limits; /* the limits its own scene was made with (the error path's one-body scenes) */
     /* the whole, by global body */
     int bodies;
     int* owner;           /* rank */

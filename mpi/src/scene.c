@@ -111,8 +111,10 @@ static void own_defs_point(ntsm_scene* m) {
  * body e->body, each body of a lower global index is tried alone, lowest
  * first, and the first that fails alone is the one named (a body's own
  * faults are its own; a fault of the whole, a limit on a sum, stays as
- * found). The error path only, in O(n log n) and one scene a body: a
- * scene that holds is made once. */
+ * found). Alone: a scene of that body as `def` gives it (its positions
+ * then), and with `moved`, those positions then updated to the body's rows
+ * of `moved` (node_at: each body's first row), as the whole was. The
+ * error path only, in O(n log n) and one scene a body. */
 typedef struct id_at {
     int id, at; /* a body's global index, and its place on this rank */
 } id_at;
@@ -122,7 +124,21 @@ static int by_global(const void* a, const void* b) {
     return (x > y) - (x < y);
 }
 
-static void lowest_failing(const nts_scene_def* def, const int* ids, nts_error* e) {
+/* Body k of def alone (and moved): 0 when it passes, else its fault in *e1. */
+static int alone_fails(const nts_scene_def* def, int k, const nts_vec2* moved, const int* node_at, nts_error* e1) {
+    nts_scene_def one = *def;
+    nts_scene* s;
+    int rc = 0;
+    one.bodies = def->bodies + k;
+    one.body_count = 1;
+    if ((s = nts_scene_create(&one, e1)) == NULL) return 1;
+    if (moved != NULL && nts_scene_update_positions(s, moved + node_at[k], e1) != NTS_OK) rc = 1;
+    nts_scene_destroy(s);
+    return rc;
+}
+
+static void lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec2* moved, const int* node_at,
+                           nts_error* e) {
     const int count = def->body_count, failing = ids[e->body];
     id_at* order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
     int n = 0, k;
@@ -134,15 +150,8 @@ static void lowest_failing(const nts_scene_def* def, const int* ids, nts_error* 
         }
     qsort(order, (size_t)n, sizeof(id_at), by_global);
     for (k = 0; k < n; ++k) {
-        nts_scene_def one = *def;
         nts_error e1 = nts_error_none();
-        nts_scene* s;
-        one.bodies = def->bodies + order[k].at;
-        one.body_count = 1;
-        if ((s = nts_scene_create(&one, &e1)) != NULL) {
-            nts_scene_destroy(s);
-            continue;
-        }
+        if (!alone_fails(def, order[k].at, moved, node_at, &e1)) continue;
         if (e1.code != NTS_ENOMEM && e1.body == 0) {
             /* its fault as the rank's scene names it: body order[k].at, local */
             int used = 0, local = -1;
@@ -220,11 +229,12 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
         def.ly = ly;
         def.limits = limits;
         def.limits.max_bodies = INT_MAX;
+        m->own_limits = def.limits;
         if (count > 0) {
             m->own = nts_scene_create(&def, &e);
             if (m->own == NULL) {
                 rc = e.code != 0 ? e.code : NTS_ENOMEM;
-                if (e.body >= 0 && e.body < count && rc != NTS_ENOMEM) lowest_failing(&def, m->ids, &e);
+                if (e.body >= 0 && e.body < count && rc != NTS_ENOMEM) lowest_failing(&def, m->ids, NULL, NULL, &e);
                 ntsm_global_body(&e, m->ids, count);
             }
         }
@@ -342,7 +352,19 @@ int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_er
             memcpy(old + at, m->own_defs[k].nodes, sizeof(nts_vec2) * (size_t)m->own_defs[k].node_count);
             at += m->own_defs[k].node_count;
         }
-        if ((rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK) ntsm_global_body(&e, m->ids, m->count);
+        if ((rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK) {
+            if (e.body >= 0 && e.body < m->count && rc != NTS_ENOMEM) {
+                /* (the own definitions still hold the positions before) */
+                nts_scene_def def = nts_default_scene_def();
+                def.bodies = m->own_defs;
+                def.body_count = m->count;
+                def.lx = m->lx;
+                def.ly = m->ly;
+                def.limits = m->own_limits;
+                lowest_failing(&def, m->ids, positions, m->own_node_at, &e);
+            }
+            ntsm_global_body(&e, m->ids, m->count);
+        }
     }
     mine = rc;
     rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e);

@@ -571,7 +571,8 @@ static void boxes_differ(void) {
 /* One process names the first failing body of the whole; a rank that
  * holds its bodies in descending global order, two of them bad (the lower
  * one held second), must name the lower one too, with one
- * process's message, on every rank (it named the first it held). */
+ * process's message, on every rank (it named the first it held): at the
+ * scene's making, and when the faults come with new positions. */
 static void lowest_failing_body(void) {
     const int per = 3, total = per * size_;
     nts_vec2* nodes = (nts_vec2*)calloc((size_t)total * 8, sizeof(nts_vec2));
@@ -614,6 +615,35 @@ static void lowest_failing_body(void) {
     if (rank_ == 0)
         printf("two bad bodies held in descending order: rank 0 named body %d, one process body %d\n", err.body,
                want.body);
+    {
+        /* The same two faults arriving with new positions of a scene that held */
+        nts_vec2 moved[3 * 8];
+        nts_vec2 keep_low = nodes[8 * low + 5], keep_high = nodes[8 * high + 3];
+        nodes[8 * low + 5] = nts_v2(3.0 * low + 1.5 + cos(2 * M_PI * 5 / 8), 1.5 + sin(2 * M_PI * 5 / 8));
+        nodes[8 * high + 3] = nts_v2(3.0 * high + 1.5 + cos(2 * M_PI * 3 / 8), 1.5 + sin(2 * M_PI * 3 / 8));
+        for (k = 0; k < per; ++k) mine[k] = all[ids[k]];
+        whole = nts_scene_create(&def, &err);
+        m = ntsm_scene_create(MPI_COMM_WORLD, mine, ids, per, 0.0, 0.0, nts_default_limits(), &err);
+        CHECK(whole != NULL && m != NULL, "the scene of fine bodies refused: %s", err.message);
+        nodes[8 * low + 5] = nodes[8 * low + 4];
+        nodes[8 * high + 3] = nodes[8 * high + 2];
+        want = nts_error_none();
+        if (whole != NULL) { /* one process's update of every body (nodes: the whole's rows in order) */
+            const int rc = nts_scene_update_positions(whole, nodes, &want);
+            CHECK(rc != NTS_OK && want.body == low, "one process's update: body %d refused, want %d", want.body, low);
+        }
+        nts_scene_destroy(whole);
+        for (k = 0; k < per; ++k) memcpy(moved + 8 * k, all[ids[k]].nodes, sizeof(nts_vec2) * 8);
+        if (m != NULL) {
+            const int rc = ntsm_scene_update_positions(m, moved, &err);
+            CHECK(rc == want.code && err.body == want.body && strcmp(err.message, want.message) == 0,
+                  "lowest failing body, new positions: \"%s\" (body %d, code %d), want \"%s\" (body %d)",
+                  err.message, err.body, rc, want.message, want.body);
+        }
+        ntsm_scene_destroy(m);
+        nodes[8 * low + 5] = keep_low;
+        nodes[8 * high + 3] = keep_high;
+    }
     free(nodes);
     free(all);
 }
