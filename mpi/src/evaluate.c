@@ -171,6 +171,29 @@ static void balance(ntsm_scene* m, double seconds, long long owned, double elaps
     free(all);
 }
 
+/* nts_evaluate's words for its candidate budget: "... within the search
+ * radius" when the closest points within r alone exceed it, "... within the
+ * search radius and deeper" when only those deeper take it over. A part
+ * over it only at its deeper ones may be within it at those within r while
+ * the whole is not: the agreed error (that part's) then takes one process's
+ * words, from the whole's count within r (every part's owned ones, summed;
+ * or a part over it there already). `mine`: this rank's part over the
+ * budget within r (1), only deeper (2), done (0), or failed otherwise (3:
+ * its count unknown). Every rank calls it, with the same agreed error: a
+ * collective. */
+static const char AND_DEEPER[] = " and deeper";
+
+static void budget_words(ntsm_scene* m, const nts_options* opt, int mine, nts_error* e) {
+    long long my[2], all[2];
+    char* at;
+    my[0] = mine == 1;
+    /* (a part that completed its search within r has counted its owned ones) */
+    my[1] = m->part != NULL && (mine == 2 || mine == 0) ? nts_context_owned_gaps(m->ctx) : 0;
+    MPI_Allreduce(my, all, 2, MPI_LONG_LONG, MPI_SUM, m->comm);
+    if ((all[0] > 0 || all[1] > ntsm_candidate_budget(m, opt)) && (at = strstr(e->message, AND_DEEPER)) != NULL)
+        memmove(at, at + sizeof AND_DEEPER - 1, strlen(at + sizeof AND_DEEPER - 1) + 1);
+}
+
 int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_error* err) {
     nts_error e = nts_error_none();
     nts_frame f;
@@ -179,7 +202,7 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
     double t0 = now(), t1, t_part, halo, r;
     const double t_begin = t0;
     const nts_vec2* part_pos = NULL; /* a kept part's new positions (ntsm_part_move), for its evaluation */
-    int rc = NTS_OK;
+    int rc = NTS_OK, deeper;
     memset(&sl, 0, sizeof sl);
     memset(out, 0, sizeof *out);
     memset(&m->stats, 0, sizeof m->stats);
@@ -343,7 +366,12 @@ int ntsm_evaluate(ntsm_scene* m, const nts_options* opt, ntsm_result* out, nts_e
         }
     }
     t_part = now() - t_part; /* this rank's own time, before waiting for the others */
+    deeper = rc == NTS_OK                                                   ? 0
+             : rc == NTS_ELIMIT && strcmp(e.option, "max_candidates") == 0 ? 1 + (strstr(e.message, AND_DEEPER) != NULL)
+                                                                           : 3;
     if ((rc = ntsm_agree(m, m->comm, m->rank, m->size, rc, &e)) != NTS_OK) {
+        if (rc == NTS_ELIMIT && strcmp(e.option, "max_candidates") == 0 && strstr(e.message, AND_DEEPER) != NULL)
+            budget_words(m, opt, deeper, &e); /* (every rank has this error: a collective) */
         /* every rank has the error: on an internal one, every rank builds
          * the parts anew next time (the collectives before then differ
          * between a kept decomposition and a new one) */

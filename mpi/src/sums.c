@@ -412,13 +412,18 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
         MPI_Allreduce(cnt, tot, 8, MPI_LONG_LONG, MPI_SUM, m->comm);
         {
             /* the whole's candidate budget (nts_evaluate's), not each part's */
-            long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * N + 1000000;
-            if (budget > INT_MAX) budget = INT_MAX; /* the count is nts_summary.gaps, an int */
-            if (tot[1] > budget) {
+            const long long budget = ntsm_candidate_budget(m, opt);
+            /* as nts_evaluate counts them: the closest points within r, then
+             * those deeper, found (the default radius: tot[2]) or counted
+             * and left out (an explicit one: tot[5], the owned slaves'
+             * penetration_beyond_radius) */
+            if (tot[1] + tot[5] > budget) {
+                /* one process's words: those within r alone over it, or only with the deeper ones */
                 rc = ntsm_fail(err, NTS_ELIMIT, "");
                 snprintf(err->message, sizeof err->message,
-                         "more than max_candidates = %lld closest points within the search radius: the bodies "
-                         "overlap far more than contact does (or raise the limit)", budget);
+                         "more than max_candidates = %lld closest points within the search radius%s: the bodies "
+                         "overlap far more than contact does (or raise the limit)", budget,
+                         tot[1] - tot[2] > budget ? "" : " and deeper");
                 snprintf(err->option, sizeof err->option, "max_candidates");
                 goto done;
             }
@@ -611,4 +616,9 @@ done:
     free(all_ch);
     free(all_deep);
     return rc;
+}
+
+long long ntsm_candidate_budget(const ntsm_scene* m, const nts_options* opt) {
+    const long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * m->entry_off[m->bodies] + 1000000;
+    return budget > INT_MAX ? INT_MAX : budget;
 }

@@ -178,6 +178,43 @@ def test_bad_scene_same_error(tmp_path, bad):
         assert got.stderr.splitlines()[0] == ref.stderr.splitlines()[0]
 
 
+@pytest.mark.parametrize("budget, words", [(5, "within"), (10, "deeper"), (40, "deeper"), (57, "deeper"),
+                                            (58, None)])
+def test_candidate_budget_as_one_process(tmp_path, budget, words):
+    """--max-candidates is the whole's, counted as one process counts it: the
+    closest points within the radius, then those deeper, found or (an
+    explicit radius) counted and left out. The same verdict and words on
+    any number of ranks: "... within the search radius" when those within r
+    alone exceed it, "... and deeper" when only the deeper ones take it
+    over. Two pairs of disks, each pressed 0.4 into each other, far apart,
+    an explicit radius of 0.05: 8 closest points within it, 50 deeper. The
+    ranks took 40 (only the found deep ones were counted, not those left
+    out), and a part over the budget only at its deeper ones said so where
+    the whole is over it within r (5)."""
+    pair = [polygon(0, 0, 1, 64), polygon(1.6, 0, 1, 64, 0.01)]
+    scene = {"options": {"penalty": 1.0, "search_radius": 0.05},
+             "bodies": [{"id": i, "nodes": [[x + dx, y] for x, y in nodes]}
+                        for i, (dx, nodes) in enumerate([(0, pair[0]), (0, pair[1]), (10, pair[0]), (10, pair[1])])]}
+    path = tmp_path / "deep.json"
+    path.write_text(json.dumps(scene))
+    ok = run(SERIAL, path, ("--outputs", "gaps"))
+    assert ok.returncode == 0
+    summary = json.loads(ok.stdout)
+    assert summary["summary"]["gaps"] == 8 and summary["warnings"][0]["count"] == 50
+    flags = ("--max-candidates", str(budget))
+    ref = run(SERIAL, path, flags)
+    line = [s for s in ref.stderr.splitlines() if b"limit_exceeded" in s]
+    if words is None:
+        assert ref.returncode == 0 and line == [], ref.stderr.decode()
+    else:
+        assert ref.returncode != 0 and len(line) == 1 and (b"and deeper" in line[0]) == (words == "deeper"), \
+            ref.stderr.decode()
+    for n in (1, 2, 3, 4):
+        got = run(MPI_CLI, path, flags, n)
+        assert got.returncode == ref.returncode, f"np={n}: {got.stderr.decode()}"
+        assert [s for s in got.stderr.splitlines() if b"limit_exceeded" in s] == line, f"np={n}: {got.stderr.decode()}"
+
+
 def test_frames(tmp_path, paths):
     """--frames (a session over frames of positions): the same lines, frame by frame, and the same VTK series."""
     scene = json.loads((paths.examples / "jittered_packing.json").read_text())
