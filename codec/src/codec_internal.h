@@ -121,6 +121,9 @@ struct cJSON;
 /* Decode a parsed request. Returns 0, or -1 with *fault filled (the scene is
  * then freed already), or NTS_ENOMEM. Applies config->overrides. */
 int ntsj_decode(const struct cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault);
+/* The same for a part of a scene that a front end holds with others (a
+ * rank's bodies: ntscontact.mpi): it may hold no bodies. */
+int ntsj_decode_part(const struct cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault);
 void ntsj_scene_free(ntsj_scene* s);
 /* The JSON pointer of a core error against the decoded request. */
 void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out, size_t size);

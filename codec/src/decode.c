@@ -26,6 +26,7 @@ typedef struct decoder {
     ntsj_scene* scene;
     int oom;
     int* order; /* the bodies in id order (check_unique_ids), for the history's lookups; or NULL */
+    int part;   /* a part of a scene (ntsj_decode_part): no bodies is fine */
 } decoder;
 
 /* ---------------------------------------------------------- pointers */
@@ -864,7 +865,7 @@ static int decode_root(decoder* d, const cJSON* root) {
     if (!f[ROOT_BODIES]) return fail(d, ntsj_code_name(NTSJ_MISSING_FIELD), "/bodies", "a scene needs \"bodies\"");
     if (!cJSON_IsArray(f[ROOT_BODIES])) return fail_type(d, "/bodies", f[ROOT_BODIES], "an array of bodies");
     n = array_size(f[ROOT_BODIES]);
-    if (n == 0) return fail(d, nts_status_name(NTS_EEMPTY_SCENE), "/bodies", "scene has no bodies");
+    if (n == 0 && !d->part) return fail(d, nts_status_name(NTS_EEMPTY_SCENE), "/bodies", "scene has no bodies");
     if (n > d->cfg->limits.max_bodies) {
         ntsj_fault_set(d->fault, nts_status_name(NTS_ELIMIT), "/bodies", "scene has %d bodies, more than max_bodies = %d", n,
                        d->cfg->limits.max_bodies);
@@ -891,7 +892,7 @@ static int decode_root(decoder* d, const cJSON* root) {
     return f[ROOT_HISTORY] ? decode_history(d, f[ROOT_HISTORY]) : 0;
 }
 
-int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault) {
+static int decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault, int part) {
     decoder d;
     memset(out, 0, sizeof *out);
     d.cfg = config;
@@ -899,6 +900,7 @@ int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, n
     d.scene = out;
     d.oom = 0;
     d.order = NULL;
+    d.part = part;
     if (decode_root(&d, root) == 0) {
         nts_free(d.order);
         return 0;
@@ -910,6 +912,14 @@ int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, n
         return NTS_ENOMEM;
     }
     return -1;
+}
+
+int ntsj_decode(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault) {
+    return decode(root, config, out, fault, 0);
+}
+
+int ntsj_decode_part(const cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault) {
+    return decode(root, config, out, fault, 1);
 }
 
 /* ---------------------------------------------------------- core errors */

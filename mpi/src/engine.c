@@ -154,7 +154,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
                  (root = cJSON_ParseWithLength(json, length)) == NULL)
             ntsj_fault_set(&fault, "out_of_memory", "", "out of memory while parsing the scene");
         if (fault.code == NULL && root != NULL) {
-            if (ntsj_decode(root, &cfg, &e->s, &fault) == 0) decoded = 1;
+            if (ntsj_decode_part(root, &cfg, &e->s, &fault) == 0) decoded = 1; /* (a rank may own no body) */
             else if (fault.code == NULL) ntsj_fault_set(&fault, "out_of_memory", "", "out of memory");
         }
         cJSON_Delete(root);
@@ -173,7 +173,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
             def.lx = e->s.has_periodic ? e->s.lx : 0.0;
             def.ly = e->s.has_periodic ? e->s.ly : 0.0;
             def.limits.max_bodies = 1 << 30;
-            if ((e->own = nts_scene_create(&def, &err)) == NULL) {
+            if (def.body_count > 0 && (e->own = nts_scene_create(&def, &err)) == NULL) {
                 char pointer[320] = "";
                 ntsj_pointer_of_error(&e->s, &err, pointer, sizeof pointer);
                 pointer_global(pointer, sizeof pointer, ids, count);
@@ -205,7 +205,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
         ntsm_engine_destroy(e);
         return NULL;
     }
-    e->counts[0] = nts_scene_node_count(e->own);
+    e->counts[0] = e->own != NULL ? nts_scene_node_count(e->own) : 0;
     e->counts[1] = e->scene->bodies;
     e->counts[2] = e->scene->entry_off[e->scene->bodies];
     return e;
@@ -251,7 +251,9 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
          * positions are the current ones; e->own keeps its first, it is read
          * for its topology only) */
         const nts_scene* cur = e->scene->own != NULL ? e->scene->own : e->own;
-        const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions : nts_scene_positions(cur);
+        const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions
+                            : cur != NULL     ? nts_scene_positions(cur)
+                                              : NULL; /* (a rank with no body: nothing to move) */
         if (ntsm_scene_update_positions(e->scene, p, &err) != 0) {
             *error = core_doc(e, &err);
             return -1;
@@ -261,8 +263,8 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         *error = core_doc(e, &err);
         return -1;
     }
-    if (r.forces != NULL) memcpy(forces, r.forces, sizeof(nts_vec2) * (size_t)nodes);
-    else memset(forces, 0, sizeof(nts_vec2) * (size_t)nodes);
+    if (nodes > 0 && r.forces != NULL) memcpy(forces, r.forces, sizeof(nts_vec2) * (size_t)nodes);
+    else if (nodes > 0) memset(forces, 0, sizeof(nts_vec2) * (size_t)nodes);
     {
         /* the daemon's header lines of a binary answer */
         ntsj_response resp;
@@ -273,7 +275,7 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         resp.ok = 1;
         resp.binary = 1;
         resp.summary = r.summary;
-        resp.friction = nts_friction_on(e->own, &opt);
+        resp.friction = e->own != NULL && nts_friction_on(e->own, &opt);
         resp.warning_count = r.warning_count;
         memcpy(resp.warnings, r.warnings, sizeof resp.warnings);
         resp.elapsed_ms = ntsj_round_us(1e3 * (MPI_Wtime() - t0));

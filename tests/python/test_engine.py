@@ -454,3 +454,13 @@ def test_json_check_is_the_requests_own_scan(text, code, pointer):
     small, tiny = ctypes.create_string_buffer(b"\xff" * 8), ctypes.create_string_buffer(b"\xff" * 4)
     assert check(data, len(data), 0, small, 3, tiny, 4).decode() == code
     assert len(small.raw[:3].split(b"\0")[0]) <= 2 and len(tiny.value) <= 3 and small.raw[3:8] == b"\xff" * 5
+
+
+def test_a_session_of_no_bodies_is_refused(engine):
+    """A session holds a whole scene: no bodies is `empty_scene` before
+    anything is sent (only a rank's part of a distributed scene,
+    ntscontact.mpi, may hold none)."""
+    for scene in ({"options": {"penalty": 1.0}, "bodies": []}, ntscontact.Scene(penalty=1.0)):
+        with pytest.raises(InvalidScene) as info:
+            engine.session(scene)
+        assert info.value.code == "empty_scene" and info.value.pointer == "/bodies"

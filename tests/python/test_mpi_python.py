@@ -79,6 +79,29 @@ SCRIPT = textwrap.dedent('''
     assert np.float64(d.energy).tobytes() == np.float64(a.energy).tobytes()
     assert d.summary.bodies == len(bodies)
 
+    # the last rank owns no body (more ranks than a host's shares): it steps
+    # with an empty array, or None, and gets the whole's summary; the others
+    # their forces, the same bits
+    if size > 1:
+        held = [b for b in whole if b % (size - 1) == rank] if rank < size - 1 else []
+        empty = eng.session(scene(held))
+        assert empty.nodes == sum(len(bodies[b]) for b in held)
+        for step in range(3):
+            pos = pos + 0.003 * rng.standard_normal(pos.shape)
+            held_pos = np.concatenate([np.zeros((0, 2))] + [pos[offsets[b]:offsets[b + 1]] for b in held])
+            a = ref.step(pos)
+            d = empty.step(None if (rank == size - 1 and step == 1) else held_pos)
+            assert np.float64(d.energy).tobytes() == np.float64(a.energy).tobytes(), (step, d.energy, a.energy)
+            assert np.asarray(d.virial).tobytes() == np.asarray(a.virial).tobytes(), step
+            assert d.summary.contacts == a.summary.contacts and d.summary.bodies == len(bodies), step
+            want = np.concatenate([np.zeros((0, 2))] + [a.force_array()[offsets[b]:offsets[b + 1]] for b in held])
+            assert d.force_array().shape == want.shape and d.force_array().tobytes() == want.tobytes(), step
+        empty.close()
+        pos = pos - 0.0  # (the walk goes on from here)
+        my_pos = np.concatenate([pos[offsets[b]:offsets[b + 1]] for b in mine])
+        a = ref.step(pos)
+        part.step(my_pos)
+
     # bad positions on the last rank only: every rank raises the same error
     bad = my_pos.copy()
     if rank == size - 1:

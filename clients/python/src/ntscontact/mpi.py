@@ -129,7 +129,11 @@ class DistributedEngine:
 
 class DistributedSession(Session):
     """This rank's part of a distributed scene: :class:`~ntscontact.Session`'s
-    steps, every rank together (see the module's doc)."""
+    steps, every rank together (see the module's doc). A rank may own no
+    bodies: it steps with an empty array (or None) and gets the whole's
+    summary."""
+
+    _may_hold_no_bodies = True
 
     def __init__(self, engine: DistributedEngine, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
                  ids: Optional[Sequence[int]] = None) -> None:
@@ -253,4 +257,4 @@ class DistributedSession(Session):
             _raise_document(_text(self._lib, error))
         text = _text(self._lib, headers)
         h = dict(line.split(": ", 1) for line in text.splitlines() if line)
-        return {}, h, memoryview(forces).cast("B")
+        return {}, h, memoryview(forces).cast("B") if forces.size else memoryview(b"")  # (a rank with no node)

@@ -564,9 +564,10 @@ class Scene:
 
     # ---------------------------------------------------------- checking
 
-    def check(self) -> None:
-        """What the client checks before sending (beyond ``add_body``'s checks)."""
-        if not self._bodies:
+    def check(self, allow_empty: bool = False) -> None:
+        """What the client checks before sending (beyond ``add_body``'s checks);
+        ``allow_empty``: a part of a scene, which may hold no bodies."""
+        if not self._bodies and not allow_empty:
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
         if self.penalty is None:
             raise InvalidScene("options.penalty is required", code="missing_field", pointer="/options/penalty")

@@ -89,6 +89,10 @@ class Session:
     to be created again (after a 404 ``unknown_scene``).
     """
 
+    #: A session holds a whole scene: no bodies is an ``empty_scene``. A
+    #: rank's part of a distributed one (``ntscontact.mpi``) may hold none.
+    _may_hold_no_bodies = False
+
     def __init__(self, client: Any, scene: Union[Scene, Mapping[str, Any], str, bytes], *,
                  timeout: Optional[Any] = None, keep_contacts: bool = False, keep_candidates: bool = True,
                  skin: Optional[float] = None, exchange: str = "all") -> None:
@@ -98,7 +102,7 @@ class Session:
         self.exchange = exchange
         self.timeout = timeout
         if isinstance(scene, Scene):
-            scene.check()
+            scene.check(allow_empty=self._may_hold_no_bodies)
             doc: Dict[str, Any] = scene.to_dict()
         elif isinstance(scene, Mapping):
             doc = dict(scene)
@@ -113,7 +117,7 @@ class Session:
         if skin is not None:
             doc["session"] = {**(doc.get("session") or {}), "skin": float(skin)}
         bodies = doc.get("bodies")
-        if not isinstance(bodies, list) or not bodies:
+        if not isinstance(bodies, list) or (not bodies and not self._may_hold_no_bodies):
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
         self._body = json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
         self.body_ids: List[BodyId] = [b.get("id") for b in bodies]
@@ -130,7 +134,8 @@ class Session:
         # The client's copy of the stored positions: what a re-created session
         # must be sent to go on where the lost one was.
         self._positions: FloatArray = np.concatenate(
-            [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2) for b in bodies])
+            [np.zeros((0, 2))] + [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2)
+                                  for b in bodies])
         # A surface exchange's last rows sent, not yet set into _positions
         # (_stored: only when every node's positions are asked for). The two
         # change together, under _held_lock (steps may run on several threads).
