@@ -39,9 +39,11 @@ typedef struct ntsm_dealt {
 } ntsm_dealt;
 
 /* Collective: root's bodies (body_count of them, only read on root) dealt
- * to the ranks. NTS_OK or, on every rank, NTS_ENOMEM. */
+ * to the ranks, rank r's the bodies [first_of[r], first_of[r + 1]) (on
+ * root: size + 1 places). NTS_OK or, on every rank, NTS_ENOMEM. */
 
-static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int body_count, ntsm_dealt* out) {
+static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int body_count, ntsm_dealt* out,
+                       int* first_of) {
     int rank, size, r, k, ok = 1;
     memset(out, 0, sizeof *out);
     MPI_Comm_rank(comm, &rank);
@@ -62,6 +64,8 @@ static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int 
                 acc += bodies[b++].node_count;
             }
             head[0] = b - first;
+            first_of[r] = first;
+            first_of[r + 1] = b;
             if (blk.oom || blk.n > INT_MAX) {
                 ok = 0;
                 head[0] = 0; /* nothing sent: every rank learns it below */
@@ -111,10 +115,19 @@ static void dealt_free(ntsm_dealt* d) {
 }
 
 
-/* A job's state, kept until the next (its result's arrays live in it). */
+/* A job's state, kept until the next (its result's arrays live in it) and,
+ * over --frames, for the next frame of the same scene: its distributed
+ * scene then takes the frame's positions and goes on (its parts and their
+ * candidate lists kept while they hold, docs/distributed.md) instead of
+ * being dealt and made anew. On root, what the scene was made of: `key`,
+ * every body's bytes at its reference with the box and the limits (the
+ * same while only positions change: a session's bodies keep their first
+ * positions as reference), and each rank's bodies (first_of). */
 typedef struct job {
     ntsm_dealt dealt;
     ntsm_scene* scene;
+    bytes key;
+    int* first_of;
 } job;
 
 static job current;
@@ -122,7 +135,77 @@ static job current;
 static void job_end(void) {
     ntsm_scene_destroy(current.scene);
     dealt_free(&current.dealt);
+    free(current.key.p);
+    free(current.first_of);
     memset(&current, 0, sizeof current);
+}
+
+/* Root: the bytes that say which scene def is (job.key). */
+static bytes scene_key(const nts_scene_def* def, const double box[2], const nts_limits* limits) {
+    bytes k;
+    int b;
+    memset(&k, 0, sizeof k);
+    ntsm_bytes_put(&k, box, 2 * sizeof(double));
+    ntsm_bytes_put(&k, limits, sizeof *limits);
+    for (b = 0; b < def->body_count; ++b) {
+        nts_body_def d = def->bodies[b];
+        const nts_vec2* ref = d.reference != NULL ? d.reference : d.nodes;
+        d.nodes = ref; /* (the positions apart) */
+        ntsm_body_write(&k, &d, b, ref);
+    }
+    return k;
+}
+
+/* Every rank: the next frame of the scene `current` holds, root's positions
+ * (def's bodies') to each rank's bodies. NTS_OK, or the agreed error. */
+static int frame_positions(const nts_scene_def* def, nts_error* err) {
+    int rank, size, r, ok = 1, all, mine_n = 0, k;
+    int* counts = NULL;
+    int* displs = NULL;
+    nts_vec2* whole = NULL;
+    nts_vec2* mine = NULL;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    for (k = 0; k < current.dealt.count; ++k) mine_n += current.dealt.defs[k].node_count;
+    if (rank == 0) {
+        /* each rank's bodies are a block of the whole's: their rows, in order */
+        long long n = 0, at = 0;
+        int b;
+        for (b = 0; b < def->body_count; ++b) n += def->bodies[b].node_count;
+        counts = (int*)malloc(sizeof(int) * (size_t)size);
+        displs = (int*)malloc(sizeof(int) * (size_t)size);
+        whole = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(n + 1));
+        ok = counts != NULL && displs != NULL && whole != NULL && n <= INT_MAX / 2;
+        for (b = 0; ok && b < def->body_count; ++b) {
+            memcpy(whole + at, def->bodies[b].nodes, sizeof(nts_vec2) * (size_t)def->bodies[b].node_count);
+            at += def->bodies[b].node_count;
+        }
+        for (r = 0, at = 0; ok && r < size; ++r) {
+            long long c = 0;
+            for (b = current.first_of[r]; b < current.first_of[r + 1]; ++b) c += def->bodies[b].node_count;
+            counts[r] = (int)(2 * c); /* (doubles) */
+            displs[r] = (int)(2 * at);
+            at += c;
+        }
+    }
+    mine = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(mine_n + 1));
+    ok = ok && mine != NULL;
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (all)
+        MPI_Scatterv(whole, counts, displs, MPI_DOUBLE, mine, 2 * mine_n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    free(counts);
+    free(displs);
+    free(whole);
+    if (!all) {
+        free(mine);
+        *err = nts_error_none();
+        err->code = NTS_ENOMEM;
+        strcpy(err->message, "out of memory");
+        return NTS_ENOMEM;
+    }
+    k = ntsm_scene_update_positions(current.scene, mine, err);
+    free(mine);
+    return k;
 }
 
 /* Every rank: one evaluation of the bodies root deals (def only read on
@@ -131,29 +214,54 @@ static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame,
                    nts_result* out, nts_error* err) {
     double box[2] = {0.0, 0.0};
     nts_limits limits = nts_default_limits();
-    int rank, rc;
+    int rank, size, rc, keep = 0;
     ntsm_result mine;
+    bytes key;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    job_end();
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    memset(&key, 0, sizeof key);
     if (rank == 0) {
         box[0] = def->lx;
         box[1] = def->ly;
         limits = def->limits;
+        /* the scene the last job made, at other positions: go on with it */
+        key = scene_key(def, box, &limits);
+        keep = current.scene != NULL && !key.oom && key.n == current.key.n && memcmp(key.p, current.key.p, key.n) == 0;
     }
+    MPI_Bcast(&keep, 1, MPI_INT, 0, MPI_COMM_WORLD);
     MPI_Bcast(opt, (int)sizeof *opt, MPI_BYTE, 0, MPI_COMM_WORLD);
     MPI_Bcast(frame, (int)sizeof *frame, MPI_BYTE, 0, MPI_COMM_WORLD);
     MPI_Bcast(box, 2, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     MPI_Bcast(&limits, (int)sizeof limits, MPI_BYTE, 0, MPI_COMM_WORLD);
-    if ((rc = deal_bodies(MPI_COMM_WORLD, 0, rank == 0 ? def->bodies : NULL, rank == 0 ? def->body_count : 0,
-                               &current.dealt)) != NTS_OK) {
-        *err = nts_error_none();
-        err->code = rc;
-        strcpy(err->message, "out of memory");
-        return rc;
+    if (keep) {
+        free(key.p);
+        if ((rc = frame_positions(def, err)) != NTS_OK) {
+            job_end(); /* (every rank: the next job deals anew) */
+            return rc;
+        }
+    } else {
+        job_end();
+        current.key = key; /* (root's; a job that fails is ended by the next) */
+        current.first_of = (int*)calloc((size_t)size + 1, sizeof(int));
+        rc = current.first_of != NULL ? NTS_OK : NTS_ENOMEM;
+        MPI_Allreduce(MPI_IN_PLACE, &rc, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (rc == NTS_OK)
+            rc = deal_bodies(MPI_COMM_WORLD, 0, rank == 0 ? def->bodies : NULL, rank == 0 ? def->body_count : 0,
+                             &current.dealt, current.first_of);
+        if (rc != NTS_OK) {
+            *err = nts_error_none();
+            err->code = rc;
+            strcpy(err->message, "out of memory");
+            job_end();
+            return rc;
+        }
+        current.scene = ntsm_scene_create(MPI_COMM_WORLD, current.dealt.defs, current.dealt.ids,
+                                          current.dealt.count, box[0], box[1], limits, err);
+        if (current.scene == NULL) {
+            job_end();
+            return err->code;
+        }
     }
-    current.scene = ntsm_scene_create(MPI_COMM_WORLD, current.dealt.defs, current.dealt.ids, current.dealt.count,
-                                      box[0], box[1], limits, err);
-    if (current.scene == NULL) return err->code;
     ntsm_scene_set_frame(current.scene, frame);
     /* friction's committed anchors: rank 0's, to every rank */
     {

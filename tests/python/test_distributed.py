@@ -234,6 +234,37 @@ def test_frames(tmp_path, paths):
             assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout), (n, flags)
 
 
+def test_frames_go_on_with_the_scene(tmp_path, paths):
+    """--frames: from the second frame on, the ranks go on with the
+    distributed scene of the first (each rank given its bodies' positions;
+    the parts and their candidate lists kept while they hold) instead of
+    dealing and making it anew: the same lines as ntscontact, frame by frame,
+    through small steps, the whole packing moved 5 (every part made again),
+    and the packing grown 5% (every segment longer)."""
+    scene = json.loads((paths.examples / "jittered_packing.json").read_text())
+    nodes = [p for b in scene["bodies"] for p in b["nodes"]]
+    rng = random.Random(3)
+    frames = []
+    for k in range(8):
+        row = []
+        for x, y in nodes:
+            x, y = x + 0.002 * rng.gauss(0, 1), y + 0.002 * rng.gauss(0, 1)
+            if k == 3:
+                x += 5.0
+            if k == 5:
+                x, y = 1.05 * x, 1.05 * y
+            row += [x, y]
+        frames.append(struct.pack(f"<{len(row)}d", *row))
+    (tmp_path / "frames.bin").write_bytes(b"".join(frames))
+    args = ("--frames", str(tmp_path / "frames.bin"), "--outputs", "forces,contacts,gaps")
+    ref = run(SERIAL, paths.examples / "jittered_packing.json", args)
+    assert ref.returncode == 0 and len(ref.stdout.splitlines()) == 8, ref.stderr.decode()
+    for n in (2, 3, 4):
+        got = run(MPI_CLI, paths.examples / "jittered_packing.json", args, n)
+        assert got.returncode == 0, got.stderr.decode()
+        assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", ref.stdout), n
+
+
 def test_vtk_validate_pretty(tmp_path, paths):
     """--vtk writes the same file, --validate and --pretty the same bytes."""
     scene = paths.examples / "jittered_packing.json"
