@@ -234,11 +234,16 @@ static int job_run(const nts_scene_def* def, nts_options* opt, nts_frame* frame,
     MPI_Bcast(box, 2, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     MPI_Bcast(&limits, (int)sizeof limits, MPI_BYTE, 0, MPI_COMM_WORLD);
     if (keep) {
-        free(key.p);
-        if ((rc = frame_positions(def, err)) != NTS_OK) {
-            job_end(); /* (every rank: the next job deals anew) */
-            return rc;
+        /* A refusal (the error is every rank's): the scene made anew, as
+         * without keeping it, from the positions rank 0's session took (a
+         * body turned over is a scene of its own, docs/model.md) */
+        if (frame_positions(def, err) != NTS_OK) {
+            keep = 0;
+            *err = nts_error_none();
         }
+    }
+    if (keep) {
+        free(key.p);
     } else {
         job_end();
         current.key = key; /* (root's; a job that fails is ended by the next) */

@@ -240,19 +240,25 @@ def test_frames_go_on_with_the_scene(tmp_path, paths):
     the parts and their candidate lists kept while they hold) instead of
     dealing and making it anew: the same lines as ntscontact, frame by frame,
     through small steps, the whole packing moved 5 (every part made again),
-    and the packing grown 5% (every segment longer)."""
+    the packing grown 5% (every segment longer), and a body mirrored (its
+    loop turned over: one process's session makes its scene anew, and so
+    must the ranks, which refused the positions as another scene)."""
     scene = json.loads((paths.examples / "jittered_packing.json").read_text())
     nodes = [p for b in scene["bodies"] for p in b["nodes"]]
+    first = len(scene["bodies"][0]["nodes"])
+    cx = sum(x for x, _ in nodes[:first]) / first
     rng = random.Random(3)
     frames = []
     for k in range(8):
         row = []
-        for x, y in nodes:
+        for i, (x, y) in enumerate(nodes):
             x, y = x + 0.002 * rng.gauss(0, 1), y + 0.002 * rng.gauss(0, 1)
             if k == 3:
                 x += 5.0
             if k == 5:
                 x, y = 1.05 * x, 1.05 * y
+            if k >= 6 and i < first:
+                x = 2.0 * cx - x  # body 0 mirrored: its loop turns over
             row += [x, y]
         frames.append(struct.pack(f"<{len(row)}d", *row))
     (tmp_path / "frames.bin").write_bytes(b"".join(frames))
