@@ -316,7 +316,10 @@ const char* ntsj_json_check(const char* json, size_t length, int max_depth, char
     memset(&fault, 0, sizeof fault);
     if (pointer_size) pointer[0] = '\0';
     if (message_size) message[0] = '\0';
-    if (json == NULL) json = "";
+    if (json == NULL) { /* (no text: none of it read, whatever length says) */
+        json = "";
+        length = 0;
+    }
     if (ntsj_scan(json, length, max_depth < 1 ? ntsj_default_config().max_depth : max_depth, &fault) == 0) return NULL;
     if (pointer_size) snprintf(pointer, pointer_size, "%s", fault.pointer);
     if (message_size) snprintf(message, message_size, "%s", fault.message);

@@ -367,17 +367,61 @@ static void json_write(FILE* f, const cJSON* v) {
     }
 }
 
-/* The first number in v that is not finite (a JSON number beyond the
- * doubles, such as 1e999, which cJSON reads as infinite): 1, its JSON
- * pointer (RFC 6901) written at at[len..size). The strict scan before it
- * bounds the depth. */
-static int first_non_finite(const cJSON* v, char* at, size_t size, size_t len) {
+/* A member's name and place in its object, for the search for a name that
+ * appears twice (sorted by name, then place: O(k log k) for k members). */
+typedef struct member {
+    const char* name;
+    int at;
+} member;
+
+static int by_name(const void* a, const void* b) {
+    const member *x = (const member*)a, *y = (const member*)b;
+    const int c = strcmp(x->name, y->name);
+    return c != 0 ? c : (x->at > y->at) - (x->at < y->at);
+}
+
+/* The place of the first member of object v whose name an earlier one has
+ * (-1: none; -2: out of memory). */
+static int repeated_member(const cJSON* v) {
     const cJSON* c;
-    int k = 0;
+    member* m;
+    int n = 0, k, first = -1;
+    for (c = v->child; c != NULL; c = c->next) ++n;
+    if (n < 2) return -1;
+    if ((m = (member*)malloc(sizeof(member) * (size_t)n)) == NULL) return -2;
+    for (c = v->child, k = 0; c != NULL; c = c->next, ++k) {
+        m[k].name = c->string != NULL ? c->string : "";
+        m[k].at = k;
+    }
+    qsort(m, (size_t)n, sizeof(member), by_name);
+    for (k = 1; k < n; ++k)
+        if (strcmp(m[k].name, m[k - 1].name) == 0 && (first < 0 || m[k].at < first)) first = m[k].at;
+    free(m);
+    return first;
+}
+
+/* The first fault of a part that its scan lets through (as a request's
+ * decoding finds them): a number that is not finite (a JSON number beyond
+ * the doubles, such as 1e999, which cJSON reads as infinite) or a key that
+ * appears twice in an object. Returns its code (NULL: none), its JSON
+ * pointer (RFC 6901) written at at[len..size) and why in why. The scan
+ * before it bounds the depth. */
+static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len, char* why, size_t why_size) {
+    const cJSON* c;
+    int k = 0, twice = -1;
     at[len] = '\0';
-    if (cJSON_IsNumber(v)) return !(v->valuedouble - v->valuedouble == 0.0);
-    if (!cJSON_IsObject(v) && !cJSON_IsArray(v)) return 0;
+    if (cJSON_IsNumber(v)) {
+        if (v->valuedouble - v->valuedouble == 0.0) return NULL;
+        snprintf(why, why_size, "a number beyond the doubles");
+        return "non_finite";
+    }
+    if (!cJSON_IsObject(v) && !cJSON_IsArray(v)) return NULL;
+    if (cJSON_IsObject(v) && (twice = repeated_member(v)) == -2) {
+        snprintf(why, why_size, "out of memory");
+        return "out_of_memory";
+    }
     for (c = v->child; c != NULL; c = c->next, ++k) {
+        const char* code;
         size_t n = len;
         if (n + 1 < size) at[n++] = '/';
         if (cJSON_IsArray(v)) {
@@ -395,10 +439,37 @@ static int first_non_finite(const cJSON* v, char* at, size_t size, size_t len) {
         }
         if (n >= size) n = size - 1;
         at[n] = '\0';
-        if (first_non_finite(c, at, size, n)) return 1;
+        if (k == twice) {
+            snprintf(why, why_size, "key \"%.64s\" appears more than once", c->string != NULL ? c->string : "");
+            return "duplicate_key";
+        }
+        if ((code = part_fault(c, at, size, n, why, why_size)) != NULL) return code;
         at[len] = '\0';
     }
-    return 0;
+    return NULL;
+}
+
+/* Whether parts a and b have the same member `name`, or both none. */
+static int same_member(const cJSON* a, const cJSON* b, const char* name) {
+    const cJSON* x = cJSON_GetObjectItemCaseSensitive(a, name);
+    const cJSON* y = cJSON_GetObjectItemCaseSensitive(b, name);
+    return (x == NULL && y == NULL) || (x != NULL && y != NULL && cJSON_Compare(x, y, 1));
+}
+
+/* A part after the first holds bodies, and the options, version and
+ * $schema the first's request has; anything else (a history, a session, a
+ * field no scene has) would be dropped from the assembled request. Returns
+ * the first such member, or NULL. */
+static const cJSON* beyond_bodies(const cJSON* part) {
+    static const char* const allowed[] = {"bodies", "options", "version", "$schema"};
+    const cJSON* c;
+    size_t k;
+    for (c = part->child; c != NULL; c = c->next) {
+        int ok = 0;
+        for (k = 0; k < sizeof allowed / sizeof allowed[0]; ++k) ok |= strcmp(c->string, allowed[k]) == 0;
+        if (!ok) return c;
+    }
+    return NULL;
 }
 
 /* --part PATTERN: each rank reads its own part of the scene, PATTERN with
@@ -481,29 +552,44 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                 /* Each part read as strictly as a request (cJSON alone would
                  * take trailing data or 010), its faults named in it. */
                 char where[256], why[256];
-                const char* code = ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0, where, sizeof where,
-                                                   why, sizeof why);
+                const char* code = counts[r] == 0 ? "empty_body" /* (as a request of no bytes) */
+                                                  : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0,
+                                                                    where, sizeof where, why, sizeof why);
+                if (counts[r] == 0) {
+                    where[0] = '\0';
+                    snprintf(why, sizeof why, "the part is empty");
+                }
                 cJSON* part = code == NULL ? cJSON_ParseWithLength(texts + counts[size + r], (size_t)counts[r]) : NULL;
                 cJSON* pb = part != NULL ? cJSON_GetObjectItemCaseSensitive(part, "bodies") : NULL;
                 if (code != NULL) {
                     fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n", code, where, r, why);
                     *status = 3;
-                } else if (part != NULL && first_non_finite(part, where, sizeof where, 0)) {
-                    fprintf(stderr, "ntscontact-mpi: non_finite at \"%s\" of part %d: a number beyond the doubles\n",
-                            where, r);
-                    *status = 3;
+                } else if (part != NULL && (code = part_fault(part, where, sizeof where, 0, why, sizeof why)) != NULL) {
+                    fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n", code, where, r, why);
+                    *status = strcmp(code, "out_of_memory") == 0 ? 4 : 3;
                 } else if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
                     fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
                                     "\"bodies\"\n", r);
+                    *status = 3;
+                } else if (r > 0 && beyond_bodies(part) != NULL) {
+                    const cJSON* extra = beyond_bodies(part);
+                    const int known = strcmp(extra->string, "history") == 0 || strcmp(extra->string, "session") == 0;
+                    fprintf(stderr, "ntscontact-mpi: %s at \"/%s\" of part %d: %s\n",
+                            known ? "invalid_value" : "unknown_field", extra->string, r,
+                            known ? "only part 0's is read (a part after it gives bodies, and the same options)"
+                                  : "unknown field (a part after the first has \"bodies\", and \"options\", "
+                                    "\"version\" and \"$schema\" as part 0's)");
+                    *status = 3;
+                } else if (r > 0 && !same_member(whole, part, "version")) {
+                    fprintf(stderr, "ntscontact-mpi: invalid_value at \"/version\" of part %d: part %d's version "
+                                    "differs from part 0's\n", r, r);
                     *status = 3;
                 } else if (r == 0) {
                     whole = part;
                     bodies = pb;
                     part = NULL;
                 } else {
-                    cJSON* o0 = cJSON_GetObjectItemCaseSensitive(whole, "options");
-                    cJSON* o1 = cJSON_GetObjectItemCaseSensitive(part, "options");
-                    if (!(o0 == NULL && o1 == NULL) && !(o0 != NULL && o1 != NULL && cJSON_Compare(o0, o1, 1))) {
+                    if (!same_member(whole, part, "options")) {
                         fprintf(stderr, "ntscontact-mpi: invalid_value at \"/options\": part %d's options differ "
                                         "from part 0's\n", r);
                         *status = 3;

@@ -361,13 +361,20 @@ def test_part_each_rank_reads_its_own(tmp_path):
     ("leading_zero", b"invalid_json", b'at "/options/penalty" of part 1: leading zero'),
     ("overflow", b"non_finite", b'at "/bodies/0/nodes/2/1" of part 1'),
     ("bom", b"invalid_json", b'at "" of part 1'),
+    ("empty", b"empty_body", b'at "" of part 1'),
+    ("duplicate", b"duplicate_key", b'at "/bodies" of part 1: key "bodies" appears more than once'),
+    ("unknown", b"unknown_field", b'at "/bodiez" of part 1'),
+    ("history", b"invalid_value", b'at "/history" of part 1: only part 0'),
+    ("version", b"invalid_value", b'at "/version" of part 1'),
 ])
 def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
     """--part: each part is checked as a request is (strict RFC 8259; a
     number beyond the doubles is refused), and the fault is named in its
     part (JSON pointer, part index), on rank 0, with the input's exit code 3.
     cJSON alone took trailing data and a leading zero, and 1e999 came out
-    as invalid JSON at a place of the assembled request."""
+    as invalid JSON at a place of the assembled request; a key twice, a
+    field no scene has, a history or another version in a part after the
+    first were dropped from the assembled request without a word."""
     scene = packing(8, 21)
     scene["options"] = {"penalty": 2.0}
     share = [scene["bodies"][:4], scene["bodies"][4:]]
@@ -380,8 +387,18 @@ def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
     elif fault == "overflow":
         nodes = share[1][0]["nodes"]
         text = text.replace(json.dumps(nodes[2]), "[%r, 1e999]" % nodes[2][0], 1)
-    else:
+    elif fault == "bom":
         text = "\ufeff" + text
+    elif fault == "empty":
+        text = ""
+    elif fault == "duplicate":  # the first "bodies" empty: the second's bodies were dropped
+        text = text.replace('"bodies": [', '"bodies": [], "bodies": [', 1)
+    elif fault == "unknown":
+        text = text.replace('"bodies": [', '"bodiez": 1, "bodies": [', 1)
+    elif fault == "history":
+        text = text.replace('"bodies": [', '"history": [], "bodies": [', 1)
+    else:
+        text = text.replace('"bodies": [', '"version": 1, "bodies": [', 1)  # part 0 has none
     (tmp_path / "part_1.json").write_text(text, encoding="utf-8")
     argv = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
     got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
