@@ -3,6 +3,7 @@
  * a scene, evaluated across the ranks by ntsm_evaluate; the answer as the
  * daemon's binary session answer (this rank's forces and the summary's
  * header lines), an error as its error document, the same on every rank. */
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,13 +34,31 @@ static char* doc_of(const char* code, const char* message, const char* pointer) 
     return out;
 }
 
-/* The error document every rank agrees on: `mine` (this rank's, or NULL);
- * the lowest failing rank's is every rank's. NULL when none failed. */
-static char* agree_doc(MPI_Comm comm, int rank, char* mine) {
-    int me = mine != NULL ? rank : 1 << 30, first, len;
+/* Which rank's fault every rank raises: as one process meets them, the
+ * faults of the documents (decoding) before the core's (a scene's checks),
+ * then by global body (-1, none, first), then the lowest rank. agree_doc:
+ * the error document every rank agrees on from `mine` (this rank's, or
+ * NULL) and its key; NULL when none failed. */
+enum { FAULT_DOCUMENT = 0, FAULT_CORE = 1 };
+
+static long long fault_key(int stage, int body, int rank, int size) {
+    return (((long long)stage << 40) + (long long)body + 1) * size + rank;
+}
+
+/* The global body a document fault's pointer names ("/bodies/K..."), or -1. */
+static int pointer_body(const char* pointer) {
+    int k;
+    return sscanf(pointer, "/bodies/%d", &k) == 1 && k >= 0 ? k : -1;
+}
+
+static char* agree_doc(MPI_Comm comm, int rank, char* mine, long long key) {
+    long long me = mine != NULL ? key : LLONG_MAX, least;
+    int size, first, len;
     char* doc = NULL;
-    MPI_Allreduce(&me, &first, 1, MPI_INT, MPI_MIN, comm);
-    if (first == 1 << 30) return NULL;
+    MPI_Comm_size(comm, &size);
+    MPI_Allreduce(&me, &least, 1, MPI_LONG_LONG, MPI_MIN, comm);
+    if (least == LLONG_MAX) return NULL;
+    first = (int)(least % size);
     len = rank == first ? (int)strlen(mine) : 0;
     MPI_Bcast(&len, 1, MPI_INT, first, comm);
     if (rank == first) {
@@ -136,8 +155,10 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
     char* mine = NULL;
     MPI_Comm comm = MPI_Comm_f2c(comm_f);
     int rank, size, decoded = 0, k;
+    long long mine_key;
     MPI_Comm_rank(comm, &rank);
     MPI_Comm_size(comm, &size);
+    mine_key = fault_key(FAULT_DOCUMENT, -1, rank, size); /* (out of memory: no body) */
     *error = NULL;
     memset(&fault, 0, sizeof fault);
     if (e == NULL || (e->ids = (int*)malloc(sizeof(int) * (size_t)(count + 1))) == NULL) {
@@ -166,6 +187,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
             pointer_global(fault.pointer, sizeof fault.pointer, ids, count);
             snprintf(message, sizeof message, "rank %d: %s", rank, fault.message);
             mine = doc_of(fault.code, message, fault.pointer);
+            mine_key = fault_key(FAULT_DOCUMENT, pointer_body(fault.pointer), rank, size);
         } else {
             nts_scene_def def = nts_default_scene_def();
             def.bodies = e->s.defs;
@@ -174,15 +196,20 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
             def.ly = e->s.has_periodic ? e->s.ly : 0.0;
             def.limits.max_bodies = 1 << 30;
             if (def.body_count > 0 && (e->own = nts_scene_create(&def, &err)) == NULL) {
+                /* the body one process names among this rank's (its checks
+                 * meet them in global order), named by its global index */
                 char pointer[320] = "";
+                ntsm_lowest_failing(&def, ids, NULL, NULL, &err);
                 ntsj_pointer_of_error(&e->s, &err, pointer, sizeof pointer);
                 pointer_global(pointer, sizeof pointer, ids, count);
+                ntsm_global_body(&err, ids, count);
                 mine = doc_of(nts_status_name(err.code), err.message, pointer);
+                mine_key = fault_key(FAULT_CORE, err.body, rank, size);
             }
         }
     }
     if (mine == NULL && e == NULL) mine = doc_of("out_of_memory", "out of memory", "");
-    if ((*error = agree_doc(comm, rank, mine)) != NULL) {
+    if ((*error = agree_doc(comm, rank, mine, mine_key)) != NULL) {
         ntsm_engine_destroy(e);
         return NULL;
     }
@@ -244,7 +271,8 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         snprintf(pointer, sizeof pointer, "/options/%s", err.option);
         mine = doc_of(nts_status_name(err.code), err.message, pointer);
     }
-    if ((*error = agree_doc(e->comm, e->rank, mine)) != NULL) return -1;
+    if ((*error = agree_doc(e->comm, e->rank, mine, fault_key(FAULT_DOCUMENT, -1, e->rank, e->size))) != NULL)
+        return -1;
     /* every rank updates (a collective), those given none with what they hold */
     {
         /* (the distributed scene's own bodies are these, in this order: their

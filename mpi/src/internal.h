@@ -210,6 +210,12 @@ void* ntsm_scratch(scratch* s, size_t need);
 
 /* scene.c: collective errors */
 int ntsm_agree(ntsm_scene* m, MPI_Comm comm, int rank, int size, int rc, nts_error* err);
+/* After a failure of a rank's own scene at e (a local body), the body one
+ * process would name among the rank's bodies (ids: their global indices),
+ * made again in global order; with moved (rows at node_at per body), at
+ * those positions. Local in e; nothing changes when the order is global. */
+void ntsm_lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec2* moved, const int* node_at,
+                         nts_error* e);
 int ntsm_fail(nts_error* err, int code, const char* msg);
 void ntsm_global_body(nts_error* err, const int* ids, int count);
 

@@ -105,16 +105,14 @@ static void own_defs_point(ntsm_scene* m) {
     for (k = 0; k < m->count; ++k) ntsm_body_read(m->own_bytes.p + m->own_at[k], &m->own_defs[k], &id);
 }
 
-/* One process names the failing body that comes first in the whole's
- * order; a rank's own scene fails at its first in the rank's order, which
- * the caller's deal need not keep ascending. So, after a failure at local
- * body e->body, each body of a lower global index is tried alone, lowest
- * first, and the first that fails alone is the one named (a body's own
- * faults are its own; a fault of the whole, a limit on a sum, stays as
- * found). Alone: a scene of that body as `def` gives it (its positions
- * then), and with `moved`, those positions then updated to the body's rows
- * of `moved` (node_at: each body's first row), as the whole was. The
- * error path only, in O(n log n) and one scene a body. */
+/* One process names the body its checks meet first, in the whole's order
+ * (each pass of checks over every body: coordinates before loops); a
+ * rank's own scene meets its bodies in the rank's order, which the caller's
+ * deal need not keep ascending. So, after a failure, a rank whose bodies
+ * are not in ascending global order makes its scene again with them in
+ * that order (and, with `moved`, gives it those positions: node_at is each
+ * body's first row of `moved`), and names the body that one fails at, as a
+ * local index in e. The error path only: O(n log n) and one scene. */
 typedef struct id_at {
     int id, at; /* a body's global index, and its place on this rank */
 } id_at;
@@ -124,48 +122,60 @@ static int by_global(const void* a, const void* b) {
     return (x > y) - (x < y);
 }
 
-/* Body k of def alone (and moved): 0 when it passes, else its fault in *e1. */
-static int alone_fails(const nts_scene_def* def, int k, const nts_vec2* moved, const int* node_at, nts_error* e1) {
-    nts_scene_def one = *def;
-    nts_scene* s;
-    int rc = 0;
-    one.bodies = def->bodies + k;
-    one.body_count = 1;
-    if ((s = nts_scene_create(&one, e1)) == NULL) return 1;
-    if (moved != NULL && nts_scene_update_positions(s, moved + node_at[k], e1) != NTS_OK) rc = 1;
-    nts_scene_destroy(s);
-    return rc;
-}
-
-static void lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec2* moved, const int* node_at,
-                           nts_error* e) {
-    const int count = def->body_count, failing = ids[e->body];
-    id_at* order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
-    int n = 0, k;
-    if (order == NULL) return; /* (the first failure stays named) */
-    for (k = 0; k < count; ++k)
-        if (ids[k] < failing) {
-            order[n].id = ids[k];
-            order[n++].at = k;
-        }
-    qsort(order, (size_t)n, sizeof(id_at), by_global);
-    for (k = 0; k < n; ++k) {
-        nts_error e1 = nts_error_none();
-        if (!alone_fails(def, order[k].at, moved, node_at, &e1)) continue;
-        if (e1.code != NTS_ENOMEM && e1.body == 0) {
-            /* its fault as the rank's scene names it: body order[k].at, local */
-            int used = 0, local = -1;
-            char msg[sizeof e1.message + 32];
-            if (sscanf(e1.message, "body %d%n", &local, &used) == 1 && local == 0) {
-                snprintf(msg, sizeof msg, "body %d%s", order[k].at, e1.message + used);
-                memcpy(e1.message, msg, sizeof e1.message - 1);
-                e1.message[sizeof e1.message - 1] = '\0';
-            }
-            e1.body = order[k].at;
-            *e = e1;
-        }
-        break; /* (a fault not its own alone: the first failure stays named) */
+void ntsm_lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec2* moved, const int* node_at,
+                         nts_error* e) {
+    const int count = def->body_count;
+    id_at* order = NULL;
+    nts_body_def* sorted = NULL;
+    nts_vec2* rows = NULL;
+    nts_scene* s = NULL;
+    nts_error e1 = nts_error_none();
+    int k, ascending = 1, failed = 0;
+    for (k = 1; k < count; ++k) ascending &= ids[k - 1] < ids[k];
+    if (ascending || e->code == NTS_ENOMEM) return; /* (the rank's order is the whole's) */
+    order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
+    sorted = (nts_body_def*)malloc(sizeof(nts_body_def) * (size_t)count);
+    if (order == NULL || sorted == NULL) goto done; /* (the first failure stays named) */
+    for (k = 0; k < count; ++k) {
+        order[k].id = ids[k];
+        order[k].at = k;
     }
+    qsort(order, (size_t)count, sizeof(id_at), by_global);
+    for (k = 0; k < count; ++k) sorted[k] = def->bodies[order[k].at];
+    {
+        nts_scene_def d = *def;
+        d.bodies = sorted;
+        s = nts_scene_create(&d, &e1);
+    }
+    if (s == NULL) {
+        failed = 1;
+    } else if (moved != NULL) {
+        long long n = 0, at = 0;
+        for (k = 0; k < count; ++k) n += sorted[k].node_count;
+        if ((rows = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(n + 1))) == NULL) goto done;
+        for (k = 0; k < count; ++k) {
+            memcpy(rows + at, moved + node_at[order[k].at], sizeof(nts_vec2) * (size_t)sorted[k].node_count);
+            at += sorted[k].node_count;
+        }
+        failed = nts_scene_update_positions(s, rows, &e1) != NTS_OK;
+    }
+    if (failed && e1.code != NTS_ENOMEM && e1.body >= 0 && e1.body < count) {
+        /* its fault as the rank's scene names it: body order[b].at, local */
+        const int local = order[e1.body].at;
+        int used = 0, b = -1;
+        char msg[sizeof e1.message + 32];
+        if (sscanf(e1.message, "body %d%n", &b, &used) == 1 && b == e1.body) {
+            snprintf(msg, sizeof msg, "body %d%s", local, e1.message + used);
+            memcpy(e1.message, msg, sizeof e1.message - 1);
+            e1.message[sizeof e1.message - 1] = '\0';
+        }
+        e1.body = local;
+        *e = e1;
+    }
+done:
+    nts_scene_destroy(s);
+    free(rows);
+    free(sorted);
     free(order);
 }
 
@@ -234,7 +244,7 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
             m->own = nts_scene_create(&def, &e);
             if (m->own == NULL) {
                 rc = e.code != 0 ? e.code : NTS_ENOMEM;
-                if (e.body >= 0 && e.body < count && rc != NTS_ENOMEM) lowest_failing(&def, m->ids, NULL, NULL, &e);
+                if (e.body >= 0 && e.body < count && rc != NTS_ENOMEM) ntsm_lowest_failing(&def, m->ids, NULL, NULL, &e);
                 ntsm_global_body(&e, m->ids, count);
             }
         }
@@ -361,7 +371,7 @@ int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_er
                 def.lx = m->lx;
                 def.ly = m->ly;
                 def.limits = m->own_limits;
-                lowest_failing(&def, m->ids, positions, m->own_node_at, &e);
+                ntsm_lowest_failing(&def, m->ids, positions, m->own_node_at, &e);
             }
             ntsm_global_body(&e, m->ids, m->count);
         }

@@ -568,81 +568,91 @@ static void boxes_differ(void) {
     if (rank_ == 0 && size_ > 1) printf("differing boxes: every rank refused them\n");
 }
 
-/* One process names the first failing body of the whole; a rank that
- * holds its bodies in descending global order, two of them bad (the lower
- * one held second), must name the lower one too, with one
- * process's message, on every rank (it named the first it held): at the
- * scene's making, and when the faults come with new positions. */
+/* One process names the body its checks meet first (a pass over every
+ * body at a time: coordinates, then loops); a rank that holds its bodies in
+ * descending global order, two of them bad (the lower one held second),
+ * must name the one one process names, with its message, on every rank:
+ * of two faults of one kind the lower body (it named the first it held),
+ * of a loop's fault on the lower and a coordinate's on the higher the
+ * higher (a try of each lower body alone named the lower). At the scene's
+ * making, and when the faults come with new positions. */
+static void place(nts_vec2* nodes, int b) {
+    int k;
+    for (k = 0; k < 8; ++k) nodes[8 * b + k] = nts_v2(3.0 * b + 1.5 + cos(2 * M_PI * k / 8), 1.5 + sin(2 * M_PI * k / 8));
+}
+
+static void spoil(nts_vec2* nodes, int low, int high, int mixed) {
+    nodes[8 * low + 5] = nodes[8 * low + 4]; /* a segment of zero length */
+    if (mixed) nodes[8 * high + 3].x = 1e200; /* beyond the coordinates' range: checked first */
+    else nodes[8 * high + 3] = nodes[8 * high + 2];
+}
+
 static void lowest_failing_body(void) {
     const int per = 3, total = per * size_;
     nts_vec2* nodes = (nts_vec2*)calloc((size_t)total * 8, sizeof(nts_vec2));
     nts_body_def* all = (nts_body_def*)calloc((size_t)total, sizeof(nts_body_def));
     nts_body_def mine[3];
-    int ids[3], b, k, codes[2], both[2];
+    nts_vec2 moved[3 * 8];
+    int ids[3], b, k, mixed, codes[2], both[2];
     const int low = total - 3, high = total - 1; /* both on the last rank, held high first */
     nts_scene_def def = nts_default_scene_def();
     nts_error want, err;
     nts_scene* whole;
     ntsm_scene* m;
     for (b = 0; b < total; ++b) {
-        for (k = 0; k < 8; ++k) {
-            nodes[8 * b + k].x = 3.0 * b + 1.5 + cos(2 * M_PI * k / 8);
-            nodes[8 * b + k].y = 1.5 + sin(2 * M_PI * k / 8);
-        }
+        place(nodes, b);
         all[b].nodes = nodes + 8 * b;
         all[b].node_count = 8;
     }
-    nodes[8 * low + 5] = nodes[8 * low + 4];   /* a segment of zero length, */
-    nodes[8 * high + 3] = nodes[8 * high + 2]; /* two: the checks go a fault at a time, body by body */
     def.bodies = all;
     def.body_count = total;
-    whole = nts_scene_create(&def, &want);
-    CHECK(whole == NULL && want.body == low, "one process: body %d refused, want %d", want.body, low);
-    nts_scene_destroy(whole);
     for (k = 0; k < per; ++k) { /* rank r: bodies 3 r + 2, 3 r + 1, 3 r */
         ids[k] = per * rank_ + per - 1 - k;
         mine[k] = all[ids[k]];
     }
-    m = ntsm_scene_create(MPI_COMM_WORLD, mine, ids, per, 0.0, 0.0, nts_default_limits(), &err);
-    CHECK(m == NULL && err.code == want.code && err.body == want.body && strcmp(err.message, want.message) == 0,
-          "lowest failing body: got %s (body %d, code %d), want \"%s\" (body %d, code %d)",
-          m != NULL ? "a scene" : err.message, err.body, err.code, want.message, want.body, want.code);
-    ntsm_scene_destroy(m);
-    codes[0] = err.body;
-    codes[1] = -err.body;
-    MPI_Allreduce(codes, both, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    CHECK(both[0] == err.body && -both[1] == err.body, "lowest failing body: not the same on every rank");
-    if (rank_ == 0)
-        printf("two bad bodies held in descending order: rank 0 named body %d, one process body %d\n", err.body,
-               want.body);
-    {
-        /* The same two faults arriving with new positions of a scene that held */
-        nts_vec2 moved[3 * 8];
-        nts_vec2 keep_low = nodes[8 * low + 5], keep_high = nodes[8 * high + 3];
-        nodes[8 * low + 5] = nts_v2(3.0 * low + 1.5 + cos(2 * M_PI * 5 / 8), 1.5 + sin(2 * M_PI * 5 / 8));
-        nodes[8 * high + 3] = nts_v2(3.0 * high + 1.5 + cos(2 * M_PI * 3 / 8), 1.5 + sin(2 * M_PI * 3 / 8));
-        for (k = 0; k < per; ++k) mine[k] = all[ids[k]];
+    for (mixed = 0; mixed < 2; ++mixed) {
+        /* at the scene's making */
+        spoil(nodes, low, high, mixed);
+        whole = nts_scene_create(&def, &want);
+        CHECK(whole == NULL && want.body == (mixed ? high : low), "one process: body %d refused", want.body);
+        nts_scene_destroy(whole);
+        m = ntsm_scene_create(MPI_COMM_WORLD, mine, ids, per, 0.0, 0.0, nts_default_limits(), &err);
+        CHECK(m == NULL && err.code == want.code && err.body == want.body && strcmp(err.message, want.message) == 0,
+              "failing body (%s faults): got %s (body %d, code %d), want \"%s\" (body %d, code %d)",
+              mixed ? "mixed" : "like", m != NULL ? "a scene" : err.message, err.body, err.code, want.message,
+              want.body, want.code);
+        ntsm_scene_destroy(m);
+        codes[0] = err.body;
+        codes[1] = -err.body;
+        MPI_Allreduce(codes, both, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        CHECK(both[0] == err.body && -both[1] == err.body, "failing body: not the same on every rank");
+        if (rank_ == 0)
+            printf("two bad bodies held in descending order (%s faults): rank 0 named body %d, one process %d\n",
+                   mixed ? "mixed" : "like", err.body, want.body);
+        /* the same faults arriving with new positions of a scene that held */
+        place(nodes, low);
+        place(nodes, high);
         whole = nts_scene_create(&def, &err);
         m = ntsm_scene_create(MPI_COMM_WORLD, mine, ids, per, 0.0, 0.0, nts_default_limits(), &err);
         CHECK(whole != NULL && m != NULL, "the scene of fine bodies refused: %s", err.message);
-        nodes[8 * low + 5] = nodes[8 * low + 4];
-        nodes[8 * high + 3] = nodes[8 * high + 2];
+        spoil(nodes, low, high, mixed);
         want = nts_error_none();
         if (whole != NULL) { /* one process's update of every body (nodes: the whole's rows in order) */
             const int rc = nts_scene_update_positions(whole, nodes, &want);
-            CHECK(rc != NTS_OK && want.body == low, "one process's update: body %d refused, want %d", want.body, low);
+            CHECK(rc != NTS_OK && want.body == (mixed ? high : low), "one process's update: body %d refused",
+                  want.body);
         }
         nts_scene_destroy(whole);
         for (k = 0; k < per; ++k) memcpy(moved + 8 * k, all[ids[k]].nodes, sizeof(nts_vec2) * 8);
         if (m != NULL) {
             const int rc = ntsm_scene_update_positions(m, moved, &err);
             CHECK(rc == want.code && err.body == want.body && strcmp(err.message, want.message) == 0,
-                  "lowest failing body, new positions: \"%s\" (body %d, code %d), want \"%s\" (body %d)",
-                  err.message, err.body, rc, want.message, want.body);
+                  "failing body, new positions (%s faults): \"%s\" (body %d, code %d), want \"%s\" (body %d)",
+                  mixed ? "mixed" : "like", err.message, err.body, rc, want.message, want.body);
         }
         ntsm_scene_destroy(m);
-        nodes[8 * low + 5] = keep_low;
-        nodes[8 * high + 3] = keep_high;
+        place(nodes, low);
+        place(nodes, high);
     }
     free(nodes);
     free(all);

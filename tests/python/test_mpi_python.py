@@ -128,6 +128,33 @@ SCRIPT = textwrap.dedent('''
         want_body = mine[0] if rank == size - 1 else None
         want_body = comm.bcast(want_body, root=size - 1)
         assert exc.pointer.startswith(f"/bodies/{want_body}"), (exc.pointer, want_body)
+    # two degenerate bodies on the last rank, held in descending order: the
+    # body one process names (the lower), by its global index in the
+    # pointer and the message alike, on every rank
+    held = sorted(mine, reverse=True)
+    broken = scene(held)
+    bad = sorted(held)[:2] if rank == size - 1 else []
+    for b in broken["bodies"]:
+        if b["id"] in bad:
+            b["nodes"][1] = list(b["nodes"][0])
+    whole_doc = scene(whole)
+    for b in whole_doc["bodies"]:
+        if b["id"] in comm.bcast(bad, root=size - 1):
+            b["nodes"][1] = list(b["nodes"][0])
+    try:
+        ntscontact.Engine().session(whole_doc)
+        raise SystemExit("one process took a degenerate body")
+    except NtsError as exc:
+        want = (exc.code, exc.pointer)
+        want_body = int(exc.pointer.split("/")[2])
+    try:
+        eng.session(broken, ids=held)
+        raise SystemExit("two degenerate bodies accepted")
+    except NtsError as exc:
+        seen = comm.allgather((exc.code, exc.pointer, str(exc)))
+        assert all(x == seen[0] for x in seen), seen
+        assert (exc.code, exc.pointer) == want, ((exc.code, exc.pointer), want)
+        assert f"body {want_body} " in str(exc), str(exc)
     part.close()
     sys.stdout.write(f"OK rank {rank}/{size}\\n")
     sys.stdout.flush()
