@@ -109,6 +109,8 @@ static char* core_doc(ntsm_engine* e, const nts_error* err) {
             pointer_global(pointer, sizeof pointer, e->ids, e->s.body_count);
         } else if (err->option[0] != '\0') {
             snprintf(pointer, sizeof pointer, "/options/%s", err->option);
+        } else if (err->code == NTS_EEMPTY_SCENE) { /* (every rank's part empty) */
+            snprintf(pointer, sizeof pointer, "/bodies");
         }
         mine = doc_of(nts_status_name(err->code), err->message, pointer);
         if (mine == NULL) mine = doc_of("out_of_memory", "out of memory", "");

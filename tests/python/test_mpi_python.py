@@ -128,6 +128,14 @@ SCRIPT = textwrap.dedent('''
         want_body = mine[0] if rank == size - 1 else None
         want_body = comm.bcast(want_body, root=size - 1)
         assert exc.pointer.startswith(f"/bodies/{want_body}"), (exc.pointer, want_body)
+    # every rank's part empty: no scene, empty_scene at /bodies on every rank
+    try:
+        eng.session(scene([]))
+        raise SystemExit("a scene of no bodies accepted")
+    except NtsError as exc:
+        seen = comm.allgather((exc.code, exc.pointer))
+        assert all(x == ("empty_scene", "/bodies") for x in seen), seen
+
     # two degenerate bodies on the last rank, held in descending order: the
     # body one process names (the lower), by its global index in the
     # pointer and the message alike, on every rank

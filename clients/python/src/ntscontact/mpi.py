@@ -130,7 +130,7 @@ class DistributedEngine:
 class DistributedSession(Session):
     """This rank's part of a distributed scene: :class:`~ntscontact.Session`'s
     steps, every rank together (see the module's doc). A rank may own no
-    bodies: it steps with an empty array (or None) and gets the whole's
+    bodies: it steps with an array of shape (0, 2) (or None) and gets the whole's
     summary."""
 
     _may_hold_no_bodies = True
