@@ -367,6 +367,31 @@ static void json_write(FILE* f, const cJSON* v) {
     }
 }
 
+/* "/" and `key` with RFC 6901's escapes (~ as ~0, / as ~1) appended to
+ * the pointer at[0..len), cut to size; returns the new length. */
+static size_t pointer_key(char* at, size_t size, size_t len, const char* key) {
+    size_t n = len;
+    if (n + 1 < size) at[n++] = '/';
+    for (; *key != '\0' && n + 2 < size; ++key) {
+        if (*key == '~' || *key == '/') {
+            at[n++] = '~';
+            at[n++] = *key == '~' ? '0' : '1';
+        } else {
+            at[n++] = *key;
+        }
+    }
+    at[n < size ? n : size - 1] = '\0';
+    return n < size ? n : size - 1;
+}
+
+/* Whether text[0..n) holds nothing but JSON's white space. */
+static int only_space(const char* text, size_t n) {
+    size_t k;
+    for (k = 0; k < n; ++k)
+        if (text[k] != ' ' && text[k] != '\t' && text[k] != '\n' && text[k] != '\r') return 0;
+    return 1;
+}
+
 /* A member's name and place in its object, for the search for a name that
  * appears twice (sorted by name, then place: O(k log k) for k members). */
 typedef struct member {
@@ -420,28 +445,22 @@ static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len,
         snprintf(why, why_size, "out of memory");
         return "out_of_memory";
     }
+    if (twice >= 0) { /* (an object's keys before what their values hold, as a request's decoding reads them) */
+        for (c = v->child; k < twice; c = c->next) ++k;
+        pointer_key(at, size, len, c->string != NULL ? c->string : "");
+        snprintf(why, why_size, "key \"%.64s\" appears more than once", c->string != NULL ? c->string : "");
+        return "duplicate_key";
+    }
     for (c = v->child; c != NULL; c = c->next, ++k) {
         const char* code;
         size_t n = len;
-        if (n + 1 < size) at[n++] = '/';
+        if (cJSON_IsArray(v) && n + 1 < size) at[n++] = '/';
         if (cJSON_IsArray(v)) {
             n += (size_t)snprintf(at + n, n < size ? size - n : 0, "%d", k);
+            if (n >= size) n = size - 1;
+            at[n] = '\0';
         } else {
-            const char* q;
-            for (q = c->string != NULL ? c->string : ""; *q != '\0' && n + 2 < size; ++q) {
-                if (*q == '~' || *q == '/') { /* RFC 6901's escapes */
-                    at[n++] = '~';
-                    at[n++] = *q == '~' ? '0' : '1';
-                } else {
-                    at[n++] = *q;
-                }
-            }
-        }
-        if (n >= size) n = size - 1;
-        at[n] = '\0';
-        if (k == twice) {
-            snprintf(why, why_size, "key \"%.64s\" appears more than once", c->string != NULL ? c->string : "");
-            return "duplicate_key";
+            n = pointer_key(at, size, len, c->string != NULL ? c->string : "");
         }
         if ((code = part_fault(c, at, size, n, why, why_size)) != NULL) return code;
         at[len] = '\0';
@@ -552,10 +571,11 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                 /* Each part read as strictly as a request (cJSON alone would
                  * take trailing data or 010), its faults named in it. */
                 char where[256], why[256];
-                const char* code = counts[r] == 0 ? "empty_body" /* (as a request of no bytes) */
-                                                  : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0,
-                                                                    where, sizeof where, why, sizeof why);
-                if (counts[r] == 0) {
+                const int blank = only_space(texts + counts[size + r], (size_t)counts[r]);
+                const char* code = blank ? "empty_body" /* (as a request of no bytes, or of spaces) */
+                                         : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0, where,
+                                                           sizeof where, why, sizeof why);
+                if (blank) {
                     where[0] = '\0';
                     snprintf(why, sizeof why, "the part is empty");
                 }
@@ -574,15 +594,18 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                 } else if (r > 0 && beyond_bodies(part) != NULL) {
                     const cJSON* extra = beyond_bodies(part);
                     const int known = strcmp(extra->string, "history") == 0 || strcmp(extra->string, "session") == 0;
-                    fprintf(stderr, "ntscontact-mpi: %s at \"/%s\" of part %d: %s\n",
-                            known ? "invalid_value" : "unknown_field", extra->string, r,
+                    where[0] = '\0';
+                    pointer_key(where, sizeof where, 0, extra->string);
+                    fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n",
+                            known ? "invalid_value" : "unknown_field", where, r,
                             known ? "only part 0's is read (a part after it gives bodies, and the same options)"
                                   : "unknown field (a part after the first has \"bodies\", and \"options\", "
                                     "\"version\" and \"$schema\" as part 0's)");
                     *status = 3;
-                } else if (r > 0 && !same_member(whole, part, "version")) {
-                    fprintf(stderr, "ntscontact-mpi: invalid_value at \"/version\" of part %d: part %d's version "
-                                    "differs from part 0's\n", r, r);
+                } else if (r > 0 && (!same_member(whole, part, "version") || !same_member(whole, part, "$schema"))) {
+                    const char* which = !same_member(whole, part, "version") ? "version" : "$schema";
+                    fprintf(stderr, "ntscontact-mpi: invalid_value at \"/%s\" of part %d: part %d's %s differs from "
+                                    "part 0's\n", which, r, r, which);
                     *status = 3;
                 } else if (r == 0) {
                     whole = part;

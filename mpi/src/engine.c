@@ -148,6 +148,62 @@ void ntsm_engine_destroy(ntsm_engine* e) {
 
 void ntsm_engine_counts(const ntsm_engine* e, long long out[3]) { memcpy(out, e->counts, sizeof e->counts); }
 
+typedef struct id_at {
+    int id, at; /* a body's global index, and its place in the rank's document */
+} id_at;
+
+static int by_global(const void* a, const void* b) {
+    const int x = ((const id_at*)a)->id, y = ((const id_at*)b)->id;
+    return (x > y) - (x < y);
+}
+
+/* One process decodes the bodies in global order and names the first body
+ * with a fault; a rank's document holds them in the order it was given.
+ * After a fault at a body, a rank whose bodies are not in ascending global
+ * order decodes its document again with them so (the array reordered in
+ * place: root is the caller's, freed after) and takes that fault, its
+ * pointer's body made global. Returns 1 when it did (the pointer global). */
+static int global_order_fault(cJSON* root, const ntsj_config* cfg, const int* ids, int count, ntsj_fault* fault) {
+    cJSON* bodies = cJSON_GetObjectItemCaseSensitive(root, "bodies");
+    cJSON** items;
+    id_at* order;
+    ntsj_scene again;
+    ntsj_fault f2;
+    int k, ascending = 1, done = 0;
+    for (k = 1; k < count; ++k) ascending &= ids[k - 1] < ids[k];
+    if (ascending || !cJSON_IsArray(bodies) || cJSON_GetArraySize(bodies) != count) return 0;
+    items = (cJSON**)malloc(sizeof(cJSON*) * (size_t)count);
+    order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
+    if (items == NULL || order == NULL) {
+        free(items);
+        free(order);
+        return 0; /* (the fault found stays) */
+    }
+    for (k = 0; k < count; ++k) {
+        items[k] = cJSON_DetachItemFromArray(bodies, 0);
+        order[k].id = ids[k];
+        order[k].at = k;
+    }
+    qsort(order, (size_t)count, sizeof(id_at), by_global);
+    for (k = 0; k < count; ++k) cJSON_AddItemToArray(bodies, items[order[k].at]);
+    memset(&f2, 0, sizeof f2);
+    if (ntsj_decode_part(root, cfg, &again, &f2) == 0) ntsj_scene_free(&again);
+    if (f2.code != NULL && strcmp(f2.code, "out_of_memory") != 0) {
+        int b = -1, used = 0;
+        if (sscanf(f2.pointer, "/bodies/%d%n", &b, &used) == 1 && b >= 0 && b < count) {
+            char out[sizeof f2.pointer + 16];
+            snprintf(out, sizeof out, "/bodies/%d%s", order[b].id, f2.pointer + used);
+            memcpy(f2.pointer, out, sizeof f2.pointer - 1); /* (cut to its room) */
+            f2.pointer[sizeof f2.pointer - 1] = '\0';
+        }
+        *fault = f2;
+        done = 1;
+    }
+    free(items);
+    free(order);
+    return done;
+}
+
 ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, const int* ids, int count, int threads,
                                 char** error) {
     ntsm_engine* e = (ntsm_engine*)calloc(1, sizeof *e);
@@ -156,7 +212,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
     nts_error err = nts_error_none();
     char* mine = NULL;
     MPI_Comm comm = MPI_Comm_f2c(comm_f);
-    int rank, size, decoded = 0, k;
+    int rank, size, decoded = 0, k, fault_global = 0;
     long long mine_key;
     MPI_Comm_rank(comm, &rank);
     MPI_Comm_size(comm, &size);
@@ -179,6 +235,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
         if (fault.code == NULL && root != NULL) {
             if (ntsj_decode_part(root, &cfg, &e->s, &fault) == 0) decoded = 1; /* (a rank may own no body) */
             else if (fault.code == NULL) ntsj_fault_set(&fault, "out_of_memory", "", "out of memory");
+            else if (pointer_body(fault.pointer) >= 0) fault_global = global_order_fault(root, &cfg, ids, count, &fault);
         }
         cJSON_Delete(root);
         if (fault.code == NULL && decoded && e->s.body_count != count)
@@ -186,7 +243,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
                            count);
         if (fault.code != NULL) {
             char message[300];
-            pointer_global(fault.pointer, sizeof fault.pointer, ids, count);
+            if (!fault_global) pointer_global(fault.pointer, sizeof fault.pointer, ids, count);
             snprintf(message, sizeof message, "rank %d: %s", rank, fault.message);
             mine = doc_of(fault.code, message, fault.pointer);
             mine_key = fault_key(FAULT_DOCUMENT, pointer_body(fault.pointer), rank, size);

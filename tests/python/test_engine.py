@@ -464,3 +464,15 @@ def test_a_session_of_no_bodies_is_refused(engine):
         with pytest.raises(InvalidScene) as info:
             engine.session(scene)
         assert info.value.code == "empty_scene" and info.value.pointer == "/bodies"
+
+
+@pytest.mark.parametrize("body, pointer", [({"id": 0, "nodes": "x"}, "/bodies/0/nodes"),
+                                           ({"id": 0, "nodes": [[0, 0], [1]]}, "/bodies/0/nodes"),
+                                           (5, "/bodies/0")])
+def test_a_session_of_bodies_not_so_is_refused_where_they_are(engine, body, pointer):
+    """Nodes that are not [x, y] pairs, or a body that is not an object, are
+    the service's invalid_type at their place (the client's copy of the
+    positions raised numpy's ValueError, or AttributeError)."""
+    with pytest.raises(InvalidScene) as info:
+        engine.session({"options": {"penalty": 1.0}, "bodies": [body]})
+    assert info.value.code == "invalid_type" and info.value.pointer == pointer

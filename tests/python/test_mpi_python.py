@@ -128,6 +128,31 @@ SCRIPT = textwrap.dedent('''
         want_body = mine[0] if rank == size - 1 else None
         want_body = comm.bcast(want_body, root=size - 1)
         assert exc.pointer.startswith(f"/bodies/{want_body}"), (exc.pointer, want_body)
+    # faults a part's document holds (an unknown field), on two bodies of the
+    # last rank held in descending order: the body one process names
+    held = sorted(mine, reverse=True)
+    bad = sorted(held)[:2] if rank == size - 1 else []
+    every_bad = comm.bcast(bad, root=size - 1)
+    doc = scene(held)
+    for b in doc["bodies"]:
+        if b["id"] in bad:
+            b["colour"] = "red"
+    whole_doc = scene(whole)
+    for b in whole_doc["bodies"]:
+        if b["id"] in every_bad:
+            b["colour"] = "red"
+    try:
+        ntscontact.Engine().session(whole_doc)
+        raise SystemExit("one process took an unknown field")
+    except NtsError as exc:
+        want = (exc.code, exc.pointer)
+    try:
+        eng.session(doc, ids=held)
+        raise SystemExit("an unknown field accepted")
+    except NtsError as exc:
+        seen = comm.allgather((exc.code, exc.pointer))
+        assert all(x == want for x in seen), (seen, want)
+
     # every rank's part empty: no scene, empty_scene at /bodies on every rank
     try:
         eng.session(scene([]))

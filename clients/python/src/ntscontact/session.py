@@ -80,6 +80,26 @@ class BodyArrays(Mapping[BodyId, FloatArray]):
         return f"BodyArrays({len(self._ids)} bodies)"
 
 
+def _rows(body: Any, k: int) -> FloatArray:
+    """Body k's nodes as float64 rows [x, y] (the client keeps the stored
+    positions); nodes of another shape, or a body that is not an object,
+    are the service's invalid_type, named where they are."""
+    if not isinstance(body, Mapping):
+        raise InvalidScene(f"expected a body (an object), got {type(body).__name__}", code="invalid_type",
+                           pointer=f"/bodies/{k}")
+    nodes = body.get("nodes")
+    if nodes is None or (isinstance(nodes, (list, tuple)) and not nodes):
+        return np.zeros((0, 2))  # (none: the service says what a body needs)
+    try:
+        rows = np.asarray(nodes, dtype=np.float64)
+        if rows.ndim != 2 or rows.shape[1] != 2:
+            raise ValueError(f"shape {rows.shape}")
+    except (TypeError, ValueError) as exc:
+        raise InvalidScene(f"expected an array of [x, y] nodes ({exc})", code="invalid_type",
+                           pointer=f"/bodies/{k}/nodes") from exc
+    return rows
+
+
 class Session:
     """A scene held by the service (``POST /v1/scenes``); see the module's doc.
 
@@ -120,8 +140,9 @@ class Session:
         if not isinstance(bodies, list) or (not bodies and not self._may_hold_no_bodies):
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
         self._body = json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
+        rows = [_rows(b, k) for k, b in enumerate(bodies)]
         self.body_ids: List[BodyId] = [b.get("id") for b in bodies]
-        self.node_counts: List[int] = [len(b.get("nodes") or []) for b in bodies]
+        self.node_counts: List[int] = [len(r) for r in rows]
         self._offsets = np.concatenate([[0], np.cumsum(self.node_counts)]).astype(np.int64)
         self._index = {(type(i), i): k for k, i in enumerate(self.body_ids)}
         options = doc.get("options") if isinstance(doc.get("options"), Mapping) else {}
@@ -133,9 +154,7 @@ class Session:
         self.nodes = int(self._offsets[-1])
         # The client's copy of the stored positions: what a re-created session
         # must be sent to go on where the lost one was.
-        self._positions: FloatArray = np.concatenate(
-            [np.zeros((0, 2))] + [np.asarray(b.get("nodes") or np.zeros((0, 2)), dtype=np.float64).reshape(-1, 2)
-                                  for b in bodies])
+        self._positions: FloatArray = np.concatenate([np.zeros((0, 2))] + rows)
         # A surface exchange's last rows sent, not yet set into _positions
         # (_stored: only when every node's positions are asked for). The two
         # change together, under _held_lock (steps may run on several threads).
