@@ -366,6 +366,9 @@ def test_part_each_rank_reads_its_own(tmp_path):
     ("unknown", b"unknown_field", b'at "/bodiez" of part 1'),
     ("history", b"invalid_value", b'at "/history" of part 1: only part 0'),
     ("version", b"invalid_value", b'at "/version" of part 1'),
+    ("schema", b"invalid_value", b'at "/$schema" of part 1'),
+    ("blank", b"empty_body", b'at "" of part 1'),
+    ("escaped", b"unknown_field", b'at "/a~1b~0c" of part 1'),
 ])
 def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
     """--part: each part is checked as a request is (strict RFC 8259; a
@@ -397,8 +400,14 @@ def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
         text = text.replace('"bodies": [', '"bodiez": 1, "bodies": [', 1)
     elif fault == "history":
         text = text.replace('"bodies": [', '"history": [], "bodies": [', 1)
-    else:
+    elif fault == "version":
         text = text.replace('"bodies": [', '"version": 1, "bodies": [', 1)  # part 0 has none
+    elif fault == "schema":
+        text = text.replace('"bodies": [', '"$schema": "x", "bodies": [', 1)
+    elif fault == "blank":
+        text = " \n\t "
+    else:
+        text = text.replace('"bodies": [', '"a/b~c": 1, "bodies": [', 1)
     (tmp_path / "part_1.json").write_text(text, encoding="utf-8")
     argv = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
     got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
