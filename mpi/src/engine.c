@@ -297,6 +297,54 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
     return e;
 }
 
+/* Every rank, after positions the distributed scene refused (the error
+ * every rank's): one process's session makes its scene anew from them, its
+ * bodies' references their first positions (a loop turned over is another
+ * normalisation, not a fault), and answers, or names the fault that
+ * creation meets; so do the ranks. p: this rank's rows (NULL: none). */
+static int remake(ntsm_engine* e, const nts_vec2* p, nts_error* err) {
+    const ntsj_config cfg = ntsj_default_config(); /* (the limits the scene was made with) */
+    int k, at = 0, ok = 1, all;
+    ntsm_scene* fresh;
+    for (k = 0; k < e->s.body_count && ok; ++k) {
+        nts_body_def* d = &e->s.defs[k];
+        if (e->s.refs[k] != NULL) continue;
+        if ((e->s.refs[k] = (nts_vec2*)nts_alloc(sizeof(nts_vec2) * (size_t)(d->node_count + 1))) == NULL) {
+            ok = 0;
+            break;
+        }
+        memcpy(e->s.refs[k], d->nodes, sizeof(nts_vec2) * (size_t)d->node_count); /* (the first positions) */
+        d->reference = e->s.refs[k];
+    }
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, e->comm);
+    if (!all) return ntsm_fail(err, NTS_ENOMEM, "out of memory");
+    for (k = 0; k < e->s.body_count && p != NULL; ++k) {
+        memcpy(e->s.nodes[k], p + at, sizeof(nts_vec2) * (size_t)e->s.defs[k].node_count);
+        at += e->s.defs[k].node_count;
+    }
+    fresh = ntsm_scene_create(e->comm, e->s.defs, e->ids, e->s.body_count, e->s.has_periodic ? e->s.lx : 0.0,
+                              e->s.has_periodic ? e->s.ly : 0.0, cfg.limits, err);
+    if (fresh == NULL) return err->code != 0 ? err->code : NTS_EINTERNAL;
+    ntsm_scene_destroy(e->scene);
+    e->scene = fresh;
+    if (e->own != NULL) {
+        /* its topology now the new scene's (the same bodies, which the ranks' scene took) */
+        nts_scene_def def = nts_default_scene_def();
+        nts_error e2 = nts_error_none();
+        nts_scene* own;
+        def.bodies = e->s.defs;
+        def.body_count = e->s.body_count;
+        def.lx = e->s.has_periodic ? e->s.lx : 0.0;
+        def.ly = e->s.has_periodic ? e->s.ly : 0.0;
+        def.limits.max_bodies = 1 << 30;
+        if ((own = nts_scene_create(&def, &e2)) != NULL) {
+            nts_scene_destroy(e->own);
+            e->own = own;
+        }
+    }
+    return NTS_OK;
+}
+
 int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int has_penalty, double penalty,
                      int has_alpha, double alpha, int has_radius, double radius, int solver, unsigned outputs,
                      double* forces, char** headers, char** error) {
@@ -341,7 +389,8 @@ int ntsm_engine_step(ntsm_engine* e, const double* positions, size_t length, int
         const nts_vec2* p = positions != NULL ? (const nts_vec2*)(const void*)positions
                             : cur != NULL     ? nts_scene_positions(cur)
                                               : NULL; /* (a rank with no body: nothing to move) */
-        if (ntsm_scene_update_positions(e->scene, p, &err) != 0) {
+        if (ntsm_scene_update_positions(e->scene, p, &err) != 0 &&
+            (err.code == NTS_ENOMEM || remake(e, p, &err) != NTS_OK)) {
             *error = core_doc(e, &err);
             return -1;
         }

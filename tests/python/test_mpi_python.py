@@ -79,6 +79,26 @@ SCRIPT = textwrap.dedent('''
     assert np.float64(d.energy).tobytes() == np.float64(a.energy).tobytes()
     assert d.summary.bodies == len(bodies)
 
+    # a body mirrored (its loop turned over): one process's session makes its
+    # scene anew and answers, and so must the ranks' (they refused it); then
+    # a step more from the scene made anew
+    b0 = 40
+    for step in range(2):
+        if step == 0:
+            sl = slice(offsets[b0], offsets[b0 + 1])
+            cx = pos[sl, 0].mean()
+            pos[sl, 0] = 2.0 * cx - pos[sl, 0]
+        else:
+            pos = pos + 0.002 * rng.standard_normal(pos.shape)
+        my_pos = np.concatenate([pos[offsets[b]:offsets[b + 1]] for b in mine])
+        a = ref.step(pos)
+        d = part.step(my_pos)
+        assert np.float64(d.energy).tobytes() == np.float64(a.energy).tobytes(), ("mirrored", step, d.energy, a.energy)
+        assert d.summary.contacts == a.summary.contacts and d.summary.loops_reversed == a.summary.loops_reversed, step
+        want = np.concatenate([a.force_array()[offsets[b]:offsets[b + 1]] for b in mine])
+        assert d.force_array().tobytes() == want.tobytes(), ("mirrored", step)
+    assert a.summary.contacts > 50
+
     # the last rank owns no body (more ranks than a host's shares): it steps
     # with an empty array, or None, and gets the whole's summary; the others
     # their forces, the same bits
