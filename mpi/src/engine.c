@@ -148,15 +148,6 @@ void ntsm_engine_destroy(ntsm_engine* e) {
 
 void ntsm_engine_counts(const ntsm_engine* e, long long out[3]) { memcpy(out, e->counts, sizeof e->counts); }
 
-typedef struct id_at {
-    int id, at; /* a body's global index, and its place in the rank's document */
-} id_at;
-
-static int by_global(const void* a, const void* b) {
-    const int x = ((const id_at*)a)->id, y = ((const id_at*)b)->id;
-    return (x > y) - (x < y);
-}
-
 /* One process decodes the bodies in global order and names the first body
  * with a fault; a rank's document holds them in the order it was given.
  * After a fault at a body, a rank whose bodies are not in ascending global
@@ -166,33 +157,27 @@ static int by_global(const void* a, const void* b) {
 static int global_order_fault(cJSON* root, const ntsj_config* cfg, const int* ids, int count, ntsj_fault* fault) {
     cJSON* bodies = cJSON_GetObjectItemCaseSensitive(root, "bodies");
     cJSON** items;
-    id_at* order;
+    int* order;
     ntsj_scene again;
     ntsj_fault f2;
-    int k, ascending = 1, done = 0;
-    for (k = 1; k < count; ++k) ascending &= ids[k - 1] < ids[k];
-    if (ascending || !cJSON_IsArray(bodies) || cJSON_GetArraySize(bodies) != count) return 0;
-    items = (cJSON**)malloc(sizeof(cJSON*) * (size_t)count);
-    order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
+    int k, done = 0;
+    if (ntsm_ascending(ids, count) || !cJSON_IsArray(bodies) || cJSON_GetArraySize(bodies) != count) return 0;
+    items = (cJSON**)malloc(sizeof(cJSON*) * (size_t)(count + 1));
+    order = ntsm_global_order(ids, count);
     if (items == NULL || order == NULL) {
         free(items);
         free(order);
         return 0; /* (the fault found stays) */
     }
-    for (k = 0; k < count; ++k) {
-        items[k] = cJSON_DetachItemFromArray(bodies, 0);
-        order[k].id = ids[k];
-        order[k].at = k;
-    }
-    qsort(order, (size_t)count, sizeof(id_at), by_global);
-    for (k = 0; k < count; ++k) cJSON_AddItemToArray(bodies, items[order[k].at]);
+    for (k = 0; k < count; ++k) items[k] = cJSON_DetachItemFromArray(bodies, 0);
+    for (k = 0; k < count; ++k) cJSON_AddItemToArray(bodies, items[order[k]]);
     memset(&f2, 0, sizeof f2);
     if (ntsj_decode_part(root, cfg, &again, &f2) == 0) ntsj_scene_free(&again);
     if (f2.code != NULL && strcmp(f2.code, "out_of_memory") != 0) {
         int b = -1, used = 0;
         if (sscanf(f2.pointer, "/bodies/%d%n", &b, &used) == 1 && b >= 0 && b < count) {
             char out[sizeof f2.pointer + 16];
-            snprintf(out, sizeof out, "/bodies/%d%s", order[b].id, f2.pointer + used);
+            snprintf(out, sizeof out, "/bodies/%d%s", ids[order[b]], f2.pointer + used);
             memcpy(f2.pointer, out, sizeof f2.pointer - 1); /* (cut to its room) */
             f2.pointer[sizeof f2.pointer - 1] = '\0';
         }

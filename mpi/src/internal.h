@@ -210,6 +210,10 @@ void* ntsm_scratch(scratch* s, size_t need);
 
 /* scene.c: collective errors */
 int ntsm_agree(ntsm_scene* m, MPI_Comm comm, int rank, int size, int rc, nts_error* err);
+/* Whether ids[0..count) ascend; the places 0..count-1 in ascending order of
+ * ids (malloc, count + 1; NULL when out of memory). */
+int ntsm_ascending(const int* ids, int count);
+int* ntsm_global_order(const int* ids, int count);
 /* After a failure of a rank's own scene at e (a local body), the body one
  * process would name among the rank's bodies (ids: their global indices),
  * made again in global order; with moved (rows at node_at per body), at

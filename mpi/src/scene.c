@@ -122,26 +122,46 @@ static int by_global(const void* a, const void* b) {
     return (x > y) - (x < y);
 }
 
+int ntsm_ascending(const int* ids, int count) {
+    int k;
+    for (k = 1; k < count; ++k)
+        if (!(ids[k - 1] < ids[k])) return 0;
+    return 1;
+}
+
+int* ntsm_global_order(const int* ids, int count) {
+    id_at* pairs = (id_at*)malloc(sizeof(id_at) * (size_t)(count + 1));
+    int* order = (int*)malloc(sizeof(int) * (size_t)(count + 1));
+    int k;
+    if (pairs == NULL || order == NULL) {
+        free(pairs);
+        free(order);
+        return NULL;
+    }
+    for (k = 0; k < count; ++k) {
+        pairs[k].id = ids[k];
+        pairs[k].at = k;
+    }
+    qsort(pairs, (size_t)count, sizeof(id_at), by_global);
+    for (k = 0; k < count; ++k) order[k] = pairs[k].at;
+    free(pairs);
+    return order;
+}
+
 void ntsm_lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec2* moved, const int* node_at,
                          nts_error* e) {
     const int count = def->body_count;
-    id_at* order = NULL;
+    int* order = NULL;
     nts_body_def* sorted = NULL;
     nts_vec2* rows = NULL;
     nts_scene* s = NULL;
     nts_error e1 = nts_error_none();
-    int k, ascending = 1, failed = 0;
-    for (k = 1; k < count; ++k) ascending &= ids[k - 1] < ids[k];
-    if (ascending || e->code == NTS_ENOMEM) return; /* (the rank's order is the whole's) */
-    order = (id_at*)malloc(sizeof(id_at) * (size_t)count);
-    sorted = (nts_body_def*)malloc(sizeof(nts_body_def) * (size_t)count);
+    int k, failed = 0;
+    if (ntsm_ascending(ids, count) || e->code == NTS_ENOMEM) return; /* (the rank's order is the whole's) */
+    order = ntsm_global_order(ids, count);
+    sorted = (nts_body_def*)malloc(sizeof(nts_body_def) * (size_t)(count + 1));
     if (order == NULL || sorted == NULL) goto done; /* (the first failure stays named) */
-    for (k = 0; k < count; ++k) {
-        order[k].id = ids[k];
-        order[k].at = k;
-    }
-    qsort(order, (size_t)count, sizeof(id_at), by_global);
-    for (k = 0; k < count; ++k) sorted[k] = def->bodies[order[k].at];
+    for (k = 0; k < count; ++k) sorted[k] = def->bodies[order[k]];
     {
         nts_scene_def d = *def;
         d.bodies = sorted;
@@ -154,14 +174,14 @@ void ntsm_lowest_failing(const nts_scene_def* def, const int* ids, const nts_vec
         for (k = 0; k < count; ++k) n += sorted[k].node_count;
         if ((rows = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)(n + 1))) == NULL) goto done;
         for (k = 0; k < count; ++k) {
-            memcpy(rows + at, moved + node_at[order[k].at], sizeof(nts_vec2) * (size_t)sorted[k].node_count);
+            memcpy(rows + at, moved + node_at[order[k]], sizeof(nts_vec2) * (size_t)sorted[k].node_count);
             at += sorted[k].node_count;
         }
         failed = nts_scene_update_positions(s, rows, &e1) != NTS_OK;
     }
     if (failed && e1.code != NTS_ENOMEM && e1.body >= 0 && e1.body < count) {
-        /* its fault as the rank's scene names it: body order[b].at, local */
-        const int local = order[e1.body].at;
+        /* its fault as the rank's scene names it: body order[b], local */
+        const int local = order[e1.body];
         int used = 0, b = -1;
         char msg[sizeof e1.message + 32];
         if (sscanf(e1.message, "body %d%n", &b, &used) == 1 && b == e1.body) {
