@@ -125,6 +125,9 @@ int ntsj_decode(const struct cJSON* root, const ntsj_config* config, ntsj_scene*
  * rank's bodies: ntscontact.mpi): it may hold no bodies. */
 int ntsj_decode_part(const struct cJSON* root, const ntsj_config* config, ntsj_scene* out, ntsj_fault* fault);
 void ntsj_scene_free(ntsj_scene* s);
+/* Append "/<key>" to the NUL-terminated pointer ptr with RFC 6901's escapes
+ * (~ as ~0, / as ~1), cut to size (decode.c; ntscontact-mpi's --part). */
+void ntsj_pointer_append_key(char* ptr, size_t size, const char* key);
 /* The JSON pointer of a core error against the decoded request. */
 void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out, size_t size);
 

@@ -32,7 +32,7 @@ typedef struct decoder {
 /* ---------------------------------------------------------- pointers */
 
 /* Append "/<token>" with RFC 6901 escapes (~ -> ~0, / -> ~1), bounded. */
-static void pointer_append_key(char* ptr, size_t size, const char* key) {
+void ntsj_pointer_append_key(char* ptr, size_t size, const char* key) {
     size_t n = strlen(ptr), i;
     if (n + 2 >= size) return;
     ptr[n++] = '/';
@@ -72,7 +72,7 @@ static int take_fields(decoder* d, const cJSON* obj, const char* ptr, const char
         if (i == count || found[i]) {
             char p[256];
             snprintf(p, sizeof p, "%s", ptr);
-            pointer_append_key(p, sizeof p, key);
+            ntsj_pointer_append_key(p, sizeof p, key);
             ntsj_fault_set(d->fault, i == count ? ntsj_code_name(NTSJ_UNKNOWN_FIELD) : ntsj_code_name(NTSJ_DUPLICATE_KEY), p,
                            i == count ? "unknown field \"%.64s\"" : "key \"%.64s\" appears more than once", key);
             return -1;
@@ -937,7 +937,7 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
          * configuration. */
         size_t len;
         snprintf(out, size, "/bodies/%d", err->body);
-        pointer_append_key(out, size, err->option);
+        ntsj_pointer_append_key(out, size, err->option);
         len = strlen(out);
         if (strcmp(err->option, "reference") == 0 && err->node >= 0 && len < size)
             snprintf(out + len, size - len, "/%d", err->node);
@@ -963,7 +963,7 @@ void ntsj_pointer_of_error(const ntsj_scene* s, const nts_error* err, char* out,
             snprintf(out, size, "/options/periodic");
         else {
             snprintf(out, size, "/options");
-            pointer_append_key(out, size, err->option);
+            ntsj_pointer_append_key(out, size, err->option);
         }
         return;
     }

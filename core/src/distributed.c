@@ -2,6 +2,9 @@
  * the frame a part of a scene takes from the whole, and the parts an
  * evaluation leaves (scatter.c: parts_make). nts_scene_frame is in
  * evaluate.c, beside the phases it repeats. */
+#include <limits.h>
+#include <stdio.h>
+
 #include "context.h"
 
 void nts_context_set_frame(nts_context* ctx, const nts_frame* frame) {
@@ -24,6 +27,16 @@ void nts_context_set_owned(nts_context* ctx, const unsigned char* owned) {
 }
 
 long long nts_context_owned_gaps(const nts_context* ctx) { return ctx->parts_on ? ctx->owned_gaps : 0; }
+
+long long nts_candidate_budget(const nts_options* opt, long long surface_nodes) {
+    const long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * surface_nodes + 1000000;
+    return budget > INT_MAX ? INT_MAX : budget;
+}
+
+void nts_candidate_budget_message(char* out, size_t size, long long budget, int deeper) {
+    snprintf(out, size, "more than max_candidates = %lld closest points within the search radius%s: the bodies "
+             "overlap far more than contact does (or raise the limit)", budget, deeper ? " and deeper" : "");
+}
 
 const int* nts_context_gap_entries(const nts_context* ctx, int* count) {
     *count = ctx->parts_on ? ctx->gap_entry_count : 0;

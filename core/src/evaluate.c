@@ -514,9 +514,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
     env.ext = (ctx->frame_set ? ctx->frame.surface_ends : s->surf_ends > 0) ? opt->surface_extension : 0.0;
     env.eps = opt->penalty;
     env.per_length = opt->penalty_scaling == NTS_PENALTY_PER_LENGTH;
-    env.max_records = opt->max_candidates > 0 ? opt->max_candidates
-                      : 64LL * (ctx->frame_set ? ctx->frame.surface_nodes : s->surface_count) + 1000000;
-    if (env.max_records > INT_MAX) env.max_records = INT_MAX; /* the count is nts_summary.gaps, an int */
+    env.max_records = nts_candidate_budget(opt, ctx->frame_set ? ctx->frame.surface_nodes : s->surface_count);
     env.cancel = opt->cancel;
     env.cancel_user = opt->cancel_user;
     if (opt->search_radius >= 0.0) env.r = opt->search_radius;
@@ -633,8 +631,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             return eval_fail(err, NTS_ECANCELLED, -1, -1, CANCELLED);
         if (limited || records > env.max_records) {
             char msg[192];
-            snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius: "
-                     "the bodies overlap far more than contact does (or raise the limit)", env.max_records);
+            nts_candidate_budget_message(msg, sizeof msg, env.max_records, 0);
             rc = eval_fail_option(err, NTS_ELIMIT, "max_candidates", msg);
             return rc;
         }
@@ -651,8 +648,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
             return eval_fail(err, rc, -1, -1, CANCELLED);
         if (rc == NTS_ELIMIT) {
             char msg[192];
-            snprintf(msg, sizeof msg, "more than max_candidates = %lld closest points within the search radius and "
-                     "deeper: the bodies overlap far more than contact does (or raise the limit)", env.max_records);
+            nts_candidate_budget_message(msg, sizeof msg, env.max_records, 1);
             rc = eval_fail_option(err, NTS_ELIMIT, "max_candidates", msg);
             return rc;
         }

@@ -21,6 +21,7 @@
 #include <ntscontact/codec.h>
 #include <ntscontact/mpi.h>
 
+#include "../../codec/src/codec_internal.h" /* (ntsj_pointer_append_key) */
 #include "internal.h"
 
 int nts_cli_main(int argc, char** argv);
@@ -367,23 +368,6 @@ static void json_write(FILE* f, const cJSON* v) {
     }
 }
 
-/* "/" and `key` with RFC 6901's escapes (~ as ~0, / as ~1) appended to
- * the pointer at[0..len), cut to size; returns the new length. */
-static size_t pointer_key(char* at, size_t size, size_t len, const char* key) {
-    size_t n = len;
-    if (n + 1 < size) at[n++] = '/';
-    for (; *key != '\0' && n + 2 < size; ++key) {
-        if (*key == '~' || *key == '/') {
-            at[n++] = '~';
-            at[n++] = *key == '~' ? '0' : '1';
-        } else {
-            at[n++] = *key;
-        }
-    }
-    at[n < size ? n : size - 1] = '\0';
-    return n < size ? n : size - 1;
-}
-
 /* Whether text[0..n) holds nothing but JSON's white space. */
 static int only_space(const char* text, size_t n) {
     size_t k;
@@ -447,7 +431,7 @@ static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len,
     }
     if (twice >= 0) { /* (an object's keys before what their values hold, as a request's decoding reads them) */
         for (c = v->child; k < twice; c = c->next) ++k;
-        pointer_key(at, size, len, c->string != NULL ? c->string : "");
+        ntsj_pointer_append_key(at, size, c->string != NULL ? c->string : "");
         snprintf(why, why_size, "key \"%.64s\" appears more than once", c->string != NULL ? c->string : "");
         return "duplicate_key";
     }
@@ -460,7 +444,8 @@ static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len,
             if (n >= size) n = size - 1;
             at[n] = '\0';
         } else {
-            n = pointer_key(at, size, len, c->string != NULL ? c->string : "");
+            ntsj_pointer_append_key(at, size, c->string != NULL ? c->string : "");
+            n = strlen(at);
         }
         if ((code = part_fault(c, at, size, n, why, why_size)) != NULL) return code;
         at[len] = '\0';
@@ -571,6 +556,8 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                 /* Each part read as strictly as a request (cJSON alone would
                  * take trailing data or 010), its faults named in it. */
                 char where[256], why[256];
+                const cJSON* extra;
+                const char* differs;
                 const int blank = only_space(texts + counts[size + r], (size_t)counts[r]);
                 const char* code = blank ? "empty_body" /* (as a request of no bytes, or of spaces) */
                                          : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0, where,
@@ -591,21 +578,21 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                     fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
                                     "\"bodies\"\n", r);
                     *status = 3;
-                } else if (r > 0 && beyond_bodies(part) != NULL) {
-                    const cJSON* extra = beyond_bodies(part);
+                } else if (r > 0 && (extra = beyond_bodies(part)) != NULL) {
                     const int known = strcmp(extra->string, "history") == 0 || strcmp(extra->string, "session") == 0;
                     where[0] = '\0';
-                    pointer_key(where, sizeof where, 0, extra->string);
+                    ntsj_pointer_append_key(where, sizeof where, extra->string);
                     fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n",
                             known ? "invalid_value" : "unknown_field", where, r,
                             known ? "only part 0's is read (a part after it gives bodies, and the same options)"
                                   : "unknown field (a part after the first has \"bodies\", and \"options\", "
                                     "\"version\" and \"$schema\" as part 0's)");
                     *status = 3;
-                } else if (r > 0 && (!same_member(whole, part, "version") || !same_member(whole, part, "$schema"))) {
-                    const char* which = !same_member(whole, part, "version") ? "version" : "$schema";
+                } else if (r > 0 && (differs = !same_member(whole, part, "version")   ? "version"
+                                               : !same_member(whole, part, "$schema") ? "$schema"
+                                                                                       : NULL) != NULL) {
                     fprintf(stderr, "ntscontact-mpi: invalid_value at \"/%s\" of part %d: part %d's %s differs from "
-                                    "part 0's\n", which, r, r, which);
+                                    "part 0's\n", differs, r, r, differs);
                     *status = 3;
                 } else if (r == 0) {
                     whole = part;

@@ -263,9 +263,8 @@ void ntsm_gathered_free(ntsm_scene* m);
 
 /* sums.c */
 int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err);
-/* The whole's candidate budget, nts_evaluate's: max_candidates, or 64 a
- * surface node of the whole plus a million; at most INT_MAX (the count is
- * nts_summary.gaps, an int). */
+/* The whole's candidate budget, nts_evaluate's (nts_candidate_budget of
+ * the whole's surface nodes). */
 long long ntsm_candidate_budget(const ntsm_scene* m, const nts_options* opt);
 
 #endif

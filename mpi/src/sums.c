@@ -420,10 +420,7 @@ int ntsm_sums(ntsm_scene* m, const nts_options* opt, nts_error* err) {
             if (tot[1] + tot[5] > budget) {
                 /* one process's words: those within r alone over it, or only with the deeper ones */
                 rc = ntsm_fail(err, NTS_ELIMIT, "");
-                snprintf(err->message, sizeof err->message,
-                         "more than max_candidates = %lld closest points within the search radius%s: the bodies "
-                         "overlap far more than contact does (or raise the limit)", budget,
-                         tot[1] - tot[2] > budget ? "" : " and deeper");
+                nts_candidate_budget_message(err->message, sizeof err->message, budget, tot[1] - tot[2] <= budget);
                 snprintf(err->option, sizeof err->option, "max_candidates");
                 goto done;
             }
@@ -619,6 +616,5 @@ done:
 }
 
 long long ntsm_candidate_budget(const ntsm_scene* m, const nts_options* opt) {
-    const long long budget = opt->max_candidates > 0 ? opt->max_candidates : 64LL * m->entry_off[m->bodies] + 1000000;
-    return budget > INT_MAX ? INT_MAX : budget;
+    return nts_candidate_budget(opt, m->entry_off[m->bodies]);
 }

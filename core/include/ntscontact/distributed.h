@@ -88,6 +88,18 @@ NTS_API void nts_context_set_owned(nts_context* ctx, const unsigned char* owned)
  * deep contacts not counted). */
 NTS_API long long nts_context_owned_gaps(const nts_context* ctx);
 
+/** The candidate budget of an evaluation under opt of a scene of
+ * `surface_nodes` surface nodes (a part's: its whole's): max_candidates, or
+ * 64 a surface node plus a million; at most INT_MAX (the count is
+ * nts_summary.gaps, an int). */
+NTS_API long long nts_candidate_budget(const nts_options* opt, long long surface_nodes);
+
+/** The words of an evaluation over that budget, NUL-terminated in out:
+ * "... within the search radius" when the closest points within r alone
+ * exceed it, "... within the search radius and deeper" (deeper != 0) when
+ * only those deeper take it over. */
+NTS_API void nts_candidate_budget_message(char* out, size_t size, long long budget, int deeper);
+
 /** With NTS_OUT_GAPS or NTS_OUT_CONTACTS asked (every record kept): the
  * slave entry of every closest point of the last evaluation (its gaps, the
  * deep contacts among them), in the order of nts_result.gaps. */
