@@ -189,6 +189,18 @@ static int global_order_fault(cJSON* root, const ntsj_config* cfg, const int* id
     return done;
 }
 
+/* The rank's own bodies as a scene definition (e->own's, and the box the
+ * distributed scene is made with). */
+static nts_scene_def own_def(const ntsm_engine* e) {
+    nts_scene_def def = nts_default_scene_def();
+    def.bodies = e->s.defs;
+    def.body_count = e->s.body_count;
+    def.lx = e->s.has_periodic ? e->s.lx : 0.0;
+    def.ly = e->s.has_periodic ? e->s.ly : 0.0;
+    def.limits.max_bodies = 1 << 30;
+    return def;
+}
+
 ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, const int* ids, int count, int threads,
                                 char** error) {
     ntsm_engine* e = (ntsm_engine*)calloc(1, sizeof *e);
@@ -233,12 +245,7 @@ ntsm_engine* ntsm_engine_create(int comm_f, const char* json, size_t length, con
             mine = doc_of(fault.code, message, fault.pointer);
             mine_key = fault_key(FAULT_DOCUMENT, pointer_body(fault.pointer), rank, size);
         } else {
-            nts_scene_def def = nts_default_scene_def();
-            def.bodies = e->s.defs;
-            def.body_count = e->s.body_count;
-            def.lx = e->s.has_periodic ? e->s.lx : 0.0;
-            def.ly = e->s.has_periodic ? e->s.ly : 0.0;
-            def.limits.max_bodies = 1 << 30;
+            nts_scene_def def = own_def(e);
             if (def.body_count > 0 && (e->own = nts_scene_create(&def, &err)) == NULL) {
                 /* the body one process names among this rank's (its checks
                  * meet them in global order), named by its global index */
@@ -307,21 +314,18 @@ static int remake(ntsm_engine* e, const nts_vec2* p, nts_error* err) {
         memcpy(e->s.nodes[k], p + at, sizeof(nts_vec2) * (size_t)e->s.defs[k].node_count);
         at += e->s.defs[k].node_count;
     }
-    fresh = ntsm_scene_create(e->comm, e->s.defs, e->ids, e->s.body_count, e->s.has_periodic ? e->s.lx : 0.0,
-                              e->s.has_periodic ? e->s.ly : 0.0, cfg.limits, err);
+    {
+        const nts_scene_def def = own_def(e);
+        fresh = ntsm_scene_create(e->comm, def.bodies, e->ids, def.body_count, def.lx, def.ly, cfg.limits, err);
+    }
     if (fresh == NULL) return err->code != 0 ? err->code : NTS_EINTERNAL;
     ntsm_scene_destroy(e->scene);
     e->scene = fresh;
     if (e->own != NULL) {
         /* its topology now the new scene's (the same bodies, which the ranks' scene took) */
-        nts_scene_def def = nts_default_scene_def();
+        const nts_scene_def def = own_def(e);
         nts_error e2 = nts_error_none();
         nts_scene* own;
-        def.bodies = e->s.defs;
-        def.body_count = e->s.body_count;
-        def.lx = e->s.has_periodic ? e->s.lx : 0.0;
-        def.ly = e->s.has_periodic ? e->s.ly : 0.0;
-        def.limits.max_bodies = 1 << 30;
         if ((own = nts_scene_create(&def, &e2)) != NULL) {
             nts_scene_destroy(e->own);
             e->own = own;
