@@ -99,6 +99,19 @@ void ntsm_scene_destroy(ntsm_scene* m) {
     free(m);
 }
 
+/* The owned bodies as a scene definition: m->own's (its box the whole's,
+ * its limits the caller's but for the count of bodies, which is the
+ * whole's to check). */
+static nts_scene_def own_scene_def(const ntsm_scene* m) {
+    nts_scene_def def = nts_default_scene_def();
+    def.bodies = m->own_defs;
+    def.body_count = m->count;
+    def.lx = m->lx;
+    def.ly = m->ly;
+    def.limits = m->own_limits;
+    return def;
+}
+
 /* The owned bodies' definitions, pointing into own_bytes. */
 static void own_defs_point(ntsm_scene* m) {
     int k, id;
@@ -251,15 +264,11 @@ ntsm_scene* ntsm_scene_create(MPI_Comm comm, const nts_body_def* bodies, const i
     }
     if (rc == NTS_OK && m->own_bytes.oom) rc = ntsm_fail(&e, NTS_ENOMEM, "out of memory");
     if (rc == NTS_OK) {
-        nts_scene_def def = nts_default_scene_def();
+        nts_scene_def def;
         own_defs_point(m);
-        def.bodies = m->own_defs;
-        def.body_count = count;
-        def.lx = lx;
-        def.ly = ly;
-        def.limits = limits;
-        def.limits.max_bodies = INT_MAX;
-        m->own_limits = def.limits;
+        m->own_limits = limits;
+        m->own_limits.max_bodies = INT_MAX;
+        def = own_scene_def(m);
         if (count > 0) {
             m->own = nts_scene_create(&def, &e);
             if (m->own == NULL) {
@@ -385,12 +394,7 @@ int ntsm_scene_update_positions(ntsm_scene* m, const nts_vec2* positions, nts_er
         if ((rc = nts_scene_update_positions(m->own, positions, &e)) != NTS_OK) {
             if (e.body >= 0 && e.body < m->count && rc != NTS_ENOMEM) {
                 /* (the own definitions still hold the positions before) */
-                nts_scene_def def = nts_default_scene_def();
-                def.bodies = m->own_defs;
-                def.body_count = m->count;
-                def.lx = m->lx;
-                def.ly = m->ly;
-                def.limits = m->own_limits;
+                const nts_scene_def def = own_scene_def(m);
                 ntsm_lowest_failing(&def, m->ids, positions, m->own_node_at, &e);
             }
             ntsm_global_body(&e, m->ids, m->count);
