@@ -349,12 +349,7 @@ int main(int argc, char** argv) {
             if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
             times[k] = now_s() - te;
         }
-        for (k = 1; k < repeats; ++k) { /* insertion sort: a handful of values */
-            double v = times[k];
-            int j = k - 1;
-            while (j >= 0 && times[j] > v) { times[j + 1] = times[j]; --j; }
-            times[j + 1] = v;
-        }
+        sort_doubles(times, repeats);
         printf("%-26s %12.3f %12.1f\n", "warm evaluate (median)", times[repeats / 2] * 1e3,
                times[repeats / 2] * 1e9 / (double)nodes);
         {
@@ -367,12 +362,7 @@ int main(int argc, char** argv) {
                 if (nts_evaluate(ctx, scene, &s.options, &res, &err) != 0) return 1;
                 times[k] = now_s() - te;
             }
-            for (k = 1; k < repeats; ++k) {
-                double v = times[k];
-                int j = k - 1;
-                while (j >= 0 && times[j] > v) { times[j + 1] = times[j]; --j; }
-                times[j + 1] = v;
-            }
+            sort_doubles(times, repeats);
             printf("%-26s %12.3f %12.1f %10.2f  (%d triplets)\n", "warm + stiffness (median)",
                    times[repeats / 2] * 1e3, times[repeats / 2] * 1e9 / (double)nodes, times[repeats / 2] / base,
                    res.stiffness.count);
