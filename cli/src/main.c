@@ -712,6 +712,18 @@ static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
  * across the ranks; the hook's main calls this one. */
 void ntsm_cli_configure(ntsj_config* cfg);
 int nts_cli_main(int argc, char** argv);
+int nts_cli_flags(int argc, char** argv, ntsj_config* cfg);
+
+/* The hook's --part: the command line read into cfg (and refused with this
+ * CLI's own message) before the parts are, so that they are read with its
+ * limits (--max-depth). argv ends with a name standing for the scene the
+ * parts make. 0, EXIT_USAGE, or -1 when --help or --version answered. */
+int nts_cli_flags(int argc, char** argv, ntsj_config* cfg) {
+    cli_args args = {NULL, NULL, NULL, NULL, NULL, NULL};
+    const int rc = parse_args(argc, argv, cfg, &args);
+    optind = 0; /* getopt starts afresh for nts_cli_main (glibc: 0 re-initialises) */
+    return rc;
+}
 #define main nts_cli_main
 #endif
 

@@ -25,6 +25,7 @@
 #include "internal.h"
 
 int nts_cli_main(int argc, char** argv);
+int nts_cli_flags(int argc, char** argv, ntsj_config* cfg);
 void ntsm_cli_configure(ntsj_config* cfg);
 
 enum { JOB_STOP = 0, JOB_EVALUATE = 1 };
@@ -480,9 +481,11 @@ static const cJSON* beyond_bodies(const cJSON* part) {
  * "%d" its rank (a scene document of its bodies, "options" the same in
  * every part). Rank 0 puts the parts together (the whole's bodies in rank
  * order, its options the parts') into one request in a temporary file, which
- * the CLI then reads. Returns the file's path on rank 0 (malloc), NULL with
+ * the CLI then reads, each part's JSON as strictly as a request's and
+ * nested at most max_depth deep (the command line's --max-depth; 0: the
+ * codec's default). Returns the file's path on rank 0 (malloc), NULL with
  * *status set on every rank after a fault (each rank's named). */
-static char* parts_together(const char* pattern, int rank, int size, int* status) {
+static char* parts_together(const char* pattern, int rank, int size, int max_depth, int* status) {
     char path[4096], msg[4600] = "";
     char* text = NULL;
     long long len = 0;
@@ -560,7 +563,7 @@ static char* parts_together(const char* pattern, int rank, int size, int* status
                 const char* differs;
                 const int blank = only_space(texts + counts[size + r], (size_t)counts[r]);
                 const char* code = blank ? "empty_body" /* (as a request of no bytes, or of spaces) */
-                                         : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], 0, where,
+                                         : ntsj_json_check(texts + counts[size + r], (size_t)counts[r], max_depth, where,
                                                            sizeof where, why, sizeof why);
                 if (blank) {
                     where[0] = '\0';
@@ -651,7 +654,23 @@ int main(int argc, char** argv) {
         return 4;
     }
     if (pattern != NULL) {
-        assembled = parts_together(pattern, rank, size, &status);
+        /* The flags first, as the CLI reads them (a bad one refused before
+         * any part is read), then the parts with their --max-depth. */
+        int flags[2] = {0, 0};
+        if (rank == 0) {
+            ntsj_config cfg = ntsj_default_config();
+            args[nargs] = (char*)"the scene of --part"; /* (a name: a second scene given is named against it) */
+            flags[0] = nts_cli_flags(nargs + 1, args, &cfg);
+            args[nargs] = NULL;
+            flags[1] = cfg.max_depth;
+        }
+        MPI_Bcast(flags, 2, MPI_INT, 0, MPI_COMM_WORLD);
+        if (flags[0] != 0) {
+            free(args);
+            MPI_Finalize();
+            return flags[0] < 0 ? 0 : flags[0]; /* -1: --help or --version answered */
+        }
+        assembled = parts_together(pattern, rank, size, flags[1], &status);
         if (status == 0 && rank == 0) args[nargs++] = assembled;
     }
     if (status != 0) {

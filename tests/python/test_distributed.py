@@ -415,3 +415,33 @@ def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
     assert got.stdout == b""
     line = [s for s in got.stderr.splitlines() if s.startswith(b"ntscontact-mpi:")]
     assert len(line) == 1 and code in line[0] and where in line[0], got.stderr.decode()
+
+
+def test_part_read_with_the_command_lines_max_depth(tmp_path):
+    """--part reads its parts with the command line's --max-depth, as the
+    CLI reads a request (they were read with the default, 32, whatever it
+    said), and a bad flag is refused with the CLI's own message before any
+    part is read."""
+    scene = packing(8, 22)
+    share = [scene["bodies"][:4], scene["bodies"][4:]]
+    (tmp_path / "part_0.json").write_text(json.dumps(dict(scene, bodies=share[0])))
+    deep = "[" * 40 + "]" * 40  # 41 levels with the document's own
+    text = json.dumps(dict(scene, bodies=share[1])).replace('"bodies": [', '"deep": %s, "bodies": [' % deep, 1)
+    (tmp_path / "part_1.json").write_text(text)
+    base = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
+
+    def fault(*flags):
+        got = subprocess.run(base + list(flags), capture_output=True, timeout=300, env=ENV)
+        line = [s for s in got.stderr.splitlines() if s.startswith((b"ntscontact-mpi:", b"ntscontact:"))]
+        assert got.stdout == b"" and len(line) >= 1, got.stderr.decode()
+        return got.returncode, line[0]
+
+    rc, line = fault()  # the default depth: the deep member is too deep
+    assert rc == 3 and b'too_deep at "/deep/0/' in line and b"of part 1" in line, line
+    rc, line = fault("--max-depth", "64")  # deep enough: the member is read, and refused as unknown
+    assert rc == 3 and b'unknown_field at "/deep" of part 1' in line, line
+    rc, line = fault("--max-depth=3")  # the nodes' pairs of part 0 are 4 deep
+    assert rc == 3 and b'too_deep at "/bodies/0/nodes' in line and b"of part 0" in line, line
+    (tmp_path / "part_1.json").unlink()
+    rc, line = fault("--max-depth", "x")  # the flag before the parts (part 1 is gone)
+    assert rc == 2 and b"--max-depth needs a positive count, not 'x'" in line, line
