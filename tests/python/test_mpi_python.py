@@ -122,17 +122,26 @@ SCRIPT = textwrap.dedent('''
         a = ref.step(pos)
         part.step(my_pos)
 
-    # bad positions on the last rank only: every rank raises the same error
-    bad = my_pos.copy()
-    if rank == size - 1:
-        bad[0, 0] = float("nan")
+    # bad positions: every rank raises the error one process raises for the
+    # whole's positions (the whole's first bad row, its body and node, x or
+    # y), not a rank's own row, nor the lowest failing rank's: a NaN at the
+    # last rank's first body's first x, and with more ranks, one at rank
+    # 0's last body's third y (a later row of the whole)
+    whole_bad = pos.copy()
+    whole_bad[offsets[size - 1], 0] = float("nan")
+    if size > 1:
+        whole_bad[offsets[[b for b in whole if b % size == 0][-1]] + 2, 1] = float("inf")
     try:
-        part.step(bad)
+        ref.step(whole_bad)
+        raise SystemExit("NaN positions accepted by one process")
+    except NtsError as exc:
+        want = (exc.code, exc.pointer, exc.message)
+    assert want[0] == "non_finite" and want[1] == f"/positions/{offsets[size - 1]}", want
+    try:
+        part.step(np.concatenate([whole_bad[offsets[b]:offsets[b + 1]] for b in mine]))
         raise SystemExit("NaN positions accepted")
     except NtsError as exc:
-        codes = comm.allgather((exc.code, str(exc)))
-        assert all(c == codes[0] for c in codes), codes
-        assert exc.code == "non_finite", exc.code
+        assert (exc.code, exc.pointer, exc.message) == want, ((exc.code, exc.pointer, exc.message), want)
 
     # a degenerate body on the last rank only
     broken = scene(mine)

@@ -36,12 +36,13 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from .engine import EngineUnavailable, locate
 from .errors import InvalidScene, NtsError, error_from_response
 from .result import Result
 from .scene import Scene
-from .session import FloatArray, PositionsLike, Session, refuse_non_finite
+from .session import FloatArray, PositionsLike, Session, non_finite_error, non_finite_rows
 
 __all__ = ["DistributedEngine", "DistributedSession", "LIBRARY_NAME", "find_library"]
 
@@ -161,19 +162,20 @@ class DistributedSession(Session):
                                code="invalid_value", pointer="/bodies")
         return [int(i) for i in self.body_ids]
 
-    def _agree(self, failure: Optional[BaseException]) -> None:
+    def _agree(self, failure: Optional[BaseException], flag: bool = False) -> bool:
         """Every rank raises the lowest failing rank's error (the same code,
-        message and pointer everywhere), or none does."""
+        message and pointer everywhere), or none does; then whether some
+        rank raised ``flag`` (in the same collective)."""
         mine = None
         if failure is not None:
             code = getattr(failure, "code", "invalid_value") or "invalid_value"
             message = getattr(failure, "message", None) or str(failure)
             mine = (str(code), f"rank {self.comm.Get_rank()}: {message}", getattr(failure, "pointer", "") or "")
-        every = self.comm.allgather(mine)
-        first = next((e for e in every if e is not None), None)
-        if first is None:
-            return
-        raise InvalidScene(first[1], code=first[0], pointer=first[2]) from failure
+        every = self.comm.allgather((mine, bool(flag)))
+        first = next((e for e, _ in every if e is not None), None)
+        if first is not None:
+            raise InvalidScene(first[1], code=first[0], pointer=first[2]) from failure
+        return any(f for _, f in every)
 
     def _create(self) -> None:
         if self._deferred:
@@ -195,14 +197,40 @@ class DistributedSession(Session):
     def _as_positions(self, positions: PositionsLike) -> FloatArray:
         failure: Optional[BaseException] = None
         out = None
+        bad = np.zeros(0, dtype=np.int64)
         try:
             out = super()._as_positions(positions)
-            refuse_non_finite(out)  # (the library would name /bodies/b/nodes/n: the client's pointer, as before)
+            bad = non_finite_rows(out)
         except Exception as exc:  # any: the other ranks must hear of it, not wait
             failure = exc
-        self._agree(failure)
+        # (a shape is judged before the values, as one process judges them)
+        if self._agree(failure, flag=len(bad) > 0):
+            assert out is not None
+            self._refuse_non_finite(out, bad)
         assert out is not None
         return out
+
+    def _refuse_non_finite(self, out: FloatArray, bad: npt.NDArray[np.int64]) -> None:
+        """Collective, when some rank's rows ``bad`` of ``out`` hold a NaN or
+        an infinity: every rank raises the error one process raises for the
+        whole's positions (their bodies in global order), at the whole's
+        first such row, not at a rank's own row (the library would name
+        /bodies/b/nodes/n: the client's pointer, as one process's)."""
+        counts = self.comm.allgather([(g, int(self._offsets[k + 1] - self._offsets[k]))
+                                      for k, g in enumerate(self._ids)])
+        start: Dict[int, Tuple[int, int]] = {}  # a global index: the whole's body and its first row
+        row = 0
+        for whole, (g, n) in enumerate(sorted(pair for part in counts for pair in part)):
+            start[g] = (whole, row)
+            row += n
+        mine = None
+        if len(bad):
+            body = np.searchsorted(self._offsets, bad, side="right") - 1  # each bad row's body here
+            g, b, k = min((start[self._ids[b]][1] + int(k - self._offsets[b]), int(b), int(k))
+                          for b, k in zip(body, bad))
+            mine = (g, start[self._ids[b]][0], int(k - self._offsets[b]), (float(out[k, 0]), float(out[k, 1])))
+        g, whole, node, xy = min(m for m in self.comm.allgather(mine) if m is not None)
+        raise non_finite_error(g, whole, node, np.array(xy))
 
     def contact(self, positions: Optional[PositionsLike] = None, **kw: Any) -> Result:
         """Collective: :meth:`Session.contact` on every rank together; a rank

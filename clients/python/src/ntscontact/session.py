@@ -49,12 +49,21 @@ _BINARY_OUTPUTS = frozenset(("forces", "energy", "virial", "stiffness", "pressur
 _OCTET = "application/octet-stream"
 
 
-def refuse_non_finite(arr: FloatArray) -> None:
-    """InvalidScene ``non_finite`` naming ``/positions/k``, the first row of
-    ``arr`` with a NaN or an infinity (the service's own code and pointer)."""
-    if not np.isfinite(arr).all():  # then find the first bad one (the common case pays one pass)
-        k = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
-        raise InvalidScene(f"position {k} is not finite", code="non_finite", pointer=f"/positions/{k}")
+def non_finite_rows(arr: FloatArray) -> npt.NDArray[np.int64]:
+    """The rows of ``arr`` with a NaN or an infinity, ascending (none: empty;
+    the common case pays one pass)."""
+    if np.isfinite(arr).all():
+        return np.zeros(0, dtype=np.int64)
+    return np.flatnonzero(~np.isfinite(arr).all(axis=1)).astype(np.int64)
+
+
+def non_finite_error(k: int, body: int, node: int, row: FloatArray) -> InvalidScene:
+    """The service's own error for positions whose first row with a NaN or an
+    infinity is ``k`` (``row``), node ``node`` of body ``body``: its code,
+    pointer and words."""
+    what = "y" if np.isfinite(row[0]) else "x"
+    return InvalidScene(f"position {k} (/bodies/{body}/nodes/{node}) has a non-finite {what}", code="non_finite",
+                        pointer=f"/positions/{k}")
 
 
 class BodyArrays(Mapping[BodyId, FloatArray]):
@@ -256,7 +265,7 @@ class Session:
                                    pointer="/positions")
         # Not read here for non-finite values: the service (the daemon, or the
         # in-process engine: the same codec) reads every position and refuses
-        # those with this code and pointer (refuse_non_finite's), and a second
+        # those with this code, pointer and words (non_finite_error's), and a second
         # pass here cost a quarter of a step's wall time at 66k nodes
         # (docs/benchmarks.md). The distributed engine's library names the
         # body's node instead: ntscontact.mpi checks them first.
