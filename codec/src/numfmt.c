@@ -1,8 +1,8 @@
 /* The output buffer and the number printer of the codec.
  *
- * Doubles are printed with Grisu2: digits that read back bitwise equal through
- * strtod (almost always the shortest such), so the JSON carries exactly the
- * value the core computed; cJSON's own printer stops at 15 digits when that
+ * Doubles are printed as the shortest digits that read back bitwise equal
+ * through strtod (Ryu's), so the JSON carries exactly the value the core
+ * computed; cJSON's own printer stops at 15 digits when that
  * looks equal and is not used for numbers. The decimal point is always '.',
  * whatever the locale (and nothing here calls setlocale). */
 #include <math.h>
@@ -125,218 +125,188 @@ void ntsj_buf_string(ntsj_buf* b, const char* s) {
 }
 
 /* ------------------------------------------------------------------------
- * Grisu2 (F. Loitsch, "Printing floating-point numbers quickly and accurately
- * with integers", PLDI 2010; the layout follows Milo Yip's dtoa): digits of a
- * double that read back bitwise equal, almost always the shortest, with 64-bit
- * integer arithmetic only. glibc's snprintf("%.17g") costs ~0.5 us a number;
- * this ~0.05 us. tests/numfmt_check.c checks millions of doubles against strtod.
+ * The shortest digits (U. Adams, "Ryu: fast float-to-string conversion",
+ * PLDI 2018): of the decimals that read back as v (those inside v's rounding
+ * interval, its ends included when v's significand is even, as strtod's
+ * ties to even take them), the one with the fewest digits, and of those the
+ * nearest to v (ties to even). The interval's ends and v, times 4 and then
+ * times a power of ten, are computed with one 64 x 128-bit product each
+ * (numfmt_pow5.h, exact multipliers) and are exact to the digits kept; the
+ * digits below are removed while the ends still differ. Whether what was
+ * removed was all zeros is known only for small powers (the removal's
+ * "trailing zeros"), which decides the ends and the ties. Why not Grisu2
+ * (the printer before): it gave one digit more for about 1 double in 1,000,
+ * and this is 1.4-1.7 times as fast on the forces a step writes
+ * (docs/codec.md). tests/codec/numfmt_check.c checks millions of doubles
+ * against strtod and snprintf.
  * ---------------------------------------------------------------------- */
 
-typedef struct diy_fp {
-    uint64_t f;
-    int e;
-} diy_fp;
+#include "numfmt_pow5.h"
 
-#define DP_SIGNIFICAND_MASK UINT64_C(0x000FFFFFFFFFFFFF)
-#define DP_EXPONENT_MASK UINT64_C(0x7FF0000000000000)
-#define DP_HIDDEN_BIT UINT64_C(0x0010000000000000)
-#define DP_SIGNIFICAND_SIZE 52
-#define DP_EXPONENT_BIAS (0x3FF + DP_SIGNIFICAND_SIZE)
-#define DIY_SIGNIFICAND_SIZE 64
+/* The bits of 5^e (e >= 1; 1 for e = 0): ceil(e log2 5), exact for e < 3529. */
+static uint32_t pow5_bits(uint32_t e) { return ((e * 1217359u) >> 19) + 1u; }
+/* floor(e log10 2) for e < 1650, floor(e log10 5) for e < 2620. */
+static uint32_t log10_pow2(uint32_t e) { return (e * 78913u) >> 18; }
+static uint32_t log10_pow5(uint32_t e) { return (e * 732923u) >> 20; }
 
-static diy_fp diy_from_double(double d) {
-    uint64_t bits;
-    diy_fp r;
-    int biased_e;
-    memcpy(&bits, &d, sizeof bits);
-    biased_e = (int)((bits & DP_EXPONENT_MASK) >> DP_SIGNIFICAND_SIZE);
-    r.f = bits & DP_SIGNIFICAND_MASK;
-    if (biased_e != 0) {
-        r.f += DP_HIDDEN_BIT;
-        r.e = biased_e - DP_EXPONENT_BIAS;
+/* Whether 5^p divides v (v > 0). */
+static int multiple_of_pow5(uint64_t v, uint32_t p) {
+    uint32_t n = 0;
+    while (n < p) {
+        const uint64_t q = v / 5u;
+        if (v != 5u * q) return 0;
+        v = q;
+        ++n;
+    }
+    return 1;
+}
+
+/* (m x mul) >> j, mul the 128-bit {low, high}, 64 <= j < 192, m < 2^56
+ * (so that the result has 64 bits at most). */
+#if defined(__SIZEOF_INT128__)
+__extension__ typedef unsigned __int128 fmt_u128;
+static uint64_t mul_shift(uint64_t m, const uint64_t* mul, int j) {
+    const fmt_u128 lo = (fmt_u128)m * mul[0], hi = (fmt_u128)m * mul[1];
+    return (uint64_t)(((lo >> 64) + hi) >> (j - 64));
+}
+#else
+/* a x b = *hi 2^64 + low 64 bits, from 32-bit halves */
+static uint64_t mul_64x64(uint64_t a, uint64_t b, uint64_t* hi) {
+    const uint64_t a0 = a & 0xFFFFFFFFu, a1 = a >> 32, b0 = b & 0xFFFFFFFFu, b1 = b >> 32;
+    const uint64_t p00 = a0 * b0, p01 = a0 * b1, p10 = a1 * b0, p11 = a1 * b1;
+    const uint64_t mid = (p00 >> 32) + (p01 & 0xFFFFFFFFu) + (p10 & 0xFFFFFFFFu);
+    *hi = p11 + (p01 >> 32) + (p10 >> 32) + (mid >> 32);
+    return (mid << 32) | (p00 & 0xFFFFFFFFu);
+}
+static uint64_t mul_shift(uint64_t m, const uint64_t* mul, int j) {
+    uint64_t lo_hi, hi_hi, hi_lo, sum, top;
+    (void)mul_64x64(m, mul[0], &lo_hi);
+    hi_lo = mul_64x64(m, mul[1], &hi_hi);
+    sum = lo_hi + hi_lo;
+    top = hi_hi + (sum < lo_hi); /* (lo >> 64) + hi = top 2^64 + sum */
+    j -= 64;
+    return j == 0 ? sum : j < 64 ? (sum >> j) | (top << (64 - j)) : top >> (j - 64);
+}
+#endif
+
+/* v > 0, finite: v reads back from *digits x 10^*exp, *digits the shortest. */
+static void shortest(double v, uint64_t* digits, int* exp) {
+    const uint64_t frac_mask = (UINT64_C(1) << 52) - 1;
+    uint64_t bits, m2, mv, vr, vp, vm;
+    uint32_t ie, mm_shift, q;
+    int e2, e10, accept, vm_tz = 0, vr_tz = 0, removed = 0;
+    unsigned last = 0;
+    memcpy(&bits, &v, sizeof bits);
+    ie = (uint32_t)(bits >> 52) & 0x7FFu;
+    m2 = ie == 0 ? bits & frac_mask : (UINT64_C(1) << 52) | (bits & frac_mask);
+    e2 = (ie == 0 ? 1 : (int)ie) - 1023 - 52 - 2; /* v = 4 m2 x 2^e2 */
+    accept = (m2 & 1u) == 0;                        /* an even significand: the interval's ends read back */
+    mv = 4u * m2;
+    mm_shift = (bits & frac_mask) != 0 || ie <= 1; /* 0: a power of two, its lower neighbour nearer */
+    if (e2 >= 0) {
+        const int k = 125 + (int)pow5_bits(q = log10_pow2((uint32_t)e2) - (e2 > 3)) - 1, j = -e2 + (int)q + k;
+        e10 = (int)q;
+        vr = mul_shift(mv, pow5_inv[q], j);
+        vp = mul_shift(mv + 2u, pow5_inv[q], j);
+        vm = mul_shift(mv - 1u - mm_shift, pow5_inv[q], j);
+        if (q <= 21) { /* 5^q may divide an end or v: the digits removed may be exact zeros */
+            if (mv % 5u == 0) vr_tz = multiple_of_pow5(mv, q);
+            else if (accept) vm_tz = multiple_of_pow5(mv - 1u - mm_shift, q);
+            else vp -= (uint64_t)multiple_of_pow5(mv + 2u, q); /* the upper end excluded */
+        }
     } else {
-        r.e = 1 - DP_EXPONENT_BIAS; /* subnormal */
+        const uint32_t i = (uint32_t)-e2 - (q = log10_pow5((uint32_t)-e2) - (-e2 > 1));
+        const int j = (int)q - ((int)pow5_bits(i) - 125);
+        e10 = (int)q + e2;
+        vr = mul_shift(mv, pow5[i], j);
+        vp = mul_shift(mv + 2u, pow5[i], j);
+        vm = mul_shift(mv - 1u - mm_shift, pow5[i], j);
+        if (q <= 1) {
+            vr_tz = 1; /* mv x 2^-q: no digit below */
+            if (accept) vm_tz = mm_shift == 1;
+            else --vp;
+        } else if (q < 63) {
+            vr_tz = (mv & ((UINT64_C(1) << q) - 1)) == 0; /* 2^q divides mv */
+        }
     }
-    return r;
-}
-
-static diy_fp diy_mul(diy_fp x, diy_fp y) {
-    /* The upper 64 bits of the 128-bit product, rounded. */
-    const uint64_t m32 = UINT64_C(0xFFFFFFFF);
-    uint64_t a = x.f >> 32, b = x.f & m32, c = y.f >> 32, d = y.f & m32;
-    uint64_t ac = a * c, bc = b * c, ad = a * d, bd = b * d;
-    uint64_t tmp = (bd >> 32) + (ad & m32) + (bc & m32);
-    diy_fp r;
-    tmp += UINT64_C(1) << 31;
-    r.f = ac + (ad >> 32) + (bc >> 32) + (tmp >> 32);
-    r.e = x.e + y.e + 64;
-    return r;
-}
-
-static diy_fp diy_normalize(diy_fp x) {
-    while (!(x.f & (UINT64_C(1) << 63))) {
-        x.f <<= 1;
-        x.e--;
-    }
-    return x;
-}
-
-/* The boundaries m- and m+ halfway to the neighbouring doubles, with m+ normalised
- * and m- at the same exponent. */
-static void diy_boundaries(diy_fp v, diy_fp* minus, diy_fp* plus) {
-    diy_fp pl, mi;
-    pl.f = (v.f << 1) + 1;
-    pl.e = v.e - 1;
-    while (!(pl.f & (DP_HIDDEN_BIT << 1))) {
-        pl.f <<= 1;
-        pl.e--;
-    }
-    pl.f <<= DIY_SIGNIFICAND_SIZE - DP_SIGNIFICAND_SIZE - 2;
-    pl.e -= DIY_SIGNIFICAND_SIZE - DP_SIGNIFICAND_SIZE - 2;
-    if (v.f == DP_HIDDEN_BIT) { /* the lower neighbour is closer at a power of two */
-        mi.f = (v.f << 2) - 1;
-        mi.e = v.e - 2;
+    if (vm_tz || vr_tz) { /* (rare: exact ends or an exact v) */
+        while (vm > 0 && vp / 10000u > vm / 10000u) { /* four digits a step, as four of the loop below */
+            const uint64_t r = vr % 10000u;
+            vm_tz &= vm % 10000u == 0;
+            vr_tz &= last == 0 && r % 1000u == 0;
+            last = (unsigned)(r / 1000u);
+            vr /= 10000u, vp /= 10000u, vm /= 10000u;
+            removed += 4;
+        }
+        while (vm > 0 && vp / 10u > vm / 10u) {
+            vm_tz &= vm % 10u == 0;
+            vr_tz &= last == 0;
+            last = (unsigned)(vr % 10u);
+            vr /= 10u, vp /= 10u, vm /= 10u;
+            ++removed;
+        }
+        while (vm_tz && vm > 0 && vm % 10u == 0) { /* the lower end's own zeros: it reads back */
+            vr_tz &= last == 0;
+            last = (unsigned)(vr % 10u);
+            vr /= 10u, vp /= 10u, vm /= 10u;
+            ++removed;
+        }
+        if (vr_tz && last == 5 && vr % 2u == 0) last = 4; /* an exact tie: to even */
+        *digits = vr + (unsigned)((vr == vm && (!accept || !vm_tz)) || last >= 5);
     } else {
-        mi.f = (v.f << 1) - 1;
-        mi.e = v.e - 1;
+        int up = 0;
+        while (vp / 10000u > vm / 10000u) {
+            up = vr % 10000u >= 5000u;
+            vr /= 10000u, vp /= 10000u, vm /= 10000u;
+            removed += 4;
+        }
+        while (vp / 10u > vm / 10u) {
+            up = vr % 10u >= 5u;
+            vr /= 10u, vp /= 10u, vm /= 10u;
+            ++removed;
+        }
+        *digits = vr + (unsigned)(vr == vm || up);
     }
-    mi.f <<= mi.e - pl.e;
-    mi.e = pl.e;
-    *plus = pl;
-    *minus = mi;
+    *exp = e10 + removed;
 }
 
-/* 10^(-348 + 8 i) = cached_f[i] * 2^cached_e[i], i = 0..86 (generated with exact
- * integer arithmetic, significands rounded to nearest). */
-static const uint64_t cached_f[87] = {
-    UINT64_C(0xfa8fd5a0081c0288), UINT64_C(0xbaaee17fa23ebf76), UINT64_C(0x8b16fb203055ac76),
-    UINT64_C(0xcf42894a5dce35ea), UINT64_C(0x9a6bb0aa55653b2d), UINT64_C(0xe61acf033d1a45df),
-    UINT64_C(0xab70fe17c79ac6ca), UINT64_C(0xff77b1fcbebcdc4f), UINT64_C(0xbe5691ef416bd60c),
-    UINT64_C(0x8dd01fad907ffc3c), UINT64_C(0xd3515c2831559a83), UINT64_C(0x9d71ac8fada6c9b5),
-    UINT64_C(0xea9c227723ee8bcb), UINT64_C(0xaecc49914078536d), UINT64_C(0x823c12795db6ce57),
-    UINT64_C(0xc21094364dfb5637), UINT64_C(0x9096ea6f3848984f), UINT64_C(0xd77485cb25823ac7),
-    UINT64_C(0xa086cfcd97bf97f4), UINT64_C(0xef340a98172aace5), UINT64_C(0xb23867fb2a35b28e),
-    UINT64_C(0x84c8d4dfd2c63f3b), UINT64_C(0xc5dd44271ad3cdba), UINT64_C(0x936b9fcebb25c996),
-    UINT64_C(0xdbac6c247d62a584), UINT64_C(0xa3ab66580d5fdaf6), UINT64_C(0xf3e2f893dec3f126),
-    UINT64_C(0xb5b5ada8aaff80b8), UINT64_C(0x87625f056c7c4a8b), UINT64_C(0xc9bcff6034c13053),
-    UINT64_C(0x964e858c91ba2655), UINT64_C(0xdff9772470297ebd), UINT64_C(0xa6dfbd9fb8e5b88f),
-    UINT64_C(0xf8a95fcf88747d94), UINT64_C(0xb94470938fa89bcf), UINT64_C(0x8a08f0f8bf0f156b),
-    UINT64_C(0xcdb02555653131b6), UINT64_C(0x993fe2c6d07b7fac), UINT64_C(0xe45c10c42a2b3b06),
-    UINT64_C(0xaa242499697392d3), UINT64_C(0xfd87b5f28300ca0e), UINT64_C(0xbce5086492111aeb),
-    UINT64_C(0x8cbccc096f5088cc), UINT64_C(0xd1b71758e219652c), UINT64_C(0x9c40000000000000),
-    UINT64_C(0xe8d4a51000000000), UINT64_C(0xad78ebc5ac620000), UINT64_C(0x813f3978f8940984),
-    UINT64_C(0xc097ce7bc90715b3), UINT64_C(0x8f7e32ce7bea5c70), UINT64_C(0xd5d238a4abe98068),
-    UINT64_C(0x9f4f2726179a2245), UINT64_C(0xed63a231d4c4fb27), UINT64_C(0xb0de65388cc8ada8),
-    UINT64_C(0x83c7088e1aab65db), UINT64_C(0xc45d1df942711d9a), UINT64_C(0x924d692ca61be758),
-    UINT64_C(0xda01ee641a708dea), UINT64_C(0xa26da3999aef774a), UINT64_C(0xf209787bb47d6b85),
-    UINT64_C(0xb454e4a179dd1877), UINT64_C(0x865b86925b9bc5c2), UINT64_C(0xc83553c5c8965d3d),
-    UINT64_C(0x952ab45cfa97a0b3), UINT64_C(0xde469fbd99a05fe3), UINT64_C(0xa59bc234db398c25),
-    UINT64_C(0xf6c69a72a3989f5c), UINT64_C(0xb7dcbf5354e9bece), UINT64_C(0x88fcf317f22241e2),
-    UINT64_C(0xcc20ce9bd35c78a5), UINT64_C(0x98165af37b2153df), UINT64_C(0xe2a0b5dc971f303a),
-    UINT64_C(0xa8d9d1535ce3b396), UINT64_C(0xfb9b7cd9a4a7443c), UINT64_C(0xbb764c4ca7a44410),
-    UINT64_C(0x8bab8eefb6409c1a), UINT64_C(0xd01fef10a657842c), UINT64_C(0x9b10a4e5e9913129),
-    UINT64_C(0xe7109bfba19c0c9d), UINT64_C(0xac2820d9623bf429), UINT64_C(0x80444b5e7aa7cf85),
-    UINT64_C(0xbf21e44003acdd2d), UINT64_C(0x8e679c2f5e44ff8f), UINT64_C(0xd433179d9c8cb841),
-    UINT64_C(0x9e19db92b4e31ba9), UINT64_C(0xeb96bf6ebadf77d9), UINT64_C(0xaf87023b9bf0ee6b),
-};
-static const int16_t cached_e[87] = {
-    -1220, -1193, -1166, -1140, -1113, -1087, -1060, -1034, -1007, -980, -954, -927,
-    -901, -874, -847, -821, -794, -768, -741, -715, -688, -661, -635, -608,
-    -582, -555, -529, -502, -475, -449, -422, -396, -369, -343, -316, -289,
-    -263, -236, -210, -183, -157, -130, -103, -77, -50, -24, 3, 30,
-    56, 83, 109, 136, 162, 189, 216, 242, 269, 295, 322, 348,
-    375, 402, 428, 455, 481, 508, 534, 561, 588, 614, 641, 667,
-    694, 720, 747, 774, 800, 827, 853, 880, 907, 933, 960, 986,
-    1013, 1039, 1066,
-};
+static const char two_digits[201] = "00010203040506070809101112131415161718192021222324"
+                                    "25262728293031323334353637383940414243444546474849"
+                                    "50515253545556575859606162636465666768697071727374"
+                                    "75767778798081828384858687888990919293949596979899";
 
-/* A cached power c = 10^-K with the product's binary exponent in [-60, -32]. */
-static diy_fp cached_power(int e, int* K) {
-    double dk = (-61 - e) * 0.30102999566398114 + 347; /* dk must be positive */
-    int k = (int)dk;
-    unsigned index;
-    diy_fp r;
-    if (dk - k > 0.0) k++;
-    index = (unsigned)((k >> 3) + 1);
-    *K = -(-348 + (int)(index << 3));
-    r.f = cached_f[index];
-    r.e = cached_e[index];
-    return r;
-}
-
-static void grisu_round(char* buf, int len, uint64_t delta, uint64_t rest, uint64_t ten_kappa, uint64_t wp_w) {
-    while (rest < wp_w && delta - rest >= ten_kappa &&
-           (rest + ten_kappa < wp_w || wp_w - rest > rest + ten_kappa - wp_w)) {
-        buf[len - 1]--;
-        rest += ten_kappa;
-    }
-}
-
-static int count_digits32(uint32_t n) {
-    int d = 1;
-    while (n >= 10) {
-        n /= 10;
-        ++d;
-    }
-    return d;
-}
-
-static void digit_gen(diy_fp W, diy_fp Mp, uint64_t delta, char* buf, int* len, int* K) {
-    static const uint32_t pow10[] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000, 1000000000};
-    static const uint64_t pow10_64[20] = {
+/* The number of decimal digits of v (v < 10^19). */
+static int decimal_length(uint64_t v) {
+    static const uint64_t pow10[20] = {
         UINT64_C(1), UINT64_C(10), UINT64_C(100), UINT64_C(1000), UINT64_C(10000), UINT64_C(100000),
         UINT64_C(1000000), UINT64_C(10000000), UINT64_C(100000000), UINT64_C(1000000000),
         UINT64_C(10000000000), UINT64_C(100000000000), UINT64_C(1000000000000), UINT64_C(10000000000000),
         UINT64_C(100000000000000), UINT64_C(1000000000000000), UINT64_C(10000000000000000),
         UINT64_C(100000000000000000), UINT64_C(1000000000000000000), UINT64_C(10000000000000000000)};
-    const int shift = -Mp.e;
-    const uint64_t one_f = UINT64_C(1) << shift;
-    const uint64_t wp_w = Mp.f - W.f;
-    uint32_t p1 = (uint32_t)(Mp.f >> shift);
-    uint64_t p2 = Mp.f & (one_f - 1);
-    int kappa = count_digits32(p1);
-    *len = 0;
-    while (kappa > 0) {
-        uint32_t d = p1 / pow10[kappa - 1];
-        uint64_t tmp;
-        p1 %= pow10[kappa - 1];
-        if (d || *len) buf[(*len)++] = (char)('0' + d);
-        kappa--;
-        tmp = ((uint64_t)p1 << shift) + p2;
-        if (tmp <= delta) {
-            *K += kappa;
-            grisu_round(buf, *len, delta, tmp, (uint64_t)pow10[kappa] << shift, wp_w);
-            return;
-        }
-    }
-    for (;;) { /* kappa <= 0 */
-        char d;
-        p2 *= 10;
-        delta *= 10;
-        d = (char)(p2 >> shift);
-        if (d || *len) buf[(*len)++] = (char)('0' + d);
-        p2 &= one_f - 1;
-        kappa--;
-        if (p2 < delta) {
-            int index = -kappa;
-            *K += kappa;
-            grisu_round(buf, *len, delta, p2, one_f, index < 20 ? wp_w * pow10_64[index] : 0);
-            return;
-        }
-    }
+    const int t = ((64 - __builtin_clzll(v | 1u)) * 1233) >> 12; /* floor(bits x log10 2): the length or one less */
+    return t + (v >= pow10[t]);
 }
 
-/* Digits of v > 0 (finite) in buf (at most 17), v = digits * 10^K. */
-static void grisu2(double v, char* buf, int* len, int* K) {
-    diy_fp w = diy_from_double(v), wm, wp, c, W, Wp, Wm;
-    diy_boundaries(w, &wm, &wp);
-    c = cached_power(wp.e, K);
-    W = diy_mul(diy_normalize(w), c);
-    Wp = diy_mul(wp, c);
-    Wm = diy_mul(wm, c);
-    Wm.f++;
-    Wp.f--;
-    digit_gen(W, Wp, Wp.f - Wm.f, buf, len, K);
+/* v's digits, the last just before end: eight at a time (two halves of four,
+ * pairs from a table: no chain of a division a digit). */
+static void write_digits(char* end, uint64_t v) {
+    uint32_t w;
+    while (v >= 100000000u) {
+        const uint64_t q = v / 100000000u;
+        const uint32_t r = (uint32_t)(v - 100000000u * q), hi = r / 10000u, lo = r - 10000u * hi;
+        end -= 8;
+        memcpy(end, two_digits + 2 * (hi / 100u), 2);
+        memcpy(end + 2, two_digits + 2 * (hi % 100u), 2);
+        memcpy(end + 4, two_digits + 2 * (lo / 100u), 2);
+        memcpy(end + 6, two_digits + 2 * (lo % 100u), 2);
+        v = q;
+    }
+    for (w = (uint32_t)v; w >= 100u; w /= 100u) {
+        end -= 2;
+        memcpy(end, two_digits + 2 * (w % 100u), 2);
+    }
+    if (w >= 10u) memcpy(end - 2, two_digits + 2 * w, 2);
+    else end[-1] = (char)('0' + w);
 }
 
 int ntsj_format_double(char* out, double v) {
@@ -354,7 +324,12 @@ int ntsj_format_double(char* out, double v) {
         memcpy(out + n, "0.0", 4); /* keeps the sign of zero: "-0.0" reads back as -0.0 */
         return n + 3;
     }
-    grisu2(v, digits, &len, &K);
+    {
+        uint64_t d;
+        shortest(v, &d, &K);
+        len = decimal_length(d); /* at most 17 */
+        write_digits(digits + len, d);
+    }
     k = len + K; /* v = 0.d1d2... x 10^k */
     if (k > -5 && k <= 17) {
         if (k <= 0) { /* 0.000ddd */
