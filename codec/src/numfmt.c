@@ -5,6 +5,7 @@
  * computed; cJSON's own printer stops at 15 digits when that
  * looks equal and is not used for numbers. The decimal point is always '.',
  * whatever the locale (and nothing here calls setlocale). */
+#include <assert.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -255,7 +256,7 @@ static void shortest(double v, uint64_t* digits, int* exp) {
         *digits = vr + (unsigned)((vr == vm && (!accept || !vm_tz)) || last >= 5);
     } else {
         int up = 0;
-        while (vp / 10000u > vm / 10000u) {
+        while (vp / 10000u > vm / 10000u) { /* (short numbers: four digits a step) */
             up = vr % 10000u >= 5000u;
             vr /= 10000u, vp /= 10000u, vm /= 10000u;
             removed += 4;
@@ -287,39 +288,37 @@ static int decimal_length(uint64_t v) {
     return t + (v >= pow10[t]);
 }
 
-/* v's digits, the last just before end: eight at a time (two halves of four,
- * pairs from a table: no chain of a division a digit). */
-static void write_digits(char* end, uint64_t v) {
-    uint32_t w;
-    while (v >= 100000000u) {
-        const uint64_t q = v / 100000000u;
-        const uint32_t r = (uint32_t)(v - 100000000u * q), hi = r / 10000u, lo = r - 10000u * hi;
-        end -= 8;
-        memcpy(end, two_digits + 2 * (hi / 100u), 2);
-        memcpy(end + 2, two_digits + 2 * (hi % 100u), 2);
-        memcpy(end + 4, two_digits + 2 * (lo / 100u), 2);
-        memcpy(end + 6, two_digits + 2 * (lo % 100u), 2);
-        v = q;
-    }
-    for (w = (uint32_t)v; w >= 100u; w /= 100u) {
-        end -= 2;
-        memcpy(end, two_digits + 2 * (w % 100u), 2);
-    }
-    if (w >= 10u) memcpy(end - 2, two_digits + 2 * w, 2);
-    else end[-1] = (char)('0' + w);
+/* Four digits of v < 10^4 at p, from the table of pairs. */
+static void write4(char* p, uint32_t v) {
+    const uint32_t hi = v / 100u;
+    memcpy(p, two_digits + 2 * hi, 2);
+    memcpy(p + 2, two_digits + 2 * (v - 100u * hi), 2);
+}
+
+/* v < 10^17 as 17 digits at p, leading zeros and all: the same steps
+ * whatever v's length (a loop that runs as many times as v has digits
+ * mispredicts with the length of a random double). */
+static void write17(char* p, uint64_t v) {
+    const uint64_t top = v / 100000000u;
+    const uint32_t lo = (uint32_t)(v - 100000000u * top), mid = (uint32_t)(top % 100000000u);
+    p[0] = (char)('0' + (unsigned)(top / 100000000u));
+    write4(p + 1, mid / 10000u);
+    write4(p + 5, mid % 10000u);
+    write4(p + 9, lo / 10000u);
+    write4(p + 13, lo % 10000u);
 }
 
 int ntsj_format_double(char* out, double v) {
-    char digits[24];
+    char all[24];
+    const char* digits;
     int len = 0, K = 0, k, n = 0, i;
     if (!isfinite(v)) {
         memcpy(out, "null", 5);
         return 4;
     }
-    if (signbit(v)) {
-        out[n++] = '-';
-        v = -v;
-    }
+    out[0] = '-'; /* kept by the sign bit: the forces' signs are a coin toss, no branch guesses them */
+    n = signbit(v) != 0;
+    v = fabs(v);
     if (v == 0.0) {
         memcpy(out + n, "0.0", 4); /* keeps the sign of zero: "-0.0" reads back as -0.0 */
         return n + 3;
@@ -327,8 +326,10 @@ int ntsj_format_double(char* out, double v) {
     {
         uint64_t d;
         shortest(v, &d, &K);
-        len = decimal_length(d); /* at most 17 */
-        write_digits(digits + len, d);
+        assert(d < UINT64_C(100000000000000000)); /* at most 17 digits (a double needs no more) */
+        len = decimal_length(d);
+        write17(all, d);
+        digits = all + 17 - len;
     }
     k = len + K; /* v = 0.d1d2... x 10^k */
     if (k > -5 && k <= 17) {

@@ -27,6 +27,30 @@ static uint64_t next_u64(void) { /* xorshift64* */
 
 static long checked = 0;
 
+static size_t digits_at(const char* p) {
+    size_t n = 0;
+    while (p[n] >= '0' && p[n] <= '9') ++n;
+    return n;
+}
+
+/* The JSON number (RFC 8259 §6) at p, its longest: its length, or 0 when
+ * none starts there ("-" alone, "1.", "1e"). */
+static size_t json_number_length(const char* p) {
+    size_t n = *p == '-', d = digits_at(p + n);
+    if (d == 0) return 0;
+    n += p[n] == '0' ? 1 : d;
+    if (p[n] == '.') {
+        if ((d = digits_at(p + n + 1)) == 0) return 0;
+        n += 1 + d;
+    }
+    if (p[n] == 'e' || p[n] == 'E') {
+        const size_t sign = p[n + 1] == '+' || p[n + 1] == '-';
+        if ((d = digits_at(p + n + 1 + sign)) == 0) return 0;
+        n += 1 + sign + d;
+    }
+    return n;
+}
+
 /* `s` must read as strtod reads it and take all of it (or be refused as a
  * whole when it is 64 characters or more and not for the fast way). */
 static int check(const char* s) {
@@ -53,6 +77,41 @@ static int check(const char* s) {
     if (n != len || memcmp(&got, &want, sizeof got) != 0) {
         printf("FAIL %s at the end of its buffer: took %zu, read %a\n", s, n, got);
         return 1;
+    }
+    /* inside a long text (the word-at-a-time way reads past the number):
+     * followed by what a positions array holds, or by digits, an 'e' or a
+     * '.' that make it another number or none, which both must agree on */
+    {
+        static const char* const after[] = {"],[12.345678901234567,-0.5],[1.25,2.5]]}",
+                                            "0123456789.0123456789e0123456789.0123456789",
+                                            "e+5,1.5,2.5,3.5,4.5,5.5,6.5,7.5,8.5,9.5,10.5",
+                                            ".5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5.5",
+                                            "1.5],[2.5,3.5],[4.5,5.5],[6.5,7.5],[8.5,9.5]"}; /* ("01.5": "0") */
+        size_t a;
+        for (a = 0; a < sizeof after / sizeof after[0]; ++a) {
+            char big[256], tok[256];
+            const size_t m = strlen(after[a]);
+            size_t expect;
+            double w2;
+            if (len + m + 1 > sizeof big) continue;
+            memcpy(big, s, len);
+            memcpy(big + len, after[a], m + 1);
+            expect = json_number_length(big);
+            n = ntsj_parse_number(big, big + len + m, &got);
+            if (expect >= 64 && n == 0) continue; /* (the caller's general way) */
+            if (n != expect) {
+                printf("FAIL %s: took %zu characters, the number is %zu\n", big, n, expect);
+                return 1;
+            }
+            if (n == 0) continue;
+            memcpy(tok, big, n);
+            tok[n] = '\0';
+            w2 = strtod(tok, NULL);
+            if (memcmp(&got, &w2, sizeof got) != 0) {
+                printf("FAIL %s: read %a, strtod %a\n", tok, got, w2);
+                return 1;
+            }
+        }
     }
     return 0;
 }
