@@ -75,6 +75,28 @@ int nts_scene_keeps_shape(nts_scene* s, const double* area_perim);
  * PREV; its flat part reaches s = 0 without PREV and s = 1 without NEXT. */
 enum { NTS_SF_SEG = 1, NTS_SF_PREV = 2, NTS_SF_NEXT = 4, NTS_SF_ALL = 7, NTS_SF_NODE = NTS_SF_SEG | NTS_SF_PREV };
 
+/* Body b's entries on its loops, [first, *end) (its loops are consecutive). */
+static inline int nts_body_entries(const struct nts_scene* s, int b, int* end) {
+    *end = s->loop_start[s->body_loop_start[b + 1]];
+    return s->loop_start[s->body_loop_start[b]];
+}
+/* Whether every node of body b is on one of its loops (no mesh interior, no
+ * node left out): a node is on one place at most, so as many entries as
+ * nodes. */
+static inline int nts_body_all_on_loops(const struct nts_scene* s, int b) {
+    int end;
+    const int first = nts_body_entries(s, b, &end);
+    return end - first == s->body_node_start[b + 1] - s->body_node_start[b];
+}
+/* The node body b's shape is measured from (nts_body_shape): its first,
+ * when all its nodes are on its loops, else the node of its first entry
+ * (contact reads a body's loops alone: a node on none, stale in a surface
+ * exchange, decides nothing). */
+static inline int nts_body_origin(const struct nts_scene* s, int b) {
+    int end;
+    return nts_body_all_on_loops(s, b) ? s->body_node_start[b] : s->surf_node[nts_body_entries(s, b, &end)];
+}
+
 /* Whether entry e's segment is on the contact surface (a master segment). */
 static inline int nts_on_surface(const struct nts_scene* s, int e) {
     return s->surf_flag == NULL || (s->surf_flag[e] & NTS_SF_SEG) != 0;

@@ -130,7 +130,7 @@ static int block_extent(const nts_scene* s, int m, int e, nts_vec2 xs, double nx
 static int beyond_body(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
     const nts_vec2 xs = env->seg[k].p;
-    const int m1 = s->body_node_start[b + 1];
+    const int all = nts_body_all_on_loops(s, b);
     /* A node at or above -ext L_max along n decides: not beyond, whatever
      * the extent (the bound below is at most that). */
     const double fail = -env->ext * env->wide_lmax;
@@ -139,12 +139,17 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
     mx[1] = mx[2] = 0.0;
     /* A block at a time (block_extent), the block's verdict after it: the
      * same verdict as node by node. */
-    for (m = s->body_node_start[b]; m < m1; m += BEYOND_BLOCK) {
+    /* The body's loops' nodes: its nodes in blocks when all are on its
+     * loops, else its entries' nodes one by one (a node on no loop, a
+     * mesh's interior, is not read: contact reads the loops alone). */
+    int m1, m0 = all ? s->body_node_start[b] : nts_body_entries(s, b, &m1);
+    if (all) m1 = s->body_node_start[b + 1];
+    for (m = m0; m < m1; m += BEYOND_BLOCK) {
         const int e = m1 - m > BEYOND_BLOCK ? m + BEYOND_BLOCK : m1;
         mx[0] = -HUGE_VAL;
-        if (!block_extent(s, m, e, xs, nx, ny, mx))
+        if (!all || !block_extent(s, m, e, xs, nx, ny, mx))
             for (q = m; q < e; ++q) {
-                const nts_vec2 d = nts_scene_diff(s, s->pos[q], xs);
+                const nts_vec2 d = nts_scene_diff(s, s->pos[all ? q : s->surf_node[q]], xs);
                 const double h = d.x * nx + d.y * ny;
                 mx[0] = h > mx[0] ? h : mx[0];
                 mx[1] = fabs(d.x) > mx[1] ? fabs(d.x) : mx[1];
@@ -171,7 +176,9 @@ static int beyond_body(const search_env* env, int k, int b, double nx, double ny
 enum { WIDE_HULL = 512, HULL_UNKNOWN = 2 };
 static int hull_small(const search_env* env, int k, int b, double nx, double ny) {
     const nts_scene* s = env->s;
-    if (s->body_node_start[b + 1] - s->body_node_start[b] > WIDE_HULL) return HULL_UNKNOWN;
+    int end;
+    const int first = nts_body_entries(s, b, &end);
+    if (end - first > WIDE_HULL) return HULL_UNKNOWN; /* (its loops' nodes) */
     return beyond_body(env, k, b, nx, ny);
 }
 
@@ -283,11 +290,11 @@ static void ask_verdicts(int begin, int end, int wi, void* p) {
         out = r->outside + r->ask_at[c];
         for (k = 0; k < part->count; ++k) {
             if (k + 4 < part->count && it[k + 4].kind == REACH_ASK) { /* the body's nodes, scattered: 4 items ahead */
-                const int m0 = s->body_node_start[it[k + 4].body], m1 = s->body_node_start[it[k + 4].body + 1];
+                const int ab = it[k + 4].body, m0 = s->body_node_start[ab], m1 = s->body_node_start[ab + 1];
                 int m;
                 NTS_PREFETCH(&t->env->seg[it[k + 4].slave]);
-                for (m = m0; m1 - m0 <= WIDE_HULL && m < m1 && m < m0 + 64; m += 4) /* (hull_small reads them) */
-                    NTS_PREFETCH(&s->pos[m]);
+                for (m = m0; nts_body_all_on_loops(s, ab) && m1 - m0 <= WIDE_HULL && m < m1 && m < m0 + 64; m += 4)
+                    NTS_PREFETCH(&s->pos[m]); /* (hull_small reads them) */
             }
             out[k] = (unsigned char)(it[k].kind == REACH_ASK && nts_node_on_surface(s, it[k].slave)
                                          ? hull_small(t->env, it[k].slave, it[k].body, it[k].nx, it[k].ny)
@@ -362,7 +369,7 @@ static void body_cells(const search_env* env, double* shape, int b, int* cx0, in
     const nts_scene* s = env->s;
     const nts_cells* cl = env->cells;
     const double* c = nts_body_shape(env, shape, b);
-    const nts_cell_place q = nts_cells_place(cl, s->pos[s->body_node_start[b]]);
+    const nts_cell_place q = nts_cells_place(cl, s->pos[nts_body_origin(s, b)]);
     /* More than nts_outside_bounds allows (a contact surface's ends reach
      * ext L_max past the nodes, and the round-off): the cells listed hold
      * every point that test lets in, and it decides. */

@@ -633,8 +633,7 @@ int nts_scene_interior_in_range(const nts_scene* s, const nts_vec2* pos) {
     int b, i, ok = 1;
     for (b = 0; b < s->body_count; ++b) {
         const int n0 = s->body_node_start[b], n1 = s->body_node_start[b + 1];
-        const int on_surface = s->loop_start[s->body_loop_start[b + 1]] - s->loop_start[s->body_loop_start[b]];
-        if (n1 - n0 == on_surface) continue; /* every node on a loop (a node is on one place at most) */
+        if (nts_body_all_on_loops(s, b)) continue; /* (the segment pass judges them) */
         /* check_point's verdict without a branch a node: a NaN fails both tests */
         for (i = n0; i < n1; ++i) ok &= (fabs(pos[i].x) <= NTS_COORD_MAX) & (fabs(pos[i].y) <= NTS_COORD_MAX);
     }

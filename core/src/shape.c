@@ -18,17 +18,23 @@
  * sides). The smoothed surface lies in the nodes' hull (a corner curve is a
  * convex combination of three nodes, eq. (2)-(3)), so a point outside the
  * circle is outside the body. Then its bounding box, relative to the first
- * node: x0, x1, y0, y1. shape[SHAPE b + 3] < 0: not yet. */
+ * node: x0, x1, y0, y1. shape[SHAPE b + 3] < 0: not yet. The nodes are
+ * its loops' (relative to nts_body_origin): a node on no loop is not read. */
 const double* nts_body_shape(const search_env* env, double* shape, int b) {
     double* c = shape + SHAPE * b;
     if (c[3] < 0.0) {
         const nts_scene* s = env->s;
-        const int m0 = s->body_node_start[b], m1 = s->body_node_start[b + 1];
-        const nts_vec2 p0 = s->pos[m0];
+        /* the body's loops' nodes: its nodes, or its entries' when some are
+         * on no loop (a mesh's interior: contact reads the loops alone) */
+        const int all = nts_body_all_on_loops(s, b);
+        int e1;
+        const int e0 = nts_body_entries(s, b, &e1);
+        const int m0 = all ? s->body_node_start[b] : e0, m1 = all ? s->body_node_start[b + 1] : e1;
+        const nts_vec2 p0 = s->pos[nts_body_origin(s, b)];
         double x0 = 0.0, x1 = 0.0, y0 = 0.0, y1 = 0.0, r2 = 0.0;
         int m;
         for (m = m0; m < m1; ++m) {
-            const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+            const nts_vec2 d = nts_scene_diff(s, s->pos[all ? m : s->surf_node[m]], p0);
             x0 = d.x < x0 ? d.x : x0;
             x1 = d.x > x1 ? d.x : x1;
             y0 = d.y < y0 ? d.y : y0;
@@ -42,10 +48,10 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
             int l;
             x0 = x1 = y0 = y1 = 0.0;
             for (l = s->body_loop_start[b]; l < s->body_loop_start[b + 1]; ++l) {
-                const int e0 = s->loop_start[l], e1 = s->loop_start[l + 1];
-                nts_vec2 p = nts_scene_diff(s, env->seg[e0].p, p0);
+                const int f0 = s->loop_start[l], f1 = s->loop_start[l + 1];
+                nts_vec2 p = nts_scene_diff(s, env->seg[f0].p, p0);
                 int e;
-                for (e = e0; e < e1; ++e) {
+                for (e = f0; e < f1; ++e) {
                     x0 = p.x < x0 ? p.x : x0;
                     x1 = p.x > x1 ? p.x : x1;
                     y0 = p.y < y0 ? p.y : y0;
@@ -59,7 +65,7 @@ const double* nts_body_shape(const search_env* env, double* shape, int b) {
             c[0] = 0.5 * (x0 + x1);
             c[1] = 0.5 * (y0 + y1);
             for (m = m0; m < m1; ++m) {
-                const nts_vec2 d = nts_scene_diff(s, s->pos[m], p0);
+                const nts_vec2 d = nts_scene_diff(s, s->pos[all ? m : s->surf_node[m]], p0);
                 const double dx = d.x - c[0], dy = d.y - c[1], d2 = dx * dx + dy * dy;
                 r2 = d2 > r2 ? d2 : r2;
             }
@@ -94,7 +100,7 @@ static int misses(double q, double pad, double lo, double hi, double l) {
 int nts_outside_bounds(const search_env* env, double* shape, int b, nts_vec2 x) {
     const nts_scene* s = env->s;
     const double* c = nts_body_shape(env, shape, b);
-    const nts_vec2 q = nts_scene_diff(s, x, s->pos[s->body_node_start[b]]);
+    const nts_vec2 q = nts_scene_diff(s, x, s->pos[nts_body_origin(s, b)]);
     const double dx = q.x - c[0], dy = q.y - c[1];
     /* a contact surface's ends reach up to ext L_max past the nodes (docs/model.md §13) */
     const double past = env->ext * env->wide_lmax + 2.0 * env->wide_pad;
