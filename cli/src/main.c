@@ -721,7 +721,7 @@ int nts_cli_flags(int argc, char** argv, ntsj_config* cfg);
 int nts_cli_flags(int argc, char** argv, ntsj_config* cfg) {
     cli_args args = {NULL, NULL, NULL, NULL, NULL, NULL};
     const int rc = parse_args(argc, argv, cfg, &args);
-    optind = 0; /* getopt starts afresh for nts_cli_main (glibc: 0 re-initialises) */
+    optind = 1; /* getopt starts afresh for nts_cli_main (the scan ran to its end; parse_args reads optind before each option) */
     return rc;
 }
 #define main nts_cli_main
