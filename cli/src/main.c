@@ -255,16 +255,9 @@ static FILE* open_input(const char* path) {
     return f;
 }
 
-static int parse_double(const char* s, double* out) {
-    char* end;
-    double v;
-    if (!s || !*s) return -1;
-    errno = 0;
-    v = strtod(s, &end);
-    if (*end != '\0' || errno == ERANGE || !isfinite(v)) return -1;
-    *out = v;
-    return 0;
-}
+/* A number as a request's JSON writes it, read as the codec reads it: the
+ * same text, the same value at every door (ntsj_parse_double). */
+static int parse_double(const char* s, double* out) { return s != NULL && ntsj_parse_double(s, out) == 0 ? 0 : -1; }
 
 /* A count in [lo, hi], with an optional binary k/M/G suffix: the codec's
  * parser, shared with the daemon. */
@@ -549,7 +542,7 @@ static int set_option(ntsj_config* cfg, int id, const char* val) {
         break;
     }
     case NTS_OPTION_KIND_OUTPUTS:
-        if (ntsj_output_list(val, NTSJ_LIST_DUPLICATES_OK, &v.flags, &bad, &n) != 0) {
+        if (ntsj_output_list(val, 0, &v.flags, &bad, &n) != 0) {
             ntsj_output_names_text(NULL, names, sizeof names);
             return usage_error("%s takes a comma-separated list of %s, not '%s'", r->flag, names, val);
         }

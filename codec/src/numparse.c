@@ -14,6 +14,7 @@
  * normal doubles, so no underflow or overflow can occur. Anything else (more
  * digits, larger exponents, a compiler without 128-bit integers) is copied
  * and handed to strtod. */
+#include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -281,4 +282,35 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         *out = strtod(buf, NULL);
         return n;
     }
+}
+
+int ntsj_parse_double(const char* text, double* out) {
+    const size_t len = text != NULL ? strlen(text) : 0;
+    double v = 0.0;
+    if (len == 0 || ntsj_parse_number(text, text + len, &v) != len) {
+        if (len == 0 || len < 64) return -1;
+        {
+            /* (64 characters or more: the reader leaves them to strtod, as
+             * cJSON does: the grammar checked here first) */
+            const char* q = text + (*text == '-');
+            char* end = NULL;
+            if (*q < '0' || *q > '9' || (*q == '0' && q[1] >= '0' && q[1] <= '9')) return -1;
+            while (*q >= '0' && *q <= '9') ++q;
+            if (*q == '.') {
+                if (*++q < '0' || *q > '9') return -1;
+                while (*q >= '0' && *q <= '9') ++q;
+            }
+            if (*q == 'e' || *q == 'E') {
+                ++q;
+                if (*q == '+' || *q == '-') ++q;
+                if (*q < '0' || *q > '9') return -1;
+                while (*q >= '0' && *q <= '9') ++q;
+            }
+            if (*q != '\0') return -1;
+            v = strtod(text, &end);
+        }
+    }
+    if (!isfinite(v)) return 1;
+    *out = v;
+    return 0;
 }

@@ -128,11 +128,11 @@ int ntsj_option_text(int id, const char* text, const char* ptr, nts_option_value
     char names[160];
     switch (r->kind) {
     case NTS_OPTION_KIND_NUMBER: {
-        char* end = NULL;
-        double v = strtod(text, &end);
-        if (*text == '\0' || end == NULL || *end != '\0')
+        double v = 0.0;
+        const int rc = ntsj_parse_double(text, &v); /* (a JSON number, read as the body's are) */
+        if (rc < 0)
             return fault(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "query parameter %.64s=%.32s is not a number", r->json, text);
-        if (!isfinite(v)) return fault(f, nts_status_name(NTS_ENONFINITE), ptr, "%s is not a finite number%s", r->json, "");
+        if (rc > 0) return fault(f, nts_status_name(NTS_ENONFINITE), ptr, "%s is not a finite number%s", r->json, "");
         return ntsj_option_number_check(id, v, ptr, out, f);
     }
     case NTS_OPTION_KIND_ENUM:
@@ -143,7 +143,7 @@ int ntsj_option_text(int id, const char* text, const char* ptr, nts_option_value
     case NTS_OPTION_KIND_OUTPUTS: {
         const char* bad = text;
         size_t n = 0;
-        int rc = ntsj_output_list(text, NTSJ_LIST_TRAILING_COMMA_OK, &out->flags, &bad, &n);
+        int rc = ntsj_output_list(text, 0, &out->flags, &bad, &n);
         if (rc == 0) return 0;
         ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "outputs=%.64s: %s \"%.*s\"", text,
                        rc == NTSJ_LIST_DUPLICATE ? "output listed twice:" : "unknown output", (int)(n > 32 ? 32 : n), bad);

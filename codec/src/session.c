@@ -597,6 +597,7 @@ static int query_nodes(const ntsj_step* st, int* surface, ntsj_fault* f) {
  * session's history, §14), which is not an option; "nodes" (query_nodes). */
 static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_fault* f) {
     int k, seen_commit = 0;
+    unsigned seen = 0; /* a parameter twice is refused, as nodes and commit twice are (the last one won) */
     for (k = 0; k < st->param_count; ++k) {
         const char* name = st->param_names[k] ? st->param_names[k] : "";
         const char* val = st->param_values[k] ? st->param_values[k] : "";
@@ -615,6 +616,11 @@ static int query_options(const ntsj_step* st, nts_options* o, int* commit, ntsj_
         }
         snprintf(ptr, sizeof ptr, "/options/%.64s", name);
         if ((i = step_option(name, ptr, "query parameter", f)) < 0) return -1;
+        if (seen & (1u << i)) {
+            ntsj_fault_set(f, ntsj_code_name(NTSJ_INVALID_VALUE), ptr, "query parameter %.64s given twice", name);
+            return -1;
+        }
+        seen |= 1u << i;
         memset(&v, 0, sizeof v);
         if (ntsj_option_text(i, val, ptr, &v, f) != 0) return -1;
         nts_option_store(o, i, &v);

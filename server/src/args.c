@@ -367,11 +367,8 @@ static int apply_option(int c, const char* flag, const char* v, ntsd_config* cfg
         cfg->codec.limits.max_nodes = (long long)n;
         return 0;
     case OPT_MAX_SECONDS: {
-        char* end = NULL;
-        double sec;
-        errno = 0;
-        sec = strtod(v, &end);
-        if (errno != 0 || end == v || *end != '\0' || !(sec >= 0.0) || sec > 1e9) {
+        double sec = -1.0;
+        if (ntsj_parse_double(v, &sec) != 0 || !(sec >= 0.0) || sec > 1e9) { /* (a number as JSON writes it) */
             fprintf(stderr, "ntscontactd: --max-seconds: expected a number of seconds >= 0, got '%s'\n", v);
             return -1;
         }

@@ -310,9 +310,11 @@ NTS_API const char* ntsj_output_name(unsigned flag);
 /** @fn int ntsj_output_list(const char* text, int policy, unsigned* out, const char** bad, size_t* bad_length)
  * A comma-separated list of output names (a CLI flag, a query parameter) into
  * NTS_OUT_* flags: 0, or NTSJ_LIST_UNKNOWN / NTSJ_LIST_DUPLICATE with *bad and
- * *bad_length the item at fault. `policy`: NTSJ_LIST_DUPLICATES_OK (the CLI
- * has always taken "forces,forces"), NTSJ_LIST_TRAILING_COMMA_OK (a query
- * has always taken "forces,"). "" is no outputs. */
+ * *bad_length the item at fault. `policy` 0 is the rule of every door (the
+ * CLI's --outputs, a step's query, as JSON's array): a name twice or a
+ * trailing comma refused; NTSJ_LIST_DUPLICATES_OK and
+ * NTSJ_LIST_TRAILING_COMMA_OK take them (for a host's own front end). ""
+ * is no outputs. */
 /** ntsj_output_list's faults. */
 enum { NTSJ_LIST_UNKNOWN = 1, NTSJ_LIST_DUPLICATE = 2 };
 /** ntsj_output_list's `policy` bits. */
@@ -328,6 +330,14 @@ NTS_API const char* ntsj_solver_name(nts_solver solver);
  * strtod (always with a '.' or an exponent), into out (>= 32 bytes); returns
  * its length. For the summary headers of a binary session answer. */
 NTS_API int ntsj_format_double(char* out, double v);
+/** A whole text as one JSON number (RFC 8259 §6: no '+', no leading '.',
+ * no hex, no space), read as a request's numbers are read (the nearest
+ * double, ties to even; a number below the smallest double is 0, as
+ * strtod and cJSON take it): 0 and *out; -1 when the text is not one
+ * number; 1 when it lies beyond the doubles (1e999). The query parameters
+ * of a session step and the command lines of ntscontact and ntscontactd
+ * read their numbers with it, so one text means one value at every door. */
+NTS_API int ntsj_parse_double(const char* text, double* out);
 /** A count in [lo, hi] written in decimal, with an optional binary k, M or G
  * suffix when `suffixes` (1k = 1024): the command lines of ntscontact and
  * ntscontactd read their limits with it. 0, or -1 when `text` is not one. */
