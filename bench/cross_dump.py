@@ -3,7 +3,7 @@ largest force difference relative to the largest force, and whether the
 active contacts are the same (slave body and node, master body) and reach the
 master through the same feature (segment, corner, vertex).
 
-    python3 bench/cross_dump.py BEFORE_DIR AFTER_DIR [--csv FILE]
+    .venv/bin/python bench/cross_dump.py BEFORE_DIR AFTER_DIR [--csv FILE]
 
 Exit status 0 when every case has the same contacts and forces within 1e-13
 of the largest force (issue 13's contract across releases), 1 otherwise."""

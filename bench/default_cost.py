@@ -2,7 +2,7 @@
 the other, round by round (issue 22: the default radius finds every contact;
 what does that cost?).
 
-    python3 bench/default_cost.py --before REV [--build DIR] [--rounds N] [--quick] [--csv FILE]
+    .venv/bin/python bench/default_cost.py --before REV [--build DIR] [--rounds N] [--quick] [--csv FILE]
 
 Builds `nts_cross` (bench/cross.c, the same program) against REV's core the way
 bench/report.py does (a git worktree under BUILD/prev-REV), then runs
@@ -87,7 +87,7 @@ def main(argv: list[str]) -> int:
             w = csv.DictWriter(f, fieldnames=list(out[0]))
             w.writeheader()
             w.writerows(out)
-    print("`python3 bench/default_cost.py --before %s --rounds %d`: %s, load %s, %.0f s" % (
+    print("`.venv/bin/python bench/default_cost.py --before %s --rounds %d`: %s, load %s, %.0f s" % (
         args.before, args.rounds, report.sh("git rev-parse --short HEAD"), report.sh("cat /proc/loadavg"),
         time.time() - t0))
     print()

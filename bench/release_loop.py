@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Issue 27's "today's evaluation", measured: release 0.2 (41e9e21) beside this tree in a solver's loop.
 
-    python3 bench/release_loop.py [--quick] [--build DIR] [--before REV] [--rounds N] [--steps S] [--per-build K ...]
+    .venv/bin/python bench/release_loop.py [--quick] [--build DIR] [--before REV] [--rounds N] [--steps S] [--per-build K ...]
 
 Issue 27 was measured on release 0.2 and states its targets against "today's
 evaluation": a kept step at most 0.5 of it (section 1) and an evaluation from

@@ -1,6 +1,6 @@
 """Throughput of 1, 2 and 3 ntscontactd behind nginx (deploy/nginx.conf).
 
-    python3 bench/scale_out.py [--duration 5] [--threads-per-daemon 1] [--write docs/benchmarks.md]
+    .venv/bin/python bench/scale_out.py [--duration 5] [--threads-per-daemon 1] [--write docs/benchmarks.md]
 
 For each daemon count: full scenes (POST /v1/contact, 10x10 pressed disks of
 64 nodes, 6,400 nodes) and session steps (binary, 2x2 disks of 32 nodes, 16
@@ -80,7 +80,7 @@ def main() -> int:
     lines = [
         "## Scale-out behind nginx",
         "",
-        f"`python3 bench/scale_out.py --duration {args.duration} --threads-per-daemon {args.threads_per_daemon}` "
+        f"`.venv/bin/python bench/scale_out.py --duration {args.duration} --threads-per-daemon {args.threads_per_daemon}` "
         f"({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, load average "
         f"{' '.join(load)} after the run): nginx 1.22 with `deploy/nginx.conf` in front of N daemons of "
         f"`--threads {args.threads_per_daemon}` each, wrk with 8 connections. *Full*: POST /v1/contact of 10x10 "

@@ -123,6 +123,9 @@ def run_peer(argv, compare_one, out_name):
     the rows into out_name there. Shared by the peers of the same gaps."""
     import glob
     import os
+    if len(argv) > 1 and argv[1] in ("-h", "--help"):  # (the peer's own doc, its first lines)
+        print((sys.modules["__main__"].__doc__ or "").strip() + "\n\nusage: %s [RESULTS_DIR]" % argv[0])
+        return
     results = argv[1] if len(argv) > 1 else "bench/results"
     rows = []
     for scene in sorted(glob.glob(os.path.join(results, "peer_scene_*.txt")),

@@ -2,7 +2,7 @@
 this tree against another commit (issue 22: the workers' buffers grew with
 the schedule).
 
-    python3 bench/thread_memory.py --before REV [--build DIR] [--evals N] [--runs K] [--limit-mb M]
+    .venv/bin/python bench/thread_memory.py --before REV [--build DIR] [--evals N] [--runs K] [--limit-mb M]
 
 Builds `nts_cross` against REV's core as bench/default_cost.py does, then,
 with one busy loop per core beside it (the schedule then deals the two
@@ -68,7 +68,7 @@ def main(argv: list[str]) -> int:
         for b in busy:
             b.kill()
             b.wait()
-    print("`python3 bench/thread_memory.py --before %s --evals %d --runs %d`: %s, %d busy loops, %.0f s" % (
+    print("`.venv/bin/python bench/thread_memory.py --before %s --evals %d --runs %d`: %s, %d busy loops, %.0f s" % (
         args.before, args.evals, args.runs, report.sh("git rev-parse --short HEAD"), len(busy), time.time() - t0))
     print()
     print(report.table(["core", "run", "surface nodes", "bytes after 1", "after 100", "after the last", "most",

@@ -22,7 +22,7 @@ while [ $# -gt 0 ]; do
             port=$2; port_given=1; shift 2 ;;
     --port=*) port=${1#--port=}; port_given=1; shift ;;
     --once) once=1; shift ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "serve-demo: unknown argument: $1" >&2; exit 2 ;;
   esac
 done

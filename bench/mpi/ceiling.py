@@ -17,7 +17,7 @@ two ranks', their sum against one rank (the work the distribution adds) and
 the largest against one rank; one rank's over the largest is the speed-up
 the split permits if both cores ran at one core's speed.
 
-usage: python3 bench/mpi/ceiling.py [--build DIR] [--disks D] [--repeats R1 R2] [--layouts L ...]
+usage: .venv/bin/python bench/mpi/ceiling.py [--build DIR] [--disks D] [--repeats R1 R2] [--layouts L ...]
 (needs valgrind and a Release build with -DNTS_MPI=ON: see bench/mpi/run.sh)
 """
 import argparse

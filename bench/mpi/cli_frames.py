@@ -10,7 +10,7 @@ of the first build. Prints each build's median wall time per frame over the
 rounds (the whole run, mpirun's start included, over FRAMES; the first
 frame and the start are then measured apart with FRAMES = 1 and taken out).
 
-usage: python3 bench/mpi/cli_frames.py --builds DIR [DIR ...] [--side 40] [--frames 20] [--ranks 2] [--rounds 3]
+usage: .venv/bin/python bench/mpi/cli_frames.py --builds DIR [DIR ...] [--side 40] [--frames 20] [--ranks 2] [--rounds 3]
 (each DIR a CMake build with -DNTS_MPI=ON: DIR/bin/ntscontact-mpi and DIR/bin/ntscontact)
 """
 import argparse

@@ -64,6 +64,9 @@ def step_time(p: dict, n: float, ranks: int) -> float:
 
 
 def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+        print((__doc__ or "").strip() + "\n\nusage: %s [MPI_CSV (default bench/results/mpi.csv)]" % sys.argv[0])
+        return
     p = fit(sys.argv[1] if len(sys.argv) > 1 else "bench/results/mpi.csv")
     print(f"Fitted: a = {p['a'] * 1e9:.0f} ns per surface node (1 rank: {p['t1']:.3f} s at {p['n']:.0f} nodes; "
           f"one process's nts_evaluate {p['serial']:.3f} s), h1 = {p['h1']:.2f} halo entries per boundary per "

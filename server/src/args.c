@@ -41,7 +41,8 @@ static const char usage[] =
     "  --max-bytes N        largest request body, suffixes k, M, G (default 64M); larger -> 413\n"
     "                       (the CLI's --max-bytes; --max-body, its old name here, is deprecated)\n"
     "  --timeout S          idle connection timeout, and the budget to upload one body (default 30)\n"
-    "  --max-connections N  connections served at once; beyond -> 503 (default 256)\n"
+    "  --max-connections N  connections served at once (default 256); beyond, a new one\n"
+    "                       cuts the slowest open one (503 only when none can be cut)\n"
     "  -q, --quiet          no per-request log lines\n"
     ;
 /* The limits of a request (C99 guarantees string literals of 4095 bytes only). */

@@ -101,3 +101,17 @@ def test_the_daemons_token_file_works_for_the_client(secured, tmp_path):
     r = py("health", "--url", base, "--ca", cert, "--token-file", tokens)
     assert r.returncode == 0, r.stderr
     assert "build" in json.loads(r.stdout)
+
+
+def test_a_reader_that_leaves_early_is_no_error(paths):
+    """`python -m ntscontact contact ... | head`: the reader closes the pipe
+    after a few bytes; the command stops quietly (141, as a C tool killed by
+    SIGPIPE), without "Broken pipe" on stderr (it printed one and exited 1)."""
+    env = dict(os.environ, NTS_BUILD_DIR=str(paths.build))
+    proc = subprocess.Popen([sys.executable, "-m", "ntscontact", "contact", "--engine",
+                             str(paths.examples / "jittered_packing.json")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    assert proc.stdout.read(10) == b'{"version"'
+    proc.stdout.close()
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141 and err == b"", err

@@ -181,3 +181,21 @@ def test_python_scene_carries_the_reference(schemas):
     with pytest.raises(ntscontact.InvalidScene) as e:
         s.add_body(disk(0, 0, 1, 8), reference=bad)
     assert e.value.pointer == "/bodies/3/reference/5" and e.value.code == "non_finite"
+
+
+def test_the_schema_bounds_coordinates_as_the_program_does(schemas):
+    """A node's coordinate beyond +-1e100 is out_of_range for the program and
+    refused by scene.schema.json too (it took any number); at the bound both
+    take it. A session step's positions likewise."""
+    validator = jsonschema.Draft202012Validator(schemas["scene"])
+    step = jsonschema.Draft202012Validator({**schemas["session"]["$defs"]["step"],
+                                            "$defs": schemas["session"]["$defs"]})
+    for x, ok in ((1e100, True), (-1e100, True), (1.0000000000000002e100, False), (-2e100, False)):
+        doc = {"version": 1, "options": {"penalty": 1.0},
+               "bodies": [{"id": "a", "nodes": [[0.0, 0.0], [x, 0.0], [0.0, 1e100]]}]}
+        r = subprocess.run([str(CLI), "-"], input=json.dumps(doc).encode(), capture_output=True, timeout=60)
+        assert (r.returncode == 0) == ok, (x, r.stderr)
+        if not ok:
+            assert b"out_of_range" in r.stderr, r.stderr
+        assert validator.is_valid(doc) == ok, x
+        assert step.is_valid({"positions": [[0.0, 0.0], [x, 0.0], [0.0, 1e100]]}) == ok, x

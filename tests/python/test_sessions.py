@@ -235,6 +235,29 @@ def test_length_scaling_does_not_depend_on_the_history(daemon, validators):
     assert plain["summary"]["energy"] > 1.05 * first["summary"]["energy"]
 
 
+def test_pressure_is_measured_at_the_reference_whatever_the_scaling(daemon, validators):
+    """A slave's traction divides its force by its tributary length, measured
+    in the reference configuration (docs/model.md (21)) with the default
+    penalty_scaling ("node") too: a step's pressure is the full call's with
+    the session's first positions as each body's reference, and another
+    without it (the forces the same either way). docs/sessions.md said so
+    only of "length" (a campaign across the doors found it)."""
+    a, b = polygon(24, 1.0, (0, 0)), polygon(20, 1.0, (1.9, 0.05), 0.1)
+    scene = {"version": 1, "options": {"penalty": 100.0, "search_radius": 0.3, "outputs": ["forces", "pressure"]},
+             "bodies": [{"id": "a", "nodes": a.tolist()}, {"id": "b", "nodes": b.tolist()}]}
+    doc = create(daemon, scene, validators)
+    p = 1.1 * np.vstack([a, b])  # both 10% larger: every segment 1.1 times longer
+    got = step_json(daemon, doc["id"], {"positions": p.tolist()}).json()
+    full = with_positions(scene, p)
+    for body, start in zip(full["bodies"], scene["bodies"]):
+        body["reference"] = start["nodes"]
+    assert without_elapsed(full_contact(daemon, full)) == without_elapsed(got)
+    plain = full_contact(daemon, with_positions(scene, p))
+    assert [x["forces"] for x in plain["bodies"]] == [x["forces"] for x in got["bodies"]]
+    assert any(np.any(np.asarray(x["pressure"])) for x in got["bodies"])
+    assert [x["pressure"] for x in plain["bodies"]] != [x["pressure"] for x in got["bodies"]]
+
+
 def grid_mesh_and_disk():
     """A 5 x 5 grid mesh of the unit square and a disk pressed into its bottom edge."""
     nodes = [[0.25 * i, 0.25 * j] for j in range(5) for i in range(5)]

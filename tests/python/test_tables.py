@@ -274,6 +274,19 @@ def test_each_routes_body_and_path_parameter_are_openapis(row):
         assert (row["param"] != "NONE" and row["param"] != "OPENAPI") == bool(in_path)
 
 
+@pytest.mark.parametrize("row", ROUTES, ids=lambda r: r["pattern"])
+def test_each_routes_access_answers_are_openapis(row):
+    """A route that needs the token (the table's auth column) declares 401,
+    every route 403 (a refused Origin or Host), and the document says how
+    the token is given (a generated client learns it from `security`)."""
+    assert OPENAPI["security"] == [{}, {"bearer": []}]  # none, or the bearer token with --token-file
+    assert OPENAPI["components"]["securitySchemes"]["bearer"]["scheme"] == "bearer"
+    for op in operations(row["methods"]):
+        codes = set(OPENAPI["paths"][row["pattern"]][op]["responses"])
+        assert ("401" in codes) == (row["auth"] == "TOKEN"), op
+        assert "403" in codes, op
+
+
 def test_the_python_client_uses_the_tables_routes():
     src = "".join((REPO / "clients/python/src/ntscontact" / f).read_text() for f in ("client.py", "session.py"))
     used = re.findall(r'_request\(\s*"([A-Z]+)",\s*f?"([^"]+)"', src)

@@ -210,6 +210,12 @@ def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
+    except BrokenPipeError:
+        # the reader left (`... | head`): quietly, as a C tool killed by
+        # SIGPIPE; stdout pointed at /dev/null so that the interpreter's own
+        # flush at exit does not complain either
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except UsageError as exc:
         print(f"ntscontact: {exc}", file=sys.stderr)
         return 2
