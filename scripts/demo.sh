@@ -16,10 +16,10 @@ s = r["summary"]
 print("bodies %d, surface nodes %d, active contacts %d, energy %.6g, max penetration %.3g"
       % (s["bodies"], s["surface_nodes"], s["contacts"], s["energy"], s["max_penetration"]))
 print("virial xx %.6g yy %.6g xy %.6g" % (s["virial"]["xx"], s["virial"]["yy"], s["virial"]["xy"]))
-print("%-8s %-5s %-8s %-8s %-12s %s" % ("slave", "node", "master", "kind", "gap", "force on slave"))
+print("%-8s %-5s %-8s %-8s %-12s %s" % ("slave", "node", "master", "kind", "gap", "force on slave"))  # (+ 0.0: no "-0")
 for c in r.get("contacts", []):
     print("%-8s %-5d %-8s %-8s %-12.4e (%+.4e, %+.4e)" % (c["slave"]["body"], c["slave"]["node"],
-          c["master"]["body"], c["master"]["kind"], c["gap"], c["force"][0], c["force"][1]))
+          c["master"]["body"], c["master"]["kind"], c["gap"], c["force"][0] + 0.0, c["force"][1] + 0.0))
 '
 if [ -x build/bin/ntscontactd ] && [ -f scripts/serve-demo.sh ] && [ -z "${NTS_DEMO_NO_SERVER:-}" ]; then
   echo "== the same scene through the HTTP service"

@@ -36,15 +36,19 @@ fi
 example=examples/two_disks.json
 
 out=$(mktemp)
+log=$(mktemp) # the daemon's log lines, shown after the summary (not between it and the curl line)
 pid=""
+tailer=""
 cleanup() {
   [ -n "$pid" ] && kill -TERM "$pid" 2>/dev/null && wait "$pid" 2>/dev/null
-  rm -f "$out"
+  [ -n "$tailer" ] && kill "$tailer" 2>/dev/null
+  [ -s "$log" ] && [ "$once" = 1 ] && cat "$log" >&2
+  rm -f "$out" "$log"
 }
 trap cleanup EXIT
 
 start() { # port
-  "$daemon" --host 127.0.0.1 --port "$1" >"$out" &
+  "$daemon" --host 127.0.0.1 --port "$1" >"$out" 2>"$log" &
   pid=$!
   for _ in $(seq 100); do
     grep -q "listening on" "$out" 2>/dev/null && return 0
@@ -53,6 +57,8 @@ start() { # port
   done
   wait "$pid" 2>/dev/null || true
   pid=""
+  cat "$log" >&2
+  : >"$log"
   return 1
 }
 if ! start "$port"; then
@@ -81,18 +87,22 @@ v = s["virial"]
 print(f"scene:    {s['bodies']} bodies, {s['surface_nodes']} surface nodes")
 print(f"contacts: {s['contacts']} active (g < 0), {s['gaps']} closest points within r = {s['search_radius']:.4g}")
 print(f"energy:   {s['energy']:.6g}   max penetration {s['max_penetration']:.4g}")
-print(f"virial:   xx {v['xx']:.6g}  yy {v['yy']:.6g}  xy {v['xy']:.3g}")
+print(f"virial:   xx {v['xx']:.6g}  yy {v['yy']:.6g}  xy {v['xy']:.6g}")
 print(f"time:     {s['elapsed_ms']:.3f} ms in the codec and core")
 print(f"server:   ntscontactd {h['version']}, {h['server']['threading']} threading, "
-      f"{h['server']['threads']} evaluation threads, {h['requests_served']} request(s) served")
+      f"{h['server']['threads']} evaluation threads, {h['requests_served']} request(s) served before "
+      "this health query")
 PY
 echo
-echo "Also: $url/v1/health  $url/v1/openapi.json  $url/v1/schemas/{scene,result,error}  POST $url/v1/validate"
+echo "Also: $url/v1/health  $url/v1/openapi.json  $url/v1/schemas/{scene,result,error,session}  POST $url/v1/validate"
+echo "      POST $url/v1/scenes (a session; then POST .../v1/scenes/{id}/contact with new positions, docs/sessions.md)"
 
 if [ "$once" = 1 ]; then
   exit 0
 fi
-echo "ntscontactd keeps running in the foreground; Ctrl-C to stop. Requests are logged below."
+echo "ntscontactd keeps running in the foreground; Ctrl-C to stop. Its log (the requests so far, then each one):"
+tail -n +1 -f "$log" >&2 &
+tailer=$!
 # Ctrl-C reaches the daemon too (same process group); it finishes what is in
 # flight and exits 0. Wait for it, through the interruption of `wait` itself.
 trap '' INT
