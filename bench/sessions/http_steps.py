@@ -186,7 +186,7 @@ def markdown(rows, repeats):
                   "Issue 27 §3 asks for (c) at most 1.03 times (d) and (b) at most 2.5 times (d); (b)/(d) measured "
                   + b_ratios + ". The JSON step's numbers are read by the codec's own exact reader",
                   "(`codec/src/numparse.c`: strtod's bits in less than half of strtod's time) and its answer written",
-                  "in place by the Grisu2 printer; what is left of (b) beyond (c) is reading and writing about",
+                  "in place by its shortest-digits printer (after Ryu); what is left of (b) beyond (c) is reading and writing about",
                   "40 bytes of text a node."]
     lines += ["", ""]
     return "\n".join(lines)
