@@ -13,13 +13,37 @@
  * rounded once to 53 bits. Every such value lies in [1e-27, 2^64 1e27], inside the
  * normal doubles, so no underflow or overflow can occur. Anything else (more
  * digits, larger exponents, a compiler without 128-bit integers) is copied
- * and handed to strtod. */
+ * and handed to strtod, in the C locale's conventions (c_strtod).
+ */
+#define _POSIX_C_SOURCE 200809L /* newlocale, uselocale */
+#include <locale.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "codec_internal.h"
+
+/* strtod as JSON reads: a '.' is the decimal point whatever locale the host
+ * process set (a Python program that called setlocale with a decimal comma
+ * made strtod read "1.5e30" as 1, the codec being in its process). The
+ * calling thread's locale is the C one for the call alone (uselocale is per
+ * thread); without one (newlocale failed), plain strtod. */
+static locale_t c_numeric;
+static pthread_once_t c_numeric_once = PTHREAD_ONCE_INIT;
+static void make_c_numeric(void) { c_numeric = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0); }
+
+static double c_strtod(const char* text, char** end) {
+    locale_t before;
+    double v;
+    (void)pthread_once(&c_numeric_once, make_c_numeric);
+    if (c_numeric == (locale_t)0) return strtod(text, end);
+    before = uselocale(c_numeric);
+    v = strtod(text, end);
+    (void)uselocale(before);
+    return v;
+}
 
 #if defined(__SIZEOF_INT128__)
 __extension__ typedef unsigned __int128 u128;
@@ -279,7 +303,7 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         if (n >= sizeof buf) return 0; /* (the caller's general way takes it) */
         memcpy(buf, p, n);
         buf[n] = '\0';
-        *out = strtod(buf, NULL);
+        *out = c_strtod(buf, NULL);
         return n;
     }
 }
@@ -307,7 +331,7 @@ int ntsj_parse_double(const char* text, double* out) {
                 while (*q >= '0' && *q <= '9') ++q;
             }
             if (*q != '\0') return -1;
-            v = strtod(text, &end);
+            v = c_strtod(text, &end);
         }
     }
     if (!isfinite(v)) return 1;

@@ -9,6 +9,7 @@
  * edges (0, -0, 19 and 20 digits, 10^+-27 and 10^+-28, overflow, underflow).
  * Exit status 0 when all hold; prints the first failure otherwise. */
 #include <float.h>
+#include <locale.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -153,6 +154,51 @@ static double random_coordinate(void) {
     return (next_u64() & 1 ? -1.0 : 1.0) * (1.0 + m) * pow(10.0, e);
 }
 
+/* The numbers that go to strtod (more than 19 digits, |exponent| > 27, 64
+ * characters or more) read as in the C locale while the process's locale
+ * has a decimal comma (NTS_TEST_LOCALE, e.g. de_DE.UTF-8): a host that calls
+ * setlocale must not change what a JSON number means. The values expected
+ * are read before the locale is set. */
+static int comma_locale_check(const char* name) {
+    static const char* const texts[] = {
+        "1.5e30", "-1.25e-40", "0.12345678901234567890123", "123456789012345678901.5", "2.5e308",
+        "1.0000000000000000000000000000000000000000000000000000000000000000000001",
+        "-3.14159265358979323846264338327950288419716939937510582097494459230781640628"};
+    double want[sizeof texts / sizeof texts[0]];
+    size_t k;
+    int fails = 0;
+    for (k = 0; k < sizeof texts / sizeof texts[0]; ++k) want[k] = strtod(texts[k], NULL);
+    if (setlocale(LC_ALL, name) == NULL) {
+        printf("FAIL the locale %s cannot be set\n", name);
+        return 1;
+    }
+    if (localeconv()->decimal_point[0] == '.') {
+        printf("FAIL the locale %s has a decimal point '.': it tests nothing\n", name);
+        setlocale(LC_ALL, "C");
+        return 1;
+    }
+    for (k = 0; k < sizeof texts / sizeof texts[0]; ++k) {
+        char buf[256];
+        const size_t len = strlen(texts[k]);
+        double got = 0.0, whole = 0.0;
+        size_t n;
+        memset(buf, ' ', sizeof buf);
+        memcpy(buf, texts[k], len);
+        buf[len] = ',';
+        n = ntsj_parse_number(buf, buf + sizeof buf, &got);
+        if ((n != len && !(n == 0 && len >= 64)) || (n == len && memcmp(&got, &want[k], sizeof got) != 0) ||
+            ntsj_parse_double(texts[k], &whole) != (isfinite(want[k]) ? 0 : 1) ||
+            (isfinite(want[k]) && memcmp(&whole, &want[k], sizeof whole) != 0)) {
+            printf("FAIL %s in the locale %s: took %zu, read %a and %a, C reads %a\n", texts[k], name, n, got, whole,
+                   want[k]);
+            ++fails;
+        }
+    }
+    setlocale(LC_ALL, "C");
+    if (fails == 0) printf("numparse: read alike in the locale %s (decimal point ',')\n", name);
+    return fails;
+}
+
 int main(void) {
     static const char* const not_numbers[] = {"", "-", "+1", ".5", "1.", "1.e5", "1e", "1e+", "1E-", "-.5",
                                               "- 1", "inf", "nan", "e5", "-e5", "--1", "\"1\""};
@@ -238,5 +284,6 @@ int main(void) {
         fails += check(s);
     }
     if (fails == 0) printf("numparse: %ld numbers read as strtod reads them\n", checked);
+    if (getenv("NTS_TEST_LOCALE") != NULL) fails += comma_locale_check(getenv("NTS_TEST_LOCALE"));
     return fails == 0 ? 0 : 1;
 }
