@@ -695,7 +695,7 @@ contains
     type(ntsf_history), intent(in), optional :: history
     logical, intent(in), optional :: surface_only
     type(nts_options) :: o
-    logical :: surface
+    logical :: surface, no_list, no_history
     type(nts_result) :: r
     type(nts_error) :: e
     type(nts_warning), pointer :: w(:)
@@ -703,6 +703,12 @@ contains
     integer :: n
 
     e = no_error()
+    ! (Fortran's .and. need not stop at an absent optional argument: it is
+    ! tested alone first; `present(x) .and. x%...` read NULL at -O0.)
+    no_list = .false.
+    if (present(candidates)) no_list = .not. c_associated(candidates%list)
+    no_history = .false.
+    if (present(history)) no_history = .not. c_associated(history%history)
     if (associated(s%last)) s%last%ok = .false.
     surface = .false.
     if (present(surface_only)) surface = surface_only
@@ -711,9 +717,9 @@ contains
     if (present(history)) o%history = history%history
     if (.not. c_associated(s%scene)) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no scene (ntsf_scene_create first)")
-    else if (present(candidates) .and. .not. c_associated(candidates%list)) then
+    else if (no_list) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no candidate list (ntsf_candidates_create first)")
-    else if (present(history) .and. .not. c_associated(history%history)) then
+    else if (no_history) then
       status = fail(e, NTS_EINVALID_ARGUMENT, -1, "no history (ntsf_history_create first)")
     else if (.not. present(positions)) then
       if (surface) then
@@ -1054,6 +1060,15 @@ contains
         if (allocated(body%loop_start)) then
           if (size(body%loop_start) < 2) then
             status = fail(e, NTS_EINVALID_ARGUMENT, index, "loop_start must have loop_count + 1 entries")
+            return
+          end if
+          ! the loops are loop_nodes, one after another: loop_start runs from 1 to
+          ! size(loop_nodes) + 1 and never decreases (the C side cannot see the
+          ! array's end: an offset past it was read out of bounds)
+          if (body%loop_start(1) /= 1 .or. body%loop_start(size(body%loop_start)) /= size(body%loop_nodes) + 1 &
+              .or. any(body%loop_start(2:) < body%loop_start(:size(body%loop_start) - 1))) then
+            status = fail(e, NTS_EINVALID_ARGUMENT, index, &
+                          "loop_start must run from 1 to size(loop_nodes) + 1 and never decrease")
             return
           end if
           w%loop_start = body%loop_start - 1_c_int

@@ -27,7 +27,7 @@ size_t nts_context_memory_bytes(const nts_context* ctx) {
         (size_t)ctx->keys.cap * (3 * sizeof(float) + sizeof(int)) + (size_t)ctx->cells.cap_cells * sizeof(int) +
         (size_t)ctx->long_m_cap * sizeof(long_master) + (size_t)ctx->long_start_cap * sizeof(int) +
         (size_t)ctx->long_items_cap * sizeof(int) + (size_t)ctx->scratch_cap * sizeof(int) + (size_t)ctx->self_u_cap * sizeof(nts_vec2) +
-        (size_t)(ctx->self_y_cap + ctx->area_perim_cap) * sizeof(double) + (size_t)(ctx->self_first_cap + ctx->self_start_cap + ctx->self_items_cap) * sizeof(int) +
+        (size_t)(ctx->self_y_cap + ctx->area_perim_cap) * sizeof(double) + (size_t)(ctx->self_first_cap + ctx->self_start_cap + ctx->self_items_cap + ctx->entry_of_cap) * sizeof(int) +
         (size_t)ctx->hist_cap * sizeof(int) + (size_t)ctx->chunk_cap * sizeof(chunk_info) +
         (size_t)ctx->forces_cap * sizeof(nts_vec2) + (size_t)ctx->pressure_cap * sizeof(double) + (size_t)ctx->shares_cap * sizeof(force_shares) + (size_t)ctx->contacts_cap * sizeof(nts_contact) +
         (size_t)ctx->gaps_cap * sizeof(nts_contact) + (size_t)ctx->stiffness.cap * (2 * sizeof(int) + sizeof(double)) +
@@ -97,6 +97,7 @@ static void buffers_free(nts_context* ctx) {
     nts_free(ctx->self_start);
     nts_free(ctx->self_items);
     nts_free(ctx->area_perim);
+    nts_free(ctx->entry_of);
     nts_free(ctx->hist);
     workers_free(ctx);
     nts_free(ctx->chunks);

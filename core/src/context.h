@@ -71,6 +71,10 @@ struct nts_context {
      * signed area and perimeter (segments.c). */
     double* area_perim;
     int area_perim_cap;
+    /* A friction history checked against the scene it is used on (each
+     * node's surface entry, or -1: nts_history_check). */
+    int* entry_of;
+    int entry_of_cap;
     int* hist;         /* per-slice cell counts of the counting sort */
     int hist_cap;
     worker* workers;

@@ -529,6 +529,14 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
      * the search, and read by the sums, the forces, the contacts and the
      * tangent). Off, nothing of it runs: today's bits. */
     env.friction = nts_friction_on(s, opt);
+    if (env.friction && opt->history != NULL && opt->history->count > 0) {
+        /* anchors of this scene only (one committed from another scene's
+         * evaluation would be read out of range): checked where used */
+        if ((rc = nts_grow((void**)&ctx->entry_of, &ctx->entry_of_cap, s->node_count > 0 ? s->node_count : 1,
+                           sizeof(int))) != NTS_OK)
+            return eval_fail(err, rc, -1, -1, "out of memory");
+        if ((rc = nts_history_check(opt->history, s, ctx->entry_of, err)) != NTS_OK) return rc;
+    }
     if (env.friction) {
         env.mu = opt->friction;
         env.eps_t = opt->tangential_penalty > 0.0 ? opt->tangential_penalty : opt->penalty;

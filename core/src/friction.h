@@ -47,6 +47,14 @@ void nts_friction_eval(const search_env* env, const candidate* b, friction_out* 
  * master nodes and the anchor's nodes). 0 or NTS_ENOMEM. */
 int nts_friction_tangent_add(nts_kbuf* kb, const search_env* env, const candidate* b, const friction_out* fo);
 
+/* Whether history h's anchors are anchors of scene s (nts_history_set's
+ * checks: bodies and nodes in range, each a segment, corner or vertex of
+ * its master's loops): NTS_OK, or NTS_EINVALID_HISTORY naming the entry. A
+ * history committed from another scene's evaluation (another mesh, other
+ * bodies) is refused where it is used, not read out of range. entry_of:
+ * s->node_count ints of scratch. */
+int nts_history_check(const nts_history* h, const nts_scene* s, int* entry_of, nts_error* err);
+
 /* The committed anchor of key (slave body, slave node, master body), or NULL.
  * *hint (may be NULL; start at 0) is where the last lookup ended: the
  * records come in slave order, so the next key is mostly just after it, and

@@ -102,16 +102,17 @@ static int fail_anchor(nts_error* err, int k, const char* what) {
     return nts_error_set(err, NTS_EINVALID_HISTORY, at, "history entry %d: %s", k, what);
 }
 
-int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, int count, nts_error* err) {
-    int* entry_of = NULL;
-    int k, e, rc = NTS_OK;
-    if (err != NULL) *err = nts_error_none();
-    if (h == NULL || s == NULL || count < 0 || (count > 0 && in == NULL))
-        return nts_error_set(err, NTS_EINVALID_ARGUMENT, nts_at(-1, -1, -1, -1), "null argument");
-    if (count > 0 && (entry_of = (int*)nts_alloc(sizeof(int) * (size_t)s->node_count)) == NULL)
-        return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
-    for (k = 0; k < s->node_count && count > 0; ++k) entry_of[k] = -1;
-    for (e = 0; e < s->surface_count && count > 0; ++e) entry_of[s->surf_node[e]] = e;
+/* Each node's surface entry (-1: on no loop), into entry_of. */
+static void entries_of(const nts_scene* s, int* entry_of) {
+    int k, e;
+    for (k = 0; k < s->node_count; ++k) entry_of[k] = -1;
+    for (e = 0; e < s->surface_count; ++e) entry_of[s->surf_node[e]] = e;
+}
+
+/* Whether anchors in[0..count) are anchors of scene s: NTS_OK, or
+ * NTS_EINVALID_HISTORY naming the first entry at fault. */
+static int check_anchors(const nts_scene* s, const int* entry_of, const nts_anchor* in, int count, nts_error* err) {
+    int k, rc = NTS_OK;
     for (k = 0; k < count && rc == NTS_OK; ++k) {
         const nts_anchor* a = &in[k];
         const int need = a->kind == NTS_KIND_SEGMENT ? 2 : a->kind == NTS_KIND_CORNER ? 3 : 1;
@@ -154,6 +155,27 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
             rc = fail_anchor(err, k, "its nodes are not a segment or a corner of the master body's boundary");
             break;
         }
+    }
+    return rc;
+}
+
+int nts_history_check(const nts_history* h, const nts_scene* s, int* entry_of, nts_error* err) {
+    if (h == NULL || h->count == 0) return NTS_OK;
+    entries_of(s, entry_of);
+    return check_anchors(s, entry_of, h->a, h->count, err);
+}
+
+int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, int count, nts_error* err) {
+    int* entry_of = NULL;
+    int k, e, rc = NTS_OK;
+    if (err != NULL) *err = nts_error_none();
+    if (h == NULL || s == NULL || count < 0 || (count > 0 && in == NULL))
+        return nts_error_set(err, NTS_EINVALID_ARGUMENT, nts_at(-1, -1, -1, -1), "null argument");
+    if (count > 0 && (entry_of = (int*)nts_alloc(sizeof(int) * (size_t)s->node_count)) == NULL)
+        return nts_error_set(err, NTS_ENOMEM, nts_at(-1, -1, -1, -1), "out of memory");
+    if (count > 0) {
+        entries_of(s, entry_of);
+        rc = check_anchors(s, entry_of, in, count, err);
     }
     nts_free(entry_of);
     if (rc != NTS_OK) return rc;

@@ -234,8 +234,16 @@ static int count_body_loops(scene_build* sb, int b, nts_error* err) {
         sb->total_loops += sb->bnd[b].loop_count;
         sb->total_surf += sb->bnd[b].loop_start[sb->bnd[b].loop_count];
     } else if (bd->loop_count > 0) {
+        int l;
         if (bd->loop_nodes == NULL || bd->loop_start == NULL)
             return fail(err, NTS_EINVALID_ARGUMENT, b, -1, -1, -1, "body %d: loop arrays missing", b);
+        /* offsets into loop_nodes: from 0 on, never decreasing (the array's
+         * end is the caller's to keep: loop_start[loop_count] entries) */
+        for (l = 0; l < bd->loop_count; ++l)
+            if (bd->loop_start[0] < 0 || bd->loop_start[l + 1] < bd->loop_start[l])
+                return fail(err, NTS_EINVALID_ARGUMENT, b, l, -1, -1,
+                            "body %d: loop_start must start at 0 or after and never decrease (loop %d: %d to %d)", b,
+                            l, bd->loop_start[l], bd->loop_start[l + 1]);
         sb->total_loops += bd->loop_count;
         sb->total_surf += bd->loop_start[bd->loop_count] - bd->loop_start[0];
     } else {

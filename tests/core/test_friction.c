@@ -669,6 +669,64 @@ static void test_history_set_refuses_bad_anchors(void) {
     nts_scene_destroy(s);
 }
 
+/* A history committed from one scene's evaluation, used on another (a floor
+ * of 400 nodes, then of 16: the anchors name floor nodes past its end; then
+ * a floor of as many nodes but whose contact lies elsewhere): refused where
+ * it is used, NTS_EINVALID_HISTORY naming the entry, never read out of range
+ * (it was: forces from memory past the floor, tangent triplets outside the
+ * matrix; a helper's campaign through the Fortran module found it). The
+ * same history on its own scene, and on that scene made anew, goes on. */
+static void test_a_history_of_another_scene_is_refused(void) {
+    pair_scene big, small;
+    nts_scene *a, *b, *again;
+    nts_context* ctx = nts_context_create();
+    nts_history* h = nts_history_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_error err;
+    int count = 0;
+    memset(&big, 0, sizeof big);  /* (err.item: the first entry at fault in key order) */
+    memset(&small, 0, sizeof small);
+    big.n[0] = rectangle(big.p[0], -3.0, -1.0, 3.0, 0.0, 199);   /* 400 nodes: the top edge's are 200..398 */
+    big.n[1] = rectangle(big.p[1], -0.5, -0.01, 0.5, 0.5, 3);   /* pressed into it */
+    small.n[0] = rectangle(small.p[0], -3.0, -1.0, 3.0, 0.0, 7); /* 16 nodes */
+    small.n[1] = big.n[1];
+    memcpy(small.p[1], big.p[1], sizeof(nts_vec2) * (size_t)big.n[1]);
+    a = pair_create(&big);
+    b = pair_create(&small);
+    CU_ASSERT_FATAL(a != NULL && b != NULL && ctx != NULL && h != NULL);
+    o.friction = 0.5;
+    o.search_radius = 0.2;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_STIFFNESS;
+    ASSERT_INT_EQ(nts_evaluate(ctx, a, &o, &r, &err), NTS_OK);
+    CU_ASSERT_FATAL(r.anchor_count > 0);
+    ASSERT_INT_EQ(nts_history_commit(h, &r), NTS_OK);
+    {
+        /* some anchor on the floor names a node past the small floor's 16 */
+        const nts_anchor* an = nts_history_anchors(h, &count);
+        int k, past = 0;
+        for (k = 0; k < count; ++k) past += an[k].master_body == 0 && an[k].nodes[0] >= 16;
+        CU_ASSERT(past > 0);
+    }
+    o.history = h;
+    /* on its own scene: a trial from the committed anchors */
+    ASSERT_INT_EQ(nts_evaluate(ctx, a, &o, &r, &err), NTS_OK);
+    /* on the other: refused, the entry named */
+    ASSERT_INT_EQ(nts_evaluate(ctx, b, &o, &r, &err), NTS_EINVALID_HISTORY);
+    CU_ASSERT(strcmp(err.option, "history") == 0);
+    CU_ASSERT(err.item >= 0 && err.item < count);
+    CU_ASSERT(strstr(err.message, "history entry") != NULL);
+    /* and on its own scene made anew (the same topology): it goes on */
+    again = pair_create(&big);
+    CU_ASSERT_FATAL(again != NULL);
+    ASSERT_INT_EQ(nts_evaluate(ctx, again, &o, &r, &err), NTS_OK);
+    nts_scene_destroy(again);
+    nts_history_destroy(h);
+    nts_context_destroy(ctx);
+    nts_scene_destroy(a);
+    nts_scene_destroy(b);
+}
+
 void register_friction_suite(void) {
     CU_pSuite s = CU_add_suite("friction", NULL, NULL);
     ADD_TEST(s, test_block_sticks_below_and_slides_above_mu);
@@ -678,4 +736,5 @@ void register_friction_suite(void) {
     ADD_TEST(s, test_frame_indifference);
     ADD_TEST(s, test_bits_threads_and_new_contacts);
     ADD_TEST(s, test_history_set_refuses_bad_anchors);
+    ADD_TEST(s, test_a_history_of_another_scene_is_refused);
 }

@@ -116,6 +116,27 @@ static void test_errors_name_the_fault(void) {
     }
 }
 
+/* loop_start's offsets start at 0 or after and never decrease: a negative
+ * first offset was read before loop_nodes' start, a decreasing one gave a
+ * loop of negative length. NTS_EINVALID_ARGUMENT naming the body and loop. */
+static void test_loop_start_is_checked(void) {
+    nts_error err;
+    nts_body_def b[2];
+    const int nodes[8] = {0, 1, 2, 3, 0, 1, 2, 3};
+    const int before[2] = {-4, 4}, falling[3] = {0, 4, 2}, fine[2] = {4, 8};
+    b[0] = body_of(square, 4, NULL, NULL, 0);
+    b[1] = body_of(square, 4, nodes, before, 1);
+    ASSERT_INT_EQ(create_error(b, 2, &err), NTS_EINVALID_ARGUMENT);
+    ASSERT_INT_EQ(err.body, 1);
+    CU_ASSERT(strstr(err.message, "loop_start") != NULL);
+    b[1] = body_of(square, 4, nodes, falling, 2);
+    ASSERT_INT_EQ(create_error(b, 2, &err), NTS_EINVALID_ARGUMENT);
+    ASSERT_INT_EQ(err.body, 1);
+    ASSERT_INT_EQ(err.loop, 1);
+    b[1] = body_of(square, 4, nodes, fine, 1); /* offsets from 4 on: the second copy of the loop */
+    ASSERT_INT_EQ(create_error(b, 2, &err), 0);
+}
+
 static void test_zero_area_loop(void) {
     /* A bow-tie whose two lobes cancel: no spike, no short segment, zero area. */
     nts_vec2 bow[4] = {{0, 0}, {1, 1}, {1, 0}, {0, 1}};
@@ -396,6 +417,7 @@ void register_scene_suite(void) {
     CU_pSuite s = CU_add_suite("scene", NULL, NULL);
     ADD_TEST(s, test_valid_square);
     ADD_TEST(s, test_errors_name_the_fault);
+    ADD_TEST(s, test_loop_start_is_checked);
     ADD_TEST(s, test_zero_area_loop);
     ADD_TEST(s, test_orientation_normalised);
     ADD_TEST(s, test_triangle_boundary);

@@ -705,6 +705,27 @@ contains
       index(ntsf_error_message(err), "body 0: nodes must be shaped (2, node_count)") == 1, &
       "nodes shaped (3, n) are NTS_EINVALID_ARGUMENT: "//ntsf_error_message(err))
 
+    ! loop_start past loop_nodes' end, before its start, or decreasing: refused
+    ! before C reads loop_nodes (it read past the array's ends).
+    do k = 1, 4
+      call reset(b, good)
+      if (allocated(b(1)%triangles)) deallocate (b(1)%triangles)
+      b(1)%loop_nodes = [(st, st = 1, size(b(1)%nodes, 2))]
+      select case (k)
+      case (1)
+        b(1)%loop_start = [1, size(b(1)%loop_nodes) + 4001]
+      case (2)
+        b(1)%loop_start = [0, size(b(1)%loop_nodes) + 1]
+      case (3)
+        b(1)%loop_start = [-100, size(b(1)%loop_nodes) + 1]
+      case (4)
+        b(1)%loop_start = [1, size(b(1)%loop_nodes) + 1, 2]
+      end select
+      call ntsf_scene_create(s, b, st, lx=lx, ly=ly, err=err)
+      call check(st == NTS_EINVALID_ARGUMENT .and. index(ntsf_error_message(err), "loop_start must run from 1") > 0, &
+        "a loop_start that does not fit loop_nodes is NTS_EINVALID_ARGUMENT: "//ntsf_error_message(err))
+    end do
+
     call ntsf_scene_create(s, none, st, err=err)
     call check(st == NTS_EEMPTY_SCENE, "no bodies is NTS_EEMPTY_SCENE: "//ntsf_status_name(st))
     call ntsf_scene_destroy(s)
