@@ -157,29 +157,8 @@ static uint64_t eight_value(const char* p) {
     return eight_value_of(v - 0x3030303030303030ull);
 }
 
-/* The last 1..7 digits (the run ends within the eight bytes at p) in one
- * step rather than a loop whose length varies: the count of leading digit
- * bytes (a carry of + 6 only reaches bytes after a non-digit, past the
- * first), their value with zeros shifted in ahead of them. */
-static int tail_digits(const char* p, int room, uint64_t* w) {
-    static const uint64_t pow10[8] = {1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u, 10000000u};
-    uint64_t v, not_digit;
-    int k;
-    memcpy(&v, p, sizeof v);
-    not_digit = ((v & 0xF0F0F0F0F0F0F0F0ull) ^ 0x3030303030303030ull) |
-                (((v + 0x0606060606060606ull) & 0xF0F0F0F0F0F0F0F0ull) ^ 0x3030303030303030ull);
-    if (not_digit == 0) return 0; /* eight: the caller's loops */
-    k = __builtin_ctzll(not_digit) / 8;
-    if (k == 0 || k > room) return 0;
-    *w = *w * pow10[k] + eight_value_of((v - 0x3030303030303030ull) << (8 * (8 - k)));
-    return k;
-}
-#else
-#define NTSJ_SWAR 0
-#endif
-
-#if NTSJ_SWAR && NTSJ_HAVE_U128
-/* The leading digit bytes of the eight at p (0..8). */
+/* The leading digit bytes of the eight at p (0..8): a carry of + 6 only
+ * reaches bytes after a non-digit, past the first. */
 static int digit_run(const char* p) {
     uint64_t v, not_digit;
     memcpy(&v, p, sizeof v);
@@ -195,6 +174,21 @@ static uint64_t run_value(const char* p, int n) {
     return eight_value_of((v - 0x3030303030303030ull) << (8 * (8 - n)));
 }
 
+/* The last 1..7 digits (the run ends within the eight bytes at p) in one
+ * step rather than a loop whose length varies: their count and their value
+ * with zeros shifted in ahead of them. */
+static int tail_digits(const char* p, int room, uint64_t* w) {
+    static const uint64_t pow10[8] = {1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u, 10000000u};
+    const int k = digit_run(p);
+    if (k == 0 || k == 8 || k > room) return 0; /* (eight: the caller's loops) */
+    *w = *w * pow10[k] + run_value(p, k);
+    return k;
+}
+#else
+#define NTSJ_SWAR 0
+#endif
+
+#if NTSJ_SWAR && NTSJ_HAVE_U128
 /* The plain decimal a solver writes, "-?d+.d+" of at most 19 digits, its
  * integer part of 1 to 7 digits and its fraction of 1 to 15, with 40 bytes
  * readable at p: its runs measured a word at a time and their values taken
@@ -312,27 +306,15 @@ int ntsj_parse_double(const char* text, double* out) {
     const size_t len = text != NULL ? strlen(text) : 0;
     double v = 0.0;
     if (len == 0 || ntsj_parse_number(text, text + len, &v) != len) {
-        if (len == 0 || len < 64) return -1;
-        {
-            /* (64 characters or more: the reader leaves them to strtod, as
-             * cJSON does: the grammar checked here first) */
-            const char* q = text + (*text == '-');
-            char* end = NULL;
-            if (*q < '0' || *q > '9' || (*q == '0' && q[1] >= '0' && q[1] <= '9')) return -1;
-            while (*q >= '0' && *q <= '9') ++q;
-            if (*q == '.') {
-                if (*++q < '0' || *q > '9') return -1;
-                while (*q >= '0' && *q <= '9') ++q;
-            }
-            if (*q == 'e' || *q == 'E') {
-                ++q;
-                if (*q == '+' || *q == '-') ++q;
-                if (*q < '0' || *q > '9') return -1;
-                while (*q >= '0' && *q <= '9') ++q;
-            }
-            if (*q != '\0') return -1;
-            v = c_strtod(text, &end);
-        }
+        /* (64 characters or more: the reader leaves them to strtod, as
+         * cJSON does, once the requests' own scan has found the text one
+         * JSON value; one that starts with a digit or '-' and ends with a
+         * digit, no space around it, is one number) */
+        const char last = len > 0 ? text[len - 1] : '\0';
+        if (len < 64 || !(*text == '-' || (*text >= '0' && *text <= '9')) || last < '0' || last > '9' ||
+            ntsj_json_check(text, len, 1, NULL, 0, NULL, 0) != NULL)
+            return -1;
+        v = c_strtod(text, NULL);
     }
     if (!isfinite(v)) return 1;
     *out = v;

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import requests
 
-from conftest import start_daemon
+from conftest import run_cli_json, start_daemon
 
 BINARY = {"Content-Type": "application/octet-stream", "Accept": "application/octet-stream"}
 OUTPUTS = "forces,energy,virial,stiffness,pressure"
@@ -290,7 +290,7 @@ TANGLED = {"version": 1, "options": {"penalty": 82.98995463109564, "outputs": ["
                        "loops": [[0, 1, 2, 3, 4, 5, 11, 17, 23, 22, 21, 20, 19, 18, 12, 6]]}]}
 
 
-def test_nodes_on_no_loop_decide_nothing(paths):
+def test_nodes_on_no_loop_decide_nothing():
     """Contact reads a body's loops alone (docs/sessions.md, docs/scenes.md):
     wherever the nodes on no loop are (far away, inside, beyond every other
     node), and with them left out, the CLI gives the same contacts, energy
@@ -298,13 +298,6 @@ def test_nodes_on_no_loop_decide_nothing(paths):
     bounds, which settle such loops' points outside, are measured around
     the loops' nodes; they were measured around every node)."""
     import copy
-    import subprocess
-
-    def evaluate(doc):
-        r = subprocess.run([str(paths.bin / "ntscontact"), "-"], input=json.dumps(doc).encode(),
-                           capture_output=True, timeout=60)
-        assert r.returncode == 0, r.stderr.decode()
-        return json.loads(r.stdout)
 
     def on_loops(doc, out):
         """Each loop node's force, by (body, node), and the summary's contacts and energy."""
@@ -323,7 +316,7 @@ def test_nodes_on_no_loop_decide_nothing(paths):
             b4["loops"] = [[v - (v > 14) for v in loop] for loop in b4["loops"]]
         else:
             b4["nodes"][14] = where
-        got = on_loops(doc, evaluate(doc))
+        got = on_loops(doc, run_cli_json(doc))
         if want is None:
             want = got
         assert got == want, (where, got[:2], want[:2])
