@@ -12,6 +12,7 @@
 #define NTSJ_CODEC_INTERNAL_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include <ntscontact/codec.h>
 
@@ -69,6 +70,10 @@ void ntsj_buf_double(ntsj_buf* b, double v);
  * starts there, or one of 64 characters or more that only strtod reads
  * (numparse.c). */
 size_t ntsj_parse_number(const char* p, const char* end, double* out);
+/* 10^-q's multipliers, q = 0..341: floor(2^(bits(5^q) - 1 + 125) / 5^q) + 1,
+ * each {low 64 bits, high 64 bits}; the printer's, and the reader's to divide
+ * by 5^q (generated: numfmt_pow5.h, defined in numfmt.c). */
+extern const uint64_t ntsj_pow5_inv[342][2];
 
 /* ------------------------------------------------------------ scan */
 

@@ -207,9 +207,9 @@ static void shortest(double v, uint64_t* digits, int* exp) {
     if (e2 >= 0) {
         const int k = 125 + (int)pow5_bits(q = log10_pow2((uint32_t)e2) - (e2 > 3)) - 1, j = -e2 + (int)q + k;
         e10 = (int)q;
-        vr = mul_shift(mv, pow5_inv[q], j);
-        vp = mul_shift(mv + 2u, pow5_inv[q], j);
-        vm = mul_shift(mv - 1u - mm_shift, pow5_inv[q], j);
+        vr = mul_shift(mv, ntsj_pow5_inv[q], j);
+        vp = mul_shift(mv + 2u, ntsj_pow5_inv[q], j);
+        vm = mul_shift(mv - 1u - mm_shift, ntsj_pow5_inv[q], j);
         if (q <= 21) { /* 5^q may divide an end or v: the digits removed may be exact zeros */
             if (mv % 5u == 0) vr_tz = multiple_of_pow5(mv, q);
             else if (accept) vm_tz = multiple_of_pow5(mv - 1u - mm_shift, q);

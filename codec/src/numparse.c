@@ -107,6 +107,42 @@ static void divide(u128 num, uint64_t d, uint64_t* quot, uint64_t* rem) {
 #endif
 }
 
+static double exact(uint64_t w, int q);
+
+/* w / 5^k x 2^-k (w != 0, 1 <= k <= 27) by one product instead of the
+ * division, whose latency was a third of a JSON step's reading
+ * (docs/benchmarks.md): after Lemire's "Number parsing at a gigabyte per
+ * second" (2021), with the printer's multiplier M = floor(2^(z - 1 + 125) /
+ * 5^k) + 1 (z = bits(5^k)), which exceeds 2^(z - 1 + 125) / 5^k by less than
+ * 1. So the product P = w' M (w' = w shifted to 64 bits) exceeds the exact
+ * X = w' 2^(z - 1 + 125) / 5^k by less than w' < 2^64: X / 2^64 lies within
+ * 1 of P's top 128 bits, T. When the bits of T below the rounding bit, read
+ * as one number, are not all zero, X has T's 53 bits and rounding bit and
+ * something nonzero below them (sticky): the nearest double is decided.
+ * Otherwise (1 in about 2^70 for a random number; ties and exact quotients
+ * among them) the exact division decides. */
+static double divided(uint64_t w, int k) {
+    const int lz = __builtin_clzll(w);
+    const uint64_t wn = w << lz, mlo = ntsj_pow5_inv[k][0], mhi = ntsj_pow5_inv[k][1];
+    const u128 top = (u128)wn * mhi + (u128)(((u128)wn * mlo) >> 64);
+    const uint64_t hi = (uint64_t)(top >> 64), lo = (uint64_t)top;
+    const int shift = 11 - __builtin_clzll(hi); /* hi has 64 - clz bits: keep 53 */
+    const uint64_t below = hi & (((uint64_t)1 << (shift - 1)) - 1);
+    const int z = (int)(((uint32_t)k * 1217359u) >> 19) + 1; /* bits(5^k): ceil(k log2 5) */
+    uint64_t mant = hi >> shift, bits;
+    int e = shift + 4 - lz - z - k; /* the value is mant 2^e: P 2^(-lz - (z + 124) - k), hi its 2^128s */
+    double out;
+    if ((below | lo) == 0) return exact(w, -k);
+    mant += (hi >> (shift - 1)) & 1u; /* sticky: half or more rounds up */
+    if (mant == (uint64_t)1 << 53) {
+        mant >>= 1;
+        ++e;
+    }
+    bits = (uint64_t)(e + 52 + 1023) << 52 | (mant & (((uint64_t)1 << 52) - 1));
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
 static double exact(uint64_t w, int q) {
     static const uint64_t pow5[NTSJ_FAST_EXP + 1] = {
         1ull, 5ull, 25ull, 125ull, 625ull, 3125ull, 15625ull, 78125ull, 390625ull, 1953125ull, 9765625ull,
@@ -213,7 +249,7 @@ static size_t plain_decimal(const char* p, double* out) {
     if (frac == 0 || frac == 16 || f[frac] == 'e' || f[frac] == 'E' || whole + frac > NTSJ_FAST_DIGITS) return 0;
     w = run_value(q, whole) * pow10[frac] +
         (frac <= 8 ? run_value(f, frac) : eight_value(f) * pow10[frac - 8] + run_value(f + 8, frac - 8));
-    v = w == 0 ? 0.0 : exact(w, -frac);
+    v = w == 0 ? 0.0 : divided(w, frac);
     *out = neg ? -v : v;
     return (size_t)(f + frac - p);
 }
@@ -286,7 +322,7 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         return (size_t)(q - p);
     }
     if (!many && exp10 >= -NTSJ_FAST_EXP && exp10 <= NTSJ_FAST_EXP) {
-        const double v = exact(w, exp10);
+        const double v = exp10 < 0 ? divided(w, -exp10) : exact(w, exp10);
         *out = neg ? -v : v;
         return (size_t)(q - p);
     }
