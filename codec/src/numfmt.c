@@ -309,9 +309,11 @@ static void write17(char* p, uint64_t v) {
 }
 
 int ntsj_format_double(char* out, double v) {
-    char all[24];
+    /* z: '0's, the 17 digits at z + 8 (leading zeros included); t: the text
+     * before it is copied out */
+    char z[72], t[48];
     const char* digits;
-    int len = 0, K = 0, k, n = 0, i;
+    int len = 0, K = 0, k, n = 0;
     if (!isfinite(v)) {
         memcpy(out, "null", 5);
         return 4;
@@ -328,30 +330,27 @@ int ntsj_format_double(char* out, double v) {
         shortest(v, &d, &K);
         assert(d < UINT64_C(100000000000000000)); /* at most 17 digits (a double needs no more) */
         len = decimal_length(d);
-        write17(all, d);
-        digits = all + 17 - len;
+        memset(z, '0', sizeof z);
+        write17(z + 8, d);
+        digits = z + 25 - len;
     }
     k = len + K; /* v = 0.d1d2... x 10^k */
     if (k > -5 && k <= 17) {
-        if (k <= 0) { /* 0.000ddd */
-            out[n++] = '0';
-            out[n++] = '.';
-            for (i = 0; i < -k; ++i) out[n++] = '0';
-            memcpy(out + n, digits, (size_t)len);
-            n += len;
-        } else if (k >= len) { /* ddd000.0 */
-            memcpy(out + n, digits, (size_t)len);
-            n += len;
-            for (i = len; i < k; ++i) out[n++] = '0';
-            out[n++] = '.';
-            out[n++] = '0';
-        } else { /* dd.ddd */
-            memcpy(out + n, digits, (size_t)k);
-            n += k;
-            out[n++] = '.';
-            memcpy(out + n, digits + k, (size_t)(len - k));
-            n += len - k;
-        }
+        /* 0.000ddd, dd.ddd or ddd000.0 by the same steps (which of the three
+         * a force takes follows its magnitude, a branch no predictor
+         * guesses): the digits with P = max(1 - k, 0) zeros before them and
+         * '0's after, its first ip = max(k, 1) characters, a '.', then the
+         * rest up to the last digit or the '0' after the '.'. Copies of
+         * fixed sizes (the bytes past the text are overwritten or left
+         * beyond its NUL, within the 32 that out holds: the text has 23
+         * characters at most). */
+        const int P = k < 1 ? 1 - k : 0, ip = k > 1 ? k : 1, last = len + P > ip + 1 ? len + P : ip + 1;
+        const char* from = digits - P;
+        memcpy(t, from, 24);
+        memcpy(t + ip + 1, from + ip, 30); /* (t's first 31 all written) */
+        t[ip] = '.';
+        memcpy(out + n, t, 31);
+        n += last + 1;
     } else { /* d.ddde+XX, as printf writes exponents */
         int e = k - 1;
         out[n++] = digits[0];
