@@ -5,7 +5,9 @@
  * spelling a client writes (%.15g .. %.17g, %e, the shortest), random digit
  * strings of 1-25 digits with exponents around the fast range's edges, the
  * decimals nearest the midpoints between neighbouring doubles (where a
- * rounding mistake shows), exact midpoints (2^53 + odd integers), and the
+ * rounding mistake shows), exact midpoints (2^53 + odd integers; odd
+ * multiples of half an ulp written with 1 to 3 decimals), decimals that are
+ * exact doubles, and the
  * edges (0, -0, 19 and 20 digits, 10^+-27 and 10^+-28, overflow, underflow).
  * Exit status 0 when all hold; prints the first failure otherwise. */
 #include <float.h>
@@ -281,6 +283,30 @@ int main(void) {
         snprintf(s, sizeof s, "%llue-%d", m, (int)(next_u64() % 28));
         fails += check(s);
         snprintf(s, sizeof s, "%llu0000", m);
+        fails += check(s);
+    }
+    /* Where the reader's product cannot decide (numparse.c, divided) and the
+     * exact division does: decimals that are exact doubles (m / 2^j, j <= 3,
+     * and m 2^-j with j up to 19 digits: "0.5", "1.125"), and exact ties
+     * between two doubles with 1 to 3 decimals (an odd multiple of half an
+     * ulp in [2^50, 2^53): "4503599627370496.5"), each as a plain decimal and
+     * with its last digit moved by one either way. */
+    for (k = 0; k < 60000 && fails == 0; ++k) {
+        const int jd = 1 + (int)(next_u64() % 3); /* decimals: 2^-jd steps */
+        const unsigned long long whole = (1ull << (53 - jd)) + next_u64() % (1ull << (53 - jd));
+        static const char* const tie[4] = {"", "5", "25", "125"};  /* 2^-jd, written with jd decimals */
+        static const char* const half[4] = {"", "0", "50", "250"}; /* an exact double one tie step away */
+        const char* const* pick = k % 2 ? half : tie;
+        int len = snprintf(s, sizeof s, "%llu.%s", whole, pick[jd]);
+        fails += check(s);
+        if (s[len - 1] > '0') {
+            --s[len - 1];
+            fails += check(s);
+            s[len - 1] = (char)(s[len - 1] + 2);
+            if (s[len - 1] <= '9') fails += check(s);
+        }
+        len = snprintf(s, sizeof s, "%.*f", (int)(next_u64() % 20), ldexp((double)(next_u64() >> (11 + next_u64() % 40)),
+                                                                          -(int)(next_u64() % 20)));
         fails += check(s);
     }
     if (fails == 0) printf("numparse: %ld numbers read as strtod reads them\n", checked);
