@@ -10,7 +10,9 @@
  * When w has at most 19 digits (w < 2^64) and |q| <= 27 (5^27 < 2^63), the
  * value is w 5^q 2^q (q >= 0) or w / 5^-q 2^q (q < 0): one 128-bit product,
  * or one division of a 128-bit dividend with its remainder, both exact,
- * rounded once to 53 bits. Every such value lies in [1e-27, 2^64 1e27], inside the
+ * rounded once to 53 bits. For q < 0 a product with 10^-q's multiplier
+ * decides first (divided): all but the ambiguous 1 in 2^70, which the
+ * division decides. Every such value lies in [1e-27, 2^64 1e27], inside the
  * normal doubles, so no underflow or overflow can occur. Anything else (more
  * digits, larger exponents, a compiler without 128-bit integers) is copied
  * and handed to strtod, in the C locale's conventions (c_strtod).
