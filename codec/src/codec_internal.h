@@ -74,6 +74,8 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out);
  * each {low 64 bits, high 64 bits}; the printer's, and the reader's to divide
  * by 5^q (generated: numfmt_pow5.h, defined in numfmt.c). */
 extern const uint64_t ntsj_pow5_inv[342][2];
+/* The bits of 5^e (e >= 1; 1 for e = 0): ceil(e log2 5), exact for e < 3529. */
+static inline uint32_t ntsj_pow5_bits(uint32_t e) { return ((e * 1217359u) >> 19) + 1u; }
 
 /* ------------------------------------------------------------ scan */
 

@@ -144,8 +144,6 @@ void ntsj_buf_string(ntsj_buf* b, const char* s) {
 
 #include "numfmt_pow5.h"
 
-/* The bits of 5^e (e >= 1; 1 for e = 0): ceil(e log2 5), exact for e < 3529. */
-static uint32_t pow5_bits(uint32_t e) { return ((e * 1217359u) >> 19) + 1u; }
 /* floor(e log10 2) for e < 1650, floor(e log10 5) for e < 2620. */
 static uint32_t log10_pow2(uint32_t e) { return (e * 78913u) >> 18; }
 static uint32_t log10_pow5(uint32_t e) { return (e * 732923u) >> 20; }
@@ -205,7 +203,7 @@ static void shortest(double v, uint64_t* digits, int* exp) {
     mv = 4u * m2;
     mm_shift = (bits & frac_mask) != 0 || ie <= 1; /* 0: a power of two, its lower neighbour nearer */
     if (e2 >= 0) {
-        const int k = 125 + (int)pow5_bits(q = log10_pow2((uint32_t)e2) - (e2 > 3)) - 1, j = -e2 + (int)q + k;
+        const int k = 125 + (int)ntsj_pow5_bits(q = log10_pow2((uint32_t)e2) - (e2 > 3)) - 1, j = -e2 + (int)q + k;
         e10 = (int)q;
         vr = mul_shift(mv, ntsj_pow5_inv[q], j);
         vp = mul_shift(mv + 2u, ntsj_pow5_inv[q], j);
@@ -217,7 +215,7 @@ static void shortest(double v, uint64_t* digits, int* exp) {
         }
     } else {
         const uint32_t i = (uint32_t)-e2 - (q = log10_pow5((uint32_t)-e2) - (-e2 > 1));
-        const int j = (int)q - ((int)pow5_bits(i) - 125);
+        const int j = (int)q - ((int)ntsj_pow5_bits(i) - 125);
         e10 = (int)q + e2;
         vr = mul_shift(mv, pow5[i], j);
         vp = mul_shift(mv + 2u, pow5[i], j);

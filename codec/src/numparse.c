@@ -130,19 +130,9 @@ static double divided(uint64_t w, int k) {
     const uint64_t hi = (uint64_t)(top >> 64), lo = (uint64_t)top;
     const int shift = 11 - __builtin_clzll(hi); /* hi has 64 - clz bits: keep 53 */
     const uint64_t below = hi & (((uint64_t)1 << (shift - 1)) - 1);
-    const int z = (int)(((uint32_t)k * 1217359u) >> 19) + 1; /* bits(5^k): ceil(k log2 5) */
-    uint64_t mant = hi >> shift, bits;
-    int e = shift + 4 - lz - z - k; /* the value is mant 2^e: P 2^(-lz - (z + 124) - k), hi its 2^128s */
-    double out;
     if ((below | lo) == 0) return exact(w, -k);
-    mant += (hi >> (shift - 1)) & 1u; /* sticky: half or more rounds up */
-    if (mant == (uint64_t)1 << 53) {
-        mant >>= 1;
-        ++e;
-    }
-    bits = (uint64_t)(e + 52 + 1023) << 52 | (mant & (((uint64_t)1 << 52) - 1));
-    memcpy(&out, &bits, sizeof out);
-    return out;
+    /* P 2^(-lz - (bits(5^k) + 124) - k), hi its 2^128s; sticky */
+    return round_to_double(hi, 4 - lz - (int)ntsj_pow5_bits((uint32_t)k) - k, 1);
 }
 
 static double exact(uint64_t w, int q) {
