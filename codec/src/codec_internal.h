@@ -61,8 +61,9 @@ void ntsj_buf_string(ntsj_buf* b, const char* s);
  * written as null (the encoder never hands them over). Always has a '.' or an
  * exponent, so readers that split integers from reals see a real. */
 void ntsj_buf_double(ntsj_buf* b, double v);
-/* What ntsj_format_double writes at most, its NUL included
- * ("-2.2250738585072014e-308": 24 characters). */
+/* The room ntsj_format_double writes into: its text is 24 characters at
+ * most, its NUL included ("-2.2250738585072014e-308"), and the bytes after
+ * the NUL, up to 32, may be overwritten (numfmt.c's fixed-size copies). */
 #define NTSJ_DOUBLE_MAX 32
 /* ntsj_format_double is public (codec.h). */
 /* The JSON number (RFC 8259 §6) that starts at p (before end): its length,

@@ -121,8 +121,9 @@ static double exact(uint64_t w, int q);
  * 1 of P's top 128 bits, T. When the bits of T below the rounding bit, read
  * as one number, are not all zero, X has T's 53 bits and rounding bit and
  * something nonzero below them (sticky): the nearest double is decided.
- * Otherwise (1 in about 2^70 for a random number; ties and exact quotients
- * among them) the exact division decides. */
+ * Otherwise the exact division decides: 1 random number in about 2^70, and
+ * every decimal that is an exact double ("0.5", and "3.0" as the printer
+ * writes an integer) or an exact tie. */
 static double divided(uint64_t w, int k) {
     const int lz = __builtin_clzll(w);
     const uint64_t wn = w << lz, mlo = ntsj_pow5_inv[k][0], mhi = ntsj_pow5_inv[k][1];

@@ -286,11 +286,13 @@ int main(void) {
         fails += check(s);
     }
     /* Where the reader's product cannot decide (numparse.c, divided) and the
-     * exact division does: decimals that are exact doubles (m / 2^j, j <= 3,
-     * and m 2^-j with j up to 19 digits: "0.5", "1.125"), and exact ties
-     * between two doubles with 1 to 3 decimals (an odd multiple of half an
-     * ulp in [2^50, 2^53): "4503599627370496.5"), each as a plain decimal and
-     * with its last digit moved by one either way. */
+     * exact division does: exact ties between two doubles with 1 to 3
+     * decimals (an odd multiple of half an ulp in [2^50, 2^53):
+     * "4503599627370496.5") and exact doubles one tie step away (".50"),
+     * each as a plain decimal and with its last digit moved by one either
+     * way; then m 2^-j printed with 0 to 19 decimals (an exact double such
+     * as "0.5" or "1.125" when they suffice, else rounded; past 19 digits
+     * strtod reads it). */
     for (k = 0; k < 60000 && fails == 0; ++k) {
         const int jd = 1 + (int)(next_u64() % 3); /* decimals: 2^-jd steps */
         const unsigned long long whole = (1ull << (53 - jd)) + next_u64() % (1ull << (53 - jd));

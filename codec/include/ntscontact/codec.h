@@ -327,8 +327,9 @@ NTS_API int ntsj_solver_from_name(const char* name, nts_solver* out);
 NTS_API const char* ntsj_solver_name(nts_solver solver);
 /** @} */
 /** The shortest text of a finite double that reads back bitwise equal with
- * strtod (always with a '.' or an exponent), into out (>= 32 bytes); returns
- * its length. For the summary headers of a binary session answer. */
+ * strtod (always with a '.' or an exponent), into out (>= 32 bytes, any of
+ * which past the text's NUL it may overwrite); returns its length. For the
+ * summary headers of a binary session answer. */
 NTS_API int ntsj_format_double(char* out, double v);
 /** A whole text as one JSON number (RFC 8259 §6: no '+', no leading '.',
  * no hex, no space), read as a request's numbers are read (the nearest
