@@ -109,21 +109,36 @@ static void divide(u128 num, uint64_t d, uint64_t* quot, uint64_t* rem) {
 #endif
 }
 
-static double exact(uint64_t w, int q);
+static const uint64_t pow5[NTSJ_FAST_EXP + 1] = {
+    1ull, 5ull, 25ull, 125ull, 625ull, 3125ull, 15625ull, 78125ull, 390625ull, 1953125ull, 9765625ull,
+    48828125ull, 244140625ull, 1220703125ull, 6103515625ull, 30517578125ull, 152587890625ull,
+    762939453125ull, 3814697265625ull, 19073486328125ull, 95367431640625ull, 476837158203125ull,
+    2384185791015625ull, 11920928955078125ull, 59604644775390625ull, 298023223876953125ull,
+    1490116119384765625ull, 7450580596923828125ull};
 
-/* w / 5^k x 2^-k (w != 0, 1 <= k <= 27) by one product instead of the
- * division, whose latency was a third of a JSON step's reading
- * (docs/benchmarks.md): after Lemire's "Number parsing at a gigabyte per
- * second" (2021), with the printer's multiplier M = floor(2^(z - 1 + 125) /
- * 5^k) + 1 (z = bits(5^k)), which exceeds 2^(z - 1 + 125) / 5^k by less than
- * 1. So the product P = w' M (w' = w shifted to 64 bits) exceeds the exact
- * X = w' 2^(z - 1 + 125) / 5^k by less than w' < 2^64: X / 2^64 lies within
- * 1 of P's top 128 bits, T. When the bits of T below the rounding bit, read
- * as one number, are not all zero, X has T's 53 bits and rounding bit and
- * something nonzero below them (sticky): the nearest double is decided.
- * Otherwise the exact division decides: 1 random number in about 2^70, and
- * every decimal that is an exact double ("0.5", and "3.0" as the printer
- * writes an integer) or an exact tie. */
+/* w / 5^k x 2^-k (w != 0, 1 <= k <= 27) by the division: w shifted so that
+ * the quotient has 63 or 64 bits (at least the 53 kept, a rounding bit and
+ * more), the remainder the sticky bit. */
+static double quotient(uint64_t w, int k) {
+    const uint64_t d = pow5[k];
+    const int s = (64 - __builtin_clzll(d)) + 63 - (64 - __builtin_clzll(w));
+    uint64_t quot, rem;
+    divide((u128)w << s, d, &quot, &rem);
+    return round_to_double(quot, -s - k, rem != 0);
+}
+
+/* The same by one product instead of the division, whose latency was a
+ * third of a JSON step's reading (docs/benchmarks.md): after Lemire's
+ * "Number parsing at a gigabyte per second" (2021), with the printer's
+ * multiplier M = floor(2^(z - 1 + 125) / 5^k) + 1 (z = bits(5^k)), which
+ * exceeds 2^(z - 1 + 125) / 5^k by less than 1. So the product P = w' M (w'
+ * = w shifted to 64 bits) exceeds the exact X = w' 2^(z - 1 + 125) / 5^k by
+ * less than w' < 2^64: X / 2^64 lies within 1 of P's top 128 bits, T. When
+ * the bits of T below the rounding bit, read as one number, are not all
+ * zero, X has T's 53 bits and rounding bit and something nonzero below them
+ * (sticky): the nearest double is decided. Otherwise the division decides:
+ * 1 random number in about 2^70, and every decimal that is an exact double
+ * ("0.5", and "3.0" as the printer writes an integer) or an exact tie. */
 static double divided(uint64_t w, int k) {
     const int lz = __builtin_clzll(w);
     const uint64_t wn = w << lz, mlo = ntsj_pow5_inv[k][0], mhi = ntsj_pow5_inv[k][1];
@@ -131,30 +146,14 @@ static double divided(uint64_t w, int k) {
     const uint64_t hi = (uint64_t)(top >> 64), lo = (uint64_t)top;
     const int shift = 11 - __builtin_clzll(hi); /* hi has 64 - clz bits: keep 53 */
     const uint64_t below = hi & (((uint64_t)1 << (shift - 1)) - 1);
-    if ((below | lo) == 0) return exact(w, -k);
+    if ((below | lo) == 0) return quotient(w, k);
     /* P 2^(-lz - (bits(5^k) + 124) - k), hi its 2^128s; sticky */
     return round_to_double(hi, 4 - lz - (int)ntsj_pow5_bits((uint32_t)k) - k, 1);
 }
 
+/* w x 10^q (w != 0, |q| <= 27), the nearest double. */
 static double exact(uint64_t w, int q) {
-    static const uint64_t pow5[NTSJ_FAST_EXP + 1] = {
-        1ull, 5ull, 25ull, 125ull, 625ull, 3125ull, 15625ull, 78125ull, 390625ull, 1953125ull, 9765625ull,
-        48828125ull, 244140625ull, 1220703125ull, 6103515625ull, 30517578125ull, 152587890625ull,
-        762939453125ull, 3814697265625ull, 19073486328125ull, 95367431640625ull, 476837158203125ull,
-        2384185791015625ull, 11920928955078125ull, 59604644775390625ull, 298023223876953125ull,
-        1490116119384765625ull, 7450580596923828125ull};
-    if (q >= 0) return round128((u128)w * pow5[q], q);
-    {
-        /* w / 5^k, w shifted so that the quotient has 63 or 64 bits (at
-         * least the 53 kept, a rounding bit and more), the remainder the
-         * sticky bit */
-        const int k = -q;
-        const uint64_t d = pow5[k];
-        const int s = (64 - __builtin_clzll(d)) + 63 - (64 - __builtin_clzll(w));
-        uint64_t quot, rem;
-        divide((u128)w << s, d, &quot, &rem);
-        return round_to_double(quot, -s - k, rem != 0);
-    }
+    return q >= 0 ? round128((u128)w * pow5[q], q) : divided(w, -q);
 }
 #endif
 
@@ -242,7 +241,7 @@ static size_t plain_decimal(const char* p, double* out) {
     if (frac == 0 || frac == 16 || f[frac] == 'e' || f[frac] == 'E' || whole + frac > NTSJ_FAST_DIGITS) return 0;
     w = run_value(q, whole) * pow10[frac] +
         (frac <= 8 ? run_value(f, frac) : eight_value(f) * pow10[frac - 8] + run_value(f + 8, frac - 8));
-    v = w == 0 ? 0.0 : divided(w, frac);
+    v = w == 0 ? 0.0 : exact(w, -frac);
     *out = neg ? -v : v;
     return (size_t)(f + frac - p);
 }
@@ -315,7 +314,7 @@ size_t ntsj_parse_number(const char* p, const char* end, double* out) {
         return (size_t)(q - p);
     }
     if (!many && exp10 >= -NTSJ_FAST_EXP && exp10 <= NTSJ_FAST_EXP) {
-        const double v = exp10 < 0 ? divided(w, -exp10) : exact(w, exp10);
+        const double v = exact(w, exp10);
         *out = neg ? -v : v;
         return (size_t)(q - p);
     }
