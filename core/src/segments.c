@@ -342,83 +342,66 @@ static int loop_summed_inline(const nts_scene* s, int l) {
     return !s->loop_reversed[l] && share_of(n, ls) == share_of(n, le - 1);
 }
 
-/* The pass checking new positions as it computes the segments: blocks of
- * CHECK_BLOCK entries (their records in L1), each computed as the plain pass
- * computes it, then given the checks of nts_scene_update_positions's loops
- * (scene.c, check_loop) from the records just written: each length computed
- * once. A neighbour outside what this share has written (across the share's
- * edge, or a loop's last entry before its first) is computed from the
- * positions, the same bits. The verdict only: a share that finds a fault
- * says so, and the caller leaves the error to the scene's own check. */
-enum { CHECK_BLOCK = 256 };
-
+/* The pass checking new positions as it computes the segments: each share
+ * loop piece by loop piece (a loop's entries inside the share), every entry
+ * computed as the plain pass computes it and given, at once, the checks of
+ * nts_scene_update_positions's loops (scene.c, check_loop): the spike
+ * verdict at its first node, from the segment before it, which the piece's
+ * previous entry has just computed (the entry before a piece, across the
+ * share's start or a loop's last entry before its first, is computed from
+ * the positions: the same bits), and the loop's shoelace and perimeter,
+ * summed in check_loop's order. Each length computed once, no record read
+ * back. The verdict only: a share that finds a fault says so, and the
+ * caller leaves the error to the scene's own check. */
 static void segments_pass_checked(int begin, int end, int wi, void* p) {
     const pass_task* t = (const pass_task*)p;
     const nts_scene* s = t->s;
     const nts_vec2* pos = t->pos;
-    const seg_data* seg = t->ctx->seg;
     const int n = s->surface_count;
     int q;
     (void)wi;
     for (q = begin; q < end; ++q) {
         const int b = share_begin(n, q), e = share_begin(n, q + 1);
-        int lo = 0, hi = s->loop_total - 1, l, le, inline_sums, i0, bad = 0;
-        nts_vec2 cur = nts_v2(0.0, 0.0);
-        double a2 = 0.0, perim = 0.0, lmin = HUGE_VAL;
+        int lo = 0, hi = s->loop_total - 1, l, i, bad = 0;
+        double lmin = HUGE_VAL;
         share_acc a;
         acc_init(&a, n);
-        if (b == e) {
-            acc_store(&a, &t->found[q]);
-            t->found[q].rejected = 0;
-            continue;
+        if (b < e) {
+            while (lo < hi) { /* the loop holding b: the last that starts at or before it */
+                const int mid = lo + (hi - lo + 1) / 2;
+                if (s->loop_start[mid] <= b) lo = mid;
+                else hi = mid - 1;
+            }
         }
-        while (lo < hi) { /* the loop holding b: the last that starts at or before it */
-            const int mid = lo + (hi - lo + 1) / 2;
-            if (s->loop_start[mid] <= b) lo = mid;
-            else hi = mid - 1;
-        }
-        l = lo;
-        le = s->loop_start[l + 1];
-        inline_sums = loop_summed_inline(s, l);
-        for (i0 = b; i0 < e; i0 += CHECK_BLOCK) {
-            const int i1 = e - i0 > CHECK_BLOCK ? i0 + CHECK_BLOCK : e;
-            int i;
-            for (i = i0; i < i1; ++i) {
+        for (l = lo, i = b; i < e; ++l) {
+            const int ls = s->loop_start[l], le = s->loop_start[l + 1], stop = le < e ? le : e;
+            const int ip = i > ls ? i - 1 : le - 1; /* (surf_prev: scene.c) */
+            nts_vec2 cur = nts_v2(0.0, 0.0), tp;
+            double a2 = 0.0, perim = 0.0;
+            double lp = segment_length(s, pos, ip, pos[s->surf_node[ip]], &tp);
+            assert(s->surf_prev[i] == ip);
+            for (; i < stop; ++i) {
                 const nts_vec2 pp = pos[s->surf_node[i]];
                 nts_vec2 tt;
                 const double len = segment_length(s, pos, i, pp, &tt);
                 put_entry(t, i, b, pp, tt, len, &a);
-            }
-            for (i = i0; i < i1; ++i) {
-                const seg_data* c = &seg[i];
-                const int ip = c->prev;
-                nts_vec2 tp;
-                double lp;
-                if (ip >= b && ip < i1) {
-                    tp = seg[ip].t;
-                    lp = seg[ip].len;
-                } else {
-                    lp = segment_length(s, pos, ip, pos[s->surf_node[ip]], &tp);
-                }
                 /* check_loop's spike verdict at the segment's first node; its
                  * degenerate verdicts follow from the lengths' extremes
                  * (nts_segments_compute) */
-                bad |= nts_is_spike(tp, c->t, lp, c->len);
-                lmin = c->len < lmin ? c->len : lmin;
-                if (i == le) { /* the next loop's first entry */
-                    ++l;
-                    le = s->loop_start[l + 1];
-                    inline_sums = loop_summed_inline(s, l);
-                    cur = nts_v2(0.0, 0.0);
-                    a2 = perim = 0.0;
-                }
-                /* check_loop's shoelace and perimeter, in its order (kept when the loop is inline) */
-                nts_shoelace_step(&cur, &a2, c->t);
-                perim += c->len;
-                if (i == le - 1 && inline_sums) {
-                    t->area_perim[2 * l] = a2;
-                    t->area_perim[2 * l + 1] = perim;
-                }
+                bad |= nts_is_spike(tp, tt, lp, len);
+                lmin = len < lmin ? len : lmin;
+                /* check_loop's shoelace and perimeter, in its order (kept
+                 * when the loop is inline: begun at its first entry) */
+                nts_shoelace_step(&cur, &a2, tt);
+                perim += len;
+                tp = tt;
+                lp = len;
+            }
+            /* (loop_summed_inline: the loop begins and ends in this share) */
+            assert((ls >= b && le <= e && !s->loop_reversed[l]) == (ls >= b && loop_summed_inline(s, l)));
+            if (ls >= b && le <= e && !s->loop_reversed[l]) {
+                t->area_perim[2 * l] = a2;
+                t->area_perim[2 * l + 1] = perim;
             }
         }
         acc_store(&a, &t->found[q]);

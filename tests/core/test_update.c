@@ -470,8 +470,9 @@ static void threshold_move(const nts_vec2* x0, nts_vec2* x, int n, int off, int 
 }
 
 /* nts_evaluate_positions checks new positions in the evaluation's segment
- * pass, a block of records at a time: each loop's lengths read from the
- * records (a neighbour across a slice's edge computed again), its area
+ * pass, loop piece by loop piece within each slice: each loop's lengths as
+ * the pass computes them (the neighbour before a piece, across a slice's
+ * edge or a loop's last entry before its first, computed again), its area
  * summed there when the loop lies within one of the pass's 64 slices and is
  * stored as given, or after the pass otherwise, the degenerate verdicts from
  * the lengths' extremes unless the shortest is below the largest tolerance.
@@ -567,9 +568,10 @@ static void test_fused_checks_at_thresholds(void) {
                 thresholds_on(144, periodic, reversed, shifted ? 1e6 : 0.0, bodies, 6);
 }
 
-/* 1600 bodies (19200 entries, slices of 300, blocks of 256 records): body 21
- * (entries 252-263) across a block's edge inside a slice, body 24 (288-299)
- * at a slice's end, body 25 (300-311) at the next one's start. */
+/* 1600 bodies (19200 entries, slices of 300): body 21 (entries 252-263)
+ * inside a slice (across the edge of the 256-record blocks an earlier pass
+ * checked in), body 24 (288-299) at a slice's end, body 25 (300-311) at
+ * the next one's start. */
 static void test_fused_checks_across_blocks(void) {
     static const int bodies[] = {21, 24, 25};
     thresholds_on(1600, 0, 1, 0.0, bodies, 3);
