@@ -65,6 +65,9 @@ struct nts_candidates {
     long long ahead_replays, plain_replays;
 };
 
+/* Slave e's chunk buffer (e >= 0: the division is a shift). */
+static inline int* kept_chunk_of(const nts_candidates* kc, int e) { return kc->chunk[(unsigned)e / KEPT_CHUNK]; }
+
 /* Whether the lists hold, for scene s whose nodes moved at most `moved`
  * since the build (the segment pass's), every master the cells could give
  * within radius r (eq. (29)); sets kc->moved.

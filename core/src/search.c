@@ -707,7 +707,7 @@ enum { KEPT_PRUNE = 64 };
  * Returns how many went. */
 static inline NTS_ALWAYS_INLINE int kept_prune(const search_env* env, nts_candidates* kc, int i, const int periodic,
                                                const int surfaces) {
-    int* buf = kc->chunk[i / KEPT_CHUNK];
+    int* buf = kept_chunk_of(kc, i);
     int* mid = kc->span + env->s->surface_count;
     const nts_vec2 xs = env->seg[i].p;
     /* (the largest displacement the lists hold for, with the frame's round-off) */
@@ -738,7 +738,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
     int i, k;
     for (i = begin; i < end && w->status == NTS_OK; ++i) {
         const int bi = env->seg[i].body;
-        const int* items = kc->chunk[i / KEPT_CHUNK];
+        const int* items = kept_chunk_of(kc, i);
         const nts_vec2 xs = env->seg[i].p;
         if (selfc) set_slave(env, w, i, bi);
         if (((i - begin) & 1023) == 1023 && env->cancel != NULL && env->cancel(env->cancel_user)) {
@@ -749,7 +749,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
             for (k = 1; k < KEPT_AHEAD && i + k < end; ++k) { /* the first slaves' masters */
                 const int a = i + k;
                 int q;
-                for (q = lo[a]; q < mid[a]; ++q) NTS_PREFETCH(&env->seg[kc->chunk[a / KEPT_CHUNK][q]]);
+                for (q = lo[a]; q < mid[a]; ++q) NTS_PREFETCH(&env->seg[kept_chunk_of(kc, a)[q]]);
             }
         if (s->body_role[bi] == NTS_ROLE_MASTER) continue;
         if (surfaces && !(env->surf_flag[i] & NTS_SF_NODE)) {
@@ -761,7 +761,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
          * arrive while the slaves between are searched. */
         if (ahead_on && i + KEPT_AHEAD < end) {
             const int a = i + KEPT_AHEAD;
-            const int* ahead = kc->chunk[a / KEPT_CHUNK];
+            const int* ahead = kept_chunk_of(kc, a);
             for (k = lo[a]; k < mid[a]; ++k) {
                 NTS_PREFETCH(&env->seg[ahead[k]]);
                 NTS_PREFETCH(&env->seg[ahead[k] - (ahead[k] > 0)]);
@@ -1186,7 +1186,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
         /* The slave's kept list holds every master that could offer a
          * feature within rho (eq. (30)): the same candidates as the cells. */
         const nts_candidates* kc = env->kept;
-        const int* items = kc->chunk[k / KEPT_CHUNK];
+        const int* items = kept_chunk_of(kc, k);
         const int hi = kept_hi(kc)[k];
         if (body < 0) {
             for (j = kept_lo(kc)[k]; j < hi; ++j) wide_try(env, w, xs, own, items[j], body, rho, shape, periodic);
