@@ -189,9 +189,24 @@ void nts_kbuf_free(nts_kbuf* k);
 int nts_kbuf_reserve(nts_kbuf* k, int extra);
 
 
-
+/* p - q as nts_min_image gives it in a box of sides lx, ly, both positive
+ * or both zero (a scene is periodic on both axes or on neither: scene.c),
+ * its near test done once for both axes: a pair within a quarter box on
+ * both is d + 0.0 on each, as nts_min_image_1 gives it (the same bits).
+ * The sides by value, so that a loop that stores doubles keeps them in
+ * registers. */
+static inline nts_vec2 nts_box_diff(nts_vec2 p, nts_vec2 q, double lx, double ly) {
+    nts_vec2 d = nts_sub(p, q);
+    if (!(lx > 0.0)) return d;
+    if (fabs(d.x) < 0.25 * lx && fabs(d.y) < 0.25 * ly) {
+        d.x += 0.0;
+        d.y += 0.0;
+        return d;
+    }
+    return nts_min_image(d, lx, ly);
+}
 static inline nts_vec2 nts_scene_diff(const nts_scene* s, nts_vec2 p, nts_vec2 q) {
-    return nts_min_image(nts_sub(p, q), s->lx, s->ly);
+    return nts_box_diff(p, q, s->lx, s->ly);
 }
 
 #endif

@@ -35,9 +35,10 @@ static int seg_reserve(nts_context* ctx, int n) {
  * checked), as the segment pass computes it (the same bits), or -1 outside
  * the supported range (scene.c: nts_scene_set_positions does not check it,
  * and 1/|t|^2 must not overflow). */
-static inline double segment_length(const nts_scene* s, const nts_vec2* pos, int i, nts_vec2 p, nts_vec2* t) {
+static inline double segment_length(const nts_scene* s, double lx, double ly, const nts_vec2* pos, int i, nts_vec2 p,
+                                    nts_vec2* t) {
     double l2;
-    *t = nts_scene_diff(s, pos[s->surf_node[s->surf_next[i]]], p);
+    *t = nts_box_diff(pos[s->surf_node[s->surf_next[i]]], p, lx, ly);
     l2 = nts_length_sq(*t);
     return l2 >= 1e-200 && l2 <= 1e201 ? sqrt(l2) : -1.0;
 }
@@ -74,7 +75,7 @@ static void sample_lengths(int begin, int end, int wi, void* p) {
     for (i = begin; i < end; ++i) {
         const int e = (int)((long long)i * n / NTS_SAMPLE);
         nts_vec2 tt;
-        t->sample[i] = segment_length(t->s, t->pos, e, t->pos[t->s->surf_node[e]], &tt);
+        t->sample[i] = segment_length(t->s, t->s->lx, t->s->ly, t->pos, e, t->pos[t->s->surf_node[e]], &tt);
     }
 }
 
@@ -269,18 +270,14 @@ static inline NTS_ALWAYS_INLINE void acc_extremes(share_acc* a, nts_vec2 pp, dou
 /* Entry i's record, its node at pp and its segment tt of length len (-1:
  * outside the supported range), and its part of the share's summary; b is
  * the share's first entry (its kept lengths start there in `scratch`). */
-static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, int i, int b, nts_vec2 pp, nts_vec2 tt, double len, share_acc* a) {
+static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, double lx, double ly, int i, int b, nts_vec2 pp,
+                                               nts_vec2 tt, double len, share_acc* a) {
     const nts_scene* s = t->s;
     seg_data* sd = &t->ctx->seg[i];
     sd->p = pp;
     sd->t = tt;
     if (t->since != NULL) {
-        double dx = pp.x - t->since[i].x, dy = pp.y - t->since[i].y, d2;
-        if (s->lx > 0.0) {
-            dx = nts_min_image_1(dx, s->lx);
-            dy = nts_min_image_1(dy, s->ly);
-        }
-        d2 = dx * dx + dy * dy;
+        const double d2 = nts_length_sq(nts_box_diff(pp, t->since[i], lx, ly));
         a->m2 = d2 > a->m2 ? d2 : a->m2;
     }
     sd->prev = s->surf_prev[i];
@@ -306,6 +303,7 @@ static inline NTS_ALWAYS_INLINE void put_entry(const pass_task* t, int i, int b,
 static void segments_pass(int begin, int end, int wi, void* p) {
     const pass_task* t = (const pass_task*)p;
     const nts_scene* s = t->s;
+    const double lx = s->lx, ly = s->ly; /* (in registers across the records' stores) */
     const int n = s->surface_count;
     int q;
     (void)wi;
@@ -317,8 +315,8 @@ static void segments_pass(int begin, int end, int wi, void* p) {
         for (i = b; i < e; ++i) {
             const nts_vec2 pp = t->pos[s->surf_node[i]];
             nts_vec2 tt;
-            const double len = segment_length(s, t->pos, i, pp, &tt);
-            put_entry(t, i, b, pp, tt, len, &a);
+            const double len = segment_length(s, lx, ly, t->pos, i, pp, &tt);
+            put_entry(t, lx, ly, i, b, pp, tt, len, &a);
         }
         acc_store(&a, &t->found[q]);
         t->found[q].rejected = 0;
@@ -356,6 +354,7 @@ static int loop_summed_inline(const nts_scene* s, int l) {
 static void segments_pass_checked(int begin, int end, int wi, void* p) {
     const pass_task* t = (const pass_task*)p;
     const nts_scene* s = t->s;
+    const double lx = s->lx, ly = s->ly; /* (in registers across the records' stores) */
     const nts_vec2* pos = t->pos;
     const int n = s->surface_count;
     int q;
@@ -378,13 +377,13 @@ static void segments_pass_checked(int begin, int end, int wi, void* p) {
             const int ip = i > ls ? i - 1 : le - 1; /* (surf_prev: scene.c) */
             nts_vec2 cur = nts_v2(0.0, 0.0), tp;
             double a2 = 0.0, perim = 0.0;
-            double lp = segment_length(s, pos, ip, pos[s->surf_node[ip]], &tp);
+            double lp = segment_length(s, lx, ly, pos, ip, pos[s->surf_node[ip]], &tp);
             assert(s->surf_prev[i] == ip);
             for (; i < stop; ++i) {
                 const nts_vec2 pp = pos[s->surf_node[i]];
                 nts_vec2 tt;
-                const double len = segment_length(s, pos, i, pp, &tt);
-                put_entry(t, i, b, pp, tt, len, &a);
+                const double len = segment_length(s, lx, ly, pos, i, pp, &tt);
+                put_entry(t, lx, ly, i, b, pp, tt, len, &a);
                 /* check_loop's spike verdict at the segment's first node; its
                  * degenerate verdicts follow from the lengths' extremes
                  * (nts_segments_compute) */
@@ -457,6 +456,7 @@ typedef struct lengths_task {
 static void lengths_pass(int begin, int end, int wi, void* p) {
     const lengths_task* t = (const lengths_task*)p;
     const nts_scene* s = t->s;
+    const double lx = s->lx, ly = s->ly;
     const int n = s->surface_count;
     int q;
     (void)wi;
@@ -468,7 +468,7 @@ static void lengths_pass(int begin, int end, int wi, void* p) {
         for (i = b; i < e; ++i) {
             const nts_vec2 pp = s->pos[s->surf_node[i]];
             nts_vec2 tt;
-            const double len = segment_length(s, s->pos, i, pp, &tt);
+            const double len = segment_length(s, lx, ly, s->pos, i, pp, &tt);
             if (t->lengths != NULL) t->lengths[i] = len;
             if (len < 0.0) {
                 if (i < a.first_bad) a.first_bad = i;
