@@ -345,12 +345,13 @@ static int loop_summed_inline(const nts_scene* s, int l) {
  * computed as the plain pass computes it and given, at once, the checks of
  * nts_scene_update_positions's loops (scene.c, check_loop): the spike
  * verdict at its first node, from the segment before it, which the piece's
- * previous entry has just computed (the entry before a piece, across the
- * share's start or a loop's last entry before its first, is computed from
- * the positions: the same bits), and the loop's shoelace and perimeter,
- * summed in check_loop's order. Each length computed once, no record read
- * back. The verdict only: a share that finds a fault says so, and the
- * caller leaves the error to the scene's own check. */
+ * previous entry has just computed, and the loop's shoelace and perimeter,
+ * summed in check_loop's order. A loop inside the share has its first
+ * node's verdict at its end, from its last segment and its first record;
+ * a piece across the share's edge has the segment before it computed from
+ * the positions (the same bits). The verdicts are or-ed: their order
+ * decides nothing. The verdict only: a share that finds a fault says so,
+ * and the caller leaves the error to the scene's own check. */
 static void segments_pass_checked(int begin, int end, int wi, void* p) {
     const pass_task* t = (const pass_task*)p;
     const nts_scene* s = t->s;
@@ -374,11 +375,14 @@ static void segments_pass_checked(int begin, int end, int wi, void* p) {
         }
         for (l = lo, i = b; i < e; ++l) {
             const int ls = s->loop_start[l], le = s->loop_start[l + 1], stop = le < e ? le : e;
-            const int ip = i > ls ? i - 1 : le - 1; /* (surf_prev: scene.c) */
-            nts_vec2 cur = nts_v2(0.0, 0.0), tp;
-            double a2 = 0.0, perim = 0.0;
-            double lp = segment_length(s, lx, ly, pos, ip, pos[s->surf_node[ip]], &tp);
-            assert(s->surf_prev[i] == ip);
+            const int whole = ls >= b && le <= e; /* the loop inside the share */
+            nts_vec2 cur = nts_v2(0.0, 0.0), tp = nts_v2(0.0, 0.0);
+            double a2 = 0.0, perim = 0.0, lp = 0.0; /* (a zero segment before: no spike, nts_is_spike) */
+            if (!whole) {
+                const int ip = i > ls ? i - 1 : le - 1; /* (surf_prev: scene.c) */
+                assert(s->surf_prev[i] == ip);
+                lp = segment_length(s, lx, ly, pos, ip, pos[s->surf_node[ip]], &tp);
+            }
             for (; i < stop; ++i) {
                 const nts_vec2 pp = pos[s->surf_node[i]];
                 nts_vec2 tt;
@@ -396,11 +400,19 @@ static void segments_pass_checked(int begin, int end, int wi, void* p) {
                 tp = tt;
                 lp = len;
             }
-            /* (loop_summed_inline: the loop begins and ends in this share) */
-            assert((ls >= b && le <= e && !s->loop_reversed[l]) == (ls >= b && loop_summed_inline(s, l)));
-            if (ls >= b && le <= e && !s->loop_reversed[l]) {
-                t->area_perim[2 * l] = a2;
-                t->area_perim[2 * l + 1] = perim;
+            if (whole) {
+                /* its first node: from its last segment (tp) to its first */
+                const seg_data* first = &t->ctx->seg[ls];
+                assert(s->surf_prev[ls] == le - 1);
+                bad |= nts_is_spike(tp, first->t, lp, first->len);
+                /* (loop_summed_inline: the loop begins and ends in this share) */
+                assert((s->loop_reversed[l] == 0) == (loop_summed_inline(s, l) != 0));
+                if (!s->loop_reversed[l]) {
+                    t->area_perim[2 * l] = a2;
+                    t->area_perim[2 * l + 1] = perim;
+                }
+            } else {
+                assert(!(ls >= b && loop_summed_inline(s, l)));
             }
         }
         acc_store(&a, &t->found[q]);

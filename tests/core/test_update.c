@@ -569,10 +569,9 @@ static void test_fused_checks_at_thresholds(void) {
 }
 
 /* 1600 bodies (19200 entries, slices of 300): body 21 (entries 252-263)
- * inside a slice (across the edge of the 256-record blocks an earlier pass
- * checked in), body 24 (288-299) at a slice's end, body 25 (300-311) at
- * the next one's start. */
-static void test_fused_checks_across_blocks(void) {
+ * inside a slice (its first node's spike verdict taken at its end), body 24
+ * (288-299) at a slice's end, body 25 (300-311) at the next one's start. */
+static void test_fused_checks_at_slice_edges(void) {
     static const int bodies[] = {21, 24, 25};
     thresholds_on(1600, 0, 1, 0.0, bodies, 3);
     thresholds_on(1600, 1, 0, 0.0, bodies, 3);
@@ -693,7 +692,7 @@ void register_update_suite(void) {
     ADD_TEST(s, test_reference_errors_name_the_node);
     ADD_TEST(s, test_fused_checks_at_thresholds);
     ADD_TEST(s, test_fused_range_off_the_loops);
-    ADD_TEST(s, test_fused_checks_across_blocks);
+    ADD_TEST(s, test_fused_checks_at_slice_edges);
     ADD_TEST(s, test_fused_stops_before_the_checks);
     ADD_TEST(s, test_own_positions_given_back);
 }
