@@ -20,10 +20,11 @@
 #include <emmintrin.h>
 #endif
 
-/* Xs - X exactly as nts_scene_diff computes it (docs/model.md §8: the
- * minimum image, nts_min_image_1), the near-pair test done once for both
- * axes. `periodic` is a compile-time constant at every call (the search is
- * instantiated twice), so an open scene pays nothing for the box. */
+/* Xs - X exactly as nts_scene_diff computes it (nts_box_diff, internal.h;
+ * docs/model.md §8: the minimum image), its twin for the search's hot
+ * loops: the quarter box precomputed (env->qx, env->qy: 0.25 lx, 0.25 ly,
+ * the same bits) and `periodic` a compile-time constant at every call (the
+ * search is instantiated twice), so an open scene pays nothing for the box. */
 static inline NTS_ALWAYS_INLINE nts_vec2 search_diff(const search_env* env, nts_vec2 p, nts_vec2 q, const int periodic) {
     nts_vec2 d = nts_sub(p, q);
     if (!periodic) return d;
@@ -32,9 +33,7 @@ static inline NTS_ALWAYS_INLINE nts_vec2 search_diff(const search_env* env, nts_
         d.y += 0.0;
         return d;
     }
-    d.x = nts_min_image_1(d.x, env->lx);
-    d.y = nts_min_image_1(d.y, env->ly);
-    return d;
+    return nts_min_image(d, env->lx, env->ly);
 }
 
 /* Tie-break (docs/model.md §5): smaller |g|, then the smaller master
