@@ -10,10 +10,25 @@
  * of a round is the ratio of the two. Prints, per size, the medians of the
  * rounds (ns per surface node), the median speed-up and its range, and each
  * phase's median (nts_context_profile) with 1 and 2 threads. The results are
- * checked equal bit for bit (energy and forces). */
+ * checked equal bit for bit (energy and forces).
+ *
+ * What the machine gives two threads, in the same rounds: two one-thread
+ * evaluations of the same scene at once, each on its own warm context, one on
+ * each of two threads of the bench (pinned like the library's by
+ * OMP_PROC_BIND). Twice the round's one-thread time over the pair's wall time
+ * is the throughput two threads of this machine reach on this work with no
+ * serial part and no hand-over: 2 on two free cores, less when the two
+ * share a core (SMT siblings) or its caches and memory. A reference, not a
+ * bound: the pair reads two contexts' buffers where one evaluation's two
+ * threads share one. The last column is the speed-up over it, round by
+ * round. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
 
 #include <ntscontact/ntscontact.h>
 #include "nts_support.h"
@@ -24,6 +39,31 @@ static void die(const char* what, const nts_error* err) {
 }
 
 enum { MAX_ROUNDS = 101 };
+
+/* The wall time of two one-thread evaluations at once, pair[0] on one
+ * thread and pair[1] on another; -1 without OpenMP (no column then). */
+static double pair_seconds(nts_context* pair[2], const nts_scene* s, const nts_options* o1, nts_result out[2]) {
+#if defined(_OPENMP)
+    double t0, t1;
+    int ok = 1;
+    t0 = ntsx_now();
+#pragma omp parallel num_threads(2) reduction(&& : ok)
+    {
+        nts_error err;
+        const int me = omp_get_thread_num();
+        ok = omp_get_num_threads() == 2 && nts_evaluate(pair[me], s, o1, &out[me], &err) == NTS_OK;
+    }
+    t1 = ntsx_now();
+    if (!ok) die("two one-thread evaluations at once", NULL);
+    return t1 - t0;
+#else
+    (void)pair;
+    (void)s;
+    (void)o1;
+    (void)out;
+    return -1.0;
+#endif
+}
 
 int main(int argc, char** argv) {
     int sizes[8] = {100000, 1000000}, nsizes = 2, rounds = 15, i, t, k, th;
@@ -43,17 +83,18 @@ int main(int argc, char** argv) {
     if (rounds < 3) rounds = 3;
     if (rounds > MAX_ROUNDS) rounds = MAX_ROUNDS;
     printf("| surface nodes | 1 thread ns/node | 2 threads ns/node | speed-up (median; range) | phases, 1 thread "
-           "(segments, cells, search, scatter) | phases, 2 threads |\n|---:|---:|---:|---|---|---|\n");
+           "(segments, cells, search, scatter) | phases, 2 threads | two at once (median; range) | speed-up / "
+           "two at once (median) |\n|---:|---:|---:|---|---|---|---|---|\n");
     for (t = 0; t < nsizes; ++t) {
         ntsx_scene b;
         ntsx_packing_def d = ntsx_default_packing(sizes[t] / 48, 1, 2026u);
-        nts_context* c[2];
+        nts_context *c[2], *pair[2];
         nts_options o[2];
-        nts_result r[2];
+        nts_result r[2], rp[2];
         nts_error err;
         nts_scene* s;
-        static double tm[2][MAX_ROUNDS], ratio[MAX_ROUNDS], ph[2][4][MAX_ROUNDS];
-        double lo, hi;
+        static double tm[2][MAX_ROUNDS], ratio[MAX_ROUNDS], ph[2][4][MAX_ROUNDS], pair_gain[MAX_ROUNDS], share[MAX_ROUNDS];
+        double lo, hi, plo, phi;
         int n;
         ntsx_packing(&b, &d);
         if ((s = ntsx_scene_create(&b, &err)) == NULL) die("scene", &err);
@@ -63,8 +104,12 @@ int main(int argc, char** argv) {
             o[th] = nts_default_options();
             o[th].threads = th + 1;
             if (nts_evaluate(c[th], s, &o[th], &r[th], &err) != NTS_OK) die("evaluate", &err);
+            if ((pair[th] = nts_context_create()) == NULL ||
+                nts_evaluate(pair[th], s, &o[0], &rp[th], &err) != NTS_OK)
+                die("evaluate", &err);
         }
         for (k = 0; k < rounds; ++k) {
+            double both;
             for (th = 0; th < 2; ++th) {
                 const double t0 = ntsx_now();
                 nts_profile p;
@@ -80,20 +125,36 @@ int main(int argc, char** argv) {
             if (memcmp(&r[0].summary.energy, &r[1].summary.energy, sizeof(double)) != 0 ||
                 memcmp(r[0].forces, r[1].forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) != 0)
                 die("the same bits with 1 and 2 threads", NULL);
+            both = pair_seconds(pair, s, &o[0], rp);
+            pair_gain[k] = both > 0.0 ? 2.0 * tm[0][k] * 1e-9 * n / both : -1.0;
+            share[k] = pair_gain[k] > 0.0 ? ratio[k] / pair_gain[k] : -1.0;
+            if (both > 0.0 && (memcmp(&rp[0].summary.energy, &r[0].summary.energy, sizeof(double)) != 0 ||
+                               memcmp(&rp[1].summary.energy, &r[0].summary.energy, sizeof(double)) != 0))
+                die("the same bits from two evaluations at once", NULL);
         }
         lo = hi = ratio[0];
+        plo = phi = pair_gain[0];
         for (k = 1; k < rounds; ++k) {
             lo = ratio[k] < lo ? ratio[k] : lo;
             hi = ratio[k] > hi ? ratio[k] : hi;
+            plo = pair_gain[k] < plo ? pair_gain[k] : plo;
+            phi = pair_gain[k] > phi ? pair_gain[k] : phi;
         }
         printf("| %d | %.1f | %.1f | %.3f (%.3f-%.3f) |", n, ntsx_median(tm[0], rounds), ntsx_median(tm[1], rounds),
                ntsx_median(ratio, rounds), lo, hi);
         for (th = 0; th < 2; ++th)
             printf(" %.1f, %.1f, %.1f, %.1f |", ntsx_median(ph[th][0], rounds), ntsx_median(ph[th][1], rounds),
                    ntsx_median(ph[th][2], rounds), ntsx_median(ph[th][3], rounds));
+        if (plo > 0.0)
+            printf(" %.3f (%.3f-%.3f) | %.3f |", ntsx_median(pair_gain, rounds), plo, phi, ntsx_median(share, rounds));
+        else
+            printf(" (no OpenMP) | |");
         printf("\n");
         fflush(stdout);
-        for (th = 0; th < 2; ++th) nts_context_destroy(c[th]);
+        for (th = 0; th < 2; ++th) {
+            nts_context_destroy(c[th]);
+            nts_context_destroy(pair[th]);
+        }
         nts_scene_destroy(s);
         ntsx_scene_free(&b);
     }
