@@ -5,7 +5,8 @@
  * in any pattern, or real threads of its own (no OpenMP). Every output is
  * compared, for the three paths of the scatter (records, shares, direct),
  * on scenes that run every loop (the segment bracket of a large scene, the
- * sorted masters, the reach's growth of deep contacts, periodic boxes). */
+ * sorted masters, the reach's growth of deep contacts, periodic boxes). And
+ * one scene evaluated at once by host threads, each on its own context. */
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -272,6 +273,99 @@ static void test_scatter_paths_agree(void) {
     free_packing(&q);
 }
 
+/* One scene, evaluated at once by host threads, each on its own context (the
+ * contract of nts_context: one evaluation at a time on a context, any number
+ * on a scene that nobody changes): every answer bitwise the serial one, with
+ * one worker and with two (OpenMP's team inside each host thread, when
+ * built with it), from scratch and with a kept list of each thread's own.
+ * (threads_bench times such pairs to measure what the machine gives two
+ * threads, and relies on this.) */
+typedef struct shared_scene_job {
+    const nts_scene* s;
+    const nts_result* ref;
+    double alpha;
+    int index, rounds, evaluated, differ, failed;
+} shared_scene_job;
+
+static void* shared_scene_main(void* p) {
+    shared_scene_job* j = (shared_scene_job*)p;
+    nts_context* c = nts_context_create();
+    nts_candidates* kc = nts_candidates_create(-1.0);
+    int k;
+    if (c == NULL || kc == NULL) {
+        j->failed = 1;
+    } else {
+        for (k = 0; k < j->rounds; ++k) {
+            nts_options o = nts_default_options();
+            nts_result r;
+            nts_error err;
+            o.alpha = j->alpha;
+            o.outputs = NTS_OUT_ALL;
+            o.threads = 1 + (k + j->index) % 2;
+            o.candidates = (k + j->index) % 3 == 0 ? NULL : kc;
+            if (nts_evaluate(c, j->s, &o, &r, &err) != NTS_OK) {
+                j->failed = 1;
+                break;
+            }
+            ++j->evaluated;
+            if (!same_answer(j->s, j->ref, &r, NTST_SUMMARY_WHOLE)) ++j->differ;
+        }
+    }
+    nts_candidates_destroy(kc);
+    nts_context_destroy(c);
+    return NULL;
+}
+
+static void check_shared_scene(const nts_scene* s, double alpha) {
+    enum { THREADS = 3, ROUNDS = 6 };
+    nts_context* c0 = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r0;
+    nts_error err;
+    pthread_t th[THREADS];
+    shared_scene_job job[THREADS];
+    int k;
+    CU_ASSERT_FATAL(c0 != NULL);
+    o.alpha = alpha;
+    o.outputs = NTS_OUT_ALL;
+    CU_ASSERT_FATAL(nts_evaluate(c0, s, &o, &r0, &err) == NTS_OK);
+    CU_ASSERT(r0.summary.contacts > 20);
+    for (k = 0; k < THREADS; ++k) {
+        memset(&job[k], 0, sizeof job[k]);
+        job[k].s = s;
+        job[k].ref = &r0;
+        job[k].alpha = alpha;
+        job[k].index = k;
+        job[k].rounds = ROUNDS;
+        CU_ASSERT_FATAL(pthread_create(&th[k], NULL, shared_scene_main, &job[k]) == 0);
+    }
+    for (k = 0; k < THREADS; ++k) {
+        CU_ASSERT(pthread_join(th[k], NULL) == 0);
+        CU_ASSERT(job[k].failed == 0);
+        CU_ASSERT(job[k].evaluated == ROUNDS);
+        if (job[k].differ != 0) fprintf(stderr, "\n  thread %d: %d of %d answers differ from serial\n", k, job[k].differ, ROUNDS);
+        CU_ASSERT(job[k].differ == 0);
+    }
+    nts_context_destroy(c0);
+}
+
+static void test_one_scene_many_threads(void) {
+    /* deep contacts too; periodic and large enough (19,200 surface nodes)
+     * that the threads' evaluations overlap on a machine with free cores */
+    test_packing p = make_packing(25, 48, 1.0, 1.7, 0, 811);
+    test_packing q = make_packing(400, 48, 1.0, 1.93, 1, 702);
+    nts_scene* s = make_scene(p.bodies, p.count, p.lx, p.ly);
+    nts_scene* t = make_scene(q.bodies, q.count, q.lx, q.ly);
+    CU_ASSERT_FATAL(s != NULL && t != NULL);
+    check_shared_scene(s, 0.2);
+    check_shared_scene(t, 0.0);
+    check_shared_scene(t, 0.2);
+    nts_scene_destroy(s);
+    nts_scene_destroy(t);
+    free_packing(&p);
+    free_packing(&q);
+}
+
 static void* never(nts_task_fn* task, int count, int min_range, void* tc, void* user) {
     (void)task, (void)count, (void)min_range, (void)tc, (void)user;
     return NULL;
@@ -304,4 +398,5 @@ void register_backend_suite(void) {
     ADD_TEST(s, test_backends_large_scene);
     ADD_TEST(s, test_backend_rejected);
     ADD_TEST(s, test_scatter_paths_agree);
+    ADD_TEST(s, test_one_scene_many_threads);
 }
