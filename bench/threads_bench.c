@@ -10,7 +10,7 @@
  * of a round is the ratio of the two. Prints, per size, the medians of the
  * rounds (ns per surface node), the median speed-up and its range, and each
  * phase's median (nts_context_profile) with 1 and 2 threads. The results are
- * checked equal bit for bit (energy and forces).
+ * checked equal bit for bit (energy and forces), the pair's below too.
  *
  * What the machine gives two threads, in the same rounds: two one-thread
  * evaluations of the same scene at once, each on its own warm context, one on
@@ -39,6 +39,22 @@ static void die(const char* what, const nts_error* err) {
 }
 
 enum { MAX_ROUNDS = 101 };
+
+/* Whether two answers of the scene are the same bits (energy and forces). */
+static int same_bits(const nts_result* a, const nts_result* b, int nodes) {
+    return memcmp(&a->summary.energy, &b->summary.energy, sizeof(double)) == 0 &&
+           memcmp(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nodes) == 0;
+}
+
+/* The least and the largest of v[0 .. n). */
+static void range_of(const double* v, int n, double* lo, double* hi) {
+    int k;
+    *lo = *hi = v[0];
+    for (k = 1; k < n; ++k) {
+        *lo = v[k] < *lo ? v[k] : *lo;
+        *hi = v[k] > *hi ? v[k] : *hi;
+    }
+}
 
 /* The wall time of two one-thread evaluations at once, pair[0] on one
  * thread and pair[1] on another; -1 without OpenMP or with one thread
@@ -124,24 +140,16 @@ int main(int argc, char** argv) {
                 ph[th][3][k] = 1e9 * p.scatter / n;
             }
             ratio[k] = tm[0][k] / tm[1][k];
-            if (memcmp(&r[0].summary.energy, &r[1].summary.energy, sizeof(double)) != 0 ||
-                memcmp(r[0].forces, r[1].forces, sizeof(nts_vec2) * (size_t)nts_scene_node_count(s)) != 0)
-                die("the same bits with 1 and 2 threads", NULL);
+            if (!same_bits(&r[0], &r[1], nts_scene_node_count(s))) die("the same bits with 1 and 2 threads", NULL);
             both = pair_seconds(pair, s, &o[0], rp);
             pair_gain[k] = both > 0.0 ? 2.0 * tm[0][k] * 1e-9 * n / both : -1.0;
             share[k] = pair_gain[k] > 0.0 ? ratio[k] / pair_gain[k] : -1.0;
-            if (both > 0.0 && (memcmp(&rp[0].summary.energy, &r[0].summary.energy, sizeof(double)) != 0 ||
-                               memcmp(&rp[1].summary.energy, &r[0].summary.energy, sizeof(double)) != 0))
+            if (both > 0.0 && !(same_bits(&rp[0], &r[0], nts_scene_node_count(s)) &&
+                                same_bits(&rp[1], &r[0], nts_scene_node_count(s))))
                 die("the same bits from two evaluations at once", NULL);
         }
-        lo = hi = ratio[0];
-        plo = phi = pair_gain[0];
-        for (k = 1; k < rounds; ++k) {
-            lo = ratio[k] < lo ? ratio[k] : lo;
-            hi = ratio[k] > hi ? ratio[k] : hi;
-            plo = pair_gain[k] < plo ? pair_gain[k] : plo;
-            phi = pair_gain[k] > phi ? pair_gain[k] : phi;
-        }
+        range_of(ratio, rounds, &lo, &hi);
+        range_of(pair_gain, rounds, &plo, &phi);
         printf("| %d | %.1f | %.1f | %.3f (%.3f-%.3f) |", n, ntsx_median(tm[0], rounds), ntsx_median(tm[1], rounds),
                ntsx_median(ratio, rounds), lo, hi);
         for (th = 0; th < 2; ++th)
