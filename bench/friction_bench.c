@@ -88,11 +88,8 @@ int main(int argc, char** argv) {
             ratio[k] = tb[k] / ta[k];
         }
         {
-            double lo = ratio[0], hi = ratio[0];
-            for (k = 1; k < rounds; ++k) {
-                lo = ratio[k] < lo ? ratio[k] : lo;
-                hi = ratio[k] > hi ? ratio[k] : hi;
-            }
+            double lo, hi;
+            ntsx_range(ratio, rounds, &lo, &hi);
             printf("| %d | %d | %d | %d | %.1f | %.1f | %.3f (%.3f-%.3f) | %.1f |\n", n, r1.summary.contacts,
                    r1.summary.sticking, r1.summary.slipping, ntsx_median(ta, rounds), ntsx_median(tb, rounds),
                    ntsx_median(ratio, rounds), lo, hi,

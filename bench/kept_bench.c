@@ -101,16 +101,6 @@ static void run_loop(const loop* L, nts_context* ctx, const nts_options* o, int 
     }
 }
 
-/* The least and the largest of v[0 .. n). */
-static void range_of(const double* v, int n, double* lo, double* hi) {
-    int k;
-    *lo = *hi = v[0];
-    for (k = 1; k < n; ++k) {
-        *lo = v[k] < *lo ? v[k] : *lo;
-        *hi = v[k] > *hi ? v[k] : *hi;
-    }
-}
-
 /* The wall time of two kept loops of steps first + 1 .. first + S at once,
  * one thread each (pair[k] on its own context, list and positions), every
  * step checked against energy[] and forces as run_loop checks; -1 without
@@ -264,8 +254,8 @@ int main(int argc, char** argv) {
         }
         {
             double lo, hi, dlo, dhi;
-            range_of(ratio, rounds, &lo, &hi);
-            range_of(door, rounds, &dlo, &dhi);
+            ntsx_range(ratio, rounds, &lo, &hi);
+            ntsx_range(door, rounds, &dlo, &dhi);
             if (nts_evaluate(c0, L.s, &o0, &r, &err) != NTS_OK) die("evaluate", &err);
             printf("| %d | %d | %.1f | %.1f | %.1f | %.1f | %.1f | %.3f (%.3f-%.3f) | %.3f (%.3f-%.3f) | %.1f |",
                    L.surface, r.summary.contacts, (double)(nts_candidates_get_info(kc).builds - builds0) / rounds,
@@ -274,8 +264,8 @@ int main(int argc, char** argv) {
                    (double)nts_candidates_bytes(kc) / L.surface);
             if (two) {
                 double glo, ghi, plo, phi;
-                range_of(gain2, rounds, &glo, &ghi);
-                range_of(pairg, rounds, &plo, &phi);
+                ntsx_range(gain2, rounds, &glo, &ghi);
+                ntsx_range(pairg, rounds, &plo, &phi);
                 printf(" %.1f | %.3f (%.3f-%.3f) |", ntsx_median(t2, rounds), ntsx_median(gain2, rounds), glo, ghi);
                 if (plo > 0.0)
                     printf(" %.3f (%.3f-%.3f) | %.3f |", ntsx_median(pairg, rounds), plo, phi,

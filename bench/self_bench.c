@@ -85,11 +85,8 @@ int main(int argc, char** argv) {
             ratio[k] = tb[k] / ta[k];
         }
         {
-            double lo = ratio[0], hi = ratio[0];
-            for (k = 1; k < rounds; ++k) {
-                lo = ratio[k] < lo ? ratio[k] : lo;
-                hi = ratio[k] > hi ? ratio[k] : hi;
-            }
+            double lo, hi;
+            ntsx_range(ratio, rounds, &lo, &hi);
             printf("| %d | %d | %.1f | %.1f | %.3f (%.3f-%.3f) |\n", n, r0.summary.contacts, ntsx_median(ta, rounds),
                    ntsx_median(tb, rounds), ntsx_median(ratio, rounds), lo, hi);
             fflush(stdout);

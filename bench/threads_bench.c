@@ -46,16 +46,6 @@ static int same_bits(const nts_result* a, const nts_result* b, int nodes) {
            memcmp(a->forces, b->forces, sizeof(nts_vec2) * (size_t)nodes) == 0;
 }
 
-/* The least and the largest of v[0 .. n). */
-static void range_of(const double* v, int n, double* lo, double* hi) {
-    int k;
-    *lo = *hi = v[0];
-    for (k = 1; k < n; ++k) {
-        *lo = v[k] < *lo ? v[k] : *lo;
-        *hi = v[k] > *hi ? v[k] : *hi;
-    }
-}
-
 /* The wall time of two one-thread evaluations at once, pair[0] on one
  * thread and pair[1] on another; -1 without OpenMP or with one thread
  * allowed (OMP_THREAD_LIMIT=1): not measured then. */
@@ -148,8 +138,8 @@ int main(int argc, char** argv) {
                                 same_bits(&rp[1], &r[0], nts_scene_node_count(s))))
                 die("the same bits from two evaluations at once", NULL);
         }
-        range_of(ratio, rounds, &lo, &hi);
-        range_of(pair_gain, rounds, &plo, &phi);
+        ntsx_range(ratio, rounds, &lo, &hi);
+        ntsx_range(pair_gain, rounds, &plo, &phi);
         printf("| %d | %.1f | %.1f | %.3f (%.3f-%.3f) |", n, ntsx_median(tm[0], rounds), ntsx_median(tm[1], rounds),
                ntsx_median(ratio, rounds), lo, hi);
         for (th = 0; th < 2; ++th)

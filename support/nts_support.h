@@ -16,6 +16,8 @@
 double ntsx_now(void);
 /* The median of v[0..n) (v is sorted; the mean of the middle two when n is even; 0 when empty). */
 double ntsx_median(double* v, int n);
+/* The least and the largest of v[0..n), n >= 1 (v unchanged). */
+void ntsx_range(const double* v, int n, double* lo, double* hi);
 
 /* ------------------------------------------------------------- scenes */
 

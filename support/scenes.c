@@ -26,6 +26,15 @@ double ntsx_median(double* v, int n) {
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+void ntsx_range(const double* v, int n, double* lo, double* hi) {
+    int k;
+    *lo = *hi = v[0];
+    for (k = 1; k < n; ++k) {
+        *lo = v[k] < *lo ? v[k] : *lo;
+        *hi = v[k] > *hi ? v[k] : *hi;
+    }
+}
+
 static void* xcalloc(size_t n, size_t size) {
     void* p = calloc(n ? n : 1, size ? size : 1);
     if (p == NULL) {
