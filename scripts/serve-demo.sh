@@ -42,8 +42,13 @@ tailer=""
 cleanup() {
   [ -n "$pid" ] && kill -TERM "$pid" 2>/dev/null && wait "$pid" 2>/dev/null
   [ -n "$tailer" ] && kill "$tailer" 2>/dev/null
-  [ -s "$log" ] && [ "$once" = 1 ] && cat "$log" >&2
+  # (the log read first, then removed, then shown: a reader gone from stderr,
+  # as in `serve-demo.sh --once | head`, must not leave the files behind)
+  local shown=""
+  [ -s "$log" ] && [ "$once" = 1 ] && shown=$(cat "$log")
   rm -f "$out" "$log"
+  [ -n "$shown" ] && printf '%s\n' "$shown" >&2 2>/dev/null
+  return 0
 }
 trap cleanup EXIT
 
@@ -66,7 +71,11 @@ if ! start "$port"; then
     echo "serve-demo: port $port is busy; taking any free port" >&2
     start 0 || { echo "serve-demo: ntscontactd did not start" >&2; exit 1; }
   else
-    echo "serve-demo: ntscontactd did not start on port $port (busy? try --port 0)" >&2
+    if [[ "$port" =~ ^[0-9]{1,4}$ ]] && ((10#$port > 0 && 10#$port < 1024)) && [ "$(id -u)" -ne 0 ]; then
+      echo "serve-demo: ntscontactd did not start on port $port: ports below 1024 need root; try --port 8080 or --port 0" >&2
+    else
+      echo "serve-demo: ntscontactd did not start on port $port (busy? try --port 0)" >&2
+    fi
     exit 1
   fi
 fi
