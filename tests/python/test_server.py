@@ -772,3 +772,16 @@ def test_serve_demo_once(paths, port):
     assert p.returncode == 0, p.stdout + p.stderr
     assert re.search(r"contacts: +\d+ active", p.stdout), p.stdout
     assert "POST /v1/contact 200" in p.stderr
+
+
+def test_serve_demo_leaves_no_files_when_its_reader_goes(paths, tmp_path):
+    """scripts/serve-demo.sh --once piped into `head`: its reader gone, the
+    script still removes the files it made (mktemp, here under TMPDIR)."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = dict(os.environ, NTS_BUILD_DIR=str(paths.build), TMPDIR=str(tmp))
+    script = paths.repo / "scripts" / "serve-demo.sh"
+    p = subprocess.run(["bash", "-c", f"bash '{script}' --port 0 --once 2>&1 | head -1"], capture_output=True,
+                       text=True, timeout=120, env=env)
+    assert "ntscontactd on http://127.0.0.1:" in p.stdout, p.stdout + p.stderr
+    assert sorted(q.name for q in tmp.iterdir()) == []

@@ -450,3 +450,25 @@ def test_the_converter_applies_the_cores_triangle_rule():
             seen.add("pinch")
         seen.add(core[0])
     assert seen >= {"ok", "degenerate_triangle", "non_manifold_mesh", "pinch"}, seen
+
+
+def test_install_deps_without_sudo_names_what_is_missing(tmp_path):
+    """scripts/install-deps.sh for a user who is not root, on a machine
+    without sudo, with a package missing: the packages and the command for
+    root, exit 1; never "sudo: command not found". (`id` says 1000 here, and
+    PATH holds only what the script reads before it would install.)"""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("dirname", "dpkg-query", "grep"):
+        found = shutil.which(tool)
+        assert found is not None, tool
+        (bin_dir / tool).symlink_to(found)
+    (bin_dir / "id").write_text("#!/bin/sh\necho 1000\n")
+    (bin_dir / "id").chmod(0o755)
+    missing = "ntscontact-no-such-package"
+    p = subprocess.run([shutil.which("bash"), str(REPO / "scripts" / "install-deps.sh")], capture_output=True,
+                       text=True, timeout=60, env={"PATH": str(bin_dir), "NTS_EXTRA_PKGS": missing})
+    assert p.returncode == 1, p.stderr
+    assert "sudo is not installed" in p.stderr, p.stderr
+    assert "apt-get install" in p.stderr and missing in p.stderr, p.stderr
+    assert "command not found" not in p.stderr, p.stderr
