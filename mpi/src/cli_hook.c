@@ -613,12 +613,20 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 cJSON_Delete(part);
             }
             if (*status == 0) {
-                char tmpl[] = "/tmp/ntscontact-mpi-XXXXXX";
-                const int fd = mkstemp(tmpl);
-                FILE* f = fd >= 0 ? fdopen(fd, "wb") : NULL;
+                /* in $TMPDIR when it is set, as temporary files are expected
+                 * to be, else /tmp */
+                char tmpl[4096];
+                const char* dir = getenv("TMPDIR");
+                int fd = -1;
+                FILE* f = NULL;
+                if (dir == NULL || dir[0] == '\0') dir = "/tmp";
+                if (snprintf(tmpl, sizeof tmpl, "%s/ntscontact-mpi-XXXXXX", dir) >= (int)sizeof tmpl)
+                    snprintf(tmpl, sizeof tmpl, "/tmp/ntscontact-mpi-XXXXXX"); /* (a $TMPDIR too long) */
+                fd = mkstemp(tmpl);
+                f = fd >= 0 ? fdopen(fd, "wb") : NULL;
                 if (f != NULL) json_write(f, whole);
-                if (f != NULL && !ferror(f) && fclose(f) == 0 && (out = (char*)malloc(sizeof tmpl)) != NULL) {
-                    memcpy(out, tmpl, sizeof tmpl);
+                if (f != NULL && !ferror(f) && fclose(f) == 0 && (out = (char*)malloc(strlen(tmpl) + 1)) != NULL) {
+                    memcpy(out, tmpl, strlen(tmpl) + 1);
                 } else {
                     fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s\n", tmpl);
                     if (fd >= 0) unlink(tmpl);

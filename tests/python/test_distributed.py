@@ -445,3 +445,35 @@ def test_part_read_with_the_command_lines_max_depth(tmp_path):
     (tmp_path / "part_1.json").unlink()
     rc, line = fault("--max-depth", "x")  # the flag before the parts (part 1 is gone)
     assert rc == 2 and b"--max-depth needs a positive count, not 'x'" in line, line
+
+
+def test_part_assembled_in_tmpdir(tmp_path):
+    """--part assembles the whole request in a temporary file under $TMPDIR
+    when it is set (the user's, not always /tmp): a TMPDIR where no file can
+    be made is named in the error, exit 4; a good one gives the answer of
+    the whole scene and holds nothing afterwards."""
+    scene = packing(8, 22)
+    scene.setdefault("options", {}).setdefault("penalty", 1.0)
+    for i, b in enumerate(scene["bodies"]):
+        b.setdefault("id", i)
+    (tmp_path / "whole.json").write_text(json.dumps(scene))
+    for r, share in enumerate([scene["bodies"][:4], scene["bodies"][4:]]):
+        (tmp_path / f"part_{r}.json").write_text(json.dumps(dict(scene, bodies=share)))
+    cmd = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
+    # a TMPDIR no one can make (under a file; root makes a missing one), Open
+    # MPI's own session directory kept apart from it
+    (tmp_path / "a-file").write_text("")
+    bad = tmp_path / "a-file" / "tmp"
+    ompi = tmp_path / "ompi"
+    ompi.mkdir()
+    env = dict(ENV, TMPDIR=str(bad), OMPI_MCA_orte_tmpdir_base=str(ompi), PMIX_SYSTEM_TMPDIR=str(ompi))
+    got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
+    assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
+    assert f"cannot write the assembled request to {bad}/ntscontact-mpi-".encode() in got.stderr, got.stderr
+    own = tmp_path / "tmp"
+    own.mkdir()
+    got = subprocess.run(cmd, capture_output=True, timeout=300, env=dict(ENV, TMPDIR=str(own)))
+    one = subprocess.run([str(SERIAL), str(tmp_path / "whole.json")], capture_output=True, timeout=300)
+    assert got.returncode == 0 and one.returncode == 0, got.stderr.decode()
+    assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", one.stdout)
+    assert list(own.iterdir()) == []
