@@ -11,7 +11,9 @@ writes the CSVs into bench/results/, the plots into docs/img/ and the tables
 into docs/benchmarks.md between the `nts_bench` markers (every other section
 of that file, such as "Server", is kept as it is). --no-run only redraws the
 report from the CSVs already in bench/results/. Full run: about 5 to 10
-minutes on 2 cores; --quick: under a minute.
+minutes on 2 cores; --quick: under a minute, written under BUILD/report-quick/
+(results/, img/, and docs/ with a copy of benchmarks.md and hard-cases.md
+updated), so that the committed figures stay those of a full run.
 """
 import argparse
 import csv
@@ -190,13 +192,16 @@ def run_benchmarks(args):
     # previous release's program writes after_*.csv: they become before_*.csv
     # (the sections a table compares with: digest, packing, scaling, threads).
     prev = build_previous(args, log)
+    # (nts_cross of the previous release built before any result is
+    # written: a build that fails leaves the results as they were)
+    prev_cross = build_previous_cross(args, log)
     tmp = tempfile.mkdtemp(prefix="nts-before-")
     run([prev, "--out", tmp, "--sections", "digest,packing,scaling" + ("" if args.quick else ",threads")] + quick)
     for name in os.listdir(tmp):
         if name.startswith("after_") and name.endswith(".csv"):
             shutil.move(os.path.join(tmp, name), os.path.join(res, "before_" + name[len("after_"):]))
     shutil.rmtree(tmp, ignore_errors=True)
-    run_cross(args, res, build_previous_cross(args, log), log)
+    run_cross(args, res, prev_cross, log)
     run([os.path.join(binb, "nts_bench"), "--out", res] + quick)
     if not args.quick:
         # The threads again with OpenMP's threads pinned to cores: a worker
@@ -888,10 +893,11 @@ def report(res, made):
         L.append("### Bitwise equality before/after")
         L.append("")
         same = sum(1 for a, b in zip(dig_a, dig_b) if a["digest"] == b["digest"]) if dig_b else 0
-        L.append("`nts_bench --sections digest` hashes (FNV-1a) every output byte of %d evaluations: two disks "
-                 "of 16, 100 and 1000 nodes and packings of 30 and 200 particles, open and periodic; both "
-                 "solvers, every alpha, cells and brute force, 0..3 threads. Identical before and after: "
-                 "%d of %d." % (len(dig_a), same, len(dig_a)))
+        L.append("`nts_bench --sections digest` hashes (FNV-1a) every output value of %d evaluations, field by "
+                 "field (since issue 26: the structs' raw bytes changed with every field added, friction's "
+                 "included, though no value did): two disks of 16, 100 and 1000 nodes and packings of 30 and 200 "
+                 "particles, open and periodic; both solvers, every alpha, cells and brute force, 0..3 threads. "
+                 "Identical before and after: %d of %d." % (len(dig_a), same, len(dig_a)))
         if same != len(dig_a):
             L.append("")
             L.append("The digests are not meant to match across releases: release 0.2 changed the model's "
@@ -1114,14 +1120,31 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-run", action="store_true")
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
-    ap.add_argument("--results", default=os.path.join(ROOT, "bench", "results"))
-    ap.add_argument("--img", default=os.path.join(ROOT, "docs", "img"))
-    ap.add_argument("--docs", default=os.path.join(ROOT, "docs"),
-                    help="where benchmarks.md and hard-cases.md go (default docs/)")
+    ap.add_argument("--results", help="where the CSVs go (default bench/results/; with --quick, "
+                                       "BUILD/report-quick/results/)")
+    ap.add_argument("--img", help="where the plots go (default docs/img/; with --quick, BUILD/report-quick/img/)")
+    ap.add_argument("--docs", help="where benchmarks.md and hard-cases.md go (default docs/; with --quick, "
+                                   "BUILD/report-quick/docs/, a copy of docs/ updated there)")
     ap.add_argument("--before", default="2dc1205",
                     help="the previous release to compare with, a git revision (default 2dc1205: main before the "
                          "sessions, scenes and tangent work)")
     args = ap.parse_args()
+    # A quick run's figures are not the committed ones: they go beside the
+    # build, and docs/ and bench/results/ keep those of the last full run.
+    quick_dir = os.path.join(args.build, "report-quick")
+    if args.quick and args.docs is None:
+        args.docs = os.path.join(quick_dir, "docs")
+        os.makedirs(args.docs, exist_ok=True)
+        for name in ("benchmarks.md", "hard-cases.md"):
+            shutil.copyfile(os.path.join(ROOT, "docs", name), os.path.join(args.docs, name))
+    if args.quick and args.results is None:
+        args.results = os.path.join(quick_dir, "results")
+        shutil.rmtree(args.results, ignore_errors=True)  # (no file of an earlier run read as this one's)
+    if args.quick and args.img is None:
+        args.img = os.path.join(quick_dir, "img")
+    args.results = args.results or os.path.join(ROOT, "bench", "results")
+    args.img = args.img or os.path.join(ROOT, "docs", "img")
+    args.docs = args.docs or os.path.join(ROOT, "docs")
     t0 = time.time()
     if not args.no_run:
         if not os.path.exists(os.path.join(args.build, "bin", "nts_bench")):
