@@ -156,12 +156,18 @@ def main(argv):
     ap.add_argument("results", nargs="?", default="bench/results",
                     help="the directory of nts_bench's peer_scene_N.txt (without --rounds)")
     ap.add_argument("--rounds", type=int, help="paired rounds, each running nts_bench anew")
-    ap.add_argument("--nts-bench", default="build-bench/bin/nts_bench", help="with --rounds: the nts_bench to run")
+    ap.add_argument("--nts-bench", help="with --rounds: the nts_bench to run (default: the Release build's, "
+                                        "build-bench/bin/nts_bench, else build/bin/nts_bench)")
     a = ap.parse_args(argv[1:])
     if a.rounds is not None:
         if a.rounds < 1:
             ap.error("--rounds must be at least 1")
-        paired_rounds(a.rounds, a.nts_bench)
+        exe = a.nts_bench
+        if exe is None:
+            exe = next((c for c in ("build-bench/bin/nts_bench", "build/bin/nts_bench") if os.path.exists(c)),
+                       "build-bench/bin/nts_bench")
+            print(f"nts_bench: {exe}", file=sys.stderr)
+        paired_rounds(a.rounds, exe)
         return
     results = a.results
     rows = []
