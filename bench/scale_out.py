@@ -62,7 +62,11 @@ def main() -> int:
     ap.add_argument("--threads-per-daemon", type=int, default=1)
     ap.add_argument("--write", help="replace the section in this markdown file")
     args = ap.parse_args()
-    work = pathlib.Path(tempfile.mkdtemp(prefix="nts-scale-"))
+    with tempfile.TemporaryDirectory(prefix="nts-scale-") as tmp:  # (scenes, logs, nginx's files: all removed)
+        return run(args, pathlib.Path(tmp))
+
+
+def run(args: argparse.Namespace, work: pathlib.Path) -> int:
     large = work / "large.json"
     large.write_text(subprocess.run([sys.executable, str(REPO / "bench/load/make_scene.py"), "--side", "10",
                                      "--nodes", "64"], capture_output=True, text=True, check=True).stdout)

@@ -3,6 +3,7 @@ docs/benchmarks.md replaced in place."""
 import csv
 import os
 import pathlib
+import re
 import subprocess
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
@@ -57,14 +58,27 @@ def request(conn, method, path, body=None, headers=None):
 
 def replace_section(path, title, section):
     """Put `section` (starting with `title`) in the markdown file at `path`, in
-    place of the section of that title, or at the end."""
+    place of the section of that title, or at the end. The old section ends
+    at the next heading of its level or above, or at the first of its
+    subsections that `section` does not write (another program's, such as
+    "Many clients" under "Scale-out behind nginx"), which stays."""
     path = pathlib.Path(path)
     doc = path.read_text() if path.exists() else ""
     start = doc.find(title + "\n")
     if start < 0:
         doc = doc.rstrip("\n") + "\n\n" + section
     else:
-        end = doc.find("\n## ", start + len(title))
+        level = len(title) - len(title.lstrip("#"))
+        own = {line for line in section.splitlines() if line.startswith("#")}
+        end, fenced, at = -1, False, start + len(title) + 1
+        for line in doc[at:].splitlines(keepends=True):
+            if line.startswith("```"):
+                fenced = not fenced  # (a shell comment in a code block is no heading)
+            m = None if fenced else re.match(r"(#+) ", line)
+            if m and (len(m.group(1)) <= level or line.rstrip("\n") not in own):
+                end = at - 1
+                break
+            at += len(line)
         # one blank line before the next section's title
         doc = doc[:start] + (section.rstrip("\n") + "\n\n" + doc[end + 1:] if end >= 0 else section)
     path.write_text(doc)

@@ -1,0 +1,29 @@
+"""The benchmark tools' own edges (bench/): they rewrite sections of the
+docs, and a rewrite must leave what another program wrote."""
+import sys
+
+from conftest import REPO
+
+sys.path.insert(0, str(REPO / "bench" / "sessions"))
+from common import replace_section  # noqa: E402
+
+
+def test_replace_section_keeps_another_programs_subsection(tmp_path):
+    """scale_out.py --write rewrites "Scale-out behind nginx", whose
+    subsection "Many clients" another program writes: that one stays, the
+    section's own subsection is replaced, a shell comment in a code block is
+    no heading, and the next section stays."""
+    doc = tmp_path / "b.md"
+    doc.write_text("# T\n\n## A\n\nold a\n```sh\n# comment\n```\nmore old\n\n### Mine\n\nold mine\n\n"
+                   "### Other\n\nother's\n\n## B\n\nb\n")
+    replace_section(doc, "## A", "## A\n\nnew a\n\n### Mine\n\nnew mine\n")
+    assert doc.read_text() == "# T\n\n## A\n\nnew a\n\n### Mine\n\nnew mine\n\n### Other\n\nother's\n\n## B\n\nb\n"
+
+
+def test_replace_section_at_the_end_and_absent(tmp_path):
+    doc = tmp_path / "b.md"
+    doc.write_text("# T\n\n## A\n\nold\n")
+    replace_section(doc, "## A", "## A\n\nnew\n")
+    assert doc.read_text() == "# T\n\n## A\n\nnew\n"
+    replace_section(doc, "## C", "## C\n\nc\n")
+    assert doc.read_text() == "# T\n\n## A\n\nnew\n\n## C\n\nc\n"
