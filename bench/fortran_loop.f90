@@ -19,7 +19,7 @@
 !   build/bin/fortran_loop [rounds [steps]]
 program fortran_loop
   use, intrinsic :: iso_c_binding, only: dp => c_double, c_int
-  use, intrinsic :: iso_fortran_env, only: int64, output_unit
+  use, intrinsic :: iso_fortran_env, only: int64, output_unit, error_unit
   use ntscontact
   implicit none
   integer :: rounds, steps
@@ -40,15 +40,29 @@ contains
     integer :: st
     if (command_argument_count() >= 1) then
       call get_command_argument(1, a)
+      if (a == "-h" .or. a == "--help") then
+        write (output_unit, '(a)') "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
+        stop
+      end if
       read (a, *, iostat=st) rounds
-      if (st /= 0 .or. rounds < 1) error stop "rounds: a positive integer"
+      if (st /= 0 .or. rounds < 1) call usage("rounds: a positive integer, not '"//trim(a)//"'")
     end if
     if (command_argument_count() >= 2) then
       call get_command_argument(2, a)
       read (a, *, iostat=st) steps
-      if (st /= 0 .or. steps < 1) error stop "steps: a positive integer"
+      if (st /= 0 .or. steps < 1) call usage("steps: a positive integer, not '"//trim(a)//"'")
     end if
+    if (command_argument_count() > 2) call usage("at most two arguments")
   end subroutine read_args
+
+  ! A bad command line: what is wrong and the usage on stderr, exit 2 (no
+  ! backtrace: error stop's would say "error" about the user's typing).
+  subroutine usage(what)
+    character(len=*), intent(in) :: what
+    write (error_unit, '(a)') "fortran_loop: "//what
+    write (error_unit, '(a)') "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
+    stop 2
+  end subroutine usage
 
   ! side x side bodies: 64-node disks of radius 1.02 two apart (pressed), or
   ! blocks of m x m nodes (a structured mesh of 2 (m - 1)^2 triangles) of side
@@ -258,8 +272,15 @@ contains
   function ratio_text(v) result(text)
     real(dp), intent(in) :: v(:)
     character(len=:), allocatable :: text
-    character(len=64) :: buf
-    write (buf, '(f0.3, " (", f0.3, "-", f0.3, ")")') median(v), minval(v), maxval(v)
-    text = trim(buf)
+    text = fixed3(median(v))//" ("//fixed3(minval(v))//"-"//fixed3(maxval(v))//")"
   end function ratio_text
+
+  ! x with 3 decimals and its leading zero ("0.632": f0.3 drops it).
+  function fixed3(x) result(text)
+    real(dp), intent(in) :: x
+    character(len=:), allocatable :: text
+    character(len=32) :: buf
+    write (buf, '(f32.3)') x
+    text = trim(adjustl(buf))
+  end function fixed3
 end program fortran_loop
