@@ -87,8 +87,9 @@ def main(argv: list[str]) -> int:
             w = csv.DictWriter(f, fieldnames=list(out[0]))
             w.writeheader()
             w.writerows(out)
-    print("`.venv/bin/python bench/default_cost.py --before %s --rounds %d`: %s, load %s, %.0f s" % (
-        args.before, args.rounds, report.sh("git rev-parse --short HEAD"), report.sh("cat /proc/loadavg"),
+    print("`.venv/bin/python bench/default_cost.py --before %s --rounds %d%s`: %s, load %s, %.0f s" % (
+        args.before, args.rounds, " --quick" if args.quick else "", report.sh("git rev-parse --short HEAD"),
+        report.sh("cat /proc/loadavg"),
         time.time() - t0))
     print()
     print(report.table(

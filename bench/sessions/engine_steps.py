@@ -83,7 +83,7 @@ def measure(engine, client, name, scene, repeats, exchange="all"):
 def markdown(rows, repeats, commit, build_type):
     lines = [SECTION, "",
              f"`bench/sessions/engine_steps.py --repeats {repeats}` (commit {commit}, the library and the daemon of a "
-             f"{build_type} build: `NTS_BUILD_DIR=build-bench`), one evaluation thread, "
+             f"{build_type} build: `NTS_BUILD_DIR={BUILD.name}`), one evaluation thread, "
              "medians of interleaved rounds that each move every node.",
              "**engine**: `s.contact(x).force_array()` on an `Engine` session (its default kept candidate list);",
              "**engine, from scratch**: the same with `keep_candidates=False`; **C**: the library's own time of",

@@ -213,10 +213,11 @@ def markdown(rows, repeats):
                   "",
                   f"Target (issue 27 §3): session / daemon at most 1.3 on the FEM scene; measured "
                   f"{f['session_over_daemon']:.2f} ({f['pool_over_daemon']:.2f} on urllib3's pool in the same "
-                  f"rounds), **not reached**. The FEM scene sends every mesh node (66,604) though only "
-                  f"{f['surface_nodes']:,} are on a surface: 1 MB each way. The daemon alone spends "
+                  f"rounds), **not reached**. The FEM scene sends every mesh node ({f['nodes']:,}) though only "
+                  f"{f['surface_nodes']:,} are on a surface: {f['session_request_mb']:.1f} MB each way. The daemon alone spends "
                   f"{f['receiving_ms']:.2f} ms receiving that body and {f['sending_ms']:.2f} ms sending its answer "
-                  f"outside its own {f['daemon_ms']:.2f} ms (floor {floor:.2f}): copying 2 MB through loopback "
+                  f"outside its own {f['daemon_ms']:.2f} ms (floor {floor:.2f}): copying "
+                  f"{2 * f['session_request_mb']:.1f} MB through loopback "
                   "costs more than the 0.3 of the daemon's time the target leaves to everything outside it."]
         ex = [r for r in rows if r["exchange"] == "surface"]
         if ex:
