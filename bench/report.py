@@ -484,8 +484,9 @@ def report(res, made):
                  % (big["surface_nodes"], fnum(big["eval_cpu_ns"]), fnum(big["eval_ns"])))
     if sa and sb:
         ratios = [float(b["eval_cpu_ns"]) / float(a["eval_cpu_ns"]) for a, b in zip(sa, sb)]
-        L.append("- Against the previous release (%s), same scenes, same run: %.2fx to %.2fx less CPU time per "
-                 "evaluation (median %.2fx) over 1e3..%s surface nodes." %
+        L.append("- Against the previous release (%s), same scenes, same run: its CPU time per evaluation is "
+                 "%.2f to %.2f times this tree's (median %.2f; above 1, this tree is faster) over 1e3..%s "
+                 "surface nodes." %
                  (meta.get("before", "REV"), min(ratios), max(ratios), statistics.median(ratios),
                   sa[-1]["surface_nodes"]))
     cross = read_csv(os.path.join(res, "cross_time.csv"))
