@@ -66,7 +66,7 @@ def replace_section(path, title, section):
     doc = path.read_text() if path.exists() else ""
     start = doc.find(title + "\n")
     if start < 0:
-        doc = doc.rstrip("\n") + "\n\n" + section
+        doc = doc.rstrip("\n") + "\n\n" + section if doc.strip() else section
     else:
         level = len(title) - len(title.lstrip("#"))
         own = {line for line in section.splitlines() if line.startswith("#")}
@@ -85,8 +85,12 @@ def replace_section(path, title, section):
 
 
 def write_results(rows, csv_name, out, title, section):
-    """The rows to bench/results/CSV_NAME, the section into the markdown file `out`."""
-    results = REPO / "bench" / "results" / csv_name
+    """The rows to bench/results/CSV_NAME, the section into the markdown file
+    `out`; when `out` is not docs/benchmarks.md (a run of one's own), the
+    CSV goes beside it instead, and the committed results stay as they are."""
+    docs = REPO / "docs" / "benchmarks.md"
+    own = pathlib.Path(out).resolve() != docs.resolve()
+    results = (pathlib.Path(out).resolve().parent if own else REPO / "bench" / "results") / csv_name
     with open(results, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()

@@ -27,3 +27,15 @@ def test_replace_section_at_the_end_and_absent(tmp_path):
     assert doc.read_text() == "# T\n\n## A\n\nnew\n"
     replace_section(doc, "## C", "## C\n\nc\n")
     assert doc.read_text() == "# T\n\n## A\n\nnew\n\n## C\n\nc\n"
+
+
+def test_write_results_beside_a_doc_of_ones_own(tmp_path):
+    """A session benchmark run with --out elsewhere writes its CSV beside
+    that file, not over the committed bench/results/ one."""
+    from common import write_results
+    committed = REPO / "bench" / "results" / "sessions_test_only.csv"
+    out = tmp_path / "mine.md"
+    write_results([{"a": 1, "b": 2}], "sessions_test_only.csv", out, "## S", "## S\n\nbody\n")
+    assert (tmp_path / "sessions_test_only.csv").read_text().splitlines() == ["a,b", "1,2"]
+    assert not committed.exists()
+    assert out.read_text() == "## S\n\nbody\n"
