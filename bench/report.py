@@ -1142,7 +1142,8 @@ def main():
             shutil.copyfile(os.path.join(ROOT, "docs", name), os.path.join(args.docs, name))
     if args.quick and args.results is None:
         args.results = os.path.join(quick_dir, "results")
-        shutil.rmtree(args.results, ignore_errors=True)  # (no file of an earlier run read as this one's)
+        if not args.no_run:
+            shutil.rmtree(args.results, ignore_errors=True)  # (no file of an earlier run read as this one's)
     if args.quick and args.img is None:
         args.img = os.path.join(quick_dir, "img")
     args.results = args.results or os.path.join(ROOT, "bench", "results")
