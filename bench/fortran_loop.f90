@@ -23,6 +23,7 @@ program fortran_loop
   use ntscontact
   implicit none
   integer :: rounds, steps
+  character(len=*), parameter :: usage_line = "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
 
   rounds = 5
   steps = 40
@@ -41,7 +42,7 @@ contains
     if (command_argument_count() >= 1) then
       call get_command_argument(1, a)
       if (a == "-h" .or. a == "--help") then
-        write (output_unit, '(a)') "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
+        write (output_unit, '(a)') usage_line
         stop
       end if
       read (a, *, iostat=st) rounds
@@ -60,7 +61,7 @@ contains
   subroutine usage(what)
     character(len=*), intent(in) :: what
     write (error_unit, '(a)') "fortran_loop: "//what
-    write (error_unit, '(a)') "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
+    write (error_unit, '(a)') usage_line
     stop 2
   end subroutine usage
 

@@ -771,8 +771,9 @@ def report(res, made):
                  "other sessions during the run." % meta.get("nproc", "?"))
         L.append("")
         # (matched on the scene's size too: a before_threads.csv of another run's scenes gives no column)
-        thb = {(r["surface_nodes"], r["solver"], r["alpha"], r["threads"]): r
-               for r in read_csv(os.path.join(res, "before_threads.csv"))}
+        def row_key(r):
+            return r["surface_nodes"], r["solver"], r["alpha"], r["threads"]
+        thb = {row_key(r): r for r in read_csv(os.path.join(res, "before_threads.csv"))}
         L.append(table(["surface nodes", "solver", "alpha", "threads", "eval (wall)", "eval best", "eval CPU",
                         "speed-up", "speed-up (paired)", "speed-up (best)", "cores available", "bitwise identical",
                         "before: eval"],
@@ -780,9 +781,7 @@ def report(res, made):
                          fnum(r["eval_min_ns"]), fnum(r["eval_cpu_ns"]), fnum(r["speedup"]),
                          fnum(r["speedup_paired"]), fnum(r["speedup_best"]), r["cores_available"],
                          "yes" if r["bitwise_identical"] == "1" else "NO",
-                         fnum(thb[(r["surface_nodes"], r["solver"], r["alpha"], r["threads"])]["eval_ns"])
-                         if (r["surface_nodes"], r["solver"], r["alpha"], r["threads"]) in thb else ""]
-                        for r in thr]))
+                         fnum(thb[row_key(r)]["eval_ns"]) if row_key(r) in thb else ""] for r in thr]))
         L.append("")
         thr_b = read_csv(os.path.join(res, "after_threads_bound.csv"))
         if thr_b:

@@ -625,9 +625,7 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 fd = mkstemp(tmpl);
                 f = fd >= 0 ? fdopen(fd, "wb") : NULL;
                 if (f != NULL) json_write(f, whole);
-                if (f != NULL && !ferror(f) && fclose(f) == 0 && (out = (char*)malloc(strlen(tmpl) + 1)) != NULL) {
-                    memcpy(out, tmpl, strlen(tmpl) + 1);
-                } else {
+                if (f == NULL || ferror(f) || fclose(f) != 0 || (out = strdup(tmpl)) == NULL) {
                     fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s\n", tmpl);
                     if (fd >= 0) unlink(tmpl);
                     *status = 4;

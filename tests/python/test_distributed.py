@@ -72,13 +72,18 @@ def run(cmd, scene_path, flags, np_=None):
     return subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
 
 
+def completed(scene):
+    """A scene with what a request needs and the generators leave out: a penalty and the bodies' ids."""
+    scene.setdefault("options", {}).setdefault("penalty", 1.0)
+    for i, b in enumerate(scene["bodies"]):
+        b.setdefault("id", i)
+    return scene
+
+
 def same_bytes(tmp_path, scene, flags=(), ranks=(1, 2, 3, 4)):
     path = tmp_path / "scene.json"
     if isinstance(scene, dict):
-        scene.setdefault("options", {}).setdefault("penalty", 1.0)
-        for i, b in enumerate(scene["bodies"]):
-            b.setdefault("id", i)
-        path.write_text(json.dumps(scene))
+        path.write_text(json.dumps(completed(scene)))
     else:
         path = scene
     ref = run(SERIAL, path, flags)
@@ -452,10 +457,7 @@ def test_part_assembled_in_tmpdir(tmp_path):
     when it is set (the user's, not always /tmp): a TMPDIR where no file can
     be made is named in the error, exit 4; a good one gives the answer of
     the whole scene and holds nothing afterwards."""
-    scene = packing(8, 22)
-    scene.setdefault("options", {}).setdefault("penalty", 1.0)
-    for i, b in enumerate(scene["bodies"]):
-        b.setdefault("id", i)
+    scene = completed(packing(8, 22))
     (tmp_path / "whole.json").write_text(json.dumps(scene))
     for r, share in enumerate([scene["bodies"][:4], scene["bodies"][4:]]):
         (tmp_path / f"part_{r}.json").write_text(json.dumps(dict(scene, bodies=share)))
