@@ -617,15 +617,23 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                  * to be, else /tmp */
                 char tmpl[4096];
                 const char* dir = getenv("TMPDIR");
-                int fd = -1;
+                int fd = -1, bad = 1;
                 FILE* f = NULL;
                 if (dir == NULL || dir[0] == '\0') dir = "/tmp";
                 if (snprintf(tmpl, sizeof tmpl, "%s/ntscontact-mpi-XXXXXX", dir) >= (int)sizeof tmpl)
                     snprintf(tmpl, sizeof tmpl, "/tmp/ntscontact-mpi-XXXXXX"); /* (a $TMPDIR too long) */
                 fd = mkstemp(tmpl);
                 f = fd >= 0 ? fdopen(fd, "wb") : NULL;
-                if (f != NULL) json_write(f, whole);
-                if (f == NULL || ferror(f) || fclose(f) != 0 || (out = strdup(tmpl)) == NULL) {
+                if (f != NULL) {
+                    /* closed whatever the write gave (a full disk sets the
+                     * error flag; fclose then flushes what is left) */
+                    json_write(f, whole);
+                    bad = ferror(f) != 0;
+                    bad |= fclose(f) != 0;
+                } else if (fd >= 0) {
+                    close(fd);
+                }
+                if (bad || (out = strdup(tmpl)) == NULL) {
                     fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s\n", tmpl);
                     if (fd >= 0) unlink(tmpl);
                     *status = 4;

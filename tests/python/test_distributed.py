@@ -479,3 +479,30 @@ def test_part_assembled_in_tmpdir(tmp_path):
     assert got.returncode == 0 and one.returncode == 0, got.stderr.decode()
     assert ELAPSED.sub(b"", got.stdout) == ELAPSED.sub(b"", one.stdout)
     assert list(own.iterdir()) == []
+
+
+def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
+    """--part whose $TMPDIR fills up while the assembled request is written:
+    exit 4 naming the file, and the file removed (the write's error flag,
+    then the close that flushes the rest, both checked). The full disk is a
+    small tmpfs; where mounting one is not allowed (not root, a container
+    without the right) the test is skipped."""
+    scene = completed(packing(8, 22))
+    for r, share in enumerate([scene["bodies"][:4], scene["bodies"][4:]]):
+        (tmp_path / f"part_{r}.json").write_text(json.dumps(dict(scene, bodies=share)))
+    full = tmp_path / "full"
+    full.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4k", "tmpfs", str(full)], capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here: " + mounted.stderr.decode().strip())
+    try:
+        ompi = tmp_path / "ompi"
+        ompi.mkdir()
+        env = dict(ENV, TMPDIR=str(full), OMPI_MCA_orte_tmpdir_base=str(ompi), PMIX_SYSTEM_TMPDIR=str(ompi))
+        cmd = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
+        got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
+        assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
+        assert f"cannot write the assembled request to {full}/ntscontact-mpi-".encode() in got.stderr, got.stderr
+        assert list(full.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(full)], capture_output=True)
