@@ -6,7 +6,7 @@ For each daemon count: full scenes (POST /v1/contact, 10x10 pressed disks of
 64 nodes, 6,400 nodes) and session steps (binary, 2x2 disks of 32 nodes, 16
 sessions spread over the daemons by nginx), with wrk (8 connections, 2
 threads), through nginx; and, as the reference, the same loads on one daemon
-directly. Needs nginx and wrk (Debian packages). Every daemon gets
+directly. Needs nginx and wrk (scripts/install-deps.sh installs both). Every daemon gets
 --threads-per-daemon evaluation threads, so that the count of daemons, not
 of threads, is what changes."""
 from __future__ import annotations

@@ -12,10 +12,11 @@ cd "$(dirname "$0")/.."
 # gfortran builds the Fortran module (fortran/) and its test, skipped without it; doxygen
 # builds the C API reference (scripts/docs.sh, tests/python/test_api_docs.py); Open MPI
 # builds and runs the distributed evaluation (mpi/, docs/distributed.md) and its tests; locales
-# gives localedef the sources of a decimal-comma locale (tests/python/test_numbers_locale.py).
+# gives localedef the sources of a decimal-comma locale (tests/python/test_numbers_locale.py);
+# wrk drives the load benchmarks (bench/load/run.sh, bench/scale_out.py).
 pkgs=(build-essential cmake pkg-config libgsl-dev libcjson-dev libmicrohttpd-dev libcunit1-dev doxygen
       curl python3 python3-venv valgrind clang libclang-rt-14-dev nginx openssl gfortran
-      libopenmpi-dev openmpi-bin locales)
+      libopenmpi-dev openmpi-bin locales wrk)
 [ -n "${NTS_EXTRA_PKGS:-}" ] && read -r -a extra <<<"$NTS_EXTRA_PKGS" && pkgs+=("${extra[@]}")
 missing=()
 for p in "${pkgs[@]}"; do

@@ -10,7 +10,7 @@
 #   large         POST /v1/contact, 30x30 disks x 64 nodes (57,600 nodes), 1 and 4 connections
 # and the stage split of the same two scenes by ntscontact_codec_bench (when built).
 #   stall         GET /v1/health latency while 4 clients post the large scene (more than the cores)
-# and prints one BENCH/STALL line per run. Needs wrk (Debian: apt-get install wrk).
+# and prints one BENCH/STALL line per run. Needs wrk (scripts/install-deps.sh installs it).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 daemon_args=""
@@ -25,7 +25,8 @@ while [ $# -gt 0 ]; do
 done
 build=${NTS_BUILD_DIR:-build}
 daemon="$build/bin/ntscontactd"
-command -v wrk >/dev/null || { echo "run.sh: wrk not found (apt-get install wrk)" >&2; exit 2; }
+command -v wrk >/dev/null || bash scripts/install-deps.sh >&2 || exit 2
+command -v wrk >/dev/null || { echo "run.sh: wrk not found (scripts/install-deps.sh installs it)" >&2; exit 2; }
 [ -x "$daemon" ] || { echo "run.sh: $daemon not built" >&2; exit 2; }
 
 work=$(mktemp -d)
