@@ -22,6 +22,14 @@ program fortran_loop
   use, intrinsic :: iso_fortran_env, only: int64, output_unit, error_unit
   use ntscontact
   implicit none
+  interface
+    ! C's exit: a status without the "STOP 2" line that gfortran's stop
+    ! writes (its QUIET= is Fortran 2018; the project builds to 2008)
+    subroutine c_exit(status) bind(c, name="exit")
+      import :: c_int
+      integer(c_int), value :: status
+    end subroutine c_exit
+  end interface
   integer :: rounds, steps
   character(len=*), parameter :: usage_line = "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"
 
@@ -62,7 +70,8 @@ contains
     character(len=*), intent(in) :: what
     write (error_unit, '(a)') "fortran_loop: "//what
     write (error_unit, '(a)') usage_line
-    stop 2
+    flush (error_unit)
+    call c_exit(2_c_int)
   end subroutine usage
 
   ! side x side bodies: 64-node disks of radius 1.02 two apart (pressed), or

@@ -1,8 +1,11 @@
 """The benchmark tools' own edges (bench/): they rewrite sections of the
 docs, and a rewrite must leave what another program wrote."""
+import subprocess
 import sys
 
-from conftest import REPO
+import pytest
+
+from conftest import BUILD, REPO
 
 sys.path.insert(0, str(REPO / "bench" / "sessions"))
 from common import replace_section  # noqa: E402
@@ -39,3 +42,19 @@ def test_write_results_beside_a_doc_of_ones_own(tmp_path):
     assert (tmp_path / "sessions_test_only.csv").read_text().splitlines() == ["a,b", "1,2"]
     assert not committed.exists()
     assert out.read_text() == "## S\n\nbody\n"
+
+
+@pytest.mark.parametrize("args, fault", [(["x"], "rounds: a positive integer, not 'x'"),
+                                         (["2", "0"], "steps: a positive integer, not '0'"),
+                                         (["1", "2", "3"], "at most two arguments")])
+def test_fortran_loop_bad_arguments(args, fault):
+    """bench/fortran_loop: a bad command line names the fault and the usage
+    on stderr, exit 2, and nothing else (no gfortran "STOP 2" line, no
+    backtrace, no table started on stdout)."""
+    prog = BUILD / "bin" / "fortran_loop"
+    if not prog.exists():
+        pytest.skip("built without gfortran")
+    got = subprocess.run([str(prog), *args], capture_output=True, text=True, timeout=60)
+    assert got.returncode == 2 and got.stdout == ""
+    assert got.stderr.splitlines() == [f"fortran_loop: {fault}",
+                                       "usage: fortran_loop [rounds [steps]]  (default 5 rounds of 40 steps)"]
