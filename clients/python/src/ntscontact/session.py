@@ -169,6 +169,10 @@ class Session:
         # change together, under _held_lock (steps may run on several threads).
         self._rows: Optional[FloatArray] = None
         self._held_lock = threading.Lock()
+        # Held for a whole step, the call and the update of the stored
+        # positions: another thread's step, accepted after this one, must not
+        # have its positions replaced by this one's (steps one at a time).
+        self._stepping = threading.Lock()
         self.id = ""
         self.surface_nodes = 0
         #: With ``exchange="surface"``: the surface nodes' global indices,
@@ -315,10 +319,9 @@ class Session:
         surface = binary and self.surface is not None
         if surface:
             params["nodes"] = "surface"
-        # This step's own copy (the caller may move its array on, and another
-        # thread's step may replace the stored positions meanwhile), made
-        # while the service computes: the step sends the caller's array. A
-        # surface exchange's copy is the rows it sends.
+        # This step's own copy (the caller may move its array on), made while
+        # the service computes: the step sends the caller's array. A surface
+        # exchange's copy is the rows it sends.
         copies: List[FloatArray] = []
         rows = np.take(pos, self.surface, axis=0) if surface and pos is not None else None
 
@@ -326,27 +329,28 @@ class Session:
             if pos is not None and rows is None and not copies:
                 copies.append(pos.astype("<f8", copy=True))
 
-        doc, headers, content = self._post_step(rows if rows is not None else pos, params, binary, timeout,
-                                                keep_copy, surface)
-        # (a session created again answers its first step with every node: _post_step drops "nodes")
-        surface = surface and params.get("nodes") == "surface"
-        keep_copy()  # (a path that did not call it)
         stored: Any
-        if rows is not None:
-            with self._held_lock:  # (the rows replace those of the step before: the same nodes)
-                base, idx, self._rows = self._positions, self.surface, rows
+        with self._stepping:
+            doc, headers, content = self._post_step(rows if rows is not None else pos, params, binary, timeout,
+                                                    keep_copy, surface)
+            # (a session created again answers its first step with every node: _post_step drops "nodes")
+            surface = surface and params.get("nodes") == "surface"
+            keep_copy()  # (a path that did not call it)
+            if rows is not None:
+                with self._held_lock:  # (the rows replace those of the step before: the same nodes)
+                    base, idx, self._rows = self._positions, self.surface, rows
 
-            def made() -> FloatArray:  # the stored positions after this step, made if asked (to_vtk, plot)
-                whole = base.copy()
-                whole[idx] = rows
-                return whole
-            stored = made
-        else:
-            stored = copies[0] if pos is not None else self._stored()
-            if pos is not None:
-                with self._held_lock:
-                    self._positions, self._rows = stored, None
-        self.steps += 1
+                def made() -> FloatArray:  # the stored positions after this step, made if asked (to_vtk, plot)
+                    whole = base.copy()
+                    whole[idx] = rows
+                    return whole
+                stored = made
+            else:
+                stored = copies[0] if pos is not None else self._stored()
+                if pos is not None:
+                    with self._held_lock:
+                        self._positions, self._rows = stored, None
+            self.steps += 1
         result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted, surface)
                   if binary else Result.from_dict(doc))
         # the stored positions are replaced, never written in place: shared, not copied
