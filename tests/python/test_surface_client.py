@@ -4,6 +4,7 @@ its binary steps send and receive their rows alone, and every result equals
 the one of a session exchanging every node, bit for bit (forces with zeros
 inside, pressures, the tangent, the summary); contacts and gaps still come
 whole in JSON; the in-process engine does the same."""
+import contextlib
 import json
 import os
 
@@ -188,3 +189,30 @@ def test_engine_a_surface_step_after_a_refused_whole_one(paths):
             whole = pos0.copy()
             whole[s.surface] = pos[s.surface]
             same(s.contact(pos), t.contact(whole))
+
+
+@pytest.mark.parametrize("backend", ["client", "engine"])
+def test_a_refused_surface_step_points_at_the_callers_row(client, paths, backend):
+    """A NaN in a surface node's row of the caller's array, sent as one of
+    the surface rows alone: the error's pointer is /positions/<row> of the
+    caller's array (docs/python.md), as the whole exchange's is, not the
+    index among the rows sent."""
+    if backend == "engine":
+        need_engine()
+    scene = grid_mesh_and_disk(10)
+    pos0 = positions_of(scene)
+    with (Engine(library=LIBRARY) if backend == "engine" else contextlib.nullcontext(client)) as opener, \
+            opener.session(scene, exchange="surface") as s, opener.session(scene) as t:
+        k = len(s.surface) - 1
+        row = int(s.surface[k])
+        assert row != k  # (interior nodes come before it)
+        bad = pos0.copy()
+        bad[row, 1] = np.inf
+        errors = []
+        for session in (s, t):
+            with pytest.raises(ntscontact.InvalidScene) as err:
+                session.contact(bad, outputs=["forces"])
+            errors.append(err.value)
+        assert [(e.code, e.pointer) for e in errors] == [("non_finite", f"/positions/{row}")] * 2
+        assert f"/positions/{row}" in str(errors[0]) and f"/positions/{k})" not in str(errors[0])
+        same(s.contact(pos0), t.contact(pos0))  # the stored positions unchanged

@@ -25,6 +25,7 @@ session is created again from the scene it holds and the step retried once.
 from __future__ import annotations
 
 import json
+import re
 import threading
 import warnings as _warnings
 from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
@@ -64,6 +65,16 @@ def non_finite_error(k: int, body: int, node: int, row: FloatArray) -> InvalidSc
     what = "y" if np.isfinite(row[0]) else "x"
     return InvalidScene(f"position {k} (/bodies/{body}/nodes/{node}) has a non-finite {what}", code="non_finite",
                         pointer=f"/positions/{k}")
+
+
+def _to_callers_row(exc: NtsError, surface: npt.NDArray[np.int64]) -> None:
+    """An error of a step that sent the surface rows alone: its pointer
+    ``/positions/K`` (the K-th row sent) made the caller's row,
+    ``/positions/<surface[K]>``, as docs/python.md says it is."""
+    m = re.fullmatch(r"/positions/(\d+)", exc.pointer)
+    if m and int(m.group(1)) < len(surface):
+        exc.pointer = f"/positions/{surface[int(m.group(1))]}"
+        exc.args = (exc._render(),)
 
 
 class BodyArrays(Mapping[BodyId, FloatArray]):
@@ -331,8 +342,13 @@ class Session:
 
         stored: Any
         with self._stepping:
-            doc, headers, content = self._post_step(rows if rows is not None else pos, params, binary, timeout,
-                                                    keep_copy, surface)
+            try:
+                doc, headers, content = self._post_step(rows if rows is not None else pos, params, binary, timeout,
+                                                        keep_copy, surface)
+            except NtsError as exc:
+                if params.get("nodes") == "surface" and self.surface is not None:
+                    _to_callers_row(exc, self.surface)
+                raise
             # (a session created again answers its first step with every node: _post_step drops "nodes")
             surface = surface and params.get("nodes") == "surface"
             keep_copy()  # (a path that did not call it)
