@@ -153,6 +153,27 @@ def test_validate_and_bad_json(engine, daemon, paths):
     assert info.value.code == "invalid_json" and info.value.status == 400
 
 
+@pytest.mark.parametrize("backend", ["engine", "client"])
+def test_scene_text_that_is_not_a_scene_is_refused_alike_on_every_path(engine, client, backend):
+    """JSON text that does not parse, or is not an object: sent as it is (no
+    outputs=, no history=) the service refuses it; read by the client (to add
+    outputs or history, or to hold it in a session) the same InvalidScene,
+    code and pointer, saying where (line, column): it was a bare
+    json.JSONDecodeError, TypeError or AttributeError."""
+    opener = engine if backend == "engine" else client
+    calls = [lambda t: opener.contact(t), lambda t: opener.validate(t),
+             lambda t: opener.contact(t, outputs=["forces"]), lambda t: opener.contact(t, history=[]),
+             lambda t: opener.session(t), lambda t: opener.session(t.encode(), exchange="surface")]
+    for text, code, says in (('{"version": 1,', "invalid_json", "line 1, column 15"),
+                             ('{"version": 1}\n  x', "invalid_json", "line 2, column 3"),
+                             ("[1, 2]", "invalid_type", "expected a scene (an object), got an array")):
+        for call in calls:
+            with pytest.raises(InvalidScene) as info:
+                call(text)
+            assert (info.value.code, info.value.pointer) == (code, ""), (text, str(info.value))
+            assert says in info.value.message, (text, str(info.value))
+
+
 # ------------------------------------------------------------ sessions
 
 def walk(scene, steps, seed, scale=3e-4):

@@ -19,7 +19,7 @@ from . import __version__
 from ._wire import Wire, WireError, WireTimeout
 from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
 from .result import Result
-from .scene import Scene, normalize_outputs
+from .scene import Scene, normalize_outputs, scene_document
 from .session import Session
 
 __all__ = ["Client", "USER_AGENT", "DEFAULT_URL"]
@@ -233,7 +233,7 @@ class Client:
             raw = scene.encode("utf-8") if isinstance(scene, str) else bytes(scene)
             if outputs is None and history is None:
                 return raw, None
-            doc = json.loads(raw)
+            doc = scene_document(raw)
             ids = None
         else:
             raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")

@@ -634,14 +634,7 @@ class Scene:
         """A scene from JSON text; invalid JSON (``NaN`` and ``Infinity`` included) raises
         :class:`InvalidScene` (``invalid_json``, ``non_finite``), as :meth:`from_dict` does
         for a malformed document."""
-        def reject(name: str) -> float:
-            raise InvalidScene(f"{name} is not a JSON number", code="non_finite", pointer="")
-
-        try:
-            doc = json.loads(text, parse_constant=reject)
-        except json.JSONDecodeError as exc:
-            raise InvalidScene(str(exc), code="invalid_json", pointer="") from None
-        return cls.from_dict(doc)
+        return cls.from_dict(parse_json(text))
 
     @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":
@@ -654,6 +647,34 @@ class Scene:
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(self.to_json(indent=indent))
             fh.write("\n")
+
+
+def parse_json(text: Union[str, bytes, bytearray]) -> Any:
+    """JSON text read by the client (a scene given as text, to be sent with
+    other fields or held in a session): text that is not JSON raises
+    :class:`InvalidScene` ``invalid_json`` saying where (line, column, as the
+    service says it), ``NaN`` and ``Infinity`` ``non_finite``."""
+    def reject(name: str) -> float:
+        raise InvalidScene(f"{name} is not a JSON number", code="non_finite", pointer="")
+
+    try:
+        return json.loads(text, parse_constant=reject)
+    except json.JSONDecodeError as exc:
+        raise InvalidScene(f"{exc.msg} at line {exc.lineno}, column {exc.colno}", code="invalid_json",
+                           pointer="") from None
+    except UnicodeDecodeError as exc:
+        raise InvalidScene(f"not UTF-8: {exc.reason} at byte {exc.start}", code="invalid_json", pointer="") from None
+
+
+def scene_document(text: Union[str, bytes, bytearray]) -> Dict[str, Any]:
+    """A scene document from JSON text (:func:`parse_json`): anything but an
+    object is the service's ``invalid_type`` at ``""``."""
+    doc = parse_json(text)
+    if not isinstance(doc, dict):
+        kind = ("a boolean" if isinstance(doc, bool) else "a number" if isinstance(doc, (int, float)) else
+                "a string" if isinstance(doc, str) else "an array" if isinstance(doc, list) else "null")
+        raise InvalidScene(f"expected a scene (an object), got {kind}", code="invalid_type", pointer="")
+    return doc
 
 
 def normalize_outputs(value: Optional[Union[str, Sequence[str]]]) -> Optional[List[str]]:

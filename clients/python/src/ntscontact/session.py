@@ -35,7 +35,7 @@ import numpy.typing as npt
 
 from .errors import InvalidScene, NtsError, ServerError
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
-from .scene import BodyId, Scene, normalize_outputs
+from .scene import BodyId, Scene, normalize_outputs, scene_document
 
 if TYPE_CHECKING:
     from .client import Answer
@@ -147,7 +147,7 @@ class Session:
         elif isinstance(scene, Mapping):
             doc = dict(scene)
         elif isinstance(scene, (str, bytes, bytearray)):
-            doc = json.loads(scene)
+            doc = scene_document(scene)
         else:
             raise TypeError(f"scene must be a Scene, a mapping or JSON text, not {type(scene).__name__}")
         if keep_contacts:  # each step's contacts matched to the last's (docs/sessions.md)
