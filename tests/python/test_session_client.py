@@ -253,6 +253,10 @@ def test_kept_candidates_options_reach_the_session(client, paths):
     with pytest.raises(InvalidScene) as e:
         client.session(scene, skin=-1.0)
     assert e.value.pointer == "/session/skin"
+    for skin in (float("nan"), float("inf"), -float("inf"), np.float64("nan")):  # (a ValueError of json.dumps)
+        with pytest.raises(InvalidScene) as f:
+            client.session(scene, skin=skin)
+        assert (f.value.code, f.value.pointer, f.value.message) == (e.value.code, e.value.pointer, e.value.message)
 
 
 def test_steps_skip_requests_machinery_and_fall_back_to_it(daemon, paths):

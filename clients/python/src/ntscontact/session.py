@@ -25,6 +25,7 @@ session is created again from the scene it holds and the step retried once.
 from __future__ import annotations
 
 import json
+import math
 import re
 import threading
 import warnings as _warnings
@@ -155,6 +156,9 @@ class Session:
         if not keep_candidates:  # the kept candidate list: time only, never the answer
             doc["session"] = {**(doc.get("session") or {}), "keep_candidates": False}
         if skin is not None:
+            if not math.isfinite(float(skin)):  # (the service's words: JSON has no NaN to send it)
+                raise InvalidScene("the skin is a length >= 0 (absent: 0.3 times the search radius)",
+                                   code="invalid_option", pointer="/session/skin")
             doc["session"] = {**(doc.get("session") or {}), "skin": float(skin)}
         bodies = doc.get("bodies")
         if not isinstance(bodies, list) or (not bodies and not self._may_hold_no_bodies):
