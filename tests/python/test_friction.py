@@ -401,6 +401,21 @@ def test_the_client_refuses_what_the_service_refuses(daemon, friction, body_fric
     assert (exc.value.code, exc.value.pointer) == (err["error"]["code"], err["error"]["pointer"])
 
 
+@pytest.mark.parametrize("history", ["garbage", {"a": 1}, [1, 2], [{"slave": 0}, None], ({"a": 1},)])
+def test_a_history_not_so_is_refused_as_the_service_refuses_it(daemon, history):
+    """Client.contact(scene, history=...) of a wrong type: InvalidScene with
+    the code, pointer and words the service gives for the same document (it
+    was a ValueError or TypeError from dict()). Anchors that are mappings
+    are the service's to read."""
+    scene = block_scene()
+    status, err = post(daemon, dict(scene, history=list(history) if isinstance(history, tuple) else history))
+    assert status == 400
+    with ntscontact.Client(daemon.base) as client, pytest.raises(ntscontact.InvalidScene) as exc:
+        client.contact(scene, history=history)
+    assert (exc.value.code, exc.value.pointer, exc.value.message) == \
+        (err["error"]["code"], err["error"]["pointer"], err["error"]["message"])
+
+
 def test_the_client_goes_on_from_a_history_and_commits(daemon):
     """Client.contact(scene, history=...) is the stateless chain; Session.step
     with commit=False leaves the history, as the service says."""

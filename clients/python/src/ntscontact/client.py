@@ -17,9 +17,9 @@ from urllib3.util.retry import Retry
 
 from . import __version__
 from ._wire import Wire, WireError, WireTimeout
-from .errors import NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
+from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
 from .result import Result
-from .scene import Scene, normalize_outputs, scene_document
+from .scene import Scene, json_kind, normalize_outputs, scene_document
 from .session import Session
 
 __all__ = ["Client", "USER_AGENT", "DEFAULT_URL"]
@@ -47,6 +47,17 @@ class Answer:
     def json(self) -> Any:
         """The body as JSON (ValueError when it is not)."""
         return json.loads(self.content)
+
+
+def history_document(history: Any) -> List[Any]:
+    """``history=`` as sent: a list of anchors (mappings, a previous result's
+    :attr:`Result.history`). Not a sequence: refused as the service refuses
+    it (``invalid_type`` at ``/history``); its entries are the service's to
+    read, in its order."""
+    if not isinstance(history, Sequence) or isinstance(history, (str, bytes, bytearray)):
+        raise InvalidScene(f'expected an array of anchors (a previous result\'s "history"), got {json_kind(history)}',
+                           code="invalid_type", pointer="/history")
+    return [dict(a) if isinstance(a, Mapping) else a for a in history]
 
 
 class _SetCookies:
@@ -241,7 +252,7 @@ class Client:
             doc = dict(doc)
             doc["options"] = dict(doc.get("options") or {}, outputs=list(outputs))
         if history is not None:
-            doc = dict(doc, history=[dict(a) for a in history])
+            doc = dict(doc, history=history_document(history))
         return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8"), ids
 
     def _base_parts(self) -> Tuple[str, requests.PreparedRequest, str, bool]:

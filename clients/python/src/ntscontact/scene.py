@@ -671,10 +671,24 @@ def scene_document(text: Union[str, bytes, bytearray]) -> Dict[str, Any]:
     object is the service's ``invalid_type`` at ``""``."""
     doc = parse_json(text)
     if not isinstance(doc, dict):
-        kind = ("a boolean" if isinstance(doc, bool) else "a number" if isinstance(doc, (int, float)) else
-                "a string" if isinstance(doc, str) else "an array" if isinstance(doc, list) else "null")
-        raise InvalidScene(f"expected a scene (an object), got {kind}", code="invalid_type", pointer="")
+        raise InvalidScene(f"expected a scene (an object), got {json_kind(doc)}", code="invalid_type", pointer="")
     return doc
+
+
+def json_kind(value: Any) -> str:
+    """What ``value`` is, in the service's words for a JSON value ("an
+    array", "a number"), else its Python type's name."""
+    if isinstance(value, (bool, np.bool_)):
+        return "a boolean"
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, Mapping):
+        return "an object"
+    if isinstance(value, (list, tuple)):
+        return "an array"
+    return "null" if value is None else type(value).__name__
 
 
 def normalize_outputs(value: Optional[Union[str, Sequence[str]]]) -> Optional[List[str]]:
