@@ -208,6 +208,32 @@ def test_client_side_checks_name_the_node():
         Client("http://127.0.0.1:9", retries=0).contact(no_penalty)
 
 
+SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+
+
+@pytest.mark.parametrize("field, value, given", [
+    ("triangles", np.array([[0, 1, 2], [0, 2, 2 ** 63]], dtype=np.uint64), "9223372036854775808"),
+    ("triangles", [[0, 1, 2], [0, 2, 1e300]], "1e+300"),
+    ("triangles", [[0, 1, 2], [0, -1e300, 3]], "-1e+300"),
+    ("triangles", [[0, 1, 2], [0, 2, 2.5]], "2.5"),
+    ("loops", [[0, 1, 2, 2 ** 64 - 1]], "18446744073709551615"),
+    ("loops", [[0.0, 1.0, 2.0, 3.5]], "3.5"),
+])
+def test_node_indices_beyond_int64_or_not_integers_are_refused_as_given(client, field, value, given):
+    """Node indices are checked before the cast to int64 (a uint64 2**63 or a
+    float 1e300 wrapped to -9223372036854775808, which the error then
+    named): add_body refuses them with the service's code and pointer for
+    the same document, naming the value as given."""
+    doc = {"options": {"penalty": 100.0}, "bodies": [{"id": 0, "nodes": SQUARE, field: np.asarray(value).tolist()},
+                                                    {"id": 1, "nodes": (np.array(SQUARE) + [2, 0]).tolist()}]}
+    with pytest.raises(InvalidScene) as service:
+        client.contact(json.dumps(doc))
+    with pytest.raises(InvalidScene) as ours:
+        Scene(penalty=100.0).add_body(SQUARE, **{field: value})
+    assert (ours.value.code, ours.value.pointer) == (service.value.code, service.value.pointer)
+    assert given in ours.value.message and "-9223372036854775808" not in str(ours.value)
+
+
 @pytest.mark.parametrize("mutate, code, pointer", [
     (lambda d: d["bodies"][1]["nodes"].__setitem__(3, list(d["bodies"][1]["nodes"][2])),
      "degenerate_segment", "/bodies/1"),

@@ -40,21 +40,43 @@ def _where(index: int, body_id: Any) -> str:
     return f"body {body_id!r} (index {index})"
 
 
-def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: str) -> IntArray:
-    """Integer array from ints (or integral floats); anything else is an InvalidScene."""
+def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: str,
+                    n: Optional[int] = None) -> IntArray:
+    """Integer array from ints (or integral floats), refused before the cast
+    as the service refuses it, at the entry's pointer and with the value as
+    given: a float that is not an integer ``invalid_value``, a value beyond
+    int64 ``index_out_of_range`` (of ``[0, n)`` when ``n``, a body's node
+    count, is given). Anything else that is not integers is ``invalid_type``."""
+    where = _where(index, body_id)
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as exc:  # ragged nested lists
         raise InvalidScene(f"{what} is not a rectangular array of integers ({exc})",
-                           code="invalid_type", pointer=pointer, where=_where(index, body_id)) from None
+                           code="invalid_type", pointer=pointer, where=where) from None
     if arr.size == 0:
         return arr.astype(np.int64).reshape(arr.shape)
-    if arr.dtype.kind in "iu":
-        return arr.astype(np.int64)
-    if arr.dtype.kind == "f" and np.all(np.isfinite(arr)) and np.all(arr == np.round(arr)):
-        return arr.astype(np.int64)
-    raise InvalidScene(f"{what} must hold integer node indices", code="invalid_type",
-                       pointer=pointer, where=_where(index, body_id))
+    if arr.dtype.kind not in "iuf":
+        raise InvalidScene(f"{what} must hold integer node indices", code="invalid_type", pointer=pointer,
+                           where=where)
+
+    def refuse(bad: npt.NDArray[np.bool_], code: str, words: str) -> None:
+        if bad.any():
+            at = [int(i) for i in np.unravel_index(int(np.flatnonzero(bad)[0]), arr.shape)]
+            given = value  # (not arr's: numpy reads a list's int beyond int64 as a float)
+            for i in at:
+                given = given[i]
+            raise InvalidScene(words.format(v=given.item() if isinstance(given, np.generic) else given), code=code,
+                               pointer=pointer + "".join(f"/{i}" for i in at), where=f"{where}, {what} entry {at}")
+
+    noun = "node index" if n is not None else "index"
+    if arr.dtype.kind == "f":
+        refuse(~(np.isfinite(arr) & (arr == np.floor(arr))), "invalid_value",
+               f"a {noun} must be an integer, got {{v!r}}")
+    if arr.dtype.kind == "f" or arr.dtype == np.uint64:  # beyond int64, which the cast would wrap
+        beyond = np.abs(arr) >= 2.0 ** 63 if arr.dtype.kind == "f" else arr > np.iinfo(np.int64).max
+        span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
+        refuse(beyond, "index_out_of_range", f"{noun} {{v!r}} is {span}")
+    return arr.astype(np.int64)
 
 
 def _is_pair_list(value: Any) -> bool:
@@ -438,7 +460,7 @@ class Scene:
             loop_list = []
             for li, loop in enumerate(raw):
                 ptr = f"/bodies/{index}/loops/{li}"
-                arr_l = _as_index_array(loop, f"loop {li}", index, id, ptr)
+                arr_l = _as_index_array(loop, f"loop {li}", index, id, ptr, n)
                 if arr_l.ndim != 1:
                     raise InvalidScene(f"loop {li} must be a flat list of node indices", code="invalid_type",
                                        pointer=ptr, where=where)
@@ -454,7 +476,7 @@ class Scene:
         tri: Optional[IntArray] = None
         if triangles is not None:
             ptr = f"/bodies/{index}/triangles"
-            tri = _as_index_array(triangles, "triangles", index, id, ptr)
+            tri = _as_index_array(triangles, "triangles", index, id, ptr, n)
             if tri.size == 0:
                 tri = tri.reshape(0, 3)
             if tri.ndim != 2 or tri.shape[1] != 3:
