@@ -208,6 +208,28 @@ def test_client_side_checks_name_the_node():
         Client("http://127.0.0.1:9", retries=0).contact(no_penalty)
 
 
+@pytest.mark.parametrize("np_id", [np.int64(7), np.int32(7), np.uint8(7)])
+def test_numpy_integer_ids_are_the_ints_they_are(client, np_id):
+    """A numpy integer is taken wherever an int is: as a body id (it was
+    refused as "got int64"), stored as the int, and to find the body again
+    (Scene.body, a session's positions by body, a binary answer's forces);
+    a numpy bool is refused as a bool is."""
+    scene = Scene(penalty=100.0, alpha=0.2, search_radius=0.1)
+    scene.add_body(disk(0.0, 0.0), id="left")
+    got = scene.add_body(disk(1.96, 0.01, phase=0.05), id=np_id)
+    assert type(got) is int and got == 7 and scene.body_ids == ["left", 7]
+    assert scene.body(np_id) is scene.body(7) and scene.index_of(np_id) == 1
+    want = client.contact(two_disks_scene(), outputs=["forces"])
+    assert np.array_equal(client.contact(scene, outputs=["forces"]).force_array(), want.force_array())
+    with client.session(scene) as s:
+        moved = disk(1.95, 0.01, phase=0.05)
+        r = s.contact({np_id: moved}, outputs=["forces"])
+        assert np.array_equal(s.positions()[32:], moved) and np.array_equal(r.forces[np_id], r.forces[7])
+    with pytest.raises(InvalidScene) as ei:
+        scene.add_body(disk(5.0, 0.0), id=np.bool_(True))
+    assert ei.value.code == "invalid_type" and ei.value.pointer == "/bodies/2/id"
+
+
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
 
 

@@ -36,6 +36,14 @@ OUTPUTS: Tuple[str, ...] = ("forces", "energy", "virial", "contacts", "gaps", "s
 SOLVERS: Tuple[str, ...] = ("closed_form", "newton")
 
 
+def body_key(body_id: Any) -> Tuple[type, Any]:
+    """What a body is looked up by: its id's type and value (1 and "1" are
+    two bodies), a numpy integer read as the int it is."""
+    if isinstance(body_id, np.integer):
+        body_id = int(body_id)
+    return (type(body_id), body_id)
+
+
 def _where(index: int, body_id: Any) -> str:
     return f"body {body_id!r} (index {index})"
 
@@ -426,6 +434,8 @@ class Scene:
             id = index
             while (int, id) in self._index:
                 id += 1
+        if isinstance(id, np.integer):  # (np.bool_ is not one: refused, as a bool is)
+            id = int(id)
         if isinstance(id, bool) or not isinstance(id, (str, int)):
             raise InvalidScene(f"body id must be a string or an integer, got {type(id).__name__}",
                                code="invalid_type", pointer=f"/bodies/{index}/id", where=f"body index {index}")
@@ -556,7 +566,7 @@ class Scene:
         """The position of the body ``id`` in the scene (the order of the answer);
         :class:`KeyError` when no body has that id."""
         try:
-            return self._index[(type(id), id)]
+            return self._index[body_key(id)]
         except KeyError:
             raise KeyError(f"no body with id {id!r}") from None
 

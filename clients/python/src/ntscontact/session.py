@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from .errors import InvalidScene, NtsError, ServerError
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
-from .scene import BodyId, Scene, normalize_outputs, scene_document
+from .scene import BodyId, Scene, body_key, normalize_outputs, scene_document
 
 if TYPE_CHECKING:
     from .client import Answer
@@ -88,7 +88,7 @@ class BodyArrays(Mapping[BodyId, FloatArray]):
         self._whole, self._offsets, self._ids, self._index = whole, offsets, ids, index
 
     def __getitem__(self, body_id: BodyId) -> FloatArray:
-        k = self._index[(type(body_id), body_id)]
+        k = self._index[body_key(body_id)]
         return self._whole[self._offsets[k]:self._offsets[k + 1]]
 
     def __iter__(self) -> Iterator[BodyId]:
@@ -266,7 +266,7 @@ class Session:
             out = self._stored().copy()
             for body_id, value in positions.items():
                 try:
-                    k = self._index[(type(body_id), body_id)]
+                    k = self._index[body_key(body_id)]
                 except KeyError:
                     raise KeyError(f"no body with id {body_id!r} in this session") from None
                 arr = np.asarray(value, dtype=np.float64)
