@@ -230,6 +230,62 @@ def test_numpy_integer_ids_are_the_ints_they_are(client, np_id):
     assert ei.value.code == "invalid_type" and ei.value.pointer == "/bodies/2/id"
 
 
+@pytest.mark.parametrize("flag", [True, np.bool_(False)])
+@pytest.mark.parametrize("where", ["penalty", "alpha", "search_radius", "surface_extension", "periodic",
+                                   "body alpha", "skin", "step alpha"])
+def test_a_boolean_is_not_a_number(client, flag, where):
+    """A boolean where a number goes (float() reads it as 0 or 1, and
+    Scene(penalty=True) evaluated with a penalty of 1) is refused as the
+    service refuses it in the same document: invalid_type, its pointer and
+    its words."""
+    doc = two_disks_scene().to_dict()
+    kw = {"penalty": 100.0, "alpha": 0.2, "search_radius": 0.1}
+    if where in ("penalty", "alpha", "search_radius", "surface_extension"):
+        doc["options"][where] = bool(flag)
+        kw[where] = flag
+    elif where == "periodic":
+        doc["options"]["periodic"] = {"lx": bool(flag), "ly": 10.0}
+        kw["periodic"] = (flag, 10.0)
+    elif where == "body alpha":
+        doc["bodies"][1]["alpha"] = bool(flag)
+    elif where == "skin":
+        doc["session"] = {"skin": bool(flag)}
+    if where == "step alpha":
+        want = ("invalid_type", "/options/alpha")  # (the service reads the query's alpha=true as not a number)
+    else:
+        with pytest.raises(InvalidScene) as service:
+            client.session(doc) if where == "skin" else client.contact(doc)
+        want = (service.value.code, service.value.pointer)
+        assert service.value.message == "expected a number, got a boolean"
+    with pytest.raises(InvalidScene) as ours:
+        scene = Scene(**kw)
+        scene.add_body(disk(0.0, 0.0), id="left")
+        scene.add_body(disk(1.96, 0.01, phase=0.05), id=7, alpha=flag if where == "body alpha" else None)
+        with client.session(scene, skin=flag if where == "skin" else None) as s:
+            s.contact(alpha=flag if where == "step alpha" else None)
+    assert (ours.value.code, ours.value.pointer) == want
+    assert ours.value.message == "expected a number, got a boolean"
+    scene = Scene(penalty=100.0)
+    scene.penalty = flag  # set after the scene is made: refused when it is sent
+    with pytest.raises(InvalidScene) as ours:
+        scene.to_dict()
+    assert (ours.value.code, ours.value.pointer) == ("invalid_type", "/options/penalty")
+
+
+def test_numpy_numbers_are_friction_coefficients():
+    """The friction coefficients take numpy numbers as they take ints and
+    floats (np.float32(0.3) and np.int64(1) were "must be a number")."""
+    scene = Scene(penalty=100.0, friction=np.int64(1))
+    scene.add_body(disk(0.0, 0.0), id="left", friction=np.float32(0.5))
+    assert scene.to_dict()["options"]["friction"] == {"coefficient": 1.0}
+    assert scene.body("left").friction == float(np.float32(0.5))
+    for bad in (True, np.bool_(True)):
+        with pytest.raises(InvalidScene):
+            Scene(penalty=100.0, friction=bad)
+        with pytest.raises(InvalidScene):
+            scene.add_body(disk(3.0, 0.0), friction=bad)
+
+
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
 
 

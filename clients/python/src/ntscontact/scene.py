@@ -44,6 +44,20 @@ def body_key(body_id: Any) -> Tuple[type, Any]:
     return (type(body_id), body_id)
 
 
+def is_number(value: Any) -> bool:
+    """A Python or numpy number, not a boolean (which is an int to Python)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def option_number(value: Any, pointer: str, where: str = "") -> float:
+    """A numeric option as the float it is (as float() reads it); a boolean,
+    which float() reads as 0 or 1, refused as the service refuses it:
+    ``invalid_type`` at ``pointer``."""
+    if isinstance(value, (bool, np.bool_)):
+        raise InvalidScene("expected a number, got a boolean", code="invalid_type", pointer=pointer, where=where)
+    return float(value)
+
+
 def _where(index: int, body_id: Any) -> str:
     return f"body {body_id!r} (index {index})"
 
@@ -231,7 +245,7 @@ def _friction_option(value: Optional[Union[float, Mapping[str, Any]]]) -> Option
                                    pointer="/options/friction/coefficient")
             continue
         v = doc[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
+        if not is_number(v):
             raise InvalidScene(f"friction {name} must be a number", code="invalid_type",
                                pointer=f"/options/friction/{name}")
         if not (lo <= float(v) <= hi) or not math.isfinite(float(v)):
@@ -320,11 +334,16 @@ class Scene:
         if penalty_scaling not in (None, "node", "length"):
             raise InvalidScene(f"penalty_scaling is 'node' or 'length', not {penalty_scaling!r}",
                                code="invalid_value", pointer="/options/penalty_scaling")
-        if surface_extension is not None and not (0.0 <= float(surface_extension) <= 0.5):
+        for name, value in (("penalty", penalty), ("alpha", alpha), ("search_radius", search_radius)):
+            if value is not None:
+                option_number(value, f"/options/{name}")  # (options_dict reads them again: they may be set later)
+        extension = None if surface_extension is None else option_number(surface_extension,
+                                                                         "/options/surface_extension")
+        if extension is not None and not (0.0 <= extension <= 0.5):
             raise InvalidScene(f"surface_extension {surface_extension!r} is not in [0, 0.5]", code="invalid_option",
                                pointer="/options/surface_extension")
         self.penalty_scaling = penalty_scaling
-        self.surface_extension = None if surface_extension is None else float(surface_extension)
+        self.surface_extension = extension
         self.friction = _friction_option(friction)
         self.penalty = penalty
         self.alpha = alpha
@@ -349,8 +368,8 @@ class Scene:
         if value is None:
             self._periodic: Optional[Tuple[float, float]] = None
             return
-        lx, ly = (float(v) for v in value)
-        self._periodic = (lx, ly)
+        lx, ly = value
+        self._periodic = (option_number(lx, "/options/periodic/lx"), option_number(ly, "/options/periodic/ly"))
 
     @property
     def outputs(self) -> Optional[List[str]]:
@@ -366,12 +385,10 @@ class Scene:
     def options_dict(self) -> Dict[str, Any]:
         """``options`` as sent: only the options that are set."""
         opts: Dict[str, Any] = {}
-        if self.alpha is not None:
-            opts["alpha"] = float(self.alpha)
-        if self.penalty is not None:
-            opts["penalty"] = float(self.penalty)
-        if self.search_radius is not None:
-            opts["search_radius"] = float(self.search_radius)
+        for name in ("alpha", "penalty", "search_radius"):
+            value = getattr(self, name)
+            if value is not None:
+                opts[name] = option_number(value, f"/options/{name}")
         if self.periodic is not None:
             opts["periodic"] = {"lx": self.periodic[0], "ly": self.periodic[1]}
         if self.solver is not None:
@@ -443,7 +460,8 @@ class Scene:
             raise InvalidScene(f"integer body id {id} is not below 2^53 in magnitude: it would not survive a JSON "
                                "number (use a string)", code="invalid_value", pointer=f"/bodies/{index}/id",
                                where=f"body index {index}")
-        if alpha is not None and not (0.0 <= float(alpha) <= 0.5):
+        own_alpha = None if alpha is None else option_number(alpha, f"/bodies/{index}/alpha", f"body index {index}")
+        if own_alpha is not None and not (0.0 <= own_alpha <= 0.5):
             raise InvalidScene(f"body alpha {alpha!r} is not in [0, 0.5]", code="invalid_option",
                                pointer=f"/bodies/{index}/alpha", where=f"body index {index}")
         if role not in (None, "both", "master", "slave"):
@@ -519,15 +537,14 @@ class Scene:
             surf = as_surface(surface, n, index, id)
             if tri is None:
                 check_surface_segments(surf, loop_list if loop_list is not None else [np.arange(n)], n, index, id)
-        if friction is not None and not (isinstance(friction, (int, float)) and not isinstance(friction, bool)
-                                         and 0.0 <= float(friction) <= 10.0):
+        if friction is not None and not (is_number(friction) and 0.0 <= float(friction) <= 10.0):
             raise InvalidScene(f"body friction {friction!r} is not a number in [0, 10]", code="invalid_option",
                                pointer=f"/bodies/{index}/friction", where=f"body index {index}")
         if not isinstance(self_contact, (bool, np.bool_)):
             raise InvalidScene(f"self_contact {self_contact!r} is not true or false", code="invalid_type",
                                pointer=f"/bodies/{index}/self_contact", where=f"body index {index}")
         self._bodies.append(Body(id=id, nodes=arr, loops=loop_list, triangles=tri,
-                                 alpha=None if alpha is None else float(alpha), role=role, mesh_points=mp,
+                                 alpha=own_alpha, role=role, mesh_points=mp,
                                  reference=ref, surface=surf, friction=None if friction is None else float(friction),
                                  self_contact=bool(self_contact)))
         self._index[key] = index

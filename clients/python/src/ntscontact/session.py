@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from .errors import InvalidScene, NtsError, ServerError
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
-from .scene import BodyId, Scene, body_key, normalize_outputs, scene_document
+from .scene import BodyId, Scene, body_key, normalize_outputs, option_number, scene_document
 
 if TYPE_CHECKING:
     from .client import Answer
@@ -156,10 +156,11 @@ class Session:
         if not keep_candidates:  # the kept candidate list: time only, never the answer
             doc["session"] = {**(doc.get("session") or {}), "keep_candidates": False}
         if skin is not None:
-            if not math.isfinite(float(skin)):  # (the service's words: JSON has no NaN to send it)
+            length = option_number(skin, "/session/skin")
+            if not math.isfinite(length):  # (the service's words: JSON has no NaN to send it)
                 raise InvalidScene("the skin is a length >= 0 (absent: 0.3 times the search radius)",
                                    code="invalid_option", pointer="/session/skin")
-            doc["session"] = {**(doc.get("session") or {}), "skin": float(skin)}
+            doc["session"] = {**(doc.get("session") or {}), "skin": length}
         bodies = doc.get("bodies")
         if not isinstance(bodies, list) or (not bodies and not self._may_hold_no_bodies):
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
@@ -320,7 +321,7 @@ class Session:
             params["outputs"] = ",".join(outs)
         for name, value in (("penalty", penalty), ("alpha", alpha), ("search_radius", search_radius)):
             if value is not None:
-                params[name] = repr(float(value))
+                params[name] = repr(option_number(value, f"/options/{name}"))
         if solver is not None:
             params["solver"] = str(solver)
         if not commit:
