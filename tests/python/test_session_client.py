@@ -175,8 +175,11 @@ def test_bad_positions_are_refused(client, paths, daemon):
         assert np.array_equal(s.positions(), pos)
         with pytest.raises(InvalidScene):
             s.contact({scene["bodies"][0]["id"]: pos[:3]})
-        with pytest.raises(KeyError):
-            s.contact({"nope": pos[:3]})
+        for unknown in ("nope", 0, "0"):  # (a KeyError; the ids are "left" and "right")
+            with pytest.raises(InvalidScene) as e:
+                s.contact({scene["bodies"][0]["id"]: pos[:48], unknown: pos[:3]})
+            assert (e.value.code, e.value.pointer) == ("invalid_value", "/positions")
+            assert f"body id {unknown!r}" in str(e.value)
         with pytest.raises(InvalidScene):
             s.contact(outputs=["stress"])
         assert requests.get(daemon.url(f"/v1/scenes/{s.id}"), timeout=10).json()["steps"] == before

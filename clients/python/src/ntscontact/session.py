@@ -266,10 +266,10 @@ class Session:
         if isinstance(positions, Mapping):
             out = self._stored().copy()
             for body_id, value in positions.items():
-                try:
-                    k = self._index[body_key(body_id)]
-                except KeyError:
-                    raise KeyError(f"no body with id {body_id!r} in this session") from None
+                k = self._index.get(body_key(body_id), -1)
+                if k < 0:
+                    raise InvalidScene(f"positions for body id {body_id!r}: the session has no body with that id",
+                                       code="invalid_value", pointer="/positions")
                 arr = np.asarray(value, dtype=np.float64)
                 want = (self.node_counts[k], 2)
                 if arr.shape != want:
