@@ -69,6 +69,7 @@ static inline void offer(const nts_scene* s, worker* w, const candidate* c) {
 static inline void set_slave(const search_env* env, worker* w, int i, int body) {
     w->slave = i;
     w->slave_body = body;
+    w->self_has = 0;
     if (env->self != NULL && env->self[body]) {
         const seg_data* seg = env->seg;
         const int ip = seg[i].prev;
@@ -118,29 +119,48 @@ static int self_coverage(const search_env* env, int b, nts_vec2 m) {
     return w;
 }
 
-/* Whether candidate c of master j, on the slave's own body, counts
- * (docs/model.md §16): `d` is Xs - X_j and `delta` Xs minus the closest
- * point, both by the minimum image. In another periodic image the body is
- * a master like any other. In the same one: (T) the feature does not
- * contain the slave node (the flats of its two segments, the corners or
- * vertices at it and its two neighbours); (N) its normal is opposed to the
- * slave's pseudo-normal; (C) a penetration lies where the body covers
- * itself: coverage >= 2 at the midpoint of the slave and its closest point. */
-static int self_admits(const search_env* env, const worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
+/* Candidate c of master j, on the slave's own body (docs/model.md §16):
+ * `d` is Xs - X_j and `delta` Xs minus the closest point, both by the
+ * minimum image. In another periodic image the body is a master like any
+ * other: offered. In the same one, (T) the feature must not contain the
+ * slave node (the flats of its two segments, the corners or vertices at it
+ * and its two neighbours) and (N) its normal must be opposed to the slave's
+ * pseudo-normal; of the features that pass both, the closest (the rule of
+ * §5) is held, and (C) decides at the slave's end (self_settle) whether it
+ * counts. Were (C) asked of each feature instead, a feature that fails it
+ * would hand the slave to a farther one that passes: a node on the outer
+ * face of a doubled layer, whose nearest opposed face (its own layer's
+ * other face) is not in the overlap, went to the far face of the other
+ * layer, whose midpoint is. */
+static inline void self_offer(const search_env* env, worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
     const seg_data* seg = env->seg;
-    const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next, k = w->slot[c->body];
-    if (!self_same_image(env, w, j, d)) return 1;
-    if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return 0; /* (T) */
-    if (!(nts_dot(w->slave_pn, c->normal) < 0.0)) return 0;                                           /* (N) */
-    /* (C), the costly test (a pass over the body's loops), only for a
-     * candidate that would be kept: one the body's best so far beats is not
-     * (offer), whether it counts or not. */
-    if (c->gap >= 0.0 || (k >= 0 && !better(env->s, c, &w->best[k]))) return 1;
-    return self_coverage(env, c->body, nts_mul_add(env->self_u[i], -0.5, delta)) >= 2;                 /* (C) */
+    const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next;
+    if (!self_same_image(env, w, j, d)) {
+        offer(env->s, w, c);
+        return;
+    }
+    if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return; /* (T) */
+    if (!(nts_dot(w->slave_pn, c->normal) < 0.0)) return;                                           /* (N) */
+    if (!w->self_has || better(env->s, c, &w->self_best)) {
+        w->self_best = *c;
+        w->self_delta = delta;
+        w->self_has = 1;
+    }
+}
+
+/* At the slave's end, its own body's closest feature that passed (T) and
+ * (N): offered when (C) holds, a penetration lying where the body covers
+ * itself (coverage >= 2 at the midpoint of the slave and its closest
+ * point), or when it is a gap (g >= 0), which needs no coverage. */
+static void self_settle(const search_env* env, worker* w) {
+    const candidate* c = &w->self_best;
+    w->self_has = 0;
+    if (c->gap >= 0.0 || self_coverage(env, c->body, nts_mul_add(env->self_u[w->slave], -0.5, w->self_delta)) >= 2)
+        offer(env->s, w, c);
 }
 
 /* Before the exact tests of master j of the slave's own body (same image):
- * which of its features could count (self_admits decides). Its flat's normal
+ * which of its features could count (self_offer and self_settle decide). Its flat's normal
  * is n_j and its corner's lies between n_{j-1} and n_j (the tangent runs
  * from a positive multiple of t_{j-1} to one of t_j, (5)), so (N) fails for
  * the flat when n_i . n_j >= 0 and for the corner when both dots are; (T)
@@ -205,8 +225,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_SEGMENT;
-            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, nts_mul_add(d, -sj_param, m->t)))
-                offer(env->s, w, &c);
+            if (!selfc || body != w->slave_body) offer(env->s, w, &c);
+            else self_offer(env, w, &c, d, nts_mul_add(d, -sj_param, m->t));
         }
     }
     if (!corner || !(may & 2) || sj_param > (alpha > 0.0 ? alpha : 0.0)) return; /* needs s_j <= alpha */
@@ -236,8 +256,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_CORNER;
-            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, nts_sub(d, sol.point)))
-                offer(s, w, &c);
+            if (!selfc || body != w->slave_body) offer(s, w, &c);
+            else self_offer(env, w, &c, d, nts_sub(d, sol.point));
         } else {
             /* Vertex candidate (alpha = 0): s_{j-1} >= 1 and s_j <= 0; the sign
              * comes from the pseudo-normal n_{j-1} + n_j. */
@@ -261,7 +281,8 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
             c.body = body;
             c.entry = j;
             c.kind = NTS_KIND_VERTEX;
-            if (!selfc || body != w->slave_body || self_admits(env, w, &c, d, d)) offer(s, w, &c);
+            if (!selfc || body != w->slave_body) offer(s, w, &c);
+            else self_offer(env, w, &c, d, d);
         }
     }
 }
@@ -608,6 +629,7 @@ static inline NTS_ALWAYS_INLINE void search_cells(const search_env* env, worker*
                     try_master(env, w, xs, j, env->r, periodic, surfaces, selfc);
             }
         }
+        if (selfc && w->self_has) self_settle(env, w);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else { /* most slaves: nothing here, nothing before */
@@ -770,6 +792,7 @@ static inline NTS_ALWAYS_INLINE void search_kept(const search_env* env, worker* 
          * there at any positions the list holds for, so here too) */
         if (env->kept_prune != NULL) w->pruned += kept_prune(env, env->kept_prune, i, periodic, surfaces);
         for (k = lo[i]; k < mid[i]; ++k) try_master(env, w, xs, items[k], env->r, periodic, surfaces, selfc);
+        if (selfc && w->self_has) self_settle(env, w);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else {
@@ -1032,6 +1055,7 @@ static inline NTS_ALWAYS_INLINE void search_brute(const search_env* env, worker*
             if (d.x * d.x + d.y * d.y <= R * R)
                 try_master(env, w, xs, j, env->r, periodic, env->surf_flag != NULL, env->self != NULL);
         }
+        if (w->self_has) self_settle(env, w);
         if ((w->best_count | w->last_count) != 0 || env->seg[i].len > env->coarse) {
             flush_slave(env, w, i, end);
         } else { /* most slaves: nothing here, nothing before */
@@ -1263,6 +1287,7 @@ static inline NTS_ALWAYS_INLINE void wide(const search_env* env, worker* w, int 
 void nts_search_wide(const search_env* env, worker* w, int k, int body, double rho, double* shape) {
     if (env->lx > 0.0 || env->ly > 0.0) wide(env, w, k, body, rho, shape, 1);
     else wide(env, w, k, body, rho, shape, 0);
+    if (w->self_has) self_settle(env, w); /* (its own body's feature, docs/model.md §16) */
 }
 
 void nts_search_wide_done(worker* w) {

@@ -604,6 +604,84 @@ static void test_self_contact_history_round_trip(void) {
     nts_context_destroy(ctx);
 }
 
+/* A strip `width` thick wound 1.5 turns, its radius growing by `width -
+ * overlap` a turn: along its last half turn the outer layer lies `overlap`
+ * into the inner one. Counter-clockwise. */
+static void coil(shape* s, double width, double overlap, int per_turn) {
+    const double turns = 1.5, pitch = width - overlap;
+    const int m = (int)(per_turn * turns);
+    int i;
+    s->n = 0;
+    s->loops = 0;
+    for (i = 0; i < m; ++i) {
+        const double th = 2.0 * PI * turns * i / (m - 1), r0 = 1.0 + pitch * th / (2.0 * PI);
+        put(s, (r0 + width) * cos(th), (r0 + width) * sin(th));
+    }
+    for (i = m - 1; i >= 0; --i) {
+        const double th = 2.0 * PI * turns * i / (m - 1), r0 = 1.0 + pitch * th / (2.0 * PI);
+        put(s, r0 * cos(th), r0 * sin(th));
+    }
+}
+
+/* The doubled layer of a coil (docs/model.md §16): a node on either outer
+ * face lies behind the far face of the other layer, with opposed normals,
+ * and the midpoint of the two is in the overlap (coverage 2); but its
+ * nearest opposed face is its own layer's other face, whose midpoint is
+ * not: it has no self-contact. Only the overlap itself is in contact, the
+ * same contacts and energy whatever the radius (the default's growth
+ * included) and alpha's corners, and the energy grows from zero as the
+ * layers first touch. (Asking (C) of each feature found the far faces:
+ * gaps of -(2 width - overlap), energies 100 times the overlap's, and a
+ * default radius that missed some.) */
+static void test_coil_meets_itself_only_in_its_overlap(void) {
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_candidates* kc = nts_candidates_create(-1.0);
+    const double width = 0.3, overlaps[3] = {0.05, 0.005, 0.0005}, radii[4] = {-1.0, 0.3, 0.6, 2.0};
+    const double alphas[2] = {0.0, 0.2};
+    int v, a, q;
+    for (v = 0; v < 3; ++v)
+        for (a = 0; a < 2; ++a) {
+            nts_scene* s;
+            double e0 = 0.0;
+            int c0 = -1;
+            coil(&sh, width, overlaps[v], 120);
+            s = one_body(&sh, 1, 0.0, 0.0);
+            CU_ASSERT_FATAL(s != NULL);
+            for (q = 0; q < 5; ++q) {
+                nts_options o = nts_default_options();
+                nts_result r;
+                int c, k;
+                o.alpha = alphas[a];
+                o.search_radius = radii[q < 4 ? q : 3];
+                o.penalty = 100.0;
+                o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS | NTS_OUT_ENERGY;
+                if (q == 4) o.candidates = kc; /* built at the largest radius, then replayed */
+                c = active(s, &o, &r, ctx);
+                if (q == 4) c = active(s, &o, &r, ctx);
+                CU_ASSERT(c > 0);
+                for (k = 0; k < r.contact_count; ++k) {
+                    /* within the overlap (and the chords' sag), never through a layer */
+                    CU_ASSERT(r.contacts[k].gap < 0.0 && r.contacts[k].gap > -(overlaps[v] + 0.01));
+                    CU_ASSERT(r.contacts[k].slave_body == 0 && r.contacts[k].master_body == 0);
+                }
+                if (q == 0) {
+                    c0 = c;
+                    e0 = r.summary.energy;
+                    /* eps g^2 / 2 a node of the overlap, at most */
+                    CU_ASSERT(e0 <= c * 0.5 * o.penalty * (overlaps[v] + 0.01) * (overlaps[v] + 0.01));
+                } else {
+                    ASSERT_INT_EQ(c, c0);
+                    CU_ASSERT_DOUBLE_EQUAL(r.summary.energy, e0, 1e-12 * e0);
+                }
+            }
+            nts_candidates_clear(kc);
+            nts_scene_destroy(s);
+        }
+    nts_candidates_destroy(kc);
+    nts_context_destroy(ctx);
+}
+
 static void test_self_contact_is_zero_or_one(void) {
     static shape sh;
     nts_body_def d;
@@ -626,6 +704,7 @@ void register_self_contact_suite(void) {
     ADD_TEST(s, test_none_at_rest);
     ADD_TEST(s, test_horseshoe_meets_itself_where_its_arms_overlap);
     ADD_TEST(s, test_horseshoe_forces_and_tangent_by_differences);
+    ADD_TEST(s, test_coil_meets_itself_only_in_its_overlap);
     ADD_TEST(s, test_annulus_whose_hole_closes);
     ADD_TEST(s, test_self_contact_on_a_contact_surface);
     ADD_TEST(s, test_ring_meets_its_own_image);
