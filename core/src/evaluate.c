@@ -317,7 +317,7 @@ static void search_chunks(int begin, int end, int t, void* p) {
  * unwrapped along its loops, from its outer loop's first node (each hole's
  * first node by the minimum image from there), so that the body's coverage
  * is taken in one frame, and a master's image is told from the slave's own
- * (search.c, self_admits). */
+ * (search.c, self_same_image and self_settle). */
 static int self_unwrap(nts_context* ctx, const nts_scene* s) {
     int b, l, e;
     if (nts_grow((void**)&ctx->self_u, &ctx->self_u_cap, s->surface_count, sizeof(nts_vec2)) != NTS_OK)
