@@ -9,6 +9,8 @@ daemon beside it was built with; tests/python/test_packaging.py checks the copy
 import json
 import os
 import re
+import subprocess
+import sys
 import threading
 import time
 
@@ -375,6 +377,37 @@ def test_threads_do_not_change_the_bits(paths):
         a = one.contact_json(scene, ALL_OUTPUTS)
         b = three.contact_json(scene, ALL_OUTPUTS)
     same_bytes_but_elapsed(a, b)
+
+
+FORKED = r"""
+import json, os, re, sys
+from ntscontact import Engine
+library, scene = sys.argv[1], json.loads(open(sys.argv[2]).read())
+outputs = ["forces", "energy", "virial", "contacts", "stiffness"]
+def cut(text):
+    return re.sub(rb'"elapsed_ms": ?[-0-9.eE+]+', b"", text)
+with Engine(threads=2, library=library) as e:
+    before = cut(e.contact_json(scene, outputs))
+    pid = os.fork()
+    if pid == 0:  # the child: the parent's engine and a new one, each with two threads
+        with Engine(threads=2, library=library) as e2:
+            same = cut(e.contact_json(scene, outputs)) == before and cut(e2.contact_json(scene, outputs)) == before
+        os._exit(0 if same else 3)
+    print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))
+"""
+
+
+def test_a_forked_child_evaluates(paths, tmp_path):
+    """A process forked after an evaluation on two threads (multiprocessing's
+    default on Linux) evaluates with threads too: OpenMP's threads do not
+    survive fork, so the child runs on one (the same bits); before, its first
+    evaluation with threads never returned. The elapsed field aside, the
+    child's answers equal the parent's. (The timeout only stops a hang.)"""
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps(load(paths, "periodic_packing")))
+    got = subprocess.run([sys.executable, "-c", FORKED, str(LIBRARY), str(scene)], capture_output=True, text=True,
+                         timeout=300, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    assert got.returncode == 0 and got.stdout.strip() == "0", got.stderr
 
 
 def test_a_missing_library_says_how_to_get_it(monkeypatch, tmp_path):
