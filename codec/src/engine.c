@@ -17,13 +17,16 @@ struct ntsj_answer {
     char* headers; /* a binary answer's "Name: value\n" lines, else NULL */
 };
 
-ntsj_engine* ntsj_engine_create(int threads) {
+ntsj_engine* ntsj_engine_create_sized(int threads, size_t max_bytes) {
     ntsj_engine* e = (ntsj_engine*)nts_alloc(sizeof *e);
     if (e == NULL) return NULL;
     e->config = ntsj_default_config();
     e->config.threads = threads > 0 ? threads : 0;
+    if (max_bytes > 0) e->config.max_bytes = max_bytes;
     return e;
 }
+
+ntsj_engine* ntsj_engine_create(int threads) { return ntsj_engine_create_sized(threads, 0); }
 
 void ntsj_engine_destroy(ntsj_engine* engine) { nts_free(engine); }
 

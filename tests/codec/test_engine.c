@@ -222,6 +222,26 @@ int main(int argc, char** argv) {
     ntsj_engine_destroy(NULL);
     ntsj_answer_free(NULL);
 
+    /* A sized engine: a call or a session's scene over its max_bytes is
+     * payload_too_large (413), no session made; at max_bytes it goes. */
+    {
+        ntsj_engine* small = ntsj_engine_create_sized(0, length - 1);
+        ntsj_engine* fits = ntsj_engine_create_sized(0, length);
+        ntsj_session* none = NULL;
+        EXPECT(small != NULL && fits != NULL, "sized engines");
+        a = ntsj_engine_contact(small, json, length, 0);
+        EXPECT(a != NULL && ntsj_answer_status(a) == 413 && strcmp(ntsj_answer_code(a), "payload_too_large") == 0,
+               "over max_bytes: %d", a != NULL ? ntsj_answer_status(a) : -1);
+        ntsj_answer_free(a);
+        a = ntsj_engine_session_create(small, json, length, &none);
+        EXPECT(a != NULL && ntsj_answer_status(a) == 413 && none == NULL, "a session's scene over max_bytes");
+        ntsj_answer_free(a);
+        a = ntsj_engine_contact(fits, json, length, 0);
+        EXPECT(a != NULL && ntsj_answer_ok(a), "at max_bytes");
+        ntsj_answer_free(a);
+        ntsj_engine_destroy(small);
+        ntsj_engine_destroy(fits);
+    }
     allocation_sweep(json, length);
     free(json);
     if (failures == 0) printf("engine: all checks passed\n");

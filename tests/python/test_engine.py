@@ -410,6 +410,35 @@ def test_a_forked_child_evaluates(paths, tmp_path):
     assert got.returncode == 0 and got.stdout.strip() == "0", got.stderr
 
 
+def test_max_bytes_bounds_calls_and_sessions(paths):
+    """Engine(max_bytes=n), as the daemon's --max-bytes: a call or a
+    session's scene over n bytes of JSON is PayloadTooLarge naming n; under
+    it the answer is the default engine's, and a session steps. Above the
+    default (64 MiB): a scene padded past it is refused by default and taken
+    with a larger max_bytes (a larger scene goes in process only so)."""
+    text = json.dumps(load(paths, "two_disks"))
+    n = len(text.encode())  # (the body sent is this text, or this text and a few options)
+    with Engine(library=LIBRARY) as plain, Engine(library=LIBRARY, max_bytes=n // 2) as small, \
+            Engine(library=LIBRARY, max_bytes=2 * n) as roomy:
+        for call in (lambda e: e.contact_json(text, ["forces"]), lambda e: e.session(text).close()):
+            with pytest.raises(ntscontact.PayloadTooLarge) as info:
+                call(small)
+            assert f"max_bytes = {n // 2}" in str(info.value)
+            call(roomy)
+        same_bytes_but_elapsed(roomy.contact_json(text, ALL_OUTPUTS), plain.contact_json(text, ALL_OUTPUTS))
+        with roomy.session(text) as s:  # its steps under the session's own configuration
+            assert s.step(s.positions()).summary.contacts > 0
+        assert f"max_bytes={2 * n}" in repr(roomy) and "max_bytes" not in repr(plain)
+        padded = text[:-1] + " " * (64 << 20) + "}"
+        with pytest.raises(ntscontact.PayloadTooLarge):
+            plain.contact_json(padded)  # (text with no outputs goes as it is)
+    with Engine(library=LIBRARY, max_bytes=1 << 27) as large:
+        assert json.loads(large.contact_json(padded))["summary"]["energy"] > 0
+    for bad in (0, -1, True, 1.5, "64M", 2**63):
+        with pytest.raises(ValueError, match="max_bytes"):
+            Engine(library=LIBRARY, max_bytes=bad)
+
+
 def test_a_missing_library_says_how_to_get_it(monkeypatch, tmp_path):
     monkeypatch.setenv("NTSCONTACT_LIBRARY", str(tmp_path / "nowhere.so"))
     with pytest.raises(EngineUnavailable) as info:

@@ -34,6 +34,12 @@ typedef struct ntsj_answer ntsj_answer;
 /** An engine whose evaluations run on `threads` threads (0: serial; the
  * answer's bits do not depend on it). NULL when out of memory. */
 NTS_API ntsj_engine* ntsj_engine_create(int threads);
+/** ntsj_engine_create with the largest JSON text that a call, or a
+ * session's scene, takes: `max_bytes` (0: the default, 64 MiB; the daemon's
+ * --max-bytes). Past it an answer is payload_too_large (413). A scene
+ * larger than the default goes in process only so (a session's steps send
+ * positions, but its scene is JSON too). */
+NTS_API ntsj_engine* ntsj_engine_create_sized(int threads, size_t max_bytes);
 /** Free an engine (NULL is fine). Its sessions stay valid: they hold no
  * pointer to it. */
 NTS_API void ntsj_engine_destroy(ntsj_engine* engine);

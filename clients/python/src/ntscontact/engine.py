@@ -50,6 +50,9 @@ __all__ = ["Engine", "EngineSession", "EngineUnavailable", "LIBRARY_NAME", "find
 LIBRARY_NAME = "libntscontact_engine.so"
 
 _STEP_EMPTY, _STEP_BINARY = 0, 2  # ntsj_step_body (codec.h)
+#: The largest ``max_bytes`` an engine takes (a size_t that any 64-bit host holds).
+MAX_BYTES = 2**62
+
 #: The most threads an evaluation takes (the core's options table: nts_options.threads).
 MAX_THREADS = 1024
 
@@ -123,6 +126,9 @@ def _load(path: Path) -> ctypes.CDLL:
             for name, (res, args) in sigs.items():
                 fn = getattr(lib, name)
                 fn.restype, fn.argtypes = res, args
+            if hasattr(lib, "ntsj_engine_create_sized"):  # (a library older than max_bytes has not)
+                lib.ntsj_engine_create_sized.restype = vp
+                lib.ntsj_engine_create_sized.argtypes = [i, sz]
         except AttributeError as exc:
             raise EngineUnavailable(f"{key} is not ntscontact's engine library ({exc})",
                                     code="engine_unavailable") from exc
@@ -187,27 +193,42 @@ class Engine:
     """The contact engine in process (see the module's doc).
 
     ``threads``: the threads of each evaluation (0, the default: serial; the
-    answer's bits do not depend on it). ``library``: the path of
+    answer's bits do not depend on it). ``max_bytes``: the largest JSON text
+    a call, or a session's scene, takes (default 64 MiB, as the daemon's
+    ``--max-bytes``; past it :class:`~ntscontact.PayloadTooLarge`). ``library``: the path of
     ``libntscontact_engine.so`` (default: :func:`find_library`). ``timeout``
     arguments are taken for :class:`~ntscontact.Client`'s signatures and
     ignored: a call in process runs to its end.
     """
 
-    def __init__(self, threads: int = 0, *, library: Optional[Union[str, os.PathLike]] = None) -> None:
+    def __init__(self, threads: int = 0, *, library: Optional[Union[str, os.PathLike]] = None,
+                 max_bytes: Optional[int] = None) -> None:
         self._ptr: Optional[int] = None
         if isinstance(threads, bool) or not isinstance(threads, int) or not 0 <= threads <= MAX_THREADS:
             raise ValueError(f"threads must be an integer in [0, {MAX_THREADS}], not {threads!r}")
+        if max_bytes is not None and (isinstance(max_bytes, bool) or not isinstance(max_bytes, int)
+                                      or not 1 <= max_bytes <= MAX_BYTES):
+            raise ValueError(f"max_bytes must be an integer in [1, {MAX_BYTES}], not {max_bytes!r}")
         self.library = Path(library) if library is not None else find_library()
         self._lib = _load(self.library)
+        if max_bytes is not None and not hasattr(self._lib, "ntsj_engine_create_sized"):
+            raise EngineUnavailable(f"{self.library} predates max_bytes: rebuild it", code="engine_unavailable")
         self.threads = int(threads)
+        self.max_bytes = int(max_bytes) if max_bytes is not None else None
         # Calls in flight (the GIL is released inside them): close() waits
         # for them, so that none reads a freed engine.
         self._calls = 0
         self._idle = threading.Condition()
-        self._ptr = self._lib.ntsj_engine_create(self.threads)
+        self._ptr = self._new_config()
         if not self._ptr:
             raise MemoryError("ntscontact: out of memory creating the engine")
         self.version = __version__
+
+    def _new_config(self) -> int:
+        """A new ``ntsj_engine``: the engine's, or a session's own, configuration."""
+        if self.max_bytes is None:
+            return self._lib.ntsj_engine_create(self.threads)
+        return self._lib.ntsj_engine_create_sized(self.threads, self.max_bytes)
 
     # ------------------------------------------------------------ lifecycle
 
@@ -233,7 +254,8 @@ class Engine:
         self.close()
 
     def __repr__(self) -> str:
-        return f"Engine(threads={self.threads}, library={str(self.library)!r})"
+        sized = "" if self.max_bytes is None else f", max_bytes={self.max_bytes}"
+        return f"Engine(threads={self.threads}{sized}, library={str(self.library)!r})"
 
     @contextlib.contextmanager
     def _engine(self) -> Iterator[int]:
@@ -307,7 +329,7 @@ class EngineSession(Session):
         # The session's own configuration (the engine's threads): it outlives
         # Engine.close(), as the session's state does.
         with engine._engine():
-            self._config = self._lib.ntsj_engine_create(engine.threads)
+            self._config = engine._new_config()
         if not self._config:
             raise MemoryError("ntscontact: out of memory creating a session")
         super().__init__(engine, scene, **kw)
