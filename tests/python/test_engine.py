@@ -467,9 +467,12 @@ def test_sessions_outlive_their_engine(paths):
 
 
 def test_bad_thread_counts_are_refused_at_once():
-    for bad in (-1, 1025, "2", True, 2.0):
-        with pytest.raises(ValueError):
+    for bad in (-1, 1025, "2", True, np.bool_(True), 2.0, np.float64(2.0), np.int64(1025)):
+        with pytest.raises(ValueError, match="threads"):
             Engine(threads=bad, library=LIBRARY)
+    # numpy's integers are integers (and max_bytes takes them too)
+    with Engine(threads=np.int64(2), library=LIBRARY, max_bytes=np.int32(1 << 20)) as e:
+        assert e.threads == 2 and type(e.threads) is int and e.max_bytes == 1 << 20 and type(e.max_bytes) is int
 
 
 def test_a_session_that_fails_to_start_leaves_nothing_behind(paths):

@@ -38,7 +38,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import numpy.typing as npt
 
-from .engine import EngineUnavailable, locate
+from .engine import EngineUnavailable, _is_int, locate
 from .errors import InvalidScene, NtsError, error_from_response
 from .result import Result
 from .scene import Scene
@@ -116,8 +116,8 @@ class DistributedEngine:
         from mpi4py import MPI  # the optional extra: imported where it is needed
 
         self.comm = comm if comm is not None else MPI.COMM_WORLD
-        if not 0 <= int(threads) <= 1024:
-            raise ValueError(f"threads must be in [0, 1024], not {threads}")
+        if not _is_int(threads) or not 0 <= threads <= 1024:
+            raise ValueError(f"threads must be an integer in [0, 1024], not {threads!r}")
         self.threads = int(threads)
         self._lib = _load(Path(library) if library is not None else find_library())
 
