@@ -7,6 +7,7 @@ The library under test is the build's (`$NTS_BUILD_DIR/lib`), the one the
 daemon beside it was built with; tests/python/test_packaging.py checks the copy
 `pip install` bundles."""
 import json
+import math
 import os
 import re
 import subprocess
@@ -174,6 +175,36 @@ def test_scene_text_that_is_not_a_scene_is_refused_alike_on_every_path(engine, c
                 call(text)
             assert (info.value.code, info.value.pointer) == (code, ""), (text, str(info.value))
             assert says in info.value.message, (text, str(info.value))
+
+
+@pytest.mark.parametrize("backend", ["engine", "client"])
+def test_a_non_finite_number_in_a_dict_scene_is_named_where_it_is(engine, client, backend, paths):
+    """A dict scene with an infinity or a NaN (JSON has neither): every path
+    (sent with or without outputs=, with history=, held in a session) is the
+    service's non_finite at the number's pointer, as the service says for
+    text whose number overflows; it was json's bare ValueError."""
+    opener = engine if backend == "engine" else client
+    calls = [lambda d: opener.contact(d), lambda d: opener.contact(d, outputs=["forces"]),
+             lambda d: opener.contact(d, history=[]), lambda d: opener.session(d), lambda d: opener.validate(d)]
+    for where, value in ((("bodies", 1, "nodes", 3, 1), math.inf), (("options", "penalty"), math.nan),
+                         (("bodies", 0, "nodes", 0, 0), -math.inf)):
+        doc = load(paths, "two_disks")
+        doc.setdefault("options", {})
+        at = doc
+        for key in where[:-1]:
+            at = at[key]
+        at[where[-1]] = value
+        pointer = "/" + "/".join(map(str, where))
+        for call in calls:
+            with pytest.raises(InvalidScene) as info:
+                call(doc)
+            assert (info.value.code, info.value.pointer) == ("non_finite", pointer), str(info.value)
+    doc = load(paths, "two_disks")
+    doc["bodies"][1]["nodes"][3][1] = 12345.5
+    text = json.dumps(doc).replace("12345.5", "1e999")
+    with pytest.raises(InvalidScene) as info:  # the service's own words for text, the same code and place
+        opener.contact(text)
+    assert (info.value.code, info.value.pointer) == ("non_finite", "/bodies/1/nodes/3/1"), str(info.value)
 
 
 # ------------------------------------------------------------ sessions

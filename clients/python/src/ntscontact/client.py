@@ -19,7 +19,7 @@ from . import __version__
 from ._wire import Wire, WireError, WireTimeout
 from .errors import InvalidScene, NtsError, ServerError, ServiceUnavailable, Timeout, error_from_response, tls_error
 from .result import Result
-from .scene import Scene, json_kind, normalize_outputs, scene_document
+from .scene import Scene, dump_document, json_kind, normalize_outputs, scene_document
 from .session import Session
 
 __all__ = ["Client", "USER_AGENT", "DEFAULT_URL"]
@@ -253,7 +253,7 @@ class Client:
             doc["options"] = dict(doc.get("options") or {}, outputs=list(outputs))
         if history is not None:
             doc = dict(doc, history=history_document(history))
-        return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8"), ids
+        return dump_document(doc), ids
 
     def _base_parts(self) -> Tuple[str, requests.PreparedRequest, str, bool]:
         """base_url read once (it may be changed between calls)."""

@@ -724,6 +724,37 @@ def scene_document(text: Union[str, bytes, bytearray]) -> Dict[str, Any]:
     return doc
 
 
+def dump_document(doc: Any) -> bytes:
+    """A document as compact JSON text. JSON has no NaN or infinity: the first
+    one met (in the order written) is the service's ``non_finite`` at its
+    pointer, where ``json.dumps`` would raise a bare ``ValueError``."""
+    try:
+        return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
+    except ValueError:
+        where = _first_non_finite(doc, "")
+        if where is None:
+            raise
+        raise InvalidScene("not a finite number (JSON has no NaN or infinity)", code="non_finite",
+                           pointer=where) from None
+
+
+def _first_non_finite(value: Any, pointer: str) -> Optional[str]:
+    """The JSON pointer of the first NaN or infinity in ``value``, else None."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else pointer
+    if isinstance(value, Mapping):
+        items: Any = ((str(k).replace("~", "~0").replace("/", "~1"), v) for k, v in value.items())
+    elif isinstance(value, (list, tuple)):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = _first_non_finite(item, f"{pointer}/{key}")
+        if found is not None:
+            return found
+    return None
+
+
 def json_kind(value: Any) -> str:
     """What ``value`` is, in the service's words for a JSON value ("an
     array", "a number"), else its Python type's name."""

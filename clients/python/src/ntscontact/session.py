@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from .errors import InvalidScene, NtsError, ServerError
 from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
-from .scene import BodyId, Scene, body_key, normalize_outputs, option_number, scene_document
+from .scene import BodyId, Scene, body_key, dump_document, normalize_outputs, option_number, scene_document
 
 if TYPE_CHECKING:
     from .client import Answer
@@ -164,7 +164,7 @@ class Session:
         bodies = doc.get("bodies")
         if not isinstance(bodies, list) or (not bodies and not self._may_hold_no_bodies):
             raise InvalidScene("scene has no bodies", code="empty_scene", pointer="/bodies")
-        self._body = json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
+        self._body = dump_document(doc)
         rows = [_rows(b, k) for k, b in enumerate(bodies)]
         self.body_ids: List[BodyId] = [b.get("id") for b in bodies]
         self.node_counts: List[int] = [len(r) for r in rows]
