@@ -125,13 +125,13 @@ static int self_coverage(const search_env* env, int b, nts_vec2 m) {
  * other: offered. In the same one, (T) the feature must not contain the
  * slave node (the flats of its two segments, the corners or vertices at it
  * and its two neighbours) and (N) its normal must be opposed to the slave's
- * pseudo-normal; of the features that pass both, the closest (the rule of
- * §5) is held, and (C) decides at the slave's end (self_settle) whether it
- * counts. Were (C) asked of each feature instead, a feature that fails it
- * would hand the slave to a farther one that passes: a node on the outer
- * face of a doubled layer, whose nearest opposed face (its own layer's
- * other face) is not in the overlap, went to the far face of the other
- * layer, whose midpoint is. */
+ * pseudo-normal. A gap (g >= 0) that passes both is offered; of the
+ * penetrations that pass both, the closest (the rule of §5) is held, and
+ * (C) decides at the slave's end (self_settle) whether it counts. Were (C)
+ * asked of each penetration instead, one that fails it would hand the slave
+ * to a deeper one that passes: a node on the outer face of a doubled layer,
+ * whose nearest opposed face (its own layer's other face) is not in the
+ * overlap, went to the far face of the other layer, whose midpoint is. */
 static inline void self_offer(const search_env* env, worker* w, const candidate* c, nts_vec2 d, nts_vec2 delta) {
     const seg_data* seg = env->seg;
     const int i = w->slave, j = c->entry, ip = seg[i].prev, in = seg[i].next;
@@ -141,21 +141,23 @@ static inline void self_offer(const search_env* env, worker* w, const candidate*
     }
     if (c->kind == NTS_KIND_SEGMENT ? (j == i || j == ip) : (j == ip || j == i || j == in)) return; /* (T) */
     if (!(nts_dot(w->slave_pn, c->normal) < 0.0)) return;                                           /* (N) */
-    if (!w->self_has || better(env->s, c, &w->self_best)) {
+    if (c->gap >= 0.0) {
+        offer(env->s, w, c); /* a gap needs no coverage */
+    } else if (!w->self_has || better(env->s, c, &w->self_best)) {
         w->self_best = *c;
         w->self_delta = delta;
         w->self_has = 1;
     }
 }
 
-/* At the slave's end, its own body's closest feature that passed (T) and
- * (N): offered when (C) holds, a penetration lying where the body covers
- * itself (coverage >= 2 at the midpoint of the slave and its closest
- * point), or when it is a gap (g >= 0), which needs no coverage. */
+/* At the slave's end, its own body's closest penetration that passed (T)
+ * and (N): offered when (C) holds, the penetration lying where the body
+ * covers itself (coverage >= 2 at the midpoint of the slave and its
+ * closest point). */
 static void self_settle(const search_env* env, worker* w) {
     const candidate* c = &w->self_best;
     w->self_has = 0;
-    if (c->gap >= 0.0 || self_coverage(env, c->body, nts_mul_add(env->self_u[w->slave], -0.5, w->self_delta)) >= 2)
+    if (self_coverage(env, c->body, nts_mul_add(env->self_u[w->slave], -0.5, w->self_delta)) >= 2)
         offer(env->s, w, c);
 }
 

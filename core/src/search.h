@@ -88,7 +88,7 @@ typedef struct worker {
     int first_slave;   /* the first slave of the current loop, when it is in this chunk (else -1) */
     int slave, slave_body; /* the slave being searched (self-contact's tests read them) */
     nts_vec2 slave_pn;     /* its pseudo-normal n_{i-1} + n_i, when its body meets itself */
-    /* The closest feature of the slave's own body, in its own periodic
+    /* The closest penetration of the slave's own body, in its own periodic
      * image, that passes (T) and (N) (docs/model.md §16), and the slave
      * minus its closest point: (C) decides at the slave's end whether it
      * counts (search.c, self_settle). */
