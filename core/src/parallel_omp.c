@@ -13,7 +13,7 @@
 #include <stdint.h>
 
 #include <omp.h>
-#if defined(__unix__)
+#if defined(__GNUC__) && (defined(__unix__) || defined(__APPLE__))
 #include <pthread.h>
 #endif
 
@@ -21,17 +21,16 @@
 
 /* fork(): GNU libgomp's threads do not survive it, and the first parallel
  * region of a child whose parent had started them never returns (Python's
- * multiprocessing forks by default on Linux). So a child forked after the
- * process ran a parallel region runs every loop in the caller's thread:
- * the same bits (parallel.h: no result depends on the workers), one core.
- * Set once by the first region (started), read by nts_run_stock. */
-static int omp_started, omp_forked;
-#if defined(__unix__)
-static pthread_once_t fork_once = PTHREAD_ONCE_INIT;
-static void fork_child(void) {
-    if (__atomic_load_n(&omp_started, __ATOMIC_RELAXED)) omp_forked = 1; /* (the child has one thread now) */
-}
-static void fork_watch(void) { (void)pthread_atfork(NULL, NULL, fork_child); }
+ * multiprocessing forks by default on Linux). Whether the parent started
+ * them cannot be told from here (any other OpenMP code in the process
+ * starts the same pool), so every child forked from a process that loaded
+ * the library runs each loop in the caller's thread: the same bits
+ * (parallel.h: no result depends on the workers), one core. Watched from
+ * the library's load; read by nts_run_stock. */
+static int omp_forked;
+#if defined(__GNUC__) && (defined(__unix__) || defined(__APPLE__))
+static void fork_child(void) { omp_forked = 1; /* (the child has one thread now) */ }
+__attribute__((constructor)) static void fork_watch(void) { (void)pthread_atfork(NULL, NULL, fork_child); }
 #endif
 
 /* Range q of a task's min_range items. */
@@ -78,10 +77,6 @@ static void* omp_enqueue(nts_task_fn* task, int count, int min_range, void* tc, 
     const int threads = (int)(intptr_t)user;
     const int ranges = (int)(((long long)count + min_range - 1) / min_range);
     int q;
-#if defined(__unix__)
-    (void)pthread_once(&fork_once, fork_watch);
-#endif
-    __atomic_store_n(&omp_started, 1, __ATOMIC_RELAXED);
     if (ranges <= threads) {
 #pragma omp parallel for num_threads(ranges) schedule(static, 1)
         for (q = 0; q < ranges; ++q) run_range(task, q, count, min_range, tc);

@@ -411,63 +411,59 @@ def test_threads_do_not_change_the_bits(paths):
 
 
 FORKED = r"""
-import json, os, re, sys
+import ctypes, json, os, re, signal, sys
 from ntscontact import Engine
-library, scene = sys.argv[1], json.loads(open(sys.argv[2]).read())
+library, scene, other = sys.argv[1], json.loads(open(sys.argv[2]).read()), sys.argv[3]
 outputs = ["forces", "energy", "virial", "contacts", "stiffness"]
 def cut(text):
     return re.sub(rb'"elapsed_ms": ?[-0-9.eE+]+', b"", text)
 with Engine(threads=2, library=library) as e:
-    before = cut(e.contact_json(scene, outputs))
+    if other:  # OpenMP's threads started by other code; the engine has not evaluated
+        assert ctypes.CDLL(other).other_parallel() == 2
+        before = cut(Engine(threads=0, library=library).contact_json(scene, outputs))
+    else:
+        before = cut(e.contact_json(scene, outputs))
     pid = os.fork()
     if pid == 0:  # the child: the parent's engine and a new one, each with two threads
+        signal.alarm(120)  # a hang ends here, not in an orphan
         with Engine(threads=2, library=library) as e2:
             same = cut(e.contact_json(scene, outputs)) == before and cut(e2.contact_json(scene, outputs)) == before
         os._exit(0 if same else 3)
     print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))
 """
 
+OTHER_OPENMP = """
+#include <omp.h>
+int other_parallel(void) {
+    int n = 0;
+#pragma omp parallel num_threads(2) reduction(+ : n)
+    n += 1;
+    return n;
+}
+"""
 
-def test_a_forked_child_evaluates(paths, tmp_path):
-    """A process forked after an evaluation on two threads (multiprocessing's
-    default on Linux) evaluates with threads too: OpenMP's threads do not
-    survive fork, so the child runs on one (the same bits); before, its first
+
+@pytest.mark.parametrize("started_by", ["the engine", "other code"])
+def test_a_forked_child_evaluates(paths, tmp_path, started_by):
+    """A process forked after OpenMP's threads started (multiprocessing's
+    default on Linux), by an evaluation on two threads or by other OpenMP
+    code in the process: the child evaluates with threads asked for, on one
+    (OpenMP's threads do not survive fork; the same bits); before, its first
     evaluation with threads never returned. The elapsed field aside, the
-    child's answers equal the parent's. (The timeout only stops a hang.)"""
+    child's answers equal the parent's."""
     scene = tmp_path / "scene.json"
     scene.write_text(json.dumps(load(paths, "periodic_packing")))
-    got = subprocess.run([sys.executable, "-c", FORKED, str(LIBRARY), str(scene)], capture_output=True, text=True,
-                         timeout=300, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
-    assert got.returncode == 0 and got.stdout.strip() == "0", got.stderr
-
-
-def test_max_bytes_bounds_calls_and_sessions(paths):
-    """Engine(max_bytes=n), as the daemon's --max-bytes: a call or a
-    session's scene over n bytes of JSON is PayloadTooLarge naming n; under
-    it the answer is the default engine's, and a session steps. Above the
-    default (64 MiB): a scene padded past it is refused by default and taken
-    with a larger max_bytes (a larger scene goes in process only so)."""
-    text = json.dumps(load(paths, "two_disks"))
-    n = len(text.encode())  # (the body sent is this text, or this text and a few options)
-    with Engine(library=LIBRARY) as plain, Engine(library=LIBRARY, max_bytes=n // 2) as small, \
-            Engine(library=LIBRARY, max_bytes=2 * n) as roomy:
-        for call in (lambda e: e.contact_json(text, ["forces"]), lambda e: e.session(text).close()):
-            with pytest.raises(ntscontact.PayloadTooLarge) as info:
-                call(small)
-            assert f"max_bytes = {n // 2}" in str(info.value)
-            call(roomy)
-        same_bytes_but_elapsed(roomy.contact_json(text, ALL_OUTPUTS), plain.contact_json(text, ALL_OUTPUTS))
-        with roomy.session(text) as s:  # its steps under the session's own configuration
-            assert s.step(s.positions()).summary.contacts > 0
-        assert f"max_bytes={2 * n}" in repr(roomy) and "max_bytes" not in repr(plain)
-        padded = text[:-1] + " " * (64 << 20) + "}"
-        with pytest.raises(ntscontact.PayloadTooLarge):
-            plain.contact_json(padded)  # (text with no outputs goes as it is)
-    with Engine(library=LIBRARY, max_bytes=1 << 27) as large:
-        assert json.loads(large.contact_json(padded))["summary"]["energy"] > 0
-    for bad in (0, -1, True, 1.5, "64M", 2**63):
-        with pytest.raises(ValueError, match="max_bytes"):
-            Engine(library=LIBRARY, max_bytes=bad)
+    other = ""
+    if started_by == "other code":
+        (tmp_path / "other.c").write_text(OTHER_OPENMP)
+        other = str(tmp_path / "libother.so")
+        built = subprocess.run(["cc", "-fopenmp", "-shared", "-fPIC", "-o", other, str(tmp_path / "other.c")],
+                               capture_output=True, text=True)
+        if built.returncode != 0:
+            pytest.skip("no C compiler with OpenMP: " + built.stderr[-200:])
+    got = subprocess.run([sys.executable, "-c", FORKED, str(LIBRARY), str(scene), other], capture_output=True,
+                         text=True, timeout=300, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    assert got.returncode == 0 and got.stdout.strip() == "0", got.stdout + got.stderr
 
 
 def test_a_missing_library_says_how_to_get_it(monkeypatch, tmp_path):

@@ -251,7 +251,7 @@ typedef struct nts_options {
     unsigned outputs;      /**< NTS_OUT_* flags; default forces | energy | virial */
     nts_search search;     /**< default NTS_SEARCH_CELLS */
     int threads;           /**< 0 = serial; results are bitwise identical for any value; in a process forked
-                                after a parallel evaluation, 1 (OpenMP's threads do not survive fork) */
+                                from one that loaded the library, 1 (OpenMP's threads do not survive fork) */
     nts_penalty_scaling penalty_scaling; /**< default NTS_PENALTY_PER_NODE */
     /** Bounds on one evaluation (docs/model.md §11), so that no input that fits
      * in memory costs unbounded memory or time:
