@@ -296,13 +296,17 @@ SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
     ("triangles", [[0, 1, 2], [0, 2, 2.5]], "2.5"),
     ("loops", [[0, 1, 2, 2 ** 64 - 1]], "18446744073709551615"),
     ("loops", [[0.0, 1.0, 2.0, 3.5]], "3.5"),
+    ("loops", [[0, 1, 2, 2 ** 64]], "18446744073709551616"),  # (numpy keeps it as an object)
+    ("loops", [[0, 1, 2, True]], "boolean"),  # (numpy reads it as 1)
+    ("triangles", [[0, 1, 2], [0, np.bool_(False), 3]], "boolean"),
 ])
 def test_node_indices_beyond_int64_or_not_integers_are_refused_as_given(client, field, value, given):
     """Node indices are checked before the cast to int64 (a uint64 2**63 or a
     float 1e300 wrapped to -9223372036854775808, which the error then
     named): add_body refuses them with the service's code and pointer for
     the same document, naming the value as given."""
-    doc = {"options": {"penalty": 100.0}, "bodies": [{"id": 0, "nodes": SQUARE, field: np.asarray(value).tolist()},
+    as_json = value.tolist() if isinstance(value, np.ndarray) else json.loads(json.dumps(value, default=bool))
+    doc = {"options": {"penalty": 100.0}, "bodies": [{"id": 0, "nodes": SQUARE, field: as_json},
                                                     {"id": 1, "nodes": (np.array(SQUARE) + [2, 0]).tolist()}]}
     with pytest.raises(InvalidScene) as service:
         client.contact(json.dumps(doc))

@@ -70,6 +70,10 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
     int64 ``index_out_of_range`` (of ``[0, n)`` when ``n``, a body's node
     count, is given). Anything else that is not integers is ``invalid_type``."""
     where = _where(index, body_id)
+    at = _first_bool(value)
+    if at is not None:  # (numpy would read a True among ints as 1)
+        raise InvalidScene("expected an integer node index, got a boolean", code="invalid_type",
+                           pointer=pointer + "".join(f"/{i}" for i in at), where=f"{where}, {what} entry {at}")
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError) as exc:  # ragged nested lists
@@ -77,6 +81,14 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
                            code="invalid_type", pointer=pointer, where=where) from None
     if arr.size == 0:
         return arr.astype(np.int64).reshape(arr.shape)
+    if arr.dtype.kind == "O":  # Python ints beyond 64 bits, which numpy keeps as objects
+        for flat, item in enumerate(arr.flat):
+            if isinstance(item, int) and not -2**63 <= item < 2**63:
+                pos = [int(i) for i in np.unravel_index(flat, arr.shape)]
+                span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
+                raise InvalidScene(f"{'node index' if n is not None else 'index'} {item!r} is {span}",
+                                   code="index_out_of_range", pointer=pointer + "".join(f"/{i}" for i in pos),
+                                   where=f"{where}, {what} entry {pos}")
     if arr.dtype.kind not in "iuf":
         raise InvalidScene(f"{what} must hold integer node indices", code="invalid_type", pointer=pointer,
                            where=where)
@@ -99,6 +111,18 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
         span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
         refuse(beyond, "index_out_of_range", f"{noun} {{v!r}} is {span}")
     return arr.astype(np.int64)
+
+
+def _first_bool(value: Any, at: Tuple[int, ...] = ()) -> Optional[List[int]]:
+    """Where the first boolean of nested lists (or tuples) lies, else None."""
+    if isinstance(value, (bool, np.bool_)):
+        return list(at)
+    if isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            found = _first_bool(item, at + (i,))
+            if found is not None:
+                return found
+    return None
 
 
 def _is_pair_list(value: Any) -> bool:
