@@ -452,6 +452,13 @@ def test_part_read_with_the_command_lines_max_depth(tmp_path):
     assert rc == 2 and b"--max-depth needs a positive count, not 'x'" in line, line
 
 
+def mpi_session_dir(path):
+    """Open MPI's own session directory under `path`, apart from $TMPDIR:
+    its names in Open MPI 4 (ORTE) and 5 (PRRTE), and PMIx's."""
+    return {"OMPI_MCA_orte_tmpdir_base": str(path), "PRTE_MCA_prte_tmpdir_base": str(path),
+            "PMIX_SYSTEM_TMPDIR": str(path)}
+
+
 def test_part_assembled_in_tmpdir(tmp_path):
     """--part assembles the whole request in a temporary file under $TMPDIR
     when it is set (the user's, not always /tmp): a TMPDIR where no file can
@@ -468,7 +475,7 @@ def test_part_assembled_in_tmpdir(tmp_path):
     bad = tmp_path / "a-file" / "tmp"
     ompi = tmp_path / "ompi"
     ompi.mkdir()
-    env = dict(ENV, TMPDIR=str(bad), OMPI_MCA_orte_tmpdir_base=str(ompi), PMIX_SYSTEM_TMPDIR=str(ompi))
+    env = dict(ENV, TMPDIR=str(bad), **mpi_session_dir(ompi))
     got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
     assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
     assert f"cannot write the assembled request to {bad}/ntscontact-mpi-".encode() in got.stderr, got.stderr
@@ -498,7 +505,7 @@ def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
     try:
         ompi = tmp_path / "ompi"
         ompi.mkdir()
-        env = dict(ENV, TMPDIR=str(full), OMPI_MCA_orte_tmpdir_base=str(ompi), PMIX_SYSTEM_TMPDIR=str(ompi))
+        env = dict(ENV, TMPDIR=str(full), **mpi_session_dir(ompi))
         cmd = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
         got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
         assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
