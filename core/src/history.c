@@ -197,11 +197,23 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
     return NTS_OK;
 }
 
+/* Friction runs when some pair of bodies that can meet has a coefficient
+ * above 0 (friction_pair_mu: the smaller of the two): a slave of one and a
+ * master of another, or a body that meets itself. Otherwise none of it runs,
+ * and the answer is the frictionless one bit for bit (docs/model.md §14),
+ * whatever coefficients bodies that never meet a frictional partner have. */
 int nts_friction_on(const nts_scene* s, const nts_options* o) {
+    long long slaves = 0, masters = 0, both = 0;
     int b;
     if (s == NULL || o == NULL) return 0;
-    if (o->friction > 0.0) return 1;
-    for (b = 0; b < s->body_count; ++b)
-        if (s->body_friction[b] > 0.0) return 1;
-    return 0;
+    for (b = 0; b < s->body_count; ++b) {
+        const double mu = s->body_friction[b] >= 0.0 ? s->body_friction[b] : o->friction;
+        const int slave = s->body_role[b] != NTS_ROLE_MASTER, master = s->body_role[b] != NTS_ROLE_SLAVE;
+        if (!(mu > 0.0)) continue;
+        if (slave && master && s->body_self[b]) return 1;
+        slaves += slave;
+        masters += master;
+        both += slave && master;
+    }
+    return slaves * masters > both; /* ordered pairs (slave a, master b), a != b */
 }

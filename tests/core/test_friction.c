@@ -608,6 +608,72 @@ static void test_bits_threads_and_new_contacts(void) {
     free_packing(&p);
 }
 
+/* Every pair that meets at coefficient 0 (the options' 0.4, one of the two
+ * bodies 0: the smaller of the two): none of friction runs, and a step after
+ * a tangential move is the frictionless answer bit for bit (docs/model.md
+ * §14); with the body at 0.2 the same step rubs. */
+static void test_zero_pairs_are_frictionless_bit_for_bit(void) {
+    pair_scene ps;
+    const double mus[2] = {0.0, 0.2};
+    int m;
+    ps.lx = ps.ly = 0.0;
+    ps.n[0] = rectangle(ps.p[0], 0.0, 0.0, 4.0, 1.0, 9);
+    ps.n[1] = rectangle(ps.p[1], 1.0, 0.98, 3.0, 2.0, 6);
+    for (m = 0; m < 2; ++m) {
+        nts_context* c = nts_context_create();
+        nts_history* h = nts_history_create();
+        nts_options o = nts_default_options();
+        nts_options off;
+        nts_result r, r0;
+        nts_error err;
+        nts_vec2 moved[512];
+        nts_scene* s;
+        int i, n;
+        pair_defs(&ps);
+        ps.defs[0].has_friction = 1;
+        ps.defs[0].friction = mus[m];
+        s = pair_make(&ps);
+        CU_ASSERT_FATAL(s != NULL && c != NULL && h != NULL);
+        n = nts_scene_node_count(s);
+        o.penalty = 100.0;
+        o.outputs = NTS_OUT_ALL;
+        o.friction = 0.4;
+        o.history = h;
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == NTS_OK);
+        CU_ASSERT_FATAL(r.contact_count > 0 && nts_history_commit(h, &r) == NTS_OK);
+        for (i = 0; i < ps.n[1]; ++i) moved[i] = nts_add(ps.p[1][i], nts_v2(0.01, 0.0));
+        CU_ASSERT_FATAL(nts_scene_set_positions(s, 1, moved, &err) == NTS_OK);
+        off = o;
+        off.friction = 0.0;
+        off.history = NULL;
+        CU_ASSERT_FATAL(nts_evaluate(c, s, &off, &r0, &err) == NTS_OK);
+        {
+            nts_vec2* f0 = (nts_vec2*)malloc(sizeof(nts_vec2) * (size_t)n);
+            double* k0 = (double*)malloc(sizeof(double) * (size_t)r0.stiffness.count);
+            const double e0 = r0.summary.energy;
+            int same;
+            CU_ASSERT_FATAL(f0 != NULL && k0 != NULL);
+            memcpy(f0, r0.forces, sizeof(nts_vec2) * (size_t)n);
+            memcpy(k0, r0.stiffness.values, sizeof(double) * (size_t)r0.stiffness.count);
+            CU_ASSERT_FATAL(nts_evaluate(c, s, &o, &r, &err) == NTS_OK);
+            same = memcmp(f0, r.forces, sizeof(nts_vec2) * (size_t)n) == 0 && r.summary.energy == e0 &&
+                   r.stiffness.count == r0.stiffness.count &&
+                   memcmp(k0, r.stiffness.values, sizeof(double) * (size_t)r0.stiffness.count) == 0;
+            if (m == 0) {
+                CU_ASSERT(same);
+                ASSERT_INT_EQ(r.anchor_count, 0);
+            } else {
+                CU_ASSERT(!same && r.summary.dissipation + fabs(r.summary.virial.xy - r.summary.virial.yx) > 0.0);
+            }
+            free(f0);
+            free(k0);
+        }
+        nts_history_destroy(h);
+        nts_context_destroy(c);
+        nts_scene_destroy(s);
+    }
+}
+
 /* nts_history_set refuses what is not an anchor of the scene, naming it. */
 static void test_history_set_refuses_bad_anchors(void) {
     pair_scene ps;
@@ -735,6 +801,7 @@ void register_friction_suite(void) {
     ADD_TEST(s, test_reversed_slide_reverses_the_force);
     ADD_TEST(s, test_frame_indifference);
     ADD_TEST(s, test_bits_threads_and_new_contacts);
+    ADD_TEST(s, test_zero_pairs_are_frictionless_bit_for_bit);
     ADD_TEST(s, test_history_set_refuses_bad_anchors);
     ADD_TEST(s, test_a_history_of_another_scene_is_refused);
 }
