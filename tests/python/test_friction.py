@@ -416,6 +416,28 @@ def test_a_history_not_so_is_refused_as_the_service_refuses_it(daemon, history):
         (err["error"]["code"], err["error"]["pointer"], err["error"]["message"])
 
 
+def test_a_history_of_numpy_values_is_the_history_of_their_numbers(daemon):
+    """Anchors whose nodes are a numpy array and whose parameter is a numpy
+    float go as the lists and numbers they hold (json's bare TypeError
+    before); a NaN among them is the service's non_finite at its pointer."""
+    scene = block_scene()
+    xs = path_positions(scene)
+    with ntscontact.Client(daemon.base) as client:
+        first = client.contact(ntscontact.Scene.from_dict(with_positions(scene, xs[0])))
+        plain = first.history
+        assert plain, "the block rubs: anchors to carry"
+        as_numpy = [dict(a, nodes=np.asarray(a["nodes"]), param=np.float64(a["param"])) for a in plain]
+        moved = ntscontact.Scene.from_dict(with_positions(scene, xs[1]))
+        want = client.contact(moved, history=plain)
+        got = client.contact(moved, history=as_numpy)
+        assert np.array_equal(got.force_array(), want.force_array())
+        bad = [dict(a) for a in plain]
+        bad[-1]["param"] = np.float64("nan")
+        with pytest.raises(ntscontact.InvalidScene) as exc:
+            client.contact(moved, history=bad)
+        assert (exc.value.code, exc.value.pointer) == ("non_finite", f"/history/{len(bad) - 1}/param")
+
+
 def test_the_client_goes_on_from_a_history_and_commits(daemon):
     """Client.contact(scene, history=...) is the stateless chain; Session.step
     with commit=False leaves the history, as the service says."""

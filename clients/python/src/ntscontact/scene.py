@@ -749,31 +749,51 @@ def scene_document(text: Union[str, bytes, bytearray]) -> Dict[str, Any]:
 
 
 def dump_document(doc: Any) -> bytes:
-    """A document as compact JSON text. JSON has no NaN or infinity: the first
-    one met (in the order written) is the service's ``non_finite`` at its
-    pointer, where ``json.dumps`` would raise a bare ``ValueError``."""
+    """A document as compact JSON text, numpy's arrays and scalars as the
+    lists and numbers they hold. JSON has no NaN or infinity: the first one
+    met (in the order written) is the service's ``non_finite`` at its
+    pointer, and a value JSON cannot hold ``invalid_type`` at its own, where
+    ``json.dumps`` would raise a bare ``ValueError`` or ``TypeError``."""
     try:
-        return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
-    except ValueError:
-        where = _first_non_finite(doc, "")
-        if where is None:
+        return json.dumps(doc, allow_nan=False, separators=(",", ":"), default=_plain).encode("utf-8")
+    except (ValueError, TypeError) as exc:
+        found = _first_fault(doc, "")
+        if found is None:
             raise
-        raise InvalidScene("not a finite number (JSON has no NaN or infinity)", code="non_finite",
-                           pointer=where) from None
+        pointer, value = found
+        if isinstance(value, float):
+            raise InvalidScene("not a finite number (JSON has no NaN or infinity)", code="non_finite",
+                               pointer=pointer) from None
+        raise InvalidScene(f"expected a JSON value, got {type(value).__name__}", code="invalid_type",
+                           pointer=pointer) from exc
 
 
-def _first_non_finite(value: Any, pointer: str) -> Optional[str]:
-    """The JSON pointer of the first NaN or infinity in ``value``, else None."""
+def _plain(value: Any) -> Any:
+    """numpy's arrays and scalars as Python's lists and numbers, for json.dumps."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON")
+
+
+def _first_fault(value: Any, pointer: str) -> Optional[Tuple[str, Any]]:
+    """The JSON pointer and value of the first NaN or infinity, or value JSON
+    cannot hold, in ``value`` (in the order written), else None."""
+    if isinstance(value, (np.ndarray, np.generic)):
+        value = _plain(value)
     if isinstance(value, float):
-        return None if math.isfinite(value) else pointer
+        return None if math.isfinite(value) else (pointer, value)
+    if value is None or isinstance(value, (bool, int, str)):
+        return None
     if isinstance(value, Mapping):
         items: Any = ((str(k).replace("~", "~0").replace("/", "~1"), v) for k, v in value.items())
     elif isinstance(value, (list, tuple)):
         items = enumerate(value)
     else:
-        return None
+        return pointer, value
     for key, item in items:
-        found = _first_non_finite(item, f"{pointer}/{key}")
+        found = _first_fault(item, f"{pointer}/{key}")
         if found is not None:
             return found
     return None
