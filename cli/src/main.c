@@ -2,8 +2,9 @@
  * result (schemas/result.schema.json). The JSON work is the codec's
  * (ntsj_handle), so the CLI answers exactly as the server does.
  *
- * Exit status: 0 done, 2 usage (bad flags, unreadable files), 3 invalid input
- * (one line on stderr: code, JSON pointer, message), 1 internal error. */
+ * Exit status: 0 done, 2 usage (bad flags, files that cannot be read or
+ * made), 3 invalid input (one line on stderr: code, JSON pointer, message), 1
+ * internal error (out of memory, a failed write). */
 #define _POSIX_C_SOURCE 200809L /* fileno (a build without OpenMP has no -pthread to imply it) */
 #include <errno.h>
 #include <getopt.h>
@@ -13,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <ntscontact/codec.h>
 
@@ -151,8 +153,11 @@ static void print_usage(void) {
           "Every option with a value takes it as '--name VALUE' or '--name=VALUE';\n"
           "names are written in full. '--' ends the options.\n"
           "\n"
-          "exit status: 0 done, 2 usage error, 3 invalid input (one line on standard\n"
-          "error: code, JSON pointer, message), 1 internal error\n",
+          "exit status: 0 done, 2 usage error (a bad flag, a file that cannot be read\n"
+          "or made), 3 invalid input (one line on standard error: code, JSON pointer,\n"
+          "message), 1 internal error (out of memory, a write that fails: a full disk).\n"
+          "An output file (-o, --vtk, --history-out) is written whole or not at all: a\n"
+          "failed run leaves a file that was there as it was.\n",
           stdout);
 }
 
@@ -318,25 +323,76 @@ static char* read_all(FILE* f, size_t limit, size_t* length, int* read_errno) {
     return buf;
 }
 
-static FILE* open_output(const char* output) {
-    FILE* out;
-    if (!output || strcmp(output, "-") == 0) return stdout;
-    out = fopen(output, "wb");
-    if (!out) fprintf(stderr, "ntscontact: cannot write '%s': %s\n", output, strerror(errno));
-    return out;
+/* An output file written whole or not at all: into a temporary file beside
+ * it, renamed over it once everything is written, removed otherwise. A
+ * failed run neither leaves what looks like a finished result nor empties a
+ * file that was there (standard output is written as it goes). */
+typedef struct out_file {
+    FILE* f;
+    const char* path; /* NULL: standard output */
+    char tmp[4200];
+} out_file;
+
+/* 0, or EXIT_USAGE after the message (the file cannot be made there). */
+static int out_open(out_file* o, const char* path) {
+    mode_t mask;
+    int fd;
+    o->f = NULL;
+    o->path = NULL;
+    if (!path || strcmp(path, "-") == 0) {
+        o->f = stdout;
+        return 0;
+    }
+    if (strlen(path) + 20 > sizeof o->tmp) {
+        fprintf(stderr, "ntscontact: cannot write '%s': file name too long\n", path);
+        return EXIT_USAGE;
+    }
+    snprintf(o->tmp, sizeof o->tmp, "%s.partial-XXXXXX", path);
+    fd = mkstemp(o->tmp);
+    if (fd < 0) {
+        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
+        return EXIT_USAGE;
+    }
+    mask = umask(0); /* (the permissions fopen would give: 0666 less the umask) */
+    umask(mask);
+    (void)fchmod(fd, (mode_t)(0666 & ~mask));
+    if ((o->f = fdopen(fd, "wb")) == NULL) {
+        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
+        close(fd);
+        unlink(o->tmp);
+        return EXIT_USAGE;
+    }
+    o->path = path;
+    return 0;
 }
 
-static int write_file(const char* path, const char* data, size_t n) {
-    FILE* f = fopen(path, "wb");
-    int bad;
-    if (!f) {
-        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
-        return -1;
+/* Close o: renamed into place when `keep` and everything was written, else
+ * removed. 0, or EXIT_INTERNAL after the message naming the fault. */
+static int out_close(out_file* o, int keep) {
+    int err = 0;
+    if (o->f == NULL) return 0;
+    if (o->path == NULL) {
+        if (fflush(o->f) != 0) err = errno ? errno : EIO;
+    } else {
+        if (ferror(o->f)) err = errno ? errno : EIO;
+        if (fclose(o->f) != 0 && !err) err = errno ? errno : EIO;
+        if (keep && !err && rename(o->tmp, o->path) != 0) err = errno;
+        if (!keep || err) unlink(o->tmp);
     }
-    bad = fwrite(data, 1, n, f) != n;
-    if (fclose(f) != 0) bad = 1;
-    if (bad) fprintf(stderr, "ntscontact: error writing '%s'\n", path);
-    return bad ? -1 : 0;
+    o->f = NULL;
+    if (!err) return 0;
+    fprintf(stderr, "ntscontact: error writing '%s': %s\n", o->path ? o->path : "standard output", strerror(err));
+    return EXIT_INTERNAL;
+}
+
+/* A whole file: 0, or EXIT_USAGE / EXIT_INTERNAL after the message. */
+static int write_file(const char* path, const char* data, size_t n) {
+    out_file o;
+    int rc = out_open(&o, path);
+    if (rc != 0) return rc;
+    errno = 0;
+    (void)fwrite(data, 1, n, o.f);
+    return out_close(&o, 1);
 }
 
 /* FILE.vtu -> FILE_000123.vtu: one file per frame, a series ParaView opens
@@ -350,7 +406,7 @@ static int write_vtk_frame(const char* vtk, long long k, const ntsj_response* re
     char path[4096];
     if (strlen(vtk) + 16 > sizeof path) {
         fprintf(stderr, "ntscontact: --vtk: file name too long\n");
-        return -1;
+        return EXIT_USAGE;
     }
     frame_path(path, sizeof path, vtk, k);
     return write_file(path, resp->vtk, resp->vtk_length);
@@ -361,15 +417,14 @@ static int write_pvd(const char* vtk, long long frames) {
     const char* base;
     long long k;
     size_t n = strlen(vtk);
+    out_file o;
     FILE* f;
-    int bad;
-    if (n + 16 > sizeof path) return -1;
+    int rc;
+    if (n + 16 > sizeof path) return EXIT_USAGE;
     snprintf(path, sizeof path, "%.*s.pvd", (int)(n - 4), vtk);
-    f = fopen(path, "wb");
-    if (!f) {
-        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
-        return -1;
-    }
+    if ((rc = out_open(&o, path)) != 0) return rc;
+    f = o.f;
+    errno = 0;
     /* The series names its files relative to itself. */
     base = strrchr(vtk, '/');
     base = base ? base + 1 : vtk;
@@ -380,10 +435,7 @@ static int write_pvd(const char* vtk, long long frames) {
         fprintf(f, "<DataSet timestep=\"%lld\" part=\"0\" file=\"%s\"/>\n", k, name);
     }
     fputs("</Collection>\n</VTKFile>\n", f);
-    bad = ferror(f) != 0;
-    if (fclose(f) != 0) bad = 1;
-    if (bad) fprintf(stderr, "ntscontact: error writing '%s'\n", path);
-    return bad ? -1 : 0;
+    return out_close(&o, 1);
 }
 
 /* --history-out: the anchors after the evaluation ({"history": []} when
@@ -401,11 +453,11 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     ntsj_response resp;
     ntsj_step step;
     FILE* in;
-    FILE* out;
+    out_file out;
     char* frame = NULL;
     size_t frame_bytes;
     long long k = 0;
-    int status = EXIT_DONE, nodes, write_failed = 0;
+    int status = EXIT_DONE, nodes, write_failed = 0, rc;
 
     if (ntsj_session_create(scene, length, cfg, &ss, &resp) != 0 && !resp.body) {
         fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
@@ -424,12 +476,12 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         return EXIT_USAGE;
     }
     frame = (char*)malloc(frame_bytes);
-    out = frame ? open_output(output) : NULL;
-    if (!frame || !out) {
+    rc = frame ? out_open(&out, output) : EXIT_INTERNAL;
+    if (rc != 0) {
         if (in != stdin) fclose(in);
         free(frame);
         ntsj_session_destroy(ss);
-        return frame ? EXIT_USAGE : EXIT_INTERNAL;
+        return rc;
     }
     memset(&step, 0, sizeof step);
     step.kind = NTSJ_STEP_BINARY;
@@ -455,37 +507,30 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
             ntsj_response_free(&resp);
             break;
         }
-        if (fwrite(resp.body, 1, resp.length, out) != resp.length) write_failed = 1;
+        if (fwrite(resp.body, 1, resp.length, out.f) != resp.length) write_failed = 1;
         print_warnings(&resp, k);
-        if (vtk && !write_failed && write_vtk_frame(vtk, k, &resp) != 0) {
+        if (vtk && !write_failed && (rc = write_vtk_frame(vtk, k, &resp)) != 0) {
             ntsj_response_free(&resp);
-            status = EXIT_USAGE;
+            status = rc;
             break;
         }
         /* the committed anchors after each frame: the last one's stays */
-        if (history_out && !write_failed && write_history(history_out, &resp) != 0) {
+        if (history_out && !write_failed && (rc = write_history(history_out, &resp)) != 0) {
             ntsj_response_free(&resp);
-            status = EXIT_USAGE;
+            status = rc;
             break;
         }
         ntsj_response_free(&resp);
         if (write_failed) break;
     }
-    if (vtk && k > 0 && write_pvd(vtk, k) != 0 && status == EXIT_DONE) status = EXIT_USAGE;
+    if (vtk && k > 0 && status == EXIT_DONE && (rc = write_pvd(vtk, k)) != 0) status = rc;
     if (ferror(in)) {
         fprintf(stderr, "ntscontact: cannot read '%s'\n", frames);
         status = EXIT_USAGE;
     }
     if (in != stdin) fclose(in);
-    if (out != stdout) {
-        if (fclose(out) != 0) write_failed = 1;
-    } else if (fflush(out) != 0) {
-        write_failed = 1;
-    }
-    if (write_failed) {
-        fprintf(stderr, "ntscontact: error writing the results\n");
-        status = EXIT_INTERNAL;
-    }
+    /* -o FILE: every frame's result, or nothing (a failed run's frames gone) */
+    if ((rc = out_close(&out, status == EXIT_DONE && !write_failed)) != 0 || write_failed) status = EXIT_INTERNAL;
     free(frame);
     ntsj_session_destroy(ss);
     return status;
@@ -638,6 +683,15 @@ static int apply_flag(int k, const char* val, ntsj_config* cfg, cli_args* a) {
     return rc;
 }
 
+/* Whether two output paths name one file: the same name, or (both there)
+ * the same device and inode. Standard output ("-") is nobody's file. */
+static int same_file(const char* a, const char* b) {
+    struct stat sa, sb;
+    if (a == NULL || b == NULL || strcmp(a, "-") == 0 || strcmp(b, "-") == 0) return 0;
+    if (strcmp(a, b) == 0) return 1;
+    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
 /* Read the command line into cfg and a: 0, EXIT_USAGE after a message, or -1
  * when --help or --version answered. */
 static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
@@ -697,6 +751,21 @@ static int parse_args(int argc, char** argv, ntsj_config* cfg, cli_args* a) {
         return usage_error("%s", "--history-in - and another input from standard input: only one can read it");
     if (a->frames && (cfg->mode == NTSJ_VALIDATE || cfg->pretty))
         return usage_error("%s", "--frames writes one compact result per line: not with --validate or --pretty");
+    {
+        /* Two outputs in one file would leave neither whole (--frames
+         * writes --vtk's FILE_000000.vtu ..., not FILE itself). */
+        const char* name[3] = {"-o", "--vtk", "--history-out"};
+        const char* path[3];
+        int i, j;
+        path[0] = a->output;
+        path[1] = a->frames ? NULL : a->vtk;
+        path[2] = a->history_out;
+        for (i = 0; i < 3; ++i)
+            for (j = i + 1; j < 3; ++j)
+                if (same_file(path[i], path[j]))
+                    return usage_error("%s and %s name the same file '%s': give each its own", name[i], name[j],
+                                       path[j]);
+    }
     return 0;
 }
 
@@ -731,7 +800,7 @@ int main(int argc, char** argv) {
     const char* frames;
     const char* vtk;
     FILE* in;
-    FILE* out;
+    out_file out;
     char* data;
     size_t length = 0;
     int status, read_errno = 0;
@@ -807,30 +876,17 @@ int main(int argc, char** argv) {
         return status;
     }
 
-    if (output && strcmp(output, "-") != 0) {
-        out = fopen(output, "wb");
-        if (!out) {
-            fprintf(stderr, "ntscontact: cannot write '%s': %s\n", output, strerror(errno));
-            ntsj_response_free(&resp);
-            return EXIT_USAGE;
-        }
-    } else {
-        out = stdout;
-    }
-    status = EXIT_DONE;
-    if ((vtk && write_file(vtk, resp.vtk, resp.vtk_length) != 0) ||
-        (args.history_out && write_history(args.history_out, &resp) != 0)) {
-        if (out != stdout) fclose(out);
+    /* The side files first, the result last: a failed one leaves the
+     * result's file (-o) as it was. */
+    if ((vtk && (status = write_file(vtk, resp.vtk, resp.vtk_length)) != 0) ||
+        (args.history_out && (status = write_history(args.history_out, &resp)) != 0) ||
+        (status = out_open(&out, output)) != 0) {
         ntsj_response_free(&resp);
-        return EXIT_USAGE;
+        return status;
     }
-    if (fwrite(resp.body, 1, resp.length, out) != resp.length) status = EXIT_INTERNAL;
-    if (out != stdout) {
-        if (fclose(out) != 0) status = EXIT_INTERNAL;
-    } else if (fflush(out) != 0) {
-        status = EXIT_INTERNAL;
-    }
-    if (status != EXIT_DONE) fprintf(stderr, "ntscontact: error writing the result\n");
+    errno = 0;
+    (void)fwrite(resp.body, 1, resp.length, out.f);
+    status = out_close(&out, 1);
     print_warnings(&resp, -1);
     ntsj_response_free(&resp);
     return status;

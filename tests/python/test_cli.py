@@ -8,10 +8,13 @@ malformed scenes (malformed/cases.json) each exits 3 with the expected code and
 JSON pointer; a clockwise body is reversed and gives its twin's forces."""
 import json
 import math
+import os
 import re
+import stat
 import subprocess
 
 import jsonschema
+import numpy as np
 import pytest
 
 from conftest import BUILD, REPO
@@ -596,3 +599,82 @@ def test_schema_and_codec_agree_on_malformed_scenes(schemas, case):
                           "zero_angle_spike", "node_in_two_loops", "non_manifold_mesh", "degenerate_triangle",
                           "box_too_small") and case["name"] not in ("loop_index_negative",):
         assert not errors, f'{case["name"]}: expected schema-valid, got {errors[0].message}'
+
+
+# ------------------------------------------------------------------ output files
+
+TWO_DISKS = REPO / "examples" / "two_disks.json"
+
+
+def test_a_failed_side_file_leaves_the_result_file_as_it_was(tmp_path):
+    """-o FILE with a --vtk or --history-out that cannot be made: exit 2
+    naming it, and FILE as it was (it was emptied: opened before the side
+    files were written)."""
+    keep = tmp_path / "keep.json"
+    for flag, name in (("--vtk", "x.vtu"), ("--history-out", "h.json")):
+        keep.write_text('{"precious": 1}')
+        bad = tmp_path / "no_such_dir" / name
+        got = run("-o", keep, flag, bad, TWO_DISKS)
+        assert got.returncode == 2 and f"cannot write '{bad}'".encode() in got.stderr, got.stderr
+        assert keep.read_text() == '{"precious": 1}'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.json"]  # no partial file beside it
+
+
+def test_two_outputs_in_one_file_are_refused(tmp_path):
+    """-o and --vtk (or --history-out) naming one file, by the same name or
+    through a link: a usage error, nothing written (the result was written
+    over the start of the VTU, exit 0)."""
+    same = tmp_path / "same.vtu"
+    got = run("-o", same, "--vtk", same, TWO_DISKS)
+    assert got.returncode == 2 and b"-o and --vtk name the same file" in got.stderr
+    assert not same.exists()
+    (tmp_path / "h.json").write_text("{}")
+    (tmp_path / "link.json").symlink_to(tmp_path / "h.json")
+    got = run("--history-out", tmp_path / "h.json", "-o", tmp_path / "link.json", TWO_DISKS)
+    assert got.returncode == 2 and b"name the same file" in got.stderr
+    assert (tmp_path / "h.json").read_text() == "{}"
+
+
+def test_frames_write_their_results_whole_or_not_at_all(tmp_path):
+    """--frames -o FILE whose second frame is refused: exit 3, and no file
+    holding the first frame's line as if it were the run's (nor an existing
+    file emptied); a run that completes writes every line, with the
+    permissions a new file gets (0666 less the umask)."""
+    scene = json.loads(TWO_DISKS.read_text())
+    x = np.concatenate([np.asarray(b["nodes"], float) for b in scene["bodies"]])
+    bad = np.stack([x, x + 1e-4, x])
+    bad[1][3, 0] = np.nan
+    bad.astype("<f8").tofile(tmp_path / "bad.bin")
+    np.stack([x, x + 1e-4]).astype("<f8").tofile(tmp_path / "ok.bin")
+    out = tmp_path / "res.jsonl"
+    got = run("--frames", tmp_path / "bad.bin", "-o", out, TWO_DISKS)
+    assert got.returncode == 3 and b"frame 1: non_finite" in got.stderr
+    assert not out.exists()
+    out.write_text("old\n")
+    got = run("--frames", tmp_path / "bad.bin", "-o", out, TWO_DISKS)
+    assert got.returncode == 3 and out.read_text() == "old\n"
+    got = run("--frames", tmp_path / "ok.bin", "-o", out, TWO_DISKS)
+    assert got.returncode == 0 and len(out.read_text().splitlines()) == 2
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~mask
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bin", "ok.bin", "res.jsonl"]
+
+
+def test_a_full_disk_is_a_failed_write_and_leaves_nothing(tmp_path):
+    """-o, --vtk or --history-out on a full file system (a small tmpfs;
+    skipped where one cannot be mounted): exit 1 with the system's reason,
+    and no partial file left."""
+    full = tmp_path / "full"
+    full.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", str(full)], capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here: " + mounted.stderr.decode().strip())
+    try:
+        for flags in (["-o", full / "out.json", "--outputs", "forces,contacts,gaps,stiffness"],
+                      ["--vtk", full / "x.vtu", "-o", tmp_path / "o.json"]):
+            got = run(*flags, TWO_DISKS)
+            assert got.returncode == 1 and b"No space left on device" in got.stderr, got.stderr
+            assert list(full.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(full)], capture_output=True)
