@@ -90,7 +90,7 @@ static int deal_bodies(MPI_Comm comm, int root, const nts_body_def* bodies, int 
         if (ntsm_bytes_room(&out->data, (size_t)head[1] + 8) == NULL) {
             /* nowhere to receive the bodies into: end the job, not in a crash */
             fprintf(stderr, "ntscontact-mpi: rank %d: out of memory receiving its bodies\n", rank);
-            MPI_Abort(comm, 4);
+            MPI_Abort(comm, 1);
         }
         out->data.n = (size_t)head[1];
         if (head[1] > 0) MPI_Recv(out->data.p, (int)head[1], MPI_BYTE, root, 72, comm, MPI_STATUS_IGNORE);
@@ -454,11 +454,45 @@ static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len,
     return NULL;
 }
 
+/* Whether two JSON values are the same: numbers as the same double (not
+ * cJSON_Compare's, which takes numbers within a relative DBL_EPSILON for
+ * equal: a penalty of 100.00000000000001 against 100 went unseen), members
+ * in any order. Nested no deeper than the parts were read (--max-depth). */
+static int json_same(const cJSON* x, const cJSON* y) {
+    const cJSON* c;
+    int n = 0, m = 0;
+    if ((x->type & 0xFF) != (y->type & 0xFF)) return 0;
+    switch (x->type & 0xFF) {
+    case cJSON_Number:
+        return x->valuedouble == y->valuedouble;
+    case cJSON_String:
+        return strcmp(x->valuestring, y->valuestring) == 0;
+    case cJSON_Array:
+        for (c = x->child, m = 0; c != NULL; c = c->next) ++m;
+        for (c = y->child; c != NULL; c = c->next) ++n;
+        if (n != m) return 0;
+        for (x = x->child, y = y->child; x != NULL; x = x->next, y = y->next)
+            if (!json_same(x, y)) return 0;
+        return 1;
+    case cJSON_Object:
+        for (c = x->child; c != NULL; c = c->next) ++m;
+        for (c = y->child; c != NULL; c = c->next) ++n;
+        if (n != m) return 0;
+        for (c = x->child; c != NULL; c = c->next) {
+            const cJSON* other = cJSON_GetObjectItemCaseSensitive(y, c->string);
+            if (other == NULL || !json_same(c, other)) return 0;
+        }
+        return 1;
+    default: /* true, false, null */
+        return 1;
+    }
+}
+
 /* Whether parts a and b have the same member `name`, or both none. */
 static int same_member(const cJSON* a, const cJSON* b, const char* name) {
     const cJSON* x = cJSON_GetObjectItemCaseSensitive(a, name);
     const cJSON* y = cJSON_GetObjectItemCaseSensitive(b, name);
-    return (x == NULL && y == NULL) || (x != NULL && y != NULL && cJSON_Compare(x, y, 1));
+    return (x == NULL && y == NULL) || (x != NULL && y != NULL && json_same(x, y));
 }
 
 /* A part after the first holds bodies, and the options, version and
@@ -548,7 +582,7 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
         if (!ok) {
             if (rank == 0) fprintf(stderr, "ntscontact-mpi: out of memory gathering the parts\n");
             free(counts);
-            *status = 4;
+            *status = 1;
             return NULL;
         }
         if (rank == 0) {
@@ -617,11 +651,12 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                  * to be, else /tmp */
                 char tmpl[4096];
                 const char* dir = getenv("TMPDIR");
-                int fd = -1, bad = 1;
+                int fd = -1, bad = 1, why = 0;
                 FILE* f = NULL;
                 if (dir == NULL || dir[0] == '\0') dir = "/tmp";
                 if (snprintf(tmpl, sizeof tmpl, "%s/ntscontact-mpi-XXXXXX", dir) >= (int)sizeof tmpl)
                     snprintf(tmpl, sizeof tmpl, "/tmp/ntscontact-mpi-XXXXXX"); /* (a $TMPDIR too long) */
+                errno = 0;
                 fd = mkstemp(tmpl);
                 f = fd >= 0 ? fdopen(fd, "wb") : NULL;
                 if (f != NULL) {
@@ -629,14 +664,20 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                      * error flag; fclose then flushes what is left) */
                     json_write(f, whole);
                     bad = ferror(f) != 0;
-                    bad |= fclose(f) != 0;
-                } else if (fd >= 0) {
-                    close(fd);
+                    why = errno;
+                    if (fclose(f) != 0) {
+                        bad = 1;
+                        if (!why) why = errno;
+                    }
+                } else {
+                    why = errno;
+                    if (fd >= 0) close(fd);
                 }
                 if (bad || (out = strdup(tmpl)) == NULL) {
-                    fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s\n", tmpl);
+                    fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s: %s\n", tmpl,
+                            strerror(why ? why : ENOMEM));
                     if (fd >= 0) unlink(tmpl);
-                    *status = 4;
+                    *status = 1; /* (the CLI's internal error: a write that fails, out of memory) */
                 }
             }
             cJSON_Delete(whole);
@@ -664,8 +705,17 @@ int main(int argc, char** argv) {
         else args[nargs++] = argv[k];
     }
     if (args == NULL) {
+        fprintf(stderr, "ntscontact-mpi: out of memory\n");
         MPI_Finalize();
-        return 4;
+        return 1;
+    }
+    if (argc > 1 && strcmp(argv[argc - 1], "--part") == 0) { /* (the CLI would call it unknown) */
+        if (rank == 0)
+            fprintf(stderr, "ntscontact-mpi: --part needs a value: a path with %%d (the rank)\n"
+                            "Try 'ntscontact-mpi --help' for more information.\n");
+        free(args);
+        MPI_Finalize();
+        return 2;
     }
     if (pattern != NULL) {
         /* The flags first, as the CLI reads them (a bad one refused before

@@ -355,10 +355,16 @@ def test_part_each_rank_reads_its_own(tmp_path):
     argv = [MPIRUN, "-np", "3", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
     got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
     assert got.returncode == 2 and b"rank 1 cannot read" in got.stderr, got.stderr.decode()
-    (tmp_path / "part_1.json").write_text(json.dumps(dict(scene, bodies=scene["bodies"][:2],
-                                                         options={"penalty": 4.0})))
-    got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
-    assert got.returncode == 3 and b"options differ" in got.stderr, got.stderr.decode()
+    # options that differ by 4, or by one unit in the last place (cJSON_Compare took that for equal)
+    for penalty in (4.0, math.nextafter(3.0, 4.0)):
+        (tmp_path / "part_1.json").write_text(json.dumps(dict(scene, bodies=scene["bodies"][:2],
+                                                             options=dict(scene["options"], penalty=penalty))))
+        got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
+        assert got.returncode == 3 and b"options differ" in got.stderr, (penalty, got.stderr.decode())
+    # --part with no value: its own usage error (the CLI called it an unknown option)
+    got = subprocess.run([MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part"], capture_output=True,
+                         timeout=300, env=ENV)
+    assert got.returncode == 2 and b"--part needs a value" in got.stderr and b"unknown option" not in got.stderr
 
 
 @pytest.mark.parametrize("fault, code, where", [
@@ -462,7 +468,7 @@ def mpi_session_dir(path):
 def test_part_assembled_in_tmpdir(tmp_path):
     """--part assembles the whole request in a temporary file under $TMPDIR
     when it is set (the user's, not always /tmp): a TMPDIR where no file can
-    be made is named in the error, exit 4; a good one gives the answer of
+    be made is named in the error, exit 1 (the CLI's for a failed write); a good one gives the answer of
     the whole scene and holds nothing afterwards."""
     scene = completed(packing(8, 22))
     (tmp_path / "whole.json").write_text(json.dumps(scene))
@@ -477,7 +483,7 @@ def test_part_assembled_in_tmpdir(tmp_path):
     ompi.mkdir()
     env = dict(ENV, TMPDIR=str(bad), **mpi_session_dir(ompi))
     got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
-    assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
+    assert got.returncode == 1 and got.stdout == b"", got.stderr.decode()
     assert f"cannot write the assembled request to {bad}/ntscontact-mpi-".encode() in got.stderr, got.stderr
     own = tmp_path / "tmp"
     own.mkdir()
@@ -490,7 +496,7 @@ def test_part_assembled_in_tmpdir(tmp_path):
 
 def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
     """--part whose $TMPDIR fills up while the assembled request is written:
-    exit 4 naming the file, and the file removed (the write's error flag,
+    exit 1 naming the file and the reason, and the file removed (the write's error flag,
     then the close that flushes the rest, both checked). The full disk is a
     small tmpfs; where mounting one is not allowed (not root, a container
     without the right) the test is skipped."""
@@ -508,8 +514,9 @@ def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
         env = dict(ENV, TMPDIR=str(full), **mpi_session_dir(ompi))
         cmd = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
         got = subprocess.run(cmd, capture_output=True, timeout=300, env=env)
-        assert got.returncode == 4 and got.stdout == b"", got.stderr.decode()
+        assert got.returncode == 1 and got.stdout == b"", got.stderr.decode()
         assert f"cannot write the assembled request to {full}/ntscontact-mpi-".encode() in got.stderr, got.stderr
+        assert b"No space left on device" in got.stderr, got.stderr
         assert list(full.iterdir()) == []
     finally:
         subprocess.run(["umount", str(full)], capture_output=True)
