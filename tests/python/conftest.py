@@ -217,3 +217,22 @@ def tls_pair(tmp_path_factory):
                     str(cert), "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
                    check=True, capture_output=True, timeout=60)
     return cert, key
+
+
+import contextlib  # noqa: E402
+
+
+@contextlib.contextmanager
+def full_disk(where, size="8k"):
+    """A directory on a file system of `size` bytes (a tmpfs at `where`, made
+    and removed here), to fill up; the test is skipped where one cannot be
+    mounted (not root, a container without the right)."""
+    where.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
+                             capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here: " + mounted.stderr.decode().strip())
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", str(where)], capture_output=True)

@@ -17,7 +17,7 @@ import jsonschema
 import numpy as np
 import pytest
 
-from conftest import BUILD, REPO
+from conftest import BUILD, REPO, full_disk
 
 CLI = BUILD / "bin" / "ntscontact"
 # The scenes examples/make_examples.py writes (other files in examples/ are not ours to check).
@@ -665,16 +665,9 @@ def test_a_full_disk_is_a_failed_write_and_leaves_nothing(tmp_path):
     """-o, --vtk or --history-out on a full file system (a small tmpfs;
     skipped where one cannot be mounted): exit 1 with the system's reason,
     and no partial file left."""
-    full = tmp_path / "full"
-    full.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", str(full)], capture_output=True)
-    if mounted.returncode != 0:
-        pytest.skip("cannot mount a small tmpfs here: " + mounted.stderr.decode().strip())
-    try:
+    with full_disk(tmp_path / "full") as full:
         for flags in (["-o", full / "out.json", "--outputs", "forces,contacts,gaps,stiffness"],
                       ["--vtk", full / "x.vtu", "-o", tmp_path / "o.json"]):
             got = run(*flags, TWO_DISKS)
             assert got.returncode == 1 and b"No space left on device" in got.stderr, got.stderr
             assert list(full.iterdir()) == []
-    finally:
-        subprocess.run(["umount", str(full)], capture_output=True)

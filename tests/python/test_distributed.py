@@ -16,7 +16,7 @@ import subprocess
 
 import pytest
 
-from conftest import BUILD
+from conftest import BUILD, full_disk
 
 MPI_CLI = BUILD / "bin" / "ntscontact-mpi"
 SERIAL = BUILD / "bin" / "ntscontact"
@@ -503,12 +503,7 @@ def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
     scene = completed(packing(8, 22))
     for r, share in enumerate([scene["bodies"][:4], scene["bodies"][4:]]):
         (tmp_path / f"part_{r}.json").write_text(json.dumps(dict(scene, bodies=share)))
-    full = tmp_path / "full"
-    full.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4k", "tmpfs", str(full)], capture_output=True)
-    if mounted.returncode != 0:
-        pytest.skip("cannot mount a small tmpfs here: " + mounted.stderr.decode().strip())
-    try:
+    with full_disk(tmp_path / "full", "4k") as full:
         ompi = tmp_path / "ompi"
         ompi.mkdir()
         env = dict(ENV, TMPDIR=str(full), **mpi_session_dir(ompi))
@@ -518,5 +513,3 @@ def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
         assert f"cannot write the assembled request to {full}/ntscontact-mpi-".encode() in got.stderr, got.stderr
         assert b"No space left on device" in got.stderr, got.stderr
         assert list(full.iterdir()) == []
-    finally:
-        subprocess.run(["umount", str(full)], capture_output=True)
