@@ -528,7 +528,7 @@ static int evaluate(nts_context* ctx, const nts_scene* s, const nts_vec2* fresh,
      * records path (each active record's friction is computed once, after
      * the search, and read by the sums, the forces, the contacts and the
      * tangent). Off, nothing of it runs: today's bits. */
-    env.friction = nts_friction_on(s, opt);
+    env.friction = ctx->frame_set ? nts_friction_rubs(ctx->frame.rubbing) : nts_friction_on(s, opt);
     if (env.friction && opt->history != NULL && opt->history->count > 0) {
         /* anchors of this scene only (one committed from another scene's
          * evaluation would be read out of range): checked where used */
@@ -747,6 +747,7 @@ int nts_scene_frame(nts_context* ctx, const nts_scene* s, const nts_options* opt
     out->cell_size = 0.0;
     out->surface_nodes = s->surface_count;
     out->surface_ends = s->surf_ends > 0;
+    nts_friction_counts(s, opt, out->rubbing);
     run = nts_run_stock(0);
     if (light) {
         /* neither the median nor the cells asked: the lengths and extremes

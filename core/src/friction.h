@@ -54,6 +54,11 @@ int nts_friction_tangent_add(nts_kbuf* kb, const search_env* env, const candidat
  * bodies) is refused where it is used, not read out of range. entry_of:
  * s->node_count ints of scratch. */
 int nts_history_check(const nts_history* h, const nts_scene* s, int* entry_of, nts_error* err);
+/* The bodies whose coefficient is above 0, by role (history.c), and
+ * whether those make some pair that can meet rub: friction's switch,
+ * decided on the whole scene (nts_frame.rubbing on a distributed one). */
+void nts_friction_counts(const nts_scene* s, const nts_options* o, long long c[4]);
+int nts_friction_rubs(const long long c[4]);
 
 /* The committed anchor of key (slave body, slave node, master body), or NULL.
  * *hint (may be NULL; start at 0) is where the last lookup ended: the

@@ -197,23 +197,34 @@ int nts_history_set(nts_history* h, const nts_scene* s, const nts_anchor* in, in
     return NTS_OK;
 }
 
-/* Friction runs when some pair of bodies that can meet has a coefficient
- * above 0 (friction_pair_mu: the smaller of the two): a slave of one and a
- * master of another, or a body that meets itself. Otherwise none of it runs,
- * and the answer is the frictionless one bit for bit (docs/model.md §14),
- * whatever coefficients bodies that never meet a frictional partner have. */
-int nts_friction_on(const nts_scene* s, const nts_options* o) {
-    long long slaves = 0, masters = 0, both = 0;
+/* The bodies of s whose coefficient (their own, else the options') is
+ * above 0 (friction_pair_mu): c[0] those that can be slaves, c[1] masters,
+ * c[2] both, c[3] those that meet themselves. Summed over a distributed
+ * scene's parts, they decide for the whole (nts_frame.rubbing). */
+void nts_friction_counts(const nts_scene* s, const nts_options* o, long long c[4]) {
     int b;
-    if (s == NULL || o == NULL) return 0;
+    c[0] = c[1] = c[2] = c[3] = 0;
     for (b = 0; b < s->body_count; ++b) {
         const double mu = s->body_friction[b] >= 0.0 ? s->body_friction[b] : o->friction;
         const int slave = s->body_role[b] != NTS_ROLE_MASTER, master = s->body_role[b] != NTS_ROLE_SLAVE;
         if (!(mu > 0.0)) continue;
-        if (slave && master && s->body_self[b]) return 1;
-        slaves += slave;
-        masters += master;
-        both += slave && master;
+        c[0] += slave;
+        c[1] += master;
+        c[2] += slave && master;
+        c[3] += slave && master && s->body_self[b];
     }
-    return slaves * masters > both; /* ordered pairs (slave a, master b), a != b */
+}
+
+/* Friction runs when some pair of bodies that can meet has a coefficient
+ * above 0 (the smaller of the two): a slave of one and a master of another
+ * (ordered pairs a != b: slaves x masters less the bodies that are both),
+ * or a body that meets itself. Otherwise none of it runs, and the answer is
+ * the frictionless one bit for bit (docs/model.md §14). */
+int nts_friction_rubs(const long long c[4]) { return c[3] > 0 || c[0] * c[1] > c[2]; }
+
+int nts_friction_on(const nts_scene* s, const nts_options* o) {
+    long long c[4];
+    if (s == NULL || o == NULL) return 0;
+    nts_friction_counts(s, o, c);
+    return nts_friction_rubs(c);
 }

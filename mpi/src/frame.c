@@ -86,6 +86,8 @@ int ntsm_frame_find(ntsm_scene* m, const nts_options* opt, nts_frame* f, nts_err
     ext[6] = mine.surface_ends;
     MPI_Allreduce(ext, red, 7, MPI_DOUBLE, MPI_MAX, m->comm);
     memset(f, 0, sizeof *f);
+    /* friction's switch on the whole: each body counted by its owner */
+    MPI_Allreduce(mine.rubbing, f->rubbing, 4, MPI_LONG_LONG, MPI_SUM, m->comm);
     f->lmax = red[0];
     f->coord_max = red[1];
     f->xmin = -red[2];

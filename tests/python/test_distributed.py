@@ -162,6 +162,25 @@ def test_friction_self_contact_surfaces(tmp_path):
     same_bytes(tmp_path, surf, ("--outputs", "forces,contacts"), ranks=(1, 2))
 
 
+def test_friction_switched_on_the_whole_scene(tmp_path):
+    """Friction runs when some pair of the whole scene that can meet rubs
+    (docs/model.md §14), decided on the whole, not on a rank's part: a pair
+    at 0 (the options' 0.4, one body's own 0) beside a pair that rubs, far
+    apart, so that a rank may hold the first pair alone; and a scene whose
+    only coefficients are bodies' own. Every rank count gives the serial
+    bytes (a part of the first pair alone took friction off: a contact's
+    tangential force -0.0 for 0.0, half the anchors)."""
+    bodies = [{"nodes": polygon(0.0, 0.0, 1.0, 24)}, {"nodes": polygon(1.95, 0.0, 1.0, 24), "friction": 0.0},
+              {"nodes": polygon(40.0, 0.0, 1.0, 24)}, {"nodes": polygon(41.95, 0.05, 1.0, 24)}]
+    scene = {"options": {"penalty": 10.0, "friction": {"coefficient": 0.4}}, "bodies": bodies}
+    same_bytes(tmp_path, scene, ("--outputs", "forces,contacts,stiffness"), ranks=(2, 3, 4))
+    own = {"options": {"penalty": 10.0}, "bodies": [dict(b) for b in bodies]}
+    own["bodies"][1]["friction"] = 0.0
+    own["bodies"][2]["friction"] = 0.5
+    own["bodies"][3]["friction"] = 0.3
+    same_bytes(tmp_path, own, ("--outputs", "forces,contacts"), ranks=(2, 4))
+
+
 @pytest.mark.parametrize("bad", [
     {"bodies": [{"nodes": [[0, 0], [1, 0], [1, 0], [0, 1]]}, {"nodes": polygon(3, 0, 1, 8)}]},
     {"bodies": [{"nodes": polygon(0, 0, 1, 8)}, {"nodes": [[0, 0], [1, 0]]}]},

@@ -42,6 +42,12 @@ typedef struct nts_frame {
     double cell_size; /**< nts_summary.cell_size of the whole scene; negative: the part's own */
     int surface_nodes;/**< the whole scene's surface entries (the cell grid's cap) */
     int surface_ends; /**< 1: some contact surface of the whole has an end (nts_options.surface_extension applies) */
+    /** the bodies of the whole whose friction coefficient is above 0: those
+     * that can be slaves, masters, both, and those that meet themselves
+     * (summed over the parts: friction runs when some pair that can meet
+     * rubs, decided on the whole, docs/model.md §14) @{ */
+    long long rubbing[4];
+    /** @} */
 } nts_frame;
 
 /** One active contact's contributions (contact order: by slave entry, then

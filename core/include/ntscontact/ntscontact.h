@@ -478,9 +478,12 @@ NTS_API const nts_anchor* nts_history_anchors(const nts_history* history, int* c
 NTS_API void nts_history_clear(nts_history* history);
 /** Bytes held, for budgets (0 for NULL). */
 NTS_API size_t nts_history_bytes(const nts_history* history);
-/** Whether an evaluation of `scene` with `options` has friction on (some
- * pair's coefficient may be > 0: the options' or a body's own, §14): then
- * the result carries anchors, the summary dissipation, the virial yx. */
+/** Whether an evaluation of `scene` with `options` has friction on: some
+ * pair of bodies that can meet (a slave of one and a master of another, or
+ * a body that meets itself) has a coefficient above 0, the smaller of its
+ * two bodies' (their own, else the options', §14). Then the result carries
+ * anchors, the summary dissipation, the virial yx; otherwise it is the
+ * frictionless answer bit for bit. */
 NTS_API int nts_friction_on(const nts_scene* scene, const nts_options* options);
 /** @} */
 
