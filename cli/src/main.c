@@ -5,14 +5,16 @@
  * Exit status: 0 done, 2 usage (bad flags, files that cannot be read or
  * made), 3 invalid input (one line on stderr: code, JSON pointer, message), 1
  * internal error (out of memory, a failed write). */
-#define _POSIX_C_SOURCE 200809L /* fileno (a build without OpenMP has no -pthread to imply it) */
+#define _XOPEN_SOURCE 700 /* fileno, realpath (a build without OpenMP has no -pthread to imply them) */
 #include <errno.h>
 #include <getopt.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -156,8 +158,9 @@ static void print_usage(void) {
           "exit status: 0 done, 2 usage error (a bad flag, a file that cannot be read\n"
           "or made), 3 invalid input (one line on standard error: code, JSON pointer,\n"
           "message), 1 internal error (out of memory, a write that fails: a full disk).\n"
-          "An output file (-o, --vtk, --history-out) is written whole or not at all: a\n"
-          "failed run leaves a file that was there as it was.\n",
+          "-o's file is cut only when the result is written: a run that fails before\n"
+          "leaves it as it was (or removes it, if the run made it); a write that fails\n"
+          "removes what it wrote. --frames writes a line a frame as it goes.\n",
           stdout);
 }
 
@@ -323,75 +326,94 @@ static char* read_all(FILE* f, size_t limit, size_t* length, int* read_errno) {
     return buf;
 }
 
-/* An output file written whole or not at all: into a temporary file beside
- * it, renamed over it once everything is written, removed otherwise. A
- * failed run neither leaves what looks like a finished result nor empties a
- * file that was there (standard output is written as it goes). */
+/* An output: standard output ("-" or none) or a file, opened where it is
+ * (a symlink followed, a FIFO or a device written as such). A file is
+ * opened without being cut, so that a run that fails before its result
+ * leaves a file that was there as it was (and removes one it made); it is
+ * cut when the result is written (out_start). `err` keeps the first
+ * write's errno, the reason a failure names. */
 typedef struct out_file {
     FILE* f;
     const char* path; /* NULL: standard output */
-    char tmp[4200];
+    int made;         /* 1: the file was not there before */
+    int err;
 } out_file;
 
-/* 0, or EXIT_USAGE after the message (the file cannot be made there). */
+/* 0, or EXIT_USAGE after the message (the file cannot be made or opened). */
 static int out_open(out_file* o, const char* path) {
-    mode_t mask;
+    struct stat st;
     int fd;
-    o->f = NULL;
-    o->path = NULL;
+    memset(o, 0, sizeof *o);
     if (!path || strcmp(path, "-") == 0) {
         o->f = stdout;
         return 0;
     }
-    if (strlen(path) + 20 > sizeof o->tmp) {
-        fprintf(stderr, "ntscontact: cannot write '%s': file name too long\n", path);
-        return EXIT_USAGE;
-    }
-    snprintf(o->tmp, sizeof o->tmp, "%s.partial-XXXXXX", path);
-    fd = mkstemp(o->tmp);
-    if (fd < 0) {
+    o->made = stat(path, &st) != 0;
+    fd = open(path, O_WRONLY | O_CREAT, 0666);
+    if (fd < 0 || (o->f = fdopen(fd, "wb")) == NULL) {
         fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
-        return EXIT_USAGE;
-    }
-    mask = umask(0); /* (the permissions fopen would give: 0666 less the umask) */
-    umask(mask);
-    (void)fchmod(fd, (mode_t)(0666 & ~mask));
-    if ((o->f = fdopen(fd, "wb")) == NULL) {
-        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
-        close(fd);
-        unlink(o->tmp);
+        if (fd >= 0) close(fd);
+        if (fd >= 0 && o->made) unlink(path);
         return EXIT_USAGE;
     }
     o->path = path;
     return 0;
 }
 
-/* Close o: renamed into place when `keep` and everything was written, else
- * removed. 0, or EXIT_INTERNAL after the message naming the fault. */
-static int out_close(out_file* o, int keep) {
-    int err = 0;
+/* The result begins: a regular file cut to nothing. */
+static void out_start(out_file* o) {
+    struct stat st;
+    if (o->path != NULL && fstat(fileno(o->f), &st) == 0 && S_ISREG(st.st_mode) && ftruncate(fileno(o->f), 0) != 0)
+        o->err = errno;
+}
+
+/* n bytes to o, the first failure's errno kept. */
+static void out_write(out_file* o, const char* data, size_t n) {
+    errno = 0;
+    if (fwrite(data, 1, n, o->f) != n && !o->err) o->err = errno ? errno : EIO;
+}
+
+/* Close o. `written`: its result is complete; else a file made by this run
+ * is removed. A failed write removes a regular file's partial result too.
+ * 0, or EXIT_INTERNAL after the message naming the file and the reason. */
+static int out_close(out_file* o, int written) {
+    struct stat st;
+    int regular;
     if (o->f == NULL) return 0;
     if (o->path == NULL) {
-        if (fflush(o->f) != 0) err = errno ? errno : EIO;
+        errno = 0;
+        if ((fflush(o->f) != 0 || ferror(o->f)) && !o->err) o->err = errno ? errno : EIO;
     } else {
-        if (ferror(o->f)) err = errno ? errno : EIO;
-        if (fclose(o->f) != 0 && !err) err = errno ? errno : EIO;
-        if (keep && !err && rename(o->tmp, o->path) != 0) err = errno;
-        if (!keep || err) unlink(o->tmp);
+        regular = fstat(fileno(o->f), &st) == 0 && S_ISREG(st.st_mode);
+        errno = 0;
+        if (ferror(o->f) && !o->err) o->err = errno ? errno : EIO;
+        if (fclose(o->f) != 0 && !o->err) o->err = errno ? errno : EIO;
+        if (regular && (o->err || (!written && o->made))) unlink(o->path);
     }
     o->f = NULL;
-    if (!err) return 0;
-    fprintf(stderr, "ntscontact: error writing '%s': %s\n", o->path ? o->path : "standard output", strerror(err));
+    if (!o->err) return 0;
+    fprintf(stderr, "ntscontact: error writing '%s': %s\n", o->path ? o->path : "standard output",
+            strerror(o->err));
     return EXIT_INTERNAL;
 }
 
 /* A whole file: 0, or EXIT_USAGE / EXIT_INTERNAL after the message. */
 static int write_file(const char* path, const char* data, size_t n) {
     out_file o;
-    int rc = out_open(&o, path);
-    if (rc != 0) return rc;
-    errno = 0;
-    (void)fwrite(data, 1, n, o.f);
+    int rc;
+    if (!path || strcmp(path, "-") == 0) { /* (a side file named "-" is that file, as it always was) */
+        memset(&o, 0, sizeof o);
+        errno = 0;
+        if ((o.f = fopen("-", "wb")) == NULL) {
+            fprintf(stderr, "ntscontact: cannot write '-': %s\n", strerror(errno));
+            return EXIT_USAGE;
+        }
+        o.path = "-";
+    } else if ((rc = out_open(&o, path)) != 0) {
+        return rc;
+    }
+    out_start(&o);
+    out_write(&o, data, n);
     return out_close(&o, 1);
 }
 
@@ -413,29 +435,31 @@ static int write_vtk_frame(const char* vtk, long long k, const ntsj_response* re
 }
 
 static int write_pvd(const char* vtk, long long frames) {
-    char path[4096];
+    char path[4096], *text, *at;
     const char* base;
     long long k;
-    size_t n = strlen(vtk);
-    out_file o;
-    FILE* f;
+    size_t n = strlen(vtk), cap;
     int rc;
     if (n + 16 > sizeof path) return EXIT_USAGE;
     snprintf(path, sizeof path, "%.*s.pvd", (int)(n - 4), vtk);
-    if ((rc = out_open(&o, path)) != 0) return rc;
-    f = o.f;
-    errno = 0;
     /* The series names its files relative to itself. */
     base = strrchr(vtk, '/');
     base = base ? base + 1 : vtk;
-    fputs("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n", f);
+    cap = 128 + (size_t)frames * (strlen(base) + 128);
+    if ((text = (char*)malloc(cap)) == NULL) {
+        fprintf(stderr, "ntscontact: out of memory writing '%s'\n", path);
+        return EXIT_INTERNAL;
+    }
+    at = text + sprintf(text, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n");
     for (k = 0; k < frames; ++k) {
         char name[4096];
         frame_path(name, sizeof name, base, k);
-        fprintf(f, "<DataSet timestep=\"%lld\" part=\"0\" file=\"%s\"/>\n", k, name);
+        at += sprintf(at, "<DataSet timestep=\"%lld\" part=\"0\" file=\"%s\"/>\n", k, name);
     }
-    fputs("</Collection>\n</VTKFile>\n", f);
-    return out_close(&o, 1);
+    at += sprintf(at, "</Collection>\n</VTKFile>\n");
+    rc = write_file(path, text, (size_t)(at - text));
+    free(text);
+    return rc;
 }
 
 /* --history-out: the anchors after the evaluation ({"history": []} when
@@ -483,6 +507,9 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         ntsj_session_destroy(ss);
         return rc;
     }
+    /* A line a frame, written as it goes (a stream: a run that stops at
+     * frame k leaves the k lines before it, and says so in its status). */
+    out_start(&out);
     memset(&step, 0, sizeof step);
     step.kind = NTSJ_STEP_BINARY;
     step.body = frame;
@@ -507,7 +534,8 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
             ntsj_response_free(&resp);
             break;
         }
-        if (fwrite(resp.body, 1, resp.length, out.f) != resp.length) write_failed = 1;
+        out_write(&out, resp.body, resp.length);
+        write_failed = out.err != 0;
         print_warnings(&resp, k);
         if (vtk && !write_failed && (rc = write_vtk_frame(vtk, k, &resp)) != 0) {
             ntsj_response_free(&resp);
@@ -523,14 +551,13 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         ntsj_response_free(&resp);
         if (write_failed) break;
     }
-    if (vtk && k > 0 && status == EXIT_DONE && (rc = write_pvd(vtk, k)) != 0) status = rc;
+    if (vtk && k > 0 && status == EXIT_DONE && !write_failed && (rc = write_pvd(vtk, k)) != 0) status = rc;
     if (ferror(in)) {
         fprintf(stderr, "ntscontact: cannot read '%s'\n", frames);
         status = EXIT_USAGE;
     }
     if (in != stdin) fclose(in);
-    /* -o FILE: every frame's result, or nothing (a failed run's frames gone) */
-    if ((rc = out_close(&out, status == EXIT_DONE && !write_failed)) != 0 || write_failed) status = EXIT_INTERNAL;
+    if (out_close(&out, 1) != 0) status = EXIT_INTERNAL;
     free(frame);
     ntsj_session_destroy(ss);
     return status;
@@ -683,13 +710,30 @@ static int apply_flag(int k, const char* val, ntsj_config* cfg, cli_args* a) {
     return rc;
 }
 
-/* Whether two output paths name one file: the same name, or (both there)
- * the same device and inode. Standard output ("-") is nobody's file. */
+/* path's directory made absolute (realpath) and its last name: one
+ * spelling of a file that need not exist yet. 0 when the directory is not
+ * there either. */
+static int canonical(const char* path, char* out, size_t cap) {
+    char dir[4096], real[PATH_MAX];
+    const char* slash = strrchr(path, '/');
+    const char* name = slash ? slash + 1 : path;
+    if (slash == NULL) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    if (realpath(dir, real) == NULL) return 0;
+    return snprintf(out, cap, "%s/%s", real, name) < (int)cap;
+}
+
+/* Whether two output paths name one file: the same name, the same device
+ * and inode (both there), or the same directory and name (a file to be
+ * made: "r.json" and "./r.json"). Standard output ("-") is nobody's file. */
 static int same_file(const char* a, const char* b) {
     struct stat sa, sb;
+    char ca[PATH_MAX + 256], cb[PATH_MAX + 256];
     if (a == NULL || b == NULL || strcmp(a, "-") == 0 || strcmp(b, "-") == 0) return 0;
     if (strcmp(a, b) == 0) return 1;
-    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    return canonical(a, ca, sizeof ca) && canonical(b, cb, sizeof cb) && strcmp(ca, cb) == 0;
 }
 
 /* Read the command line into cfg and a: 0, EXIT_USAGE after a message, or -1
@@ -876,16 +920,21 @@ int main(int argc, char** argv) {
         return status;
     }
 
-    /* The side files first, the result last: a failed one leaves the
-     * result's file (-o) as it was. */
-    if ((vtk && (status = write_file(vtk, resp.vtk, resp.vtk_length)) != 0) ||
-        (args.history_out && (status = write_history(args.history_out, &resp)) != 0) ||
-        (status = out_open(&out, output)) != 0) {
+    /* -o's file opened first (not cut), then the side files, then the
+     * result: a file that cannot be opened or a side file that fails
+     * leaves -o's file as it was. */
+    if ((status = out_open(&out, output)) != 0) {
         ntsj_response_free(&resp);
         return status;
     }
-    errno = 0;
-    (void)fwrite(resp.body, 1, resp.length, out.f);
+    if ((vtk && (status = write_file(vtk, resp.vtk, resp.vtk_length)) != 0) ||
+        (args.history_out && (status = write_history(args.history_out, &resp)) != 0)) {
+        out_close(&out, 0);
+        ntsj_response_free(&resp);
+        return status;
+    }
+    out_start(&out);
+    out_write(&out, resp.body, resp.length);
     status = out_close(&out, 1);
     print_warnings(&resp, -1);
     ntsj_response_free(&resp);

@@ -610,7 +610,7 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                     *status = 3;
                 } else if (part != NULL && (code = part_fault(part, where, sizeof where, 0, why, sizeof why)) != NULL) {
                     fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n", code, where, r, why);
-                    *status = strcmp(code, "out_of_memory") == 0 ? 4 : 3;
+                    *status = strcmp(code, "out_of_memory") == 0 ? 1 : 3; /* (the CLI's internal error) */
                 } else if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
                     fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
                                     "\"bodies\"\n", r);

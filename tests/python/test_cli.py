@@ -608,8 +608,9 @@ TWO_DISKS = REPO / "examples" / "two_disks.json"
 
 def test_a_failed_side_file_leaves_the_result_file_as_it_was(tmp_path):
     """-o FILE with a --vtk or --history-out that cannot be made: exit 2
-    naming it, and FILE as it was (it was emptied: opened before the side
-    files were written)."""
+    naming it, and FILE as it was (it was emptied: cut before the side files
+    were written); a FILE that was not there is not left behind empty. A
+    FILE that cannot be opened stops the run before any side file."""
     keep = tmp_path / "keep.json"
     for flag, name in (("--vtk", "x.vtu"), ("--history-out", "h.json")):
         keep.write_text('{"precious": 1}')
@@ -617,13 +618,40 @@ def test_a_failed_side_file_leaves_the_result_file_as_it_was(tmp_path):
         got = run("-o", keep, flag, bad, TWO_DISKS)
         assert got.returncode == 2 and f"cannot write '{bad}'".encode() in got.stderr, got.stderr
         assert keep.read_text() == '{"precious": 1}'
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.json"]  # no partial file beside it
+        got = run("-o", tmp_path / "new.json", flag, bad, TWO_DISKS)
+        assert got.returncode == 2 and not (tmp_path / "new.json").exists()
+    (tmp_path / "side.vtu").write_text("old")
+    got = run("-o", tmp_path / "no_such_dir" / "r.json", "--vtk", tmp_path / "side.vtu", TWO_DISKS)
+    assert got.returncode == 2 and (tmp_path / "side.vtu").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.json", "side.vtu"]
+
+
+def test_outputs_go_where_they_point(tmp_path):
+    """-o through a symlink writes its target (the link stays a link); -o of
+    a FIFO or /dev/null writes to it; a directory is a usage error."""
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    (tmp_path / "link.json").symlink_to(target)
+    got = run("-o", tmp_path / "link.json", TWO_DISKS)
+    assert got.returncode == 0 and (tmp_path / "link.json").is_symlink()
+    assert json.loads(target.read_text())["summary"]["contacts"] > 0
+    assert run("-o", "/dev/null", TWO_DISKS).returncode == 0
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    reader = subprocess.Popen(["cat", str(fifo)], stdout=subprocess.PIPE)
+    got = run("-o", fifo, TWO_DISKS)
+    out, _ = reader.communicate(timeout=60)
+    assert got.returncode == 0 and json.loads(out)["summary"]["contacts"] > 0 and stat.S_ISFIFO(fifo.stat().st_mode)
+    got = run("-o", tmp_path, TWO_DISKS)
+    assert got.returncode == 2 and b"cannot write" in got.stderr
 
 
 def test_two_outputs_in_one_file_are_refused(tmp_path):
-    """-o and --vtk (or --history-out) naming one file, by the same name or
-    through a link: a usage error, nothing written (the result was written
-    over the start of the VTU, exit 0)."""
+    """-o and --vtk (or --history-out) naming one file, by the same name,
+    through a link, or as two spellings of a file not made yet: a usage
+    error, nothing written (the result was written over the start of the
+    VTU, exit 0)."""
     same = tmp_path / "same.vtu"
     got = run("-o", same, "--vtk", same, TWO_DISKS)
     assert got.returncode == 2 and b"-o and --vtk name the same file" in got.stderr
@@ -633,13 +661,16 @@ def test_two_outputs_in_one_file_are_refused(tmp_path):
     got = run("--history-out", tmp_path / "h.json", "-o", tmp_path / "link.json", TWO_DISKS)
     assert got.returncode == 2 and b"name the same file" in got.stderr
     assert (tmp_path / "h.json").read_text() == "{}"
+    got = run("-o", tmp_path / "r.json", "--history-out", tmp_path / "." / "r.json", TWO_DISKS)
+    assert got.returncode == 2 and b"name the same file" in got.stderr and not (tmp_path / "r.json").exists()
 
 
-def test_frames_write_their_results_whole_or_not_at_all(tmp_path):
-    """--frames -o FILE whose second frame is refused: exit 3, and no file
-    holding the first frame's line as if it were the run's (nor an existing
-    file emptied); a run that completes writes every line, with the
-    permissions a new file gets (0666 less the umask)."""
+def test_frames_stream_and_say_where_they_stopped(tmp_path):
+    """--frames -o FILE writes a line a frame as it goes: a refused second
+    frame leaves the first line and exits 3 naming the frame (the status
+    says the run stopped); a run that completes writes every line, with the
+    permissions a new file gets (0666 less the umask); a standard output
+    that cannot be written is exit 1 with the reason."""
     scene = json.loads(TWO_DISKS.read_text())
     x = np.concatenate([np.asarray(b["nodes"], float) for b in scene["bodies"]])
     bad = np.stack([x, x + 1e-4, x])
@@ -649,16 +680,17 @@ def test_frames_write_their_results_whole_or_not_at_all(tmp_path):
     out = tmp_path / "res.jsonl"
     got = run("--frames", tmp_path / "bad.bin", "-o", out, TWO_DISKS)
     assert got.returncode == 3 and b"frame 1: non_finite" in got.stderr
-    assert not out.exists()
-    out.write_text("old\n")
-    got = run("--frames", tmp_path / "bad.bin", "-o", out, TWO_DISKS)
-    assert got.returncode == 3 and out.read_text() == "old\n"
+    assert len(out.read_text().splitlines()) == 1
     got = run("--frames", tmp_path / "ok.bin", "-o", out, TWO_DISKS)
     assert got.returncode == 0 and len(out.read_text().splitlines()) == 2
     mask = os.umask(0)
     os.umask(mask)
     assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~mask
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.bin", "ok.bin", "res.jsonl"]
+    with open("/dev/full", "wb") as full:
+        for flags in ((REPO / "examples" / "jittered_packing.json",), (TWO_DISKS,),
+                      ("--frames", tmp_path / "ok.bin", TWO_DISKS)):
+            got = subprocess.run([str(CLI), *map(str, flags)], stdout=full, stderr=subprocess.PIPE, timeout=60)
+            assert got.returncode == 1 and b"error writing 'standard output': No space left" in got.stderr, got.stderr
 
 
 def test_a_full_disk_is_a_failed_write_and_leaves_nothing(tmp_path):

@@ -10,6 +10,7 @@ pairs) that take part in contact (docs/model.md §13; default the whole boundary
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -113,15 +114,26 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
     return arr.astype(np.int64)
 
 
-def _first_bool(value: Any, at: Tuple[int, ...] = ()) -> Optional[List[int]]:
-    """Where the first boolean of nested lists (or tuples) lies, else None."""
-    if isinstance(value, (bool, np.bool_)):
-        return list(at)
-    if isinstance(value, (list, tuple)):
-        for i, item in enumerate(value):
-            found = _first_bool(item, at + (i,))
-            if found is not None:
-                return found
+def _first_bool(value: Any) -> Optional[List[int]]:
+    """Where the first boolean of an index list lies (a list of indices, or
+    of rows: numpy would read True among ints as 1), else None. A numpy
+    array is numpy's to type."""
+    if not isinstance(value, (list, tuple)):
+        return None
+    kinds = set(map(type, value))
+    if kinds <= {list, tuple}:  # rows: their entries' types, at C speed
+        kinds = set(map(type, itertools.chain.from_iterable(value)))
+    if not kinds & {bool, np.bool_, np.ndarray}:
+        return None
+    for i, row in enumerate(value):
+        if isinstance(row, (bool, np.bool_)):
+            return [i]
+        if isinstance(row, np.ndarray) and row.dtype.kind == "b" and row.size:
+            return [i] + [0] * row.ndim
+        if isinstance(row, (list, tuple)):
+            for j, x in enumerate(row):
+                if isinstance(x, (bool, np.bool_)):
+                    return [i, j]
     return None
 
 
