@@ -339,12 +339,14 @@ typedef struct out_file {
     int err;
 } out_file;
 
-/* 0, or EXIT_USAGE after the message (the file cannot be made or opened). */
-static int out_open(out_file* o, const char* path) {
+/* 0, or EXIT_USAGE after the message (the file cannot be made or opened).
+ * `dash`: "-" (or none) is standard output; else a file named "-" (a side
+ * file's name, as it always was). */
+static int out_open(out_file* o, const char* path, int dash) {
     struct stat st;
     int fd;
     memset(o, 0, sizeof *o);
-    if (!path || strcmp(path, "-") == 0) {
+    if (dash && (!path || strcmp(path, "-") == 0)) {
         o->f = stdout;
         return 0;
     }
@@ -400,18 +402,8 @@ static int out_close(out_file* o, int written) {
 /* A whole file: 0, or EXIT_USAGE / EXIT_INTERNAL after the message. */
 static int write_file(const char* path, const char* data, size_t n) {
     out_file o;
-    int rc;
-    if (!path || strcmp(path, "-") == 0) { /* (a side file named "-" is that file, as it always was) */
-        memset(&o, 0, sizeof o);
-        errno = 0;
-        if ((o.f = fopen("-", "wb")) == NULL) {
-            fprintf(stderr, "ntscontact: cannot write '-': %s\n", strerror(errno));
-            return EXIT_USAGE;
-        }
-        o.path = "-";
-    } else if ((rc = out_open(&o, path)) != 0) {
-        return rc;
-    }
+    const int rc = out_open(&o, path, 0);
+    if (rc != 0) return rc;
     out_start(&o);
     out_write(&o, data, n);
     return out_close(&o, 1);
@@ -500,7 +492,7 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         return EXIT_USAGE;
     }
     frame = (char*)malloc(frame_bytes);
-    rc = frame ? out_open(&out, output) : EXIT_INTERNAL;
+    rc = frame ? out_open(&out, output, 1) : EXIT_INTERNAL;
     if (rc != 0) {
         if (in != stdin) fclose(in);
         free(frame);
@@ -923,7 +915,7 @@ int main(int argc, char** argv) {
     /* -o's file opened first (not cut), then the side files, then the
      * result: a file that cannot be opened or a side file that fails
      * leaves -o's file as it was. */
-    if ((status = out_open(&out, output)) != 0) {
+    if ((status = out_open(&out, output, 1)) != 0) {
         ntsj_response_free(&resp);
         return status;
     }

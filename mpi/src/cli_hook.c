@@ -460,7 +460,6 @@ static const char* part_fault(const cJSON* v, char* at, size_t size, size_t len,
  * in any order. Nested no deeper than the parts were read (--max-depth). */
 static int json_same(const cJSON* x, const cJSON* y) {
     const cJSON* c;
-    int n = 0, m = 0;
     if ((x->type & 0xFF) != (y->type & 0xFF)) return 0;
     switch (x->type & 0xFF) {
     case cJSON_Number:
@@ -468,16 +467,12 @@ static int json_same(const cJSON* x, const cJSON* y) {
     case cJSON_String:
         return strcmp(x->valuestring, y->valuestring) == 0;
     case cJSON_Array:
-        for (c = x->child, m = 0; c != NULL; c = c->next) ++m;
-        for (c = y->child; c != NULL; c = c->next) ++n;
-        if (n != m) return 0;
+        if (cJSON_GetArraySize(x) != cJSON_GetArraySize(y)) return 0;
         for (x = x->child, y = y->child; x != NULL; x = x->next, y = y->next)
             if (!json_same(x, y)) return 0;
         return 1;
-    case cJSON_Object:
-        for (c = x->child; c != NULL; c = c->next) ++m;
-        for (c = y->child; c != NULL; c = c->next) ++n;
-        if (n != m) return 0;
+    case cJSON_Object: /* (its size: its members, as an array's) */
+        if (cJSON_GetArraySize(x) != cJSON_GetArraySize(y)) return 0;
         for (c = x->child; c != NULL; c = c->next) {
             const cJSON* other = cJSON_GetObjectItemCaseSensitive(y, c->string);
             if (other == NULL || !json_same(c, other)) return 0;

@@ -37,13 +37,11 @@ import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
-import numpy as np
-
 from . import __version__
 from .client import Client, SceneLike
 from .errors import NtsError, ServerError, error_from_response
 from .result import Result
-from .scene import Scene, normalize_outputs
+from .scene import Scene, is_integer, normalize_outputs
 from .session import FloatArray, Session
 
 __all__ = ["Engine", "EngineSession", "EngineUnavailable", "LIBRARY_NAME", "find_library"]
@@ -93,11 +91,6 @@ def find_library() -> Path:
 
 _lock = threading.Lock()
 _libs: Dict[str, ctypes.CDLL] = {}
-
-
-def _is_int(value: object) -> bool:
-    """An integer, Python's or numpy's; a bool is not one."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 def _load(path: Path) -> ctypes.CDLL:
@@ -211,9 +204,9 @@ class Engine:
     def __init__(self, threads: int = 0, *, library: Optional[Union[str, os.PathLike]] = None,
                  max_bytes: Optional[int] = None) -> None:
         self._ptr: Optional[int] = None
-        if not _is_int(threads) or not 0 <= threads <= MAX_THREADS:
+        if not is_integer(threads) or not 0 <= threads <= MAX_THREADS:
             raise ValueError(f"threads must be an integer in [0, {MAX_THREADS}], not {threads!r}")
-        if max_bytes is not None and (not _is_int(max_bytes) or not 1 <= max_bytes <= MAX_BYTES):
+        if max_bytes is not None and (not is_integer(max_bytes) or not 1 <= max_bytes <= MAX_BYTES):
             raise ValueError(f"max_bytes must be an integer in [1, {MAX_BYTES}], not {max_bytes!r}")
         self.library = Path(library) if library is not None else find_library()
         self._lib = _load(self.library)

@@ -38,10 +38,10 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import numpy.typing as npt
 
-from .engine import EngineUnavailable, _is_int, locate
+from .engine import EngineUnavailable, locate
 from .errors import InvalidScene, NtsError, error_from_response
 from .result import Result
-from .scene import Scene
+from .scene import Scene, is_integer
 from .session import FloatArray, PositionsLike, Session, non_finite_error, non_finite_rows
 
 __all__ = ["DistributedEngine", "DistributedSession", "LIBRARY_NAME", "find_library"]
@@ -116,7 +116,7 @@ class DistributedEngine:
         from mpi4py import MPI  # the optional extra: imported where it is needed
 
         self.comm = comm if comm is not None else MPI.COMM_WORLD
-        if not _is_int(threads) or not 0 <= threads <= 1024:
+        if not is_integer(threads) or not 0 <= threads <= 1024:
             raise ValueError(f"threads must be an integer in [0, 1024], not {threads!r}")
         self.threads = int(threads)
         self._lib = _load(Path(library) if library is not None else find_library())

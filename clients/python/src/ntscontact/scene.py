@@ -50,6 +50,11 @@ def is_number(value: Any) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
+def is_integer(value: Any) -> bool:
+    """A Python or numpy integer, not a boolean."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
 def option_number(value: Any, pointer: str, where: str = "") -> float:
     """A numeric option as the float it is (as float() reads it); a boolean,
     which float() reads as 0 or 1, refused as the service refuses it:
@@ -82,14 +87,14 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
                            code="invalid_type", pointer=pointer, where=where) from None
     if arr.size == 0:
         return arr.astype(np.int64).reshape(arr.shape)
+    noun = "node index" if n is not None else "index"
+    span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
     if arr.dtype.kind == "O":  # Python ints beyond 64 bits, which numpy keeps as objects
         for flat, item in enumerate(arr.flat):
             if isinstance(item, int) and not -2**63 <= item < 2**63:
                 pos = [int(i) for i in np.unravel_index(flat, arr.shape)]
-                span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
-                raise InvalidScene(f"{'node index' if n is not None else 'index'} {item!r} is {span}",
-                                   code="index_out_of_range", pointer=pointer + "".join(f"/{i}" for i in pos),
-                                   where=f"{where}, {what} entry {pos}")
+                raise InvalidScene(f"{noun} {item!r} is {span}", code="index_out_of_range",
+                                   pointer=pointer + "".join(f"/{i}" for i in pos), where=f"{where}, {what} entry {pos}")
     if arr.dtype.kind not in "iuf":
         raise InvalidScene(f"{what} must hold integer node indices", code="invalid_type", pointer=pointer,
                            where=where)
@@ -103,13 +108,11 @@ def _as_index_array(value: Any, what: str, index: int, body_id: Any, pointer: st
             raise InvalidScene(words.format(v=given.item() if isinstance(given, np.generic) else given), code=code,
                                pointer=pointer + "".join(f"/{i}" for i in at), where=f"{where}, {what} entry {at}")
 
-    noun = "node index" if n is not None else "index"
     if arr.dtype.kind == "f":
         refuse(~(np.isfinite(arr) & (arr == np.floor(arr))), "invalid_value",
                f"a {noun} must be an integer, got {{v!r}}")
     if arr.dtype.kind == "f" or arr.dtype == np.uint64:  # beyond int64, which the cast would wrap
         beyond = np.abs(arr) >= 2.0 ** 63 if arr.dtype.kind == "f" else arr > np.iinfo(np.int64).max
-        span = f"out of range [0, {n})" if n is not None else "beyond 64 bits"
         refuse(beyond, "index_out_of_range", f"{noun} {{v!r}} is {span}")
     return arr.astype(np.int64)
 
