@@ -51,7 +51,7 @@ static void put_escaped(FILE* f, const char* s, int quote);
        "as {\"history\": [...]} (with --frames: the committed ones\n"                                           \
        "after the last frame; every frame commits)")                                                            \
     XX(MAX_BYTES, "max-bytes", 0, 1, "N", LIMITS, "largest request (default 64M)")                              \
-    XX(MAX_DEPTH, "max-depth", 0, 1, "N", LIMITS, "JSON nesting depth (default 32)")                            \
+    XX(MAX_DEPTH, "max-depth", 0, 1, "N", LIMITS, "JSON nesting depth (default 32, at most 512)")               \
     XX(MAX_BODIES, "max-bodies", 0, 1, "N", LIMITS, "bodies in a scene (default 1000000)")                      \
     XX(MAX_NODES, "max-nodes", 0, 1, "N", LIMITS, "nodes in a scene, all bodies (default 50000000)")            \
     XX(MAX_NODES_PER_BODY, "max-nodes-per-body", 0, 1, "N", LIMITS, "nodes in one body (default 10000000)")     \
@@ -630,9 +630,13 @@ static const char* option_name(const char* arg, char* buf, size_t cap) {
 
 /* A count limit: [1, hi], k/M/G suffixes; 0, or EXIT_USAGE after the message. */
 static int limit_value(const char* name, const char* val, long long hi, long long* out) {
+    long long any;
     if (parse_count(val, 1, hi, out) == 0) return 0;
-    fprintf(stderr, "ntscontact: --%s needs a positive count, not '%s'\nTry 'ntscontact --help' for more information.\n",
-            name, val);
+    if (parse_count(val, 1, 0x7fffffffffffffffLL, &any) == 0)
+        fprintf(stderr, "ntscontact: --%s is at most %lld, not '%s'\n", name, hi, val);
+    else
+        fprintf(stderr, "ntscontact: --%s needs a positive count, not '%s'\n", name, val);
+    fputs("Try 'ntscontact --help' for more information.\n", stderr);
     return EXIT_USAGE;
 }
 
@@ -683,7 +687,7 @@ static int apply_flag(int k, const char* val, ntsj_config* cfg, cli_args* a) {
         if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->max_bytes = (size_t)n;
         break;
     case FLAG_MAX_DEPTH:
-        if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->max_depth = (int)n;
+        if ((rc = limit_value(name, val, NTSJ_MAX_DEPTH_LIMIT, &n)) == 0) cfg->max_depth = (int)n;
         break;
     case FLAG_MAX_BODIES:
         if ((rc = limit_value(name, val, 0x7fffffffLL, &n)) == 0) cfg->limits.max_bodies = (int)n;

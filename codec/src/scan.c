@@ -5,7 +5,7 @@
  * "\u0000", and nests up to 1000 levels. One linear pass here rejects all of that
  * with a line/column and the JSON pointer of the container at fault, and bounds
  * the nesting depth before any tree is built. Recursion depth is bounded by
- * max_depth (at most NTSJ_SCAN_MAX_DEPTH). */
+ * max_depth (at most NTSJ_MAX_DEPTH_LIMIT). */
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -15,8 +15,6 @@
 #endif
 
 #include "codec_internal.h"
-
-#define NTSJ_SCAN_MAX_DEPTH 512
 
 typedef struct scan_level {
     int is_array;
@@ -30,7 +28,7 @@ typedef struct scanner {
     const char* end;
     const char* begin;
     int depth, max_depth;
-    scan_level path[NTSJ_SCAN_MAX_DEPTH + 1];
+    scan_level path[NTSJ_MAX_DEPTH_LIMIT + 1];
     ntsj_fault* fault;
 } scanner;
 
@@ -298,7 +296,7 @@ int ntsj_scan(const char* json, size_t length, int max_depth, ntsj_fault* fault)
     s->begin = s->p = json;
     s->end = json + length;
     s->depth = 0;
-    s->max_depth = max_depth < 1 ? 1 : (max_depth > NTSJ_SCAN_MAX_DEPTH ? NTSJ_SCAN_MAX_DEPTH : max_depth);
+    s->max_depth = max_depth < 1 ? 1 : (max_depth > NTSJ_MAX_DEPTH_LIMIT ? NTSJ_MAX_DEPTH_LIMIT : max_depth);
     s->fault = fault;
     /* A UTF-8 byte order mark is not JSON (RFC 8259 section 8.1 lets us refuse it). */
     rc = scan_value(s);

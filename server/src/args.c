@@ -47,7 +47,7 @@ static const char usage[] =
     ;
 /* The limits of a request (C99 guarantees string literals of 4095 bytes only). */
 static const char usage_limits[] =
-    "  --max-depth N        JSON nesting depth of a request (default 32); deeper -> 400 too_deep\n"
+    "  --max-depth N        JSON nesting depth of a request (default 32, at most 512); deeper -> 400 too_deep\n"
     "  --max-bodies N       bodies in a scene (default 1000000)      } more -> 400\n"
     "  --max-nodes N        nodes in a scene (default 50000000)      } limit_exceeded,\n"
     "  --max-nodes-per-body N  nodes in one body (default 10000000)  } naming the limit\n"
@@ -277,7 +277,7 @@ static int apply_option(int c, const char* flag, const char* v, ntsd_config* cfg
         cfg->max_connections = (unsigned)n;
         return 0;
     case OPT_MAX_DEPTH:
-        if (parse_unsigned(flag, v, 1, 100000, 0, &n)) return -1;
+        if (parse_unsigned(flag, v, 1, NTSJ_MAX_DEPTH_LIMIT, 0, &n)) return -1;
         cfg->codec.max_depth = (int)n;
         return 0;
     case OPT_MAX_BODIES:

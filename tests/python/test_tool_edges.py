@@ -146,6 +146,8 @@ def test_an_override_given_with_equals_is_applied():
     (["--pen", "5", "SCENE"], "unknown option '--pen'"),
     (["--bogus=1", "SCENE"], "unknown option '--bogus=1'"),
     (["-x", "SCENE"], "unknown option '-x'"),
+    (["--max-depth", "513", "SCENE"], "--max-depth is at most 512, not '513'"),
+    (["--max-depth=0", "SCENE"], "--max-depth needs a positive count, not '0'"),
 ], ids=lambda a: " ".join(a) if isinstance(a, list) else "")
 def test_cli_usage_errors_are_clear(args, says):
     proc = run_cli(*[TWO_DISKS if a == "SCENE" else a for a in args])
@@ -153,6 +155,19 @@ def test_cli_usage_errors_are_clear(args, says):
     assert proc.stdout == b""
     lines = proc.stderr.decode().splitlines()
     assert lines == [f"ntscontact: {says}", "Try 'ntscontact --help' for more information."]
+
+
+@pytest.mark.parametrize("depth, code", [(300, "unknown_field"), (600, "too_deep")])
+def test_cli_max_depth_takes_its_whole_range(depth, code):
+    """--max-depth 512, the most the scanner holds, is taken as given: a
+    member nested 300 deep is read to its end (and refused as unknown), one
+    600 deep is too deep, and the message names the limit."""
+    doc = TWO_DISKS.read_bytes().rstrip()[:-1] + b', "x": ' + b"[" * depth + b"]" * depth + b"}"
+    proc = run_cli("--max-depth", "512", "-", stdin=doc)
+    assert proc.returncode == 3, proc.stderr
+    line = proc.stderr.decode()
+    assert line.startswith(f"ntscontact: {code} at \"/x"), line
+    assert code != "too_deep" or "512" in line, line
 
 
 def test_cli_options_after_the_scene_and_after_double_dash(tmp_path):
@@ -252,6 +267,7 @@ def test_daemon_old_max_body_is_deprecated_but_works(tmp_path, form):
     (["--quiet=1"], "option '--quiet' takes no value"),
     (["--port"], "option '--port' needs a value"),
     (["--port=70000"], "--port: expected an integer in [0, 65535], got '70000'"),
+    (["--max-depth=513"], "--max-depth: expected an integer in [1, 512], got '513'"),
     (["--por", "0"], "unknown option '--por'"),
     (["--bogus"], "unknown option '--bogus'"),
     (["stray"], "unexpected argument 'stray'"),

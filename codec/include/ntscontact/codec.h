@@ -37,13 +37,18 @@ NTS_API int ntsj_override_set(ntsj_overrides* overrides, int option_id, const nt
 /** 1 when option `option_id` is overridden, 0 when not (or not one the CLI sets). */
 NTS_API int ntsj_override_given(const ntsj_overrides* overrides, int option_id);
 
+/** The deepest nesting a request may be allowed (ntsj_config.max_depth):
+ * the pre-scan keeps a path of that many levels on its stack. The CLI's and
+ * the daemon's --max-depth refuse more. */
+#define NTSJ_MAX_DEPTH_LIMIT 512
+
 /** How the codec handles a request (start from ntsj_default_config). */
 typedef struct ntsj_config {
     ntsj_mode mode;         /**< evaluate or validate */
     int pretty;             /**< indent the output */
     ntsj_overrides overrides; /**< options that override the scene's own */
     nts_limits limits;      /**< bodies, nodes per body, nodes per scene */
-    int max_depth;          /**< JSON nesting; default 32 */
+    int max_depth;          /**< JSON nesting; default 32, at most NTSJ_MAX_DEPTH_LIMIT (more is taken as that) */
     size_t max_bytes;       /**< request size; default 64 MiB */
     double max_seconds;     /**< wall-clock budget of one request, 0 = none: checked after decoding,
                              * building the scene and evaluating; over it -> limit_exceeded (400) */
