@@ -606,7 +606,11 @@ static int set_option(ntsj_config* cfg, int id, const char* val) {
         break;
     }
     case NTS_OPTION_KIND_OUTPUTS:
-        if (ntsj_output_list(val, 0, &v.flags, &bad, &n) != 0) {
+        switch (ntsj_output_list(val, 0, &v.flags, &bad, &n)) {
+        case 0: break;
+        case NTSJ_LIST_DUPLICATE:
+            return usage_error("%s lists the output '%.*s' twice: '%s'", r->flag, (int)(n > 32 ? 32 : n), bad, val);
+        default:
             ntsj_output_names_text(NULL, names, sizeof names);
             return usage_error("%s takes a comma-separated list of %s, not '%s'", r->flag, names, val);
         }

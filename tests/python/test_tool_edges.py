@@ -146,6 +146,9 @@ def test_an_override_given_with_equals_is_applied():
     (["--pen", "5", "SCENE"], "unknown option '--pen'"),
     (["--bogus=1", "SCENE"], "unknown option '--bogus=1'"),
     (["-x", "SCENE"], "unknown option '-x'"),
+    (["--outputs", "energy,forces,energy", "SCENE"], "--outputs lists the output 'energy' twice: 'energy,forces,energy'"),
+    (["--outputs=forces,", "SCENE"],
+     "--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps,stiffness,pressure, not 'forces,'"),
     (["--max-depth", "513", "SCENE"], "--max-depth is at most 512, not '513'"),
     (["--max-depth=0", "SCENE"], "--max-depth needs a positive count, not '0'"),
 ], ids=lambda a: " ".join(a) if isinstance(a, list) else "")
