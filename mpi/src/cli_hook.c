@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+#include <sys/stat.h>
 
 #include <cjson/cJSON.h>
 
@@ -532,15 +533,19 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
     }
     {
         FILE* f = fopen(path, "rb");
-        if (f == NULL) {
-            snprintf(msg, sizeof msg, "rank %d cannot read '%s': %s", rank, path, strerror(errno));
+        struct stat st;
+        if (f == NULL || (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode))) {
+            /* (fopen opens a directory; reading it fails) */
+            snprintf(msg, sizeof msg, "rank %d cannot read '%s': %s", rank, path, strerror(f == NULL ? errno : EISDIR));
+            if (f != NULL) fclose(f);
             ok = 0;
         } else {
             if (fseek(f, 0, SEEK_END) == 0 && (len = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0 && len < INT_MAX &&
                 (text = (char*)malloc((size_t)len + 1)) != NULL && fread(text, 1, (size_t)len, f) == (size_t)len) {
                 text[len] = '\0';
             } else {
-                snprintf(msg, sizeof msg, "rank %d cannot read '%s' whole", rank, path);
+                snprintf(msg, sizeof msg, "rank %d cannot read '%s' whole%s%s", rank, path, ferror(f) ? ": " : "",
+                         ferror(f) ? strerror(errno) : "");
                 ok = 0;
             }
             fclose(f);
@@ -606,9 +611,19 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 } else if (part != NULL && (code = part_fault(part, where, sizeof where, 0, why, sizeof why)) != NULL) {
                     fprintf(stderr, "ntscontact-mpi: %s at \"%s\" of part %d: %s\n", code, where, r, why);
                     *status = strcmp(code, "out_of_memory") == 0 ? 1 : 3; /* (the CLI's internal error) */
-                } else if (part == NULL || !cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
-                    fprintf(stderr, "ntscontact-mpi: invalid_json at \"\": part %d is not a scene document with "
-                                    "\"bodies\"\n", r);
+                } else if (part == NULL) { /* (checked already: cJSON's room) */
+                    fprintf(stderr, "ntscontact-mpi: out of memory reading part %d\n", r);
+                    *status = 1;
+                } else if (!cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
+                    /* in the words of the codec's decoder (decode.c) for a whole scene */
+                    const int root = !cJSON_IsObject(part);
+                    if (root || pb != NULL)
+                        fprintf(stderr, "ntscontact-mpi: invalid_type at \"%s\" of part %d: expected %s, got %s\n",
+                                root ? "" : "/bodies", r, root ? "a scene (an object)" : "an array of bodies",
+                                ntsj_json_type_name(root ? part : pb));
+                    else
+                        fprintf(stderr, "ntscontact-mpi: missing_field at \"/bodies\" of part %d: a part needs "
+                                        "\"bodies\"\n", r);
                     *status = 3;
                 } else if (r > 0 && (extra = beyond_bodies(part)) != NULL) {
                     const int known = strcmp(extra->string, "history") == 0 || strcmp(extra->string, "session") == 0;

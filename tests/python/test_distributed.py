@@ -374,6 +374,11 @@ def test_part_each_rank_reads_its_own(tmp_path):
     argv = [MPIRUN, "-np", "3", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json")]
     got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
     assert got.returncode == 2 and b"rank 1 cannot read" in got.stderr, got.stderr.decode()
+    (tmp_path / "part_1.json").mkdir()  # a directory: said so (it was "cannot read ... whole")
+    got = subprocess.run(argv, capture_output=True, timeout=300, env=ENV)
+    assert got.returncode == 2 and b"rank 1 cannot read" in got.stderr and b"Is a directory" in got.stderr, \
+        got.stderr.decode()
+    (tmp_path / "part_1.json").rmdir()
     # options that differ by 4, or by one unit in the last place (cJSON_Compare took that for equal)
     for penalty in (4.0, math.nextafter(3.0, 4.0)):
         (tmp_path / "part_1.json").write_text(json.dumps(dict(scene, bodies=scene["bodies"][:2],
@@ -399,6 +404,9 @@ def test_part_each_rank_reads_its_own(tmp_path):
     ("schema", b"invalid_value", b'at "/$schema" of part 1'),
     ("blank", b"empty_body", b'at "" of part 1'),
     ("escaped", b"unknown_field", b'at "/a~1b~0c" of part 1'),
+    ("array", b"invalid_type", b'at "" of part 1: expected a scene (an object), got an array'),
+    ("no_bodies", b"missing_field", b'at "/bodies" of part 1: a part needs "bodies"'),
+    ("bodies_number", b"invalid_type", b'at "/bodies" of part 1: expected an array of bodies, got a number'),
 ])
 def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
     """--part: each part is checked as a request is (strict RFC 8259; a
@@ -436,6 +444,12 @@ def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
         text = text.replace('"bodies": [', '"$schema": "x", "bodies": [', 1)
     elif fault == "blank":
         text = " \n\t "
+    elif fault == "array":  # (each of these three was invalid_json, which the text is not)
+        text = "[" + text + "]"
+    elif fault == "no_bodies":
+        text = json.dumps({"options": scene["options"]})
+    elif fault == "bodies_number":
+        text = json.dumps(dict(scene, bodies=3))
     else:
         text = text.replace('"bodies": [', '"a/b~c": 1, "bodies": [', 1)
     (tmp_path / "part_1.json").write_text(text, encoding="utf-8")
