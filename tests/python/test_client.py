@@ -65,6 +65,20 @@ def test_examples_exist():
     assert len(EXAMPLES) >= 4, EXAMPLES
 
 
+def test_a_scene_json_cannot_write_is_named_where_it_is():
+    """Scene.to_json of options JSON cannot hold: InvalidScene at its
+    pointer, as dump_document says for a dict (it was json's bare
+    ValueError or TypeError); numpy's scalars written as the numbers they
+    hold."""
+    for extra, code, pointer in (({"x": math.nan}, "non_finite", "/options/x"),
+                                 ({(1,): 2}, "invalid_type", "/options"),
+                                 ({"x": object()}, "invalid_type", "/options/x")):
+        with pytest.raises(InvalidScene) as info:
+            Scene(penalty=1.0, extra_options=extra).to_json()
+        assert (info.value.code, info.value.pointer) == (code, pointer), str(info.value)
+    assert json.loads(Scene(penalty=1.0, extra_options={"x": np.int64(3)}).to_json())["options"]["x"] == 3
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.name)
 def test_example_round_trips_through_scene(path):
     doc = json.loads(path.read_text())

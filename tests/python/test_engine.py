@@ -207,6 +207,22 @@ def test_a_non_finite_number_in_a_dict_scene_is_named_where_it_is(engine, client
     assert (info.value.code, info.value.pointer) == ("non_finite", "/bodies/1/nodes/3/1"), str(info.value)
 
 
+@pytest.mark.parametrize("backend", ["engine", "client"])
+def test_a_key_json_cannot_write_is_named_where_it_is(engine, client, backend, paths):
+    """A dict scene with a key json.dumps cannot write (a tuple, a numpy
+    integer): InvalidScene invalid_type at the object that holds it, on
+    every path; it was json's bare TypeError."""
+    opener = engine if backend == "engine" else client
+    for key in ((1, 2), np.int64(3)):
+        doc = load(paths, "two_disks")
+        doc["bodies"][1][key] = 1
+        for call in (lambda d: opener.contact(d, outputs=["forces"]), lambda d: opener.session(d)):
+            with pytest.raises(InvalidScene) as info:
+                call(doc)
+            assert (info.value.code, info.value.pointer) == ("invalid_type", "/bodies/1"), str(info.value)
+            assert type(key).__name__ in info.value.message
+
+
 # ------------------------------------------------------------ sessions
 
 def walk(scene, steps, seed, scale=3e-4):

@@ -678,7 +678,13 @@ class Scene:
 
     def to_json(self, indent: Optional[int] = None) -> str:
         """JSON text; every double is written so that it reads back bitwise equal."""
-        return json.dumps(self.to_dict(), indent=indent, allow_nan=False, separators=None if indent else (",", ":"))
+        doc = self.to_dict()
+        try:
+            return json.dumps(doc, indent=indent, allow_nan=False, separators=None if indent else (",", ":"),
+                              default=_plain)
+        except (ValueError, TypeError):
+            dump_document(doc)  # raises InvalidScene at the value's pointer (json's bare error otherwise)
+            raise
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> "Scene":
@@ -776,6 +782,9 @@ def dump_document(doc: Any) -> bytes:
         if found is None:
             raise
         pointer, value = found
+        if isinstance(value, _Key):
+            raise InvalidScene(f"an object's keys are strings, got {type(value.key).__name__}", code="invalid_type",
+                               pointer=pointer) from exc
         if isinstance(value, float):
             raise InvalidScene("not a finite number (JSON has no NaN or infinity)", code="non_finite",
                                pointer=pointer) from None
@@ -792,9 +801,18 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON")
 
 
+class _Key:
+    """A key json.dumps cannot write (a tuple, a numpy integer), as _first_fault finds it."""
+
+    def __init__(self, key: Any) -> None:
+        self.key = key
+
+
 def _first_fault(value: Any, pointer: str) -> Optional[Tuple[str, Any]]:
     """The JSON pointer and value of the first NaN or infinity, or value JSON
-    cannot hold, in ``value`` (in the order written), else None."""
+    cannot hold, in ``value`` (in the order written), else None; an object
+    with a key json.dumps cannot write is a fault at the object's pointer
+    (json.dumps writes str, int, float, bool and None keys as strings)."""
     if isinstance(value, (np.ndarray, np.generic)):
         value = _plain(value)
     if isinstance(value, float):
@@ -802,6 +820,9 @@ def _first_fault(value: Any, pointer: str) -> Optional[Tuple[str, Any]]:
     if value is None or isinstance(value, (bool, int, str)):
         return None
     if isinstance(value, Mapping):
+        for k in value:
+            if not (k is None or isinstance(k, (str, int, float, bool))):
+                return pointer, _Key(k)
         items: Any = ((str(k).replace("~", "~0").replace("/", "~1"), v) for k, v in value.items())
     elif isinstance(value, (list, tuple)):
         items = enumerate(value)
