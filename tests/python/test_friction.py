@@ -488,3 +488,30 @@ def test_the_tangent_through_a_session_is_the_trials_derivative(daemon):
             col = -(fp - fm) / (2 * h)
             worst = max(worst, float(np.abs(col - K[:, j]).max() / np.abs(K).max()))
         assert worst < 1e-6, worst
+
+
+def test_a_lost_friction_history_is_said_after_the_step(daemon):
+    """A session the service lost is created anew and the step repeated;
+    with friction its history is gone, and an IncompleteResultWarning says
+    so once the step is done: as an error (warnings made errors), the step
+    is taken all the same and the session holds its positions. It was
+    raised in the middle of the step: the step not repeated, the client
+    still holding the positions before it while the service held the
+    scene's first."""
+    import warnings
+
+    scene = ntscontact.Scene.from_dict(block_scene())
+    path = path_positions(block_scene(), steps=3)
+    with ntscontact.Client(daemon.base) as client, client.session(scene) as s:
+        s.step(path[0])
+        requests.delete(f"{daemon.base}/v1/scenes/{s.id}", timeout=30)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", ntscontact.IncompleteResultWarning)
+            with pytest.raises(ntscontact.IncompleteResultWarning, match="friction history is lost"):
+                s.step(path[1])
+        assert s.recreated == 1 and s.steps == 2
+        again = s.step()  # the positions it holds: path[1], as the service does
+        assert again.summary.contacts > 0
+        with client.session(scene) as t:  # a session that starts there, sticking where it is
+            want = t.step(path[1])
+        assert np.array_equal(again.force_array(), want.force_array())

@@ -189,6 +189,7 @@ class Session:
         # positions: another thread's step, accepted after this one, must not
         # have its positions replaced by this one's (steps one at a time).
         self._stepping = threading.Lock()
+        self._history_lost = False  # (a re-creation lost the friction history: said after the step)
         self.id = ""
         self.surface_nodes = 0
         #: With ``exchange="surface"``: the surface nodes' global indices,
@@ -372,6 +373,11 @@ class Session:
                     with self._held_lock:
                         self._positions, self._rows = stored, None
             self.steps += 1
+            lost, self._history_lost = self._history_lost, False
+        if lost:
+            _warnings.warn(f"session {self.id}: the service lost it and the client created it anew: "
+                           "its friction history is lost (every contact starts sticking where it is)",
+                           IncompleteResultWarning, stacklevel=2)
         result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted, surface)
                   if binary else Result.from_dict(doc))
         # the stored positions are replaced, never written in place: shared, not copied
@@ -417,10 +423,9 @@ class Session:
                 if attempt < 2 and exc.status == 404 and exc.code == "unknown_scene":
                     self._create()
                     self.recreated += 1
-                    if self._friction:
-                        _warnings.warn(f"session {self.id}: the service lost it and the client created it anew: "
-                                       "its friction history is lost (every contact starts sticking where it is)",
-                                       IncompleteResultWarning, stacklevel=3)
+                    # said once the step is done, outside the lock (a warning
+                    # raised as an error here would leave the step half made)
+                    self._history_lost = self._history_lost or self._friction
                     continue
                 raise
         raise AssertionError("unreachable")  # the third attempt returns or raises
