@@ -10,6 +10,7 @@
 
 #include <errno.h>
 #include <limits.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -515,6 +516,28 @@ static const cJSON* beyond_bodies(const cJSON* part) {
  * nested at most max_depth deep (the command line's --max-depth; 0: the
  * codec's default). Returns the file's path on rank 0 (malloc), NULL with
  * *status set on every rank after a fault (each rank's named). */
+/* The assembled request's path on rank 0, for a run stopped by a signal
+ * (Ctrl-C at mpirun, which sends its ranks SIGTERM; a hangup): the handler
+ * removes the file, as the end of main does, then dies of the signal. */
+static char g_assembled[4096];
+static volatile sig_atomic_t g_assembled_set;
+
+static void remove_assembled(int sig) {
+    if (g_assembled_set) unlink(g_assembled);
+    raise(sig); /* (SA_RESETHAND: the default action now) */
+}
+
+static void on_stop_remove_assembled(void) {
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    struct sigaction sa;
+    size_t k;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = remove_assembled;
+    sa.sa_flags = SA_RESETHAND;
+    sigemptyset(&sa.sa_mask);
+    for (k = 0; k < sizeof sigs / sizeof sigs[0]; ++k) sigaction(sigs[k], &sa, NULL);
+}
+
 static char* parts_together(const char* pattern, int rank, int size, int max_depth, int* status) {
     char path[4096], msg[4600] = "";
     char* text = NULL;
@@ -666,8 +689,13 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 if (dir == NULL || dir[0] == '\0') dir = "/tmp";
                 if (snprintf(tmpl, sizeof tmpl, "%s/ntscontact-mpi-XXXXXX", dir) >= (int)sizeof tmpl)
                     snprintf(tmpl, sizeof tmpl, "/tmp/ntscontact-mpi-XXXXXX"); /* (a $TMPDIR too long) */
+                on_stop_remove_assembled();
                 errno = 0;
                 fd = mkstemp(tmpl);
+                if (fd >= 0) {
+                    memcpy(g_assembled, tmpl, sizeof g_assembled);
+                    g_assembled_set = 1;
+                }
                 f = fd >= 0 ? fdopen(fd, "wb") : NULL;
                 if (f != NULL) {
                     /* closed whatever the write gave (a full disk sets the
@@ -687,6 +715,7 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                     fprintf(stderr, "ntscontact-mpi: cannot write the assembled request to %s: %s\n", tmpl,
                             strerror(why ? why : ENOMEM));
                     if (fd >= 0) unlink(tmpl);
+                    g_assembled_set = 0;
                     *status = 1; /* (the CLI's internal error: a write that fails, out of memory) */
                 }
             }
@@ -769,6 +798,7 @@ int main(int argc, char** argv) {
         }
     }
     if (assembled != NULL) {
+        g_assembled_set = 0;
         unlink(assembled);
         free(assembled);
     }

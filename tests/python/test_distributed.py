@@ -527,6 +527,41 @@ def test_part_assembled_in_tmpdir(tmp_path):
     assert list(own.iterdir()) == []
 
 
+def test_part_stopped_by_ctrl_c_leaves_no_assembled_request(tmp_path):
+    """Ctrl-C at mpirun (which sends its ranks SIGTERM) while the CLI runs
+    on the assembled request: the temporary file goes with the run, as at a
+    normal end; it was left in $TMPDIR. The CLI is held at a point where
+    the file exists: opening -o, a FIFO that no one reads."""
+    import signal
+    import time
+
+    scene = completed(packing(8, 22))
+    for r, share in enumerate([scene["bodies"][:4], scene["bodies"][4:]]):
+        (tmp_path / f"part_{r}.json").write_text(json.dumps(dict(scene, bodies=share)))
+    own, ompi = tmp_path / "tmp", tmp_path / "ompi"
+    own.mkdir()
+    ompi.mkdir()
+    fifo = tmp_path / "out.fifo"
+    os.mkfifo(fifo)
+    cmd = [MPIRUN, "-np", "2", "--oversubscribe", str(MPI_CLI), "--part", str(tmp_path / "part_%d.json"),
+           "-o", str(fifo)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=dict(ENV, TMPDIR=str(own), **mpi_session_dir(ompi)))
+    try:
+        deadline = time.monotonic() + 120  # (a bound, not a figure: the file appears once the parts are read)
+        while not list(own.glob("ntscontact-mpi-*")) and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert list(own.glob("ntscontact-mpi-*")), "no assembled request while the CLI runs"
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode != 0
+    assert list(own.glob("ntscontact-mpi-*")) == [], proc.stderr.read().decode() if proc.stderr else ""
+
+
 def test_part_on_a_full_disk_says_so_and_leaves_nothing(tmp_path):
     """--part whose $TMPDIR fills up while the assembled request is written:
     exit 1 naming the file and the reason, and the file removed (the write's error flag,
