@@ -508,6 +508,20 @@ static const cJSON* beyond_bodies(const cJSON* part) {
     return NULL;
 }
 
+/* A member of a part that no scene has (the decoder's root fields,
+ * decode.c), or NULL. */
+static const cJSON* unknown_root(const cJSON* part) {
+    static const char* const fields[] = {"version", "options", "bodies", "$schema", "session", "history"};
+    const cJSON* c;
+    size_t k;
+    for (c = part->child; c != NULL; c = c->next) {
+        int ok = 0;
+        for (k = 0; k < sizeof fields / sizeof fields[0]; ++k) ok |= strcmp(c->string, fields[k]) == 0;
+        if (!ok) return c;
+    }
+    return NULL;
+}
+
 /* --part PATTERN: each rank reads its own part of the scene, PATTERN with
  * "%d" its rank (a scene document of its bodies, "options" the same in
  * every part). Rank 0 puts the parts together (the whole's bodies in rank
@@ -640,13 +654,20 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 } else if (!cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
                     /* in the words of the codec's decoder (decode.c) for a whole scene */
                     const int root = !cJSON_IsObject(part);
-                    if (root || pb != NULL)
+                    const cJSON* stray = root || pb != NULL ? NULL : unknown_root(part);
+                    if (root || pb != NULL) {
                         fprintf(stderr, "ntscontact-mpi: invalid_type at \"%s\" of part %d: expected %s, got %s\n",
                                 root ? "" : "/bodies", r, root ? "a scene (an object)" : "an array of bodies",
                                 ntsj_json_type_name(root ? part : pb));
-                    else
+                    } else if (stray != NULL) { /* (a misspelt "bodies": the decoder names the field first) */
+                        where[0] = '\0';
+                        ntsj_pointer_append_key(where, sizeof where, stray->string);
+                        fprintf(stderr, "ntscontact-mpi: unknown_field at \"%s\" of part %d: unknown field\n", where,
+                                r);
+                    } else {
                         fprintf(stderr, "ntscontact-mpi: missing_field at \"/bodies\" of part %d: a part needs "
                                         "\"bodies\"\n", r);
+                    }
                     *status = 3;
                 } else if (r > 0 && (extra = beyond_bodies(part)) != NULL) {
                     const int known = strcmp(extra->string, "history") == 0 || strcmp(extra->string, "session") == 0;

@@ -70,9 +70,20 @@ def test_a_scene_json_cannot_write_is_named_where_it_is():
     pointer, as dump_document says for a dict (it was json's bare
     ValueError or TypeError); numpy's scalars written as the numbers they
     hold."""
+    import types
+
+    held: dict = {"a": []}
+    held["a"].append(held)
     for extra, code, pointer in (({"x": math.nan}, "non_finite", "/options/x"),
                                  ({(1,): 2}, "invalid_type", "/options"),
-                                 ({"x": object()}, "invalid_type", "/options/x")):
+                                 ({"x": object()}, "invalid_type", "/options/x"),
+                                 ({math.nan: 1}, "non_finite", "/options"),
+                                 # as json.dumps meets them: each key, then its value
+                                 ({"a": math.inf, (1,): 2}, "non_finite", "/options/a"),
+                                 ({"m": types.MappingProxyType({"x": 1})}, "invalid_type", "/options/m"),
+                                 # keys spelled as JSON writes them
+                                 ({True: {"x/~": [0, math.nan]}}, "non_finite", "/options/true/x~1~0/1"),
+                                 ({"h": held}, "invalid_type", "/options/h/a/0")):  # (json: "Circular reference")
         with pytest.raises(InvalidScene) as info:
             Scene(penalty=1.0, extra_options=extra).to_json()
         assert (info.value.code, info.value.pointer) == (code, pointer), str(info.value)

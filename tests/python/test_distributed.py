@@ -406,6 +406,7 @@ def test_part_each_rank_reads_its_own(tmp_path):
     ("escaped", b"unknown_field", b'at "/a~1b~0c" of part 1'),
     ("array", b"invalid_type", b'at "" of part 1: expected a scene (an object), got an array'),
     ("no_bodies", b"missing_field", b'at "/bodies" of part 1: a part needs "bodies"'),
+    ("misspelt_bodies", b"unknown_field", b'at "/bodiez" of part 1: unknown field'),
     ("bodies_number", b"invalid_type", b'at "/bodies" of part 1: expected an array of bodies, got a number'),
 ])
 def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
@@ -446,6 +447,8 @@ def test_part_read_as_strictly_as_a_request(tmp_path, fault, code, where):
         text = " \n\t "
     elif fault == "array":  # (each of these three was invalid_json, which the text is not)
         text = "[" + text + "]"
+    elif fault == "misspelt_bodies":
+        text = text.replace('"bodies": [', '"bodiez": [', 1)
     elif fault == "no_bodies":
         text = json.dumps({"options": scene["options"]})
     elif fault == "bodies_number":

@@ -213,14 +213,15 @@ def test_a_key_json_cannot_write_is_named_where_it_is(engine, client, backend, p
     integer): InvalidScene invalid_type at the object that holds it, on
     every path; it was json's bare TypeError."""
     opener = engine if backend == "engine" else client
-    for key in ((1, 2), np.int64(3)):
+    for key, code in (((1, 2), "invalid_type"), (np.int64(3), "invalid_type"), (math.nan, "non_finite"),
+                      (-math.inf, "non_finite")):
         doc = load(paths, "two_disks")
         doc["bodies"][1][key] = 1
         for call in (lambda d: opener.contact(d, outputs=["forces"]), lambda d: opener.session(d)):
             with pytest.raises(InvalidScene) as info:
                 call(doc)
-            assert (info.value.code, info.value.pointer) == ("invalid_type", "/bodies/1"), str(info.value)
-            assert type(key).__name__ in info.value.message
+            assert (info.value.code, info.value.pointer) == (code, "/bodies/1"), str(info.value)
+            assert code == "non_finite" or type(key).__name__ in info.value.message
 
 
 # ------------------------------------------------------------ sessions

@@ -126,6 +126,13 @@ def test_python_client_warns(daemon):
                 step = session.contact(positions_of(disks()), outputs=["forces", "energy"])
             assert [x.code for x in step.warnings] == ["penetration_beyond_radius"]
             assert step.warnings[0].count == w.count
+            # Each names the caller's line, whichever door: a session's
+            # contact and step (which calls contact), the client's contact;
+            # it named the client's own line for step().
+            for door in (session.contact, session.step, client.contact):
+                with pytest.warns(ntscontact.IncompleteResultWarning) as got:
+                    door(scene) if door == client.contact else door(positions_of(disks()))
+                assert [x.filename for x in got] == [__file__], [(x.filename, x.lineno) for x in got]
         # The default: every contact, no warning.
         scene.search_radius = None
         with warnings.catch_warnings():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 import warnings as _warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
@@ -133,6 +134,18 @@ class IncompleteResultWarning(UserWarning):
     """Raised through :func:`warnings.warn` when a result says it may lack
     something (its ``warnings``): e.g. ``penetration_beyond_radius``, active
     contacts deeper than an explicit search radius, left out."""
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for :func:`warnings.warn`, called from the function
+    that warns, that names the first caller outside this package: the
+    user's line, however many of the client's own calls lie between
+    (``Session.step`` calls ``contact``; a distributed session's ``contact``
+    calls its base's)."""
+    level, frame = 1, sys._getframe(1)
+    while frame.f_back is not None and str(frame.f_globals.get("__name__", "")).partition(".")[0] == "ntscontact":
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 @dataclass(frozen=True)
@@ -430,7 +443,7 @@ class Result:
         receives); returns the result."""
         for w in self.warnings:
             text = f"{w.code} ({w.count})" + (f": {w.message}" if w.message else "")
-            _warnings.warn(text, IncompleteResultWarning, stacklevel=3)
+            _warnings.warn(text, IncompleteResultWarning, stacklevel=user_stacklevel())
         return self
 
     @classmethod

@@ -15,7 +15,7 @@ import json
 import math
 import os
 from dataclasses import dataclass
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Set, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -778,18 +778,11 @@ def dump_document(doc: Any) -> bytes:
     try:
         return json.dumps(doc, allow_nan=False, separators=(",", ":"), default=_plain).encode("utf-8")
     except (ValueError, TypeError) as exc:
-        found = _first_fault(doc, "")
+        found = _first_fault(doc, "", set())
         if found is None:
             raise
-        pointer, value = found
-        if isinstance(value, _Key):
-            raise InvalidScene(f"an object's keys are strings, got {type(value.key).__name__}", code="invalid_type",
-                               pointer=pointer) from exc
-        if isinstance(value, float):
-            raise InvalidScene("not a finite number (JSON has no NaN or infinity)", code="non_finite",
-                               pointer=pointer) from None
-        raise InvalidScene(f"expected a JSON value, got {type(value).__name__}", code="invalid_type",
-                           pointer=pointer) from exc
+        pointer, why, code = found
+        raise InvalidScene(why, code=code, pointer=pointer) from None
 
 
 def _plain(value: Any) -> Any:
@@ -801,38 +794,60 @@ def _plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON")
 
 
-class _Key:
-    """A key json.dumps cannot write (a tuple, a numpy integer), as _first_fault finds it."""
+def _type_name(value: Any) -> str:
+    """A value's type as a user would look it up: ``tuple``, ``numpy.bool_``."""
+    t = type(value)
+    return t.__name__ if t.__module__ == "builtins" else f"{t.__module__}.{t.__name__}"
 
-    def __init__(self, key: Any) -> None:
-        self.key = key
+
+def _json_key(key: Any) -> Optional[str]:
+    """The object key json.dumps writes for ``key`` (True as ``true``, 1.5 as
+    ``1.5``), else None: a key it refuses (a tuple, a numpy integer, a NaN)."""
+    if isinstance(key, str):
+        return key
+    if key is None or isinstance(key, bool):
+        return json.dumps(key)
+    if isinstance(key, int):
+        return int.__repr__(key)
+    if isinstance(key, float):
+        return float.__repr__(key) if math.isfinite(key) else None
+    return None
 
 
-def _first_fault(value: Any, pointer: str) -> Optional[Tuple[str, Any]]:
-    """The JSON pointer and value of the first NaN or infinity, or value JSON
-    cannot hold, in ``value`` (in the order written), else None; an object
-    with a key json.dumps cannot write is a fault at the object's pointer
-    (json.dumps writes str, int, float, bool and None keys as strings)."""
+_FINITE = "not a finite number (JSON has no NaN or infinity)"
+
+
+def _first_fault(value: Any, pointer: str, open_: Set[int]) -> Optional[Tuple[str, str, str]]:
+    """Where json.dumps (``allow_nan=False``, numpy's values as ``_plain``
+    gives them) first fails in ``value``, in the order it writes: the JSON
+    pointer, the message and the service's code (``non_finite`` for a NaN or
+    an infinity, ``invalid_type`` for what JSON cannot hold: a key it
+    refuses, at its object; another type; a container that holds itself,
+    ``open_`` the containers around this one); None where it would not."""
     if isinstance(value, (np.ndarray, np.generic)):
         value = _plain(value)
     if isinstance(value, float):
-        return None if math.isfinite(value) else (pointer, value)
+        return None if math.isfinite(value) else (pointer, _FINITE, "non_finite")
     if value is None or isinstance(value, (bool, int, str)):
         return None
-    if isinstance(value, Mapping):
-        for k in value:
-            if not (k is None or isinstance(k, (str, int, float, bool))):
-                return pointer, _Key(k)
-        items: Any = ((str(k).replace("~", "~0").replace("/", "~1"), v) for k, v in value.items())
-    elif isinstance(value, (list, tuple)):
-        items = enumerate(value)
-    else:
-        return pointer, value
-    for key, item in items:
-        found = _first_fault(item, f"{pointer}/{key}")
-        if found is not None:
-            return found
-    return None
+    if not isinstance(value, (dict, list, tuple)):  # (a Mapping that is no dict included: json.dumps refuses it)
+        return pointer, f"expected a JSON value, got {_type_name(value)}", "invalid_type"
+    if id(value) in open_:
+        return pointer, "a value that holds itself (JSON has no references)", "invalid_type"
+    open_.add(id(value))
+    try:
+        for key, item in (value.items() if isinstance(value, dict) else enumerate(value)):
+            name = _json_key(key) if isinstance(value, dict) else str(key)
+            if name is None:
+                bad = isinstance(key, float)
+                return (pointer, f"an object's key is {_FINITE}" if bad else
+                        f"an object's keys are strings, got {_type_name(key)}", "non_finite" if bad else "invalid_type")
+            found = _first_fault(item, f"{pointer}/{name.replace('~', '~0').replace('/', '~1')}", open_)
+            if found is not None:
+                return found
+        return None
+    finally:
+        open_.discard(id(value))
 
 
 def json_kind(value: Any) -> str:

@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .errors import InvalidScene, NtsError, ServerError
-from .result import IncompleteResultWarning, Result, ResultWarning, Summary, virial_matrix
+from .result import IncompleteResultWarning, Result, ResultWarning, Summary, user_stacklevel, virial_matrix
 from .scene import BodyId, Scene, body_key, dump_document, normalize_outputs, option_number, scene_document
 
 if TYPE_CHECKING:
@@ -377,7 +377,7 @@ class Session:
         if lost:
             _warnings.warn(f"session {self.id}: the service lost it and the client created it anew: "
                            "its friction history is lost (every contact starts sticking where it is)",
-                           IncompleteResultWarning, stacklevel=2)
+                           IncompleteResultWarning, stacklevel=user_stacklevel())
         result = (self._binary_result(headers, content, "stiffness" in wanted, "pressure" in wanted, surface)
                   if binary else Result.from_dict(doc))
         # the stored positions are replaced, never written in place: shared, not copied
