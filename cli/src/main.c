@@ -22,6 +22,13 @@
 
 enum { EXIT_DONE = 0, EXIT_INTERNAL = 1, EXIT_USAGE = 2, EXIT_INVALID = 3 };
 
+/* The name its messages begin with: the program the user ran. */
+#ifdef NTS_CLI_MPI
+static const char* const prog = "ntscontact-mpi";
+#else
+static const char* const prog = "ntscontact";
+#endif
+
 static void put_escaped(FILE* f, const char* s, int quote);
 
 /* The CLI's own flags, each once: XX(ID, name, short, value, metavar, section, help). Its
@@ -172,10 +179,10 @@ static void print_warnings(const ntsj_response* resp, long long frame) {
     for (k = 0; k < resp->warning_count; ++k) {
         const nts_warning* w = &resp->warnings[k];
         if (frame >= 0)
-            fprintf(stderr, "ntscontact: frame %lld: warning: %s (%lld): %s\n", frame, nts_warning_name(w->code),
+            fprintf(stderr, "%s: frame %lld: warning: %s (%lld): %s\n", prog, frame, nts_warning_name(w->code),
                     w->count, nts_warning_message(w->code));
         else
-            fprintf(stderr, "ntscontact: warning: %s (%lld): %s\n", nts_warning_name(w->code), w->count,
+            fprintf(stderr, "%s: warning: %s (%lld): %s\n", prog, nts_warning_name(w->code), w->count,
                     nts_warning_message(w->code));
     }
 }
@@ -186,7 +193,7 @@ static int print_error(const ntsj_response* resp, long long frame) {
     /* The pointer is printed as the inside of a JSON string and control
      * characters are escaped, so the diagnostic stays one parseable line
      * whatever keys the request used. */
-    fprintf(stderr, "ntscontact: ");
+    fprintf(stderr, "%s: ", prog);
     if (frame >= 0) fprintf(stderr, "frame %lld: ", frame);
     fprintf(stderr, "%s at \"", resp->code);
     put_escaped(stderr, pointer, 1);
@@ -236,11 +243,11 @@ static const char* mesh_kind(const char* name, const char* data, size_t length) 
 
 static int usage_error(const char* fmt, ...) {
     va_list ap;
-    fprintf(stderr, "ntscontact: ");
+    fprintf(stderr, "%s: ", prog);
     va_start(ap, fmt);
     vfprintf(stderr, fmt, ap);
     va_end(ap);
-    fprintf(stderr, "\nTry 'ntscontact --help' for more information.\n");
+    fprintf(stderr, "\nTry '%s --help' for more information.\n", prog);
     return EXIT_USAGE;
 }
 
@@ -252,11 +259,11 @@ static FILE* open_input(const char* path) {
     if (strcmp(path, "-") == 0) return stdin;
     f = fopen(path, "rb");
     if (!f) {
-        fprintf(stderr, "ntscontact: cannot open '%s': %s\n", path, strerror(errno));
+        fprintf(stderr, "%s: cannot open '%s': %s\n", prog, path, strerror(errno));
         return NULL;
     }
     if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "ntscontact: cannot read '%s': %s\n", path, strerror(EISDIR));
+        fprintf(stderr, "%s: cannot read '%s': %s\n", prog, path, strerror(EISDIR));
         fclose(f);
         return NULL;
     }
@@ -353,7 +360,7 @@ static int out_open(out_file* o, const char* path, int dash) {
     o->made = stat(path, &st) != 0;
     fd = open(path, O_WRONLY | O_CREAT, 0666);
     if (fd < 0 || (o->f = fdopen(fd, "wb")) == NULL) {
-        fprintf(stderr, "ntscontact: cannot write '%s': %s\n", path, strerror(errno));
+        fprintf(stderr, "%s: cannot write '%s': %s\n", prog, path, strerror(errno));
         if (fd >= 0) close(fd);
         if (fd >= 0 && o->made) unlink(path);
         return EXIT_USAGE;
@@ -394,7 +401,7 @@ static int out_close(out_file* o, int written) {
     }
     o->f = NULL;
     if (!o->err) return 0;
-    fprintf(stderr, "ntscontact: error writing '%s': %s\n", o->path ? o->path : "standard output",
+    fprintf(stderr, "%s: error writing '%s': %s\n", prog, o->path ? o->path : "standard output",
             strerror(o->err));
     return EXIT_INTERNAL;
 }
@@ -419,7 +426,7 @@ static void frame_path(char* out, size_t cap, const char* vtk, long long k) {
 static int write_vtk_frame(const char* vtk, long long k, const ntsj_response* resp) {
     char path[4096];
     if (strlen(vtk) + 16 > sizeof path) {
-        fprintf(stderr, "ntscontact: --vtk: file name too long\n");
+        fprintf(stderr, "%s: --vtk: file name too long\n", prog);
         return EXIT_USAGE;
     }
     frame_path(path, sizeof path, vtk, k);
@@ -439,7 +446,7 @@ static int write_pvd(const char* vtk, long long frames) {
     base = base ? base + 1 : vtk;
     cap = 128 + (size_t)frames * (strlen(base) + 128);
     if ((text = (char*)malloc(cap)) == NULL) {
-        fprintf(stderr, "ntscontact: out of memory writing '%s'\n", path);
+        fprintf(stderr, "%s: out of memory writing '%s'\n", prog, path);
         return EXIT_INTERNAL;
     }
     at = text + sprintf(text, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n");
@@ -476,7 +483,7 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     int status = EXIT_DONE, nodes, write_failed = 0, rc;
 
     if (ntsj_session_create(scene, length, cfg, &ss, &resp) != 0 && !resp.body) {
-        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
+        fprintf(stderr, "%s: out_of_memory at \"\": out of memory\n", prog);
         return EXIT_INTERNAL;
     }
     if (ss == NULL) {
@@ -510,14 +517,14 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
         if (got == 0 && (feof(in) || ferror(in))) break;
         if (got < frame_bytes) {
             fprintf(stderr,
-                    "ntscontact: frame %lld: invalid_value at \"\": %s has %lu bytes left, a frame is 16*N = 16 * %d = "
-                    "%lu bytes\n", k, frames, (unsigned long)got, nodes, (unsigned long)frame_bytes);
+                    "%s: frame %lld: invalid_value at \"\": %s has %lu bytes left, a frame is 16*N = 16 * %d = "
+                    "%lu bytes\n", prog, k, frames, (unsigned long)got, nodes, (unsigned long)frame_bytes);
             status = EXIT_INVALID;
             break;
         }
         step.length = got;
         if (ntsj_session_step(ss, &step, cfg, &resp) != 0 && !resp.body) {
-            fprintf(stderr, "ntscontact: frame %lld: out_of_memory at \"\": out of memory\n", k);
+            fprintf(stderr, "%s: frame %lld: out_of_memory at \"\": out of memory\n", prog, k);
             status = EXIT_INTERNAL;
             break;
         }
@@ -545,7 +552,7 @@ static int run_frames(const char* scene, size_t length, const ntsj_config* cfg, 
     }
     if (vtk && k > 0 && status == EXIT_DONE && !write_failed && (rc = write_pvd(vtk, k)) != 0) status = rc;
     if (ferror(in)) {
-        fprintf(stderr, "ntscontact: cannot read '%s'\n", frames);
+        fprintf(stderr, "%s: cannot read '%s'\n", prog, frames);
         status = EXIT_USAGE;
     }
     if (in != stdin) fclose(in);
@@ -637,10 +644,10 @@ static int limit_value(const char* name, const char* val, long long hi, long lon
     long long any;
     if (parse_count(val, 1, hi, out) == 0) return 0;
     if (parse_count(val, 1, 0x7fffffffffffffffLL, &any) == 0)
-        fprintf(stderr, "ntscontact: --%s is at most %lld, not '%s'\n", name, hi, val);
+        fprintf(stderr, "%s: --%s is at most %lld, not '%s'\n", prog, name, hi, val);
     else
-        fprintf(stderr, "ntscontact: --%s needs a positive count, not '%s'\n", name, val);
-    fputs("Try 'ntscontact --help' for more information.\n", stderr);
+        fprintf(stderr, "%s: --%s needs a positive count, not '%s'\n", prog, name, val);
+    fprintf(stderr, "Try '%s --help' for more information.\n", prog);
     return EXIT_USAGE;
 }
 
@@ -864,11 +871,11 @@ int main(int argc, char** argv) {
     data = read_all(in, cfg.max_bytes, &length, &read_errno);
     if (in != stdin) fclose(in);
     if (!data && read_errno != 0) { /* the file's fault, not ours */
-        fprintf(stderr, "ntscontact: cannot read '%s': %s\n", input, strerror(read_errno));
+        fprintf(stderr, "%s: cannot read '%s': %s\n", prog, input, strerror(read_errno));
         return EXIT_USAGE;
     }
     if (!data) {
-        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory reading '%s'\n", input);
+        fprintf(stderr, "%s: out_of_memory at \"\": out of memory reading '%s'\n", prog, input);
         return EXIT_INTERNAL;
     }
 
@@ -877,8 +884,8 @@ int main(int argc, char** argv) {
         if (kind) {
             const char* shown = strcmp(input, "-") == 0 ? "MESH" : input;
             fprintf(stderr,
-                    "ntscontact: invalid_json at \"\": %s looks like %s, not a scene (JSON); convert it first: "
-                    ".venv/bin/python -m ntscontact convert %s -o scene.json --penalty EPS (docs/python.md)\n",
+                    "%s: invalid_json at \"\": %s looks like %s, not a scene (JSON); convert it first: "
+                    ".venv/bin/python -m ntscontact convert %s -o scene.json --penalty EPS (docs/python.md)\n", prog,
                     strcmp(input, "-") == 0 ? "the input" : input, kind, shown);
             free(data);
             return EXIT_INVALID;
@@ -893,7 +900,7 @@ int main(int argc, char** argv) {
         history = read_all(hf, cfg.max_bytes, &history_length, &read_errno);
         if (hf != stdin) fclose(hf);
         if (!history) {
-            fprintf(stderr, "ntscontact: cannot read '%s': %s\n", args.history_in,
+            fprintf(stderr, "%s: cannot read '%s': %s\n", prog, args.history_in,
                     read_errno ? strerror(read_errno) : "out of memory");
             free(data);
             return read_errno ? EXIT_USAGE : EXIT_INTERNAL;
@@ -911,7 +918,7 @@ int main(int argc, char** argv) {
     free(data);
     free(history);
     if (status != 0 || !resp.body) {
-        fprintf(stderr, "ntscontact: out_of_memory at \"\": out of memory\n");
+        fprintf(stderr, "%s: out_of_memory at \"\": out of memory\n", prog);
         return EXIT_INTERNAL;
     }
     if (!resp.ok) {

@@ -492,6 +492,10 @@ def test_part_read_with_the_command_lines_max_depth(tmp_path):
     (tmp_path / "part_1.json").unlink()
     rc, line = fault("--max-depth", "x")  # the flag before the parts (part 1 is gone)
     assert rc == 2 and b"--max-depth needs a positive count, not 'x'" in line, line
+    # in the name of the program run (it said "ntscontact:" and "Try 'ntscontact --help'")
+    got = subprocess.run(base + ["--max-depth", "x"], capture_output=True, timeout=300, env=ENV)
+    assert got.stderr.splitlines()[:2] == [b"ntscontact-mpi: --max-depth needs a positive count, not 'x'",
+                                           b"Try 'ntscontact-mpi --help' for more information."], got.stderr
 
 
 def mpi_session_dir(path):
