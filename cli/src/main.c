@@ -643,7 +643,8 @@ static const char* option_name(const char* arg, char* buf, size_t cap) {
 static int limit_value(const char* name, const char* val, long long hi, long long* out) {
     long long any;
     if (parse_count(val, 1, hi, out) == 0) return 0;
-    if (parse_count(val, 1, 0x7fffffffffffffffLL, &any) == 0)
+    if (parse_count(val, 1, 0x7fffffffffffffffLL, &any) == 0 ||
+        (val[0] >= '1' && val[0] <= '9' && val[strspn(val, "0123456789")] == '\0')) /* (past 64 bits too) */
         fprintf(stderr, "%s: --%s is at most %lld, not '%s'\n", prog, name, hi, val);
     else
         fprintf(stderr, "%s: --%s needs a positive count, not '%s'\n", prog, name, val);

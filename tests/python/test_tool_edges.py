@@ -151,6 +151,7 @@ def test_an_override_given_with_equals_is_applied():
      "--outputs takes a comma-separated list of forces,energy,virial,contacts,gaps,stiffness,pressure, not 'forces,'"),
     (["--max-depth", "513", "SCENE"], "--max-depth is at most 512, not '513'"),
     (["--max-depth=0", "SCENE"], "--max-depth needs a positive count, not '0'"),
+    (["--max-nodes", "99999999999999999999", "SCENE"], "--max-nodes is at most 1099511627776, not '99999999999999999999'"),
 ], ids=lambda a: " ".join(a) if isinstance(a, list) else "")
 def test_cli_usage_errors_are_clear(args, says):
     proc = run_cli(*[TWO_DISKS if a == "SCENE" else a for a in args])
