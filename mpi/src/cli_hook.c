@@ -492,34 +492,32 @@ static int same_member(const cJSON* a, const cJSON* b, const char* name) {
     return (x == NULL && y == NULL) || (x != NULL && y != NULL && json_same(x, y));
 }
 
+/* The first member of `part` named none of `names` (n of them), or NULL. */
+static const cJSON* member_not_in(const cJSON* part, const char* const* names, size_t n) {
+    const cJSON* c;
+    size_t k;
+    for (c = part->child; c != NULL; c = c->next) {
+        int ok = 0;
+        for (k = 0; k < n; ++k) ok |= strcmp(c->string, names[k]) == 0;
+        if (!ok) return c;
+    }
+    return NULL;
+}
+
 /* A part after the first holds bodies, and the options, version and
  * $schema the first's request has; anything else (a history, a session, a
  * field no scene has) would be dropped from the assembled request. Returns
  * the first such member, or NULL. */
 static const cJSON* beyond_bodies(const cJSON* part) {
     static const char* const allowed[] = {"bodies", "options", "version", "$schema"};
-    const cJSON* c;
-    size_t k;
-    for (c = part->child; c != NULL; c = c->next) {
-        int ok = 0;
-        for (k = 0; k < sizeof allowed / sizeof allowed[0]; ++k) ok |= strcmp(c->string, allowed[k]) == 0;
-        if (!ok) return c;
-    }
-    return NULL;
+    return member_not_in(part, allowed, sizeof allowed / sizeof allowed[0]);
 }
 
 /* A member of a part that no scene has (the decoder's root fields,
  * decode.c), or NULL. */
 static const cJSON* unknown_root(const cJSON* part) {
     static const char* const fields[] = {"version", "options", "bodies", "$schema", "session", "history"};
-    const cJSON* c;
-    size_t k;
-    for (c = part->child; c != NULL; c = c->next) {
-        int ok = 0;
-        for (k = 0; k < sizeof fields / sizeof fields[0]; ++k) ok |= strcmp(c->string, fields[k]) == 0;
-        if (!ok) return c;
-    }
-    return NULL;
+    return member_not_in(part, fields, sizeof fields / sizeof fields[0]);
 }
 
 /* --part PATTERN: each rank reads its own part of the scene, PATTERN with
