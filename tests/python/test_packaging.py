@@ -71,3 +71,28 @@ def test_pip_install_without_cmake_gives_the_http_client(tmp_path):
     # and where the engine is required (the project's own install), no engine is a failure
     r = pip_install(tmp_path / "site2", NTSCONTACT_CMAKE=str(tmp_path / "no-cmake"), NTSCONTACT_REQUIRE_ENGINE="1")
     assert r.returncode != 0 and "could not be built" in r.stderr + r.stdout
+
+
+def exported(library):
+    """The functions a shared library exports (nm -D --defined-only)."""
+    out = subprocess.run(["nm", "-D", "--defined-only", str(library)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    return {line.split()[-1] for line in out.stdout.splitlines() if " T " in line}
+
+
+def test_the_checkouts_engine_is_the_builds():
+    """In a checkout whose package is an editable install (install-deps.sh
+    makes one), Engine() loads the package's own copy of the library, built
+    once by pip: scripts/build.sh (which test.sh and demo.sh run) brings it
+    up to date, so that it exports what the build's library exports. It was
+    left as first built: after a pull, Engine(max_bytes=...) said the library
+    predated it."""
+    from conftest import BUILD
+    from ntscontact.engine import LIBRARY_NAME, locate
+
+    bundled = REPO / "clients" / "python" / "src" / "ntscontact" / "_lib" / LIBRARY_NAME
+    if os.environ.get("NTSCONTACT_LIBRARY") or locate("NTSCONTACT_LIBRARY", LIBRARY_NAME) != bundled:
+        pytest.skip("the package here is not this checkout's editable install")
+    built = BUILD / "lib" / LIBRARY_NAME
+    assert built.is_file(), built
+    assert exported(bundled) == exported(built)

@@ -211,7 +211,9 @@ class Engine:
         self.library = Path(library) if library is not None else find_library()
         self._lib = _load(self.library)
         if max_bytes is not None and not hasattr(self._lib, "ntsj_engine_create_sized"):
-            raise EngineUnavailable(f"{self.library} predates max_bytes: rebuild it", code="engine_unavailable")
+            raise EngineUnavailable(f"{self.library} predates max_bytes: rebuild it (in a checkout: "
+                                    "bash scripts/build.sh; else pip install the package again)",
+                                    code="engine_unavailable")
         self.threads = int(threads)
         self.max_bytes = int(max_bytes) if max_bytes is not None else None
         # Calls in flight (the GIL is released inside them): close() waits
@@ -287,7 +289,7 @@ class Engine:
 
     def contact_json(self, scene: SceneLike, outputs: Optional[Union[str, Sequence[str]]] = None, *,
                      history: Optional[Sequence[Mapping[str, Any]]] = None) -> bytes:
-        """The result document as text, the daemon's bytes for ``POST /v1/contact``
+        """The result document as UTF-8 bytes, the daemon's for ``POST /v1/contact``
         (``elapsed_ms`` aside): for a program that stores or forwards it. Errors
         are raised as :meth:`contact` raises them."""
         body, ids = Client._encode(scene, normalize_outputs(outputs), history)
