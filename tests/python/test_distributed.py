@@ -198,8 +198,11 @@ def test_bad_scene_same_error(tmp_path, bad):
     for n in (1, 3):
         got = run(MPI_CLI, path, (), n)
         assert got.returncode == ref.returncode
-        # (mpirun adds its own notice of the non-zero exit after it)
-        assert got.stderr.splitlines()[0] == ref.stderr.splitlines()[0]
+        # (mpirun adds its own notice of the non-zero exit after it); the
+        # same message, in the name of the program run
+        first = ref.stderr.splitlines()[0]
+        assert first.startswith(b"ntscontact: ")
+        assert got.stderr.splitlines()[0] == b"ntscontact-mpi: " + first[len(b"ntscontact: "):]
 
 
 @pytest.mark.parametrize("budget, words", [(5, "within"), (10, "deeper"), (40, "deeper"), (57, "deeper"),
@@ -236,7 +239,9 @@ def test_candidate_budget_as_one_process(tmp_path, budget, words):
     for n in (1, 2, 3, 4):
         got = run(MPI_CLI, path, flags, n)
         assert got.returncode == ref.returncode, f"np={n}: {got.stderr.decode()}"
-        assert [s for s in got.stderr.splitlines() if b"limit_exceeded" in s] == line, f"np={n}: {got.stderr.decode()}"
+        # the same line, in the name of the program run
+        assert [s for s in got.stderr.splitlines() if b"limit_exceeded" in s] == \
+            [b"ntscontact-mpi: " + s[len(b"ntscontact: "):] for s in line], f"np={n}: {got.stderr.decode()}"
 
 
 def test_frames(tmp_path, paths):
