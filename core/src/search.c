@@ -423,11 +423,17 @@ static void reach_edge(worker* w, int i, int from, const candidate* c) {
  * needs no comparison when the loop lies in the chunk: a chain of slaves
  * deep in a body has two ends, and when one is that pair the other is a pair
  * the search compares (or the chain is the whole loop: then nothing of it
- * is near the surface). Then i's become the last (the two buffers swap:
+ * is near the surface); but for a body that meets itself (below). Then i's become the last (the two buffers swap:
  * nothing copied). */
 static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
     const seg_data* seg = env->seg;
     const int n = w->best_count, prev = seg[i].prev, next = seg[i].next, before = w->last_slave;
+    /* A body that meets itself: its closing pair compared too (as edges,
+     * reach.c). The argument above fails there: (T), (N) and (C) can leave
+     * a slave in the middle of a deep chain with no closest point, so a
+     * chain's far end need not be a pair the search compares, and what was
+     * found depended on which node the loop starts at. */
+    const int closes = env->self != NULL && env->self[seg[i].body];
     int k;
     candidate* t;
     w->last_slave = i;
@@ -439,10 +445,12 @@ static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
         for (k = 0; k < n; ++k)
             if (!has_body(w->last, w->last_count, w->best[k].body))
                 reach_ask(env, w, prev, SIDE_NEXT, &w->best[k], l);
-    } else if (prev == i - 1 || prev >= end) { /* across the chunk's start, or a loop ending past its end */
+    } else if (prev == i - 1 || prev >= end || closes) {
+        /* across the chunk's start, or a loop ending past its end (or a
+         * body that meets itself: its loop's closing pair) */
         for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_PREV, &w->best[k]);
     }
-    if (next == i + 1 ? i + 1 == end : next != w->first_slave) /* across the chunk's end */
+    if (next == i + 1 ? i + 1 == end : (next != w->first_slave || closes)) /* across the chunk's end */
         for (k = 0; k < n; ++k) reach_edge(w, i, SIDE_NEXT, &w->best[k]);
     w->last_count = n;
     if (n == 0) return;
