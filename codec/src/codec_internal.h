@@ -203,6 +203,10 @@ int ntsj_result_overflows(const ntsj_scene* s, const nts_scene* scene, const nts
 int ntsj_decode_outputs(const struct cJSON* v, const char* ptr, unsigned* out, ntsj_fault* fault);
 /* "an object", "a number", ...: what a JSON value is, for messages. */
 const char* ntsj_json_type_name(const struct cJSON* v);
+/* The members a scene document may have at its root (decode.c reads them;
+ * ntscontact-mpi's --part names a stray one as the decoder would). */
+enum { NTSJ_ROOT_COUNT = 6 };
+extern const char* const ntsj_root_fields[NTSJ_ROOT_COUNT];
 /* An option's value from JSON (a scene's or a step's "options") or from text
  * (a query parameter), at pointer `ptr` ("/options/<name>"): 0, or -1 with
  * *fault. Not for OBJECT rows (the periodic box, friction: decode.c). */

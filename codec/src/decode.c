@@ -635,8 +635,8 @@ static void* alloc_zero(size_t count, size_t size) {
     return p;
 }
 
-static const char* const root_fields[] = {"version", "options", "bodies", "$schema", "session", "history"};
-enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_SESSION, ROOT_HISTORY, ROOT_COUNT };
+const char* const ntsj_root_fields[NTSJ_ROOT_COUNT] = {"version", "options", "bodies", "$schema", "session", "history"};
+enum { ROOT_VERSION, ROOT_OPTIONS, ROOT_BODIES, ROOT_SCHEMA, ROOT_SESSION, ROOT_HISTORY }; /* ntsj_root_fields' order */
 
 /* ---------------------------------------------------------- history */
 
@@ -820,7 +820,7 @@ static int history_document(decoder* d) {
 }
 
 static int decode_root(decoder* d, const cJSON* root) {
-    const cJSON* f[ROOT_COUNT];
+    const cJSON* f[NTSJ_ROOT_COUNT];
     const cJSON* body;
     ntsj_scene* s = d->scene;
     const ntsj_overrides* ov = &d->cfg->overrides;
@@ -829,7 +829,7 @@ static int decode_root(decoder* d, const cJSON* root) {
     long long total = 0;
 
     if (!cJSON_IsObject(root)) return fail_type(d, "", root, "a scene (an object)");
-    if (take_fields(d, root, "", root_fields, ROOT_COUNT, f) != 0) return -1;
+    if (take_fields(d, root, "", ntsj_root_fields, NTSJ_ROOT_COUNT, f) != 0) return -1;
     if (f[ROOT_VERSION]) {
         if (!cJSON_IsNumber(f[ROOT_VERSION])) return fail_type(d, "/version", f[ROOT_VERSION], "the integer 1");
         if (f[ROOT_VERSION]->valuedouble != 1.0) return fail(d, ntsj_code_name(NTSJ_INVALID_VALUE), "/version", "unsupported version (this codec reads version 1)");

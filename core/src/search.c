@@ -423,8 +423,8 @@ static void reach_edge(worker* w, int i, int from, const candidate* c) {
  * needs no comparison when the loop lies in the chunk: a chain of slaves
  * deep in a body has two ends, and when one is that pair the other is a pair
  * the search compares (or the chain is the whole loop: then nothing of it
- * is near the surface); but for a body that meets itself (below). Then i's become the last (the two buffers swap:
- * nothing copied). */
+ * is near the surface); but not for a body that meets itself (below).
+ * Then i's become the last (the two buffers swap: nothing copied). */
 static void reach_neighbours(const search_env* env, worker* w, int i, int end) {
     const seg_data* seg = env->seg;
     const int n = w->best_count, prev = seg[i].prev, next = seg[i].next, before = w->last_slave;

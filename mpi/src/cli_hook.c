@@ -513,21 +513,9 @@ static const cJSON* beyond_bodies(const cJSON* part) {
     return member_not_in(part, allowed, sizeof allowed / sizeof allowed[0]);
 }
 
-/* A member of a part that no scene has (the decoder's root fields,
- * decode.c), or NULL. */
-static const cJSON* unknown_root(const cJSON* part) {
-    static const char* const fields[] = {"version", "options", "bodies", "$schema", "session", "history"};
-    return member_not_in(part, fields, sizeof fields / sizeof fields[0]);
-}
+/* A member of a part that no scene has (the decoder's root fields), or NULL. */
+static const cJSON* unknown_root(const cJSON* part) { return member_not_in(part, ntsj_root_fields, NTSJ_ROOT_COUNT); }
 
-/* --part PATTERN: each rank reads its own part of the scene, PATTERN with
- * "%d" its rank (a scene document of its bodies, "options" the same in
- * every part). Rank 0 puts the parts together (the whole's bodies in rank
- * order, its options the parts') into one request in a temporary file, which
- * the CLI then reads, each part's JSON as strictly as a request's and
- * nested at most max_depth deep (the command line's --max-depth; 0: the
- * codec's default). Returns the file's path on rank 0 (malloc), NULL with
- * *status set on every rank after a fault (each rank's named). */
 /* The assembled request's path on rank 0, for a run stopped by a signal
  * (Ctrl-C at mpirun, which sends its ranks SIGTERM; a hangup): the handler
  * removes the file, as the end of main does, then dies of the signal. */
@@ -550,6 +538,14 @@ static void on_stop_remove_assembled(void) {
     for (k = 0; k < sizeof sigs / sizeof sigs[0]; ++k) sigaction(sigs[k], &sa, NULL);
 }
 
+/* --part PATTERN: each rank reads its own part of the scene, PATTERN with
+ * "%d" its rank (a scene document of its bodies, "options" the same in
+ * every part). Rank 0 puts the parts together (the whole's bodies in rank
+ * order, its options the parts') into one request in a temporary file, which
+ * the CLI then reads, each part's JSON as strictly as a request's and
+ * nested at most max_depth deep (the command line's --max-depth; 0: the
+ * codec's default). Returns the file's path on rank 0 (malloc), NULL with
+ * *status set on every rank after a fault (each rank's named). */
 static char* parts_together(const char* pattern, int rank, int size, int max_depth, int* status) {
     char path[4096], msg[4600] = "";
     char* text = NULL;
@@ -652,12 +648,13 @@ static char* parts_together(const char* pattern, int rank, int size, int max_dep
                 } else if (!cJSON_IsObject(part) || !cJSON_IsArray(pb)) {
                     /* in the words of the codec's decoder (decode.c) for a whole scene */
                     const int root = !cJSON_IsObject(part);
-                    const cJSON* stray = root || pb != NULL ? NULL : unknown_root(part);
+                    const cJSON* stray = NULL;
                     if (root || pb != NULL) {
                         fprintf(stderr, "ntscontact-mpi: invalid_type at \"%s\" of part %d: expected %s, got %s\n",
                                 root ? "" : "/bodies", r, root ? "a scene (an object)" : "an array of bodies",
                                 ntsj_json_type_name(root ? part : pb));
-                    } else if (stray != NULL) { /* (a misspelt "bodies": the decoder names the field first) */
+                    } else if ((stray = unknown_root(part)) != NULL) {
+                        /* (a misspelt "bodies": named first, as the decoder does) */
                         where[0] = '\0';
                         ntsj_pointer_append_key(where, sizeof where, stray->string);
                         fprintf(stderr, "ntscontact-mpi: unknown_field at \"%s\" of part %d: unknown field\n", where,
