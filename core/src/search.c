@@ -10,6 +10,7 @@
  * on the few kept. The first pass only saves time: its reach is wide enough
  * (masters.c) that it keeps every master the second could accept, so the
  * result is that of trying every master, bit for bit. */
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -150,15 +151,107 @@ static inline void self_offer(const search_env* env, worker* w, const candidate*
     }
 }
 
+/* The most faces the way of (C) is followed across (self_settle). */
+enum { NTS_SELF_CROSSINGS = 64 };
+
+/* Whether body b covers every point of the path p0 -> p1 (the frame of
+ * env->self_u) at least twice, it covering p0 `cov0` times: the faces the
+ * path crosses, but the entries skip[0..2], change the coverage by one
+ * each (+1 entering a face from its outside), in the order met. A point on
+ * the path's line counts as on its right (as if the path were moved an
+ * infinitesimal to its left, so that a chain of faces along the path or
+ * through one of its points is crossed as often as it crosses, whatever the
+ * round-off); of crossings at one place the entries come first, so that a
+ * path that grazes a corner does not dip. The faces read are those listed
+ * in the slabs the path's heights span, or the body's whole loops when
+ * those lists are longer. A way that crosses more faces than
+ * NTS_SELF_CROSSINGS is taken as not covered. */
+static int self_way_covered(const search_env* env, int b, nts_vec2 p0, nts_vec2 p1, int cov0, const int skip[3]) {
+    const nts_scene* s = env->s;
+    const nts_vec2* u = env->self_u;
+    const int f = env->self_first[b], count = env->self_first[b + 1] - f;
+    const int all0 = s->loop_start[s->body_loop_start[b]], all1 = s->loop_start[s->body_loop_start[b + 1]];
+    const nts_vec2 dp = nts_sub(p1, p0);
+    double at[NTS_SELF_CROSSINGS];
+    int sign[NTS_SELF_CROSSINGS], edge[NTS_SELF_CROSSINGS];
+    int k, q, k0 = all0, k1 = all1, listed = 0, n = 0;
+    if (count > 0) {
+        const int q0 = nts_self_slab(env->self_y + 2 * b, count, p0.y < p1.y ? p0.y : p1.y);
+        const int q1 = nts_self_slab(env->self_y + 2 * b, count, p0.y < p1.y ? p1.y : p0.y);
+        if (env->self_start[f + q1 + 1] - env->self_start[f + q0] < all1 - all0) {
+            k0 = env->self_start[f + q0];
+            k1 = env->self_start[f + q1 + 1];
+            listed = 1;
+        }
+    }
+    for (k = k0; k < k1; ++k) {
+        const int e = listed ? env->self_items[k] : k;
+        nts_vec2 a, c, t;
+        double oa, oc, lam;
+        int dup = 0;
+        if (e == skip[0] || e == skip[1] || e == skip[2]) continue;
+        a = nts_sub(u[e], p0);
+        c = nts_sub(u[env->seg[e].next], p0);
+        oa = dp.x * a.y - dp.y * a.x; /* > 0: left of the path */
+        oc = dp.x * c.y - dp.y * c.x;
+        if ((oa > 0.0) == (oc > 0.0)) continue;
+        t = nts_sub(c, a);
+        lam = (a.x * t.y - a.y * t.x) / (oc - oa); /* where the face meets the path's line; oc - oa = dp x t != 0 */
+        if (!(lam >= 0.0 && lam < 1.0)) continue;
+        if (listed) /* an edge spanning several slabs is listed in each */
+            for (q = 0; q < n && !dup; ++q) dup = edge[q] == e;
+        if (dup) continue;
+        if (n == NTS_SELF_CROSSINGS) return 0;
+        /* a face from the right of the path to its left: its inside (left
+         * of the face) is behind the path's side it leaves for */
+        for (q = n; q > 0 && (at[q - 1] > lam || (at[q - 1] == lam && sign[q - 1] < (oc > 0.0 ? -1 : 1))); --q) {
+            at[q] = at[q - 1];
+            sign[q] = sign[q - 1];
+            edge[q] = edge[q - 1];
+        }
+        at[q] = lam;
+        sign[q] = oc > 0.0 ? -1 : 1;
+        edge[q] = e;
+        ++n;
+    }
+    for (q = 0; q < n; ++q)
+        if ((cov0 += sign[q]) < 2) return 0;
+    return 1;
+}
+
 /* At the slave's end, its own body's closest penetration that passed (T)
- * and (N): offered when (C) holds, the penetration lying where the body
- * covers itself (coverage >= 2 at the midpoint of the slave and its
- * closest point). */
+ * and (N): offered when (C) holds (docs/model.md (31)): the body covers
+ * itself at least twice at the slave node and all along the straight way
+ * from the node to its closest point (the feature's own faces aside, which
+ * the way ends on), so that the node leaves the overlap by the face it is
+ * pushed through, not through a layer of its own or out of its own side.
+ * Both are read a hair inside, along the node's inward pseudo-normal: the
+ * node lies on the boundary, and the way runs along the node's own face or
+ * through a node when the body folds square (a fold's inner corner), where
+ * the count and the crossings are round-off's to decide. The hair, a billionth of
+ * the node's shorter segment (and above the frame's round-off), moves
+ * neither across a face that is not within a hair of it. A node at the tip
+ * of a needle so sharp that its two normals cancel has no inward
+ * direction: the coverage at the midpoint of the node and its closest
+ * point is read instead. */
 static void self_settle(const search_env* env, worker* w) {
     const candidate* c = &w->self_best;
+    const seg_data* seg = env->seg;
+    const int i = w->slave, j = c->entry;
+    const nts_vec2 xi = env->self_u[i], pn = w->slave_pn;
+    const double pl = sqrt(nts_dot(pn, pn));
     w->self_has = 0;
-    if (self_coverage(env, c->body, nts_mul_add(env->self_u[w->slave], -0.5, w->self_delta)) >= 2)
-        offer(env->s, w, c);
+    if (pl > 1e-12) {
+        const double l0 = seg[seg[i].prev].len, l1 = seg[i].len;
+        const double hair = 1e-9 * (l0 < l1 ? l0 : l1) + 64.0 * DBL_EPSILON * (fabs(xi.x) + fabs(xi.y));
+        const nts_vec2 p0 = nts_mul_add(xi, -hair / pl, pn), p1 = nts_sub(p0, w->self_delta);
+        const int skip[3] = {seg[j].prev, j, seg[j].next};
+        const int cov0 = self_coverage(env, c->body, p0);
+        if (cov0 < 2 || !self_way_covered(env, c->body, p0, p1, cov0, skip)) return;
+    } else if (self_coverage(env, c->body, nts_mul_add(xi, -0.5, w->self_delta)) < 2) {
+        return;
+    }
+    offer(env->s, w, c);
 }
 
 /* Before the exact tests of master j of the slave's own body (same image):
@@ -197,8 +290,18 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
     candidate c;
 
     int may = 3; /* the features that may count: the flat (1), the corner or vertex (2) */
-    if (selfc && body == w->slave_body && self_same_image(env, w, j, d) && (may = self_may(env, w, j)) == 0)
-        return; /* self-contact (docs/model.md §16): nothing of master j could count */
+    if (selfc && body == w->slave_body && self_same_image(env, w, j, d)) {
+        /* self-contact (docs/model.md §16) */
+        if ((may = self_may(env, w, j)) == 0) return; /* nothing of master j could count */
+        if (alpha == 0.0) {
+            /* A flat that ends at a neighbour of the slave, whose vertex (T)
+             * refuses: the flat reaches that end whatever the round-off of
+             * s_j, or a slave whose closest point is that neighbour (a fold's
+             * inner corner) would lose it for a farther face. */
+            if (j == env->seg[w->slave].next) lo = -1e-9;
+            if (m->next == env->seg[w->slave].prev) hi = 1.0 + 1e-9;
+        }
+    }
     /* (the slave's own entry and the one before it never get here from the
      * cells' screen; from the other searches they stop in self_may) */
     sj_param = nts_dot(d, m->t) * m->inv_len2; /* docs/model.md §12, correction 2 */

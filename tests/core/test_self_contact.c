@@ -686,25 +686,144 @@ static void test_coil_meets_itself_only_in_its_overlap(void) {
     nts_context_destroy(ctx);
 }
 
-/* A loop that meets itself deeper than the search radius (a fold of ten
- * nodes, alpha 0.2, the default radius): the same contacts and energy
- * whichever node the loop starts at. The pair that closes the loop was not
- * compared for the growth of the reach (search.c, reach_neighbours): started
- * at node 0 the deep contact was missing (1 contact, energy 0.00092),
- * started at any other, found (2, 0.0386). */
+/* A strip folded into a U whose upper arm is tilted down into the lower
+ * one: the overlap grows from o0 at the fold to o1 at the upper arm's end
+ * (x = end), far deeper than the default radius there. The lower arm
+ * spans y in [-w, 0] and x in [0, 2], the upper arm's lower face runs from
+ * (0, -o0) to (end, -o1), each face in `k` pieces. Counter-clockwise. */
+static void tilted_fold(shape* s, double o0, double o1, double end) {
+    const double w = 0.3, L = 2.0;
+    const double corner[8][2] = {{L, 0.0}, {0.0, 0.0}, {0.0, -o0}, {end, -o1}, {end, w - o1}, {-w, w - o0}, {-w, -w}, {L, -w}};
+    const int pieces[8] = {20, 2, 20, 4, 20, 6, 20, 4};
+    int f, q;
+    s->n = 0;
+    s->loops = 0;
+    for (f = 0; f < 8; ++f) {
+        const double* a = corner[f];
+        const double* b = corner[(f + 1) % 8];
+        for (q = 0; q < pieces[f]; ++q)
+            put(s, a[0] + (b[0] - a[0]) * q / pieces[f], a[1] + (b[1] - a[1]) * q / pieces[f]);
+    }
+}
+
+/* A loop that meets itself deeper than the search radius: the same contacts
+ * and energy whichever node the loop starts at. The pair that closes the
+ * loop was not compared for the growth of the reach (search.c,
+ * reach_neighbours): the tilted fold then gave 4 starts of its 96 (two at
+ * each alpha) other answers (29, 37, 21 or 25 contacts). Every contact lies
+ * in the overlap: a node of the lower arm's upper face under the upper arm,
+ * pushed out through the upper arm's lower face, or one of that face over
+ * the lower arm, pushed out through y = 0. */
 static void test_a_fold_is_the_same_from_any_start(void) {
+    static shape sh, turned;
+    const double alphas[2] = {0.0, 0.2}, o0 = 0.02, o1 = 0.25, end = 1.55;
+    nts_context* ctx = nts_context_create();
+    int a, off, k;
+    tilted_fold(&sh, o0, o1, end);
+    for (a = 0; a < 2; ++a) {
+        double e0 = 0.0;
+        int c0 = -1;
+        for (off = 0; off < sh.n; ++off) {
+            nts_options o = nts_default_options();
+            nts_result r;
+            nts_scene* s;
+            int c;
+            turned.n = 0;
+            turned.loops = 0;
+            for (k = 0; k < sh.n; ++k) put(&turned, sh.p[(k + off) % sh.n].x, sh.p[(k + off) % sh.n].y);
+            s = one_body(&turned, 1, 0.0, 0.0);
+            CU_ASSERT_FATAL(s != NULL);
+            o.alpha = alphas[a];
+            o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY | NTS_OUT_CONTACTS;
+            c = active(s, &o, &r, ctx);
+            if (off == 0) {
+                c0 = c;
+                e0 = r.summary.energy;
+                CU_ASSERT(c >= 30 && r.summary.deep_contacts >= 10);
+                for (k = 0; k < r.contact_count; ++k) {
+                    const nts_contact* ct = &r.contacts[k];
+                    const nts_vec2 x = turned.p[ct->slave_node];
+                    const double under = -o0 + (o0 - o1) * x.x / end; /* the upper arm's lower face */
+                    CU_ASSERT(ct->slave_body == 0 && ct->master_body == 0 && ct->gap < 0.0);
+                    CU_ASSERT(x.x >= -1e-12 && x.x <= end + 1e-12 && x.y <= 1e-12 && x.y >= under - 1e-12);
+                    /* no deeper than the overlap where the node lies */
+                    CU_ASSERT(ct->gap >= under - 1e-9);
+                }
+            } else {
+                ASSERT_INT_EQ(c, c0);
+                CU_ASSERT_DOUBLE_EQUAL(r.summary.energy, e0, 1e-12 * e0);
+            }
+            nts_scene_destroy(s);
+        }
+    }
+    nts_context_destroy(ctx);
+}
+
+/* (C) at a fold's corners (docs/model.md §16). A strip folded into a U whose
+ * arms overlap by 0.05 (8 nodes): at alpha 0 the three nodes of the overlap,
+ * each at -0.05, at every angle of 72 and with the body moved by 1e7 and
+ * scaled by 1e6 (the midpoint rule gave 15 sets of contacts over the angles,
+ * among them the lower arm's end node at -3 against the fold's inner
+ * segment, whose midpoint lies on the arm's own face). At alpha > 0 the
+ * upper arm's end corner, pressed into the lower arm, is in contact as long
+ * as its way to the closest point stays in the overlap (alpha 0.1: the flat
+ * y = 0; the midpoint rule gave nothing, the midpoint on the end face).
+ * And a ten-node fold whose node 9 lies where the body covers itself once
+ * (it penetrates nothing) has no contact there, from any start (the
+ * midpoint rule gave it -0.087 against a corner across a layer). */
+static void test_a_fold_is_the_same_at_every_angle(void) {
+    static const double u[8][2] = {{3.0, 0.0},  {0.0, 0.0},  {0.0, -0.05}, {2.5, -0.05},
+                                   {2.5, 0.2},  {-0.3, 0.2}, {-0.3, -0.3}, {3.0, -0.3}};
     static const double xy[10][2] = {{3.797, 0.738}, {2.679, 0.727}, {3.996, 0.724}, {4.066, 0.724},
                                      {3.787, 0.778}, {3.572, 0.684}, {3.628, 0.684}, {3.684, 0.684},
                                      {3.741, 0.684}, {3.797, 0.684}};
     static shape sh;
     nts_context* ctx = nts_context_create();
-    double e0 = 0.0;
-    int off, k, c0 = -1;
+    int v, q, k, off;
+    for (v = 0; v < 2; ++v)
+        for (q = 0; q < 72; ++q) {
+            const double th = 5.0 * q * PI / 180.0, scale = v ? 1e6 : 1.0, shift = v ? 1e7 : 0.0;
+            nts_options o = nts_default_options();
+            nts_result r;
+            nts_scene* s;
+            int seen[8] = {0};
+            sh.n = 0;
+            sh.loops = 0;
+            for (k = 0; k < 8; ++k)
+                put(&sh, shift + scale * (u[k][0] * cos(th) - u[k][1] * sin(th)),
+                    -3.0 * shift + scale * (u[k][0] * sin(th) + u[k][1] * cos(th)));
+            s = one_body(&sh, 1, 0.0, 0.0);
+            CU_ASSERT_FATAL(s != NULL);
+            o.alpha = 0.0;
+            o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+            ASSERT_INT_EQ(active(s, &o, &r, ctx), 3);
+            for (k = 0; k < r.contact_count; ++k) {
+                CU_ASSERT_DOUBLE_EQUAL(r.contacts[k].gap, -0.05 * scale, 1e-9 * scale);
+                seen[r.contacts[k].slave_node] = 1;
+            }
+            CU_ASSERT(seen[1] && seen[2] && seen[3]);
+            nts_scene_destroy(s);
+        }
+    {
+        nts_options o = nts_default_options();
+        nts_result r;
+        nts_scene* s;
+        sh.n = 0;
+        sh.loops = 0;
+        for (k = 0; k < 8; ++k) put(&sh, u[k][0], u[k][1]);
+        s = one_body(&sh, 1, 0.0, 0.0);
+        CU_ASSERT_FATAL(s != NULL);
+        o.alpha = 0.1;
+        o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+        ASSERT_INT_EQ(active(s, &o, &r, ctx), 1);
+        CU_ASSERT(r.contacts[0].slave_node == 3 && r.contacts[0].kind == NTS_KIND_SEGMENT);
+        CU_ASSERT_DOUBLE_EQUAL(r.contacts[0].gap, -0.05, 1e-12);
+        nts_scene_destroy(s);
+    }
     for (off = 0; off < 10; ++off) {
         nts_options o = nts_default_options();
         nts_result r;
         nts_scene* s;
-        int c;
         sh.n = 0;
         sh.loops = 0;
         for (k = 0; k < 10; ++k) put(&sh, xy[(k + off) % 10][0], xy[(k + off) % 10][1]);
@@ -712,17 +831,10 @@ static void test_a_fold_is_the_same_from_any_start(void) {
         CU_ASSERT_FATAL(s != NULL);
         o.alpha = 0.2;
         o.penalty = 10.0;
-        o.outputs = NTS_OUT_FORCES | NTS_OUT_ENERGY;
-        c = active(s, &o, &r, ctx);
-        if (off == 0) {
-            c0 = c;
-            e0 = r.summary.energy;
-            ASSERT_INT_EQ(c, 2);
-            CU_ASSERT(r.summary.deep_contacts == 1);
-        } else {
-            ASSERT_INT_EQ(c, c0);
-            CU_ASSERT_DOUBLE_EQUAL(r.summary.energy, e0, 1e-12 * e0);
-        }
+        o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+        ASSERT_INT_EQ(active(s, &o, &r, ctx), 1);
+        CU_ASSERT(r.contacts[0].slave_node == (10 - off) % 10); /* the first node of the list, xy[0] */
+        CU_ASSERT_DOUBLE_EQUAL(r.contacts[0].gap, -0.01355, 1e-5);
         nts_scene_destroy(s);
     }
     nts_context_destroy(ctx);
@@ -791,6 +903,7 @@ void register_self_contact_suite(void) {
     ADD_TEST(s, test_coil_meets_itself_only_in_its_overlap);
     ADD_TEST(s, test_thin_arms_keep_their_gap_across_the_opening);
     ADD_TEST(s, test_a_fold_is_the_same_from_any_start);
+    ADD_TEST(s, test_a_fold_is_the_same_at_every_angle);
     ADD_TEST(s, test_annulus_whose_hole_closes);
     ADD_TEST(s, test_self_contact_on_a_contact_surface);
     ADD_TEST(s, test_ring_meets_its_own_image);

@@ -80,7 +80,8 @@ typedef struct nts_body_def {
      * (docs/model.md §16): a feature counts when it does not contain the
      * node, faces it (opposed normals), and, for a penetration, lies where
      * the body covers itself (the winding numbers of its loops sum to at
-     * least 2 between the node and the feature). 0 (the default): never. */
+     * least 2 at the node and all along its way to the feature). 0 (the
+     * default): never. */
     int self_contact;
 } nts_body_def;
 /** Defined when nts_body_def has `self_contact` (after 0.3.0): code built
