@@ -294,12 +294,14 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
         /* self-contact (docs/model.md §16) */
         if ((may = self_may(env, w, j)) == 0) return; /* nothing of master j could count */
         if (alpha == 0.0) {
-            /* A flat that ends at a neighbour of the slave, whose vertex (T)
-             * refuses: the flat reaches that end whatever the round-off of
-             * s_j, or a slave whose closest point is that neighbour (a fold's
-             * inner corner) would lose it for a farther face. */
-            if (j == env->seg[w->slave].next) lo = -1e-9;
-            if (m->next == env->seg[w->slave].prev) hi = 1.0 + 1e-9;
+            /* The flat reaches its ends whatever the round-off of s_j: a
+             * slave whose closest point is an end that no vertex offers it
+             * (a vertex (T) refuses, at a neighbour; or one whose region
+             * the slave misses, lying on the line of the segment before it,
+             * as a fold's corner node does on its own inner face) would
+             * otherwise lose it for a farther face, or for none. */
+            lo = -1e-9;
+            hi = 1.0 + 1e-9;
         }
     }
     /* (the slave's own entry and the one before it never get here from the

@@ -764,7 +764,7 @@ static void test_a_fold_is_the_same_from_any_start(void) {
  * each at -0.05, at every angle of 72 and with the body moved by 1e7 and
  * scaled by 1e6 (the midpoint rule gave 15 sets of contacts over the angles,
  * among them the lower arm's end node at -3 against the fold's inner
- * segment, whose midpoint lies on the arm's own face). At alpha > 0 the
+ * segment, whose midpoint lies on the arm's own face); the same refined. At alpha > 0 the
  * upper arm's end corner, pressed into the lower arm, is in contact as long
  * as its way to the closest point stays in the overlap (alpha 0.1: the flat
  * y = 0; the midpoint rule gave nothing, the midpoint on the end face).
@@ -804,6 +804,57 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
             CU_ASSERT(seen[1] && seen[2] && seen[3]);
             nts_scene_destroy(s);
         }
+    /* The same U refined (faces of 10 pieces, the fold's inner face of two,
+     * bowed so that no normal is square to another): its corner nodes' closest
+     * points are the inner face's far end, a neighbour's neighbour, which no
+     * vertex offers them (each lies on the line of the segment before that
+     * end); their flats reach that end whatever the round-off. The same 19
+     * contacts at every angle and frame, among them both corners. */
+    {
+        static const double c[9][2] = {{2.0, 0.0},   {0.0, 0.0},   {-0.002, -0.012}, {0.0, -0.03}, {1.55, -0.03},
+                                       {1.55, 0.27}, {-0.3, 0.27}, {-0.3, -0.3},     {2.0, -0.3}};
+        static const int pieces[9] = {10, 1, 1, 10, 3, 10, 4, 10, 3};
+        static shape ref;
+        int f, p0, first[64], count0 = -1;
+        ref.n = 0;
+        ref.loops = 0;
+        for (f = 0; f < 9; ++f)
+            for (p0 = 0; p0 < pieces[f]; ++p0)
+                put(&ref, c[f][0] + (c[(f + 1) % 9][0] - c[f][0]) * p0 / pieces[f],
+                    c[f][1] + (c[(f + 1) % 9][1] - c[f][1]) * p0 / pieces[f]);
+        CU_ASSERT_FATAL(ref.n <= 64);
+        for (v = 0; v < 2; ++v)
+            for (q = 0; q < 72; ++q) {
+                const double th = 5.0 * q * PI / 180.0, scale = v ? 1e6 : 1.0, shift = v ? 1e7 : 0.0;
+                nts_options o = nts_default_options();
+                nts_result r;
+                nts_scene* s;
+                int master[64];
+                sh.n = 0;
+                sh.loops = 0;
+                for (k = 0; k < ref.n; ++k)
+                    put(&sh, shift + scale * (ref.p[k].x * cos(th) - ref.p[k].y * sin(th)),
+                        -3.0 * shift + scale * (ref.p[k].x * sin(th) + ref.p[k].y * cos(th)));
+                s = one_body(&sh, 1, 0.0, 0.0);
+                CU_ASSERT_FATAL(s != NULL);
+                o.alpha = 0.0;
+                o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+                for (k = 0; k < ref.n; ++k) master[k] = -1;
+                ASSERT_INT_EQ(active(s, &o, &r, ctx), 19);
+                for (k = 0; k < r.contact_count; ++k) {
+                    CU_ASSERT_DOUBLE_EQUAL(r.contacts[k].gap, -0.03 * scale, 1e-9 * scale);
+                    master[r.contacts[k].slave_node] = r.contacts[k].master_nodes[0];
+                }
+                CU_ASSERT(master[10] == 12 && master[12] == 9); /* the corners: (0, 0) and (0, -0.03) */
+                if (count0 < 0) {
+                    count0 = r.contact_count;
+                    memcpy(first, master, sizeof master);
+                } else {
+                    CU_ASSERT(memcmp(first, master, sizeof master) == 0);
+                }
+                nts_scene_destroy(s);
+            }
+    }
     {
         nts_options o = nts_default_options();
         nts_result r;
