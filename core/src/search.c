@@ -240,12 +240,20 @@ static void self_settle(const search_env* env, worker* w) {
     const int i = w->slave, j = c->entry;
     const nts_vec2 xi = env->self_u[i], pn = w->slave_pn;
     const double pl = sqrt(nts_dot(pn, pn));
+    int k;
     w->self_has = 0;
     if (pl > 1e-12) {
         const double l0 = seg[seg[i].prev].len, l1 = seg[i].len;
         const double hair = 1e-9 * (l0 < l1 ? l0 : l1) + 64.0 * DBL_EPSILON * (fabs(xi.x) + fabs(xi.y));
         const nts_vec2 p0 = nts_mul_add(xi, -hair / pl, pn), p1 = nts_sub(p0, w->self_delta);
-        const int skip[3] = {seg[j].prev, j, seg[j].next};
+        /* the faces the way ends on: F*'s segment (and the one beyond the
+         * end a flat's point lies at), a corner's or vertex's two; never the
+         * node's own, which a way out of its own side crosses */
+        int skip[3] = {j, -1, -1};
+        if (c->kind != NTS_KIND_SEGMENT || c->param <= 0.0) skip[1] = seg[j].prev;
+        if (c->kind == NTS_KIND_SEGMENT && c->param >= 1.0) skip[2] = seg[j].next;
+        for (k = 0; k < 3; ++k)
+            if (skip[k] == i || skip[k] == seg[i].prev) skip[k] = -1;
         const int cov0 = self_coverage(env, c->body, p0);
         if (cov0 < 2 || !self_way_covered(env, c->body, p0, p1, cov0, skip)) return;
     } else if (self_coverage(env, c->body, nts_mul_add(xi, -0.5, w->self_delta)) < 2) {
@@ -302,6 +310,13 @@ static inline NTS_ALWAYS_INLINE void try_master(const search_env* env, worker* w
              * otherwise lose it for a farther face, or for none. */
             lo = -1e-9;
             hi = 1.0 + 1e-9;
+        } else {
+            /* A flat that ends at a neighbour of the slave, whose corner (T)
+             * refuses, reaches that end: the slave meets the flat's line
+             * there, not a face across its own layer (a fold's inner corner
+             * pressed into the other arm). */
+            if (j == env->seg[w->slave].next) lo = -1e-9;
+            if (m->next == env->seg[w->slave].prev) hi = 1.0 + 1e-9;
         }
     }
     /* (the slave's own entry and the one before it never get here from the

@@ -764,10 +764,11 @@ static void test_a_fold_is_the_same_from_any_start(void) {
  * each at -0.05, at every angle of 72 and with the body moved by 1e7 and
  * scaled by 1e6 (the midpoint rule gave 15 sets of contacts over the angles,
  * among them the lower arm's end node at -3 against the fold's inner
- * segment, whose midpoint lies on the arm's own face); the same refined. At alpha > 0 the
- * upper arm's end corner, pressed into the lower arm, is in contact as long
- * as its way to the closest point stays in the overlap (alpha 0.1: the flat
- * y = 0; the midpoint rule gave nothing, the midpoint on the end face).
+ * segment, whose midpoint lies on the arm's own face); the same refined. At
+ * alpha 0.1 the same three, at the default radius and at 3 (the midpoint
+ * rule gave none; the first rule of a way covered twice held the fold's
+ * inner corner at -2.5 against the upper arm's end, along the overlap,
+ * when the flat it meets stopped short of the neighbour's corner).
  * And a ten-node fold whose node 9 lies where the body covers itself once
  * (it penetrates nothing) has no contact there, from any start (the
  * midpoint rule gave it -0.087 against a corner across a layer). */
@@ -864,11 +865,19 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
         for (k = 0; k < 8; ++k) put(&sh, u[k][0], u[k][1]);
         s = one_body(&sh, 1, 0.0, 0.0);
         CU_ASSERT_FATAL(s != NULL);
-        o.alpha = 0.1;
         o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
-        ASSERT_INT_EQ(active(s, &o, &r, ctx), 1);
-        CU_ASSERT(r.contacts[0].slave_node == 3 && r.contacts[0].kind == NTS_KIND_SEGMENT);
-        CU_ASSERT_DOUBLE_EQUAL(r.contacts[0].gap, -0.05, 1e-12);
+        for (v = 0; v < 2; ++v) { /* alpha 0.1 at the default radius and at 3, past the arm's length */
+            int seen[8] = {0};
+            o.alpha = 0.1;
+            o.search_radius = v ? 3.0 : -1.0;
+            ASSERT_INT_EQ(active(s, &o, &r, ctx), 3);
+            for (k = 0; k < r.contact_count; ++k) {
+                CU_ASSERT(r.contacts[k].kind == NTS_KIND_SEGMENT);
+                CU_ASSERT_DOUBLE_EQUAL(r.contacts[k].gap, -0.05, 1e-12);
+                seen[r.contacts[k].slave_node] = 1;
+            }
+            CU_ASSERT(seen[1] && seen[2] && seen[3]);
+        }
         nts_scene_destroy(s);
     }
     for (off = 0; off < 10; ++off) {
@@ -886,6 +895,59 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
         ASSERT_INT_EQ(active(s, &o, &r, ctx), 1);
         CU_ASSERT(r.contacts[0].slave_node == (10 - off) % 10); /* the first node of the list, xy[0] */
         CU_ASSERT_DOUBLE_EQUAL(r.contacts[0].gap, -0.01355, 1e-5);
+        nts_scene_destroy(s);
+    }
+    nts_context_destroy(ctx);
+}
+
+/* Two ways (C) must not take (docs/model.md §16), found by an adversarial
+ * try of its first version. A coarse U whose upper arm is tilted into the
+ * lower one (overlap 0.1 to 0.2, alpha 0.2): its fold's corners were held
+ * at -2 against the upper arm's end, a way along the overlap, covered twice
+ * all its length, because the flat they meet stopped short of their
+ * neighbour's corner; no contact may be deeper than the overlap. And two
+ * self-crossing snakes (alpha 0 and 0.1) where a node was held against the
+ * vertex or corner two nodes before it, its way out through its own side
+ * (the face it leaves by was taken for one of the feature's), where the
+ * mirror image had none: none in either. */
+static void test_no_way_through_a_layer(void) {
+    static const double tilted[8][2] = {{3.0, 0.0}, {0.0, 0.0},  {0.0, -0.1},  {2.0, -0.2},
+                                        {2.0, 0.2}, {-0.4, 0.3}, {-0.4, -0.4}, {3.0, -0.4}};
+    static const double snake_v[7][2] = {{-0.11, 0.23}, {-0.99, -0.39}, {0.34, -0.58}, {-0.41, 0.99},
+                                         {-0.06, -0.27}, {-0.49, -0.3}, {0.11, -0.23}};
+    static const double snake_c[6][2] = {{2.88, -3.189}, {4.237, -2.502}, {3.286, -2.19},
+                                         {3.658, -2.457}, {3.29, -2.778},  {3.694, -2.337}};
+    static shape sh;
+    nts_context* ctx = nts_context_create();
+    nts_options o = nts_default_options();
+    nts_result r;
+    nts_scene* s;
+    int k, m, c;
+    sh.n = 0;
+    sh.loops = 0;
+    for (k = 0; k < 8; ++k) put(&sh, tilted[k][0], tilted[k][1]);
+    s = one_body(&sh, 1, 0.0, 0.0);
+    CU_ASSERT_FATAL(s != NULL);
+    o.alpha = 0.2;
+    o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+    c = active(s, &o, &r, ctx);
+    CU_ASSERT(c >= 1);
+    for (k = 0; k < r.contact_count; ++k) CU_ASSERT(r.contacts[k].gap >= -0.2 - 1e-12);
+    nts_scene_destroy(s);
+    for (m = 0; m < 4; ++m) { /* each snake and its mirror image */
+        const int n = m < 2 ? 7 : 6;
+        sh.n = 0;
+        for (k = 0; k < n; ++k) {
+            /* the mirror (x -> -x) reverses the loop: its nodes taken backwards keep it counter-clockwise */
+            const double* q = m < 2 ? snake_v[m == 0 ? k : n - 1 - k] : snake_c[m == 2 ? k : n - 1 - k];
+            put(&sh, m % 2 ? -q[0] : q[0], q[1]);
+        }
+        s = one_body(&sh, 1, 0.0, 0.0);
+        CU_ASSERT_FATAL(s != NULL);
+        o = nts_default_options();
+        o.alpha = m < 2 ? 0.0 : 0.1;
+        o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
+        ASSERT_INT_EQ(active(s, &o, &r, ctx), 0);
         nts_scene_destroy(s);
     }
     nts_context_destroy(ctx);
@@ -955,6 +1017,7 @@ void register_self_contact_suite(void) {
     ADD_TEST(s, test_thin_arms_keep_their_gap_across_the_opening);
     ADD_TEST(s, test_a_fold_is_the_same_from_any_start);
     ADD_TEST(s, test_a_fold_is_the_same_at_every_angle);
+    ADD_TEST(s, test_no_way_through_a_layer);
     ADD_TEST(s, test_annulus_whose_hole_closes);
     ADD_TEST(s, test_self_contact_on_a_contact_surface);
     ADD_TEST(s, test_ring_meets_its_own_image);
