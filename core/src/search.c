@@ -88,6 +88,33 @@ static inline int self_same_image(const search_env* env, const worker* w, int j,
     return fabs(du.x) <= 0.25 * env->lx && fabs(du.y) <= 0.25 * env->ly;
 }
 
+/* The edges of body b that may span heights y0 <= y1 (the frame of
+ * env->self_u): [k0, k1) of the lists of the slabs between (listed), or of
+ * the body's entries when it has no slabs or those lists are longer. An
+ * edge that spans several slabs is listed in each. */
+typedef struct self_edges {
+    int k0, k1, listed;
+} self_edges;
+
+static self_edges self_edges_between(const search_env* env, int b, double y0, double y1) {
+    const nts_scene* s = env->s;
+    const int f = env->self_first[b], count = env->self_first[b + 1] - f;
+    self_edges ed;
+    ed.k0 = s->loop_start[s->body_loop_start[b]];
+    ed.k1 = s->loop_start[s->body_loop_start[b + 1]];
+    ed.listed = 0;
+    if (count > 0) {
+        const int q0 = nts_self_slab(env->self_y + 2 * b, count, y0);
+        const int q1 = nts_self_slab(env->self_y + 2 * b, count, y1);
+        if (env->self_start[f + q1 + 1] - env->self_start[f + q0] < ed.k1 - ed.k0) {
+            ed.k0 = env->self_start[f + q0];
+            ed.k1 = env->self_start[f + q1 + 1];
+            ed.listed = 1;
+        }
+    }
+    return ed;
+}
+
 /* Self-contact (docs/model.md §16). The coverage of body b at m (in the
  * frame of env->self_u): the sum of the winding numbers of its loops around
  * m, by the crossings of a ray towards +x (Sunday's rule: an upward edge
@@ -95,20 +122,11 @@ static inline int self_same_image(const search_env* env, const worker* w, int j,
  * valid body covers every point at most once; where it folds onto itself,
  * twice. */
 static int self_coverage(const search_env* env, int b, nts_vec2 m) {
-    const nts_scene* s = env->s;
     const nts_vec2* u = env->self_u;
-    const int f = env->self_first[b], count = env->self_first[b + 1] - f;
-    int k, k0, k1, w = 0;
-    if (count > 0) { /* an edge the ray crosses spans its height, so it is listed in its slab */
-        const int slab = f + nts_self_slab(env->self_y + 2 * b, count, m.y);
-        k0 = env->self_start[slab];
-        k1 = env->self_start[slab + 1];
-    } else { /* a small body: every edge, the body's entries */
-        k0 = s->loop_start[s->body_loop_start[b]];
-        k1 = s->loop_start[s->body_loop_start[b + 1]];
-    }
-    for (k = k0; k < k1; ++k) {
-        const int e = count > 0 ? env->self_items[k] : k;
+    const self_edges ed = self_edges_between(env, b, m.y, m.y); /* an edge the ray crosses spans m's height */
+    int k, w = 0;
+    for (k = ed.k0; k < ed.k1; ++k) {
+        const int e = ed.listed ? env->self_items[k] : k;
         const nts_vec2 a = nts_sub(u[e], m), c = nts_sub(u[env->seg[e].next], m);
         const double cross = a.x * c.y - a.y * c.x;
         if (a.y <= 0.0) {
@@ -162,30 +180,18 @@ enum { NTS_SELF_CROSSINGS = 64 };
  * infinitesimal to its left, so that a chain of faces along the path or
  * through one of its points is crossed as often as it crosses, whatever the
  * round-off); of crossings at one place the entries come first, so that a
- * path that grazes a corner does not dip. The faces read are those listed
- * in the slabs the path's heights span, or the body's whole loops when
- * those lists are longer. A way that crosses more faces than
+ * path that grazes a corner does not dip (the faces read:
+ * self_edges_between). A way that crosses more faces than
  * NTS_SELF_CROSSINGS is taken as not covered. */
 static int self_way_covered(const search_env* env, int b, nts_vec2 p0, nts_vec2 p1, int cov0, const int skip[3]) {
-    const nts_scene* s = env->s;
     const nts_vec2* u = env->self_u;
-    const int f = env->self_first[b], count = env->self_first[b + 1] - f;
-    const int all0 = s->loop_start[s->body_loop_start[b]], all1 = s->loop_start[s->body_loop_start[b + 1]];
+    const self_edges ed = self_edges_between(env, b, p0.y < p1.y ? p0.y : p1.y, p0.y < p1.y ? p1.y : p0.y);
     const nts_vec2 dp = nts_sub(p1, p0);
     double at[NTS_SELF_CROSSINGS];
     int sign[NTS_SELF_CROSSINGS], edge[NTS_SELF_CROSSINGS];
-    int k, q, k0 = all0, k1 = all1, listed = 0, n = 0;
-    if (count > 0) {
-        const int q0 = nts_self_slab(env->self_y + 2 * b, count, p0.y < p1.y ? p0.y : p1.y);
-        const int q1 = nts_self_slab(env->self_y + 2 * b, count, p0.y < p1.y ? p1.y : p0.y);
-        if (env->self_start[f + q1 + 1] - env->self_start[f + q0] < all1 - all0) {
-            k0 = env->self_start[f + q0];
-            k1 = env->self_start[f + q1 + 1];
-            listed = 1;
-        }
-    }
-    for (k = k0; k < k1; ++k) {
-        const int e = listed ? env->self_items[k] : k;
+    int k, q, n = 0;
+    for (k = ed.k0; k < ed.k1; ++k) {
+        const int e = ed.listed ? env->self_items[k] : k;
         nts_vec2 a, c, t;
         double oa, oc, lam;
         int dup = 0;
@@ -198,7 +204,7 @@ static int self_way_covered(const search_env* env, int b, nts_vec2 p0, nts_vec2 
         t = nts_sub(c, a);
         lam = (a.x * t.y - a.y * t.x) / (oc - oa); /* where the face meets the path's line; oc - oa = dp x t != 0 */
         if (!(lam >= 0.0 && lam < 1.0)) continue;
-        if (listed) /* an edge spanning several slabs is listed in each */
+        if (ed.listed) /* an edge spanning several slabs is listed in each */
             for (q = 0; q < n && !dup; ++q) dup = edge[q] == e;
         if (dup) continue;
         if (n == NTS_SELF_CROSSINGS) return 0;

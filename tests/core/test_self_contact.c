@@ -691,19 +691,36 @@ static void test_coil_meets_itself_only_in_its_overlap(void) {
  * (x = end), far deeper than the default radius there. The lower arm
  * spans y in [-w, 0] and x in [0, 2], the upper arm's lower face runs from
  * (0, -o0) to (end, -o1), each face in `k` pieces. Counter-clockwise. */
-static void tilted_fold(shape* s, double o0, double o1, double end) {
-    const double w = 0.3, L = 2.0;
-    const double corner[8][2] = {{L, 0.0}, {0.0, 0.0}, {0.0, -o0}, {end, -o1}, {end, w - o1}, {-w, w - o0}, {-w, -w}, {L, -w}};
-    const int pieces[8] = {20, 2, 20, 4, 20, 6, 20, 4};
+/* A loop through corners[0..count) (back to the first), each side in
+ * pieces[f] pieces. (Not line(): inlined with a constant count, GCC 12.2's
+ * vectoriser miscompiled that loop here at -O2 and -O3.) */
+static void polygon_in_pieces(shape* s, const double (*corners)[2], const int* pieces, int count) {
     int f, q;
     s->n = 0;
     s->loops = 0;
-    for (f = 0; f < 8; ++f) {
-        const double* a = corner[f];
-        const double* b = corner[(f + 1) % 8];
+    for (f = 0; f < count; ++f) {
+        const double* a = corners[f];
+        const double* b = corners[(f + 1) % count];
         for (q = 0; q < pieces[f]; ++q)
             put(s, a[0] + (b[0] - a[0]) * q / pieces[f], a[1] + (b[1] - a[1]) * q / pieces[f]);
     }
+}
+
+static void tilted_fold(shape* s, double o0, double o1, double end) {
+    const double w = 0.3, L = 2.0;
+    const double corner[8][2] = {{L, 0.0}, {0.0, 0.0}, {0.0, -o0}, {end, -o1}, {end, w - o1}, {-w, w - o0}, {-w, -w}, {L, -w}};
+    static const int pieces[8] = {20, 2, 20, 4, 20, 6, 20, 4};
+    polygon_in_pieces(s, corner, pieces, 8);
+}
+
+/* dst: src turned by th about the origin, scaled and moved by (shift, -3 shift). */
+static void turned(shape* dst, const shape* src, double th, double scale, double shift) {
+    int k;
+    dst->n = 0;
+    dst->loops = 0;
+    for (k = 0; k < src->n; ++k)
+        put(dst, shift + scale * (src->p[k].x * cos(th) - src->p[k].y * sin(th)),
+            -3.0 * shift + scale * (src->p[k].x * sin(th) + src->p[k].y * cos(th)));
 }
 
 /* A loop that meets itself deeper than the search radius: the same contacts
@@ -778,21 +795,19 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
     static const double xy[10][2] = {{3.797, 0.738}, {2.679, 0.727}, {3.996, 0.724}, {4.066, 0.724},
                                      {3.787, 0.778}, {3.572, 0.684}, {3.628, 0.684}, {3.684, 0.684},
                                      {3.741, 0.684}, {3.797, 0.684}};
-    static shape sh;
+    static const int ones[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+    static shape sh, ref;
     nts_context* ctx = nts_context_create();
     int v, q, k, off;
+    polygon_in_pieces(&ref, u, ones, 8);
     for (v = 0; v < 2; ++v)
         for (q = 0; q < 72; ++q) {
-            const double th = 5.0 * q * PI / 180.0, scale = v ? 1e6 : 1.0, shift = v ? 1e7 : 0.0;
             nts_options o = nts_default_options();
             nts_result r;
             nts_scene* s;
+            const double scale = v ? 1e6 : 1.0;
             int seen[8] = {0};
-            sh.n = 0;
-            sh.loops = 0;
-            for (k = 0; k < 8; ++k)
-                put(&sh, shift + scale * (u[k][0] * cos(th) - u[k][1] * sin(th)),
-                    -3.0 * shift + scale * (u[k][0] * sin(th) + u[k][1] * cos(th)));
+            turned(&sh, &ref, 5.0 * q * PI / 180.0, scale, v ? 1e7 : 0.0);
             s = one_body(&sh, 1, 0.0, 0.0);
             CU_ASSERT_FATAL(s != NULL);
             o.alpha = 0.0;
@@ -815,27 +830,17 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
         static const double c[9][2] = {{2.0, 0.0},   {0.0, 0.0},   {-0.002, -0.012}, {0.0, -0.03}, {1.55, -0.03},
                                        {1.55, 0.27}, {-0.3, 0.27}, {-0.3, -0.3},     {2.0, -0.3}};
         static const int pieces[9] = {10, 1, 1, 10, 3, 10, 4, 10, 3};
-        static shape ref;
-        int f, p0, first[64], count0 = -1;
-        ref.n = 0;
-        ref.loops = 0;
-        for (f = 0; f < 9; ++f)
-            for (p0 = 0; p0 < pieces[f]; ++p0)
-                put(&ref, c[f][0] + (c[(f + 1) % 9][0] - c[f][0]) * p0 / pieces[f],
-                    c[f][1] + (c[(f + 1) % 9][1] - c[f][1]) * p0 / pieces[f]);
+        int first[64], count0 = -1;
+        polygon_in_pieces(&ref, c, pieces, 9);
         CU_ASSERT_FATAL(ref.n <= 64);
         for (v = 0; v < 2; ++v)
             for (q = 0; q < 72; ++q) {
-                const double th = 5.0 * q * PI / 180.0, scale = v ? 1e6 : 1.0, shift = v ? 1e7 : 0.0;
                 nts_options o = nts_default_options();
                 nts_result r;
                 nts_scene* s;
+                const double scale = v ? 1e6 : 1.0;
                 int master[64];
-                sh.n = 0;
-                sh.loops = 0;
-                for (k = 0; k < ref.n; ++k)
-                    put(&sh, shift + scale * (ref.p[k].x * cos(th) - ref.p[k].y * sin(th)),
-                        -3.0 * shift + scale * (ref.p[k].x * sin(th) + ref.p[k].y * cos(th)));
+                turned(&sh, &ref, 5.0 * q * PI / 180.0, scale, v ? 1e7 : 0.0);
                 s = one_body(&sh, 1, 0.0, 0.0);
                 CU_ASSERT_FATAL(s != NULL);
                 o.alpha = 0.0;
@@ -860,10 +865,8 @@ static void test_a_fold_is_the_same_at_every_angle(void) {
         nts_options o = nts_default_options();
         nts_result r;
         nts_scene* s;
-        sh.n = 0;
-        sh.loops = 0;
-        for (k = 0; k < 8; ++k) put(&sh, u[k][0], u[k][1]);
-        s = one_body(&sh, 1, 0.0, 0.0);
+        polygon_in_pieces(&ref, u, ones, 8);
+        s = one_body(&ref, 1, 0.0, 0.0);
         CU_ASSERT_FATAL(s != NULL);
         o.outputs = NTS_OUT_FORCES | NTS_OUT_CONTACTS;
         for (v = 0; v < 2; ++v) { /* alpha 0.1 at the default radius and at 3, past the arm's length */
